@@ -1,0 +1,3 @@
+//! Analysis of Poincare records. Never cares which backend produced them.
+
+pub mod classify;

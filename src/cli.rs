@@ -1,0 +1,375 @@
+//! Command-line interface: argument parsing, file writing, human summaries. Nothing
+//! numerical lives here (DESIGN.md 1).
+
+use crate::analysis::classify::ClassifyConfig;
+use crate::error::{Error, Result};
+use crate::integrate::article::{ArticleConfig, ErrorNorm};
+use crate::integrate::lane::{DEFAULT_STEPS_PER_PERIOD, StepperConfig};
+use crate::model::{COORD_NAMES, Params, STATE_DIM, coord_index};
+use crate::simulate::{Integrator, SimulateSpec, simulate};
+use crate::{output, plot};
+use clap::{Args, Parser, Subcommand};
+use std::path::{Path, PathBuf};
+
+/// Nonlinear dynamics of a rubbing Jeffcott rotor hitting a flexibly suspended stator.
+///
+/// Implements the model of "Nonlinear Dynamics and Chaos of a Nonsmooth Rotor-Stator
+/// System" (Mathematical Problems in Engineering, 2017) with its dimensional errors
+/// corrected. All quantities are SI: metres, seconds, radians, kilograms.
+#[derive(Parser, Debug)]
+#[command(name = "jeffcott", version, about, long_about)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// Subcommands.
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Integrate one trajectory at one rotor speed, write its Poincare points, time
+    /// series, phase portraits and a classification (period-N, aperiodic, diverged).
+    Simulate(SimulateArgs),
+}
+
+/// Model parameters: Table 1 of the article unless a config file or `--param` says
+/// otherwise.
+#[derive(Args, Debug)]
+pub struct ModelArgs {
+    /// TOML file of model parameters (keys: omega_r, omega_s, xi_r, xi_s, delta, mu, m_r,
+    /// m_s, e, k_c, e_max, a_g, phi0; SI units; absent keys keep Table 1 values).
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// Override model parameters, e.g. `--param mu=0.1,k_c=2e8` (applied after --config;
+    /// repeatable).
+    #[arg(long, value_name = "NAME=VALUE,...")]
+    pub param: Vec<String>,
+}
+
+impl ModelArgs {
+    /// The parameters these arguments describe, validated.
+    pub fn params(&self) -> Result<Params> {
+        let mut p = match &self.config {
+            Some(path) => Params::from_toml_file(path)?,
+            None => Params::default(),
+        };
+        for list in &self.param {
+            for (name, value) in parse_assignments("param", list)? {
+                p.set(&name, value)?;
+            }
+        }
+        p.validate()?;
+        Ok(p)
+    }
+}
+
+/// Arguments of `jeffcott simulate`.
+#[derive(Args, Debug)]
+pub struct SimulateArgs {
+    /// Rotor speed W [rad/s]; the article's interesting range is 130..141.
+    #[arg(long, value_name = "W")]
+    pub omega: f64,
+    /// Forcing periods T = 2 pi / W integrated and discarded before recording.
+    #[arg(long, default_value_t = 1000, value_name = "Q")]
+    pub transient: u32,
+    /// Forcing periods recorded (one Poincare point each); at least 2 n for period n to
+    /// be detectable.
+    #[arg(long, default_value_t = 64, value_name = "P")]
+    pub periods: u32,
+    /// Override coordinates of the start state (default: static equilibrium without
+    /// contact), e.g. `--init x_r=0.005,vx_r=-0.5`. Names: x_r, vx_r, y_r, vy_r, x_s,
+    /// vx_s, y_s, vy_s [m, m/s].
+    #[arg(long, value_name = "NAME=VALUE,...")]
+    pub init: Vec<String>,
+    #[command(flatten)]
+    pub model: ModelArgs,
+    /// Output directory (created if missing).
+    #[arg(long, value_name = "DIR", default_value = "jeffcott-out/simulate")]
+    pub out: PathBuf,
+    /// Integrator: the ensemble lane stepper (crossing-located RK4, the default) or the
+    /// article's variable-step RK4 (a cross-check; slower).
+    #[arg(long, value_enum, default_value_t = Integrator::Lane)]
+    pub integrator: Integrator,
+    /// Macro steps per forcing period for the lane stepper.
+    #[arg(long, default_value_t = DEFAULT_STEPS_PER_PERIOD, value_name = "N")]
+    pub steps_per_period: u32,
+    /// Cap on contact switches per macro step; steps that need more are flagged.
+    #[arg(long, default_value_t = 16)]
+    pub max_segments: u32,
+    /// A lane whose |position| exceeds this [m] is declared diverged.
+    #[arg(long, default_value_t = 1.0, value_name = "METRES")]
+    pub divergence_bound: f64,
+    /// Standard steps per period of the article's scheme.
+    #[arg(long, default_value_t = 1000, value_name = "N")]
+    pub article_steps: u32,
+    /// Components of the article scheme's step-doubling error (E_max is in metres).
+    #[arg(long, value_enum, default_value_t = ErrorNorm::Positions)]
+    pub article_norm: ErrorNorm,
+    /// Exponent of the article scheme's step reduction dt (E_max/E)^alpha.
+    #[arg(long, default_value_t = 0.2)]
+    pub article_alpha: f64,
+    /// Periods at the end written to timeseries.npy and drawn [default: min(8, P)].
+    #[arg(long, value_name = "M")]
+    pub timeseries_periods: Option<u32>,
+    /// Largest period the classifier looks for.
+    #[arg(long, default_value_t = 32)]
+    pub n_max: usize,
+    /// Classifier repeat tolerance relative to the Poincare set's size.
+    #[arg(long, default_value_t = 1e-3)]
+    pub rel_tol: f64,
+    /// Classifier repeat tolerance floor [m].
+    #[arg(long, default_value_t = 1e-7)]
+    pub abs_tol: f64,
+    /// Skip phase.png.
+    #[arg(long)]
+    pub no_plot: bool,
+    /// Print nothing but errors.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// Parses `a=1,b=2e-3` into pairs; `option` names the CLI option in errors.
+pub fn parse_assignments(option: &str, text: &str) -> Result<Vec<(String, f64)>> {
+    let mut out = Vec::new();
+    for item in text.split(',').map(str::trim).filter(|s| !s.is_empty()) {
+        let Some((name, value)) = item.split_once('=') else {
+            return Err(Error::invalid(option, item, "expected NAME=VALUE"));
+        };
+        let name = name.trim();
+        let value: f64 = value.trim().parse().map_err(|_| {
+            Error::invalid(&format!("{option} {name}"), value.trim(), "not a number")
+        })?;
+        out.push((name.to_string(), value));
+    }
+    Ok(out)
+}
+
+/// Applies `--init` overrides to a start state.
+pub fn apply_init(x0: &mut [f64; STATE_DIM], lists: &[String]) -> Result<()> {
+    for list in lists {
+        for (name, value) in parse_assignments("init", list)? {
+            let i = coord_index(&name).ok_or_else(|| {
+                Error::invalid(
+                    "init",
+                    &name,
+                    format!(
+                        "unknown coordinate; valid names: {}",
+                        COORD_NAMES.join(", ")
+                    ),
+                )
+            })?;
+            if !value.is_finite() {
+                return Err(Error::invalid(
+                    &format!("init {name}"),
+                    value,
+                    "must be finite",
+                ));
+            }
+            x0[i] = value;
+        }
+    }
+    Ok(())
+}
+
+fn named_state(x: &[f64; STATE_DIM]) -> serde_json::Map<String, serde_json::Value> {
+    COORD_NAMES
+        .iter()
+        .zip(x.iter())
+        .map(|(n, v)| (n.to_string(), serde_json::json!(v)))
+        .collect()
+}
+
+/// Runs `jeffcott simulate`.
+pub fn run_simulate(a: &SimulateArgs) -> Result<()> {
+    let params = a.model.params()?;
+    let mut x0 = params.static_equilibrium();
+    apply_init(&mut x0, &a.init)?;
+    let spec = SimulateSpec {
+        params,
+        omega: a.omega,
+        x0,
+        transient: a.transient,
+        periods: a.periods,
+        timeseries_periods: a.timeseries_periods.unwrap_or(a.periods.min(8)),
+        integrator: a.integrator,
+        stepper: StepperConfig {
+            steps_per_period: a.steps_per_period,
+            max_segments: a.max_segments,
+            divergence_bound: a.divergence_bound,
+        },
+        article: ArticleConfig {
+            steps_per_period: a.article_steps,
+            alpha: a.article_alpha,
+            norm: a.article_norm,
+            ..ArticleConfig::default()
+        },
+        classify: ClassifyConfig {
+            n_max: a.n_max,
+            rel_tol: a.rel_tol,
+            abs_tol: a.abs_tol,
+        },
+    };
+    if !(a.rel_tol.is_finite() && a.rel_tol > 0.0) {
+        return Err(Error::invalid(
+            "rel-tol",
+            a.rel_tol,
+            "must be finite and > 0",
+        ));
+    }
+    if !(a.abs_tol.is_finite() && a.abs_tol > 0.0) {
+        return Err(Error::invalid(
+            "abs-tol",
+            a.abs_tol,
+            "must be finite and > 0 m",
+        ));
+    }
+    spec.validate()?;
+    let res = simulate(&spec)?;
+    write_simulation(&a.out, &spec, &res, !a.no_plot)?;
+    if !a.quiet {
+        println!("{}", human_summary(&spec, &res, &a.out));
+    }
+    Ok(())
+}
+
+fn write_simulation(
+    dir: &Path,
+    spec: &SimulateSpec,
+    res: &crate::simulate::SimulateResult,
+    plot_it: bool,
+) -> Result<()> {
+    output::ensure_dir(dir)?;
+    let flat: Vec<f64> = res.poincare.iter().flatten().copied().collect();
+    output::write_npy(
+        &dir.join("poincare.npy"),
+        &[res.poincare.len(), STATE_DIM],
+        &flat,
+    )?;
+    let flat: Vec<f64> = res.timeseries.iter().flatten().copied().collect();
+    output::write_npy(
+        &dir.join("timeseries.npy"),
+        &[res.timeseries.len(), STATE_DIM + 1],
+        &flat,
+    )?;
+    if plot_it {
+        let title = format!(
+            "W = {} rad/s: {} ({} periods after {} transient)",
+            spec.omega,
+            res.classification.class.label(),
+            spec.periods,
+            spec.transient
+        );
+        plot::phase_portraits(
+            &dir.join("phase.png"),
+            &title,
+            &res.timeseries,
+            &res.poincare,
+        )?;
+    }
+    let c = &res.classification;
+    let steps = match spec.integrator {
+        Integrator::Lane => spec.stepper.steps_per_period,
+        Integrator::Article => spec.article.steps_per_period,
+    };
+    let summary = serde_json::json!({
+        "omega": spec.omega,
+        "forcing_period_s": std::f64::consts::TAU / spec.omega,
+        "transient": spec.transient,
+        "periods": spec.periods,
+        "recorded_poincare_points": res.poincare.len(),
+        "steps_per_period": steps,
+        "integrator": spec.integrator,
+        "class": c.class.label(),
+        "period": c.class.period(),
+        "status": res.status,
+        "classification": {
+            "size_m": finite_or_null(c.size),
+            "repeat_error_m": finite_or_null(c.repeat_error),
+            "tolerance_m": finite_or_null(c.tol),
+            "n_max": spec.classify.n_max,
+            "rel_tol": spec.classify.rel_tol,
+            "abs_tol": spec.classify.abs_tol,
+        },
+        "contact": {
+            "fraction_of_recorded_grid_points": res.contact_fraction,
+            "counters": res.counters,
+        },
+        "initial_state": named_state(&spec.x0),
+        "final_state": named_state(&res.final_state),
+        "wall_time_s": res.elapsed.as_secs_f64(),
+        "stepper": spec.stepper,
+        "article": spec.article,
+        "params": spec.params,
+        "files": {
+            "poincare.npy": "f64 [K, 8], state order x_r, vx_r, y_r, vy_r, x_s, vx_s, y_s, vy_s (m, m/s)",
+            "timeseries.npy": "f64 [M, 9], t [s] then the state, on the integrator's grid",
+            "phase.png": if plot_it { "rotor and stator phase portraits and orbits" } else { "not drawn (--no-plot)" },
+        },
+        "jeffcott_version": env!("CARGO_PKG_VERSION"),
+    });
+    // Written last: its presence marks a complete run.
+    output::write_json(&dir.join("summary.json"), &summary)
+}
+
+fn finite_or_null(v: f64) -> serde_json::Value {
+    if v.is_finite() {
+        serde_json::json!(v)
+    } else {
+        serde_json::Value::Null
+    }
+}
+
+fn human_summary(spec: &SimulateSpec, res: &crate::simulate::SimulateResult, dir: &Path) -> String {
+    let c = &res.classification;
+    let what = match c.class.period() {
+        Some(1) => {
+            "a period-1 response (one Poincare point, synchronous with the unbalance)".to_string()
+        }
+        Some(n) => format!(
+            "a period-{n} response ({n} distinct Poincare points, repeating every {n} forcing periods)"
+        ),
+        None if c.class.label() == "diverged" => format!(
+            "no bounded response: the lane ended with status {:?}",
+            res.status
+        ),
+        None => format!(
+            "an aperiodic response (no period up to {}; quasiperiodic or chaotic)",
+            spec.classify.n_max
+        ),
+    };
+    let (min, max) = res
+        .poincare
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+            let r = ((p[0] - p[4]).powi(2) + (p[2] - p[6]).powi(2)).sqrt();
+            (lo.min(r), hi.max(r))
+        });
+    format!(
+        "At W = {} rad/s, started from ({}), after {} transient periods the rotor settles on {}. \
+         Rotor-stator distance at the Poincare points: {:.4} to {:.4} mm (gap {} mm); the rotor is in \
+         contact at {:.1}% of recorded grid points. Integrated {} periods with the {:?} integrator in \
+         {:.2} s (status {:?}). Files in {}: poincare.npy, timeseries.npy, summary.json{}.",
+        spec.omega,
+        if spec.x0 == spec.params.static_equilibrium() {
+            "static equilibrium".to_string()
+        } else {
+            "the given state".to_string()
+        },
+        spec.transient,
+        what,
+        min * 1e3,
+        max * 1e3,
+        spec.params.delta * 1e3,
+        100.0 * res.contact_fraction,
+        spec.transient + spec.periods,
+        spec.integrator,
+        res.elapsed.as_secs_f64(),
+        res.status,
+        dir.display(),
+        if dir.join("phase.png").exists() {
+            ", phase.png"
+        } else {
+            ""
+        },
+    )
+}

@@ -1,0 +1,59 @@
+//! The library's one error type (DESIGN.md 2.4).
+
+use std::path::PathBuf;
+
+/// Everything that can go wrong in the library. Per-lane numerical outcomes are *not*
+/// errors: they are [`crate::integrate::lane::Status`] values (DESIGN.md 2.5).
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// A model or run parameter is outside its allowed range.
+    #[error("invalid value for `{name}`: {value} ({reason})")]
+    InvalidParameter {
+        /// The field or option name, as the user spells it.
+        name: String,
+        /// The offending value, as text.
+        value: String,
+        /// What is allowed.
+        reason: String,
+    },
+    /// A configuration file could not be read or parsed.
+    #[error("cannot use config file {path}: {message}")]
+    Config {
+        /// The file.
+        path: PathBuf,
+        /// What went wrong.
+        message: String,
+    },
+    /// Reading or writing a file failed.
+    #[error("cannot write {path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The underlying error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// Drawing a plot failed.
+    #[error("cannot draw {path}: {message}")]
+    Plot {
+        /// The picture being drawn.
+        path: PathBuf,
+        /// What went wrong.
+        message: String,
+    },
+}
+
+impl Error {
+    /// Shorthand for [`Error::InvalidParameter`].
+    pub fn invalid(name: &str, value: impl ToString, reason: impl Into<String>) -> Self {
+        Error::InvalidParameter {
+            name: name.to_string(),
+            value: value.to_string(),
+            reason: reason.into(),
+        }
+    }
+}
+
+/// Result alias used across the crate.
+pub type Result<T> = std::result::Result<T, Error>;

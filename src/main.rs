@@ -1,0 +1,18 @@
+//! The `jeffcott` binary: parses arguments and reports errors; the work is in the library.
+
+use clap::Parser;
+use jeffcott::cli::{Cli, Command, run_simulate};
+
+fn main() -> std::process::ExitCode {
+    let cli = Cli::parse();
+    let result = match &cli.command {
+        Command::Simulate(a) => run_simulate(a),
+    };
+    match result {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {:#}", anyhow::Error::from(e));
+            std::process::ExitCode::from(2)
+        }
+    }
+}

@@ -1,0 +1,85 @@
+//! The floating-point type a lane is integrated in.
+//!
+//! The ensemble stepper is generic over `f32` and `f64` so that the CPU path can run
+//! exactly the arithmetic the WGSL kernel runs in either precision (DESIGN.md 1, "the
+//! precision is chosen the same way"). The trait exposes only what the kernel may use:
+//! `+ - * /`, `sqrt`, `floor`, comparisons. No trigonometry: the forcing phasor is a
+//! polynomial (see `integrate::forcing`), because f64 trigonometry is wrong on some
+//! Vulkan drivers (DESIGN.md 3).
+
+use std::fmt::Debug;
+use std::ops::{Add, AddAssign, Div, Mul, Neg, Sub};
+
+/// A real scalar usable by the lane stepper (`f32` or `f64`).
+pub trait Real:
+    Copy
+    + Debug
+    + PartialOrd
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + Neg<Output = Self>
+    + AddAssign
+    + Send
+    + Sync
+    + 'static
+{
+    /// Name of the type as WGSL spells it.
+    const WGSL_NAME: &'static str;
+    /// Converts an `f64` constant (rounding to nearest for `f32`).
+    fn lit(x: f64) -> Self;
+    /// Widens to `f64` (exact for both types).
+    fn to_f64(self) -> f64;
+    /// Square root (correctly rounded on IEEE hardware and in WGSL).
+    fn sqrt(self) -> Self;
+    /// Largest integer not greater than `self`.
+    fn floor(self) -> Self;
+    /// Absolute value.
+    fn abs(self) -> Self;
+    /// True when neither infinite nor NaN.
+    fn is_finite(self) -> bool;
+    /// Larger of two values (NaN-propagation is not relied upon).
+    fn max(self, other: Self) -> Self {
+        if other > self { other } else { self }
+    }
+    /// Smaller of two values.
+    fn min(self, other: Self) -> Self {
+        if other < self { other } else { self }
+    }
+}
+
+macro_rules! impl_real {
+    ($t:ty, $name:literal) => {
+        impl Real for $t {
+            const WGSL_NAME: &'static str = $name;
+            #[inline(always)]
+            fn lit(x: f64) -> Self {
+                x as $t
+            }
+            #[inline(always)]
+            fn to_f64(self) -> f64 {
+                self as f64
+            }
+            #[inline(always)]
+            fn sqrt(self) -> Self {
+                <$t>::sqrt(self)
+            }
+            #[inline(always)]
+            fn floor(self) -> Self {
+                <$t>::floor(self)
+            }
+            #[inline(always)]
+            fn abs(self) -> Self {
+                <$t>::abs(self)
+            }
+            #[inline(always)]
+            fn is_finite(self) -> bool {
+                <$t>::is_finite(self)
+            }
+        }
+    };
+}
+
+impl_real!(f32, "f32");
+impl_real!(f64, "f64");
