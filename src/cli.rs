@@ -29,6 +29,7 @@ pub struct Cli {
 pub enum Command {
     /// Integrate one trajectory at one rotor speed, write its Poincare points, time
     /// series, phase portraits and a classification (period-N, aperiodic, diverged).
+    #[command(allow_negative_numbers = true)]
     Simulate(SimulateArgs),
 }
 

@@ -1,0 +1,96 @@
+//! The convergence study that fixes the lane stepper's default N (issue 2, README
+//! "Convergence"). For W in {131.7, 132.2, 135}, from the static equilibrium, compares the
+//! Poincare point after 200 periods with a reference at 16x finer steps, for the lane
+//! stepper and, for context, the article's scheme (error on positions) and plain RK4
+//! (kinks left inside steps). The article's scheme with the error on all 8 components is
+//! left out: at E_max = 1e-9 it needs so many steps that 200 periods take minutes.
+//!
+//! Run: `cargo run --release --example convergence` (prints a Markdown table).
+
+use jeffcott::integrate::article::{ArticleConfig, ArticleStepper, ErrorNorm};
+use jeffcott::integrate::lane::{Lane, LaneConsts, StepperConfig, advance_period};
+use jeffcott::model::{Params, STATE_DIM, State};
+use std::time::Instant;
+
+const PERIODS: u32 = 200;
+
+fn lane(p: &Params, omega: f64, n: u32) -> (State, f64, f64) {
+    let cfg = StepperConfig {
+        steps_per_period: n,
+        ..StepperConfig::default()
+    };
+    let lc = LaneConsts::<f64>::new(p, omega, &cfg);
+    let mut l = Lane::<f64>::new(&p.static_equilibrium(), p.delta);
+    let t = Instant::now();
+    for _ in 0..PERIODS {
+        advance_period(&lc, &mut l);
+    }
+    let us = t.elapsed().as_secs_f64() * 1e6 / PERIODS as f64;
+    let rk4_per_period =
+        (l.counters.macro_steps + l.counters.extra_substeps) as f64 / PERIODS as f64;
+    (l.x, us, rk4_per_period)
+}
+
+fn article(p: &Params, omega: f64, n: u32, norm: ErrorNorm) -> (State, f64, f64) {
+    let cfg = ArticleConfig {
+        steps_per_period: n,
+        norm,
+        ..ArticleConfig::default()
+    };
+    let mut a = ArticleStepper::new(p, omega, cfg, p.static_equilibrium());
+    let t = Instant::now();
+    for _ in 0..PERIODS {
+        a.advance_period();
+    }
+    let us = t.elapsed().as_secs_f64() * 1e6 / PERIODS as f64;
+    (a.x, us, a.counters.rk4_evaluations as f64 / PERIODS as f64)
+}
+
+fn err(a: &State, b: &State) -> (f64, f64) {
+    let pos = [0, 2, 4, 6]
+        .iter()
+        .map(|&i| (a[i] - b[i]).abs())
+        .fold(0.0, f64::max);
+    let vel = (0..STATE_DIM)
+        .filter(|i| i % 2 == 1)
+        .map(|i| (a[i] - b[i]).abs())
+        .fold(0.0, f64::max);
+    (pos, vel)
+}
+
+fn main() {
+    let p = Params::default();
+    println!(
+        "| W [rad/s] | integrator | N | position error [m] | velocity error [m/s] | RK4 steps / period | us / period |"
+    );
+    println!("|---|---|---|---|---|---|---|");
+    for omega in [131.7, 132.2, 135.0] {
+        for n in [125u32, 250, 500, 1000, 2000] {
+            let (x, us, steps) = lane(&p, omega, n);
+            let (r, _, _) = lane(&p, omega, 16 * n);
+            let (ep, ev) = err(&x, &r);
+            println!(
+                "| {omega} | lane (crossings located) | {n} | {ep:.2e} | {ev:.2e} | {steps:.0} | {us:.0} |"
+            );
+        }
+        // Context: the article's scheme and plain RK4 against the finest lane reference.
+        let (r, _, _) = lane(&p, omega, 32000);
+        for n in [500u32, 1000, 2000] {
+            for (name, params, norm) in [
+                ("article, E on positions", p.clone(), ErrorNorm::Positions),
+                (
+                    "plain RK4 (no refinement)",
+                    Params {
+                        e_max: 1e30,
+                        ..p.clone()
+                    },
+                    ErrorNorm::Positions,
+                ),
+            ] {
+                let (x, us, steps) = article(&params, omega, n, norm);
+                let (ep, ev) = err(&x, &r);
+                println!("| {omega} | {name} | {n} | {ep:.2e} | {ev:.2e} | {steps:.0} | {us:.0} |");
+            }
+        }
+    }
+}

@@ -1,0 +1,232 @@
+//! The `jeffcott` command line: good runs write every promised file; bad input gives a
+//! clear error naming the field and range, exit code 2, no panic, and no summary.json
+//! (the file that marks a complete result).
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn jeffcott(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_jeffcott"))
+        .args(args)
+        .output()
+        .expect("binary runs")
+}
+
+fn npy_shape(path: &Path) -> Vec<usize> {
+    let bytes = std::fs::read(path).unwrap();
+    assert_eq!(&bytes[..6], b"\x93NUMPY");
+    let hlen = u16::from_le_bytes([bytes[8], bytes[9]]) as usize;
+    let header = std::str::from_utf8(&bytes[10..10 + hlen]).unwrap();
+    assert!(header.contains("'descr': '<f8'"));
+    let shape = &header[header.find("'shape': (").unwrap() + 10..];
+    let shape = &shape[..shape.find(')').unwrap()];
+    let dims: Vec<usize> = shape
+        .split(',')
+        .filter_map(|s| s.trim().parse().ok())
+        .collect();
+    assert_eq!(
+        bytes.len() - 10 - hlen,
+        dims.iter().product::<usize>() * 8,
+        "data length"
+    );
+    dims
+}
+
+#[test]
+fn simulate_writes_poincare_timeseries_summary_and_plot() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run");
+    let o = jeffcott(&[
+        "simulate",
+        "--omega",
+        "132.2",
+        "--transient",
+        "600",
+        "--periods",
+        "16",
+        "--init",
+        "vx_r=0.01",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains("period-2"), "{stdout}");
+    assert_eq!(npy_shape(&out.join("poincare.npy")), vec![16, 8]);
+    assert_eq!(npy_shape(&out.join("timeseries.npy")), vec![8 * 500 + 1, 9]);
+    let png = std::fs::read(out.join("phase.png")).unwrap();
+    assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+    let s: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(s["omega"], 132.2);
+    assert_eq!(s["class"], "period-2");
+    assert_eq!(s["period"], 2);
+    assert_eq!(s["periods"], 16);
+    assert_eq!(s["transient"], 600);
+    assert_eq!(s["steps_per_period"], 500);
+    assert_eq!(s["params"]["k_c"], 1e8);
+    assert_eq!(s["initial_state"]["vx_r"], 0.01);
+    assert!(s["contact"]["counters"]["switches"].as_u64().unwrap() > 0);
+    assert!(s["wall_time_s"].as_f64().unwrap() > 0.0);
+}
+
+fn assert_rejected(args: &[&str], needles: &[&str]) {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run");
+    let mut all: Vec<&str> = args.to_vec();
+    all.extend([
+        "--out",
+        out.to_str().unwrap(),
+        "--transient",
+        "2",
+        "--periods",
+        "2",
+    ]);
+    let o = jeffcott(&all);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "args {args:?}: {stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    for n in needles {
+        assert!(
+            stderr.contains(n),
+            "args {args:?}: expected {n:?} in {stderr}"
+        );
+    }
+    assert!(
+        !out.join("summary.json").exists(),
+        "no result may be presented"
+    );
+}
+
+#[test]
+fn bad_parameters_and_input_are_rejected_with_the_field_and_range() {
+    assert_rejected(
+        &["simulate", "--omega", "133", "--param", "k_c=-1"],
+        &["k_c", "-1", "> 0"],
+    );
+    assert_rejected(
+        &["simulate", "--omega", "133", "--param", "xi_r=-0.1"],
+        &["xi_r", ">= 0"],
+    );
+    assert_rejected(
+        &["simulate", "--omega", "133", "--param", "m_s=0"],
+        &["m_s", "> 0"],
+    );
+    assert_rejected(
+        &["simulate", "--omega", "133", "--param", "delta=inf"],
+        &["delta", "finite"],
+    );
+    assert_rejected(
+        &["simulate", "--omega", "133", "--param", "mu=nan"],
+        &["mu", "finite"],
+    );
+    assert_rejected(
+        &["simulate", "--omega", "133", "--param", "stiffness=3"],
+        &["stiffness", "valid names", "k_c"],
+    );
+    assert_rejected(
+        &["simulate", "--omega", "133", "--param", "k_c"],
+        &["param", "NAME=VALUE"],
+    );
+    assert_rejected(&["simulate", "--omega", "-5"], &["omega", "> 0"]);
+    assert_rejected(&["simulate", "--omega", "nan"], &["omega"]);
+    assert_rejected(&["simulate", "--omega", "abc"], &["omega"]);
+    assert_rejected(
+        &["simulate", "--omega", "133", "--init", "z_r=1"],
+        &["z_r", "x_r, vx_r"],
+    );
+    assert_rejected(
+        &["simulate", "--omega", "133", "--init", "x_r=fast"],
+        &["x_r", "not a number"],
+    );
+    assert_rejected(
+        &["simulate", "--omega", "133", "--steps-per-period", "3"],
+        &["steps_per_period", "8..="],
+    );
+    assert_rejected(
+        &[
+            "simulate",
+            "--omega",
+            "133",
+            "--config",
+            "/nonexistent/p.toml",
+        ],
+        &["/nonexistent/p.toml"],
+    );
+    assert_rejected(&["simulate"], &["--omega"]);
+}
+
+#[test]
+fn periods_zero_and_bad_config_keys_are_rejected() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run");
+    let o = jeffcott(&[
+        "simulate",
+        "--omega",
+        "133",
+        "--periods",
+        "0",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("periods"));
+    let cfg = dir.path().join("p.toml");
+    std::fs::write(&cfg, "k_c = 2e8\nstiffnes = 1\n").unwrap();
+    assert_rejected(
+        &[
+            "simulate",
+            "--omega",
+            "133",
+            "--config",
+            cfg.to_str().unwrap(),
+        ],
+        &["stiffnes", "p.toml"],
+    );
+    std::fs::write(&cfg, "k_c = -2e8\n").unwrap();
+    assert_rejected(
+        &[
+            "simulate",
+            "--omega",
+            "133",
+            "--config",
+            cfg.to_str().unwrap(),
+        ],
+        &["k_c", "> 0"],
+    );
+}
+
+#[test]
+fn config_file_and_param_overrides_reach_the_model() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = dir.path().join("p.toml");
+    std::fs::write(&cfg, "delta = 1.0\nmu = 0.2\n").unwrap();
+    let out = dir.path().join("run");
+    let o = jeffcott(&[
+        "simulate",
+        "--omega",
+        "133",
+        "--config",
+        cfg.to_str().unwrap(),
+        "--param",
+        "mu=0.1",
+        "--transient",
+        "300",
+        "--periods",
+        "4",
+        "--no-plot",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(o.stdout.is_empty(), "--quiet prints nothing");
+    let s: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(s["params"]["delta"], 1.0);
+    assert_eq!(s["params"]["mu"], 0.1);
+    // A 1 m gap never rubs: the free response is period-1.
+    assert_eq!(s["class"], "period-1");
+    assert_eq!(s["contact"]["counters"]["switches"], 0);
+    assert!(!out.join("phase.png").exists());
+}
