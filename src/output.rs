@@ -93,7 +93,10 @@ mod tests {
         assert!(header.contains("'fortran_order': False"), "{header}");
         // A Python tuple literal; a trailing comma is legal ("(2, 3, )").
         let compact: String = header.chars().filter(|c| !c.is_whitespace()).collect();
-        assert!(compact.contains("'shape':(2,3)") || compact.contains("'shape':(2,3,)"), "{header}");
+        assert!(
+            compact.contains("'shape':(2,3)") || compact.contains("'shape':(2,3,)"),
+            "{header}"
+        );
         let body = &bytes[10 + hlen..];
         assert_eq!(body.len(), 48);
         assert_eq!(f64::from_le_bytes(body[40..48].try_into().unwrap()), 2.5);
