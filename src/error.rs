@@ -42,6 +42,21 @@ pub enum Error {
         /// What went wrong.
         message: String,
     },
+    /// No usable GPU adapter (none found, or none with what the run needs).
+    #[error("no usable GPU adapter: {reason}")]
+    NoAdapter {
+        /// Why none fits (what was looked for, what was found).
+        reason: String,
+    },
+    /// The GPU backend reported an error (device creation, validation, mapping).
+    #[error("GPU error: {message}")]
+    Gpu {
+        /// What the backend said.
+        message: String,
+    },
+    /// The GPU device was lost (driver reset, watchdog, unplugged) during a run.
+    #[error("the GPU device was lost")]
+    DeviceLost,
 }
 
 impl Error {

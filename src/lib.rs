@@ -21,7 +21,9 @@
 
 pub mod analysis;
 pub mod cli;
+pub mod ensemble;
 pub mod error;
+pub mod gpu;
 pub mod integrate;
 pub mod model;
 pub mod output;

@@ -64,6 +64,18 @@ impl Status {
     pub fn code(self) -> u32 {
         self as u32
     }
+
+    /// The status for a code (`None` for an unknown code, e.g. a corrupt GPU buffer).
+    pub fn from_code(code: u32) -> Option<Status> {
+        [
+            Status::Ok,
+            Status::RefinementCap,
+            Status::Diverged,
+            Status::NonFinite,
+        ]
+        .into_iter()
+        .find(|s| s.code() == code)
+    }
 }
 
 /// Constants of one lane, in the lane's precision.
@@ -122,11 +134,14 @@ impl StepperConfig {
                 "must be in 8..=1000000",
             ));
         }
-        if !(2..=1024).contains(&self.max_segments) {
+        // The GPU kernel runs a macro step within one invocation; Mesa's llvmpipe stops
+        // loops after 65535 iterations in total (~130 per segment), so the cap stays well
+        // inside that.
+        if !(2..=256).contains(&self.max_segments) {
             return Err(Error::invalid(
                 "max_segments",
                 self.max_segments,
-                "must be in 2..=1024",
+                "must be in 2..=256",
             ));
         }
         if !(self.divergence_bound.is_finite() && self.divergence_bound > 0.0) {

@@ -1,0 +1,646 @@
+//! Parity of the WGSL lane kernel (`shaders/lane.wgsl` through `jeffcott::gpu`) with the
+//! CPU lane stepper (`integrate::lane`), which is the reference.
+//!
+//! These tests need a Vulkan (or other wgpu) adapter. Without one they print
+//! "skipped: no Vulkan adapter" and return, unless `JEFFCOTT_REQUIRE_GPU=1` is set (CI
+//! with Mesa's lavapipe), in which case they fail.
+
+use jeffcott::gpu::{DeviceRequest, GpuDevice, GpuReal, GpuRunner, LaneOutcome, Schedule};
+use jeffcott::integrate::lane::{Lane, LaneConsts, Status, StepperConfig, advance_period};
+use jeffcott::model::{Params, STATE_DIM, VX_R, X_R};
+use rayon::prelude::*;
+use std::sync::OnceLock;
+
+/// Macro steps per period in these tests: small enough for lavapipe on two cores,
+/// large enough that contact steps are refined (located crossings, several segments).
+const N: u32 = 200;
+/// Periods integrated before recording, and recorded periods (50 in all).
+const TRANSIENT: u32 = 40;
+const RECORDED: u32 = 10;
+
+fn require_gpu() -> bool {
+    std::env::var("JEFFCOTT_REQUIRE_GPU").as_deref() == Ok("1")
+}
+
+/// The shared runner, or `None` (after saying so) when there is no adapter and none is
+/// required. Panics when `JEFFCOTT_REQUIRE_GPU=1` and there is no adapter.
+fn runner() -> Option<&'static GpuRunner> {
+    static RUNNER: OnceLock<Result<GpuRunner, String>> = OnceLock::new();
+    let r = RUNNER.get_or_init(|| match GpuDevice::new(&DeviceRequest::default()) {
+        Ok(gpu) => {
+            eprintln!("GPU tests on {:?}", gpu.adapter());
+            Ok(GpuRunner::new(gpu))
+        }
+        Err(e) => Err(e.to_string()),
+    });
+    match r {
+        Ok(runner) => Some(runner),
+        Err(e) => {
+            assert!(
+                !require_gpu(),
+                "JEFFCOTT_REQUIRE_GPU=1 but no GPU adapter could be opened: {e}"
+            );
+            eprintln!("skipped: no Vulkan adapter ({e})");
+            None
+        }
+    }
+}
+
+/// The runner if it can run precision `R` (f64 needs SHADER_F64).
+fn runner_for<R: GpuReal>() -> Option<&'static GpuRunner> {
+    let r = runner()?;
+    if R::WGSL_NAME == "f64" && !r.gpu().supports_f64() {
+        assert!(
+            !require_gpu(),
+            "JEFFCOTT_REQUIRE_GPU=1 but adapter {} has no SHADER_F64",
+            r.gpu().adapter().name
+        );
+        eprintln!(
+            "skipped: adapter {} has no SHADER_F64",
+            r.gpu().adapter().name
+        );
+        return None;
+    }
+    Some(r)
+}
+
+/// The kinds of lanes in the parity ensemble.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Kind {
+    /// Static equilibrium (MODEL.md 3).
+    Equilibrium,
+    /// Thrown against the stator: x_r = 5.8 mm, vx_r = +0.8 m/s.
+    ThrownOut,
+    /// x_r = 5.8 mm, vx_r = -0.8 m/s.
+    ThrownBack,
+    /// Gap of 5 cm: never touches.
+    FreeFlight,
+    /// A deterministic scatter of the whole state inside the gap.
+    Scatter,
+}
+
+const KINDS: [Kind; 5] = [
+    Kind::Equilibrium,
+    Kind::ThrownOut,
+    Kind::ThrownBack,
+    Kind::FreeFlight,
+    Kind::Scatter,
+];
+
+/// A small deterministic hash in [-1, 1).
+fn unit(i: usize, salt: u64) -> f64 {
+    let mut z = (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ salt;
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^= z >> 31;
+    (z >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+}
+
+/// One lane of the parity ensemble: (params, W, initial state, kind).
+fn lane_spec(i: usize, n: usize) -> (Params, f64, [f64; STATE_DIM], Kind) {
+    let omega = 130.0 + 11.0 * i as f64 / (n - 1) as f64;
+    let kind = KINDS[i % KINDS.len()];
+    let mut p = Params::default();
+    let mut x = p.static_equilibrium();
+    match kind {
+        Kind::Equilibrium => {}
+        Kind::ThrownOut | Kind::ThrownBack => {
+            x[X_R] = 0.0058;
+            x[VX_R] = if kind == Kind::ThrownOut { 0.8 } else { -0.8 };
+        }
+        Kind::FreeFlight => p.delta = 0.05,
+        Kind::Scatter => {
+            for (d, v) in x.iter_mut().enumerate() {
+                let scale = if d % 2 == 0 { 0.004 } else { 0.5 };
+                *v += scale * unit(i, d as u64 + 1);
+            }
+        }
+    }
+    (p, omega, x, kind)
+}
+
+fn config() -> StepperConfig {
+    StepperConfig {
+        steps_per_period: N,
+        ..StepperConfig::default()
+    }
+}
+
+/// Lane constants and initial lanes of the parity ensemble in precision `R`.
+fn ensemble<R: GpuReal>(n: usize) -> (Vec<LaneConsts<R>>, Vec<Lane<R>>, Vec<Kind>) {
+    let cfg = config();
+    let mut consts = Vec::with_capacity(n);
+    let mut lanes = Vec::with_capacity(n);
+    let mut kinds = Vec::with_capacity(n);
+    for i in 0..n {
+        let (p, omega, x, kind) = lane_spec(i, n);
+        consts.push(LaneConsts::<R>::new(&p, omega, &cfg));
+        lanes.push(Lane::<R>::new(&x, p.delta));
+        kinds.push(kind);
+    }
+    (consts, lanes, kinds)
+}
+
+/// The CPU reference: the same lanes through `advance_period`, recording the state at
+/// the end of each period from `transient` on (rayon over lanes; lanes are independent).
+fn cpu_run<R: GpuReal>(
+    consts: &[LaneConsts<R>],
+    init: &[Lane<R>],
+    transient: u32,
+    recorded: u32,
+) -> Vec<LaneOutcome<R>> {
+    consts
+        .par_iter()
+        .zip(init.par_iter())
+        .map(|(lc, lane0)| {
+            let mut lane = *lane0;
+            let mut poincare = Vec::new();
+            for p in 0..transient + recorded {
+                advance_period(lc, &mut lane);
+                if p >= transient {
+                    poincare.push(lane.state_f64());
+                }
+            }
+            LaneOutcome { poincare, lane }
+        })
+        .collect()
+}
+
+fn bits(p: &[[f64; STATE_DIM]]) -> Vec<u64> {
+    p.iter().flatten().map(|v| v.to_bits()).collect()
+}
+
+/// True when two outcomes are identical to the bit (points, state, mode, k, status,
+/// counters).
+fn identical<R: GpuReal>(a: &LaneOutcome<R>, b: &LaneOutcome<R>) -> bool {
+    bits(&a.poincare) == bits(&b.poincare)
+        && a.lane.state_f64().map(f64::to_bits) == b.lane.state_f64().map(f64::to_bits)
+        && a.lane.contact == b.lane.contact
+        && a.lane.k == b.lane.k
+        && a.lane.status == b.lane.status
+        && a.lane.counters == b.lane.counters
+}
+
+/// Largest difference between GPU and CPU Poincare points of one lane, relative to the
+/// lane's extent in that coordinate (its largest |value| over the CPU records).
+fn worst_relative(gpu: &[[f64; STATE_DIM]], cpu: &[[f64; STATE_DIM]]) -> f64 {
+    let mut worst: f64 = 0.0;
+    for d in 0..STATE_DIM {
+        let scale = cpu.iter().map(|p| p[d].abs()).fold(0.0, f64::max);
+        for (g, c) in gpu.iter().zip(cpu) {
+            let diff = (g[d] - c[d]).abs();
+            if diff > 0.0 {
+                worst = worst.max(if scale > 0.0 {
+                    diff / scale
+                } else {
+                    f64::INFINITY
+                });
+            }
+        }
+    }
+    worst
+}
+
+fn timed<T>(what: &str, f: impl FnOnce() -> T) -> T {
+    let t = std::time::Instant::now();
+    let out = f();
+    eprintln!("{what}: {:.2} s", t.elapsed().as_secs_f64());
+    out
+}
+
+/// Checks that the ensemble exercises what it claims: hard rubbing with located
+/// switches, and lanes that never touch.
+fn assert_ensemble_is_varied<R: GpuReal>(cpu: &[LaneOutcome<R>], kinds: &[Kind]) {
+    let rubbing = cpu.iter().filter(|o| o.lane.counters.switches > 10).count();
+    assert!(
+        rubbing >= cpu.len() / 4,
+        "only {rubbing} lanes rub repeatedly"
+    );
+    for (o, k) in cpu.iter().zip(kinds) {
+        if *k == Kind::FreeFlight {
+            assert_eq!(o.lane.counters.contact_steps, 0, "free-flight lane touched");
+        }
+        if matches!(k, Kind::ThrownOut | Kind::ThrownBack) {
+            assert!(o.lane.counters.switches > 0, "a thrown lane never switched");
+        }
+        assert!(!o.lane.status.is_frozen(), "{:?}", o.lane.status);
+    }
+}
+
+#[test]
+fn f64_kernel_reproduces_cpu_f64_lanes_to_the_bit() {
+    let Some(runner) = runner_for::<f64>() else {
+        return;
+    };
+    let n = 260;
+    let (consts, init, kinds) = ensemble::<f64>(n);
+    let schedule = Schedule::new(TRANSIENT, RECORDED, 10);
+    let gpu = timed("GPU f64, 260 lanes x 50 periods", || {
+        runner.run(&consts, &init, &schedule)
+    })
+    .expect("GPU run");
+    let cpu = timed("CPU f64, 260 lanes x 50 periods", || {
+        cpu_run(&consts, &init, TRANSIENT, RECORDED)
+    });
+    assert_ensemble_is_varied(&cpu, &kinds);
+    let mut exact = 0;
+    let mut worst: f64 = 0.0;
+    for (i, (g, c)) in gpu.iter().zip(&cpu).enumerate() {
+        assert_eq!(g.poincare.len(), RECORDED as usize);
+        let w = worst_relative(&g.poincare, &c.poincare);
+        worst = worst.max(w);
+        assert!(
+            w <= 1e-10,
+            "lane {i} ({:?}, W = {}): GPU and CPU differ by {w:e} relative",
+            kinds[i],
+            lane_spec(i, n).1
+        );
+        assert_eq!(g.lane.status, c.lane.status, "lane {i} status");
+        assert_eq!(g.lane.k, c.lane.k, "lane {i} k");
+        if identical(g, c) {
+            exact += 1;
+        }
+    }
+    eprintln!("f64: {exact}/{n} lanes bit-identical, worst relative difference {worst:e}");
+    // Same operations, same order, correctly rounded on both sides: nothing less than
+    // identity is expected (a difference would mean the mirror or the driver deviates).
+    assert_eq!(exact, n, "lanes not bit-identical (worst {worst:e})");
+}
+
+/// The f32 bound. The kernel performs the same IEEE binary32 operations in the same
+/// order as the CPU f32 lane: + - * / and sqrt are correctly rounded on both sides
+/// (x86 SSE on the host; LLVM on lavapipe, which does not fuse a*b+c into an fma),
+/// the one reassociation Mesa's NIR would apply is blocked by `keep` in the kernel
+/// (checked by `rhs_and_phasor_on_the_gpu_match_the_cpu_bit_for_bit`), constants are
+/// the same f32 values (checked in `gpu::shader`), and floor and small-integer
+/// conversions are exact. Each operation therefore rounds the same exact value to the
+/// same f32, by induction over the whole run: the bound is zero, and the test demands
+/// identity on a software adapter.
+///
+/// A hardware GPU may implement f32 division and sqrt to 2-3 ulp and fuse multiply-adds
+/// (Vulkan's precision rules). Then each macro step can differ by a few ulp of the state
+/// (|x| <= 1e-2 m, ulp 1e-9 m), and chaotic lanes amplify that to the attractor's size
+/// within tens of periods; only a statistical comparison makes sense there, so on
+/// hardware the test checks the lanes' statuses and that the points stay inside the
+/// gap-sized region the dynamics allow (2 delta).
+#[test]
+fn f32_kernel_matches_cpu_f32_lanes_within_derived_bound() {
+    let Some(runner) = runner_for::<f32>() else {
+        return;
+    };
+    let n = 260;
+    let (consts, init, kinds) = ensemble::<f32>(n);
+    let schedule = Schedule::new(TRANSIENT, RECORDED, 10);
+    let gpu = timed("GPU f32, 260 lanes x 50 periods", || {
+        runner.run(&consts, &init, &schedule)
+    })
+    .expect("GPU run");
+    let cpu = timed("CPU f32, 260 lanes x 50 periods", || {
+        cpu_run(&consts, &init, TRANSIENT, RECORDED)
+    });
+    assert_ensemble_is_varied(&cpu, &kinds);
+    let software = runner.gpu().adapter().software;
+    let mut exact = 0;
+    let mut worst: f64 = 0.0;
+    for (i, (g, c)) in gpu.iter().zip(&cpu).enumerate() {
+        assert_eq!(g.lane.status, c.lane.status, "lane {i} status");
+        worst = worst.max(worst_relative(&g.poincare, &c.poincare));
+        if identical(g, c) {
+            exact += 1;
+        } else if !software {
+            for (pg, pc) in g.poincare.iter().zip(&c.poincare) {
+                for d in [0, 2, 4, 6] {
+                    assert!(
+                        (pg[d] - pc[d]).abs() <= 2.0 * 0.006,
+                        "lane {i}: {pg:?} vs {pc:?}"
+                    );
+                }
+            }
+        }
+    }
+    eprintln!("f32: {exact}/{n} lanes bit-identical, worst relative difference {worst:e}");
+    if software {
+        assert_eq!(exact, n, "f32 lanes not bit-identical (worst {worst:e})");
+    }
+}
+
+/// Runs the ensemble under several schedules and demands identical results.
+fn slicing_does_not_change_results<R: GpuReal>(runner: &GpuRunner) {
+    let n = 150;
+    let (consts, init, _) = ensemble::<R>(n);
+    let (transient, recorded) = (23, 7);
+    let total = transient + recorded;
+    let one_dispatch = Schedule::new(transient, recorded, total);
+    let mut dispatches = 0;
+    let big = runner
+        .run_with_progress(&consts, &init, &one_dispatch, &mut |p| {
+            dispatches = p.dispatches
+        })
+        .expect("one dispatch");
+    eprintln!(
+        "{}: the one-slice schedule took {dispatches} dispatches",
+        R::WGSL_NAME
+    );
+    if runner.gpu().adapter().software {
+        // 30 periods of 200 macro steps exceed llvmpipe's 65535 loop iterations per
+        // invocation, so the resume path of the kernel is part of this comparison.
+        assert!(
+            dispatches > 1,
+            "llvmpipe finished 6000 macro steps in one dispatch"
+        );
+    }
+    // Slices that straddle the end of the transient, chunks that are not multiples of
+    // the workgroup size, and a chunk of a single lane at the end.
+    for (pps, chunk) in [(1, None), (4, Some(37)), (9, Some(149)), (total, Some(64))] {
+        let schedule = Schedule {
+            max_lanes_per_chunk: chunk,
+            ..Schedule::new(transient, recorded, pps)
+        };
+        let mut reports = Vec::new();
+        let small = runner
+            .run_with_progress(&consts, &init, &schedule, &mut |p| reports.push(p))
+            .expect("sliced run");
+        for (i, (a, b)) in big.iter().zip(&small).enumerate() {
+            assert!(
+                identical(a, b),
+                "{}: lane {i} differs with {pps} periods per slice, chunk {chunk:?}",
+                R::WGSL_NAME
+            );
+        }
+        let done: Vec<u64> = reports.iter().map(|p| p.lane_periods_done).collect();
+        assert!(
+            done.windows(2).all(|w| w[0] < w[1]),
+            "progress not increasing"
+        );
+        assert_eq!(done.last().copied(), Some(n as u64 * total as u64));
+        let chunks = n.div_ceil(chunk.unwrap_or(n));
+        assert!(reports.len() >= chunks * (total as usize).div_ceil(pps as usize));
+    }
+}
+
+#[test]
+fn one_dispatch_and_many_slices_and_chunks_are_bit_identical() {
+    if let Some(r) = runner_for::<f64>() {
+        slicing_does_not_change_results::<f64>(r);
+    }
+    if let Some(r) = runner_for::<f32>() {
+        slicing_does_not_change_results::<f32>(r);
+    }
+}
+
+/// Poisons lanes 3, 4, 5 and 6 of a small ensemble and checks they are flagged as the CPU
+/// flags them while every other lane is identical to the clean run.
+fn poisoned_lanes_are_frozen_and_isolated<R: GpuReal>(runner: &GpuRunner) {
+    let n = 70;
+    let (consts, init, _) = ensemble::<R>(n);
+    let schedule = Schedule::new(5, 5, 3);
+    let clean = runner.run(&consts, &init, &schedule).expect("clean run");
+
+    let p = Params::default();
+    let cfg = config();
+    let mut bad_consts = consts.clone();
+    let mut bad_init = init.clone();
+    // NaN initial state: frozen from the start.
+    let mut x = p.static_equilibrium();
+    x[X_R] = f64::NAN;
+    bad_init[3] = Lane::new(&x, p.delta);
+    // Absurd speed: e W^2 overflows, the first step is not finite.
+    bad_consts[4] = LaneConsts::new(&p, 1e200, &cfg);
+    // Absurd launch speed: the rotor leaves the 1 m bound in the first step.
+    let mut x = p.static_equilibrium();
+    x[VX_R] = 1e5;
+    bad_init[5] = Lane::new(&x, p.delta);
+    // A NaN coefficient: finite start, non-finite after the first step.
+    bad_consts[6].c.wr2 = R::lit(f64::NAN);
+
+    let poisoned = runner
+        .run(&bad_consts, &bad_init, &schedule)
+        .expect("poisoned run");
+    let cpu = cpu_run(&bad_consts[3..7], &bad_init[3..7], 5, 5);
+    let expect = [
+        Status::NonFinite,
+        Status::NonFinite,
+        Status::Diverged,
+        Status::NonFinite,
+    ];
+    for (j, i) in (3..7).enumerate() {
+        let g = &poisoned[i];
+        assert_eq!(g.lane.status, expect[j], "{}: lane {i}", R::WGSL_NAME);
+        assert_eq!(
+            g.lane.status, cpu[j].lane.status,
+            "lane {i} GPU vs CPU status"
+        );
+        assert_eq!(g.lane.counters.macro_steps, 0, "lane {i} advanced");
+        // Frozen at the last good state, which the records repeat.
+        assert_eq!(
+            g.lane.state_f64().map(f64::to_bits),
+            cpu[j].lane.state_f64().map(f64::to_bits)
+        );
+        assert_eq!(bits(&g.poincare), bits(&cpu[j].poincare));
+    }
+    for i in (0..n).filter(|i| !(3..7).contains(i)) {
+        assert!(
+            identical(&clean[i], &poisoned[i]),
+            "{}: neighbour lane {i} changed",
+            R::WGSL_NAME
+        );
+        assert_eq!(clean[i].lane.status, Status::Ok);
+    }
+}
+
+#[test]
+fn poisoned_lanes_are_flagged_and_do_not_touch_their_neighbours() {
+    if let Some(r) = runner_for::<f64>() {
+        poisoned_lanes_are_frozen_and_isolated::<f64>(r);
+    }
+    if let Some(r) = runner_for::<f32>() {
+        poisoned_lanes_are_frozen_and_isolated::<f32>(r);
+    }
+}
+
+/// A test-only entry point appended to the kernel: evaluates `rhs_frozen` and
+/// `phasor_turns` on rows of `probe_in` (8 state, 10 coefficients, cos, sin, contact,
+/// turns = 22 Reals) into rows of `probe_out` (8 + 2 Reals).
+const PROBE_ENTRY: &str = r#"
+@group(0) @binding(10) var<storage, read> probe_in: array<Real>;
+@group(0) @binding(11) var<storage, read_write> probe_out: array<Real>;
+@compute @workgroup_size(64)
+fn probe_functions(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if i >= arrayLength(&probe_in) / 22u || params.n_lanes == 0u {
+        return;
+    }
+    let b = 22u * i;
+    var x: array<Real, STATE_DIM>;
+    for (var j = 0u; j < STATE_DIM; j++) {
+        x[j] = probe_in[b + j];
+    }
+    let c = Coeffs(probe_in[b + 8u], probe_in[b + 9u], probe_in[b + 10u], probe_in[b + 11u],
+        probe_in[b + 12u], probe_in[b + 13u], probe_in[b + 14u], probe_in[b + 15u],
+        probe_in[b + 16u], probe_in[b + 17u]);
+    let f = rhs_frozen(c, x, probe_in[b + 18u], probe_in[b + 19u], probe_in[b + 20u] > Real(0.5));
+    let p = phasor_turns(probe_in[b + 21u]);
+    let o = 10u * i;
+    for (var j = 0u; j < STATE_DIM; j++) {
+        probe_out[o + j] = f[j];
+    }
+    probe_out[o + 8u] = p.x;
+    probe_out[o + 9u] = p.y;
+}
+"#;
+
+/// Runs `PROBE_ENTRY` on `rows` and returns its output.
+fn probe_kernel<R: GpuReal>(runner: &GpuRunner, rows: &[R]) -> Vec<R> {
+    use wgpu::util::DeviceExt;
+    let dev = runner.gpu().device();
+    let n = rows.len() / 22;
+    let out_bytes = (n * 10 * std::mem::size_of::<R>()) as u64;
+    let src = jeffcott::gpu::shader::source::<R>() + PROBE_ENTRY;
+    let scope = dev.push_error_scope(wgpu::ErrorFilter::Validation);
+    let module = dev.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some("probe"),
+        source: wgpu::ShaderSource::Wgsl(src.into()),
+    });
+    let pipeline = dev.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some("probe"),
+        layout: None,
+        module: &module,
+        entry_point: Some("probe_functions"),
+        compilation_options: Default::default(),
+        cache: None,
+    });
+    // `keep` reads params.n_lanes, which is never 0 in a real dispatch.
+    let params = jeffcott::gpu::layout::Params {
+        n_lanes: 1,
+        ..Default::default()
+    };
+    let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
+    let pbuf = dev.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: None,
+        contents: bytemuck::bytes_of(&params),
+        usage: wgpu::BufferUsages::UNIFORM,
+    });
+    let inp = dev.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: None,
+        contents: bytemuck::cast_slice(rows),
+        usage: wgpu::BufferUsages::STORAGE,
+    });
+    let make = |usage| {
+        dev.create_buffer(&wgpu::BufferDescriptor {
+            label: None,
+            size: out_bytes,
+            usage,
+            mapped_at_creation: false,
+        })
+    };
+    let out = make(usage);
+    let staging = make(wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST);
+    fn bind(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
+        wgpu::BindGroupEntry {
+            binding,
+            resource: buffer.as_entire_binding(),
+        }
+    }
+    let group = dev.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: None,
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &[bind(0, &pbuf), bind(10, &inp), bind(11, &out)],
+    });
+    if let Some(e) = pollster::block_on(scope.pop()) {
+        panic!("probe kernel: {e}");
+    }
+    let mut enc = dev.create_command_encoder(&Default::default());
+    {
+        let mut pass = enc.begin_compute_pass(&Default::default());
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &group, &[]);
+        pass.dispatch_workgroups((n as u32).div_ceil(64), 1, 1);
+    }
+    enc.copy_buffer_to_buffer(&out, 0, &staging, 0, None);
+    runner.gpu().queue().submit(Some(enc.finish()));
+    staging
+        .slice(..)
+        .map_async(wgpu::MapMode::Read, |r| r.expect("map"));
+    dev.poll(wgpu::PollType::wait_indefinitely()).expect("poll");
+    let view = staging.slice(..).get_mapped_range().expect("mapped");
+    bytemuck::pod_collect_to_vec(&view)
+}
+
+/// Function-level parity, so a compiler rewrite shows up here and not only as a drift
+/// after many periods: `rhs_frozen` (where Mesa's add-chain reassociation bit, see
+/// `keep` in the kernel) and `phasor_turns` on 50 000 random inputs around contact.
+fn functions_match_cpu_bit_for_bit<R: GpuReal>(runner: &GpuRunner) {
+    use jeffcott::integrate::forcing::phasor_turns;
+    use jeffcott::model::{Coeffs, rhs_frozen};
+    let n = 50_000;
+    let mut rows = Vec::with_capacity(n * 22);
+    let mut inputs = Vec::with_capacity(n);
+    for i in 0..n {
+        let mut x = [R::lit(0.0); STATE_DIM];
+        for (d, v) in x.iter_mut().enumerate() {
+            let scale = if d % 2 == 0 { 0.004 } else { 0.8 };
+            *v = R::lit(scale * unit(i, d as u64 + 100));
+        }
+        x[X_R] = R::lit(0.006 * (1.0 + 0.05 * unit(i, 7)));
+        let p = Params {
+            mu: if i % 3 == 0 {
+                0.0
+            } else {
+                0.3 * unit(i, 8).abs()
+            },
+            ..Params::default()
+        };
+        let c = Coeffs::<R>::new(&p, 130.0 + 11.0 * unit(i, 9).abs());
+        let cos = R::lit(unit(i, 10));
+        let sin = R::lit(unit(i, 11));
+        let contact = i % 4 != 0;
+        let turns = R::lit(3.0 * unit(i, 12));
+        rows.extend_from_slice(&x);
+        rows.extend_from_slice(&[
+            c.wr2,
+            c.dr,
+            c.ws2,
+            c.ds,
+            c.unbalance,
+            c.a_g,
+            c.kc_mr,
+            c.kc_ms,
+            c.mu,
+            c.delta,
+        ]);
+        rows.extend_from_slice(&[cos, sin, R::lit(contact as u8 as f64), turns]);
+        inputs.push((x, c, cos, sin, contact, turns));
+    }
+    let out = probe_kernel(runner, &rows);
+    let mut bad = 0;
+    for (i, (x, c, cos, sin, contact, turns)) in inputs.iter().enumerate() {
+        let f = rhs_frozen(c, x, *cos, *sin, *contact);
+        let (pc, ps) = phasor_turns(*turns);
+        let cpu: Vec<f64> = f.iter().chain([&pc, &ps]).map(|v| v.to_f64()).collect();
+        let gpu: Vec<f64> = out[10 * i..10 * i + 10]
+            .iter()
+            .map(|v| v.to_f64())
+            .collect();
+        if cpu
+            .iter()
+            .map(|v| v.to_bits())
+            .ne(gpu.iter().map(|v| v.to_bits()))
+        {
+            bad += 1;
+            if bad < 4 {
+                eprintln!("{}: row {i}\n CPU {cpu:?}\n GPU {gpu:?}", R::WGSL_NAME);
+            }
+        }
+    }
+    assert_eq!(bad, 0, "{}: {bad} of {n} rows differ", R::WGSL_NAME);
+}
+
+#[test]
+fn rhs_and_phasor_on_the_gpu_match_the_cpu_bit_for_bit() {
+    if let Some(r) = runner_for::<f64>() {
+        functions_match_cpu_bit_for_bit::<f64>(r);
+    }
+    if let Some(r) = runner_for::<f32>() {
+        functions_match_cpu_bit_for_bit::<f32>(r);
+    }
+}
