@@ -31,6 +31,194 @@ pub enum Command {
     /// series, phase portraits and a classification (period-N, aperiodic, diverged).
     #[command(allow_negative_numbers = true)]
     Simulate(SimulateArgs),
+    /// Run many independent lanes (one per rotor speed) on the CPU or a GPU and write
+    /// their Poincare points, statuses and lane table.
+    #[command(allow_negative_numbers = true)]
+    Ensemble(EnsembleArgs),
+    /// List GPU adapters, their backends, f64 support and limits, and the CPU threads.
+    Info,
+}
+
+/// Arguments of `jeffcott ensemble`.
+#[derive(Args, Debug)]
+pub struct EnsembleArgs {
+    /// Rotor speeds: `a:b:n` is n speeds from a to b inclusive, evenly spaced, or one
+    /// number [rad/s].
+    #[arg(long, value_name = "a:b:n", allow_hyphen_values = true)]
+    pub omega: String,
+    /// Override coordinates of every lane's start state (default: static equilibrium),
+    /// e.g. `--init x_r=0.005,vx_r=-0.5`.
+    #[arg(long, value_name = "NAME=VALUE,...")]
+    pub init: Vec<String>,
+    /// Forcing periods integrated and discarded.
+    #[arg(long, default_value_t = 500, value_name = "Q")]
+    pub transient: u32,
+    /// Forcing periods recorded per lane.
+    #[arg(long, default_value_t = 64, value_name = "P")]
+    pub periods: u32,
+    /// Backend: auto (a hardware GPU if present, else the CPU), cpu, or gpu (any adapter,
+    /// software included; an error if none).
+    #[arg(long, value_enum, default_value_t = crate::ensemble::Backend::Auto)]
+    pub backend: crate::ensemble::Backend,
+    /// Lane precision [default: f64 on the CPU, f32 on a GPU]. f64 on a GPU needs an
+    /// adapter with SHADER_F64.
+    #[arg(long, value_enum)]
+    pub precision: Option<crate::ensemble::Precision>,
+    #[command(flatten)]
+    pub model: ModelArgs,
+    /// Macro steps per forcing period.
+    #[arg(long, default_value_t = DEFAULT_STEPS_PER_PERIOD, value_name = "N")]
+    pub steps_per_period: u32,
+    /// Cap on contact switches per macro step; steps that need more are flagged.
+    #[arg(long, default_value_t = 16)]
+    pub max_segments: u32,
+    /// A lane whose |position| exceeds this [m] is declared diverged.
+    #[arg(long, default_value_t = 1.0, value_name = "METRES")]
+    pub divergence_bound: f64,
+    /// Output directory (created if missing).
+    #[arg(long, value_name = "DIR", default_value = "jeffcott-out/ensemble")]
+    pub out: PathBuf,
+    /// Print nothing but errors.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// Runs `jeffcott ensemble`.
+pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
+    use crate::ensemble::{EnsembleSpec, LaneSpec, lane_table_columns, run};
+    let params = a.model.params()?;
+    let mut x0 = params.static_equilibrium();
+    apply_init(&mut x0, &a.init)?;
+    let omegas = crate::ensemble::parse_range("omega", &a.omega)?;
+    let precision = a
+        .precision
+        .unwrap_or_else(|| crate::ensemble::default_precision(a.backend));
+    let spec = EnsembleSpec {
+        lanes: omegas
+            .iter()
+            .map(|&omega| LaneSpec {
+                omega,
+                x0,
+                param_set: 0,
+            })
+            .collect(),
+        param_sets: vec![params],
+        transient: a.transient,
+        recorded: a.periods,
+        stepper: StepperConfig {
+            steps_per_period: a.steps_per_period,
+            max_segments: a.max_segments,
+            divergence_bound: a.divergence_bound,
+        },
+        precision,
+    };
+    let (res, info) = run(&spec, a.backend, &|_, _| {})?;
+    if !a.quiet {
+        println!(
+            "backend: {} ({}; {}), precision {:?}",
+            info.backend, info.device, info.reason, info.precision
+        );
+    }
+    let dir = &a.out;
+    output::ensure_dir(dir)?;
+    let n = spec.lanes.len();
+    output::write_npy(
+        &dir.join("poincare.npy"),
+        &[n, res.recorded, STATE_DIM],
+        &res.poincare,
+    )?;
+    let codes: Vec<u32> = res.status.iter().map(|s| s.code()).collect();
+    output::write_npy(&dir.join("status.npy"), &[n], &codes)?;
+    let mut table = Vec::with_capacity(n * (2 + STATE_DIM));
+    for l in &spec.lanes {
+        table.push(l.omega);
+        table.push(l.param_set as f64);
+        table.extend_from_slice(&l.x0);
+    }
+    output::write_npy(&dir.join("lanes.npy"), &[n, 2 + STATE_DIM], &table)?;
+    let steps: u64 = res.counters.iter().map(|c| c.macro_steps).sum();
+    let extra: u64 = res.counters.iter().map(|c| c.extra_substeps).sum();
+    let contact: u64 = res.counters.iter().map(|c| c.contact_steps).sum();
+    let switches: u64 = res.counters.iter().map(|c| c.switches).sum();
+    let count = |s: crate::integrate::lane::Status| res.status.iter().filter(|&&x| x == s).count();
+    use crate::integrate::lane::Status;
+    let run_json = serde_json::json!({
+        "backend": info.backend,
+        "device": info.device,
+        "backend_reason": info.reason,
+        "precision": info.precision,
+        "lanes": n,
+        "transient": spec.transient,
+        "periods": spec.recorded,
+        "steps_per_period": spec.stepper.steps_per_period,
+        "wall_time_s": info.elapsed_s,
+        "lane_steps_per_s": steps as f64 / info.elapsed_s,
+        "forcing_periods_per_s": (n as f64 * (spec.transient + spec.recorded) as f64) / info.elapsed_s,
+        "counters": {
+            "macro_steps": steps,
+            "contact_steps": contact,
+            "switches": switches,
+            "extra_substeps": extra,
+            "max_penetration_m": res.counters.iter().map(|c| c.max_penetration).fold(0.0, f64::max),
+        },
+        "status_counts": {
+            "ok": count(Status::Ok),
+            "refinement_cap": count(Status::RefinementCap),
+            "diverged": count(Status::Diverged),
+            "non_finite": count(Status::NonFinite),
+        },
+        "status_codes": {"0": "ok", "1": "refinement_cap", "2": "diverged", "3": "non_finite"},
+        "lanes_columns": lane_table_columns(),
+        "params": spec.param_sets,
+        "files": {
+            "poincare.npy": "f64 [lanes, periods, 8], state order x_r, vx_r, y_r, vy_r, x_s, vx_s, y_s, vy_s",
+            "status.npy": "u32 [lanes], codes in status_codes",
+            "lanes.npy": "f64 [lanes, 10], columns in lanes_columns",
+        },
+        "jeffcott_version": env!("CARGO_PKG_VERSION"),
+    });
+    output::write_json(&dir.join("run.json"), &run_json)?;
+    if !a.quiet {
+        println!(
+            "{n} lanes x {} periods in {:.2} s ({:.3e} lane-steps/s); status ok {}, refinement_cap {}, diverged {}, non_finite {}; files in {}",
+            spec.transient + spec.recorded,
+            info.elapsed_s,
+            steps as f64 / info.elapsed_s,
+            count(Status::Ok),
+            count(Status::RefinementCap),
+            count(Status::Diverged),
+            count(Status::NonFinite),
+            dir.display()
+        );
+    }
+    Ok(())
+}
+
+/// Runs `jeffcott info`.
+pub fn run_info() -> Result<()> {
+    let adapters = crate::gpu::list_adapters();
+    println!("CPU: {} rayon threads", rayon::current_num_threads());
+    if adapters.is_empty() {
+        println!(
+            "GPU: no adapter found (install a Vulkan driver; Mesa's lavapipe: apt-get install mesa-vulkan-drivers)"
+        );
+    }
+    for s in adapters {
+        println!(
+            "GPU: {} [{} {}{}], driver {}, f64 {}, max storage binding {} MiB, max buffer {} MiB, workgroups/dim {}, invocations/workgroup {}",
+            s.name,
+            s.backend,
+            s.device_type,
+            if s.software { ", software" } else { "" },
+            s.driver,
+            if s.f64 { "yes" } else { "no" },
+            s.max_storage_buffer_binding_size >> 20,
+            s.max_buffer_size >> 20,
+            s.max_compute_workgroups_per_dimension,
+            s.max_compute_invocations_per_workgroup
+        );
+    }
+    Ok(())
 }
 
 /// Model parameters: Table 1 of the article unless a config file or `--param` says

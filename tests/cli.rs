@@ -230,3 +230,63 @@ fn config_file_and_param_overrides_reach_the_model() {
     assert_eq!(s["contact"]["counters"]["switches"], 0);
     assert!(!out.join("phase.png").exists());
 }
+
+#[test]
+fn ensemble_writes_poincare_status_lanes_and_run_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("ens");
+    let o = jeffcott(&[
+        "ensemble",
+        "--omega",
+        "131.7:132.2:3",
+        "--transient",
+        "400",
+        "--periods",
+        "8",
+        "--backend",
+        "cpu",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(npy_shape(&out.join("poincare.npy")), vec![3, 8, 8]);
+    assert_eq!(npy_shape(&out.join("lanes.npy")), vec![3, 10]);
+    let status = std::fs::read(out.join("status.npy")).unwrap();
+    assert!(String::from_utf8_lossy(&status[..128]).contains("'descr': '<u4'"));
+    let r: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("run.json")).unwrap()).unwrap();
+    assert_eq!(r["backend"], "cpu");
+    assert_eq!(r["precision"], "f64");
+    assert_eq!(r["lanes"], 3);
+    assert_eq!(r["status_counts"]["ok"], 3);
+    assert!(r["lane_steps_per_s"].as_f64().unwrap() > 0.0);
+}
+
+#[test]
+fn ensemble_rejects_bad_ranges_with_the_syntax() {
+    for (range, needle) in [
+        ("130:141", "a:b:n"),
+        ("130:141:0", ">= 1"),
+        ("130:x:4", "not a number"),
+        ("-1:2:3", "omega (lane 0)"),
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("ens");
+        let o = jeffcott(&[
+            "ensemble",
+            "--omega",
+            range,
+            "--backend",
+            "cpu",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{range}: {stderr}");
+        assert!(
+            stderr.contains(needle),
+            "{range}: expected {needle:?} in {stderr}"
+        );
+        assert!(!out.join("run.json").exists());
+    }
+}

@@ -167,3 +167,201 @@ pub fn lane_table_columns() -> Vec<String> {
     c.extend(COORD_NAMES.iter().map(|n| format!("{n}0")));
     c
 }
+
+/// Which backend runs an ensemble.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum Backend {
+    /// A hardware GPU if one is present, else the CPU.
+    Auto,
+    /// The rayon CPU path.
+    Cpu,
+    /// A GPU adapter (software ones such as Mesa's llvmpipe included); an error if none.
+    Gpu,
+}
+
+/// How a run was carried out (for `run.json`).
+#[derive(Clone, Debug, Serialize)]
+pub struct RunInfo {
+    /// "cpu" or "gpu".
+    pub backend: &'static str,
+    /// GPU adapter name, or the CPU thread count.
+    pub device: String,
+    /// Why this backend was chosen.
+    pub reason: String,
+    /// Precision of the lanes.
+    pub precision: Precision,
+    /// Wall time of the integration [s] (device set-up included).
+    pub elapsed_s: f64,
+}
+
+/// Lane-steps per GPU dispatch aimed at: short enough for a watchdog (DESIGN.md 3),
+/// long enough to amortise the dispatch.
+const LANE_STEPS_PER_SLICE: u64 = 50_000_000;
+
+fn run_gpu<R: crate::gpu::GpuReal>(
+    spec: &EnsembleSpec,
+    runner: &crate::gpu::GpuRunner,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<EnsembleResult> {
+    let n = spec.lanes.len();
+    let consts: Vec<LaneConsts<R>> = (0..n).map(|i| spec.lane_consts(i)).collect();
+    let init: Vec<Lane<R>> = (0..n).map(|i| spec.initial_lane(i)).collect();
+    let per_period = n as u64 * spec.stepper.steps_per_period as u64;
+    let slice = (LANE_STEPS_PER_SLICE / per_period.max(1))
+        .clamp(1, (spec.transient + spec.recorded) as u64) as u32;
+    let schedule = crate::gpu::Schedule::new(spec.transient, spec.recorded, slice);
+    let outs = runner.run_with_progress(&consts, &init, &schedule, &mut |p| {
+        progress(p.lane_periods_done, p.lane_periods_total)
+    })?;
+    let mut res = EnsembleResult {
+        poincare: Vec::with_capacity(n * spec.recorded as usize * STATE_DIM),
+        recorded: spec.recorded as usize,
+        final_state: Vec::with_capacity(n),
+        status: Vec::with_capacity(n),
+        counters: Vec::with_capacity(n),
+    };
+    for o in outs {
+        for p in &o.poincare {
+            res.poincare.extend_from_slice(p);
+        }
+        res.final_state.push(o.lane.state_f64());
+        res.status.push(o.lane.status);
+        res.counters.push(o.lane.counters);
+    }
+    Ok(res)
+}
+
+/// The precision used when the user names none: f32 where the run will go to a GPU,
+/// f64 on the CPU (for `auto` that depends on whether a hardware GPU is present).
+pub fn default_precision(backend: Backend) -> Precision {
+    let hardware = || {
+        crate::gpu::list_adapters()
+            .iter()
+            .any(|a| a.compute && !a.software)
+    };
+    match backend {
+        Backend::Cpu => Precision::F64,
+        Backend::Gpu => Precision::F32,
+        Backend::Auto if hardware() => Precision::F32,
+        Backend::Auto => Precision::F64,
+    }
+}
+
+/// Runs an ensemble on the chosen backend. `precision: None` means f64 on the CPU and
+/// f32 on a GPU. `progress(done, total)` counts lane-periods.
+pub fn run(
+    spec: &EnsembleSpec,
+    backend: Backend,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<(EnsembleResult, RunInfo)> {
+    use crate::gpu::{DeviceRequest, GpuDevice, GpuRunner};
+    spec.validate()?;
+    let start = std::time::Instant::now();
+    let gpu = match backend {
+        Backend::Cpu => Err("--backend cpu".to_string()),
+        Backend::Gpu | Backend::Auto => {
+            let req = DeviceRequest {
+                need_f64: spec.precision == Precision::F64,
+                allow_software: backend == Backend::Gpu,
+            };
+            match GpuDevice::new(&req) {
+                Ok(dev) => Ok(dev),
+                Err(e) if backend == Backend::Gpu => return Err(e),
+                Err(e) => Err(format!("no hardware GPU ({e})")),
+            }
+        }
+    };
+    match gpu {
+        Ok(dev) => {
+            let device = dev.adapter().name.clone();
+            let runner = GpuRunner::new(dev);
+            let res = match spec.precision {
+                Precision::F32 => run_gpu::<f32>(spec, &runner, progress)?,
+                Precision::F64 => run_gpu::<f64>(spec, &runner, progress)?,
+            };
+            let reason = if backend == Backend::Gpu {
+                "--backend gpu"
+            } else {
+                "hardware GPU found"
+            };
+            let info = RunInfo {
+                backend: "gpu",
+                device,
+                reason: reason.into(),
+                precision: spec.precision,
+                elapsed_s: start.elapsed().as_secs_f64(),
+            };
+            Ok((res, info))
+        }
+        Err(reason) => {
+            let total = spec.lanes.len() as u64 * (spec.transient + spec.recorded) as u64;
+            let per_lane = (spec.transient + spec.recorded) as u64;
+            let res = cpu::run(spec, &|lanes_done| {
+                progress(lanes_done as u64 * per_lane, total)
+            })?;
+            let info = RunInfo {
+                backend: "cpu",
+                device: format!("{} rayon threads", rayon::current_num_threads()),
+                reason,
+                precision: spec.precision,
+                elapsed_s: start.elapsed().as_secs_f64(),
+            };
+            Ok((res, info))
+        }
+    }
+}
+
+/// Parses the CLI range syntax `a:b:n` (n values from a to b inclusive, evenly spaced)
+/// or a single number. `option` names the option in errors.
+pub fn parse_range(option: &str, text: &str) -> Result<Vec<f64>> {
+    let parts: Vec<&str> = text.split(':').map(str::trim).collect();
+    let num = |s: &str| -> Result<f64> {
+        let v: f64 = s.parse().map_err(|_| {
+            Error::invalid(
+                option,
+                text,
+                format!("`{s}` is not a number; expected a:b:n or a number"),
+            )
+        })?;
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            Err(Error::invalid(option, text, "values must be finite"))
+        }
+    };
+    match parts.as_slice() {
+        [a] => Ok(vec![num(a)?]),
+        [a, b, n] => {
+            let (a, b) = (num(a)?, num(b)?);
+            let n: usize = n.parse().map_err(|_| {
+                Error::invalid(
+                    option,
+                    text,
+                    "the count n in a:b:n must be a positive integer",
+                )
+            })?;
+            match n {
+                0 => Err(Error::invalid(
+                    option,
+                    text,
+                    "the count n in a:b:n must be >= 1",
+                )),
+                1 if a != b => Err(Error::invalid(
+                    option,
+                    text,
+                    "a:b:1 needs a == b (one value)",
+                )),
+                1 => Ok(vec![a]),
+                _ => Ok((0..n)
+                    .map(|i| a + (b - a) * i as f64 / (n - 1) as f64)
+                    .collect()),
+            }
+        }
+        _ => Err(Error::invalid(
+            option,
+            text,
+            "expected a:b:n (n values from a to b inclusive) or a number",
+        )),
+    }
+}
