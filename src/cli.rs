@@ -66,15 +66,8 @@ pub struct EnsembleArgs {
     pub precision: Option<crate::ensemble::Precision>,
     #[command(flatten)]
     pub model: ModelArgs,
-    /// Macro steps per forcing period.
-    #[arg(long, default_value_t = DEFAULT_STEPS_PER_PERIOD, value_name = "N")]
-    pub steps_per_period: u32,
-    /// Cap on contact switches per macro step; steps that need more are flagged.
-    #[arg(long, default_value_t = 16)]
-    pub max_segments: u32,
-    /// A lane whose |position| exceeds this [m] is declared diverged.
-    #[arg(long, default_value_t = 1.0, value_name = "METRES")]
-    pub divergence_bound: f64,
+    #[command(flatten)]
+    pub stepper: StepperArgs,
     /// Output directory (created if missing).
     #[arg(long, value_name = "DIR", default_value = "jeffcott-out/ensemble")]
     pub out: PathBuf,
@@ -105,11 +98,7 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
         param_sets: vec![params],
         transient: a.transient,
         recorded: a.periods,
-        stepper: StepperConfig {
-            steps_per_period: a.steps_per_period,
-            max_segments: a.max_segments,
-            divergence_bound: a.divergence_bound,
-        },
+        stepper: a.stepper.config(),
         precision,
     };
     let (res, info) = run(&spec, a.backend, &|_, _| {})?;
@@ -252,6 +241,31 @@ impl ModelArgs {
     }
 }
 
+/// Lane stepper settings shared by every command that integrates lanes.
+#[derive(Args, Debug)]
+pub struct StepperArgs {
+    /// Macro steps per forcing period of the lane stepper (docs/convergence.md).
+    #[arg(long, default_value_t = DEFAULT_STEPS_PER_PERIOD, value_name = "N")]
+    pub steps_per_period: u32,
+    /// Cap on contact switches per macro step; steps that need more are flagged.
+    #[arg(long, default_value_t = 16)]
+    pub max_segments: u32,
+    /// A lane whose |position| exceeds this [m] is declared diverged.
+    #[arg(long, default_value_t = 1.0, value_name = "METRES")]
+    pub divergence_bound: f64,
+}
+
+impl StepperArgs {
+    /// The stepper configuration (validated where it is used).
+    pub fn config(&self) -> StepperConfig {
+        StepperConfig {
+            steps_per_period: self.steps_per_period,
+            max_segments: self.max_segments,
+            divergence_bound: self.divergence_bound,
+        }
+    }
+}
+
 /// Arguments of `jeffcott simulate`.
 #[derive(Args, Debug)]
 pub struct SimulateArgs {
@@ -279,15 +293,8 @@ pub struct SimulateArgs {
     /// article's variable-step RK4 (a cross-check; slower).
     #[arg(long, value_enum, default_value_t = Integrator::Lane)]
     pub integrator: Integrator,
-    /// Macro steps per forcing period for the lane stepper.
-    #[arg(long, default_value_t = DEFAULT_STEPS_PER_PERIOD, value_name = "N")]
-    pub steps_per_period: u32,
-    /// Cap on contact switches per macro step; steps that need more are flagged.
-    #[arg(long, default_value_t = 16)]
-    pub max_segments: u32,
-    /// A lane whose |position| exceeds this [m] is declared diverged.
-    #[arg(long, default_value_t = 1.0, value_name = "METRES")]
-    pub divergence_bound: f64,
+    #[command(flatten)]
+    pub stepper: StepperArgs,
     /// Standard steps per period of the article's scheme.
     #[arg(long, default_value_t = 1000, value_name = "N")]
     pub article_steps: u32,
@@ -381,11 +388,7 @@ pub fn run_simulate(a: &SimulateArgs) -> Result<()> {
         periods: a.periods,
         timeseries_periods: a.timeseries_periods.unwrap_or(a.periods.min(8)),
         integrator: a.integrator,
-        stepper: StepperConfig {
-            steps_per_period: a.steps_per_period,
-            max_segments: a.max_segments,
-            divergence_bound: a.divergence_bound,
-        },
+        stepper: a.stepper.config(),
         article: ArticleConfig {
             steps_per_period: a.article_steps,
             alpha: a.article_alpha,
