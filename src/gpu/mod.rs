@@ -310,18 +310,26 @@ impl GpuRunner {
         slice.map_async(wgpu::MapMode::Read, move |r| {
             let _ = tx.send(r);
         });
-        self.gpu
-            .device()
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| gpu_err("waiting for the GPU", e))?;
-        self.gpu.check()?;
-        match rx.try_recv() {
-            Ok(Ok(())) => {}
-            Ok(Err(e)) => return Err(gpu_err("mapping a readback buffer", e)),
-            Err(_) => {
-                return Err(Error::Gpu {
-                    message: "readback buffer was not mapped after the GPU went idle".into(),
-                });
+        // The map callback runs inside whichever thread's poll claims it: with several
+        // devices in one process (parallel tests) our poll can return before the callback
+        // has been delivered. Poll again until it arrives (bounded), never assume.
+        let deadline = std::time::Instant::now() + std::time::Duration::from_secs(600);
+        loop {
+            self.gpu
+                .device()
+                .poll(wgpu::PollType::wait_indefinitely())
+                .map_err(|e| gpu_err("waiting for the GPU", e))?;
+            self.gpu.check()?;
+            match rx.recv_timeout(std::time::Duration::from_millis(50)) {
+                Ok(Ok(())) => break,
+                Ok(Err(e)) => return Err(gpu_err("mapping a readback buffer", e)),
+                Err(std::sync::mpsc::RecvTimeoutError::Timeout)
+                    if std::time::Instant::now() < deadline => {}
+                Err(_) => {
+                    return Err(Error::Gpu {
+                        message: "readback buffer was never mapped (waited 600 s)".into(),
+                    });
+                }
             }
         }
         let out = {
