@@ -26,26 +26,7 @@ pub const ENTRY_POINT: &str = "advance_lanes";
 /// The kernel body, mirrored from `src/integrate/lane.rs`.
 pub const KERNEL: &str = include_str!("../../shaders/lane.wgsl");
 
-/// Taylor coefficients of `integrate::forcing::phasor_turns` as the `f64` values the
-/// CPU rounds: `sin[n] = (-1)^n / (2n+1)!`, `cos[n] = (-1)^n / (2n)!`, n = 0..=8.
-///
-/// The factorials are exact in `f64` (17! < 2^53) and the quotient is correctly
-/// rounded, so these equal forcing.rs's `sign * INV_FACT[..]` bit for bit; the test
-/// `header_phasor_reproduces_cpu_phasor_bit_for_bit` holds them to that.
-pub fn phasor_coefficients() -> ([f64; 9], [f64; 9]) {
-    let mut fact = [1.0f64; 18];
-    for n in 1..18 {
-        fact[n] = fact[n - 1] * n as f64;
-    }
-    let mut sin = [0.0; 9];
-    let mut cos = [0.0; 9];
-    for n in 0..9 {
-        let sign = if n % 2 == 0 { 1.0 } else { -1.0 };
-        sin[n] = sign * (1.0 / fact[2 * n + 1]);
-        cos[n] = sign * (1.0 / fact[2 * n]);
-    }
-    (sin, cos)
-}
+pub use crate::integrate::forcing::phasor_coefficients;
 
 /// The largest finite value of the precision, as `f64`.
 fn real_max<R: Real>() -> f64 {

@@ -32,6 +32,20 @@ const INV_FACT: [f64; 18] = [
     1.0 / 355687428096000.0,
 ];
 
+/// The signed Taylor coefficients [`phasor_turns`] uses, as `f64` before rounding to
+/// the lane precision: `sin[n] = (-1)^n / (2n+1)!`, `cos[n] = (-1)^n / (2n)!`, n = 0..=8.
+/// The GPU kernel's generated header is written from these (`gpu::shader`).
+pub fn phasor_coefficients() -> ([f64; 9], [f64; 9]) {
+    let mut sin = [0.0; 9];
+    let mut cos = [0.0; 9];
+    for n in 0..9 {
+        let sign = if n % 2 == 0 { 1.0 } else { -1.0 };
+        sin[n] = sign * INV_FACT[2 * n + 1];
+        cos[n] = sign * INV_FACT[2 * n];
+    }
+    (sin, cos)
+}
+
 /// Returns (cos(2 pi turns), sin(2 pi turns)) for any finite `turns`.
 #[inline(always)]
 pub fn phasor_turns<R: Real>(turns: R) -> (R, R) {
