@@ -11,6 +11,9 @@ use crate::{output, plot};
 use clap::{Args, Parser, Subcommand};
 use std::path::{Path, PathBuf};
 
+mod bench;
+pub use bench::{BenchArgs, run_bench};
+
 /// Nonlinear dynamics of a rubbing Jeffcott rotor hitting a flexibly suspended stator.
 ///
 /// Implements the model of "Nonlinear Dynamics and Chaos of a Nonsmooth Rotor-Stator
@@ -37,6 +40,9 @@ pub enum Command {
     Ensemble(EnsembleArgs),
     /// List GPU adapters, their backends, f64 support and limits, and the CPU threads.
     Info,
+    /// Measure lane-steps and forcing periods per second of each backend and precision
+    /// at W = 133 (a contact-heavy regime) and print the README's table.
+    Bench(BenchArgs),
 }
 
 /// Arguments of `jeffcott ensemble`.

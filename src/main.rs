@@ -1,7 +1,7 @@
 //! The `jeffcott` binary: parses arguments and reports errors; the work is in the library.
 
 use clap::Parser;
-use jeffcott::cli::{Cli, Command, run_ensemble, run_info, run_simulate};
+use jeffcott::cli::{Cli, Command, run_bench, run_ensemble, run_info, run_simulate};
 
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
@@ -9,6 +9,7 @@ fn main() -> std::process::ExitCode {
         Command::Simulate(a) => run_simulate(a),
         Command::Ensemble(a) => run_ensemble(a),
         Command::Info => run_info(),
+        Command::Bench(a) => run_bench(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
