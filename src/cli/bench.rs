@@ -16,8 +16,8 @@ pub struct BenchArgs {
     #[arg(long, value_delimiter = ',', default_values_t = [1024usize, 16384, 131072])]
     pub lanes: Vec<usize>,
     /// Work per configuration in lane-periods (periods per lane = this / lanes, at
-    /// least 1), so every size does about the same work.
-    #[arg(long, default_value_t = 32768)]
+    /// least 4), so every size does about the same work.
+    #[arg(long, default_value_t = 65536)]
     pub lane_periods: u64,
     /// Backends to measure (default: the CPU, and a GPU when an adapter exists).
     #[arg(long, value_delimiter = ',', value_enum)]
