@@ -70,7 +70,11 @@ pub fn phasor_turns<R: Real>(turns: R) -> (R, R) {
     // (integrate::batch); negation is exact, so the values are those of the match.
     let quadrant = (q.to_f64() as i32) & 3;
     let (a, b) = if quadrant & 1 == 1 { (s, c) } else { (c, s) };
-    let a = if quadrant == 1 || quadrant == 2 { -a } else { a };
+    let a = if quadrant == 1 || quadrant == 2 {
+        -a
+    } else {
+        a
+    };
     let b = if quadrant >= 2 { -b } else { b };
     (a, b)
 }
