@@ -1,0 +1,257 @@
+//! Lyapunov spectra (MODEL.md 5 and 6): the sum rule, the analytic free-flight
+//! exponents, a periodic attractor, the saltation matrix at contact switches, and the
+//! largest exponent of the ensemble lanes against the full spectrum.
+
+use jeffcott::integrate::lane::{
+    Lane, LaneConsts, StepperConfig, Tangent, advance_period, macro_step_tangent,
+};
+use jeffcott::lyapunov::{Spectrum, SpectrumConfig, spectrum};
+use jeffcott::model::{Params, STATE_DIM, State};
+
+/// -2 (2 xi_r w_r + 2 xi_s w_s) for Table 1 (MODEL.md 6) [1/s].
+const TABLE1_TRACE: f64 = -2.0 * (2.0 * 0.02 * 140.0 + 2.0 * 0.05 * 540.0);
+
+fn config(max_time: f64) -> SpectrumConfig {
+    SpectrumConfig {
+        transient: 500,
+        min_time: max_time,
+        max_time,
+        ..SpectrumConfig::default()
+    }
+}
+
+fn run(p: &Params, omega: f64, cfg: &SpectrumConfig) -> Spectrum {
+    let s = spectrum(p, omega, &p.static_equilibrium(), cfg).expect("spectrum");
+    eprintln!(
+        "W = {omega}, c_c = {}: exponents {:?} +- {:?}, sum {:.5}, <tr J> {:.5}, saltation \
+         rate {:e}, {} saltations (max |S - I| {:.3e}), {:.1} s in {:.2} s",
+        p.c_c,
+        s.exponents.map(|v| (v * 1e3).round() / 1e3),
+        s.errors.map(|v| (v * 1e4).round() / 1e4),
+        s.sum,
+        s.trace_average,
+        s.saltation_log_det_rate,
+        s.saltations,
+        s.max_saltation_deviation,
+        s.integration_time,
+        s.wall_time_s
+    );
+    s
+}
+
+/// The sum rule with its two sides computed independently: the exponents from the QR
+/// factors, the trace from the Jacobian at the RK4 stages, the saltation term from the
+/// matrices applied.
+fn assert_sum_rule(s: &Spectrum, rel: f64) {
+    let rhs = s.trace_average + s.saltation_log_det_rate;
+    assert!(
+        (s.sum - rhs).abs() <= rel * rhs.abs(),
+        "sum {} vs <tr J> + saltation rate {rhs}",
+        s.sum
+    );
+}
+
+#[test]
+fn exponents_sum_to_minus_119_2_per_second_in_periodic_and_aperiodic_regimes() {
+    let p = Params::default();
+    assert!((TABLE1_TRACE + 119.2).abs() < 1e-9);
+    // W = 131.7: period 1 (the article); W = 140: chaotic (lambda_1 > 0 below).
+    for omega in [131.7, 140.0] {
+        let s = run(&p, omega, &config(30.0));
+        assert!(s.saltations > 1000, "the orbit must rub: {}", s.saltations);
+        assert!(
+            (s.sum - TABLE1_TRACE).abs() <= 0.005 * 119.2,
+            "sum {} at W = {omega}",
+            s.sum
+        );
+        assert!((s.trace_average - TABLE1_TRACE).abs() < 1e-6);
+        assert_sum_rule(&s, 1e-4);
+        if omega == 140.0 {
+            assert!(
+                s.exponents[0] > 5.0 * s.errors[0] && s.exponents[0] > 1.0,
+                "W = 140 should be chaotic: {:?}",
+                s.exponents
+            );
+        }
+    }
+}
+
+#[test]
+fn period_one_response_at_131_7_has_eight_negative_exponents() {
+    let p = Params::default();
+    let s = run(&p, 131.7, &config(30.0));
+    for (l, e) in s.exponents.iter().zip(&s.errors) {
+        assert!(l + 3.0 * e < 0.0, "{l} +- {e} in {:?}", s.exponents);
+    }
+    // The largest is the slow rotor mode, pulled from -2.8 by the contact.
+    assert!(s.exponents[0] > -2.8 && s.exponents[0] < -1.0);
+}
+
+#[test]
+fn free_flight_gives_the_damping_rates_of_the_uncoupled_oscillators() {
+    let p = Params {
+        delta: 1.0,
+        ..Params::default()
+    };
+    let s = run(&p, 133.0, &config(40.0));
+    assert_eq!(s.saltations, 0);
+    assert_eq!(s.counters.contact_steps, 0);
+    let rotor = -p.xi_r * p.omega_r; // -2.8 1/s
+    let stator = -p.xi_s * p.omega_s; // -27 1/s
+    let mut got: Vec<(f64, f64)> = s.exponents.into_iter().zip(s.errors).collect();
+    got.sort_by(|a, b| b.0.total_cmp(&a.0));
+    for (i, (l, e)) in got.iter().enumerate() {
+        let want = if i < 4 { rotor } else { stator };
+        // Each exponent within its error estimate (the running estimates of a damped
+        // oscillator's pair approach -xi w as 1/t, the tangent vectors rotating) ...
+        assert!(
+            (l - want).abs() <= *e && *e < 0.2,
+            "exponent {i}: {l} +- {e} vs {want} ({got:?})"
+        );
+    }
+    // ... and each group's mean exact: it is the log-volume rate of its subspace.
+    let mean = |r: std::ops::Range<usize>| got[r.clone()].iter().map(|g| g.0).sum::<f64>() / 4.0;
+    assert!((mean(0..4) - rotor).abs() < 1e-3, "{}", mean(0..4));
+    assert!((mean(4..8) - stator).abs() < 1e-3, "{}", mean(4..8));
+}
+
+/// A state on the attractor at `omega`, `periods` forcing periods from equilibrium.
+fn settled(p: &Params, omega: f64, periods: u32) -> State {
+    let lc = LaneConsts::<f64>::new(p, omega, &StepperConfig::default());
+    let mut lane = Lane::<f64>::new(&p.static_equilibrium(), p.delta);
+    for _ in 0..periods {
+        advance_period(&lc, &mut lane);
+    }
+    lane.state_f64()
+}
+
+/// The one-period map of the lane stepper from `x` (t = 0), with 8 tangent vectors
+/// started at the identity: (the end state, the tangent map as columns, the tangent).
+fn period_map(
+    p: &Params,
+    omega: f64,
+    x: &State,
+    saltation: bool,
+) -> (State, Tangent<f64, STATE_DIM>) {
+    let lc = LaneConsts::<f64>::new(p, omega, &StepperConfig::default());
+    let mut lane = Lane::<f64>::new(x, p.delta);
+    let mut id = [[0.0; STATE_DIM]; STATE_DIM];
+    for (i, row) in id.iter_mut().enumerate() {
+        row[i] = 1.0;
+    }
+    let mut tan = Tangent::new(id);
+    tan.saltation = saltation;
+    for _ in 0..lc.n {
+        macro_step_tangent(&lc, &mut lane, &mut tan);
+    }
+    (lane.state_f64(), tan)
+}
+
+/// Relative error of the tangent map of one period against central differences of the
+/// period map, column j scaled by the step.
+fn tangent_vs_finite_differences(p: &Params, omega: f64, x: &State, saltation: bool) -> f64 {
+    let (_, tan) = period_map(p, omega, x, saltation);
+    let mut num = 0.0;
+    let mut den = 0.0;
+    for j in 0..STATE_DIM {
+        let h = if j % 2 == 0 { 1e-9 } else { 1e-7 };
+        let (mut xp, mut xm) = (*x, *x);
+        xp[j] += h;
+        xm[j] -= h;
+        let (fp, _) = period_map(p, omega, &xp, saltation);
+        let (fm, _) = period_map(p, omega, &xm, saltation);
+        for i in 0..STATE_DIM {
+            // Rows scaled like the columns: positions in m, velocities in 100 m/s.
+            let w = if i % 2 == 0 { 1.0 } else { 1e-2 } / if j % 2 == 0 { 1.0 } else { 1e-2 };
+            let fd = (fp[i] - fm[i]) / (2.0 * h);
+            num += (w * (tan.v[j][i] - fd)).powi(2);
+            den += (w * fd).powi(2);
+        }
+    }
+    (num / den).sqrt()
+}
+
+#[test]
+fn saltation_matrix_is_identity_without_contact_damping_and_not_with_it() {
+    // The model as specified: the force is k_c g, continuous at g = 0, so S = I at
+    // every switch (to the roundoff of evaluating both fields on the surface).
+    let p = Params::default();
+    let x = settled(&p, 140.0, 300);
+    let (_, tan) = period_map(&p, 140.0, &x, true);
+    assert!(tan.saltations >= 2, "{} switches", tan.saltations);
+    assert!(
+        tan.max_saltation_deviation < 1e-8,
+        "max |S - I| = {:e}",
+        tan.max_saltation_deviation
+    );
+    assert_eq!(tan.saltation_log_det, 0.0);
+    // With a normal dashpot the force jumps by c_c dg/dt: |S - I| ~ c_c / m_r.
+    let damped = Params {
+        c_c: 5e4,
+        ..Params::default()
+    };
+    let x = settled(&damped, 131.7, 300);
+    let (_, tan) = period_map(&damped, 131.7, &x, true);
+    assert!(tan.saltations >= 2, "{} switches", tan.saltations);
+    assert!(
+        tan.max_saltation_deviation > 0.1 * damped.c_c / damped.m_r,
+        "max |S - I| = {:e}",
+        tan.max_saltation_deviation
+    );
+    // det S = n.f+ / n.f- = 1 even so: the jump is in the accelerations, g depends on
+    // the positions only.
+    assert!(tan.saltation_log_det.abs() < 1e-12);
+}
+
+#[test]
+fn tangent_map_matches_finite_differences_of_the_flow_only_with_saltation() {
+    // Without contact damping S = I and both agree with the finite differences.
+    let p = Params::default();
+    let x = settled(&p, 131.7, 300);
+    let with = tangent_vs_finite_differences(&p, 131.7, &x, true);
+    let without = tangent_vs_finite_differences(&p, 131.7, &x, false);
+    eprintln!("c_c = 0: relative error {with:.2e} with S, {without:.2e} without");
+    // The residual is the discretisation error of the tangent map, O((w_c h)^4) with
+    // the contact frequency w_c ~ 2000 rad/s and h = T/500 (w_c h ~ 0.2).
+    assert!(with < 1e-3 && (with - without).abs() < 1e-3 * with);
+    // With contact damping the tangent map is the derivative of the flow only when the
+    // saltation matrices are applied.
+    let damped = Params {
+        c_c: 5e4,
+        ..Params::default()
+    };
+    let x = settled(&damped, 131.7, 300);
+    let with = tangent_vs_finite_differences(&damped, 131.7, &x, true);
+    let without = tangent_vs_finite_differences(&damped, 131.7, &x, false);
+    eprintln!("c_c = 5e4: relative error {with:.2e} with S, {without:.2e} without");
+    assert!(with < 1e-3, "with saltation: {with:e}");
+    assert!(without > 30.0 * with, "without saltation: {without:e}");
+}
+
+#[test]
+fn with_contact_damping_the_sum_rule_needs_the_damped_trace_and_holds_with_or_without_s() {
+    let p = Params {
+        c_c: 5e4,
+        ..Params::default()
+    };
+    let with = run(&p, 131.7, &config(20.0));
+    let without = run(
+        &p,
+        131.7,
+        &SpectrumConfig {
+            saltation: false,
+            ..config(20.0)
+        },
+    );
+    assert!(with.saltations > 100 && without.saltations == 0);
+    // The dashpot adds -(c_c/m_r + c_c/m_s) to tr J while in contact, so the sum is
+    // far below the undamped -119.2 ...
+    assert!(with.trace_average < TABLE1_TRACE - 10.0);
+    // ... and equals <tr J> + the saltation log-det rate, which is exactly 0 (det S = 1).
+    assert_eq!(with.saltation_log_det_rate, 0.0);
+    assert_sum_rule(&with, 1e-4);
+    // Leaving S out cannot break the sum rule (det S = 1), so the sum rule alone
+    // cannot detect a missing saltation matrix; the finite-difference test above does.
+    assert_sum_rule(&without, 1e-4);
+    assert!((with.sum - without.sum).abs() < 1e-6 * with.sum.abs());
+}
