@@ -255,3 +255,85 @@ fn with_contact_damping_the_sum_rule_needs_the_damped_trace_and_holds_with_or_wi
     assert_sum_rule(&without, 1e-4);
     assert!((with.sum - without.sum).abs() < 1e-6 * with.sum.abs());
 }
+
+fn jeffcott(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_jeffcott"))
+        .args(args)
+        .output()
+        .expect("binary runs")
+}
+
+fn json(path: &std::path::Path) -> serde_json::Value {
+    serde_json::from_slice(&std::fs::read(path).expect("file exists")).expect("valid JSON")
+}
+
+fn is_png(path: &std::path::Path) -> bool {
+    std::fs::read(path).is_ok_and(|b| b.starts_with(b"\x89PNG\r\n\x1a\n"))
+}
+
+#[test]
+fn lyapunov_command_writes_the_spectrum_for_one_speed_and_a_range() {
+    let dir = tempfile::tempdir().unwrap();
+    let one = dir.path().join("one");
+    let o = jeffcott(&[
+        "lyapunov",
+        "--omega",
+        "131.7",
+        "--transient",
+        "300",
+        "--time",
+        "5",
+        "--out",
+        one.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let s = json(&one.join("spectrum.json"));
+    assert_eq!(s["omega"], 131.7);
+    let exps = s["exponents"].as_array().unwrap();
+    let bits = s["exponents_bits"].as_array().unwrap();
+    assert_eq!((exps.len(), bits.len()), (8, 8));
+    let l0 = exps[0].as_f64().unwrap();
+    assert!((bits[0].as_f64().unwrap() - l0 / std::f64::consts::LN_2).abs() < 1e-12);
+    for key in [
+        "sum",
+        "trace_average",
+        "saltation_log_det_rate",
+        "integration_time",
+        "wall_time_s",
+    ] {
+        assert!(s[key].is_number(), "{key}");
+    }
+    assert_eq!(s["errors"].as_array().unwrap().len(), 8);
+    assert!(is_png(&one.join("convergence.png")));
+
+    let range = dir.path().join("range");
+    let o = jeffcott(&[
+        "lyapunov",
+        "--omega",
+        "131:133:3",
+        "--transient",
+        "200",
+        "--time",
+        "3",
+        "--param",
+        "c_c=1e4",
+        "--out",
+        range.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let bytes = std::fs::read(range.join("lyapunov.npy")).unwrap();
+    let header = String::from_utf8_lossy(&bytes[..128]).replace(' ', "");
+    assert!(header.contains("'shape':(3,8)") || header.contains("'shape':(3,8,)"));
+    assert!(is_png(&range.join("lyapunov.png")));
+    let j = json(&range.join("lyapunov.json"));
+    assert_eq!(j["omega"].as_array().unwrap().len(), 3);
+    assert_eq!(j["run"]["params"]["c_c"], 1e4);
+
+    // Bad input: a clear error naming the option, exit code 2.
+    let o = jeffcott(&["lyapunov", "--omega", "131.7", "--time", "-1"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("max_time"));
+    let o = jeffcott(&["lyapunov", "--omega", "131.7", "--param", "c_c=-1"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("c_c"));
+}
