@@ -337,3 +337,145 @@ fn lyapunov_command_writes_the_spectrum_for_one_speed_and_a_range() {
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("c_c"));
 }
+
+/// An ensemble of one parameter set per entry of `params`, every lane from the static
+/// equilibrium, f64.
+fn ensemble_spec(
+    lanes: &[(f64, Params)],
+    transient: u32,
+    recorded: u32,
+) -> jeffcott::ensemble::EnsembleSpec {
+    use jeffcott::ensemble::{EnsembleSpec, LaneSpec, Precision};
+    EnsembleSpec {
+        param_sets: lanes.iter().map(|(_, p)| p.clone()).collect(),
+        lanes: lanes
+            .iter()
+            .enumerate()
+            .map(|(i, (omega, p))| LaneSpec {
+                omega: *omega,
+                x0: p.static_equilibrium(),
+                param_set: i as u32,
+            })
+            .collect(),
+        transient,
+        recorded,
+        stepper: StepperConfig::default(),
+        precision: Precision::F64,
+    }
+}
+
+#[test]
+fn cpu_lambda1_of_a_lane_agrees_with_the_first_exponent_of_the_full_spectrum() {
+    let p = Params::default();
+    let cfg = config(20.0);
+    for omega in [131.7, 140.0] {
+        let s = run(&p, omega, &cfg);
+        // The same accumulation window: the lane's tangent starts at t = 0 and aligns
+        // during the transient, the spectrum's after its own transient.
+        let spec = ensemble_spec(
+            &[(omega, p.clone())],
+            cfg.transient + cfg.tangent_transient,
+            s.periods,
+        );
+        let res = jeffcott::ensemble::cpu::run_with_lambda1(&spec, &|_| {}).unwrap();
+        let l1 = res.lambda1.as_ref().unwrap()[0];
+        eprintln!(
+            "W = {omega}: lane lambda_1 {l1:.5}, spectrum {:.5} +- {:.1e}",
+            s.exponents[0], s.errors[0]
+        );
+        assert!(
+            (l1 - s.exponents[0]).abs() <= s.errors[0],
+            "W = {omega}: {l1} vs {} +- {}",
+            s.exponents[0],
+            s.errors[0]
+        );
+        // The plain run records the same points and computes no exponent.
+        let plain = jeffcott::ensemble::cpu::run(&spec, &|_| {}).unwrap();
+        assert!(plain.lambda1.is_none());
+        assert_eq!(plain.poincare, res.poincare);
+    }
+}
+
+fn require_gpu() -> bool {
+    std::env::var("JEFFCOTT_REQUIRE_GPU").as_deref() == Ok("1")
+}
+
+/// A runner with f64 support, or `None` (after saying so) when there is none and none is
+/// required; panics when `JEFFCOTT_REQUIRE_GPU=1` and there is none.
+fn gpu_runner_f64() -> Option<jeffcott::gpu::GpuRunner> {
+    use jeffcott::gpu::{DeviceRequest, GpuDevice, GpuRunner};
+    let req = DeviceRequest {
+        need_f64: true,
+        allow_software: true,
+    };
+    match GpuDevice::new(&req) {
+        Ok(gpu) => Some(GpuRunner::new(gpu)),
+        Err(e) => {
+            assert!(
+                !require_gpu(),
+                "JEFFCOTT_REQUIRE_GPU=1 but no GPU adapter with f64 could be opened: {e}"
+            );
+            eprintln!("skipped: no Vulkan adapter with f64 ({e})");
+            None
+        }
+    }
+}
+
+#[test]
+fn gpu_lambda1_matches_cpu_lambda1_within_1e_3_per_second() {
+    let Some(runner) = gpu_runner_f64() else {
+        return;
+    };
+    let damped = Params {
+        c_c: 3e4,
+        ..Params::default()
+    };
+    // Periodic, quasiperiodic and chaotic speeds, with and without contact damping
+    // (saltation matrices != I), and one lane that never touches.
+    let mut lanes: Vec<(f64, Params)> = Vec::new();
+    for (i, omega) in [131.7, 132.2, 133.0, 135.0, 137.0, 138.5, 140.0, 141.0]
+        .into_iter()
+        .enumerate()
+    {
+        lanes.push((omega, Params::default()));
+        if i % 2 == 0 {
+            lanes.push((omega, damped.clone()));
+        }
+    }
+    lanes.push((
+        133.0,
+        Params {
+            delta: 0.05,
+            ..Params::default()
+        },
+    ));
+    let spec = ensemble_spec(&lanes, 100, 100);
+    let t = std::time::Instant::now();
+    let gpu = jeffcott::ensemble::run_on_gpu_with_lambda1(&spec, &runner, &|_, _| {}).unwrap();
+    eprintln!("GPU: {:.2} s", t.elapsed().as_secs_f64());
+    let cpu = jeffcott::ensemble::cpu::run_with_lambda1(&spec, &|_| {}).unwrap();
+    let (g, c) = (gpu.lambda1.unwrap(), cpu.lambda1.unwrap());
+    let mut identical = 0;
+    let mut worst: f64 = 0.0;
+    for (i, ((lg, lc), (omega, p))) in g.iter().zip(&c).zip(&lanes).enumerate() {
+        worst = worst.max((lg - lc).abs());
+        eprintln!(
+            "lane {i}: W = {omega}, c_c = {}: GPU {lg:.6}, CPU {lc:.6}",
+            p.c_c
+        );
+        assert!(lc.is_finite(), "lane {i}");
+        assert!((lg - lc).abs() <= 1e-3, "lane {i}: GPU {lg} vs CPU {lc}");
+        identical += (lg.to_bits() == lc.to_bits()) as usize;
+        assert!(cpu.counters[i].switches > 0 || p.delta > 0.01);
+    }
+    // The states are bit-identical; the tangent arithmetic may round differently in
+    // the last bits (the shader compiler may reassociate the Jacobian-vector sums).
+    eprintln!(
+        "{identical}/{} lanes bit-identical, worst difference {worst:.1e} 1/s",
+        lanes.len()
+    );
+    assert_eq!(gpu.poincare, cpu.poincare, "the states are unchanged");
+    // The sweep spans all three kinds of attractor.
+    assert!(c.iter().any(|l| *l > 1.0) && c.iter().all(|l| *l < 50.0));
+    assert!(c.iter().filter(|l| **l < -0.5).count() >= 3);
+}

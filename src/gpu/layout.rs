@@ -119,6 +119,8 @@ macro_rules! gpu_layout {
             pub struct GpuLane {
                 /// State vector.
                 pub x: [$r; crate::model::STATE_DIM],
+                /// Tangent vector of the lambda_1 kernel variant (zero otherwise).
+                pub v: [$r; crate::model::STATE_DIM],
                 /// Contact mode, 0 or 1.
                 pub contact: u32,
                 /// Next macro step in the period.
@@ -153,6 +155,10 @@ pub trait GpuReal: Real + Pod {
     /// Unpacks a lane's state; `None` when the status code is unknown (a corrupt
     /// buffer).
     fn unpack_lane(gpu: &Self::Lane) -> Option<Lane<Self>>;
+    /// Sets the tangent vector of a packed lane (the lambda_1 variant).
+    fn set_tangent(gpu: &mut Self::Lane, v: &[Self; STATE_DIM]);
+    /// The tangent vector of a packed lane.
+    fn tangent(gpu: &Self::Lane) -> [Self; STATE_DIM];
 }
 
 macro_rules! impl_gpu_real {
@@ -192,6 +198,7 @@ macro_rules! impl_gpu_real {
                 let ct = &lane.counters;
                 $module::GpuLane {
                     x: lane.x,
+                    v: [0.0; STATE_DIM],
                     contact: lane.contact as u32,
                     k: lane.k,
                     status: lane.status.code(),
@@ -223,6 +230,14 @@ macro_rules! impl_gpu_real {
                         max_penetration: f64::from(ct.max_penetration),
                     },
                 })
+            }
+
+            fn set_tangent(gpu: &mut Self::Lane, v: &[$r; STATE_DIM]) {
+                gpu.v = *v;
+            }
+
+            fn tangent(gpu: &Self::Lane) -> [$r; STATE_DIM] {
+                gpu.v
             }
         }
     };
@@ -273,7 +288,7 @@ mod tests {
 
     macro_rules! check_layout {
         ($r:ty, $m:ident) => {{
-            let module = shader::parse::<$r>().expect("shader parses");
+            let module = shader::parse_variant::<$r>(true).expect("shader parses");
             let check = |name: &str, size: usize, offsets: &[(&str, usize)]| {
                 let (span, members) = wgsl_struct(&module, name);
                 assert_eq!(span as usize, size, "{name} size ({})", stringify!($r));
@@ -331,6 +346,7 @@ mod tests {
                 size_of::<GpuLane>(),
                 &[
                     ("x", offset_of!(GpuLane, x)),
+                    ("v", offset_of!(GpuLane, v)),
                     ("contact", offset_of!(GpuLane, contact)),
                     ("k", offset_of!(GpuLane, k)),
                     ("status", offset_of!(GpuLane, status)),
@@ -375,8 +391,8 @@ mod tests {
         // The sizes the module docs promise (no implicit padding anywhere).
         assert_eq!(size_of::<layout_f32::GpuLaneConsts>(), 16 * 4 + 2 * 4);
         assert_eq!(size_of::<layout_f64::GpuLaneConsts>(), 16 * 8 + 2 * 4);
-        assert_eq!(size_of::<layout_f32::GpuLane>(), 9 * 4 + 8 * 4);
-        assert_eq!(size_of::<layout_f64::GpuLane>(), 9 * 8 + 8 * 4);
+        assert_eq!(size_of::<layout_f32::GpuLane>(), 17 * 4 + 8 * 4);
+        assert_eq!(size_of::<layout_f64::GpuLane>(), 17 * 8 + 8 * 4);
         assert_eq!(size_of::<Params>(), 32);
     }
 

@@ -414,7 +414,7 @@ fn rk4_tangent_substep<R: Real, const M: usize>(
     tan.trace_integral += hs.to_f64() / 6.0 * (tr(&p1) + 2.0 * (tr(&p2) + tr(&p3)) + tr(&p4));
 }
 
-/// Mueller's transition condition at a switch of the contact mode away from `from`
+/// Mueller's transition condition at a switch of the contact mode away from `from_contact`
 /// at state `x`, fraction `s` of macro step `k`: every tangent vector v becomes S v with
 /// S = I + (f+ - f-) n^T / (n^T f-), n = grad g = (d/r, 0, -d/r, 0) over
 /// (rotor position, velocity, stator position, velocity), f- and f+ the fields of the
@@ -432,7 +432,7 @@ pub fn saltation<R: Real, const M: usize>(
     x: &[R; STATE_DIM],
     k: u32,
     s: R,
-    from: bool,
+    from_contact: bool,
     tan: &mut Tangent<R, M>,
 ) {
     let dx = x[X_R] - x[X_S];
@@ -446,8 +446,8 @@ pub fn saltation<R: Real, const M: usize>(
     xs[X_R] = x[X_S] + dx * scale;
     xs[Y_R] = x[Y_S] + dy * scale;
     let (cph, sph) = forcing_phasor(lc, k, s);
-    let fm = rhs_frozen(&lc.c, &xs, cph, sph, from);
-    let fp = rhs_frozen(&lc.c, &xs, cph, sph, !from);
+    let fm = rhs_frozen(&lc.c, &xs, cph, sph, from_contact);
+    let fp = rhs_frozen(&lc.c, &xs, cph, sph, !from_contact);
     let (nx, ny) = (dx / r, dy / r);
     let nf = nx * (fm[X_R] - fm[X_S]) + ny * (fm[Y_R] - fm[Y_S]);
     if nf == R::lit(0.0) || !nf.is_finite() {
@@ -469,6 +469,28 @@ pub fn saltation<R: Real, const M: usize>(
         let d = ((fp[i] - fm[i]) / nf).abs().to_f64() * nmax;
         tan.max_saltation_deviation = tan.max_saltation_deviation.max(d);
     }
+}
+
+/// Component of the unit tangent vector (1, ..., 1)/sqrt(8) that the ensembles start
+/// their lambda_1 tangent from.
+pub const LAMBDA1_START: f64 = 0.353_553_390_593_273_8;
+
+/// Renormalises one tangent vector to unit length and returns its length before (the
+/// growth since the last renormalisation). A zero or non-finite length leaves the vector
+/// alone. Keep in sync with `renormalise` in `shaders/lane.wgsl` (unrolled there).
+#[inline(always)]
+pub fn renormalise<R: Real>(v: &mut [R; STATE_DIM]) -> R {
+    let mut sq = R::lit(0.0);
+    for c in v.iter() {
+        sq += *c * *c;
+    }
+    let n = sq.sqrt();
+    if n > R::lit(0.0) && n.is_finite() {
+        for c in v.iter_mut() {
+            *c = *c / n;
+        }
+    }
+    n
 }
 
 /// Penetration g and its rate dg/dtheta at fraction `theta` of a sub-step of duration
@@ -738,5 +760,16 @@ pub fn macro_step_tangent<R: Real, const M: usize>(
 pub fn advance_period<R: Real>(lc: &LaneConsts<R>, lane: &mut Lane<R>) {
     for _ in 0..lc.n {
         macro_step(lc, lane);
+    }
+}
+
+/// [`advance_period`] carrying tangent vectors.
+pub fn advance_period_tangent<R: Real, const M: usize>(
+    lc: &LaneConsts<R>,
+    lane: &mut Lane<R>,
+    tan: &mut Tangent<R, M>,
+) {
+    for _ in 0..lc.n {
+        macro_step_tangent(lc, lane, tan);
     }
 }
