@@ -21,7 +21,7 @@
 //
 // Two pipeline variants per precision. With LYAPUNOV = false (the plain kernel) every
 // `if LYAPUNOV` block is dead code the compiler removes. With LYAPUNOV = true each lane
-// carries one tangent vector (Lane.v), advanced with the state over every accepted
+// carries one tangent vector (in `tangents`), advanced with the state over every accepted
 // sub-step (rk4_tangent_substep), mapped by the saltation matrix at every located
 // switch (saltation), and renormalised at the end of every forcing period; its length
 // before renormalisation is written after the state in each record (RECORD_DIM = 9)
@@ -74,8 +74,6 @@ struct Counters {
 // integrate::lane::Lane: contact is 0/1, status is Status::code().
 struct Lane {
     x: array<Real, STATE_DIM>,
-    // Tangent vector of the lambda_1 variant (unused by the plain kernel).
-    v: array<Real, STATE_DIM>,
     contact: u32,
     k: u32,
     status: u32,
@@ -108,6 +106,9 @@ struct Params {
 // [0]: lanes that did not reach period_end in this dispatch; [1]: those of them that
 // could not commit a single macro step (the host zeroes both first).
 @group(0) @binding(4) var<storage, read_write> unfinished: array<atomic<u32>, 2>;
+// The lambda_1 variant's tangent vector of each lane (one element, untouched, in the
+// plain kernel; the host's explicit bind group layout has it in both variants).
+@group(0) @binding(5) var<storage, read_write> tangents: array<array<Real, STATE_DIM>>;
 
 // ---- helpers standing in for the Real trait and u64 counters ----------------------
 
@@ -650,16 +651,19 @@ fn find_switch(
 
 // Advances the lane by one macro step (1/N of a forcing period). Frozen lanes do not
 // move. Keep in sync with `macro_step` in src/integrate/lane.rs.
-fn macro_step(lc: LaneConsts, lane: ptr<function, Lane>) {
+fn macro_step(
+    lc: LaneConsts,
+    lane: ptr<function, Lane>,
+    v: ptr<function, array<Real, STATE_DIM>>,
+) {
     if is_frozen((*lane).status) {
         return;
     }
     let one = Real(1.0);
     let k = (*lane).k;
     var x = (*lane).x;
-    // The tangent vector (lane.rs: macro_step_tangent with M = 1; dead code when
-    // LYAPUNOV is false).
-    var v = (*lane).v;
+    // `v` is the tangent vector (lane.rs: macro_step_tangent with M = 1); every use is
+    // dead code when LYAPUNOV is false.
     var contact = (*lane).contact != 0u;
     var touched = contact;
     var s = Real(0.0);
@@ -678,7 +682,7 @@ fn macro_step(lc: LaneConsts, lane: ptr<function, Lane>) {
         max_g = rmax(max_g, sw.max_g);
         if sw.theta > one {
             if LYAPUNOV {
-                rk4_tangent_substep(lc, x, k, s, ds, contact, &v);
+                rk4_tangent_substep(lc, x, k, s, ds, contact, v);
             }
             x = x1;
             done = true;
@@ -686,20 +690,20 @@ fn macro_step(lc: LaneConsts, lane: ptr<function, Lane>) {
         }
         if sw.theta >= one {
             if LYAPUNOV {
-                rk4_tangent_substep(lc, x, k, s, ds, contact, &v);
+                rk4_tangent_substep(lc, x, k, s, ds, contact, v);
             }
             x = x1;
             s = one;
         } else if sw.theta > Real(0.0) {
             if LYAPUNOV {
-                rk4_tangent_substep(lc, x, k, s, ds * sw.theta, contact, &v);
+                rk4_tangent_substep(lc, x, k, s, ds * sw.theta, contact, v);
             }
             x = rk4_substep(lc, x, k, s, ds * sw.theta, contact);
             substeps += 1u;
             s += ds * sw.theta;
         }
         if LYAPUNOV {
-            saltation(lc, x, k, s, contact, &v);
+            saltation(lc, x, k, s, contact, v);
         }
         contact = !contact;
         touched = true;
@@ -712,7 +716,7 @@ fn macro_step(lc: LaneConsts, lane: ptr<function, Lane>) {
     if !done {
         // Refinement cap: finish the step in the current mode and say so.
         if LYAPUNOV {
-            rk4_tangent_substep(lc, x, k, s, one - s, contact, &v);
+            rk4_tangent_substep(lc, x, k, s, one - s, contact, v);
         }
         x = rk4_substep(lc, x, k, s, one - s, contact);
         substeps += 1u;
@@ -720,9 +724,6 @@ fn macro_step(lc: LaneConsts, lane: ptr<function, Lane>) {
         if (*lane).status < STATUS_REFINEMENT_CAP {
             (*lane).status = STATUS_REFINEMENT_CAP;
         }
-    }
-    if LYAPUNOV {
-        (*lane).v = v;
     }
     // Status checks: freeze at the last good state rather than poison anything.
     var finite = true;
@@ -810,6 +811,10 @@ fn advance_lanes(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let lc = consts[i];
     var lane = lanes[i];
+    var tv: array<Real, STATE_DIM>;
+    if LYAPUNOV {
+        tv = tangents[i];
+    }
     var committed = false;
     loop {
         if lane.period >= params.period_end {
@@ -822,24 +827,27 @@ fn advance_lanes(@builtin(global_invocation_id) gid: vec3<u32>) {
             continue;
         }
         var next = lane;
-        macro_step(lc, &next);
+        var next_v = tv;
+        macro_step(lc, &next, &next_v);
         if !loop_budget_left() {
             break;
         }
         lane = next;
+        tv = next_v;
         committed = true;
         if lane.k == 0u && !is_frozen(lane.status) {
             var norm = Real(1.0);
             if LYAPUNOV {
-                var tv = lane.v;
                 norm = renormalise(&tv);
-                lane.v = tv;
             }
             record(lane.period, i, lane.x, norm);
             lane.period += 1u;
         }
     }
     lanes[i] = lane;
+    if LYAPUNOV {
+        tangents[i] = tv;
+    }
     if lane.period < params.period_end {
         atomicAdd(&unfinished[0], 1u);
         if !committed {

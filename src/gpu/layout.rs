@@ -119,8 +119,6 @@ macro_rules! gpu_layout {
             pub struct GpuLane {
                 /// State vector.
                 pub x: [$r; crate::model::STATE_DIM],
-                /// Tangent vector of the lambda_1 kernel variant (zero otherwise).
-                pub v: [$r; crate::model::STATE_DIM],
                 /// Contact mode, 0 or 1.
                 pub contact: u32,
                 /// Next macro step in the period.
@@ -155,10 +153,6 @@ pub trait GpuReal: Real + Pod {
     /// Unpacks a lane's state; `None` when the status code is unknown (a corrupt
     /// buffer).
     fn unpack_lane(gpu: &Self::Lane) -> Option<Lane<Self>>;
-    /// Sets the tangent vector of a packed lane (the lambda_1 variant).
-    fn set_tangent(gpu: &mut Self::Lane, v: &[Self; STATE_DIM]);
-    /// The tangent vector of a packed lane.
-    fn tangent(gpu: &Self::Lane) -> [Self; STATE_DIM];
 }
 
 macro_rules! impl_gpu_real {
@@ -198,7 +192,6 @@ macro_rules! impl_gpu_real {
                 let ct = &lane.counters;
                 $module::GpuLane {
                     x: lane.x,
-                    v: [0.0; STATE_DIM],
                     contact: lane.contact as u32,
                     k: lane.k,
                     status: lane.status.code(),
@@ -230,14 +223,6 @@ macro_rules! impl_gpu_real {
                         max_penetration: f64::from(ct.max_penetration),
                     },
                 })
-            }
-
-            fn set_tangent(gpu: &mut Self::Lane, v: &[$r; STATE_DIM]) {
-                gpu.v = *v;
-            }
-
-            fn tangent(gpu: &Self::Lane) -> [$r; STATE_DIM] {
-                gpu.v
             }
         }
     };
@@ -346,7 +331,6 @@ mod tests {
                 size_of::<GpuLane>(),
                 &[
                     ("x", offset_of!(GpuLane, x)),
-                    ("v", offset_of!(GpuLane, v)),
                     ("contact", offset_of!(GpuLane, contact)),
                     ("k", offset_of!(GpuLane, k)),
                     ("status", offset_of!(GpuLane, status)),
@@ -377,6 +361,11 @@ mod tests {
                 size_of::<GpuLane>()
             );
             assert_eq!(
+                global_stride(&module, "tangents") as usize,
+                size_of::<[$r; STATE_DIM]>(),
+                "tangents are [Real; 8] per lane"
+            );
+            assert_eq!(
                 global_stride(&module, "records") as usize,
                 size_of::<$r>(),
                 "records are a flat array of Real"
@@ -391,8 +380,8 @@ mod tests {
         // The sizes the module docs promise (no implicit padding anywhere).
         assert_eq!(size_of::<layout_f32::GpuLaneConsts>(), 16 * 4 + 2 * 4);
         assert_eq!(size_of::<layout_f64::GpuLaneConsts>(), 16 * 8 + 2 * 4);
-        assert_eq!(size_of::<layout_f32::GpuLane>(), 17 * 4 + 8 * 4);
-        assert_eq!(size_of::<layout_f64::GpuLane>(), 17 * 8 + 8 * 4);
+        assert_eq!(size_of::<layout_f32::GpuLane>(), 9 * 4 + 8 * 4);
+        assert_eq!(size_of::<layout_f64::GpuLane>(), 9 * 8 + 8 * 4);
         assert_eq!(size_of::<Params>(), 32);
     }
 

@@ -111,6 +111,7 @@ struct Buffers {
     lanes_staging: wgpu::Buffer,
     unfinished: wgpu::Buffer,
     unfinished_staging: wgpu::Buffer,
+    tangents: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
 }
 
@@ -180,9 +181,38 @@ impl GpuRunner {
             label: Some("lane.wgsl"),
             source: wgpu::ShaderSource::Wgsl(shader::source_with::<R>(lyapunov).into()),
         });
+        // An explicit layout, the same for both variants: the plain kernel never touches
+        // `tangents` (binding 5), and an automatic layout might or might not list it.
+        let entry = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty,
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        };
+        let rw = wgpu::BufferBindingType::Storage { read_only: false };
+        let bgl = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("lanes"),
+            entries: &[
+                entry(0, wgpu::BufferBindingType::Uniform),
+                entry(1, wgpu::BufferBindingType::Storage { read_only: true }),
+                entry(2, rw),
+                entry(3, rw),
+                entry(4, rw),
+                entry(5, rw),
+            ],
+        });
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("lanes"),
+            bind_group_layouts: &[Some(&bgl)],
+            immediate_size: 0,
+        });
         let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
             label: Some("advance_lanes"),
-            layout: None,
+            layout: Some(&layout),
             module: &module,
             entry_point: Some(shader::ENTRY_POINT),
             compilation_options: Default::default(),
@@ -274,6 +304,13 @@ impl GpuRunner {
                 | wgpu::BufferUsages::COPY_DST,
         );
         let unfinished_staging = make("unfinished staging", 8, staging);
+        // One tangent per lane in the lambda_1 variant, one unused element otherwise.
+        let tangent_lanes = if rec_dim > STATE_DIM { lanes_cap } else { 1 };
+        let tangents = make(
+            "tangents",
+            tangent_lanes * STATE_DIM * size_of::<R>(),
+            storage,
+        );
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("lanes"),
             layout: &pipeline.get_bind_group_layout(0),
@@ -298,6 +335,10 @@ impl GpuRunner {
                     binding: 4,
                     resource: unfinished.as_entire_binding(),
                 },
+                wgpu::BindGroupEntry {
+                    binding: 5,
+                    resource: tangents.as_entire_binding(),
+                },
             ],
         });
         Buffers {
@@ -311,6 +352,7 @@ impl GpuRunner {
             lanes_staging,
             unfinished,
             unfinished_staging,
+            tangents,
             bind_group,
         }
     }
@@ -500,12 +542,9 @@ impl GpuRunner {
             let n = end - start;
             let packed_consts: Vec<R::Consts> =
                 consts[start..end].iter().map(R::pack_consts).collect();
-            let mut packed_lanes: Vec<R::Lane> =
-                init[start..end].iter().map(R::pack_lane).collect();
+            let packed_lanes: Vec<R::Lane> = init[start..end].iter().map(R::pack_lane).collect();
             if let Some(t) = tangents {
-                for (g, v) in packed_lanes.iter_mut().zip(&t[start..end]) {
-                    R::set_tangent(g, v);
-                }
+                queue.write_buffer(&bufs.tangents, 0, bytemuck::cast_slice(&t[start..end]));
             }
             queue.write_buffer(&bufs.consts, 0, bytemuck::cast_slice(&packed_consts));
             queue.write_buffer(&bufs.lanes, 0, bytemuck::cast_slice(&packed_lanes));
