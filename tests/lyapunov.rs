@@ -479,3 +479,71 @@ fn gpu_lambda1_matches_cpu_lambda1_within_1e_3_per_second() {
     assert!(c.iter().any(|l| *l > 1.0) && c.iter().all(|l| *l < 50.0));
     assert!(c.iter().filter(|l| **l < -0.5).count() >= 3);
 }
+
+#[test]
+fn damped_contact_force_is_kelvin_voigt_along_the_normal_and_its_jacobian_is_exact() {
+    use jeffcott::model::{
+        VX_R, VX_S, VY_R, VY_S, X_R, X_S, Y_R, Y_S, contact_force, jacobian, penetration, rhs,
+    };
+    for mu in [0.0, 0.2] {
+        let p = Params {
+            c_c: 4e4,
+            mu,
+            ..Params::default()
+        };
+        let mut x = p.static_equilibrium();
+        x[X_R] = 0.00603;
+        x[Y_R] = 0.0004;
+        x[X_S] = 1e-5;
+        x[VX_R] = 0.3;
+        x[VY_R] = -0.2;
+        x[VX_S] = 0.05;
+        x[VY_S] = 0.01;
+        let g = penetration(p.delta, &x);
+        assert!(g > 1e-5);
+        let (dx, dy) = (x[X_R] - x[X_S], x[Y_R] - x[Y_S]);
+        let r = (dx * dx + dy * dy).sqrt();
+        let gdot = (dx * (x[VX_R] - x[VX_S]) + dy * (x[VY_R] - x[VY_S])) / r;
+        let (fx, fy) = contact_force(&p, &x);
+        let normal = -(fx * dx + fy * dy) / r;
+        let tangential = (fx * dy - fy * dx) / r;
+        let want = p.k_c * g + p.c_c * gdot;
+        assert!(
+            (normal - want).abs() <= 1e-9 * want.abs(),
+            "{normal} vs {want}"
+        );
+        // Friction stays mu times the spring part.
+        assert!((tangential - mu * p.k_c * g).abs() <= 1e-9 * p.k_c * g + 1e-9);
+        // Outside contact the dashpot does nothing.
+        let mut out = x;
+        out[X_R] = 0.003;
+        assert_eq!(contact_force(&p, &out), (0.0, 0.0));
+        // Analytic Jacobian (contact_partials) against central differences.
+        let jac = jacobian(&p, &x);
+        for j in 0..STATE_DIM {
+            let h = if j % 2 == 0 { 1e-9 } else { 1e-6 };
+            let (mut xp, mut xm) = (x, x);
+            xp[j] += h;
+            xm[j] -= h;
+            let (fp, fm) = (rhs(&p, 133.0, 0.01, &xp), rhs(&p, 133.0, 0.01, &xm));
+            for i in 0..STATE_DIM {
+                let fd = (fp[i] - fm[i]) / (2.0 * h);
+                let tol = 1e-6 * jac[i][j].abs().max(1.0) + 1e-3;
+                assert!(
+                    (fd - jac[i][j]).abs() <= tol,
+                    "J[{i}][{j}] = {} vs FD {fd} (mu {mu})",
+                    jac[i][j]
+                );
+            }
+        }
+        // The dashpot's share of the trace: -(c_c/m_r + c_c/m_s) in contact.
+        let trace: f64 = (0..STATE_DIM).map(|i| jac[i][i]).sum();
+        let want = -2.0 * (2.0 * p.xi_r * p.omega_r + 2.0 * p.xi_s * p.omega_s)
+            - p.c_c / p.m_r
+            - p.c_c / p.m_s;
+        assert!(
+            (trace - want).abs() < 1e-9 * want.abs(),
+            "{trace} vs {want}"
+        );
+    }
+}
