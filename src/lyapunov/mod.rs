@@ -253,7 +253,7 @@ pub fn spectrum(p: &Params, omega: f64, x0: &State, cfg: &SpectrumConfig) -> Res
             break;
         }
         if accumulated >= min_periods.max(cfg.window as u64 + 1)
-            && accumulated % cfg.window as u64 == 0
+            && accumulated.is_multiple_of(cfg.window as u64)
         {
             let now = history[history.len() - 1].1;
             let before = history[history.len() - 1 - cfg.window as usize].1;
