@@ -547,3 +547,55 @@ fn damped_contact_force_is_kelvin_voigt_along_the_normal_and_its_jacobian_is_exa
         );
     }
 }
+
+#[test]
+fn gpu_lambda1_does_not_depend_on_time_slices_or_chunks() {
+    use jeffcott::gpu::Schedule;
+    let Some(runner) = gpu_runner_f64() else {
+        return;
+    };
+    let cfg = StepperConfig {
+        steps_per_period: 200,
+        ..StepperConfig::default()
+    };
+    let damped = Params {
+        c_c: 3e4,
+        ..Params::default()
+    };
+    let mut consts = Vec::new();
+    let mut init = Vec::new();
+    for i in 0..12 {
+        let p = if i % 3 == 0 {
+            damped.clone()
+        } else {
+            Params::default()
+        };
+        let omega = 131.0 + 10.0 * i as f64 / 11.0;
+        consts.push(LaneConsts::<f64>::new(&p, omega, &cfg));
+        init.push(Lane::<f64>::new(&p.static_equilibrium(), p.delta));
+    }
+    let v = [[jeffcott::integrate::lane::LAMBDA1_START; STATE_DIM]; 12];
+    let run = |schedule: Schedule| {
+        runner
+            .run_lyapunov_with_progress(&consts, &init, &v, &schedule, &mut |_| {})
+            .expect("GPU run")
+    };
+    let (whole, norms) = run(Schedule::new(20, 30, 50));
+    let mut sliced = Schedule::new(20, 30, 7);
+    sliced.max_lanes_per_chunk = Some(5);
+    let (parts, norms_parts) = run(sliced);
+    assert_eq!(norms.len(), 12);
+    for (i, (a, b)) in norms.iter().zip(&norms_parts).enumerate() {
+        assert_eq!(a.len(), 30);
+        assert_eq!(
+            a.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+            b.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+            "lane {i}"
+        );
+        assert_eq!(whole[i].poincare, parts[i].poincare, "lane {i}");
+        assert!(
+            a.iter().all(|n| n.is_finite() && *n > 0.0),
+            "lane {i}: {a:?}"
+        );
+    }
+}
