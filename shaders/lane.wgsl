@@ -13,10 +13,19 @@
 //   alias Real = f32 | f64;                 the precision (DESIGN.md 1)
 //   WORKGROUP_SIZE, STATE_DIM, X_R .. VY_S, GRAZE_SAMPLES, ROOT_MAX_ITERS, STATUS_*
 //   REAL_MAX, TAU, SIXTH, SIN_C0 .. SIN_C8, COS_C0 .. COS_C8
+//   LYAPUNOV (bool), RECORD_DIM                the pipeline variant (below)
 // from the Rust constants. Every non-dyadic floating constant lives in that header as
 // an abstract-float literal holding the exact f64 value Rust uses; naga converts it to
 // Real with `as f32` semantics, exactly like `Real::lit`. The literals written inline
 // below (0.0, 0.25, 0.5, 1.0, 2.0, 3.0, 4.0, 6.0) are exact in both precisions.
+//
+// Two pipeline variants per precision. With LYAPUNOV = false (the plain kernel) every
+// `if LYAPUNOV` block is dead code the compiler removes. With LYAPUNOV = true each lane
+// carries one tangent vector (in `tangents`), advanced with the state over every accepted
+// sub-step (rk4_tangent_substep), mapped by the saltation matrix at every located
+// switch (saltation), and renormalised at the end of every forcing period; its length
+// before renormalisation is written after the state in each record (RECORD_DIM = 9)
+// and the host sums the logarithms (no f64 `log` on the GPU, DESIGN.md 3).
 //
 // Rules kept here (DESIGN.md 3): no trigonometry at all (the forcing phasor is a
 // polynomial), no recursion, every loop bounded by a constant or a lane constant.
@@ -37,6 +46,7 @@ struct Coeffs {
     kc_ms: Real,
     mu: Real,
     delta: Real,
+    tau_c: Real,
 }
 
 // Constants of one lane (integrate::lane::LaneConsts).
@@ -90,11 +100,15 @@ struct Params {
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read> consts: array<LaneConsts>;
 @group(0) @binding(2) var<storage, read_write> lanes: array<Lane>;
-// Poincare points of this slice: [slot][lane][STATE_DIM].
+// Poincare points of this slice: [slot][lane][RECORD_DIM] (the state, then with
+// LYAPUNOV the tangent's growth over the period).
 @group(0) @binding(3) var<storage, read_write> records: array<Real>;
 // [0]: lanes that did not reach period_end in this dispatch; [1]: those of them that
 // could not commit a single macro step (the host zeroes both first).
 @group(0) @binding(4) var<storage, read_write> unfinished: array<atomic<u32>, 2>;
+// The lambda_1 variant's tangent vector of each lane (one element, untouched, in the
+// plain kernel; the host's explicit bind group layout has it in both variants).
+@group(0) @binding(5) var<storage, read_write> tangents: array<array<Real, STATE_DIM>>;
 
 // ---- helpers standing in for the Real trait and u64 counters ----------------------
 
@@ -177,13 +191,71 @@ fn penetration(delta: Real, x: array<Real, STATE_DIM>) -> Real {
     return sqrt(dx * dx + dy * dy) - delta;
 }
 
-fn contact_force_per_kc(delta: Real, mu: Real, dx: Real, dy: Real) -> vec2<Real> {
-    let r = sqrt(dx * dx + dy * dy);
+fn contact_force_per_kc(
+    delta: Real,
+    mu: Real,
+    tau_c: Real,
+    dx: Real,
+    dy: Real,
+    dvx: Real,
+    dvy: Real,
+) -> vec2<Real> {
+    // r2, not r * r: Mesa's NIR rewrites sqrt(a) * sqrt(a) to a, which rounds
+    // differently from the CPU's r * r.
+    let r2 = dx * dx + dy * dy;
+    let r = sqrt(r2);
     if r <= Real(0.0) {
         return vec2<Real>(Real(0.0), Real(0.0));
     }
     let s = (r - delta) / r;
-    return vec2<Real>(-s * dx + mu * s * dy, -s * dy - mu * s * dx);
+    let nrm = s + tau_c * ((dx * dvx + dy * dvy) / r2);
+    return vec2<Real>(-nrm * dx + mu * s * dy, -nrm * dy - mu * s * dx);
+}
+
+// d(fx, fy)/d(dx, dy, dvx, dvy) of contact_force_per_kc, as model::contact_partials:
+// [fx_dx, fx_dy, fx_dvx, fx_dvy] in .a and [fy_dx, fy_dy, fy_dvx, fy_dvy] in .b.
+struct Partials {
+    a: vec4<Real>,
+    b: vec4<Real>,
+}
+
+fn contact_partials(c: Coeffs, x: array<Real, STATE_DIM>) -> Partials {
+    let dx = x[X_R] - x[X_S];
+    let dy = x[Y_R] - x[Y_S];
+    let dvx = x[VX_R] - x[VX_S];
+    let dvy = x[VY_R] - x[VY_S];
+    let r2 = dx * dx + dy * dy;
+    let r = sqrt(r2);
+    let z = Real(0.0);
+    if r <= z {
+        return Partials(vec4<Real>(z, z, z, z), vec4<Real>(z, z, z, z));
+    }
+    let s = (r - c.delta) / r;
+    let q = (dx * dvx + dy * dvy) / r2;
+    let nrm = s + c.tau_c * q;
+    let r3 = r2 * r;
+    let sx = c.delta * dx / r3;
+    let sy = c.delta * dy / r3;
+    let two = Real(2.0);
+    let nx = sx + c.tau_c * (dvx - two * q * dx) / r2;
+    let ny = sy + c.tau_c * (dvy - two * q * dy) / r2;
+    let nvx = c.tau_c * dx / r2;
+    let nvy = c.tau_c * dy / r2;
+    let mu = c.mu;
+    return Partials(
+        vec4<Real>(
+            -nx * dx - nrm + mu * sx * dy,
+            -ny * dx + mu * sy * dy + mu * s,
+            -nvx * dx,
+            -nvy * dx,
+        ),
+        vec4<Real>(
+            -nx * dy - mu * sx * dx - mu * s,
+            -ny * dy - nrm - mu * sy * dx,
+            -nvx * dy,
+            -nvy * dy,
+        ),
+    );
 }
 
 fn rhs_frozen(
@@ -196,7 +268,15 @@ fn rhs_frozen(
     var fx = Real(0.0);
     var fy = Real(0.0);
     if contact {
-        let kf = contact_force_per_kc(c.delta, c.mu, x[X_R] - x[X_S], x[Y_R] - x[Y_S]);
+        let kf = contact_force_per_kc(
+            c.delta,
+            c.mu,
+            c.tau_c,
+            x[X_R] - x[X_S],
+            x[Y_R] - x[Y_S],
+            x[VX_R] - x[VX_S],
+            x[VY_R] - x[VY_S],
+        );
         fx = kf.x;
         fy = kf.y;
     }
@@ -253,6 +333,153 @@ fn rk4_substep(
         out[i] = x[i] + hs * SIXTH * (k1[i] + Real(2.0) * (k2[i] + k3[i]) + k4[i]);
     }
     return out;
+}
+
+// The contact block of the Jacobian in mode `contact` (zero out of contact).
+fn stage_partials(c: Coeffs, x: array<Real, STATE_DIM>, contact: bool) -> Partials {
+    if contact {
+        return contact_partials(c, x);
+    }
+    let z = Real(0.0);
+    return Partials(vec4<Real>(z, z, z, z), vec4<Real>(z, z, z, z));
+}
+
+// J v for one tangent vector, the contact block given.
+fn tangent_rhs(c: Coeffs, pc: Partials, v: array<Real, STATE_DIM>) -> array<Real, STATE_DIM> {
+    let ddx = v[X_R] - v[X_S];
+    let ddy = v[Y_R] - v[Y_S];
+    let ddvx = v[VX_R] - v[VX_S];
+    let ddvy = v[VY_R] - v[VY_S];
+    let dfx = pc.a.x * ddx + pc.a.y * ddy + pc.a.z * ddvx + pc.a.w * ddvy;
+    let dfy = pc.b.x * ddx + pc.b.y * ddy + pc.b.z * ddvx + pc.b.w * ddvy;
+    return array<Real, STATE_DIM>(
+        v[VX_R],
+        -c.wr2 * v[X_R] - c.dr * v[VX_R] + c.kc_mr * dfx,
+        v[VY_R],
+        -c.wr2 * v[Y_R] - c.dr * v[VY_R] + c.kc_mr * dfy,
+        v[VX_S],
+        -c.ws2 * v[X_S] - c.ds * v[VX_S] - c.kc_ms * dfx,
+        v[VY_S],
+        -c.ws2 * v[Y_S] - c.ds * v[VY_S] - c.kc_ms * dfy,
+    );
+}
+
+// Advances the tangent vector over the sub-step that rk4_substep takes from `x` with
+// the same arguments: the state stages recomputed with rk4_substep's operations, the
+// RK4 step of dv/dt = J v on them. (lane.rs also integrates the Jacobian's trace here,
+// for the full spectrum; the kernel has no use for it.)
+fn rk4_tangent_substep(
+    lc: LaneConsts,
+    x: array<Real, STATE_DIM>,
+    k: u32,
+    s0: Real,
+    ds: Real,
+    contact: bool,
+    v: ptr<function, array<Real, STATE_DIM>>,
+) {
+    let hs = ds * lc.h;
+    let half = Real(0.5);
+    let p0 = forcing_phasor(lc, k, s0);
+    let pm = forcing_phasor(lc, k, s0 + half * ds);
+    let k1 = rhs_frozen(lc.c, x, p0.x, p0.y, contact);
+    let q1 = stage_partials(lc.c, x, contact);
+    var xt: array<Real, STATE_DIM>;
+    for (var i = 0u; i < STATE_DIM; i++) {
+        xt[i] = x[i] + half * hs * k1[i];
+    }
+    let k2 = rhs_frozen(lc.c, xt, pm.x, pm.y, contact);
+    let q2 = stage_partials(lc.c, xt, contact);
+    for (var i = 0u; i < STATE_DIM; i++) {
+        xt[i] = x[i] + half * hs * k2[i];
+    }
+    let k3 = rhs_frozen(lc.c, xt, pm.x, pm.y, contact);
+    let q3 = stage_partials(lc.c, xt, contact);
+    for (var i = 0u; i < STATE_DIM; i++) {
+        xt[i] = x[i] + hs * k3[i];
+    }
+    let q4 = stage_partials(lc.c, xt, contact);
+    let v0 = *v;
+    let a1 = tangent_rhs(lc.c, q1, v0);
+    var vt: array<Real, STATE_DIM>;
+    for (var i = 0u; i < STATE_DIM; i++) {
+        vt[i] = v0[i] + half * hs * a1[i];
+    }
+    let a2 = tangent_rhs(lc.c, q2, vt);
+    for (var i = 0u; i < STATE_DIM; i++) {
+        vt[i] = v0[i] + half * hs * a2[i];
+    }
+    let a3 = tangent_rhs(lc.c, q3, vt);
+    for (var i = 0u; i < STATE_DIM; i++) {
+        vt[i] = v0[i] + hs * a3[i];
+    }
+    let a4 = tangent_rhs(lc.c, q4, vt);
+    for (var i = 0u; i < STATE_DIM; i++) {
+        (*v)[i] = v0[i] + hs * SIXTH * (a1[i] + Real(2.0) * (a2[i] + a3[i]) + a4[i]);
+    }
+}
+
+// Mueller's saltation matrix S = I + (f+ - f-) n^T / (n^T f-) applied to the tangent
+// vector at a switch away from mode `from_contact` at state `x`, fraction `s` of macro step k;
+// both fields evaluated at the point of g = 0 radially nearest to `x`. See `saltation`
+// in lane.rs.
+fn saltation(
+    lc: LaneConsts,
+    x: array<Real, STATE_DIM>,
+    k: u32,
+    s: Real,
+    from_contact: bool,
+    v: ptr<function, array<Real, STATE_DIM>>,
+) {
+    let dx = x[X_R] - x[X_S];
+    let dy = x[Y_R] - x[Y_S];
+    let r = sqrt(dx * dx + dy * dy);
+    if r <= Real(0.0) || !is_finite(r) {
+        return;
+    }
+    let scale = lc.c.delta / r;
+    var xs = x;
+    xs[X_R] = x[X_S] + dx * scale;
+    xs[Y_R] = x[Y_S] + dy * scale;
+    let ph = forcing_phasor(lc, k, s);
+    let fm = rhs_frozen(lc.c, xs, ph.x, ph.y, from_contact);
+    let fp = rhs_frozen(lc.c, xs, ph.x, ph.y, !from_contact);
+    let nx = dx / r;
+    let ny = dy / r;
+    let nf = nx * (fm[X_R] - fm[X_S]) + ny * (fm[Y_R] - fm[Y_S]);
+    if nf == Real(0.0) || !is_finite(nf) {
+        return;
+    }
+    let w = (nx * ((*v)[X_R] - (*v)[X_S]) + ny * ((*v)[Y_R] - (*v)[Y_S])) / nf;
+    for (var i = 0u; i < STATE_DIM; i++) {
+        (*v)[i] += (fp[i] - fm[i]) * w;
+    }
+}
+
+// Renormalises the tangent vector to unit length and returns its length before.
+// Unrolled, without loops: it runs after the loop-budget check of a committed macro
+// step (see `loop_budget_left`), where a loop could be cut short.
+fn renormalise(v: ptr<function, array<Real, STATE_DIM>>) -> Real {
+    var sq = Real(0.0);
+    sq += (*v)[0] * (*v)[0];
+    sq += (*v)[1] * (*v)[1];
+    sq += (*v)[2] * (*v)[2];
+    sq += (*v)[3] * (*v)[3];
+    sq += (*v)[4] * (*v)[4];
+    sq += (*v)[5] * (*v)[5];
+    sq += (*v)[6] * (*v)[6];
+    sq += (*v)[7] * (*v)[7];
+    let n = sqrt(sq);
+    if n > Real(0.0) && is_finite(n) {
+        (*v)[0] = (*v)[0] / n;
+        (*v)[1] = (*v)[1] / n;
+        (*v)[2] = (*v)[2] / n;
+        (*v)[3] = (*v)[3] / n;
+        (*v)[4] = (*v)[4] / n;
+        (*v)[5] = (*v)[5] / n;
+        (*v)[6] = (*v)[6] / n;
+        (*v)[7] = (*v)[7] / n;
+    }
+    return n;
 }
 
 // Penetration g and its rate dg/dtheta (returned as (g, rate)) at fraction `theta` of
@@ -416,13 +643,19 @@ fn find_switch(
 
 // Advances the lane by one macro step (1/N of a forcing period). Frozen lanes do not
 // move. Keep in sync with `macro_step` in src/integrate/lane.rs.
-fn macro_step(lc: LaneConsts, lane: ptr<function, Lane>) {
+fn macro_step(
+    lc: LaneConsts,
+    lane: ptr<function, Lane>,
+    v: ptr<function, array<Real, STATE_DIM>>,
+) {
     if is_frozen((*lane).status) {
         return;
     }
     let one = Real(1.0);
     let k = (*lane).k;
     var x = (*lane).x;
+    // `v` is the tangent vector (lane.rs: macro_step_tangent with M = 1); every use is
+    // dead code when LYAPUNOV is false.
     var contact = (*lane).contact != 0u;
     var touched = contact;
     var s = Real(0.0);
@@ -440,17 +673,29 @@ fn macro_step(lc: LaneConsts, lane: ptr<function, Lane>) {
         let sw = find_switch(lc, x, x1, ds * lc.h, contact);
         max_g = rmax(max_g, sw.max_g);
         if sw.theta > one {
+            if LYAPUNOV {
+                rk4_tangent_substep(lc, x, k, s, ds, contact, v);
+            }
             x = x1;
             done = true;
             break;
         }
         if sw.theta >= one {
+            if LYAPUNOV {
+                rk4_tangent_substep(lc, x, k, s, ds, contact, v);
+            }
             x = x1;
             s = one;
         } else if sw.theta > Real(0.0) {
+            if LYAPUNOV {
+                rk4_tangent_substep(lc, x, k, s, ds * sw.theta, contact, v);
+            }
             x = rk4_substep(lc, x, k, s, ds * sw.theta, contact);
             substeps += 1u;
             s += ds * sw.theta;
+        }
+        if LYAPUNOV {
+            saltation(lc, x, k, s, contact, v);
         }
         contact = !contact;
         touched = true;
@@ -462,6 +707,9 @@ fn macro_step(lc: LaneConsts, lane: ptr<function, Lane>) {
     }
     if !done {
         // Refinement cap: finish the step in the current mode and say so.
+        if LYAPUNOV {
+            rk4_tangent_substep(lc, x, k, s, one - s, contact, v);
+        }
         x = rk4_substep(lc, x, k, s, one - s, contact);
         substeps += 1u;
         contact = penetration(lc.c.delta, x) > Real(0.0);
@@ -519,12 +767,16 @@ fn loop_budget_left() -> bool {
 }
 
 // Writes the Poincare point of global period `period` (the state at its end) if it is
-// recorded. Straight-line stores: no loop, so no loop-limit check can cut a record.
-fn record(period: u32, i: u32, x: array<Real, STATE_DIM>) {
+// recorded, and with LYAPUNOV the tangent's growth `norm` over the period after it.
+// Straight-line stores: no loop, so no loop-limit check can cut a record.
+fn record(period: u32, i: u32, x: array<Real, STATE_DIM>, norm: Real) {
     if period < params.record_from {
         return;
     }
-    let base = ((period - params.period_begin) * params.n_lanes + i) * STATE_DIM;
+    let base = ((period - params.period_begin) * params.n_lanes + i) * RECORD_DIM;
+    if LYAPUNOV {
+        records[base + STATE_DIM] = norm;
+    }
     records[base + X_R] = x[X_R];
     records[base + VX_R] = x[VX_R];
     records[base + Y_R] = x[Y_R];
@@ -551,30 +803,43 @@ fn advance_lanes(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let lc = consts[i];
     var lane = lanes[i];
+    var tv: array<Real, STATE_DIM>;
+    if LYAPUNOV {
+        tv = tangents[i];
+    }
     var committed = false;
     loop {
         if lane.period >= params.period_end {
             break;
         }
         if is_frozen(lane.status) || lc.n == 0u {
-            record(lane.period, i, lane.x);
+            record(lane.period, i, lane.x, Real(1.0));
             lane.period += 1u;
             committed = true;
             continue;
         }
         var next = lane;
-        macro_step(lc, &next);
+        var next_v = tv;
+        macro_step(lc, &next, &next_v);
         if !loop_budget_left() {
             break;
         }
         lane = next;
+        tv = next_v;
         committed = true;
         if lane.k == 0u && !is_frozen(lane.status) {
-            record(lane.period, i, lane.x);
+            var norm = Real(1.0);
+            if LYAPUNOV {
+                norm = renormalise(&tv);
+            }
+            record(lane.period, i, lane.x, norm);
             lane.period += 1u;
         }
     }
     lanes[i] = lane;
+    if LYAPUNOV {
+        tangents[i] = tv;
+    }
     if lane.period < params.period_end {
         atomicAdd(&unfinished[0], 1u);
         if !committed {

@@ -13,6 +13,7 @@ use std::path::{Path, PathBuf};
 
 mod bench;
 pub use bench::{BenchArgs, run_bench};
+pub mod lyapunov;
 
 /// Nonlinear dynamics of a rubbing Jeffcott rotor hitting a flexibly suspended stator.
 ///
@@ -43,6 +44,10 @@ pub enum Command {
     /// Measure lane-steps and forcing periods per second of each backend and precision
     /// at W = 133 (a contact-heavy regime) and print the README's table.
     Bench(BenchArgs),
+    /// Compute the Lyapunov spectrum (8 exponents, saltation at contact switches) at one
+    /// speed or over a range of speeds.
+    #[command(allow_negative_numbers = true)]
+    Lyapunov(lyapunov::LyapunovArgs),
 }
 
 /// Arguments of `jeffcott ensemble`.

@@ -16,7 +16,8 @@
 //!    fixed macro steps of T/N with contact crossings located and the step split there,
 //!    generic over `f32`/`f64` and written to be mirrored by the WGSL kernel.
 //! 3. [`simulate`]: one trajectory from transient to classification.
-//! 4. [`analysis`]: attractor classification from Poincare points.
+//! 4. [`analysis`]: attractor classification from Poincare points; [`lyapunov`]:
+//!    Lyapunov spectra with saltation matrices at the contact switches.
 //! 5. [`output`], [`plot`], [`cli`]: files, pictures, the command line.
 
 pub mod analysis;
@@ -26,6 +27,7 @@ pub mod ensemble;
 pub mod error;
 pub mod gpu;
 pub mod integrate;
+pub mod lyapunov;
 pub mod model;
 pub mod output;
 pub mod plot;

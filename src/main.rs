@@ -10,6 +10,7 @@ fn main() -> std::process::ExitCode {
         Command::Ensemble(a) => run_ensemble(a),
         Command::Info => run_info(),
         Command::Bench(a) => run_bench(a),
+        Command::Lyapunov(a) => jeffcott::cli::lyapunov::run_lyapunov(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

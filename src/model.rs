@@ -68,6 +68,15 @@ pub struct Params {
     pub e: f64,
     /// Contact (penalty) stiffness [N/m].
     pub k_c: f64,
+    /// Contact damping [N s/m]: a normal dashpot acting only in contact (g > 0), not in
+    /// the article (default 0). The normal force on the rotor becomes the Kelvin-Voigt
+    /// law k_c g + c_c dg/dt, pointing from the stator to the rotor centre; friction
+    /// stays mu k_c g. Plain Kelvin-Voigt, not clamped: near the exit of a contact the
+    /// dashpot can outweigh the spring and the normal force turn adhesive (pull), and the
+    /// force jumps at g = 0 by c_c dg/dt, so the vector field is discontinuous there
+    /// (see `lyapunov` for the saltation matrix this needs). Per unit mass, as the
+    /// rest of the model: c_c / m_r on the rotor, c_c / m_s on the stator.
+    pub c_c: f64,
     /// Local error bound of the article's variable-step scheme (MODEL.md 4.1) [m].
     pub e_max: f64,
     /// Gravitational acceleration, acting in -y on both bodies [m/s^2].
@@ -89,6 +98,7 @@ impl Default for Params {
             m_s: 50.0,
             e: 0.001,
             k_c: 1e8,
+            c_c: 0.0,
             e_max: 1e-9,
             a_g: 9.81,
             phi0: 0.0,
@@ -106,9 +116,9 @@ enum Range {
 
 impl Params {
     /// Names of all fields, in declaration order (the TOML keys and `--param` names).
-    pub const FIELDS: [&'static str; 13] = [
-        "omega_r", "omega_s", "xi_r", "xi_s", "delta", "mu", "m_r", "m_s", "e", "k_c", "e_max",
-        "a_g", "phi0",
+    pub const FIELDS: [&'static str; 14] = [
+        "omega_r", "omega_s", "xi_r", "xi_s", "delta", "mu", "m_r", "m_s", "e", "k_c", "c_c",
+        "e_max", "a_g", "phi0",
     ];
 
     fn field_mut(&mut self, name: &str) -> Option<(&mut f64, Range)> {
@@ -124,6 +134,7 @@ impl Params {
             "m_s" => (&mut self.m_s, Positive),
             "e" => (&mut self.e, NonNegative),
             "k_c" => (&mut self.k_c, Positive),
+            "c_c" => (&mut self.c_c, NonNegative),
             "e_max" => (&mut self.e_max, Positive),
             "a_g" => (&mut self.a_g, Finite),
             "phi0" => (&mut self.phi0, Finite),
@@ -248,6 +259,8 @@ pub struct Coeffs<R> {
     pub mu: R,
     /// Gap delta [m].
     pub delta: R,
+    /// Contact damping over contact stiffness c_c / k_c [s] (0 without damping).
+    pub tau_c: R,
 }
 
 impl<R: Real> Coeffs<R> {
@@ -264,6 +277,7 @@ impl<R: Real> Coeffs<R> {
             kc_ms: R::lit(p.k_c / p.m_s),
             mu: R::lit(p.mu),
             delta: R::lit(p.delta),
+            tau_c: R::lit(p.c_c / p.k_c),
         }
     }
 }
@@ -278,23 +292,77 @@ pub fn penetration<R: Real>(delta: R, x: &[R; STATE_DIM]) -> R {
 }
 
 /// Contact force on the rotor divided by k_c, as a function of the relative position
-/// d = (dx, dy), evaluated with the contact formula whatever the sign of g (the caller
-/// decides whether contact is on; MODEL.md 4.2 holds the contact state fixed over a
-/// step, which needs this analytic continuation). Returns (fx, fy) in metres.
+/// d = (dx, dy) and relative velocity (dvx, dvy), evaluated with the contact formula
+/// whatever the sign of g (the caller decides whether contact is on; MODEL.md 4.2 holds
+/// the contact state fixed over a step, which needs this analytic continuation).
+/// Returns (fx, fy) in metres.
 ///
-/// F/k_c = -(g/r) d + mu (g/r) (d_y, -d_x), the normal part pointing from the stator
-/// to the rotor centre and the friction part following the article's convention
-/// (its eq. 5 and Figure 2, corrected so friction is mu times the normal force).
+/// F/k_c = -(g/r + tau_c (d . v)/r^2) d + mu (g/r) (d_y, -d_x), with tau_c = c_c/k_c:
+/// the normal part (k_c g + c_c dg/dt, dg/dt = (d . v)/r) points from the stator to the
+/// rotor centre and the friction part follows the article's convention (its eq. 5 and
+/// Figure 2, corrected so friction is mu times the spring's normal force). With
+/// tau_c = 0 this is bit for bit the undamped law (the added term is an exact zero).
 #[inline(always)]
-pub fn contact_force_per_kc<R: Real>(delta: R, mu: R, dx: R, dy: R) -> (R, R) {
-    let r = (dx * dx + dy * dy).sqrt();
+pub fn contact_force_per_kc<R: Real>(
+    delta: R,
+    mu: R,
+    tau_c: R,
+    dx: R,
+    dy: R,
+    dvx: R,
+    dvy: R,
+) -> (R, R) {
+    let r2 = dx * dx + dy * dy;
+    let r = r2.sqrt();
     if r <= R::lit(0.0) {
         // Concentric bodies: the normal direction is undefined and the gap is -delta,
         // far outside contact; no continuation is meaningful.
         return (R::lit(0.0), R::lit(0.0));
     }
     let s = (r - delta) / r;
-    (-s * dx + mu * s * dy, -s * dy - mu * s * dx)
+    let nrm = s + tau_c * ((dx * dvx + dy * dvy) / r2);
+    (-nrm * dx + mu * s * dy, -nrm * dy - mu * s * dx)
+}
+
+/// Partial derivatives of [`contact_force_per_kc`] (fx, fy) with respect to
+/// (dx, dy, dvx, dvy), in the order
+/// `[fx_dx, fx_dy, fx_dvx, fx_dvy, fy_dx, fy_dy, fy_dvx, fy_dvy]`: the contact block of
+/// the Jacobian, shared by [`jacobian`] and the lanes' variational equations.
+///
+/// Keep in sync with `contact_partials` in `shaders/lane.wgsl`.
+#[inline(always)]
+pub fn contact_partials<R: Real>(c: &Coeffs<R>, x: &[R; STATE_DIM]) -> [R; 8] {
+    let dx = x[X_R] - x[X_S];
+    let dy = x[Y_R] - x[Y_S];
+    let dvx = x[VX_R] - x[VX_S];
+    let dvy = x[VY_R] - x[VY_S];
+    let r2 = dx * dx + dy * dy;
+    let r = r2.sqrt();
+    if r <= R::lit(0.0) {
+        return [R::lit(0.0); 8];
+    }
+    let s = (r - c.delta) / r;
+    let q = (dx * dvx + dy * dvy) / r2;
+    let nrm = s + c.tau_c * q;
+    // s = 1 - delta/r: ds/d(dx) = delta dx / r^3; q = (d . v)/r^2.
+    let r3 = r2 * r;
+    let (sx, sy) = (c.delta * dx / r3, c.delta * dy / r3);
+    let two = R::lit(2.0);
+    let nx = sx + c.tau_c * (dvx - two * q * dx) / r2;
+    let ny = sy + c.tau_c * (dvy - two * q * dy) / r2;
+    let nvx = c.tau_c * dx / r2;
+    let nvy = c.tau_c * dy / r2;
+    let mu = c.mu;
+    [
+        -nx * dx - nrm + mu * sx * dy,
+        -ny * dx + mu * sy * dy + mu * s,
+        -nvx * dx,
+        -nvy * dx,
+        -nx * dy - mu * sx * dx - mu * s,
+        -ny * dy - nrm - mu * sy * dx,
+        -nvx * dy,
+        -nvy * dy,
+    ]
 }
 
 /// Right-hand side of the corrected equations of motion (MODEL.md 2) with the contact
@@ -312,7 +380,15 @@ pub fn rhs_frozen<R: Real>(
 ) -> [R; STATE_DIM] {
     let (mut fx, mut fy) = (R::lit(0.0), R::lit(0.0));
     if contact {
-        let (kx, ky) = contact_force_per_kc(c.delta, c.mu, x[X_R] - x[X_S], x[Y_R] - x[Y_S]);
+        let (kx, ky) = contact_force_per_kc(
+            c.delta,
+            c.mu,
+            c.tau_c,
+            x[X_R] - x[X_S],
+            x[Y_R] - x[Y_S],
+            x[VX_R] - x[VX_S],
+            x[VY_R] - x[VY_S],
+        );
         fx = kx;
         fy = ky;
     }
@@ -341,7 +417,16 @@ pub fn rhs(p: &Params, omega: f64, t: f64, x: &State) -> State {
 /// Zero when g <= 0.
 pub fn contact_force(p: &Params, x: &State) -> (f64, f64) {
     if penetration(p.delta, x) > 0.0 {
-        let (fx, fy) = contact_force_per_kc(p.delta, p.mu, x[X_R] - x[X_S], x[Y_R] - x[Y_S]);
+        let c = Coeffs::<f64>::new(p, 0.0);
+        let (fx, fy) = contact_force_per_kc(
+            c.delta,
+            c.mu,
+            c.tau_c,
+            x[X_R] - x[X_S],
+            x[Y_R] - x[Y_S],
+            x[VX_R] - x[VX_S],
+            x[VY_R] - x[VY_S],
+        );
         (p.k_c * fx, p.k_c * fy)
     } else {
         (0.0, 0.0)
@@ -366,31 +451,23 @@ pub fn jacobian(p: &Params, x: &State) -> [[f64; STATE_DIM]; STATE_DIM] {
     j[VY_S][Y_S] = -c.ws2;
     j[VY_S][VY_S] = -c.ds;
     if penetration(p.delta, x) > 0.0 {
-        // f/k_c = s(r) (-dx + mu dy, -dy - mu dx), s = 1 - delta/r, ds/d(dx) = delta dx / r^3.
-        let dx = x[X_R] - x[X_S];
-        let dy = x[Y_R] - x[Y_S];
-        let r = (dx * dx + dy * dy).sqrt();
-        let s = 1.0 - p.delta / r;
-        let (sx, sy) = (p.delta * dx / (r * r * r), p.delta * dy / (r * r * r));
-        let (ux, uy) = (-dx + p.mu * dy, -dy - p.mu * dx);
-        // d(f/k_c)/d(dx, dy)
-        let fxx = sx * ux - s;
-        let fxy = sy * ux + s * p.mu;
-        let fyx = sx * uy - s * p.mu;
-        let fyy = sy * uy - s;
-        for (row, scale) in [(VX_R, c.kc_mr), (VX_S, -c.kc_ms)] {
-            let (a, b) = (fxx * scale, fxy * scale);
-            j[row][X_R] += a;
-            j[row][Y_R] += b;
-            j[row][X_S] -= a;
-            j[row][Y_S] -= b;
-        }
-        for (row, scale) in [(VY_R, c.kc_mr), (VY_S, -c.kc_ms)] {
-            let (a, b) = (fyx * scale, fyy * scale);
-            j[row][X_R] += a;
-            j[row][Y_R] += b;
-            j[row][X_S] -= a;
-            j[row][Y_S] -= b;
+        let pc = contact_partials(&c, x);
+        // Rows of the accelerations: rotor +k_c/m_r f, stator -k_c/m_s f; columns through
+        // d = rotor - stator (positions and velocities).
+        for (row, scale, o) in [
+            (VX_R, c.kc_mr, 0),
+            (VX_S, -c.kc_ms, 0),
+            (VY_R, c.kc_mr, 4),
+            (VY_S, -c.kc_ms, 4),
+        ] {
+            for (k, (col_r, col_s)) in [(X_R, X_S), (Y_R, Y_S), (VX_R, VX_S), (VY_R, VY_S)]
+                .into_iter()
+                .enumerate()
+            {
+                let a = pc[o + k] * scale;
+                j[row][col_r] += a;
+                j[row][col_s] -= a;
+            }
         }
     }
     j
@@ -398,7 +475,7 @@ pub fn jacobian(p: &Params, x: &State) -> [[f64; STATE_DIM]; STATE_DIM] {
 
 /// Total mechanical energy [J]: kinetic, shaft and suspension springs, gravity (zero at
 /// y = 0) and the contact potential k_c g^2 / 2 for g > 0. Conserved when xi_r = xi_s =
-/// e = mu = 0 (MODEL.md 6).
+/// e = mu = c_c = 0 (MODEL.md 6).
 pub fn energy(p: &Params, x: &State) -> f64 {
     let kinetic = 0.5 * p.m_r * (x[VX_R] * x[VX_R] + x[VY_R] * x[VY_R])
         + 0.5 * p.m_s * (x[VX_S] * x[VX_S] + x[VY_S] * x[VY_S]);

@@ -7,6 +7,8 @@ use plotters::prelude::*;
 use std::path::Path;
 use std::sync::Once;
 
+pub mod lyapunov;
+
 static FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
 
 fn register_font() {

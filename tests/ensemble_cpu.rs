@@ -149,6 +149,16 @@ fn simd_batches_equal_the_scalar_lane_stepper_to_the_bit() {
         let mut s = spec(precision, 53);
         s.lanes[9].x0[X_R] = f64::NAN;
         s.lanes[12].x0[VX_R] = 1e6;
+        // A third parameter set with contact damping (a velocity-dependent force that
+        // jumps at g = 0) for every third lane.
+        let damped = jeffcott::model::Params {
+            c_c: 2e4,
+            ..s.param_sets[0].clone()
+        };
+        s.param_sets.push(damped);
+        for l in s.lanes.iter_mut().step_by(3) {
+            l.param_set = 2;
+        }
         let r = cpu::run(&s, &|_| {}).unwrap();
         let reference = match precision {
             Precision::F64 => scalar_reference::<f64>(&s),

@@ -77,14 +77,18 @@ enum Kind {
     FreeFlight,
     /// A deterministic scatter of the whole state inside the gap.
     Scatter,
+    /// Thrown out as `ThrownOut`, with contact damping c_c = 3e4 N s/m (the force jumps
+    /// at g = 0).
+    Damped,
 }
 
-const KINDS: [Kind; 5] = [
+const KINDS: [Kind; 6] = [
     Kind::Equilibrium,
     Kind::ThrownOut,
     Kind::ThrownBack,
     Kind::FreeFlight,
     Kind::Scatter,
+    Kind::Damped,
 ];
 
 /// A small deterministic hash in [-1, 1).
@@ -109,6 +113,11 @@ fn lane_spec(i: usize, n: usize) -> (Params, f64, [f64; STATE_DIM], Kind) {
             x[VX_R] = if kind == Kind::ThrownOut { 0.8 } else { -0.8 };
         }
         Kind::FreeFlight => p.delta = 0.05,
+        Kind::Damped => {
+            p.c_c = 3e4;
+            x[X_R] = 0.0058;
+            x[VX_R] = 0.8;
+        }
         Kind::Scatter => {
             for (d, v) in x.iter_mut().enumerate() {
                 let scale = if d % 2 == 0 { 0.004 } else { 0.5 };
@@ -220,7 +229,7 @@ fn assert_ensemble_is_varied<R: GpuReal>(cpu: &[LaneOutcome<R>], kinds: &[Kind])
         if *k == Kind::FreeFlight {
             assert_eq!(o.lane.counters.contact_steps, 0, "free-flight lane touched");
         }
-        if matches!(k, Kind::ThrownOut | Kind::ThrownBack) {
+        if matches!(k, Kind::ThrownOut | Kind::ThrownBack | Kind::Damped) {
             assert!(o.lane.counters.switches > 0, "a thrown lane never switched");
         }
         assert!(!o.lane.status.is_frozen(), "{:?}", o.lane.status);
@@ -459,27 +468,27 @@ fn poisoned_lanes_are_flagged_and_do_not_touch_their_neighbours() {
 }
 
 /// A test-only entry point appended to the kernel: evaluates `rhs_frozen` and
-/// `phasor_turns` on rows of `probe_in` (8 state, 10 coefficients, cos, sin, contact,
-/// turns = 22 Reals) into rows of `probe_out` (8 + 2 Reals).
+/// `phasor_turns` on rows of `probe_in` (8 state, 11 coefficients, cos, sin, contact,
+/// turns = 23 Reals) into rows of `probe_out` (8 + 2 Reals).
 const PROBE_ENTRY: &str = r#"
 @group(0) @binding(10) var<storage, read> probe_in: array<Real>;
 @group(0) @binding(11) var<storage, read_write> probe_out: array<Real>;
 @compute @workgroup_size(64)
 fn probe_functions(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.x;
-    if i >= arrayLength(&probe_in) / 22u || params.n_lanes == 0u {
+    if i >= arrayLength(&probe_in) / 23u || params.n_lanes == 0u {
         return;
     }
-    let b = 22u * i;
+    let b = 23u * i;
     var x: array<Real, STATE_DIM>;
     for (var j = 0u; j < STATE_DIM; j++) {
         x[j] = probe_in[b + j];
     }
     let c = Coeffs(probe_in[b + 8u], probe_in[b + 9u], probe_in[b + 10u], probe_in[b + 11u],
         probe_in[b + 12u], probe_in[b + 13u], probe_in[b + 14u], probe_in[b + 15u],
-        probe_in[b + 16u], probe_in[b + 17u]);
-    let f = rhs_frozen(c, x, probe_in[b + 18u], probe_in[b + 19u], probe_in[b + 20u] > Real(0.5));
-    let p = phasor_turns(probe_in[b + 21u]);
+        probe_in[b + 16u], probe_in[b + 17u], probe_in[b + 18u]);
+    let f = rhs_frozen(c, x, probe_in[b + 19u], probe_in[b + 20u], probe_in[b + 21u] > Real(0.5));
+    let p = phasor_turns(probe_in[b + 22u]);
     let o = 10u * i;
     for (var j = 0u; j < STATE_DIM; j++) {
         probe_out[o + j] = f[j];
@@ -493,7 +502,7 @@ fn probe_functions(@builtin(global_invocation_id) gid: vec3<u32>) {
 fn probe_kernel<R: GpuReal>(runner: &GpuRunner, rows: &[R]) -> Vec<R> {
     use wgpu::util::DeviceExt;
     let dev = runner.gpu().device();
-    let n = rows.len() / 22;
+    let n = rows.len() / 23;
     let out_bytes = (n * 10 * std::mem::size_of::<R>()) as u64;
     let src = jeffcott::gpu::shader::source::<R>() + PROBE_ENTRY;
     let scope = dev.push_error_scope(wgpu::ErrorFilter::Validation);
@@ -573,7 +582,7 @@ fn functions_match_cpu_bit_for_bit<R: GpuReal>(runner: &GpuRunner) {
     use jeffcott::integrate::forcing::phasor_turns;
     use jeffcott::model::{Coeffs, rhs_frozen};
     let n = 50_000;
-    let mut rows = Vec::with_capacity(n * 22);
+    let mut rows = Vec::with_capacity(n * 23);
     let mut inputs = Vec::with_capacity(n);
     for i in 0..n {
         let mut x = [R::lit(0.0); STATE_DIM];
@@ -587,6 +596,12 @@ fn functions_match_cpu_bit_for_bit<R: GpuReal>(runner: &GpuRunner) {
                 0.0
             } else {
                 0.3 * unit(i, 8).abs()
+            },
+            // Contact damping on half the rows (the Kelvin-Voigt term of the force).
+            c_c: if i % 2 == 0 {
+                0.0
+            } else {
+                2e4 * unit(i, 13).abs()
             },
             ..Params::default()
         };
@@ -607,6 +622,7 @@ fn functions_match_cpu_bit_for_bit<R: GpuReal>(runner: &GpuRunner) {
             c.kc_ms,
             c.mu,
             c.delta,
+            c.tau_c,
         ]);
         rows.extend_from_slice(&[cos, sin, R::lit(contact as u8 as f64), turns]);
         inputs.push((x, c, cos, sin, contact, turns));

@@ -8,7 +8,10 @@
 use super::{EnsembleResult, EnsembleSpec, Precision};
 use crate::error::Result;
 use crate::integrate::batch::{BATCH, BatchConsts, batch_macro_step};
-use crate::integrate::lane::{Counters, Lane, LaneConsts, Status, advance_period};
+use crate::integrate::lane::{
+    Counters, LAMBDA1_START, Lane, LaneConsts, Status, Tangent, advance_period,
+    advance_period_tangent, renormalise,
+};
 use crate::model::{STATE_DIM, State};
 use crate::real::Real;
 use rayon::prelude::*;
@@ -19,6 +22,7 @@ struct Outcome {
     final_state: State,
     status: Status,
     counters: Counters,
+    lambda1: f64,
 }
 
 fn run_lane<R: Real>(spec: &EnsembleSpec, i: usize) -> Outcome {
@@ -41,6 +45,39 @@ fn run_lane<R: Real>(spec: &EnsembleSpec, i: usize) -> Outcome {
         final_state: lane.state_f64(),
         status: lane.status,
         counters: lane.counters,
+        lambda1: f64::NAN,
+    }
+}
+
+/// `run_lane` with a tangent vector, as the kernel's lambda_1 variant: renormalised at
+/// the end of every period the lane completes, its growth kept over recorded periods.
+fn run_lane_lambda1<R: Real>(spec: &EnsembleSpec, i: usize) -> Outcome {
+    let lc = spec.lane_consts::<R>(i);
+    let mut lane = spec.initial_lane::<R>(i);
+    let mut tan = Tangent::<R, 1>::new([[R::lit(LAMBDA1_START); STATE_DIM]]);
+    let mut points = Vec::with_capacity(spec.recorded as usize * STATE_DIM);
+    let mut norms = Vec::with_capacity(spec.recorded as usize);
+    for p in 0..spec.transient + spec.recorded {
+        if p < spec.transient && lane.status.is_frozen() {
+            continue;
+        }
+        advance_period_tangent(&lc, &mut lane, &mut tan);
+        let norm = if lane.status.is_frozen() {
+            1.0
+        } else {
+            renormalise(&mut tan.v[0]).to_f64()
+        };
+        if p >= spec.transient {
+            points.extend(lane.x.iter().map(|v| v.to_f64()));
+            norms.push(norm);
+        }
+    }
+    Outcome {
+        points,
+        final_state: lane.state_f64(),
+        status: lane.status,
+        counters: lane.counters,
+        lambda1: super::lane_lambda1(&norms, spec.lanes[i].omega, lane.status),
     }
 }
 
@@ -78,6 +115,7 @@ fn run_batch_inner<R: Real>(spec: &EnsembleSpec, first: usize) -> Vec<Outcome> {
             final_state: lane.state_f64(),
             status: lane.status,
             counters: lane.counters,
+            lambda1: f64::NAN,
         })
         .collect()
 }
@@ -102,11 +140,29 @@ fn run_batch<R: Real>(spec: &EnsembleSpec, first: usize) -> Vec<Outcome> {
 /// Runs the ensemble on the CPU with rayon's global pool; `progress` is called with the
 /// number of lanes finished so far (from worker threads).
 pub fn run(spec: &EnsembleSpec, progress: &(dyn Fn(usize) + Sync)) -> Result<EnsembleResult> {
+    run_inner(spec, false, progress)
+}
+
+/// [`run`], also computing each lane's largest Lyapunov exponent
+/// (`EnsembleResult::lambda1`) exactly as the GPU kernel's lambda_1 variant does.
+pub fn run_with_lambda1(
+    spec: &EnsembleSpec,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<EnsembleResult> {
+    run_inner(spec, true, progress)
+}
+
+fn run_inner(
+    spec: &EnsembleSpec,
+    lambda1: bool,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<EnsembleResult> {
     spec.validate()?;
     let done = std::sync::atomic::AtomicUsize::new(0);
     let n = spec.lanes.len();
-    // Whole batches through the batch stepper, the remainder lane by lane.
-    let batches = n / BATCH;
+    // Whole batches through the batch stepper, the remainder lane by lane; with
+    // lambda_1 (tangent vectors, not batched) every lane by itself.
+    let batches = if lambda1 { 0 } else { n / BATCH };
     let tasks: Vec<(usize, bool)> = (0..batches)
         .map(|b| (b * BATCH, true))
         .chain((batches * BATCH..n).map(|i| (i, false)))
@@ -115,11 +171,13 @@ pub fn run(spec: &EnsembleSpec, progress: &(dyn Fn(usize) + Sync)) -> Result<Ens
         .into_par_iter()
         .with_min_len(2)
         .flat_map_iter(|(first, batched)| {
-            let o = match (spec.precision, batched) {
-                (Precision::F32, true) => run_batch::<f32>(spec, first),
-                (Precision::F64, true) => run_batch::<f64>(spec, first),
-                (Precision::F32, false) => vec![run_lane::<f32>(spec, first)],
-                (Precision::F64, false) => vec![run_lane::<f64>(spec, first)],
+            let o = match (spec.precision, batched, lambda1) {
+                (Precision::F32, true, false) => run_batch::<f32>(spec, first),
+                (Precision::F64, true, false) => run_batch::<f64>(spec, first),
+                (Precision::F32, _, false) => vec![run_lane::<f32>(spec, first)],
+                (Precision::F64, _, false) => vec![run_lane::<f64>(spec, first)],
+                (Precision::F32, _, true) => vec![run_lane_lambda1::<f32>(spec, first)],
+                (Precision::F64, _, true) => vec![run_lane_lambda1::<f64>(spec, first)],
             };
             let k = o.len();
             progress(done.fetch_add(k, std::sync::atomic::Ordering::Relaxed) + k);
@@ -132,6 +190,7 @@ pub fn run(spec: &EnsembleSpec, progress: &(dyn Fn(usize) + Sync)) -> Result<Ens
         final_state: Vec::with_capacity(spec.lanes.len()),
         status: Vec::with_capacity(spec.lanes.len()),
         counters: Vec::with_capacity(spec.lanes.len()),
+        lambda1: lambda1.then(|| outcomes.iter().map(|o| o.lambda1).collect()),
     };
     for o in outcomes {
         res.poincare.extend_from_slice(&o.points);

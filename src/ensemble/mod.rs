@@ -139,6 +139,21 @@ pub struct EnsembleResult {
     pub status: Vec<Status>,
     /// Counters of each lane.
     pub counters: Vec<Counters>,
+    /// Largest Lyapunov exponent of each lane [1/s] over the recorded periods, when the
+    /// run asked for it ([`run_with_lambda1`]); NaN for lanes that froze (diverged or
+    /// non-finite). One tangent vector per lane, started along (1, ..., 1)/sqrt(8) at
+    /// t = 0, advanced by the lane stepper with the state (saltation at switches),
+    /// renormalised every forcing period; the same arithmetic on both backends.
+    pub lambda1: Option<Vec<f64>>,
+}
+
+/// lambda_1 of one lane from its per-period growths, NaN if the lane froze.
+fn lane_lambda1(norms: &[f64], omega: f64, status: Status) -> f64 {
+    if status.is_frozen() {
+        f64::NAN
+    } else {
+        crate::lyapunov::lambda1_from_norms(norms, omega)
+    }
 }
 
 impl EnsembleResult {
@@ -202,6 +217,7 @@ const LANE_STEPS_PER_SLICE: u64 = 50_000_000;
 fn run_gpu<R: crate::gpu::GpuReal>(
     spec: &EnsembleSpec,
     runner: &crate::gpu::GpuRunner,
+    lambda1: bool,
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<EnsembleResult> {
     let n = spec.lanes.len();
@@ -211,15 +227,32 @@ fn run_gpu<R: crate::gpu::GpuReal>(
     let slice = (LANE_STEPS_PER_SLICE / per_period.max(1))
         .clamp(1, (spec.transient + spec.recorded) as u64) as u32;
     let schedule = crate::gpu::Schedule::new(spec.transient, spec.recorded, slice);
-    let outs = runner.run_with_progress(&consts, &init, &schedule, &mut |p| {
-        progress(p.lane_periods_done, p.lane_periods_total)
-    })?;
+    let mut report = |p: crate::gpu::Progress| progress(p.lane_periods_done, p.lane_periods_total);
+    let (outs, norms) = if lambda1 {
+        let v = [R::lit(crate::integrate::lane::LAMBDA1_START); STATE_DIM];
+        let tangents = vec![v; n];
+        let (outs, norms) =
+            runner.run_lyapunov_with_progress(&consts, &init, &tangents, &schedule, &mut report)?;
+        (outs, Some(norms))
+    } else {
+        (
+            runner.run_with_progress(&consts, &init, &schedule, &mut report)?,
+            None,
+        )
+    };
     let mut res = EnsembleResult {
         poincare: Vec::with_capacity(n * spec.recorded as usize * STATE_DIM),
         recorded: spec.recorded as usize,
         final_state: Vec::with_capacity(n),
         status: Vec::with_capacity(n),
         counters: Vec::with_capacity(n),
+        lambda1: norms.map(|all| {
+            all.iter()
+                .zip(&outs)
+                .zip(&spec.lanes)
+                .map(|((nm, o), l)| lane_lambda1(nm, l.omega, o.lane.status))
+                .collect()
+        }),
     };
     for o in outs {
         for p in &o.poincare {
@@ -241,8 +274,22 @@ pub fn run_on_gpu(
 ) -> Result<EnsembleResult> {
     spec.validate()?;
     match spec.precision {
-        Precision::F32 => run_gpu::<f32>(spec, runner, progress),
-        Precision::F64 => run_gpu::<f64>(spec, runner, progress),
+        Precision::F32 => run_gpu::<f32>(spec, runner, false, progress),
+        Precision::F64 => run_gpu::<f64>(spec, runner, false, progress),
+    }
+}
+
+/// [`run_on_gpu`] with the largest Lyapunov exponent of every lane
+/// ([`EnsembleResult::lambda1`]), by the kernel's lambda_1 variant.
+pub fn run_on_gpu_with_lambda1(
+    spec: &EnsembleSpec,
+    runner: &crate::gpu::GpuRunner,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<EnsembleResult> {
+    spec.validate()?;
+    match spec.precision {
+        Precision::F32 => run_gpu::<f32>(spec, runner, true, progress),
+        Precision::F64 => run_gpu::<f64>(spec, runner, true, progress),
     }
 }
 
@@ -269,6 +316,27 @@ pub fn run(
     backend: Backend,
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<(EnsembleResult, RunInfo)> {
+    run_inner(spec, backend, false, progress)
+}
+
+/// [`run`], also computing the largest Lyapunov exponent of every lane
+/// ([`EnsembleResult::lambda1`]) on whichever backend runs it. The plain [`run`] pays
+/// nothing for this: the tangent vector lives in a separate kernel variant and a
+/// separate monomorphisation of the CPU stepper.
+pub fn run_with_lambda1(
+    spec: &EnsembleSpec,
+    backend: Backend,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<(EnsembleResult, RunInfo)> {
+    run_inner(spec, backend, true, progress)
+}
+
+fn run_inner(
+    spec: &EnsembleSpec,
+    backend: Backend,
+    lambda1: bool,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<(EnsembleResult, RunInfo)> {
     use crate::gpu::{DeviceRequest, GpuDevice, GpuRunner};
     spec.validate()?;
     let start = std::time::Instant::now();
@@ -290,7 +358,11 @@ pub fn run(
         Ok(dev) => {
             let device = dev.adapter().name.clone();
             let runner = GpuRunner::new(dev);
-            let res = run_on_gpu(spec, &runner, progress)?;
+            let res = if lambda1 {
+                run_on_gpu_with_lambda1(spec, &runner, progress)?
+            } else {
+                run_on_gpu(spec, &runner, progress)?
+            };
             let reason = if backend == Backend::Gpu {
                 "--backend gpu"
             } else {
@@ -308,9 +380,12 @@ pub fn run(
         Err(reason) => {
             let total = spec.lanes.len() as u64 * (spec.transient + spec.recorded) as u64;
             let per_lane = (spec.transient + spec.recorded) as u64;
-            let res = cpu::run(spec, &|lanes_done| {
-                progress(lanes_done as u64 * per_lane, total)
-            })?;
+            let report = |lanes_done: usize| progress(lanes_done as u64 * per_lane, total);
+            let res = if lambda1 {
+                cpu::run_with_lambda1(spec, &report)?
+            } else {
+                cpu::run(spec, &report)?
+            };
             let info = RunInfo {
                 backend: "cpu",
                 device: format!("{} rayon threads", rayon::current_num_threads()),

@@ -71,6 +71,8 @@ macro_rules! gpu_layout {
                 pub mu: $r,
                 /// delta.
                 pub delta: $r,
+                /// c_c / k_c.
+                pub tau_c: $r,
             }
 
             /// WGSL `LaneConsts` (integrate::lane::LaneConsts).
@@ -173,6 +175,7 @@ macro_rules! impl_gpu_real {
                         kc_ms: c.kc_ms,
                         mu: c.mu,
                         delta: c.delta,
+                        tau_c: c.tau_c,
                     },
                     h: lc.h,
                     inv_n: lc.inv_n,
@@ -270,7 +273,7 @@ mod tests {
 
     macro_rules! check_layout {
         ($r:ty, $m:ident) => {{
-            let module = shader::parse::<$r>().expect("shader parses");
+            let module = shader::parse_variant::<$r>(true).expect("shader parses");
             let check = |name: &str, size: usize, offsets: &[(&str, usize)]| {
                 let (span, members) = wgsl_struct(&module, name);
                 assert_eq!(span as usize, size, "{name} size ({})", stringify!($r));
@@ -295,6 +298,7 @@ mod tests {
                     ("kc_ms", offset_of!(GpuCoeffs, kc_ms)),
                     ("mu", offset_of!(GpuCoeffs, mu)),
                     ("delta", offset_of!(GpuCoeffs, delta)),
+                    ("tau_c", offset_of!(GpuCoeffs, tau_c)),
                 ],
             );
             check(
@@ -357,6 +361,11 @@ mod tests {
                 size_of::<GpuLane>()
             );
             assert_eq!(
+                global_stride(&module, "tangents") as usize,
+                size_of::<[$r; STATE_DIM]>(),
+                "tangents are [Real; 8] per lane"
+            );
+            assert_eq!(
                 global_stride(&module, "records") as usize,
                 size_of::<$r>(),
                 "records are a flat array of Real"
@@ -369,8 +378,8 @@ mod tests {
         check_layout!(f32, layout_f32);
         check_layout!(f64, layout_f64);
         // The sizes the module docs promise (no implicit padding anywhere).
-        assert_eq!(size_of::<layout_f32::GpuLaneConsts>(), 15 * 4 + 2 * 4);
-        assert_eq!(size_of::<layout_f64::GpuLaneConsts>(), 15 * 8 + 2 * 4);
+        assert_eq!(size_of::<layout_f32::GpuLaneConsts>(), 16 * 4 + 2 * 4);
+        assert_eq!(size_of::<layout_f64::GpuLaneConsts>(), 16 * 8 + 2 * 4);
         assert_eq!(size_of::<layout_f32::GpuLane>(), 9 * 4 + 8 * 4);
         assert_eq!(size_of::<layout_f64::GpuLane>(), 9 * 8 + 8 * 4);
         assert_eq!(size_of::<Params>(), 32);

@@ -34,7 +34,7 @@ pub use layout::GpuReal;
 use crate::error::{Error, Result};
 use crate::integrate::lane::{Lane, LaneConsts};
 use crate::model::STATE_DIM;
-use layout::{PROBE_ITERS, Params, RECORD_DIM};
+use layout::{PROBE_ITERS, Params};
 use std::mem::size_of;
 use std::sync::Mutex;
 
@@ -63,6 +63,10 @@ impl Schedule {
         }
     }
 }
+
+/// Per-lane outcomes and, with the lambda_1 variant, per-lane tangent growths over the
+/// recorded periods (empty without it).
+pub type LyapunovOutcomes<R> = (Vec<LaneOutcome<R>>, Vec<Vec<f64>>);
 
 /// What one lane produced.
 #[derive(Clone, Debug)]
@@ -107,6 +111,7 @@ struct Buffers {
     lanes_staging: wgpu::Buffer,
     unfinished: wgpu::Buffer,
     unfinished_staging: wgpu::Buffer,
+    tangents: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
 }
 
@@ -116,12 +121,13 @@ struct Kernel {
     buffers: Option<Buffers>,
 }
 
-/// Runs lanes on one device; builds each precision's pipeline on first use and reuses
-/// it (and its buffers) for every later run.
+/// Runs lanes on one device; builds each precision's pipeline (plain, or with the
+/// lambda_1 tangent vector) on first use and reuses it (and its buffers) for every
+/// later run.
 pub struct GpuRunner {
     gpu: GpuDevice,
-    f32_kernel: Mutex<Option<Kernel>>,
-    f64_kernel: Mutex<Option<Kernel>>,
+    /// [f32 plain, f32 lambda_1, f64 plain, f64 lambda_1].
+    kernels: [Mutex<Option<Kernel>>; 4],
 }
 
 impl std::fmt::Debug for GpuRunner {
@@ -143,8 +149,7 @@ impl GpuRunner {
     pub fn new(gpu: GpuDevice) -> Self {
         GpuRunner {
             gpu,
-            f32_kernel: Mutex::new(None),
-            f64_kernel: Mutex::new(None),
+            kernels: Default::default(),
         }
     }
 
@@ -153,15 +158,12 @@ impl GpuRunner {
         &self.gpu
     }
 
-    fn slot<R: GpuReal>(&self) -> &Mutex<Option<Kernel>> {
-        if R::WGSL_NAME == "f64" {
-            &self.f64_kernel
-        } else {
-            &self.f32_kernel
-        }
+    fn slot<R: GpuReal>(&self, lyapunov: bool) -> &Mutex<Option<Kernel>> {
+        let precision = if R::WGSL_NAME == "f64" { 2 } else { 0 };
+        &self.kernels[precision + lyapunov as usize]
     }
 
-    fn build_pipeline<R: GpuReal>(&self) -> Result<wgpu::ComputePipeline> {
+    fn build_pipeline<R: GpuReal>(&self, lyapunov: bool) -> Result<wgpu::ComputePipeline> {
         if R::WGSL_NAME == "f64" && !self.gpu.supports_f64() {
             return Err(Error::NoAdapter {
                 reason: format!(
@@ -171,16 +173,46 @@ impl GpuRunner {
             });
         }
         // Fail early with naga's readable report rather than wgpu's summary.
-        shader::validate::<R>().map_err(|e| gpu_err("lane kernel does not validate", e))?;
+        shader::validate_variant::<R>(lyapunov)
+            .map_err(|e| gpu_err("lane kernel does not validate", e))?;
         let device = self.gpu.device();
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("lane.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(shader::source::<R>().into()),
+            source: wgpu::ShaderSource::Wgsl(shader::source_with::<R>(lyapunov).into()),
+        });
+        // An explicit layout, the same for both variants: the plain kernel never touches
+        // `tangents` (binding 5), and an automatic layout might or might not list it.
+        let entry = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty,
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        };
+        let rw = wgpu::BufferBindingType::Storage { read_only: false };
+        let bgl = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("lanes"),
+            entries: &[
+                entry(0, wgpu::BufferBindingType::Uniform),
+                entry(1, wgpu::BufferBindingType::Storage { read_only: true }),
+                entry(2, rw),
+                entry(3, rw),
+                entry(4, rw),
+                entry(5, rw),
+            ],
+        });
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("lanes"),
+            bind_group_layouts: &[Some(&bgl)],
+            immediate_size: 0,
         });
         let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
             label: Some("advance_lanes"),
-            layout: None,
+            layout: Some(&layout),
             module: &module,
             entry_point: Some(shader::ENTRY_POINT),
             compilation_options: Default::default(),
@@ -195,12 +227,21 @@ impl GpuRunner {
 
     /// Lanes per chunk for this precision and slice length on this device.
     pub fn chunk_lanes<R: GpuReal>(&self, schedule: &Schedule) -> Result<usize> {
+        self.chunk_lanes_variant::<R>(schedule, false)
+    }
+
+    fn chunk_lanes_variant<R: GpuReal>(
+        &self,
+        schedule: &Schedule,
+        lyapunov: bool,
+    ) -> Result<usize> {
+        let rec_dim = shader::record_dim(lyapunov);
         let limits = self.gpu.limits();
         let max_bytes = limits
             .max_storage_buffer_binding_size
             .min(limits.max_buffer_size)
             .min(MAX_CHUNK_BUFFER_BYTES);
-        let record_bytes = schedule.periods_per_slice as u64 * (RECORD_DIM * size_of::<R>()) as u64;
+        let record_bytes = schedule.periods_per_slice as u64 * (rec_dim * size_of::<R>()) as u64;
         let per_lane = record_bytes
             .max(size_of::<R::Consts>() as u64)
             .max(size_of::<R::Lane>() as u64);
@@ -226,6 +267,7 @@ impl GpuRunner {
         pipeline: &wgpu::ComputePipeline,
         lanes_cap: usize,
         slots_cap: u32,
+        rec_dim: usize,
     ) -> Buffers {
         let device = self.gpu.device();
         let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
@@ -238,7 +280,7 @@ impl GpuRunner {
                 mapped_at_creation: false,
             })
         };
-        let record_bytes = lanes_cap * slots_cap as usize * RECORD_DIM * size_of::<R>();
+        let record_bytes = lanes_cap * slots_cap as usize * rec_dim * size_of::<R>();
         let lane_bytes = lanes_cap * size_of::<R::Lane>();
         let params = make(
             "params",
@@ -262,6 +304,13 @@ impl GpuRunner {
                 | wgpu::BufferUsages::COPY_DST,
         );
         let unfinished_staging = make("unfinished staging", 8, staging);
+        // One tangent per lane in the lambda_1 variant, one unused element otherwise.
+        let tangent_lanes = if rec_dim > STATE_DIM { lanes_cap } else { 1 };
+        let tangents = make(
+            "tangents",
+            tangent_lanes * STATE_DIM * size_of::<R>(),
+            storage,
+        );
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("lanes"),
             layout: &pipeline.get_bind_group_layout(0),
@@ -286,6 +335,10 @@ impl GpuRunner {
                     binding: 4,
                     resource: unfinished.as_entire_binding(),
                 },
+                wgpu::BindGroupEntry {
+                    binding: 5,
+                    resource: tangents.as_entire_binding(),
+                },
             ],
         });
         Buffers {
@@ -299,6 +352,7 @@ impl GpuRunner {
             lanes_staging,
             unfinished,
             unfinished_staging,
+            tangents,
             bind_group,
         }
     }
@@ -363,6 +417,47 @@ impl GpuRunner {
         schedule: &Schedule,
         progress: &mut dyn FnMut(Progress),
     ) -> Result<Vec<LaneOutcome<R>>> {
+        Ok(self.run_inner(consts, init, None, schedule, progress)?.0)
+    }
+
+    /// [`GpuRunner::run_with_progress`] with the lambda_1 kernel variant: every lane
+    /// carries a tangent vector from `tangents` (one per lane), advanced with the state
+    /// (saltation at switches) and renormalised at the end of every forcing period. Also
+    /// returns, per lane, the tangent's growth (its length before renormalisation) over
+    /// each recorded period, in order: the logarithms summed and divided by the recorded
+    /// time give lambda_1 ([`crate::lyapunov::lambda1_from_norms`]).
+    pub fn run_lyapunov_with_progress<R: GpuReal>(
+        &self,
+        consts: &[LaneConsts<R>],
+        init: &[Lane<R>],
+        tangents: &[[R; STATE_DIM]],
+        schedule: &Schedule,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<LyapunovOutcomes<R>> {
+        if tangents.len() != init.len() {
+            return Err(Error::invalid(
+                "tangents",
+                tangents.len(),
+                format!(
+                    "{} initial lanes but {} tangents",
+                    init.len(),
+                    tangents.len()
+                ),
+            ));
+        }
+        self.run_inner(consts, init, Some(tangents), schedule, progress)
+    }
+
+    fn run_inner<R: GpuReal>(
+        &self,
+        consts: &[LaneConsts<R>],
+        init: &[Lane<R>],
+        tangents: Option<&[[R; STATE_DIM]]>,
+        schedule: &Schedule,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<LyapunovOutcomes<R>> {
+        let lyapunov = tangents.is_some();
+        let rec_dim = shader::record_dim(lyapunov);
         if consts.len() != init.len() {
             return Err(Error::invalid(
                 "lanes",
@@ -395,18 +490,23 @@ impl GpuRunner {
                 lane: *lane,
             })
             .collect();
+        let mut norms: Vec<Vec<f64>> = if lyapunov {
+            vec![Vec::with_capacity(schedule.recorded as usize); n_total]
+        } else {
+            Vec::new()
+        };
         if n_total == 0 || total == 0 {
-            return Ok(out);
+            return Ok((out, norms));
         }
-        let chunk = self.chunk_lanes::<R>(schedule)?;
+        let chunk = self.chunk_lanes_variant::<R>(schedule, lyapunov)?;
         let slots = schedule.periods_per_slice.min(total);
 
-        let mut guard = self.slot::<R>().lock().map_err(|_| Error::Gpu {
+        let mut guard = self.slot::<R>(lyapunov).lock().map_err(|_| Error::Gpu {
             message: "a previous GPU run panicked".into(),
         })?;
         if guard.is_none() {
             *guard = Some(Kernel {
-                pipeline: self.build_pipeline::<R>()?,
+                pipeline: self.build_pipeline::<R>(lyapunov)?,
                 buffers: None,
             });
         }
@@ -420,7 +520,7 @@ impl GpuRunner {
             .is_some_and(|b| b.lanes_cap >= lanes_cap && b.slots_cap >= slots);
         if !fits {
             kernel.buffers = None; // free the old ones first
-            kernel.buffers = Some(self.buffers::<R>(&kernel.pipeline, lanes_cap, slots));
+            kernel.buffers = Some(self.buffers::<R>(&kernel.pipeline, lanes_cap, slots, rec_dim));
         }
         let (pipeline, bufs) = match (&kernel.pipeline, &kernel.buffers) {
             (p, Some(b)) => (p, b),
@@ -436,13 +536,16 @@ impl GpuRunner {
         let lane_periods_total = n_total as u64 * total as u64;
         let mut lane_periods_done = 0u64;
         let mut dispatches = 0u64;
-        let rec = RECORD_DIM * size_of::<R>();
+        let rec = rec_dim * size_of::<R>();
         for start in (0..n_total).step_by(chunk) {
             let end = (start + chunk).min(n_total);
             let n = end - start;
             let packed_consts: Vec<R::Consts> =
                 consts[start..end].iter().map(R::pack_consts).collect();
             let packed_lanes: Vec<R::Lane> = init[start..end].iter().map(R::pack_lane).collect();
+            if let Some(t) = tangents {
+                queue.write_buffer(&bufs.tangents, 0, bytemuck::cast_slice(&t[start..end]));
+            }
             queue.write_buffer(&bufs.consts, 0, bytemuck::cast_slice(&packed_consts));
             queue.write_buffer(&bufs.lanes, 0, bytemuck::cast_slice(&packed_lanes));
             let mut begin = 0u32;
@@ -539,13 +642,16 @@ impl GpuRunner {
                 }
                 if rec_bytes > 0 {
                     let points: Vec<R> = self.read_back(&bufs.records_staging, rec_bytes)?;
-                    for per_slot in points.chunks_exact(n * RECORD_DIM) {
-                        for (lane, x) in per_slot.chunks_exact(RECORD_DIM).enumerate() {
+                    for per_slot in points.chunks_exact(n * rec_dim) {
+                        for (lane, x) in per_slot.chunks_exact(rec_dim).enumerate() {
                             let mut p = [0.0; STATE_DIM];
                             for (d, v) in p.iter_mut().zip(x) {
                                 *d = v.to_f64();
                             }
                             out[start + lane].poincare.push(p);
+                            if lyapunov {
+                                norms[start + lane].push(x[STATE_DIM].to_f64());
+                            }
                         }
                     }
                 }
@@ -567,6 +673,6 @@ impl GpuRunner {
                 begin += periods;
             }
         }
-        Ok(out)
+        Ok((out, norms))
     }
 }

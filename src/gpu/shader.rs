@@ -59,8 +59,19 @@ pub fn float_constants<R: Real>() -> Vec<(String, f64)> {
     v
 }
 
-/// The generated header for precision `R`.
+/// The generated header for precision `R`, plain kernel.
 pub fn header<R: Real>() -> String {
+    header_with::<R>(false)
+}
+
+/// Reals per record: the state, and with `lyapunov` the tangent's growth after it.
+pub fn record_dim(lyapunov: bool) -> usize {
+    STATE_DIM + lyapunov as usize
+}
+
+/// The generated header for precision `R` and kernel variant `lyapunov` (one tangent
+/// vector per lane for lambda_1, see the kernel's docs).
+pub fn header_with<R: Real>(lyapunov: bool) -> String {
     let mut h = String::new();
     let mut line = |s: String| {
         h.push_str(&s);
@@ -85,10 +96,12 @@ pub fn header<R: Real>() -> String {
         ("STATUS_REFINEMENT_CAP", Status::RefinementCap.code()),
         ("STATUS_DIVERGED", Status::Diverged.code()),
         ("STATUS_NON_FINITE", Status::NonFinite.code()),
+        ("RECORD_DIM", record_dim(lyapunov) as u32),
     ];
     for (name, value) in u {
         line(format!("const {name}: u32 = {value}u;"));
     }
+    line(format!("const LYAPUNOV: bool = {lyapunov};"));
     for (name, value) in float_constants::<R>() {
         line(format!("const {name}: Real = {};", float_lit(value)));
     }
@@ -97,9 +110,14 @@ pub fn header<R: Real>() -> String {
     s
 }
 
-/// The complete kernel source for precision `R`.
+/// The complete kernel source for precision `R`, plain kernel.
 pub fn source<R: Real>() -> String {
     header::<R>() + KERNEL
+}
+
+/// The complete kernel source for precision `R` and variant `lyapunov`.
+pub fn source_with<R: Real>(lyapunov: bool) -> String {
+    header_with::<R>(lyapunov) + KERNEL
 }
 
 /// naga capabilities the kernel needs in precision `R`.
@@ -113,7 +131,12 @@ pub fn capabilities<R: Real>() -> naga::valid::Capabilities {
 
 /// Parses the kernel for precision `R`; the error is naga's report with source context.
 pub fn parse<R: Real>() -> Result<naga::Module, String> {
-    let src = source::<R>();
+    parse_variant::<R>(false)
+}
+
+/// Parses the kernel for precision `R` and variant `lyapunov`.
+pub fn parse_variant<R: Real>(lyapunov: bool) -> Result<naga::Module, String> {
+    let src = source_with::<R>(lyapunov);
     naga::front::wgsl::parse_str(&src).map_err(|e| e.emit_to_string_with_path(&src, "lane.wgsl"))
 }
 
@@ -121,8 +144,17 @@ pub fn parse<R: Real>() -> Result<naga::Module, String> {
 pub fn validate_with<R: Real>(
     caps: naga::valid::Capabilities,
 ) -> Result<(naga::Module, naga::valid::ModuleInfo), String> {
-    let module = parse::<R>()?;
-    let src = source::<R>();
+    validate_variant_with::<R>(false, caps)
+}
+
+/// Parses and validates variant `lyapunov` for precision `R` with the given
+/// capabilities.
+pub fn validate_variant_with<R: Real>(
+    lyapunov: bool,
+    caps: naga::valid::Capabilities,
+) -> Result<(naga::Module, naga::valid::ModuleInfo), String> {
+    let module = parse_variant::<R>(lyapunov)?;
+    let src = source_with::<R>(lyapunov);
     let info = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), caps)
         .validate(&module)
         .map_err(|e| e.emit_to_string_with_path(&src, "lane.wgsl"))?;
@@ -135,6 +167,13 @@ pub fn validate<R: Real>() -> Result<(naga::Module, naga::valid::ModuleInfo), St
     validate_with::<R>(capabilities::<R>())
 }
 
+/// [`validate`] for variant `lyapunov`.
+pub fn validate_variant<R: Real>(
+    lyapunov: bool,
+) -> Result<(naga::Module, naga::valid::ModuleInfo), String> {
+    validate_variant_with::<R>(lyapunov, capabilities::<R>())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -144,6 +183,18 @@ mod tests {
     fn f32_kernel_parses_and_validates_without_an_adapter() {
         let (module, _) = validate::<f32>().unwrap_or_else(|e| panic!("{e}"));
         assert!(module.entry_points.iter().any(|e| e.name == ENTRY_POINT));
+    }
+
+    #[test]
+    fn lyapunov_variant_parses_and_validates_in_both_precisions() {
+        for lyapunov in [false, true] {
+            let (module, _) = validate_variant::<f32>(lyapunov).unwrap_or_else(|e| panic!("{e}"));
+            assert!(module.entry_points.iter().any(|e| e.name == ENTRY_POINT));
+            validate_variant::<f64>(lyapunov).unwrap_or_else(|e| panic!("{e}"));
+        }
+        assert!(header_with::<f32>(true).contains("const LYAPUNOV: bool = true;"));
+        assert!(header::<f32>().contains("const LYAPUNOV: bool = false;"));
+        assert!(header_with::<f64>(true).contains("const RECORD_DIM: u32 = 9u;"));
     }
 
     #[test]
@@ -241,9 +292,13 @@ mod tests {
     #[test]
     fn kernel_mirrors_lane_rs_function_by_function_in_order() {
         // advance_period is replaced by the resumable step loop of the entry point.
-        const MIRRORED: [&str; 8] = [
+        const MIRRORED: [&str; 12] = [
             "forcing_phasor",
             "rk4_substep",
+            "tangent_rhs",
+            "rk4_tangent_substep",
+            "saltation",
+            "renormalise",
             "hermite_gap",
             "wrong_side",
             "find_switch",
@@ -266,7 +321,7 @@ mod tests {
             src.find(&format!("fn {name}"))
                 .unwrap_or_else(|| panic!("{name} not found"))
         };
-        for pair in MIRRORED[..6].windows(2) {
+        for pair in MIRRORED[..10].windows(2) {
             assert!(
                 pos(lane_rs, pair[0]) < pos(lane_rs, pair[1]),
                 "lane.rs order changed: {pair:?}"

@@ -45,6 +45,7 @@ pub struct BatchConsts<R> {
     kc_ms: V<R>,
     mu: V<R>,
     delta: V<R>,
+    tau_c: V<R>,
     h: V<R>,
     inv_n: V<R>,
     phase0: V<R>,
@@ -64,6 +65,7 @@ impl<R: Real> BatchConsts<R> {
             kc_ms: lanes(|l| lc[l].c.kc_ms),
             mu: lanes(|l| lc[l].c.mu),
             delta: lanes(|l| lc[l].c.delta),
+            tau_c: lanes(|l| lc[l].c.tau_c),
             h: lanes(|l| lc[l].h),
             inv_n: lanes(|l| lc[l].inv_n),
             phase0: lanes(|l| lc[l].phase0),
@@ -96,8 +98,11 @@ fn rhs<R: Real>(
         let (kx, ky) = contact_force_per_kc(
             bc.delta[l],
             bc.mu[l],
+            bc.tau_c[l],
             x[X_R][l] - x[X_S][l],
             x[Y_R][l] - x[Y_S][l],
+            x[VX_R][l] - x[VX_S][l],
+            x[VY_R][l] - x[VY_S][l],
         );
         let (fx, fy) = if contact[l] {
             (kx, ky)

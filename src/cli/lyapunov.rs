@@ -1,0 +1,214 @@
+//! `jeffcott lyapunov`: the full Lyapunov spectrum at one speed (`spectrum.json`,
+//! `convergence.png`) or over a range of speeds (`lyapunov.npy`, `lyapunov.json`,
+//! `lyapunov.png`). The numerics are in [`crate::lyapunov`].
+
+use super::{ModelArgs, StepperArgs, apply_init};
+use crate::error::{Error, Result};
+use crate::lyapunov::{Spectrum, SpectrumConfig, SweepStart, spectrum, sweep};
+use crate::model::STATE_DIM;
+use crate::{output, plot};
+use clap::Args;
+use std::path::PathBuf;
+
+/// Arguments of `jeffcott lyapunov`.
+#[derive(Args, Debug)]
+pub struct LyapunovArgs {
+    /// Rotor speed W [rad/s], or `a:b:n` for n speeds from a to b inclusive.
+    #[arg(long, value_name = "W|a:b:n", allow_hyphen_values = true)]
+    pub omega: String,
+    /// Override coordinates of the start state (default: static equilibrium), e.g.
+    /// `--init x_r=0.005,vx_r=-0.5`.
+    #[arg(long, value_name = "NAME=VALUE,...")]
+    pub init: Vec<String>,
+    /// Forcing periods of the state alone before the tangent vectors start.
+    #[arg(long, default_value_t = 1000, value_name = "Q")]
+    pub transient: u32,
+    /// Forcing periods in which the tangent vectors align, not accumulated.
+    #[arg(long, default_value_t = 50, value_name = "P")]
+    pub tangent_transient: u32,
+    /// Largest accumulation time [s] (the stopping rule's maximum).
+    #[arg(long, default_value_t = 100.0, value_name = "T")]
+    pub time: f64,
+    /// Accumulation time before the stopping rule may stop [s].
+    #[arg(long, default_value_t = 20.0, value_name = "T")]
+    pub min_time: f64,
+    /// Stop when no exponent changed by more than this over the last window [1/s].
+    #[arg(long, default_value_t = 2e-3)]
+    pub tol: f64,
+    /// Window of the stopping rule [forcing periods].
+    #[arg(long, default_value_t = 100)]
+    pub window: u32,
+    /// For a range of speeds: quasistatic (each speed's transient starts where the
+    /// previous one ended, speeds in the order given) or given (every speed from the
+    /// start state).
+    #[arg(long, value_enum, default_value_t = SweepStart::Quasistatic)]
+    pub start: SweepStart,
+    /// Leave the saltation matrices out at contact switches (to see what they change;
+    /// they matter only with contact damping c_c > 0).
+    #[arg(long)]
+    pub no_saltation: bool,
+    #[command(flatten)]
+    pub model: ModelArgs,
+    #[command(flatten)]
+    pub stepper: StepperArgs,
+    /// Output directory (created if missing).
+    #[arg(long, value_name = "DIR", default_value = "jeffcott-out/lyapunov")]
+    pub out: PathBuf,
+    /// Print nothing but errors.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// Null for NaN or infinite values (JSON has neither).
+fn num(v: f64) -> serde_json::Value {
+    if v.is_finite() {
+        serde_json::json!(v)
+    } else {
+        serde_json::Value::Null
+    }
+}
+
+fn nums(v: &[f64]) -> serde_json::Value {
+    serde_json::Value::Array(v.iter().map(|&x| num(x)).collect())
+}
+
+fn spectrum_json(s: &Spectrum) -> serde_json::Value {
+    serde_json::json!({
+        "omega": s.omega,
+        "exponents": nums(&s.exponents),
+        "exponents_bits": nums(&s.exponents_bits),
+        "errors": nums(&s.errors),
+        "block_stderr": nums(&s.block_stderr),
+        "window_change": nums(&s.window_change),
+        "sum": num(s.sum),
+        "trace_average": num(s.trace_average),
+        "saltation_log_det_rate": num(s.saltation_log_det_rate),
+        "sum_rule_residual": num(s.sum - s.trace_average - s.saltation_log_det_rate),
+        "integration_time": s.integration_time,
+        "periods": s.periods,
+        "stop": s.stop,
+        "saltations": s.saltations,
+        "max_saltation_deviation": s.max_saltation_deviation,
+        "status": s.status,
+        "counters": s.counters,
+        "final_state": nums(&s.final_state),
+        "wall_time_s": s.wall_time_s,
+    })
+}
+
+/// Runs `jeffcott lyapunov`.
+pub fn run_lyapunov(a: &LyapunovArgs) -> Result<()> {
+    let params = a.model.params()?;
+    let mut x0 = params.static_equilibrium();
+    apply_init(&mut x0, &a.init)?;
+    let omegas = crate::ensemble::parse_range("omega", &a.omega)?;
+    let cfg = SpectrumConfig {
+        transient: a.transient,
+        tangent_transient: a.tangent_transient,
+        min_time: a.min_time.min(a.time),
+        max_time: a.time,
+        window: a.window,
+        tol: a.tol,
+        saltation: !a.no_saltation,
+        stepper: a.stepper.config(),
+        ..SpectrumConfig::default()
+    };
+    cfg.validate()?;
+    let dir = &a.out;
+    let settings = serde_json::json!({
+        "config": cfg,
+        "start": a.start,
+        "initial_state": nums(&x0),
+        "params": params,
+        "error_estimate": "per exponent, max of the batch-means standard error (10 blocks) \
+                           and the change of the running estimate over the last window",
+        "jeffcott_version": env!("CARGO_PKG_VERSION"),
+    });
+    if let [omega] = omegas[..] {
+        let s = spectrum(&params, omega, &x0, &cfg)?;
+        output::ensure_dir(dir)?;
+        plot::lyapunov::convergence(
+            &dir.join("convergence.png"),
+            &format!("Lyapunov spectrum at W = {omega} rad/s: running estimates"),
+            &s.history,
+        )?;
+        let mut j = spectrum_json(&s);
+        j["run"] = settings;
+        j["units"] = serde_json::json!({"exponents": "1/s", "exponents_bits": "bits/s"});
+        output::write_json(&dir.join("spectrum.json"), &j)?;
+        if !a.quiet {
+            println!(
+                "W = {omega} rad/s: exponents [1/s] {}; sum {:.4} (= <tr J> {:.4} + saltation {:.1e}); \
+                 {:.1} s accumulated ({:?}) in {:.2} s wall; files in {}",
+                s.exponents
+                    .iter()
+                    .zip(&s.errors)
+                    .map(|(l, e)| format!("{l:.4} +- {e:.1e}"))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                s.sum,
+                s.trace_average,
+                s.saltation_log_det_rate,
+                s.integration_time,
+                s.stop,
+                s.wall_time_s,
+                dir.display()
+            );
+        }
+        return Ok(());
+    }
+    if omegas.is_empty() {
+        return Err(Error::invalid("omega", &a.omega, "no speeds"));
+    }
+    let start = std::time::Instant::now();
+    let all = sweep(&params, &omegas, &x0, a.start, &cfg)?;
+    let wall = start.elapsed().as_secs_f64();
+    output::ensure_dir(dir)?;
+    let n = omegas.len();
+    let flat: Vec<f64> = all.iter().flat_map(|s| s.exponents).collect();
+    output::write_npy(&dir.join("lyapunov.npy"), &[n, STATE_DIM], &flat)?;
+    let errs: Vec<f64> = all.iter().flat_map(|s| s.errors).collect();
+    output::write_npy(&dir.join("lyapunov_errors.npy"), &[n, STATE_DIM], &errs)?;
+    let exps: Vec<[f64; STATE_DIM]> = all.iter().map(|s| s.exponents).collect();
+    plot::lyapunov::spectrum_vs_omega(
+        &dir.join("lyapunov.png"),
+        &format!(
+            "Lyapunov spectrum, W = {} .. {} rad/s ({:?} start)",
+            omegas[0],
+            omegas[n - 1],
+            a.start
+        ),
+        &omegas,
+        &exps,
+    )?;
+    let j = serde_json::json!({
+        "omega": omegas,
+        "sum": nums(&all.iter().map(|s| s.sum).collect::<Vec<_>>()),
+        "trace_average": nums(&all.iter().map(|s| s.trace_average).collect::<Vec<_>>()),
+        "saltation_log_det_rate": nums(&all.iter().map(|s| s.saltation_log_det_rate).collect::<Vec<_>>()),
+        "integration_time": all.iter().map(|s| s.integration_time).collect::<Vec<_>>(),
+        "stop": all.iter().map(|s| s.stop).collect::<Vec<_>>(),
+        "status": all.iter().map(|s| s.status).collect::<Vec<_>>(),
+        "wall_time_s": wall,
+        "run": settings,
+        "files": {
+            "lyapunov.npy": "f64 [n_omega, 8], exponents [1/s] in QR order (descending), rows in the order of omega",
+            "lyapunov_errors.npy": "f64 [n_omega, 8], error estimates [1/s]",
+            "lyapunov.png": "the 8 exponents against W, zero line marked",
+        },
+    });
+    output::write_json(&dir.join("lyapunov.json"), &j)?;
+    if !a.quiet {
+        for s in &all {
+            println!(
+                "W = {:.4}: lambda_1 = {:.4} +- {:.1e} 1/s, sum {:.3}",
+                s.omega, s.exponents[0], s.errors[0], s.sum
+            );
+        }
+        println!(
+            "{n} speeds in {wall:.2} s; files in {}: lyapunov.npy, lyapunov_errors.npy, lyapunov.json, lyapunov.png",
+            dir.display()
+        );
+    }
+    Ok(())
+}
