@@ -82,6 +82,10 @@ pub struct EnsembleArgs {
     /// Output directory (created if missing).
     #[arg(long, value_name = "DIR", default_value = "jeffcott-out/ensemble")]
     pub out: PathBuf,
+    /// Also compute each lane's largest Lyapunov exponent lambda_1 [1/s] from a tangent
+    /// vector renormalised every period (written to `lambda1.npy`).
+    #[arg(long)]
+    pub lyapunov: bool,
     /// Print nothing but errors.
     #[arg(long)]
     pub quiet: bool,
@@ -112,7 +116,11 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
         stepper: a.stepper.config(),
         precision,
     };
-    let (res, info) = run(&spec, a.backend, &|_, _| {})?;
+    let (res, info) = if a.lyapunov {
+        crate::ensemble::run_with_lambda1(&spec, a.backend, &|_, _| {})?
+    } else {
+        run(&spec, a.backend, &|_, _| {})?
+    };
     if !a.quiet {
         println!(
             "backend: {} ({}; {}), precision {:?}",
@@ -136,6 +144,9 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
         table.extend_from_slice(&l.x0);
     }
     output::write_npy(&dir.join("lanes.npy"), &[n, 2 + STATE_DIM], &table)?;
+    if let Some(l1) = &res.lambda1 {
+        output::write_npy(&dir.join("lambda1.npy"), &[n], l1)?;
+    }
     let steps: u64 = res.counters.iter().map(|c| c.macro_steps).sum();
     let extra: u64 = res.counters.iter().map(|c| c.extra_substeps).sum();
     let contact: u64 = res.counters.iter().map(|c| c.contact_steps).sum();
@@ -174,6 +185,7 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
             "poincare.npy": "f64 [lanes, periods, 8], state order x_r, vx_r, y_r, vy_r, x_s, vx_s, y_s, vy_s",
             "status.npy": "u32 [lanes], codes in status_codes",
             "lanes.npy": "f64 [lanes, 10], columns in lanes_columns",
+            "lambda1.npy": "f64 [lanes], largest Lyapunov exponent [1/s] over the recorded periods (NaN for frozen lanes; only with --lyapunov)",
         },
         "jeffcott_version": env!("CARGO_PKG_VERSION"),
     });
@@ -226,7 +238,7 @@ pub fn run_info() -> Result<()> {
 #[derive(Args, Debug)]
 pub struct ModelArgs {
     /// TOML file of model parameters (keys: omega_r, omega_s, xi_r, xi_s, delta, mu, m_r,
-    /// m_s, e, k_c, e_max, a_g, phi0; SI units; absent keys keep Table 1 values).
+    /// m_s, e, k_c, c_c, e_max, a_g, phi0; SI units; absent keys keep Table 1 values).
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
     /// Override model parameters, e.g. `--param mu=0.1,k_c=2e8` (applied after --config;

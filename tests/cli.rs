@@ -260,6 +260,60 @@ fn ensemble_writes_poincare_status_lanes_and_run_json() {
     assert_eq!(r["lanes"], 3);
     assert_eq!(r["status_counts"]["ok"], 3);
     assert!(r["lane_steps_per_s"].as_f64().unwrap() > 0.0);
+    assert!(!out.join("lambda1.npy").exists(), "lambda1 only on request");
+}
+
+/// `--lyapunov` adds lambda_1 per lane: negative on the article's period-1 and period-2
+/// responses (131.7, 132.2), and a positive one on the chaotic response at 140.
+#[test]
+fn ensemble_lyapunov_writes_lambda1_negative_when_periodic_positive_when_chaotic() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("ens");
+    let o = jeffcott(&[
+        "ensemble",
+        "--omega",
+        "131.7",
+        "--transient",
+        "300",
+        "--periods",
+        "200",
+        "--backend",
+        "cpu",
+        "--lyapunov",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let read = |out: &Path| -> Vec<f64> {
+        assert_eq!(npy_shape(&out.join("lambda1.npy")), vec![1]);
+        let b = std::fs::read(out.join("lambda1.npy")).unwrap();
+        b[b.len() - 8..]
+            .chunks_exact(8)
+            .map(|c| f64::from_le_bytes(c.try_into().unwrap()))
+            .collect()
+    };
+    let periodic = read(&out)[0];
+    assert!(periodic < -0.5, "lambda_1 at 131.7 = {periodic}");
+    let out2 = dir.path().join("ens2");
+    let o = jeffcott(&[
+        "ensemble",
+        "--omega",
+        "140",
+        "--transient",
+        "300",
+        "--periods",
+        "300",
+        "--backend",
+        "cpu",
+        "--lyapunov",
+        "--quiet",
+        "--out",
+        out2.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let chaotic = read(&out2)[0];
+    assert!(chaotic > 1.0, "lambda_1 at 140 = {chaotic}");
 }
 
 #[test]
