@@ -1,3 +1,4 @@
 //! Analysis of Poincare records. Never cares which backend produced them.
 
+pub mod catalogue;
 pub mod classify;

@@ -1,0 +1,392 @@
+//! The attractor catalogue of an ensemble at one rotor speed W (MODEL.md 5): every lane
+//! is classified from its Poincare points ([`classify`]) and given the id of the
+//! attractor it settled on; lanes on the same orbit get the same id even when their
+//! Poincare sequences are shifted in phase.
+//!
+//! Identity, in the metric of [`classify`] (positions in metres, velocities divided by W):
+//! - period-n: two cycles are the same when they have the same n and some cyclic shift
+//!   of one matches the other point by point within
+//!   `max(match_rel * size, match_abs)` (size = the larger of the two cycles' diameters).
+//!   The shift is found from the first point, so a comparison costs O(n). Cycles are
+//!   stored in a canonical rotation (starting at the point of smallest x_r), so the
+//!   representative points do not depend on which lane was seen first.
+//! - aperiodic (quasiperiodic, chaotic): two clouds are the same when their bounding
+//!   boxes and centroids agree within `cloud_rel` times the larger diameter. Coexisting
+//!   aperiodic attractors that overlap that closely are not told apart.
+//! - diverged (flagged) lanes get label -1 and no catalogue entry.
+//!
+//! Lyapunov hook: when a largest exponent lambda1 [1/s] is known per lane, aperiodic
+//! lanes split into quasiperiodic (|lambda1| < `lambda_tol`) and chaotic
+//! (lambda1 > `lambda_tol`).
+
+use super::classify::{Class, ClassifyConfig, classify, distance};
+use crate::error::{Error, Result};
+use crate::model::{STATE_DIM, State, X_R};
+use rayon::prelude::*;
+use serde::Serialize;
+
+/// Tolerances of the catalogue; `Default` gives sound values for Table 1 runs.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, serde::Deserialize)]
+pub struct CatalogueConfig {
+    /// Period detection (n_max, repeat tolerances).
+    pub classify: ClassifyConfig,
+    /// Cycle match tolerance relative to the cycle's diameter.
+    pub match_rel: f64,
+    /// Cycle match tolerance floor [m] (period-1 cycles have zero diameter).
+    pub match_abs: f64,
+    /// Aperiodic clouds match when boxes and centroids agree within this fraction of
+    /// their diameter.
+    pub cloud_rel: f64,
+    /// |lambda1| below this [1/s] is quasiperiodic, above it (positive) chaotic.
+    pub lambda_tol: f64,
+}
+
+impl Default for CatalogueConfig {
+    fn default() -> Self {
+        CatalogueConfig {
+            classify: ClassifyConfig::default(),
+            match_rel: 1e-2,
+            match_abs: 1e-6,
+            cloud_rel: 0.1,
+            lambda_tol: 0.2,
+        }
+    }
+}
+
+impl CatalogueConfig {
+    /// All tolerances multiplied by `factor` (n_max unchanged); used to show that labels
+    /// do not hinge on the tolerance values.
+    pub fn scaled(&self, factor: f64) -> Self {
+        CatalogueConfig {
+            classify: ClassifyConfig {
+                n_max: self.classify.n_max,
+                rel_tol: self.classify.rel_tol * factor,
+                abs_tol: self.classify.abs_tol * factor,
+            },
+            match_rel: self.match_rel * factor,
+            match_abs: self.match_abs * factor,
+            cloud_rel: (self.cloud_rel * factor).min(1.0),
+            lambda_tol: self.lambda_tol * factor,
+        }
+    }
+
+    /// Checks the tolerances; errors name the option and its allowed range.
+    pub fn validate(&self) -> Result<()> {
+        let c = &self.classify;
+        if !(1..=4096).contains(&c.n_max) {
+            return Err(Error::invalid("n-max", c.n_max, "must be in 1..=4096"));
+        }
+        for (name, v) in [
+            ("rel-tol", c.rel_tol),
+            ("abs-tol", c.abs_tol),
+            ("match-rel", self.match_rel),
+            ("match-abs", self.match_abs),
+            ("cloud-rel", self.cloud_rel),
+            ("lambda-tol", self.lambda_tol),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(Error::invalid(name, v, "must be finite and > 0"));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// One attractor of the catalogue.
+#[derive(Clone, Debug, Serialize)]
+pub struct Attractor {
+    /// Id, 0-based in order of discovery (labels refer to it).
+    pub id: u32,
+    /// Class label (`period-N`, `aperiodic`, `quasiperiodic`, `chaotic`).
+    pub class: String,
+    /// The period for periodic attractors.
+    pub period: Option<usize>,
+    /// Rotor speed W [rad/s].
+    pub omega: f64,
+    /// Lanes that settled on it.
+    pub lanes: u64,
+    /// Fraction of all lanes of the catalogue (diverged ones included) that settled on it.
+    pub basin_fraction: f64,
+    /// Diameter of its Poincare set in the classification metric [m].
+    pub size_m: f64,
+    /// Representative Poincare points (states at t = kT, state order): the cycle in
+    /// canonical rotation, or the record of the first lane for aperiodic attractors.
+    pub points: Vec<State>,
+    /// Index of the first lane (in the order added) that settled on it: a start state
+    /// that reaches it.
+    pub first_lane: u64,
+    #[serde(skip)]
+    kind: Class,
+    #[serde(skip)]
+    lo: State,
+    #[serde(skip)]
+    hi: State,
+    #[serde(skip)]
+    centroid: State,
+}
+
+impl Attractor {
+    /// The class as an enum.
+    pub fn kind(&self) -> Class {
+        self.kind
+    }
+
+    /// "period-2 (#1)"-style name for legends.
+    pub fn name(&self) -> String {
+        format!("#{} {}", self.id, self.class)
+    }
+}
+
+/// A lane after classification, before it is matched to the catalogue.
+#[derive(Clone, Debug)]
+pub struct LaneClass {
+    /// The class.
+    pub class: Class,
+    /// Diameter of the Poincare set [m] (NaN when diverged).
+    pub size: f64,
+    /// The points that represent the lane: the last cycle for periodic lanes (canonical
+    /// rotation), all points otherwise.
+    pub points: Vec<State>,
+}
+
+/// Scale of component i in the metric: velocities divided by W.
+fn scale(i: usize, omega: f64) -> f64 {
+    if i % 2 == 1 { omega } else { 1.0 }
+}
+
+/// Classifies one lane's Poincare sequence (`frozen`: flagged diverged / non-finite),
+/// refining aperiodic with `lambda1` when given.
+pub fn classify_lane(
+    points: &[State],
+    omega: f64,
+    frozen: bool,
+    lambda1: Option<f64>,
+    cfg: &CatalogueConfig,
+) -> LaneClass {
+    let c = classify(points, omega, frozen, &cfg.classify);
+    let class = match (c.class, lambda1) {
+        (Class::Aperiodic, Some(l)) if l.is_finite() && l.abs() < cfg.lambda_tol => {
+            Class::Quasiperiodic
+        }
+        (Class::Aperiodic, Some(l)) if l.is_finite() && l > cfg.lambda_tol => Class::Chaotic,
+        (k, _) => k,
+    };
+    let points = match class {
+        Class::Diverged => Vec::new(),
+        Class::Periodic(n) => {
+            let cycle = &points[points.len() - n..];
+            // Canonical rotation: start at the smallest x_r (ties broken by order, which
+            // only matters for points that agree within roundoff anyway).
+            let start = (0..n)
+                .min_by(|&a, &b| cycle[a][X_R].total_cmp(&cycle[b][X_R]))
+                .unwrap_or(0);
+            (0..n).map(|k| cycle[(start + k) % n]).collect()
+        }
+        _ => points.to_vec(),
+    };
+    LaneClass {
+        class,
+        size: c.size,
+        points,
+    }
+}
+
+fn bbox(points: &[State]) -> (State, State, State) {
+    let mut lo = [f64::INFINITY; STATE_DIM];
+    let mut hi = [f64::NEG_INFINITY; STATE_DIM];
+    let mut c = [0.0; STATE_DIM];
+    for p in points {
+        for i in 0..STATE_DIM {
+            lo[i] = lo[i].min(p[i]);
+            hi[i] = hi[i].max(p[i]);
+            c[i] += p[i] / points.len() as f64;
+        }
+    }
+    (lo, hi, c)
+}
+
+/// Builds a catalogue lane by lane (so basins can stream chunks with bounded memory).
+#[derive(Clone, Debug)]
+pub struct CatalogueBuilder {
+    cfg: CatalogueConfig,
+    omega: f64,
+    attractors: Vec<Attractor>,
+    total: u64,
+    diverged: u64,
+}
+
+impl CatalogueBuilder {
+    /// An empty catalogue at speed `omega`.
+    pub fn new(omega: f64, cfg: CatalogueConfig) -> Self {
+        CatalogueBuilder {
+            cfg,
+            omega,
+            attractors: Vec::new(),
+            total: 0,
+            diverged: 0,
+        }
+    }
+
+    /// True when lane `l` lies on attractor `a`.
+    fn same(&self, l: &LaneClass, a: &Attractor) -> bool {
+        if l.class != a.kind {
+            return false;
+        }
+        let w = self.omega;
+        match l.class {
+            Class::Periodic(n) => {
+                let tol = (self.cfg.match_rel * l.size.max(a.size_m)).max(self.cfg.match_abs);
+                (0..n).any(|j| {
+                    distance(&l.points[0], &a.points[j], w) <= tol
+                        && (0..n).all(|i| distance(&l.points[i], &a.points[(i + j) % n], w) <= tol)
+                })
+            }
+            Class::Diverged => false,
+            _ => {
+                let tol = self.cfg.cloud_rel * l.size.max(a.size_m);
+                let (lo, hi, c) = bbox(&l.points);
+                (0..STATE_DIM).all(|i| {
+                    let s = scale(i, w);
+                    (lo[i] - a.lo[i]).abs() / s <= tol
+                        && (hi[i] - a.hi[i]).abs() / s <= tol
+                        && (c[i] - a.centroid[i]).abs() / s <= tol
+                })
+            }
+        }
+    }
+
+    /// Adds a classified lane; returns its attractor id, or -1 for a diverged lane.
+    pub fn add(&mut self, l: LaneClass) -> i32 {
+        let lane = self.total;
+        self.total += 1;
+        if l.class == Class::Diverged {
+            self.diverged += 1;
+            return -1;
+        }
+        if let Some(k) = (0..self.attractors.len()).find(|&k| self.same(&l, &self.attractors[k])) {
+            self.attractors[k].lanes += 1;
+            return k as i32;
+        }
+        let id = self.attractors.len() as u32;
+        let (lo, hi, centroid) = bbox(&l.points);
+        self.attractors.push(Attractor {
+            id,
+            class: l.class.label(),
+            period: l.class.period(),
+            omega: self.omega,
+            lanes: 1,
+            basin_fraction: 0.0,
+            size_m: l.size,
+            points: l.points,
+            first_lane: lane,
+            kind: l.class,
+            lo,
+            hi,
+            centroid,
+        });
+        id as i32
+    }
+
+    /// Classifies (in parallel) and adds a block of lanes: `points` is
+    /// [lanes, recorded, 8] flat, `frozen[i]` says lane i was flagged. Returns the labels.
+    pub fn add_block(
+        &mut self,
+        points: &[f64],
+        recorded: usize,
+        frozen: &[bool],
+        lambda1: Option<&[f64]>,
+    ) -> Vec<i32> {
+        let (omega, cfg) = (self.omega, self.cfg);
+        let classes: Vec<LaneClass> = frozen
+            .par_iter()
+            .enumerate()
+            .map(|(i, &f)| {
+                let flat = &points[i * recorded * STATE_DIM..(i + 1) * recorded * STATE_DIM];
+                let states: Vec<State> = flat
+                    .chunks_exact(STATE_DIM)
+                    .map(|c| c.try_into().unwrap_or([f64::NAN; STATE_DIM]))
+                    .collect();
+                classify_lane(&states, omega, f, lambda1.map(|l| l[i]), &cfg)
+            })
+            .collect();
+        classes.into_iter().map(|c| self.add(c)).collect()
+    }
+
+    /// The attractors so far with their basin fractions.
+    pub fn attractors(&self) -> Vec<Attractor> {
+        let mut v = self.attractors.clone();
+        for a in &mut v {
+            a.basin_fraction = a.lanes as f64 / self.total.max(1) as f64;
+        }
+        v
+    }
+
+    /// Lanes added so far, and how many of them diverged.
+    pub fn counts(&self) -> (u64, u64) {
+        (self.total, self.diverged)
+    }
+}
+
+/// The catalogue of a set of lanes at one W.
+#[derive(Clone, Debug, Serialize)]
+pub struct Catalogue {
+    /// Rotor speed W [rad/s].
+    pub omega: f64,
+    /// The attractors, by id.
+    pub attractors: Vec<Attractor>,
+    /// Per lane: the attractor id, -1 for diverged lanes.
+    #[serde(skip)]
+    pub labels: Vec<i32>,
+    /// Lanes in all.
+    pub lanes: u64,
+    /// Lanes flagged diverged or non-finite.
+    pub diverged: u64,
+    /// Fraction of lanes that diverged.
+    pub diverged_fraction: f64,
+    /// The tolerances used.
+    pub config: CatalogueConfig,
+}
+
+/// Catalogues lanes at one W: `points` is [lanes, recorded, 8] flat (as in
+/// `EnsembleResult::poincare`), `frozen` flags diverged lanes, `lambda1` is the largest
+/// Lyapunov exponent per lane [1/s] when known.
+pub fn catalogue(
+    omega: f64,
+    points: &[f64],
+    recorded: usize,
+    frozen: &[bool],
+    lambda1: Option<&[f64]>,
+    cfg: &CatalogueConfig,
+) -> Catalogue {
+    let mut b = CatalogueBuilder::new(omega, *cfg);
+    let labels = b.add_block(points, recorded, frozen, lambda1);
+    b.finish(labels)
+}
+
+impl CatalogueBuilder {
+    /// The finished catalogue with the given labels (all lanes' ids, in order).
+    pub fn finish(self, labels: Vec<i32>) -> Catalogue {
+        let attractors = self.attractors();
+        let (lanes, diverged) = self.counts();
+        Catalogue {
+            omega: self.omega,
+            attractors,
+            labels,
+            lanes,
+            diverged,
+            diverged_fraction: diverged as f64 / lanes.max(1) as f64,
+            config: self.cfg,
+        }
+    }
+}
+
+/// Catalogues lanes of an ensemble result that all run at speed `omega`.
+pub fn catalogue_result(
+    omega: f64,
+    res: &crate::ensemble::EnsembleResult,
+    lambda1: Option<&[f64]>,
+    cfg: &CatalogueConfig,
+) -> Catalogue {
+    let frozen: Vec<bool> = res.status.iter().map(|s| s.is_frozen()).collect();
+    catalogue(omega, &res.poincare, res.recorded, &frozen, lambda1, cfg)
+}
