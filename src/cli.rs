@@ -101,7 +101,15 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
         stepper: a.stepper.config(),
         precision,
     };
-    let (res, info) = run(&spec, a.backend, &|_, _| {})?;
+    let per_lane = (spec.transient + spec.recorded) as u64;
+    let bar = crate::progress::Progress::new(
+        "ensemble",
+        spec.lanes.len() as u64 * per_lane,
+        per_lane,
+        a.quiet,
+    );
+    let (res, info) = run(&spec, a.backend, &bar.callback(0))?;
+    bar.finish();
     if !a.quiet {
         println!(
             "backend: {} ({}; {}), precision {:?}",

@@ -28,6 +28,7 @@ pub mod integrate;
 pub mod model;
 pub mod output;
 pub mod plot;
+pub mod progress;
 pub mod real;
 pub mod simulate;
 
