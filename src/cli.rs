@@ -11,6 +11,9 @@ use crate::{output, plot};
 use clap::{Args, Parser, Subcommand};
 use std::path::{Path, PathBuf};
 
+mod bifurcation;
+pub use bifurcation::{BifurcationArgs, CatalogueArgs, run_bifurcation};
+
 /// Nonlinear dynamics of a rubbing Jeffcott rotor hitting a flexibly suspended stator.
 ///
 /// Implements the model of "Nonlinear Dynamics and Chaos of a Nonsmooth Rotor-Stator
@@ -35,6 +38,10 @@ pub enum Command {
     /// their Poincare points, statuses and lane table.
     #[command(allow_negative_numbers = true)]
     Ensemble(EnsembleArgs),
+    /// Bifurcation diagram over W: quasistatic sweeps up and down (hysteresis) and a
+    /// brute-force ensemble of start states per W (coexisting attractors).
+    #[command(allow_negative_numbers = true)]
+    Bifurcation(BifurcationArgs),
     /// List GPU adapters, their backends, f64 support and limits, and the CPU threads.
     Info,
 }

@@ -1,13 +1,14 @@
 //! The `jeffcott` binary: parses arguments and reports errors; the work is in the library.
 
 use clap::Parser;
-use jeffcott::cli::{Cli, Command, run_ensemble, run_info, run_simulate};
+use jeffcott::cli::{Cli, Command, run_bifurcation, run_ensemble, run_info, run_simulate};
 
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
         Command::Simulate(a) => run_simulate(a),
         Command::Ensemble(a) => run_ensemble(a),
+        Command::Bifurcation(a) => run_bifurcation(a),
         Command::Info => run_info(),
     };
     match result {

@@ -56,6 +56,11 @@ impl Progress {
         }
     }
 
+    /// Lane-periods done so far.
+    pub fn position(&self) -> u64 {
+        self.bar.position()
+    }
+
     /// Adds to the lane-periods done.
     pub fn inc(&self, delta: u64) {
         self.bar.inc(delta);

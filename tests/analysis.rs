@@ -214,3 +214,78 @@ fn real_runs_are_one_period_1_attractor_at_131_7_and_one_period_2_attractor_at_1
         }
     }
 }
+
+fn study(omega: &str, ics: u32) -> jeffcott::analysis::bifurcation::BifurcationSpec {
+    use jeffcott::analysis::bifurcation::{BifurcationSpec, Sweep};
+    BifurcationSpec {
+        params: Params::default(),
+        omegas: jeffcott::ensemble::parse_range("omega", omega).unwrap(),
+        sweep: Some(Sweep::Both),
+        transient_first: 800,
+        transient: 200,
+        ics,
+        brute_transient: 300,
+        recorded: 24,
+        seed: 1,
+        stepper: Default::default(),
+        precision: Precision::F64,
+        backend: Backend::Cpu,
+        catalogue: CatalogueConfig::default(),
+        max_seeds: 6,
+    }
+}
+
+#[test]
+fn quasistatic_up_and_down_sweeps_follow_the_same_branch_where_monostable() {
+    use jeffcott::analysis::bifurcation::bifurcation;
+    let spec = study("131.6:131.8:5", 3);
+    let res = bifurcation(&spec, &jeffcott::progress::Progress::new("", 1, 1, true)).unwrap();
+    assert_eq!((res.up.len(), res.down.len()), (5, 5));
+    for (wi, (u, d)) in res.up.iter().zip(&res.down).enumerate() {
+        assert_eq!(u.omega, d.omega);
+        assert_eq!(u.class.class, Class::Periodic(1), "W = {}", u.omega);
+        assert_eq!(d.class.class, Class::Periodic(1), "W = {}", d.omega);
+        let cat = &res.brute[wi].catalogue;
+        assert_eq!(cat.attractors.len(), 1, "W = {}: monostable", u.omega);
+        assert_eq!(cat.identify(&u.class), Some(0));
+        assert_eq!(cat.identify(&d.class), Some(0));
+        for (a, b) in u.points.iter().zip(&d.points) {
+            for i in 0..STATE_DIM {
+                assert!(
+                    (a[i] - b[i]).abs() < 1e-6,
+                    "W = {}: up and down agree",
+                    u.omega
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn brute_force_contains_every_attractor_the_quasistatic_sweeps_found() {
+    use jeffcott::analysis::bifurcation::bifurcation;
+    // Away from bifurcation points, where 300 periods settle every lane (next to one,
+    // e.g. the period-4/period-5 boundary near 132.9, slow convergence leaves the
+    // classification to the transient length).
+    let spec = study("132.3:132.5:3", 4);
+    let res = bifurcation(&spec, &jeffcott::progress::Progress::new("", 1, 1, true)).unwrap();
+    for sw in [&res.up, &res.down] {
+        for (wi, p) in sw.iter().enumerate() {
+            if p.status.is_frozen() {
+                continue;
+            }
+            assert!(
+                res.brute[wi].catalogue.identify(&p.class).is_some(),
+                "W = {}: sweep attractor {} missing from brute force {:?}",
+                p.omega,
+                p.class.class.label(),
+                res.brute[wi]
+                    .catalogue
+                    .attractors
+                    .iter()
+                    .map(|a| a.name())
+                    .collect::<Vec<_>>()
+            );
+        }
+    }
+}

@@ -10,9 +10,11 @@
 //!   The shift is found from the first point, so a comparison costs O(n). Cycles are
 //!   stored in a canonical rotation (starting at the point of smallest x_r), so the
 //!   representative points do not depend on which lane was seen first.
-//! - aperiodic (quasiperiodic, chaotic): two clouds are the same when their bounding
-//!   boxes and centroids agree within `cloud_rel` times the larger diameter. Coexisting
-//!   aperiodic attractors that overlap that closely are not told apart.
+//! - aperiodic (quasiperiodic, chaotic): a lane's cloud lies on an attractor when their
+//!   diameters agree within a factor 2 and at least 60 % of the lane's points are within
+//!   `cloud_rel` times the diameter of the attractor's reference cloud (the points of
+//!   the lanes that joined it, up to 512). Coexisting aperiodic attractors that overlap
+//!   that closely are not told apart.
 //! - diverged (flagged) lanes get label -1 and no catalogue entry.
 //!
 //! Lyapunov hook: when a largest exponent lambda1 [1/s] is known per lane, aperiodic
@@ -34,8 +36,8 @@ pub struct CatalogueConfig {
     pub match_rel: f64,
     /// Cycle match tolerance floor [m] (period-1 cycles have zero diameter).
     pub match_abs: f64,
-    /// Aperiodic clouds match when boxes and centroids agree within this fraction of
-    /// their diameter.
+    /// Aperiodic clouds match when most points lie within this fraction of the diameter
+    /// of the attractor's reference cloud.
     pub cloud_rel: f64,
     /// |lambda1| below this [1/s] is quasiperiodic, above it (positive) chaotic.
     pub lambda_tol: f64,
@@ -54,8 +56,8 @@ impl Default for CatalogueConfig {
 }
 
 impl CatalogueConfig {
-    /// All tolerances multiplied by `factor` (n_max unchanged); used to show that labels
-    /// do not hinge on the tolerance values.
+    /// The repeat and cycle-match tolerances and lambda_tol multiplied by `factor`
+    /// (n_max and cloud_rel unchanged); used to show that labels do not hinge on them.
     pub fn scaled(&self, factor: f64) -> Self {
         CatalogueConfig {
             classify: ClassifyConfig {
@@ -65,7 +67,7 @@ impl CatalogueConfig {
             },
             match_rel: self.match_rel * factor,
             match_abs: self.match_abs * factor,
-            cloud_rel: (self.cloud_rel * factor).min(1.0),
+            cloud_rel: self.cloud_rel,
             lambda_tol: self.lambda_tol * factor,
         }
     }
@@ -110,19 +112,14 @@ pub struct Attractor {
     /// Diameter of its Poincare set in the classification metric [m].
     pub size_m: f64,
     /// Representative Poincare points (states at t = kT, state order): the cycle in
-    /// canonical rotation, or the record of the first lane for aperiodic attractors.
+    /// canonical rotation, or for aperiodic attractors the reference cloud (the points of
+    /// the lanes that joined it, up to 512).
     pub points: Vec<State>,
     /// Index of the first lane (in the order added) that settled on it: a start state
     /// that reaches it.
     pub first_lane: u64,
     #[serde(skip)]
     kind: Class,
-    #[serde(skip)]
-    lo: State,
-    #[serde(skip)]
-    hi: State,
-    #[serde(skip)]
-    centroid: State,
 }
 
 impl Attractor {
@@ -147,11 +144,6 @@ pub struct LaneClass {
     /// The points that represent the lane: the last cycle for periodic lanes (canonical
     /// rotation), all points otherwise.
     pub points: Vec<State>,
-}
-
-/// Scale of component i in the metric: velocities divided by W.
-fn scale(i: usize, omega: f64) -> f64 {
-    if i % 2 == 1 { omega } else { 1.0 }
 }
 
 /// Classifies one lane's Poincare sequence (`frozen`: flagged diverged / non-finite),
@@ -191,18 +183,56 @@ pub fn classify_lane(
     }
 }
 
-fn bbox(points: &[State]) -> (State, State, State) {
-    let mut lo = [f64::INFINITY; STATE_DIM];
-    let mut hi = [f64::NEG_INFINITY; STATE_DIM];
-    let mut c = [0.0; STATE_DIM];
-    for p in points {
-        for i in 0..STATE_DIM {
-            lo[i] = lo[i].min(p[i]);
-            hi[i] = hi[i].max(p[i]);
-            c[i] += p[i] / points.len() as f64;
+/// True when lane `l` lies on attractor `a` (the rules of the module docs).
+fn same(cfg: &CatalogueConfig, w: f64, l: &LaneClass, a: &Attractor) -> bool {
+    if l.class != a.kind {
+        return false;
+    }
+    match l.class {
+        Class::Periodic(n) => {
+            let tol = (cfg.match_rel * l.size.max(a.size_m)).max(cfg.match_abs);
+            (0..n).any(|j| {
+                distance(&l.points[0], &a.points[j], w) <= tol
+                    && (0..n).all(|i| distance(&l.points[i], &a.points[(i + j) % n], w) <= tol)
+            })
+        }
+        Class::Diverged => false,
+        _ => {
+            // Same attractor: similar diameters, and most of the lane's points lie within
+            // cloud_rel * size of the attractor's reference cloud (which grows as lanes
+            // join it, so its coverage improves).
+            let size = l.size.max(a.size_m);
+            if !(l.size <= 2.0 * a.size_m && a.size_m <= 2.0 * l.size) {
+                return false;
+            }
+            let tol = cfg.cloud_rel * size;
+            let need = (l.points.len() as f64 * CLOUD_COVERAGE).ceil() as usize;
+            let mut near = 0usize;
+            for (k, p) in l.points.iter().enumerate() {
+                if a.points.iter().any(|q| distance(p, q, w) <= tol) {
+                    near += 1;
+                    if near >= need {
+                        return true;
+                    }
+                }
+                if near + (l.points.len() - k - 1) < need {
+                    return false;
+                }
+            }
+            near >= need
         }
     }
-    (lo, hi, c)
+}
+
+/// Fraction of an aperiodic lane's points that must lie near an attractor's cloud.
+const CLOUD_COVERAGE: f64 = 0.6;
+
+/// Points kept in an aperiodic attractor's reference cloud, at most.
+const CLOUD_POINTS: usize = 512;
+
+/// The index of the attractor lane `l` lies on, if any.
+fn find(cfg: &CatalogueConfig, w: f64, attractors: &[Attractor], l: &LaneClass) -> Option<usize> {
+    attractors.iter().position(|a| same(cfg, w, l, a))
 }
 
 /// Builds a catalogue lane by lane (so basins can stream chunks with bounded memory).
@@ -227,34 +257,6 @@ impl CatalogueBuilder {
         }
     }
 
-    /// True when lane `l` lies on attractor `a`.
-    fn same(&self, l: &LaneClass, a: &Attractor) -> bool {
-        if l.class != a.kind {
-            return false;
-        }
-        let w = self.omega;
-        match l.class {
-            Class::Periodic(n) => {
-                let tol = (self.cfg.match_rel * l.size.max(a.size_m)).max(self.cfg.match_abs);
-                (0..n).any(|j| {
-                    distance(&l.points[0], &a.points[j], w) <= tol
-                        && (0..n).all(|i| distance(&l.points[i], &a.points[(i + j) % n], w) <= tol)
-                })
-            }
-            Class::Diverged => false,
-            _ => {
-                let tol = self.cfg.cloud_rel * l.size.max(a.size_m);
-                let (lo, hi, c) = bbox(&l.points);
-                (0..STATE_DIM).all(|i| {
-                    let s = scale(i, w);
-                    (lo[i] - a.lo[i]).abs() / s <= tol
-                        && (hi[i] - a.hi[i]).abs() / s <= tol
-                        && (c[i] - a.centroid[i]).abs() / s <= tol
-                })
-            }
-        }
-    }
-
     /// Adds a classified lane; returns its attractor id, or -1 for a diverged lane.
     pub fn add(&mut self, l: LaneClass) -> i32 {
         let lane = self.total;
@@ -263,12 +265,16 @@ impl CatalogueBuilder {
             self.diverged += 1;
             return -1;
         }
-        if let Some(k) = (0..self.attractors.len()).find(|&k| self.same(&l, &self.attractors[k])) {
-            self.attractors[k].lanes += 1;
+        if let Some(k) = find(&self.cfg, self.omega, &self.attractors, &l) {
+            let a = &mut self.attractors[k];
+            a.lanes += 1;
+            if a.period.is_none() && a.points.len() < CLOUD_POINTS {
+                let room = CLOUD_POINTS - a.points.len();
+                a.points.extend(l.points.iter().take(room));
+            }
             return k as i32;
         }
         let id = self.attractors.len() as u32;
-        let (lo, hi, centroid) = bbox(&l.points);
         self.attractors.push(Attractor {
             id,
             class: l.class.label(),
@@ -280,9 +286,6 @@ impl CatalogueBuilder {
             points: l.points,
             first_lane: lane,
             kind: l.class,
-            lo,
-            hi,
-            centroid,
         });
         id as i32
     }
@@ -345,6 +348,13 @@ pub struct Catalogue {
     pub diverged_fraction: f64,
     /// The tolerances used.
     pub config: CatalogueConfig,
+}
+
+impl Catalogue {
+    /// The id of the catalogued attractor that the classified lane `l` lies on, if any.
+    pub fn identify(&self, l: &LaneClass) -> Option<u32> {
+        find(&self.config, self.omega, &self.attractors, l).map(|k| k as u32)
+    }
 }
 
 /// Catalogues lanes at one W: `points` is [lanes, recorded, 8] flat (as in
