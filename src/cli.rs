@@ -11,7 +11,9 @@ use crate::{output, plot};
 use clap::{Args, Parser, Subcommand};
 use std::path::{Path, PathBuf};
 
+mod basin;
 mod bifurcation;
+pub use basin::{BasinArgs, run_basin};
 pub use bifurcation::{BifurcationArgs, CatalogueArgs, run_bifurcation};
 
 /// Nonlinear dynamics of a rubbing Jeffcott rotor hitting a flexibly suspended stator.
@@ -42,6 +44,11 @@ pub enum Command {
     /// brute-force ensemble of start states per W (coexisting attractors).
     #[command(allow_negative_numbers = true)]
     Bifurcation(BifurcationArgs),
+    /// Basin of attraction at one W over two start coordinates: labels.npy (attractor id
+    /// per cell), attractors.json, basin.png. Streams chunks, so memory stays bounded
+    /// (about 16 MB + 70 MB for 2000 x 2000 cells).
+    #[command(allow_negative_numbers = true)]
+    Basin(BasinArgs),
     /// List GPU adapters, their backends, f64 support and limits, and the CPU threads.
     Info,
 }

@@ -1,7 +1,9 @@
 //! The `jeffcott` binary: parses arguments and reports errors; the work is in the library.
 
 use clap::Parser;
-use jeffcott::cli::{Cli, Command, run_bifurcation, run_ensemble, run_info, run_simulate};
+use jeffcott::cli::{
+    Cli, Command, run_basin, run_bifurcation, run_ensemble, run_info, run_simulate,
+};
 
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
@@ -9,6 +11,7 @@ fn main() -> std::process::ExitCode {
         Command::Simulate(a) => run_simulate(a),
         Command::Ensemble(a) => run_ensemble(a),
         Command::Bifurcation(a) => run_bifurcation(a),
+        Command::Basin(a) => run_basin(a),
         Command::Info => run_info(),
     };
     match result {

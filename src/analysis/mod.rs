@@ -1,5 +1,6 @@
 //! Analysis of Poincare records. Never cares which backend produced them.
 
+pub mod basin;
 pub mod bifurcation;
 pub mod catalogue;
 pub mod classify;
