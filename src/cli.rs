@@ -13,8 +13,10 @@ use std::path::{Path, PathBuf};
 
 mod basin;
 mod bifurcation;
+mod reproduce;
 pub use basin::{BasinArgs, run_basin};
 pub use bifurcation::{BifurcationArgs, CatalogueArgs, run_bifurcation};
+pub use reproduce::{ReproduceArgs, run_reproduce};
 
 /// Nonlinear dynamics of a rubbing Jeffcott rotor hitting a flexibly suspended stator.
 ///
@@ -49,6 +51,9 @@ pub enum Command {
     /// (about 16 MB + 70 MB for 2000 x 2000 cells).
     #[command(allow_negative_numbers = true)]
     Basin(BasinArgs),
+    /// Regenerate the article's figures (Figs. 3-12, plus down-sweep and brute-force
+    /// diagrams) and a REPORT.md; --quick (default) takes under 10 minutes on 2 CPU cores.
+    Reproduce(ReproduceArgs),
     /// List GPU adapters, their backends, f64 support and limits, and the CPU threads.
     Info,
 }

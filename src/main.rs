@@ -2,7 +2,7 @@
 
 use clap::Parser;
 use jeffcott::cli::{
-    Cli, Command, run_basin, run_bifurcation, run_ensemble, run_info, run_simulate,
+    Cli, Command, run_basin, run_bifurcation, run_ensemble, run_info, run_reproduce, run_simulate,
 };
 
 fn main() -> std::process::ExitCode {
@@ -12,6 +12,7 @@ fn main() -> std::process::ExitCode {
         Command::Ensemble(a) => run_ensemble(a),
         Command::Bifurcation(a) => run_bifurcation(a),
         Command::Basin(a) => run_basin(a),
+        Command::Reproduce(a) => run_reproduce(a),
         Command::Info => run_info(),
     };
     match result {

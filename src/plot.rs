@@ -236,6 +236,7 @@ pub fn bifurcation_diagram(
             .map_err(|e| err(e.to_string()))?;
         chart
             .configure_mesh()
+            .light_line_style(WHITE)
             .x_desc("W [rad/s]")
             .y_desc(label.as_str())
             .label_style(("sans-serif", 16))
@@ -439,6 +440,82 @@ pub fn coexisting_attractors(path: &Path, title: &str, traces: &[AttractorTrace]
             .border_style(BLACK)
             .label_font(("sans-serif", 14))
             .draw()
+            .map_err(|e| err(e.to_string()))?;
+    }
+    root.present().map_err(|e| err(e.to_string()))
+}
+
+/// Draws Poincare sections: one panel per (x, y) component pair, every point a small dot.
+/// `zoom` (a fraction in (0, 1]) shows, instead of the whole set, a window of that
+/// fraction of each axis' span centred on the median point: an enlargement.
+pub fn poincare_sections(
+    path: &Path,
+    title: &str,
+    points: &[State],
+    panels: &[(usize, usize)],
+    zoom: Option<f64>,
+) -> Result<()> {
+    register_font();
+    let err = plot_err(path);
+    let cols = panels.len().clamp(1, 2);
+    let rows = panels.len().div_ceil(2).max(1);
+    let root =
+        BitMapBackend::new(path, (700 * cols as u32, 80 + 620 * rows as u32)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
+    let root = root
+        .titled(title, ("sans-serif", 24))
+        .map_err(|e| err(e.to_string()))?;
+    for (area, &(xi, yi)) in root.split_evenly((rows, cols)).iter().zip(panels) {
+        let (xs, xl) = coord_axis(xi);
+        let (ys, yl) = coord_axis(yi);
+        let pts: Vec<(f64, f64)> = points
+            .iter()
+            .map(|p| (p[xi] * xs, p[yi] * ys))
+            .filter(|p| p.0.is_finite() && p.1.is_finite())
+            .collect();
+        let mut xr = padded_range(pts.iter().map(|p| p.0));
+        let mut yr = padded_range(pts.iter().map(|p| p.1));
+        if let Some(f) = zoom {
+            let median = |mut v: Vec<f64>| {
+                v.sort_by(f64::total_cmp);
+                v.get(v.len() / 2).copied().unwrap_or(0.0)
+            };
+            let (mx, my) = (
+                median(pts.iter().map(|p| p.0).collect()),
+                median(pts.iter().map(|p| p.1).collect()),
+            );
+            let (hx, hy) = (0.5 * f * (xr.end - xr.start), 0.5 * f * (yr.end - yr.start));
+            xr = (mx - hx)..(mx + hx);
+            yr = (my - hy)..(my + hy);
+        }
+        let inside: Vec<(f64, f64)> = pts
+            .into_iter()
+            .filter(|p| xr.contains(&p.0) && yr.contains(&p.1))
+            .collect();
+        let mut chart = ChartBuilder::on(area)
+            .margin(12)
+            .x_label_area_size(48)
+            .y_label_area_size(85)
+            .build_cartesian_2d(xr, yr)
+            .map_err(|e| err(e.to_string()))?;
+        chart
+            .configure_mesh()
+            .x_desc(xl.as_str())
+            .y_desc(yl.as_str())
+            .label_style(("sans-serif", 15))
+            .axis_desc_style(("sans-serif", 17))
+            .light_line_style(WHITE)
+            .x_label_formatter(&|v| format!("{v:.4}"))
+            .y_label_formatter(&|v| format!("{v:.4}"))
+            .draw()
+            .map_err(|e| err(e.to_string()))?;
+        let r = if inside.len() > 5000 { 1 } else { 2 };
+        chart
+            .draw_series(
+                inside
+                    .iter()
+                    .map(|&p| Circle::new(p, r, RGBColor(20, 60, 160).filled())),
+            )
             .map_err(|e| err(e.to_string()))?;
     }
     root.present().map_err(|e| err(e.to_string()))

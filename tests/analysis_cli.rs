@@ -242,3 +242,41 @@ fn bad_analysis_input_names_the_field_and_the_allowed_range() {
     }
     assert!(!out.exists() || !out.join("summary.json").exists());
 }
+
+#[test]
+fn reproduce_writes_every_figure_and_a_report_that_shows_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("rep");
+    let o = jeffcott(&[
+        "reproduce",
+        "--smoke",
+        "--backend",
+        "cpu",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let report = std::fs::read_to_string(out.join("REPORT.md")).unwrap();
+    for fig in [
+        "fig03_bifurcation_vx_s.png",
+        "fig04_bifurcation_vx_r.png",
+        "fig05_phase_131.7.png",
+        "fig06_phase_132.2.png",
+        "fig07_basin_133.png",
+        "fig09_phase_135.png",
+        "fig10_section_135.png",
+        "fig11_section_stator_140.png",
+        "fig12_section_rotor_140.png",
+        "fig_down_sweep.png",
+        "fig_brute_force.png",
+    ] {
+        let png = std::fs::read(out.join(fig)).unwrap();
+        assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n", "{fig}");
+        assert!(
+            report.contains(&format!("]({fig})")),
+            "REPORT.md shows {fig}"
+        );
+    }
+    assert!(report.contains("| 131.7 |") && report.contains("Command: `jeffcott"));
+}

@@ -212,6 +212,65 @@ fn sweep_json(res: &BifurcationResult, wi: usize, p: Option<&SweepPoint>) -> ser
     }
 }
 
+/// The dot series of a diagram: brute force (grey pixels), up sweep (blue), down sweep
+/// (red), each included when asked for and present.
+pub fn diagram_series(
+    spec: &BifurcationSpec,
+    res: &BifurcationResult,
+    up: bool,
+    down: bool,
+    brute: bool,
+) -> Vec<DotSeries> {
+    let rec = spec.recorded as usize;
+    let mut series = Vec::new();
+    let dots = |sw: &[SweepPoint]| -> Vec<(f64, State)> {
+        sw.iter()
+            .filter(|p| !p.status.is_frozen())
+            .flat_map(|p| p.points.iter().map(move |s| (p.omega, *s)))
+            .collect()
+    };
+    if brute && !res.brute.is_empty() {
+        let mut v = Vec::new();
+        for b in &res.brute {
+            for (li, &l) in b.catalogue.labels.iter().enumerate() {
+                if l < 0 {
+                    continue;
+                }
+                for s in b.points[li * rec * STATE_DIM..(li + 1) * rec * STATE_DIM]
+                    .chunks_exact(STATE_DIM)
+                {
+                    let mut st = [0.0; STATE_DIM];
+                    st.copy_from_slice(s);
+                    v.push((b.omega, st));
+                }
+            }
+        }
+        series.push(DotSeries {
+            label: format!("brute force ({} start states per W)", spec.ics),
+            color: RGBColor(110, 110, 110),
+            radius: 0,
+            points: v,
+        });
+    }
+    if up && !res.up.is_empty() {
+        series.push(DotSeries {
+            label: "quasistatic sweep, W increasing".into(),
+            color: RGBColor(31, 90, 200),
+            radius: 2,
+            points: dots(&res.up),
+        });
+    }
+    if down && !res.down.is_empty() {
+        series.push(DotSeries {
+            label: "quasistatic sweep, W decreasing".into(),
+            color: RGBColor(220, 40, 30),
+            radius: 1,
+            points: dots(&res.down),
+        });
+    }
+    series
+}
+
 /// Writes the arrays, summary.json and the picture.
 pub fn write_bifurcation(
     dir: &std::path::Path,
@@ -242,52 +301,7 @@ pub fn write_bifurcation(
     output::write_npy(&dir.join("bifurcation.npy"), &[nrows, rec, STATE_DIM], &pts)?;
     output::write_npy(&dir.join("bifurcation_rows.npy"), &[nrows, 4], &rows)?;
     if plot_it {
-        let mut series = Vec::new();
-        let dots = |sw: &[SweepPoint]| -> Vec<(f64, State)> {
-            sw.iter()
-                .filter(|p| !p.status.is_frozen())
-                .flat_map(|p| p.points.iter().map(move |s| (p.omega, *s)))
-                .collect()
-        };
-        if !res.brute.is_empty() {
-            let mut v = Vec::new();
-            for b in &res.brute {
-                for (li, &l) in b.catalogue.labels.iter().enumerate() {
-                    if l < 0 {
-                        continue;
-                    }
-                    for s in b.points[li * rec * STATE_DIM..(li + 1) * rec * STATE_DIM]
-                        .chunks_exact(STATE_DIM)
-                    {
-                        let mut st = [0.0; STATE_DIM];
-                        st.copy_from_slice(s);
-                        v.push((b.omega, st));
-                    }
-                }
-            }
-            series.push(DotSeries {
-                label: format!("brute force ({} start states per W)", spec.ics),
-                color: RGBColor(110, 110, 110),
-                radius: 0,
-                points: v,
-            });
-        }
-        if !res.up.is_empty() {
-            series.push(DotSeries {
-                label: "quasistatic sweep, W increasing".into(),
-                color: RGBColor(31, 90, 200),
-                radius: 2,
-                points: dots(&res.up),
-            });
-        }
-        if !res.down.is_empty() {
-            series.push(DotSeries {
-                label: "quasistatic sweep, W decreasing".into(),
-                color: RGBColor(220, 40, 30),
-                radius: 1,
-                points: dots(&res.down),
-            });
-        }
+        let series = diagram_series(spec, res, true, true, true);
         let w = (spec.omegas[0], spec.omegas[spec.omegas.len() - 1]);
         let title = format!(
             "Bifurcation diagram, W = {:.3}..{:.3} rad/s ({} speeds), Poincare section t = kT",
