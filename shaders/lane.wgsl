@@ -161,20 +161,12 @@ fn phasor_turns(turns: Real) -> vec2<Real> {
     s = SIN_C0 + a2 * s;
     c = COS_C0 + a2 * c;
     s = a * s;
-    switch i32(q) & 3 {
-        case 0: {
-            return vec2<Real>(c, s);
-        }
-        case 1: {
-            return vec2<Real>(-s, c);
-        }
-        case 2: {
-            return vec2<Real>(-c, -s);
-        }
-        default: {
-            return vec2<Real>(s, -c);
-        }
-    }
+    // Quadrant rotation as selects, as in forcing.rs (no divergent branch).
+    let quadrant = i32(q) & 3;
+    let ab = select(vec2<Real>(c, s), vec2<Real>(s, c), (quadrant & 1) == 1);
+    let ra = select(ab.x, -ab.x, quadrant == 1 || quadrant == 2);
+    let rb = select(ab.y, -ab.y, quadrant >= 2);
+    return vec2<Real>(ra, rb);
 }
 
 // ---- model.rs -----------------------------------------------------------------------

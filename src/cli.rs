@@ -12,9 +12,11 @@ use clap::{Args, Parser, Subcommand};
 use std::path::{Path, PathBuf};
 
 mod basin;
+mod bench;
 mod bifurcation;
 mod reproduce;
 pub use basin::{BasinArgs, run_basin};
+pub use bench::{BenchArgs, run_bench};
 pub use bifurcation::{BifurcationArgs, CatalogueArgs, run_bifurcation};
 pub use reproduce::{ReproduceArgs, run_reproduce};
 
@@ -56,6 +58,9 @@ pub enum Command {
     Reproduce(ReproduceArgs),
     /// List GPU adapters, their backends, f64 support and limits, and the CPU threads.
     Info,
+    /// Measure lane-steps and forcing periods per second of each backend and precision
+    /// at W = 133 (a contact-heavy regime) and print the README's table.
+    Bench(BenchArgs),
 }
 
 /// Arguments of `jeffcott ensemble`.

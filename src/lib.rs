@@ -20,6 +20,7 @@
 //! 5. [`output`], [`plot`], [`cli`]: files, pictures, the command line.
 
 pub mod analysis;
+pub mod bench;
 pub mod cli;
 pub mod ensemble;
 pub mod error;

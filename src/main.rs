@@ -2,7 +2,8 @@
 
 use clap::Parser;
 use jeffcott::cli::{
-    Cli, Command, run_basin, run_bifurcation, run_ensemble, run_info, run_reproduce, run_simulate,
+    Cli, Command, run_basin, run_bench, run_bifurcation, run_ensemble, run_info, run_reproduce,
+    run_simulate,
 };
 
 fn main() -> std::process::ExitCode {
@@ -14,6 +15,7 @@ fn main() -> std::process::ExitCode {
         Command::Basin(a) => run_basin(a),
         Command::Reproduce(a) => run_reproduce(a),
         Command::Info => run_info(),
+        Command::Bench(a) => run_bench(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -2,7 +2,7 @@
 //! each other, and the same arithmetic as a single `simulate` run.
 
 use jeffcott::ensemble::{EnsembleSpec, LaneSpec, Precision, cpu};
-use jeffcott::integrate::lane::{Status, StepperConfig};
+use jeffcott::integrate::lane::{Counters, Status, StepperConfig, advance_period};
 use jeffcott::model::{Params, VX_R, X_R};
 use jeffcott::simulate::{Integrator, SimulateSpec, simulate};
 
@@ -84,7 +84,8 @@ fn poisoned_lanes_are_flagged_and_leave_their_neighbours_untouched() {
 
 #[test]
 fn ensemble_lanes_reproduce_single_simulations_exactly() {
-    let s = spec(Precision::F64, 6);
+    // 13 lanes: one SIMD batch and five lanes run one by one.
+    let s = spec(Precision::F64, 13);
     let r = cpu::run(&s, &|_| {}).unwrap();
     for i in 0..s.lanes.len() {
         let l = &s.lanes[i];
@@ -115,4 +116,53 @@ fn invalid_ensembles_name_the_lane_and_field() {
     s.lanes[1].param_set = 9;
     let e = cpu::run(&s, &|_| {}).unwrap_err().to_string();
     assert!(e.contains("param_set (lane 1)"), "{e}");
+}
+
+/// Every lane of an ensemble through the scalar lane stepper alone, as the GPU kernel
+/// mirrors it: the reference the SIMD batch path must equal.
+fn scalar_reference<R: jeffcott::real::Real>(
+    s: &EnsembleSpec,
+) -> Vec<(Vec<u64>, Status, Counters)> {
+    (0..s.lanes.len())
+        .map(|i| {
+            let lc = s.lane_consts::<R>(i);
+            let mut lane = s.initial_lane::<R>(i);
+            for _ in 0..s.transient {
+                advance_period(&lc, &mut lane);
+            }
+            let mut bits = Vec::new();
+            for _ in 0..s.recorded {
+                advance_period(&lc, &mut lane);
+                bits.extend(lane.x.iter().map(|v| v.to_f64().to_bits()));
+            }
+            (bits, lane.status, lane.counters)
+        })
+        .collect()
+}
+
+#[test]
+fn simd_batches_equal_the_scalar_lane_stepper_to_the_bit() {
+    for precision in [Precision::F64, Precision::F32] {
+        // 53 lanes: six batches of 8 and five single lanes; one batch holds a NaN lane
+        // and a lane thrown out of every bound, so frozen lanes share batches with live
+        // ones.
+        let mut s = spec(precision, 53);
+        s.lanes[9].x0[X_R] = f64::NAN;
+        s.lanes[12].x0[VX_R] = 1e6;
+        let r = cpu::run(&s, &|_| {}).unwrap();
+        let reference = match precision {
+            Precision::F64 => scalar_reference::<f64>(&s),
+            Precision::F32 => scalar_reference::<f32>(&s),
+        };
+        for (i, (bits, status, counters)) in reference.iter().enumerate() {
+            let got: Vec<u64> = r.lane_points(i).iter().map(|v| v.to_bits()).collect();
+            assert_eq!(&got, bits, "{precision:?} lane {i} points");
+            assert_eq!(r.status[i], *status, "{precision:?} lane {i} status");
+            assert_eq!(r.counters[i], *counters, "{precision:?} lane {i} counters");
+        }
+        assert_eq!(r.status[9], Status::NonFinite);
+        assert!(r.status[12].is_frozen());
+        let switches: u64 = r.counters.iter().map(|c| c.switches).sum();
+        assert!(switches > 100, "the lanes must rub: {switches} switches");
+    }
 }

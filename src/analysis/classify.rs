@@ -31,6 +31,26 @@ impl Default for ClassifyConfig {
     }
 }
 
+impl ClassifyConfig {
+    /// The defaults for lanes integrated in `precision`. In f32 the state carries a
+    /// rounding noise that a stable cycle damps but never removes: measured on
+    /// period-1 lanes at W = 131.5-132.0 (tests/gpu.rs), points scatter by 3-7e-8 m,
+    /// and by more close to a period-doubling, where the cycle's multiplier nears -1
+    /// and damps the noise slowly. The f64 floor (1e-7 m) would then split a period-1
+    /// cycle into a spurious period-2, so f32 lanes get a 10x floor, 1e-6 m: still far
+    /// below the smallest attractor features of interest (the period-2 cycle at
+    /// W = 132.2 spans ~1e-4 m).
+    pub fn for_precision(precision: crate::ensemble::Precision) -> Self {
+        match precision {
+            crate::ensemble::Precision::F64 => ClassifyConfig::default(),
+            crate::ensemble::Precision::F32 => ClassifyConfig {
+                abs_tol: 1e-6,
+                ..ClassifyConfig::default()
+            },
+        }
+    }
+}
+
 /// The class of a trajectory's long-time behaviour.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Class {

@@ -232,6 +232,20 @@ fn run_gpu<R: crate::gpu::GpuReal>(
     Ok(res)
 }
 
+/// Runs an ensemble on an existing GPU runner, so repeated runs (chunks of a basin,
+/// benchmark samples) pay the device and pipeline set-up once.
+pub fn run_on_gpu(
+    spec: &EnsembleSpec,
+    runner: &crate::gpu::GpuRunner,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<EnsembleResult> {
+    spec.validate()?;
+    match spec.precision {
+        Precision::F32 => run_gpu::<f32>(spec, runner, progress),
+        Precision::F64 => run_gpu::<f64>(spec, runner, progress),
+    }
+}
+
 /// The precision used when the user names none: f32 where the run will go to a GPU,
 /// f64 on the CPU (for `auto` that depends on whether a hardware GPU is present).
 pub fn default_precision(backend: Backend) -> Precision {
@@ -276,10 +290,7 @@ pub fn run(
         Ok(dev) => {
             let device = dev.adapter().name.clone();
             let runner = GpuRunner::new(dev);
-            let res = match spec.precision {
-                Precision::F32 => run_gpu::<f32>(spec, &runner, progress)?,
-                Precision::F64 => run_gpu::<f64>(spec, &runner, progress)?,
-            };
+            let res = run_on_gpu(spec, &runner, progress)?;
             let reason = if backend == Backend::Gpu {
                 "--backend gpu"
             } else {

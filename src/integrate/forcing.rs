@@ -65,12 +65,18 @@ pub fn phasor_turns<R: Real>(turns: R) -> (R, R) {
     }
     // After the loop s = sum (-1)^n a^(2n)/(2n+1)! and c = sum (-1)^n a^(2n)/(2n)!.
     let s = a * s;
-    match (q.to_f64() as i32) & 3 {
-        0 => (c, s),
-        1 => (-s, c),
-        2 => (-c, -s),
-        _ => (s, -c),
-    }
+    // Rotate by q quarter turns: quadrant 0 (c, s), 1 (-s, c), 2 (-c, -s), 3 (s, -c).
+    // Written as selects rather than a `match` so a loop over lanes vectorises
+    // (integrate::batch); negation is exact, so the values are those of the match.
+    let quadrant = (q.to_f64() as i32) & 3;
+    let (a, b) = if quadrant & 1 == 1 { (s, c) } else { (c, s) };
+    let a = if quadrant == 1 || quadrant == 2 {
+        -a
+    } else {
+        a
+    };
+    let b = if quadrant >= 2 { -b } else { b };
+    (a, b)
 }
 
 #[cfg(test)]

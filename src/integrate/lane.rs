@@ -278,7 +278,7 @@ fn rk4_substep<R: Real>(
 /// `hs`, on the cubic Hermite interpolant of the relative displacement between the
 /// sub-step's end states (exact at theta = 0 and 1).
 #[inline(always)]
-fn hermite_gap<R: Real>(
+pub(crate) fn hermite_gap<R: Real>(
     delta: R,
     x0: &[R; STATE_DIM],
     x1: &[R; STATE_DIM],
@@ -319,7 +319,7 @@ fn hermite_gap<R: Real>(
 
 /// True when penetration `g` is on the side of g = 0 that the mode does not hold.
 #[inline(always)]
-fn wrong_side<R: Real>(g: R, contact: bool) -> bool {
+pub(crate) fn wrong_side<R: Real>(g: R, contact: bool) -> bool {
     if contact {
         g <= R::lit(0.0)
     } else {

@@ -2,6 +2,7 @@
 //! and the ensemble lane stepper (MODEL.md 4.2) with its trigonometry-free forcing.
 
 pub mod article;
+pub mod batch;
 pub mod forcing;
 pub mod lane;
 pub mod rk4;

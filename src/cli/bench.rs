@@ -1,0 +1,127 @@
+//! `jeffcott bench`: lane-steps and forcing periods per second of each backend and
+//! precision on the W = 133 workload of [`crate::bench`], as a Markdown table (the
+//! README's) and a JSON file.
+
+use crate::bench::{BenchRow, Engine, measure, periods_for};
+use crate::ensemble::{Backend, Precision};
+use crate::error::{Error, Result};
+use crate::gpu::{DeviceRequest, GpuDevice, GpuRunner};
+use clap::Args;
+use std::path::PathBuf;
+
+/// Arguments of `jeffcott bench`.
+#[derive(Args, Debug)]
+pub struct BenchArgs {
+    /// Ensemble sizes (lanes), comma-separated.
+    #[arg(long, value_delimiter = ',', default_values_t = [1024usize, 16384, 131072])]
+    pub lanes: Vec<usize>,
+    /// Work per configuration in lane-periods (periods per lane = this / lanes, at
+    /// least 4), so every size does about the same work.
+    #[arg(long, default_value_t = 65536)]
+    pub lane_periods: u64,
+    /// Backends to measure (default: the CPU, and a GPU when an adapter exists).
+    #[arg(long, value_delimiter = ',', value_enum)]
+    pub backend: Vec<Backend>,
+    /// Precisions to measure.
+    #[arg(long, value_delimiter = ',', value_enum, default_values_t = [Precision::F64, Precision::F32])]
+    pub precision: Vec<Precision>,
+    /// Also time a free-flight twin (gap 1 m) at this size to measure the share of time
+    /// due to contact; 0 to skip.
+    #[arg(long, default_value_t = 16384)]
+    pub twin_at: usize,
+    /// Write the rows as JSON here.
+    #[arg(long, value_name = "FILE")]
+    pub out: Option<PathBuf>,
+}
+
+/// Runs `jeffcott bench`.
+pub fn run_bench(a: &BenchArgs) -> Result<()> {
+    if let Some(&bad) = a.lanes.iter().find(|&&n| n == 0 || n > 1 << 24) {
+        return Err(Error::invalid(
+            "lanes",
+            bad,
+            "each size must be in 1..=16777216",
+        ));
+    }
+    if a.lane_periods == 0 {
+        return Err(Error::invalid("lane_periods", 0, "must be >= 1"));
+    }
+    let adapters = crate::gpu::list_adapters();
+    let gpu = adapters.iter().find(|s| s.compute);
+    let backends = if a.backend.is_empty() {
+        match gpu {
+            Some(_) => vec![Backend::Cpu, Backend::Gpu],
+            None => {
+                println!("no GPU adapter found: measuring the CPU only");
+                vec![Backend::Cpu]
+            }
+        }
+    } else {
+        a.backend.clone()
+    };
+    println!(
+        "workload: W = {} rad/s, start states spread over x_r in [-4, 4] mm, vx_r in [-0.5, 0.5] m/s, {} steps/period, {} lane-periods per row; CPU: {} threads",
+        crate::bench::BENCH_OMEGA,
+        crate::integrate::lane::DEFAULT_STEPS_PER_PERIOD,
+        a.lane_periods,
+        rayon::current_num_threads()
+    );
+    println!(
+        "| backend | device | precision | lanes | periods | wall s (set-up excluded) | lane-steps/s | periods/s | refinement sub-steps | contact steps | time due to contact |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    let mut rows: Vec<BenchRow> = Vec::new();
+    let mut runner: Option<GpuRunner> = None;
+    for &backend in &backends {
+        if backend != Backend::Cpu && runner.is_none() {
+            let dev = GpuDevice::new(&DeviceRequest {
+                need_f64: false,
+                allow_software: true,
+            })?;
+            runner = Some(GpuRunner::new(dev));
+        }
+        for &precision in &a.precision {
+            let gpu_lacks_f64 = runner.as_ref().is_some_and(|r| !r.gpu().supports_f64());
+            if backend != Backend::Cpu && precision == Precision::F64 && gpu_lacks_f64 {
+                if a.backend.is_empty() {
+                    println!("(GPU f64 skipped: the adapter has no SHADER_F64)");
+                    continue;
+                }
+                return Err(Error::invalid(
+                    "precision",
+                    "f64",
+                    "the GPU adapter has no SHADER_F64; measure f32 only",
+                ));
+            }
+            for &lanes in &a.lanes {
+                let periods = periods_for(lanes, a.lane_periods);
+                let engine = match (&runner, backend) {
+                    (Some(r), Backend::Gpu | Backend::Auto) => Engine::Gpu(r),
+                    _ => Engine::Cpu,
+                };
+                let r = measure(lanes, periods, precision, engine, lanes == a.twin_at)?;
+                println!(
+                    "| {} | {} | {:?} | {} | {} | {:.2} | {:.3e} | {:.3e} | {:.1}% | {:.1}% | {} |",
+                    r.backend,
+                    r.device,
+                    r.precision,
+                    r.lanes,
+                    r.periods,
+                    r.wall_s,
+                    r.lane_steps_per_s,
+                    r.lane_periods_per_s,
+                    100.0 * r.refinement_substep_share,
+                    100.0 * r.contact_step_share,
+                    r.contact_time_share
+                        .map_or("-".into(), |s| format!("{:.0}%", 100.0 * s))
+                );
+                rows.push(r);
+                if let Some(path) = &a.out {
+                    // Rewritten after every row, so an interrupted run keeps its rows.
+                    crate::output::write_json(path, &rows)?;
+                }
+            }
+        }
+    }
+    Ok(())
+}
