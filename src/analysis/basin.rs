@@ -186,7 +186,7 @@ pub struct BasinResult {
     pub labels: Vec<i32>,
     /// The catalogue (its `labels` field is left empty: see `labels` above).
     pub catalogue: Catalogue,
-    /// Backend information of the last chunk.
+    /// Backend information (wall time: the last chunk's).
     pub info: Option<RunInfo>,
     /// Wall time [s].
     pub seconds: f64,
@@ -202,6 +202,7 @@ pub fn basin(spec: &BasinSpec, progress: &Progress) -> Result<BasinResult> {
     let mut labels = Vec::with_capacity(cells);
     let mut builder = CatalogueBuilder::new(spec.omega, spec.catalogue);
     let mut info = None;
+    let engine = super::engine::Engine::new(spec.backend, spec.precision)?;
     let mut start = 0usize;
     while start < cells {
         let end = (start + chunk).min(cells);
@@ -221,7 +222,7 @@ pub fn basin(spec: &BasinSpec, progress: &Progress) -> Result<BasinResult> {
             precision: spec.precision,
         };
         let offset = progress.position();
-        let (res, i) = crate::ensemble::run(&e, spec.backend, &progress.callback(offset))?;
+        let (res, i) = engine.run(&e, &progress.callback(offset))?;
         let frozen: Vec<bool> = res.status.iter().map(|s| s.is_frozen()).collect();
         labels.extend(builder.add_block(&res.poincare, res.recorded, &frozen, None));
         info = Some(i);

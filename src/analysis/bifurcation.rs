@@ -288,6 +288,7 @@ pub fn bifurcation(spec: &BifurcationSpec, progress: &Progress) -> Result<Bifurc
 
 fn run_lanes(
     spec: &BifurcationSpec,
+    engine: &super::engine::Engine,
     lanes: Vec<LaneSpec>,
     progress: &Progress,
 ) -> Result<(crate::ensemble::EnsembleResult, RunInfo)> {
@@ -300,7 +301,7 @@ fn run_lanes(
         precision: spec.precision,
     };
     let offset = progress.position();
-    crate::ensemble::run(&e, spec.backend, &progress.callback(offset))
+    engine.run(&e, &progress.callback(offset))
 }
 
 fn brute_force(
@@ -325,7 +326,8 @@ fn brute_force(
             })
         })
         .collect();
-    let (res1, info) = run_lanes(spec, lanes, progress)?;
+    let engine = super::engine::Engine::new(spec.backend, spec.precision)?;
+    let (res1, info) = run_lanes(spec, &engine, lanes, progress)?;
     let lane_len = rec * STATE_DIM;
     // First-pass catalogues, to know what to seed from.
     let mut builders: Vec<CatalogueBuilder> = Vec::with_capacity(n);
@@ -386,7 +388,7 @@ fn brute_force(
     let res2 = if lanes2.is_empty() {
         None
     } else {
-        Some(run_lanes(spec, lanes2, progress)?.0)
+        Some(run_lanes(spec, &engine, lanes2, progress)?.0)
     };
     let mut out = Vec::with_capacity(n);
     let mut off2 = 0usize;

@@ -56,6 +56,20 @@ impl Default for CatalogueConfig {
 }
 
 impl CatalogueConfig {
+    /// The defaults for lanes integrated in `precision`: f32 lanes get the 10x floors of
+    /// [`ClassifyConfig::for_precision`] (their rounding noise never dies out).
+    pub fn for_precision(precision: crate::ensemble::Precision) -> Self {
+        let d = CatalogueConfig::default();
+        match precision {
+            crate::ensemble::Precision::F64 => d,
+            crate::ensemble::Precision::F32 => CatalogueConfig {
+                classify: ClassifyConfig::for_precision(precision),
+                match_abs: 10.0 * d.match_abs,
+                ..d
+            },
+        }
+    }
+
     /// The repeat and cycle-match tolerances and lambda_tol multiplied by `factor`
     /// (n_max and cloud_rel unchanged); used to show that labels do not hinge on them.
     pub fn scaled(&self, factor: f64) -> Self {

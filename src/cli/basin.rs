@@ -95,6 +95,9 @@ impl BasinArgs {
                 base[i] = value;
             }
         }
+        let precision = self
+            .precision
+            .unwrap_or_else(|| crate::ensemble::default_precision(self.backend));
         let spec = BasinSpec {
             params,
             omega: self.omega,
@@ -104,11 +107,9 @@ impl BasinArgs {
             transient: self.transient,
             recorded: self.periods,
             stepper: self.stepper.config(),
-            precision: self
-                .precision
-                .unwrap_or_else(|| crate::ensemble::default_precision(self.backend)),
+            precision,
             backend: self.backend,
-            catalogue: self.catalogue.config()?,
+            catalogue: self.catalogue.config(precision)?,
             chunk: self.chunk,
         };
         spec.validate()?;

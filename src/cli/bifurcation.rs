@@ -26,29 +26,30 @@ pub struct CatalogueArgs {
     /// v / W, so everything is in metres).
     #[arg(long, default_value_t = 1e-3)]
     pub rel_tol: f64,
-    /// Repeat tolerance floor [m].
-    #[arg(long, default_value_t = 1e-7)]
-    pub abs_tol: f64,
+    /// Repeat tolerance floor [m] [default: 1e-7 for f64 lanes, 1e-6 for f32 lanes].
+    #[arg(long)]
+    pub abs_tol: Option<f64>,
     /// Two cycles are one attractor when they match within this fraction of their size.
     #[arg(long, default_value_t = 1e-2)]
     pub match_rel: f64,
-    /// Floor of the cycle match tolerance [m].
-    #[arg(long, default_value_t = 1e-6)]
-    pub match_abs: f64,
+    /// Floor of the cycle match tolerance [m] [default: 1e-6 for f64 lanes, 1e-5 for f32].
+    #[arg(long)]
+    pub match_abs: Option<f64>,
 }
 
 impl CatalogueArgs {
-    /// The validated configuration.
-    pub fn config(&self) -> Result<CatalogueConfig> {
+    /// The validated configuration for lanes of `precision`.
+    pub fn config(&self, precision: Precision) -> Result<CatalogueConfig> {
+        let d = CatalogueConfig::for_precision(precision);
         let c = CatalogueConfig {
             classify: ClassifyConfig {
                 n_max: self.n_max,
                 rel_tol: self.rel_tol,
-                abs_tol: self.abs_tol,
+                abs_tol: self.abs_tol.unwrap_or(d.classify.abs_tol),
             },
             match_rel: self.match_rel,
-            match_abs: self.match_abs,
-            ..CatalogueConfig::default()
+            match_abs: self.match_abs.unwrap_or(d.match_abs),
+            ..d
         };
         c.validate()?;
         Ok(c)
@@ -145,6 +146,9 @@ impl BifurcationArgs {
     /// The study these arguments describe.
     pub fn spec(&self) -> Result<BifurcationSpec> {
         let omegas = crate::ensemble::parse_range("omega", &self.omega)?;
+        let precision = self
+            .precision
+            .unwrap_or_else(|| crate::ensemble::default_precision(self.backend));
         let spec = BifurcationSpec {
             params: self.model.params()?,
             omegas,
@@ -160,11 +164,9 @@ impl BifurcationArgs {
             recorded: self.periods,
             seed: self.seed,
             stepper: self.stepper.config(),
-            precision: self
-                .precision
-                .unwrap_or_else(|| crate::ensemble::default_precision(self.backend)),
+            precision,
             backend: self.backend,
-            catalogue: self.catalogue.config()?,
+            catalogue: self.catalogue.config(precision)?,
             max_seeds: self.max_seeds,
         };
         spec.validate()?;

@@ -198,7 +198,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     };
     let params = Params::default();
     let precision = a.precision.unwrap_or_else(|| default_precision(a.backend));
-    let cfg = CatalogueConfig::default();
+    let cfg = CatalogueConfig::for_precision(precision);
     let dir = &a.out;
     crate::output::ensure_dir(dir)?;
     let mode = format!("--{}", p.name);
