@@ -329,6 +329,63 @@ impl CatalogueBuilder {
         classes.into_iter().map(|c| self.add(c)).collect()
     }
 
+    /// Merges aperiodic entries that are one attractor; returns old id -> new id.
+    fn merge_clouds(&mut self) -> Vec<i32> {
+        let n = self.attractors.len();
+        let mut target: Vec<usize> = (0..n).collect();
+        for b in 1..n {
+            if self.attractors[b].period.is_some() {
+                continue;
+            }
+            let lb = LaneClass {
+                class: self.attractors[b].kind,
+                size: self.attractors[b].size_m,
+                points: self.attractors[b].points.clone(),
+            };
+            if let Some(a) = (0..b).find(|&a| {
+                target[a] == a && {
+                    let la = LaneClass {
+                        class: self.attractors[a].kind,
+                        size: self.attractors[a].size_m,
+                        points: self.attractors[a].points.clone(),
+                    };
+                    same(&self.cfg, self.omega, &lb, &self.attractors[a])
+                        || same(&self.cfg, self.omega, &la, &self.attractors[b])
+                }
+            }) {
+                target[b] = a;
+            }
+        }
+        let mut map = vec![-1i32; n];
+        let mut kept: Vec<Attractor> = Vec::new();
+        for k in 0..n {
+            if target[k] == k {
+                map[k] = kept.len() as i32;
+                let mut a = self.attractors[k].clone();
+                a.id = kept.len() as u32;
+                kept.push(a);
+            }
+        }
+        for k in 0..n {
+            if target[k] != k {
+                let t = map[target[k]] as usize;
+                map[k] = t as i32;
+                let extra = self.attractors[k].lanes;
+                let room = CLOUD_POINTS.saturating_sub(kept[t].points.len());
+                let pts: Vec<State> = self.attractors[k]
+                    .points
+                    .iter()
+                    .take(room)
+                    .copied()
+                    .collect();
+                kept[t].lanes += extra;
+                kept[t].points.extend(pts);
+            }
+        }
+        self.attractors = kept;
+        map
+    }
+
     /// The attractors so far with their basin fractions.
     pub fn attractors(&self) -> Vec<Attractor> {
         let mut v = self.attractors.clone();
@@ -389,7 +446,17 @@ pub fn catalogue(
 
 impl CatalogueBuilder {
     /// The finished catalogue with the given labels (all lanes' ids, in order).
-    pub fn finish(self, labels: Vec<i32>) -> Catalogue {
+    ///
+    /// Aperiodic attractors whose reference clouds cover each other are merged first
+    /// (a lane compared early against a still sparse cloud may have opened a second
+    /// entry for the same attractor); ids are renumbered in order and `labels` remapped.
+    pub fn finish(mut self, mut labels: Vec<i32>) -> Catalogue {
+        let map = self.merge_clouds();
+        for l in labels.iter_mut() {
+            if *l >= 0 {
+                *l = map[*l as usize];
+            }
+        }
         let attractors = self.attractors();
         let (lanes, diverged) = self.counts();
         Catalogue {

@@ -67,7 +67,7 @@ struct Preset {
 
 const QUICK: Preset = Preset {
     name: "quick",
-    speeds: 300,
+    speeds: 400,
     sweep_first: 1000,
     sweep_transient: 150,
     ics: 4,
@@ -75,7 +75,7 @@ const QUICK: Preset = Preset {
     periods: 48,
     max_seeds: 6,
     zoom_speeds: 200,
-    basin_n: 64,
+    basin_n: 80,
     basin_transient: 250,
     basin_periods: 32,
     section_transient: 500,
