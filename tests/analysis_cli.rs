@@ -80,11 +80,15 @@ fn bifurcation_writes_arrays_summary_and_diagram() {
         "8",
         "--backend",
         "cpu",
+        "--portraits",
+        "132.2",
         "--out",
         out.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert_eq!(npy_header(&out.join("omega.npy")), ("<f8".into(), vec![3]));
+    let png = std::fs::read(out.join("attractors_132.2000.png")).unwrap();
+    assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
     let (_, rows) = npy_header(&out.join("bifurcation_rows.npy"));
     assert_eq!(rows[1], 4);
     assert!(rows[0] >= 3 * 2 + 3 * 2, "{rows:?}");

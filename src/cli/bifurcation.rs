@@ -109,6 +109,11 @@ pub struct BifurcationArgs {
     /// Output directory (created if missing).
     #[arg(long, value_name = "DIR", default_value = "jeffcott-out/bifurcation")]
     pub out: PathBuf,
+    /// Speeds at which to draw phase portraits of the attractors found there (the nearest
+    /// speed of the grid), e.g. `--portraits 133,135`: `attractors_W.png`, coexisting
+    /// attractors overlaid (from the brute force, or the sweeps with --ics 0).
+    #[arg(long, value_name = "W,...", value_delimiter = ',')]
+    pub portraits: Vec<f64>,
     /// Skip bifurcation.png.
     #[arg(long)]
     pub no_plot: bool,
@@ -180,10 +185,76 @@ pub fn run_bifurcation(a: &BifurcationArgs) -> Result<()> {
     let spec = a.spec()?;
     let res = run_study(&spec, a.quiet)?;
     write_bifurcation(&a.out, &spec, &res, &coords, !a.no_plot)?;
+    for &w in &a.portraits {
+        write_portraits(&a.out, &spec, &res, w)?;
+    }
     if !a.quiet {
         println!("{}", human_summary(&spec, &res, &a.out));
     }
     Ok(())
+}
+
+/// Draws `attractors_W.png` at the grid speed nearest `w`: the brute-force catalogue's
+/// attractors, or the sweeps' final cycles when there was no brute force.
+pub fn write_portraits(
+    dir: &std::path::Path,
+    spec: &BifurcationSpec,
+    res: &BifurcationResult,
+    w: f64,
+) -> Result<()> {
+    if !w.is_finite() {
+        return Err(Error::invalid("portraits", w, "must be a finite speed"));
+    }
+    let wi = (0..spec.omegas.len())
+        .min_by(|&a, &b| {
+            (spec.omegas[a] - w)
+                .abs()
+                .total_cmp(&(spec.omegas[b] - w).abs())
+        })
+        .unwrap_or(0);
+    let omega = spec.omegas[wi];
+    let traces = match res.brute.get(wi) {
+        Some(b) => super::basin::attractor_traces(&spec.params, omega, &b.catalogue.attractors, 8)?,
+        None => {
+            let mut t = Vec::new();
+            for (k, (name, sw)) in [("up sweep", &res.up), ("down sweep", &res.down)]
+                .into_iter()
+                .enumerate()
+            {
+                let Some(p) = sw.get(wi).filter(|p| !p.status.is_frozen()) else {
+                    continue;
+                };
+                let r = crate::simulate::simulate(&crate::simulate::SimulateSpec {
+                    params: spec.params.clone(),
+                    omega,
+                    x0: p.points[p.points.len() - 1],
+                    transient: 0,
+                    periods: p.class.class.period().unwrap_or(12).clamp(1, 32) as u32,
+                    timeseries_periods: p.class.class.period().unwrap_or(12).clamp(1, 32) as u32,
+                    integrator: crate::simulate::Integrator::Lane,
+                    stepper: spec.stepper,
+                    article: Default::default(),
+                    classify: spec.catalogue.classify,
+                })?;
+                t.push(crate::plot::AttractorTrace {
+                    name: format!("{name}: {}", p.class.class.label()),
+                    color: crate::plot::attractor_color(k as i32),
+                    timeseries: r.timeseries,
+                    poincare: p.points.clone(),
+                });
+            }
+            t
+        }
+    };
+    if traces.is_empty() {
+        return Ok(());
+    }
+    output::ensure_dir(dir)?;
+    crate::plot::coexisting_attractors(
+        &dir.join(format!("attractors_{omega:.4}.png")),
+        &format!("Attractors at W = {omega:.4} rad/s (lines: one pass; dots: Poincare points)"),
+        &traces,
+    )
 }
 
 /// Runs a study with a progress bar.
@@ -224,6 +295,13 @@ pub fn diagram_series(
     brute: bool,
 ) -> Vec<DotSeries> {
     let rec = spec.recorded as usize;
+    // Dots shrink for dense diagrams so 1000+ speeds stay readable; the down sweep is
+    // drawn smaller on top of the up sweep, so both show where they coincide.
+    let (r_up, r_down) = if spec.omegas.len() > 600 {
+        (1, 0)
+    } else {
+        (2, 1)
+    };
     let mut series = Vec::new();
     let dots = |sw: &[SweepPoint]| -> Vec<(f64, State)> {
         sw.iter()
@@ -258,7 +336,7 @@ pub fn diagram_series(
         series.push(DotSeries {
             label: "quasistatic sweep, W increasing".into(),
             color: RGBColor(31, 90, 200),
-            radius: 2,
+            radius: r_up,
             points: dots(&res.up),
         });
     }
@@ -266,7 +344,7 @@ pub fn diagram_series(
         series.push(DotSeries {
             label: "quasistatic sweep, W decreasing".into(),
             color: RGBColor(220, 40, 30),
-            radius: 1,
+            radius: r_down,
             points: dots(&res.down),
         });
     }
