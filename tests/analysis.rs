@@ -289,3 +289,38 @@ fn brute_force_contains_every_attractor_the_quasistatic_sweeps_found() {
         }
     }
 }
+
+#[test]
+fn streaming_lanes_in_chunks_gives_the_labels_of_one_block() {
+    use jeffcott::analysis::catalogue::CatalogueBuilder;
+    let mut lanes = Vec::new();
+    for k in 0..12 {
+        lanes.push(cycle(
+            1 + k % 4,
+            48,
+            k,
+            (k % 3) as f64 * 2e-3,
+            1e-10,
+            k as u64,
+        ));
+    }
+    lanes.push(circle(48, 0));
+    lanes.push(circle(48, 77));
+    let (pts, rec) = flat(&lanes);
+    let frozen = vec![false; lanes.len()];
+    let cfg = CatalogueConfig::default();
+    let whole = catalogue(W, &pts, rec, &frozen, None, &cfg);
+    let mut b = CatalogueBuilder::new(W, cfg);
+    let mut labels = Vec::new();
+    let lane = rec * STATE_DIM;
+    for c in (0..lanes.len()).step_by(5) {
+        let end = (c + 5).min(lanes.len());
+        labels.extend(b.add_block(&pts[c * lane..end * lane], rec, &frozen[c..end], None));
+    }
+    let streamed = b.finish(labels);
+    assert_eq!(streamed.labels, whole.labels);
+    assert_eq!(streamed.attractors.len(), whole.attractors.len());
+    for (a, w) in streamed.attractors.iter().zip(&whole.attractors) {
+        assert_eq!((a.kind(), a.lanes), (w.kind(), w.lanes));
+    }
+}
