@@ -11,9 +11,15 @@ use crate::{output, plot};
 use clap::{Args, Parser, Subcommand};
 use std::path::{Path, PathBuf};
 
+mod basin;
 mod bench;
+mod bifurcation;
+mod reproduce;
+pub use basin::{BasinArgs, run_basin};
 pub use bench::{BenchArgs, run_bench};
+pub use bifurcation::{BifurcationArgs, CatalogueArgs, run_bifurcation};
 pub mod lyapunov;
+pub use reproduce::{ReproduceArgs, run_reproduce};
 
 /// Nonlinear dynamics of a rubbing Jeffcott rotor hitting a flexibly suspended stator.
 ///
@@ -39,6 +45,18 @@ pub enum Command {
     /// their Poincare points, statuses and lane table.
     #[command(allow_negative_numbers = true)]
     Ensemble(EnsembleArgs),
+    /// Bifurcation diagram over W: quasistatic sweeps up and down (hysteresis) and a
+    /// brute-force ensemble of start states per W (coexisting attractors).
+    #[command(allow_negative_numbers = true)]
+    Bifurcation(BifurcationArgs),
+    /// Basin of attraction at one W over two start coordinates: labels.npy (attractor id
+    /// per cell), attractors.json, basin.png. Streams chunks, so memory stays bounded
+    /// (about 16 MB + 70 MB for 2000 x 2000 cells).
+    #[command(allow_negative_numbers = true)]
+    Basin(BasinArgs),
+    /// Regenerate the article's figures (Figs. 3-12, plus down-sweep and brute-force
+    /// diagrams) and a REPORT.md; --quick (default) takes under 10 minutes on 2 CPU cores.
+    Reproduce(ReproduceArgs),
     /// List GPU adapters, their backends, f64 support and limits, and the CPU threads.
     Info,
     /// Measure lane-steps and forcing periods per second of each backend and precision
@@ -116,11 +134,19 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
         stepper: a.stepper.config(),
         precision,
     };
+    let per_lane = (spec.transient + spec.recorded) as u64;
+    let bar = crate::progress::Progress::new(
+        "ensemble",
+        spec.lanes.len() as u64 * per_lane,
+        per_lane,
+        a.quiet,
+    );
     let (res, info) = if a.lyapunov {
-        crate::ensemble::run_with_lambda1(&spec, a.backend, &|_, _| {})?
+        crate::ensemble::run_with_lambda1(&spec, a.backend, &bar.callback(0))?
     } else {
-        run(&spec, a.backend, &|_, _| {})?
+        run(&spec, a.backend, &bar.callback(0))?
     };
+    bar.finish();
     if !a.quiet {
         println!(
             "backend: {} ({}; {}), precision {:?}",

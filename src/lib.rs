@@ -31,6 +31,7 @@ pub mod lyapunov;
 pub mod model;
 pub mod output;
 pub mod plot;
+pub mod progress;
 pub mod real;
 pub mod simulate;
 

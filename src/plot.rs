@@ -153,3 +153,372 @@ pub fn phase_portraits(
     }
     root.present().map_err(|e| err(e.to_string()))
 }
+
+/// A palette of distinguishable colours for attractor ids (cycled beyond its length).
+pub const PALETTE: [RGBColor; 10] = [
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+    RGBColor(44, 160, 44),
+    RGBColor(214, 39, 40),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(188, 189, 34),
+    RGBColor(23, 190, 207),
+    RGBColor(127, 127, 127),
+];
+
+/// The colour of attractor `id` (black for -1, diverged).
+pub fn attractor_color(id: i32) -> RGBColor {
+    if id < 0 {
+        BLACK
+    } else {
+        PALETTE[id as usize % PALETTE.len()]
+    }
+}
+
+/// A set of dots of one colour in a bifurcation diagram: (W, state) pairs.
+#[derive(Clone, Debug)]
+pub struct DotSeries {
+    /// Legend text.
+    pub label: String,
+    /// Colour.
+    pub color: RGBColor,
+    /// Dot radius in pixels (0: single pixels).
+    pub radius: u32,
+    /// (W [rad/s], Poincare point) pairs.
+    pub points: Vec<(f64, State)>,
+}
+
+/// Value of component `i` in plot units (positions in mm, velocities in m/s) and the
+/// axis label with its unit.
+pub fn coord_axis(i: usize) -> (f64, String) {
+    let name = crate::model::COORD_NAMES[i];
+    if i.is_multiple_of(2) {
+        (1e3, format!("{name} [mm]"))
+    } else {
+        (1.0, format!("{name} [m/s]"))
+    }
+}
+
+/// Draws a bifurcation diagram: one panel per coordinate in `coords`, W on the x axis,
+/// the series drawn in order (later ones on top).
+pub fn bifurcation_diagram(
+    path: &Path,
+    title: &str,
+    coords: &[usize],
+    w_range: (f64, f64),
+    series: &[DotSeries],
+) -> Result<()> {
+    register_font();
+    let err = plot_err(path);
+    let h = 120 + 620 * coords.len().max(1) as u32;
+    let root = BitMapBackend::new(path, (1800, h)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
+    let root = root
+        .titled(title, ("sans-serif", 26))
+        .map_err(|e| err(e.to_string()))?;
+    let pad = 0.005 * (w_range.1 - w_range.0).max(1e-9);
+    for (area, &ci) in root
+        .split_evenly((coords.len().max(1), 1))
+        .iter()
+        .zip(coords)
+    {
+        let (s, label) = coord_axis(ci);
+        let yr = padded_range(
+            series
+                .iter()
+                .flat_map(|se| se.points.iter().map(move |p| p.1[ci] * s)),
+        );
+        let mut chart = ChartBuilder::on(area)
+            .margin(14)
+            .x_label_area_size(50)
+            .y_label_area_size(90)
+            .build_cartesian_2d((w_range.0 - pad)..(w_range.1 + pad), yr)
+            .map_err(|e| err(e.to_string()))?;
+        chart
+            .configure_mesh()
+            .light_line_style(WHITE)
+            .x_desc("W [rad/s]")
+            .y_desc(label.as_str())
+            .label_style(("sans-serif", 16))
+            .axis_desc_style(("sans-serif", 19))
+            .x_label_formatter(&|v| format!("{v:.2}"))
+            .y_label_formatter(&|v| format!("{v:.4}"))
+            .draw()
+            .map_err(|e| err(e.to_string()))?;
+        for se in series.iter().filter(|se| !se.points.is_empty()) {
+            let c = se.color;
+            let r = se.radius;
+            let anno = if r == 0 {
+                chart.draw_series(
+                    se.points
+                        .iter()
+                        .filter(|p| p.1[ci].is_finite())
+                        .map(|p| Pixel::new((p.0, p.1[ci] * s), c)),
+                )
+            } else {
+                chart.draw_series(
+                    se.points
+                        .iter()
+                        .filter(|p| p.1[ci].is_finite())
+                        .map(|p| Circle::new((p.0, p.1[ci] * s), r, c.filled())),
+                )
+            }
+            .map_err(|e| err(e.to_string()))?;
+            anno.label(se.label.as_str())
+                .legend(move |(x, y)| Circle::new((x + 9, y), 4, c.filled()));
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperLeft)
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .label_font(("sans-serif", 16))
+            .draw()
+            .map_err(|e| err(e.to_string()))?;
+    }
+    root.present().map_err(|e| err(e.to_string()))
+}
+
+/// Draws a basin of attraction: `labels` is [ny, nx] (row 0 at y = y_range.0), each cell
+/// coloured by its attractor id (black: diverged); `legend` names the ids.
+#[allow(clippy::too_many_arguments)]
+pub fn basin_map(
+    path: &Path,
+    title: &str,
+    labels: &[i32],
+    (nx, ny): (usize, usize),
+    x_range: (f64, f64),
+    y_range: (f64, f64),
+    (x_label, y_label): (&str, &str),
+    legend: &[(i32, String)],
+) -> Result<()> {
+    register_font();
+    let err = plot_err(path);
+    let root = BitMapBackend::new(path, (1300, 1100)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
+    let root = root
+        .titled(title, ("sans-serif", 24))
+        .map_err(|e| err(e.to_string()))?;
+    let (plot_area, legend_area) = root.split_horizontally(1000);
+    let mut chart = ChartBuilder::on(&plot_area)
+        .margin(14)
+        .x_label_area_size(50)
+        .y_label_area_size(90)
+        .build_cartesian_2d(x_range.0..x_range.1, y_range.0..y_range.1)
+        .map_err(|e| err(e.to_string()))?;
+    chart
+        .configure_mesh()
+        .disable_mesh()
+        .x_desc(x_label)
+        .y_desc(y_label)
+        .label_style(("sans-serif", 16))
+        .axis_desc_style(("sans-serif", 19))
+        .x_label_formatter(&|v| format!("{v:.4}"))
+        .y_label_formatter(&|v| format!("{v:.4}"))
+        .draw()
+        .map_err(|e| err(e.to_string()))?;
+    let (pw, ph) = chart.plotting_area().dim_in_pixel();
+    let mut buf = vec![0u8; (pw * ph * 3) as usize];
+    for py in 0..ph as usize {
+        // Pixel row 0 is the top, i.e. the largest y.
+        let iy = ((ph as usize - 1 - py) * ny / ph as usize).min(ny - 1);
+        for px in 0..pw as usize {
+            let ix = (px * nx / pw as usize).min(nx - 1);
+            let c = attractor_color(labels[iy * nx + ix]);
+            let o = (py * pw as usize + px) * 3;
+            buf[o..o + 3].copy_from_slice(&[c.0, c.1, c.2]);
+        }
+    }
+    let img = BitMapElement::with_owned_buffer((x_range.0, y_range.1), (pw, ph), buf)
+        .ok_or_else(|| err("bitmap buffer size".into()))?;
+    chart
+        .draw_series(std::iter::once(img))
+        .map_err(|e| err(e.to_string()))?;
+    for (k, (id, name)) in legend.iter().enumerate() {
+        let y = 80 + 36 * k as i32;
+        legend_area
+            .draw(&Rectangle::new(
+                [(10, y), (34, y + 24)],
+                attractor_color(*id).filled(),
+            ))
+            .map_err(|e| err(e.to_string()))?;
+        legend_area
+            .draw(&Text::new(
+                name.clone(),
+                (42, y + 3),
+                ("sans-serif", 17).into_font(),
+            ))
+            .map_err(|e| err(e.to_string()))?;
+    }
+    root.present().map_err(|e| err(e.to_string()))
+}
+
+/// One attractor in a comparison figure: its name, a time series over a few periods
+/// (rows t, state) and its Poincare points.
+#[derive(Clone, Debug)]
+pub struct AttractorTrace {
+    /// Legend text.
+    pub name: String,
+    /// Colour.
+    pub color: RGBColor,
+    /// Rows (t, state) on the integrator grid.
+    pub timeseries: Vec<[f64; STATE_DIM + 1]>,
+    /// Poincare points.
+    pub poincare: Vec<State>,
+}
+
+/// Draws coexisting attractors at one W on common axes: rotor and stator (x, vx) and
+/// (x, y), each attractor in its colour with its Poincare points as large dots.
+pub fn coexisting_attractors(path: &Path, title: &str, traces: &[AttractorTrace]) -> Result<()> {
+    register_font();
+    let err = plot_err(path);
+    let panels = [
+        (X_R, VX_R, "rotor phase portrait"),
+        (X_R, Y_R, "rotor orbit"),
+        (X_S, VX_S, "stator phase portrait"),
+        (X_S, Y_S, "stator orbit"),
+    ];
+    let root = BitMapBackend::new(path, (1400, 1150)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
+    let root = root
+        .titled(title, ("sans-serif", 26))
+        .map_err(|e| err(e.to_string()))?;
+    for (area, &(xi, yi, name)) in root.split_evenly((2, 2)).iter().zip(panels.iter()) {
+        let (xs, xl) = coord_axis(xi);
+        let (ys, yl) = coord_axis(yi);
+        let all = || {
+            traces.iter().flat_map(|t| {
+                t.timeseries
+                    .iter()
+                    .map(|r| (r[xi + 1] * xs, r[yi + 1] * ys))
+                    .chain(t.poincare.iter().map(|p| (p[xi] * xs, p[yi] * ys)))
+            })
+        };
+        let mut chart = ChartBuilder::on(area)
+            .caption(name, ("sans-serif", 20))
+            .margin(12)
+            .x_label_area_size(48)
+            .y_label_area_size(80)
+            .build_cartesian_2d(
+                padded_range(all().map(|p| p.0)),
+                padded_range(all().map(|p| p.1)),
+            )
+            .map_err(|e| err(e.to_string()))?;
+        chart
+            .configure_mesh()
+            .x_desc(xl.as_str())
+            .y_desc(yl.as_str())
+            .label_style(("sans-serif", 15))
+            .axis_desc_style(("sans-serif", 17))
+            .x_label_formatter(&|v| format!("{v:.3}"))
+            .y_label_formatter(&|v| format!("{v:.3}"))
+            .draw()
+            .map_err(|e| err(e.to_string()))?;
+        for t in traces {
+            let c = t.color;
+            chart
+                .draw_series(LineSeries::new(
+                    t.timeseries
+                        .iter()
+                        .map(|r| (r[xi + 1] * xs, r[yi + 1] * ys)),
+                    c.mix(0.6).stroke_width(1),
+                ))
+                .map_err(|e| err(e.to_string()))?
+                .label(t.name.as_str())
+                .legend(move |(x, y)| Circle::new((x + 9, y), 5, c.filled()));
+            chart
+                .draw_series(
+                    t.poincare
+                        .iter()
+                        .map(|p| Circle::new((p[xi] * xs, p[yi] * ys), 5, c.filled())),
+                )
+                .map_err(|e| err(e.to_string()))?;
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .label_font(("sans-serif", 14))
+            .draw()
+            .map_err(|e| err(e.to_string()))?;
+    }
+    root.present().map_err(|e| err(e.to_string()))
+}
+
+/// Draws Poincare sections: one panel per (x, y) component pair, every point a small dot.
+/// `zoom` (a fraction in (0, 1]) shows, instead of the whole set, a window of that
+/// fraction of each axis' span centred on the median point: an enlargement.
+pub fn poincare_sections(
+    path: &Path,
+    title: &str,
+    points: &[State],
+    panels: &[(usize, usize)],
+    zoom: Option<f64>,
+) -> Result<()> {
+    register_font();
+    let err = plot_err(path);
+    let cols = panels.len().clamp(1, 2);
+    let rows = panels.len().div_ceil(2).max(1);
+    let root =
+        BitMapBackend::new(path, (700 * cols as u32, 80 + 620 * rows as u32)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
+    let root = root
+        .titled(title, ("sans-serif", 24))
+        .map_err(|e| err(e.to_string()))?;
+    for (area, &(xi, yi)) in root.split_evenly((rows, cols)).iter().zip(panels) {
+        let (xs, xl) = coord_axis(xi);
+        let (ys, yl) = coord_axis(yi);
+        let pts: Vec<(f64, f64)> = points
+            .iter()
+            .map(|p| (p[xi] * xs, p[yi] * ys))
+            .filter(|p| p.0.is_finite() && p.1.is_finite())
+            .collect();
+        let mut xr = padded_range(pts.iter().map(|p| p.0));
+        let mut yr = padded_range(pts.iter().map(|p| p.1));
+        if let Some(f) = zoom {
+            let median = |mut v: Vec<f64>| {
+                v.sort_by(f64::total_cmp);
+                v.get(v.len() / 2).copied().unwrap_or(0.0)
+            };
+            let (mx, my) = (
+                median(pts.iter().map(|p| p.0).collect()),
+                median(pts.iter().map(|p| p.1).collect()),
+            );
+            let (hx, hy) = (0.5 * f * (xr.end - xr.start), 0.5 * f * (yr.end - yr.start));
+            xr = (mx - hx)..(mx + hx);
+            yr = (my - hy)..(my + hy);
+        }
+        let inside: Vec<(f64, f64)> = pts
+            .into_iter()
+            .filter(|p| xr.contains(&p.0) && yr.contains(&p.1))
+            .collect();
+        let mut chart = ChartBuilder::on(area)
+            .margin(12)
+            .x_label_area_size(48)
+            .y_label_area_size(85)
+            .build_cartesian_2d(xr, yr)
+            .map_err(|e| err(e.to_string()))?;
+        chart
+            .configure_mesh()
+            .x_desc(xl.as_str())
+            .y_desc(yl.as_str())
+            .label_style(("sans-serif", 15))
+            .axis_desc_style(("sans-serif", 17))
+            .light_line_style(WHITE)
+            .x_label_formatter(&|v| format!("{v:.4}"))
+            .y_label_formatter(&|v| format!("{v:.4}"))
+            .draw()
+            .map_err(|e| err(e.to_string()))?;
+        let r = if inside.len() > 5000 { 1 } else { 2 };
+        chart
+            .draw_series(
+                inside
+                    .iter()
+                    .map(|&p| Circle::new(p, r, RGBColor(20, 60, 160).filled())),
+            )
+            .map_err(|e| err(e.to_string()))?;
+    }
+    root.present().map_err(|e| err(e.to_string()))
+}

@@ -52,22 +52,30 @@ impl ClassifyConfig {
 }
 
 /// The class of a trajectory's long-time behaviour.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Class {
     /// Poincare points repeat after `n` periods.
     Periodic(usize),
-    /// No period up to n_max (quasiperiodic or chaotic; the Lyapunov exponent decides).
+    /// No period up to n_max, and no Lyapunov exponent to say more (or one that is
+    /// clearly negative: a period beyond n_max or a slow transient).
     Aperiodic,
+    /// Aperiodic with a largest Lyapunov exponent ~ 0 (|lambda1| < tolerance).
+    Quasiperiodic,
+    /// Aperiodic with a positive largest Lyapunov exponent (lambda1 > tolerance).
+    Chaotic,
     /// The lane was frozen (diverged or non-finite).
     Diverged,
 }
 
 impl Class {
-    /// The label used in files: `period-N`, `aperiodic`, `diverged`.
+    /// The label used in files: `period-N`, `aperiodic`, `quasiperiodic`, `chaotic`,
+    /// `diverged`.
     pub fn label(&self) -> String {
         match self {
             Class::Periodic(n) => format!("period-{n}"),
             Class::Aperiodic => "aperiodic".into(),
+            Class::Quasiperiodic => "quasiperiodic".into(),
+            Class::Chaotic => "chaotic".into(),
             Class::Diverged => "diverged".into(),
         }
     }

@@ -1,3 +1,7 @@
 //! Analysis of Poincare records. Never cares which backend produced them.
 
+pub mod basin;
+pub mod bifurcation;
+pub mod catalogue;
 pub mod classify;
+pub mod engine;

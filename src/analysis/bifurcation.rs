@@ -1,0 +1,418 @@
+//! Bifurcation diagrams over the rotor speed W (MODEL.md 5), two ways:
+//!
+//! - **quasistatic sweeps**: the final state at one W is the start state of the next, W
+//!   increasing (up) and decreasing (down), so hysteresis shows. A sweep is serial in W
+//!   and is one lane, so it runs on the CPU lane stepper in f64; the up and down sweeps
+//!   run concurrently.
+//! - **brute force**: K start states per W (the static equilibrium plus a seeded random
+//!   set, the same at every W) run as one ensemble on the chosen backend; then a second
+//!   ensemble starts, at every W, from the attractors found at the neighbouring W (the
+//!   brute-force catalogues and the quasistatic sweeps), so branches that the random set
+//!   misses are continued. Each W gets an attractor catalogue.
+
+use super::catalogue::{Catalogue, CatalogueBuilder, CatalogueConfig, LaneClass, classify_lane};
+use crate::ensemble::{Backend, EnsembleSpec, LaneSpec, Precision, RunInfo};
+use crate::error::{Error, Result};
+use crate::integrate::lane::{Lane, LaneConsts, Status, StepperConfig, advance_period};
+use crate::model::{Params, STATE_DIM, State, VX_R, VY_R, X_R, Y_R};
+use crate::progress::Progress;
+use serde::Serialize;
+
+/// Which quasistatic sweeps to run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum Sweep {
+    /// W increasing.
+    Up,
+    /// W decreasing.
+    Down,
+    /// Both (concurrently).
+    Both,
+}
+
+/// What a bifurcation study computes.
+#[derive(Clone, Debug)]
+pub struct BifurcationSpec {
+    /// Model parameters.
+    pub params: Params,
+    /// Speeds, increasing [rad/s].
+    pub omegas: Vec<f64>,
+    /// Quasistatic sweeps to run (`None`: none).
+    pub sweep: Option<Sweep>,
+    /// Transient at the first W of a sweep (from the static equilibrium) [periods].
+    pub transient_first: u32,
+    /// Transient at every later W of a sweep [periods].
+    pub transient: u32,
+    /// Start states per W of the brute-force ensemble (0: no brute force).
+    pub ics: u32,
+    /// Transient of the brute-force lanes [periods].
+    pub brute_transient: u32,
+    /// Recorded periods (Poincare points) per lane, sweeps and brute force alike.
+    pub recorded: u32,
+    /// Seed of the random start states.
+    pub seed: u64,
+    /// Lane stepper settings.
+    pub stepper: StepperConfig,
+    /// Precision of the brute-force lanes (sweeps are f64).
+    pub precision: Precision,
+    /// Backend of the brute-force ensembles.
+    pub backend: Backend,
+    /// Classification tolerances.
+    pub catalogue: CatalogueConfig,
+    /// Neighbour seeds per W in the second brute-force pass, at most.
+    pub max_seeds: usize,
+}
+
+impl BifurcationSpec {
+    /// Checks the inputs; errors name the option and the allowed range.
+    pub fn validate(&self) -> Result<()> {
+        self.params.validate()?;
+        self.stepper.validate()?;
+        self.catalogue.validate()?;
+        if self.omegas.is_empty() {
+            return Err(Error::invalid("omega", 0, "at least one speed is needed"));
+        }
+        for &w in &self.omegas {
+            crate::model::validate_omega(w)?;
+        }
+        if self.omegas.windows(2).any(|p| p[1] <= p[0]) {
+            return Err(Error::invalid(
+                "omega",
+                format!("{:?}..", &self.omegas[..2.min(self.omegas.len())]),
+                "speeds must increase (write a:b:n with a < b)",
+            ));
+        }
+        if self.recorded < 2 {
+            return Err(Error::invalid(
+                "periods",
+                self.recorded,
+                "at least 2 periods must be recorded",
+            ));
+        }
+        if self.sweep.is_none() && self.ics == 0 {
+            return Err(Error::invalid(
+                "ics",
+                0,
+                "with no quasistatic sweep, at least one brute-force start state is needed",
+            ));
+        }
+        if self.ics > 100_000 {
+            return Err(Error::invalid("ics", self.ics, "must be in 0..=100000"));
+        }
+        Ok(())
+    }
+}
+
+/// One W of a quasistatic sweep.
+#[derive(Clone, Debug)]
+pub struct SweepPoint {
+    /// Rotor speed [rad/s].
+    pub omega: f64,
+    /// Recorded Poincare points.
+    pub points: Vec<State>,
+    /// Lane outcome.
+    pub status: Status,
+    /// Classification of the points.
+    pub class: LaneClass,
+}
+
+/// The brute-force lanes at one W and their catalogue.
+#[derive(Clone, Debug)]
+pub struct BrutePoint {
+    /// Rotor speed [rad/s].
+    pub omega: f64,
+    /// Start states: the K common ones, then the neighbour seeds.
+    pub starts: Vec<State>,
+    /// Poincare points, [lanes, recorded, 8] flat.
+    pub points: Vec<f64>,
+    /// The attractor catalogue (labels per lane).
+    pub catalogue: Catalogue,
+}
+
+/// Everything a bifurcation study produced.
+#[derive(Clone, Debug)]
+pub struct BifurcationResult {
+    /// Up sweep, by increasing W (empty if not run).
+    pub up: Vec<SweepPoint>,
+    /// Down sweep, by increasing W (empty if not run; it ran in decreasing W).
+    pub down: Vec<SweepPoint>,
+    /// Brute force per W (empty if not run).
+    pub brute: Vec<BrutePoint>,
+    /// Wall time of the sweeps [s].
+    pub sweep_seconds: f64,
+    /// Wall time of the brute force [s].
+    pub brute_seconds: f64,
+    /// Backend information of the brute-force ensembles.
+    pub brute_info: Option<RunInfo>,
+}
+
+/// Lane-periods a study integrates (for progress bars), counting both brute-force passes
+/// at their largest.
+pub fn work(spec: &BifurcationSpec) -> u64 {
+    let n = spec.omegas.len() as u64;
+    let sweeps = match spec.sweep {
+        None => 0,
+        Some(Sweep::Both) => 2,
+        Some(_) => 1,
+    };
+    let per_w = (spec.transient + spec.recorded) as u64;
+    sweeps * n * per_w
+        + n * spec.ics as u64 * (spec.brute_transient + spec.recorded) as u64
+        + n * spec.max_seeds as u64 * (spec.brute_transient + spec.recorded) as u64
+}
+
+/// One quasistatic sweep over `omegas` in the given order.
+fn sweep(spec: &BifurcationSpec, omegas: &[f64], progress: &Progress) -> Vec<SweepPoint> {
+    let mut x = spec.params.static_equilibrium();
+    let mut out = Vec::with_capacity(omegas.len());
+    for (k, &omega) in omegas.iter().enumerate() {
+        let lc = LaneConsts::<f64>::new(&spec.params, omega, &spec.stepper);
+        let mut lane = Lane::<f64>::new(&x, spec.params.delta);
+        let transient = if k == 0 {
+            spec.transient_first
+        } else {
+            spec.transient
+        };
+        for _ in 0..transient {
+            if lane.status.is_frozen() {
+                break;
+            }
+            advance_period(&lc, &mut lane);
+        }
+        let mut points = Vec::with_capacity(spec.recorded as usize);
+        for _ in 0..spec.recorded {
+            advance_period(&lc, &mut lane);
+            points.push(lane.x);
+        }
+        progress.inc((transient + spec.recorded) as u64);
+        let class = classify_lane(
+            &points,
+            omega,
+            lane.status.is_frozen(),
+            None,
+            &spec.catalogue,
+        );
+        // A diverged sweep restarts from the static equilibrium.
+        x = if lane.status.is_frozen() {
+            spec.params.static_equilibrium()
+        } else {
+            lane.x
+        };
+        out.push(SweepPoint {
+            omega,
+            points,
+            status: lane.status,
+            class,
+        });
+    }
+    out
+}
+
+/// A deterministic hash in [-1, 1) (splitmix64).
+fn unit(i: u64, salt: u64) -> f64 {
+    let mut z = i
+        .wrapping_add(salt.wrapping_mul(0x9E37_79B9_7F4A_7C15))
+        .wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^= z >> 31;
+    (z >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+}
+
+/// The K brute-force start states: the static equilibrium, then rotor states drawn
+/// (seeded) with positions within the gap `delta` of the static deflection and
+/// velocities within `w_ref * delta`; the stator starts at rest at its static deflection.
+pub fn start_states(params: &Params, k: u32, w_ref: f64, seed: u64) -> Vec<State> {
+    let eq = params.static_equilibrium();
+    (0..k as u64)
+        .map(|i| {
+            let mut x = eq;
+            if i > 0 {
+                let d = params.delta;
+                x[X_R] += d * unit(i, seed.wrapping_mul(4));
+                x[Y_R] += d * unit(i, seed.wrapping_mul(4) + 1);
+                x[VX_R] += w_ref * d * unit(i, seed.wrapping_mul(4) + 2);
+                x[VY_R] += w_ref * d * unit(i, seed.wrapping_mul(4) + 3);
+            }
+            x
+        })
+        .collect()
+}
+
+/// Runs the study; `progress` counts lane-periods (see [`work`]).
+pub fn bifurcation(spec: &BifurcationSpec, progress: &Progress) -> Result<BifurcationResult> {
+    spec.validate()?;
+    let t0 = std::time::Instant::now();
+    let (run_up, run_down) = match spec.sweep {
+        None => (false, false),
+        Some(Sweep::Up) => (true, false),
+        Some(Sweep::Down) => (false, true),
+        Some(Sweep::Both) => (true, true),
+    };
+    let rev: Vec<f64> = spec.omegas.iter().rev().copied().collect();
+    let (up, mut down) = rayon::join(
+        || {
+            if run_up {
+                sweep(spec, &spec.omegas, progress)
+            } else {
+                Vec::new()
+            }
+        },
+        || {
+            if run_down {
+                sweep(spec, &rev, progress)
+            } else {
+                Vec::new()
+            }
+        },
+    );
+    down.reverse();
+    let sweep_seconds = t0.elapsed().as_secs_f64();
+    let t1 = std::time::Instant::now();
+    let mut brute = Vec::new();
+    let mut brute_info = None;
+    if spec.ics > 0 {
+        let (b, info) = brute_force(spec, &up, &down, progress)?;
+        brute = b;
+        brute_info = Some(info);
+    }
+    Ok(BifurcationResult {
+        up,
+        down,
+        brute,
+        sweep_seconds,
+        brute_seconds: t1.elapsed().as_secs_f64(),
+        brute_info,
+    })
+}
+
+fn run_lanes(
+    spec: &BifurcationSpec,
+    engine: &super::engine::Engine,
+    lanes: Vec<LaneSpec>,
+    progress: &Progress,
+) -> Result<(crate::ensemble::EnsembleResult, RunInfo)> {
+    let e = EnsembleSpec {
+        param_sets: vec![spec.params.clone()],
+        lanes,
+        transient: spec.brute_transient,
+        recorded: spec.recorded,
+        stepper: spec.stepper,
+        precision: spec.precision,
+    };
+    let offset = progress.position();
+    engine.run(&e, &progress.callback(offset))
+}
+
+fn brute_force(
+    spec: &BifurcationSpec,
+    up: &[SweepPoint],
+    down: &[SweepPoint],
+    progress: &Progress,
+) -> Result<(Vec<BrutePoint>, RunInfo)> {
+    let n = spec.omegas.len();
+    let k = spec.ics as usize;
+    let rec = spec.recorded as usize;
+    let w_mid = 0.5 * (spec.omegas[0] + spec.omegas[n - 1]);
+    let common = start_states(&spec.params, spec.ics, w_mid, spec.seed);
+    let lanes: Vec<LaneSpec> = spec
+        .omegas
+        .iter()
+        .flat_map(|&omega| {
+            common.iter().map(move |&x0| LaneSpec {
+                omega,
+                x0,
+                param_set: 0,
+            })
+        })
+        .collect();
+    let engine = super::engine::Engine::new(spec.backend, spec.precision)?;
+    let (res1, info) = run_lanes(spec, &engine, lanes, progress)?;
+    let lane_len = rec * STATE_DIM;
+    // First-pass catalogues, to know what to seed from.
+    let mut builders: Vec<CatalogueBuilder> = Vec::with_capacity(n);
+    let mut labels: Vec<Vec<i32>> = Vec::with_capacity(n);
+    for (wi, &omega) in spec.omegas.iter().enumerate() {
+        let mut b = CatalogueBuilder::new(omega, spec.catalogue);
+        let frozen: Vec<bool> = res1.status[wi * k..(wi + 1) * k]
+            .iter()
+            .map(|s| s.is_frozen())
+            .collect();
+        labels.push(b.add_block(
+            &res1.poincare[wi * k * lane_len..(wi + 1) * k * lane_len],
+            rec,
+            &frozen,
+            None,
+        ));
+        builders.push(b);
+    }
+    // Second pass: at each W, start from the attractors of the neighbouring W (one point
+    // of each, a state at t = kT) and from the sweeps' states there.
+    let mut seeds: Vec<Vec<State>> = vec![Vec::new(); n];
+    for (wi, s) in seeds.iter_mut().enumerate() {
+        // The sweeps' states first (they are the branches a continuation follows), then
+        // one point of every attractor found at the neighbouring W.
+        let mut cand: Vec<State> = Vec::new();
+        let neighbours = [wi.wrapping_sub(1), wi + 1];
+        for &nj in &neighbours {
+            for sw in [up, down] {
+                if let Some(p) = sw.get(nj)
+                    && !p.status.is_frozen()
+                {
+                    cand.push(p.points[p.points.len() - 1]);
+                }
+            }
+        }
+        for &nj in &neighbours {
+            if nj < n {
+                for a in builders[nj].attractors() {
+                    cand.push(a.points[a.points.len() - 1]);
+                }
+            }
+        }
+        cand.truncate(spec.max_seeds);
+        *s = cand;
+    }
+    let lanes2: Vec<LaneSpec> = spec
+        .omegas
+        .iter()
+        .zip(&seeds)
+        .flat_map(|(&omega, s)| {
+            s.iter().map(move |&x0| LaneSpec {
+                omega,
+                x0,
+                param_set: 0,
+            })
+        })
+        .collect();
+    let res2 = if lanes2.is_empty() {
+        None
+    } else {
+        Some(run_lanes(spec, &engine, lanes2, progress)?.0)
+    };
+    let mut out = Vec::with_capacity(n);
+    let mut off2 = 0usize;
+    for (wi, (mut b, mut lab)) in builders.into_iter().zip(labels).enumerate() {
+        let m = seeds[wi].len();
+        let mut points = res1.poincare[wi * k * lane_len..(wi + 1) * k * lane_len].to_vec();
+        if let Some(r2) = &res2 {
+            let frozen: Vec<bool> = r2.status[off2..off2 + m]
+                .iter()
+                .map(|s| s.is_frozen())
+                .collect();
+            let p2 = &r2.poincare[off2 * lane_len..(off2 + m) * lane_len];
+            lab.extend(b.add_block(p2, rec, &frozen, None));
+            points.extend_from_slice(p2);
+        }
+        off2 += m;
+        let mut starts = common.clone();
+        starts.extend_from_slice(&seeds[wi]);
+        out.push(BrutePoint {
+            omega: spec.omegas[wi],
+            starts,
+            points,
+            catalogue: b.finish(lab),
+        });
+    }
+    Ok((out, info))
+}

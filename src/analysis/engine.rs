@@ -1,0 +1,71 @@
+//! The backend chosen once for a study made of several ensembles (the chunks of a basin,
+//! the passes of a brute-force diagram): the GPU device and pipeline are set up once and
+//! reused, with the same choice rules as [`crate::ensemble::run`].
+
+use crate::ensemble::{Backend, EnsembleResult, EnsembleSpec, Precision, RunInfo, run, run_on_gpu};
+use crate::error::Result;
+use crate::gpu::{DeviceRequest, GpuDevice, GpuRunner};
+
+/// A resolved backend.
+pub struct Engine {
+    gpu: Option<GpuRunner>,
+    device: String,
+    reason: String,
+}
+
+impl Engine {
+    /// Resolves `backend` for lanes of `precision`: `gpu` errors without a usable adapter,
+    /// `auto` takes a hardware GPU or else the CPU.
+    pub fn new(backend: Backend, precision: Precision) -> Result<Engine> {
+        let cpu = |reason: String| Engine {
+            gpu: None,
+            device: format!("{} rayon threads", rayon::current_num_threads()),
+            reason,
+        };
+        match backend {
+            Backend::Cpu => Ok(cpu("--backend cpu".into())),
+            Backend::Gpu | Backend::Auto => {
+                let req = DeviceRequest {
+                    need_f64: precision == Precision::F64,
+                    allow_software: backend == Backend::Gpu,
+                };
+                match GpuDevice::new(&req) {
+                    Ok(dev) => Ok(Engine {
+                        device: dev.adapter().name.clone(),
+                        gpu: Some(GpuRunner::new(dev)),
+                        reason: if backend == Backend::Gpu {
+                            "--backend gpu".into()
+                        } else {
+                            "hardware GPU found".into()
+                        },
+                    }),
+                    Err(e) if backend == Backend::Gpu => Err(e),
+                    Err(e) => Ok(cpu(format!("no hardware GPU ({e})"))),
+                }
+            }
+        }
+    }
+
+    /// Runs one ensemble on the resolved backend.
+    pub fn run(
+        &self,
+        spec: &EnsembleSpec,
+        progress: &(dyn Fn(u64, u64) + Sync),
+    ) -> Result<(EnsembleResult, RunInfo)> {
+        let start = std::time::Instant::now();
+        let (res, backend) = match &self.gpu {
+            Some(runner) => (run_on_gpu(spec, runner, progress)?, "gpu"),
+            None => (run(spec, Backend::Cpu, progress)?.0, "cpu"),
+        };
+        Ok((
+            res,
+            RunInfo {
+                backend,
+                device: self.device.clone(),
+                reason: self.reason.clone(),
+                precision: spec.precision,
+                elapsed_s: start.elapsed().as_secs_f64(),
+            },
+        ))
+    }
+}

@@ -1,0 +1,292 @@
+//! `jeffcott basin`: basin of attraction over two initial coordinates at one W, streamed
+//! in chunks; `labels.npy`, `attractors.json`, `basin.png` and `attractors.png`.
+
+use super::{CatalogueArgs, ModelArgs, StepperArgs, parse_assignments};
+use crate::analysis::basin::{Axis, BasinResult, BasinSpec, basin};
+use crate::analysis::catalogue::Attractor;
+use crate::ensemble::{Backend, Precision};
+use crate::error::{Error, Result};
+use crate::model::{COORD_NAMES, Params, coord_index};
+use crate::output;
+use crate::plot::{AttractorTrace, attractor_color, basin_map, coexisting_attractors, coord_axis};
+use crate::simulate::{Integrator, SimulateSpec, simulate};
+use clap::Args;
+use std::path::{Path, PathBuf};
+
+/// Arguments of `jeffcott basin`.
+///
+/// Memory stays bounded for any grid: the labels take 4 bytes per cell and one chunk of
+/// lanes at a time is held, about chunk x (periods x 64 + 400) bytes (the default chunk
+/// keeps the records near 32 MB), so a 2000 x 2000 grid needs roughly 16 MB + 70 MB.
+#[derive(Args, Debug)]
+pub struct BasinArgs {
+    /// Rotor speed W [rad/s].
+    #[arg(long, value_name = "W")]
+    pub omega: f64,
+    /// Horizontal axis: a start coordinate, its range and count, NAME:lo:hi:n (values
+    /// from lo to hi inclusive) [m or m/s], e.g. x_r:-0.006:0.006:200.
+    #[arg(long, value_name = "NAME:lo:hi:n", allow_hyphen_values = true)]
+    pub x: String,
+    /// Vertical axis, NAME:lo:hi:n, e.g. vx_r:-1:1:200.
+    #[arg(long, value_name = "NAME:lo:hi:n", allow_hyphen_values = true)]
+    pub y: String,
+    /// Fix other start coordinates (default: the static equilibrium), e.g.
+    /// `--fix y_r=0.001,vy_r=0.2` (repeatable).
+    #[arg(long, value_name = "NAME=VALUE,...")]
+    pub fix: Vec<String>,
+    /// Forcing periods integrated and discarded.
+    #[arg(long, default_value_t = 500, value_name = "Q")]
+    pub transient: u32,
+    /// Forcing periods recorded per cell (at least 2 n to see period n).
+    #[arg(long, default_value_t = 64, value_name = "P")]
+    pub periods: u32,
+    /// Lanes per chunk [default: records of about 32 MB per chunk].
+    #[arg(long, value_name = "LANES")]
+    pub chunk: Option<usize>,
+    /// Backend: auto (a hardware GPU if present, else the CPU), cpu, or gpu.
+    #[arg(long, value_enum, default_value_t = Backend::Auto)]
+    pub backend: Backend,
+    /// Lane precision [default: f64 on the CPU, f32 on a GPU].
+    #[arg(long, value_enum)]
+    pub precision: Option<Precision>,
+    #[command(flatten)]
+    pub model: ModelArgs,
+    #[command(flatten)]
+    pub stepper: StepperArgs,
+    #[command(flatten)]
+    pub catalogue: CatalogueArgs,
+    /// Output directory (created if missing).
+    #[arg(long, value_name = "DIR", default_value = "jeffcott-out/basin")]
+    pub out: PathBuf,
+    /// Skip basin.png and attractors.png.
+    #[arg(long)]
+    pub no_plot: bool,
+    /// Print nothing but errors (no progress bar).
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+impl BasinArgs {
+    /// The basin these arguments describe, validated.
+    pub fn spec(&self) -> Result<BasinSpec> {
+        let params = self.model.params()?;
+        let x = Axis::parse("x", &self.x)?;
+        let y = Axis::parse("y", &self.y)?;
+        let mut base = params.static_equilibrium();
+        for list in &self.fix {
+            for (name, value) in parse_assignments("fix", list)? {
+                let i = coord_index(&name).ok_or_else(|| {
+                    Error::invalid(
+                        "fix",
+                        &name,
+                        format!(
+                            "unknown coordinate; valid names: {}",
+                            COORD_NAMES.join(", ")
+                        ),
+                    )
+                })?;
+                if i == x.coord || i == y.coord {
+                    return Err(Error::invalid(
+                        "fix",
+                        &name,
+                        "is an axis of the grid; fix only the other coordinates",
+                    ));
+                }
+                base[i] = value;
+            }
+        }
+        let precision = self
+            .precision
+            .unwrap_or_else(|| crate::ensemble::default_precision(self.backend));
+        let spec = BasinSpec {
+            params,
+            omega: self.omega,
+            x,
+            y,
+            base,
+            transient: self.transient,
+            recorded: self.periods,
+            stepper: self.stepper.config(),
+            precision,
+            backend: self.backend,
+            catalogue: self.catalogue.config(precision)?,
+            chunk: self.chunk,
+        };
+        spec.validate()?;
+        Ok(spec)
+    }
+}
+
+/// Runs a basin with a progress bar.
+pub fn run_basin_study(spec: &BasinSpec, quiet: bool) -> Result<BasinResult> {
+    let per_lane = (spec.transient + spec.recorded) as u64;
+    let total = (spec.x.n * spec.y.n) as u64 * per_lane;
+    let bar = crate::progress::Progress::new("basin", total, per_lane, quiet);
+    let r = basin(spec, &bar);
+    bar.finish();
+    r
+}
+
+/// Runs `jeffcott basin`.
+pub fn run_basin(a: &BasinArgs) -> Result<()> {
+    let spec = a.spec()?;
+    let res = run_basin_study(&spec, a.quiet)?;
+    write_basin(&a.out, &spec, &res, !a.no_plot)?;
+    if !a.quiet {
+        println!("{}", human_summary(&spec, &res, &a.out));
+    }
+    Ok(())
+}
+
+/// Legend text of an attractor: "#0 period-5, 64.2 %".
+pub fn legend_name(a: &Attractor) -> String {
+    format!("{}, {:.1} %", a.name(), 100.0 * a.basin_fraction)
+}
+
+/// Time series over a few periods from each attractor's first representative point, for
+/// phase portraits (`max_traces` attractors at most, the largest basins first).
+pub fn attractor_traces(
+    params: &Params,
+    omega: f64,
+    attractors: &[Attractor],
+    max_traces: usize,
+) -> Result<Vec<AttractorTrace>> {
+    let mut order: Vec<&Attractor> = attractors.iter().collect();
+    order.sort_by_key(|a| std::cmp::Reverse(a.lanes));
+    order
+        .into_iter()
+        .take(max_traces)
+        .map(|a| {
+            let periods = a.period.unwrap_or(12).clamp(1, 32) as u32;
+            let spec = SimulateSpec {
+                params: params.clone(),
+                omega,
+                x0: a.points[0],
+                transient: 0,
+                periods,
+                timeseries_periods: periods,
+                integrator: Integrator::Lane,
+                stepper: Default::default(),
+                article: Default::default(),
+                classify: Default::default(),
+            };
+            let r = simulate(&spec)?;
+            Ok(AttractorTrace {
+                name: legend_name(a),
+                color: attractor_color(a.id as i32),
+                timeseries: r.timeseries,
+                poincare: a.points.clone(),
+            })
+        })
+        .collect()
+}
+
+/// Writes labels.npy, attractors.json, basin.png and attractors.png.
+pub fn write_basin(dir: &Path, spec: &BasinSpec, res: &BasinResult, plot_it: bool) -> Result<()> {
+    output::ensure_dir(dir)?;
+    let (nx, ny) = (spec.x.n, spec.y.n);
+    output::write_npy(&dir.join("labels.npy"), &[ny, nx], &res.labels)?;
+    let xs: Vec<f64> = (0..nx).map(|i| spec.x.value(i)).collect();
+    let ys: Vec<f64> = (0..ny).map(|i| spec.y.value(i)).collect();
+    output::write_npy(&dir.join("x.npy"), &[nx], &xs)?;
+    output::write_npy(&dir.join("y.npy"), &[ny], &ys)?;
+    let cat = &res.catalogue;
+    if plot_it {
+        let legend: Vec<(i32, String)> = cat
+            .attractors
+            .iter()
+            .map(|a| (a.id as i32, legend_name(a)))
+            .chain((cat.diverged > 0).then(|| {
+                (
+                    -1,
+                    format!("diverged, {:.1} %", 100.0 * cat.diverged_fraction),
+                )
+            }))
+            .collect();
+        let (sx, lx) = coord_axis(spec.x.coord);
+        let (sy, ly) = coord_axis(spec.y.coord);
+        let title = format!(
+            "Basin of attraction at W = {} rad/s ({} x {} start states, {} attractor{})",
+            spec.omega,
+            nx,
+            ny,
+            cat.attractors.len(),
+            if cat.attractors.len() == 1 { "" } else { "s" }
+        );
+        let (x0, x1) = (spec.x.lo * sx, spec.x.hi.max(spec.x.lo + 1e-12) * sx);
+        let (y0, y1) = (spec.y.lo * sy, spec.y.hi.max(spec.y.lo + 1e-12) * sy);
+        basin_map(
+            &dir.join("basin.png"),
+            &title,
+            &res.labels,
+            (nx, ny),
+            (x0, x1),
+            (y0, y1),
+            (&lx, &ly),
+            &legend,
+        )?;
+        if !cat.attractors.is_empty() {
+            let traces = attractor_traces(&spec.params, spec.omega, &cat.attractors, 8)?;
+            coexisting_attractors(
+                &dir.join("attractors.png"),
+                &format!(
+                    "Coexisting attractors at W = {} rad/s (lines: one pass over the attractor; dots: Poincare points)",
+                    spec.omega
+                ),
+                &traces,
+            )?;
+        }
+    }
+    let fixed: serde_json::Map<String, serde_json::Value> = COORD_NAMES
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| *i != spec.x.coord && *i != spec.y.coord)
+        .map(|(i, n)| (n.to_string(), serde_json::json!(spec.base[i])))
+        .collect();
+    let json = serde_json::json!({
+        "omega": spec.omega,
+        "x": {"coord": COORD_NAMES[spec.x.coord], "lo": spec.x.lo, "hi": spec.x.hi, "n": nx},
+        "y": {"coord": COORD_NAMES[spec.y.coord], "lo": spec.y.lo, "hi": spec.y.hi, "n": ny},
+        "fixed": fixed,
+        "transient": spec.transient,
+        "periods": spec.recorded,
+        "steps_per_period": spec.stepper.steps_per_period,
+        "backend": res.info,
+        "wall_time_s": res.seconds,
+        "cells": nx * ny,
+        "diverged": cat.diverged,
+        "diverged_fraction": cat.diverged_fraction,
+        "attractors": cat.attractors,
+        "catalogue_config": cat.config,
+        "params": spec.params,
+        "files": {
+            "labels.npy": "int32 [ny, nx]: attractor id per start state (row iy has y = y.npy[iy], column ix has x = x.npy[ix]); -1 diverged",
+            "x.npy": "f64 [nx], the x-axis start values",
+            "y.npy": "f64 [ny], the y-axis start values",
+            "attractors.json": "this file: the catalogue (id, class, period, basin fraction, representative Poincare points in state order)",
+            "basin.png": "the labels as a picture, legend by class and period",
+            "attractors.png": "phase portraits of the attractors, overlaid",
+        },
+        "jeffcott_version": env!("CARGO_PKG_VERSION"),
+    });
+    // Written last: its presence marks a complete run.
+    output::write_json(&dir.join("attractors.json"), &json)
+}
+
+fn human_summary(spec: &BasinSpec, res: &BasinResult, dir: &Path) -> String {
+    let cat = &res.catalogue;
+    let list: Vec<String> = cat.attractors.iter().map(legend_name).collect();
+    format!(
+        "W = {} rad/s, {} x {} start states over {} and {}: {} attractor(s) [{}], {:.1} % diverged; {:.1} s. Files in {}.",
+        spec.omega,
+        spec.x.n,
+        spec.y.n,
+        COORD_NAMES[spec.x.coord],
+        COORD_NAMES[spec.y.coord],
+        cat.attractors.len(),
+        list.join("; "),
+        100.0 * cat.diverged_fraction,
+        res.seconds,
+        dir.display()
+    )
+}

@@ -1,0 +1,501 @@
+//! `jeffcott bifurcation`: quasistatic sweeps up and down in W and a brute-force ensemble
+//! per W, with attractor catalogues, arrays, `summary.json` and `bifurcation.png`.
+
+use super::{ModelArgs, StepperArgs};
+use crate::analysis::bifurcation::{
+    BifurcationResult, BifurcationSpec, Sweep, SweepPoint, bifurcation, work,
+};
+use crate::analysis::catalogue::CatalogueConfig;
+use crate::analysis::classify::ClassifyConfig;
+use crate::ensemble::{Backend, Precision};
+use crate::error::{Error, Result};
+use crate::model::{COORD_NAMES, STATE_DIM, State, coord_index};
+use crate::output;
+use crate::plot::{DotSeries, bifurcation_diagram};
+use clap::Args;
+use plotters::style::RGBColor;
+use std::path::PathBuf;
+
+/// Attractor classification tolerances shared by the analysis commands.
+#[derive(Args, Debug, Clone)]
+pub struct CatalogueArgs {
+    /// Largest period the classifier looks for.
+    #[arg(long, default_value_t = 32)]
+    pub n_max: usize,
+    /// Repeat tolerance relative to the Poincare set's diameter (velocities count as
+    /// v / W, so everything is in metres).
+    #[arg(long, default_value_t = 1e-3)]
+    pub rel_tol: f64,
+    /// Repeat tolerance floor [m] [default: 1e-7 for f64 lanes, 1e-6 for f32 lanes].
+    #[arg(long)]
+    pub abs_tol: Option<f64>,
+    /// Two cycles are one attractor when they match within this fraction of their size.
+    #[arg(long, default_value_t = 1e-2)]
+    pub match_rel: f64,
+    /// Floor of the cycle match tolerance [m] [default: 1e-6 for f64 lanes, 1e-5 for f32].
+    #[arg(long)]
+    pub match_abs: Option<f64>,
+}
+
+impl CatalogueArgs {
+    /// The validated configuration for lanes of `precision`.
+    pub fn config(&self, precision: Precision) -> Result<CatalogueConfig> {
+        let d = CatalogueConfig::for_precision(precision);
+        let c = CatalogueConfig {
+            classify: ClassifyConfig {
+                n_max: self.n_max,
+                rel_tol: self.rel_tol,
+                abs_tol: self.abs_tol.unwrap_or(d.classify.abs_tol),
+            },
+            match_rel: self.match_rel,
+            match_abs: self.match_abs.unwrap_or(d.match_abs),
+            ..d
+        };
+        c.validate()?;
+        Ok(c)
+    }
+}
+
+/// Arguments of `jeffcott bifurcation`.
+#[derive(Args, Debug)]
+pub struct BifurcationArgs {
+    /// Rotor speeds `a:b:n` (n speeds from a to b inclusive) [rad/s].
+    #[arg(long, value_name = "a:b:n")]
+    pub omega: String,
+    /// Poincare coordinates to draw, one panel each (x_r, vx_r, y_r, vy_r, x_s, vx_s, y_s,
+    /// vy_s).
+    #[arg(long, value_name = "NAME,...", default_value = "vx_s")]
+    pub coord: String,
+    /// Quasistatic sweeps: up, down or both (run concurrently), or none with --ics > 0.
+    #[arg(long, value_enum, default_value_t = Sweep::Both)]
+    pub sweep: Sweep,
+    /// Skip the quasistatic sweeps (brute force only).
+    #[arg(long)]
+    pub no_sweep: bool,
+    /// Brute-force start states per W (the static equilibrium and a seeded random set);
+    /// 0 disables brute force.
+    #[arg(long, default_value_t = 8, value_name = "K")]
+    pub ics: u32,
+    /// Seed of the random start states.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Transient per W of the quasistatic sweeps [forcing periods].
+    #[arg(long, default_value_t = 200, value_name = "Q")]
+    pub transient: u32,
+    /// Transient at the first W of each sweep, from the static equilibrium.
+    #[arg(long, default_value_t = 1000, value_name = "Q")]
+    pub transient_first: u32,
+    /// Transient of the brute-force lanes.
+    #[arg(long, default_value_t = 500, value_name = "Q")]
+    pub brute_transient: u32,
+    /// Recorded periods (Poincare points) per lane.
+    #[arg(long, default_value_t = 64, value_name = "P")]
+    pub periods: u32,
+    /// Neighbour seeds per W in the brute force's second pass, at most.
+    #[arg(long, default_value_t = 8)]
+    pub max_seeds: usize,
+    /// Backend of the brute-force ensembles (the sweeps run on the CPU).
+    #[arg(long, value_enum, default_value_t = Backend::Auto)]
+    pub backend: Backend,
+    /// Brute-force lane precision [default: f64 on the CPU, f32 on a GPU].
+    #[arg(long, value_enum)]
+    pub precision: Option<Precision>,
+    #[command(flatten)]
+    pub model: ModelArgs,
+    #[command(flatten)]
+    pub stepper: StepperArgs,
+    #[command(flatten)]
+    pub catalogue: CatalogueArgs,
+    /// Output directory (created if missing).
+    #[arg(long, value_name = "DIR", default_value = "jeffcott-out/bifurcation")]
+    pub out: PathBuf,
+    /// Speeds at which to draw phase portraits of the attractors found there (the nearest
+    /// speed of the grid), e.g. `--portraits 133,135`: `attractors_W.png`, coexisting
+    /// attractors overlaid (from the brute force, or the sweeps with --ics 0).
+    #[arg(long, value_name = "W,...", value_delimiter = ',')]
+    pub portraits: Vec<f64>,
+    /// Skip bifurcation.png.
+    #[arg(long)]
+    pub no_plot: bool,
+    /// Print nothing but errors (no progress bar).
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// Parses a comma-separated list of coordinate names.
+pub fn parse_coords(option: &str, text: &str) -> Result<Vec<usize>> {
+    let v: Vec<usize> = text
+        .split(',')
+        .map(str::trim)
+        .filter(|s| !s.is_empty())
+        .map(|n| {
+            coord_index(n).ok_or_else(|| {
+                Error::invalid(
+                    option,
+                    n,
+                    format!(
+                        "unknown coordinate; valid names: {}",
+                        COORD_NAMES.join(", ")
+                    ),
+                )
+            })
+        })
+        .collect::<Result<_>>()?;
+    if v.is_empty() {
+        return Err(Error::invalid(option, text, "name at least one coordinate"));
+    }
+    Ok(v)
+}
+
+impl BifurcationArgs {
+    /// The study these arguments describe.
+    pub fn spec(&self) -> Result<BifurcationSpec> {
+        let omegas = crate::ensemble::parse_range("omega", &self.omega)?;
+        let precision = self
+            .precision
+            .unwrap_or_else(|| crate::ensemble::default_precision(self.backend));
+        let spec = BifurcationSpec {
+            params: self.model.params()?,
+            omegas,
+            sweep: if self.no_sweep {
+                None
+            } else {
+                Some(self.sweep)
+            },
+            transient_first: self.transient_first,
+            transient: self.transient,
+            ics: self.ics,
+            brute_transient: self.brute_transient,
+            recorded: self.periods,
+            seed: self.seed,
+            stepper: self.stepper.config(),
+            precision,
+            backend: self.backend,
+            catalogue: self.catalogue.config(precision)?,
+            max_seeds: self.max_seeds,
+        };
+        spec.validate()?;
+        Ok(spec)
+    }
+}
+
+/// Runs `jeffcott bifurcation`.
+pub fn run_bifurcation(a: &BifurcationArgs) -> Result<()> {
+    let coords = parse_coords("coord", &a.coord)?;
+    let spec = a.spec()?;
+    let res = run_study(&spec, a.quiet)?;
+    write_bifurcation(&a.out, &spec, &res, &coords, !a.no_plot)?;
+    for &w in &a.portraits {
+        write_portraits(&a.out, &spec, &res, w)?;
+    }
+    if !a.quiet {
+        println!("{}", human_summary(&spec, &res, &a.out));
+    }
+    Ok(())
+}
+
+/// Draws `attractors_W.png` at the grid speed nearest `w`: the brute-force catalogue's
+/// attractors, or the sweeps' final cycles when there was no brute force.
+pub fn write_portraits(
+    dir: &std::path::Path,
+    spec: &BifurcationSpec,
+    res: &BifurcationResult,
+    w: f64,
+) -> Result<()> {
+    if !w.is_finite() {
+        return Err(Error::invalid("portraits", w, "must be a finite speed"));
+    }
+    let wi = (0..spec.omegas.len())
+        .min_by(|&a, &b| {
+            (spec.omegas[a] - w)
+                .abs()
+                .total_cmp(&(spec.omegas[b] - w).abs())
+        })
+        .unwrap_or(0);
+    let omega = spec.omegas[wi];
+    let traces = match res.brute.get(wi) {
+        Some(b) => super::basin::attractor_traces(&spec.params, omega, &b.catalogue.attractors, 8)?,
+        None => {
+            let mut t = Vec::new();
+            for (k, (name, sw)) in [("up sweep", &res.up), ("down sweep", &res.down)]
+                .into_iter()
+                .enumerate()
+            {
+                let Some(p) = sw.get(wi).filter(|p| !p.status.is_frozen()) else {
+                    continue;
+                };
+                let r = crate::simulate::simulate(&crate::simulate::SimulateSpec {
+                    params: spec.params.clone(),
+                    omega,
+                    x0: p.points[p.points.len() - 1],
+                    transient: 0,
+                    periods: p.class.class.period().unwrap_or(12).clamp(1, 32) as u32,
+                    timeseries_periods: p.class.class.period().unwrap_or(12).clamp(1, 32) as u32,
+                    integrator: crate::simulate::Integrator::Lane,
+                    stepper: spec.stepper,
+                    article: Default::default(),
+                    classify: spec.catalogue.classify,
+                })?;
+                t.push(crate::plot::AttractorTrace {
+                    name: format!("{name}: {}", p.class.class.label()),
+                    color: crate::plot::attractor_color(k as i32),
+                    timeseries: r.timeseries,
+                    poincare: p.points.clone(),
+                });
+            }
+            t
+        }
+    };
+    if traces.is_empty() {
+        return Ok(());
+    }
+    output::ensure_dir(dir)?;
+    crate::plot::coexisting_attractors(
+        &dir.join(format!("attractors_{omega:.4}.png")),
+        &format!("Attractors at W = {omega:.4} rad/s (lines: one pass; dots: Poincare points)"),
+        &traces,
+    )
+}
+
+/// Runs a study with a progress bar.
+pub fn run_study(spec: &BifurcationSpec, quiet: bool) -> Result<BifurcationResult> {
+    let per_lane = (spec.brute_transient + spec.recorded) as u64;
+    let bar = crate::progress::Progress::new("bifurcation", work(spec), per_lane, quiet);
+    let res = bifurcation(spec, &bar);
+    bar.finish();
+    res
+}
+
+/// The brute-force attractor id a sweep point lies on, if brute force ran.
+fn sweep_id(res: &BifurcationResult, wi: usize, p: &SweepPoint) -> Option<u32> {
+    res.brute
+        .get(wi)
+        .and_then(|b| b.catalogue.identify(&p.class))
+}
+
+fn sweep_json(res: &BifurcationResult, wi: usize, p: Option<&SweepPoint>) -> serde_json::Value {
+    match p {
+        None => serde_json::Value::Null,
+        Some(p) => serde_json::json!({
+            "class": p.class.class.label(),
+            "period": p.class.class.period(),
+            "status": p.status,
+            "attractor": sweep_id(res, wi, p),
+        }),
+    }
+}
+
+/// The dot series of a diagram: brute force (grey pixels), up sweep (blue), down sweep
+/// (red), each included when asked for and present.
+pub fn diagram_series(
+    spec: &BifurcationSpec,
+    res: &BifurcationResult,
+    up: bool,
+    down: bool,
+    brute: bool,
+) -> Vec<DotSeries> {
+    let rec = spec.recorded as usize;
+    // Dots shrink for dense diagrams so 1000+ speeds stay readable; the down sweep is
+    // drawn smaller on top of the up sweep, so both show where they coincide.
+    let (r_up, r_down) = if spec.omegas.len() > 600 {
+        (1, 0)
+    } else {
+        (2, 1)
+    };
+    let mut series = Vec::new();
+    let dots = |sw: &[SweepPoint]| -> Vec<(f64, State)> {
+        sw.iter()
+            .filter(|p| !p.status.is_frozen())
+            .flat_map(|p| p.points.iter().map(move |s| (p.omega, *s)))
+            .collect()
+    };
+    if brute && !res.brute.is_empty() {
+        let mut v = Vec::new();
+        for b in &res.brute {
+            for (li, &l) in b.catalogue.labels.iter().enumerate() {
+                if l < 0 {
+                    continue;
+                }
+                for s in b.points[li * rec * STATE_DIM..(li + 1) * rec * STATE_DIM]
+                    .chunks_exact(STATE_DIM)
+                {
+                    let mut st = [0.0; STATE_DIM];
+                    st.copy_from_slice(s);
+                    v.push((b.omega, st));
+                }
+            }
+        }
+        series.push(DotSeries {
+            label: format!("brute force ({} start states per W)", spec.ics),
+            color: RGBColor(110, 110, 110),
+            radius: 0,
+            points: v,
+        });
+    }
+    if up && !res.up.is_empty() {
+        series.push(DotSeries {
+            label: "quasistatic sweep, W increasing".into(),
+            color: RGBColor(31, 90, 200),
+            radius: r_up,
+            points: dots(&res.up),
+        });
+    }
+    if down && !res.down.is_empty() {
+        series.push(DotSeries {
+            label: "quasistatic sweep, W decreasing".into(),
+            color: RGBColor(220, 40, 30),
+            radius: r_down,
+            points: dots(&res.down),
+        });
+    }
+    series
+}
+
+/// Writes the arrays, summary.json and the picture.
+pub fn write_bifurcation(
+    dir: &std::path::Path,
+    spec: &BifurcationSpec,
+    res: &BifurcationResult,
+    coords: &[usize],
+    plot_it: bool,
+) -> Result<()> {
+    output::ensure_dir(dir)?;
+    let rec = spec.recorded as usize;
+    let mut rows: Vec<f64> = Vec::new();
+    let mut pts: Vec<f64> = Vec::new();
+    for (code, sw) in [(0.0, &res.up), (1.0, &res.down)] {
+        for (wi, p) in sw.iter().enumerate() {
+            let id = sweep_id(res, wi, p).map_or(-1.0, |i| i as f64);
+            rows.extend_from_slice(&[p.omega, code, 0.0, id]);
+            pts.extend(p.points.iter().flatten());
+        }
+    }
+    for b in &res.brute {
+        for (li, &l) in b.catalogue.labels.iter().enumerate() {
+            rows.extend_from_slice(&[b.omega, 2.0, li as f64, l as f64]);
+        }
+        pts.extend_from_slice(&b.points);
+    }
+    let nrows = rows.len() / 4;
+    output::write_npy(&dir.join("omega.npy"), &[spec.omegas.len()], &spec.omegas)?;
+    output::write_npy(&dir.join("bifurcation.npy"), &[nrows, rec, STATE_DIM], &pts)?;
+    output::write_npy(&dir.join("bifurcation_rows.npy"), &[nrows, 4], &rows)?;
+    if plot_it {
+        let series = diagram_series(spec, res, true, true, true);
+        let w = (spec.omegas[0], spec.omegas[spec.omegas.len() - 1]);
+        let title = format!(
+            "Bifurcation diagram, W = {:.3}..{:.3} rad/s ({} speeds), Poincare section t = kT",
+            w.0,
+            w.1,
+            spec.omegas.len()
+        );
+        bifurcation_diagram(&dir.join("bifurcation.png"), &title, coords, w, &series)?;
+    }
+    let per_w: Vec<serde_json::Value> = spec
+        .omegas
+        .iter()
+        .enumerate()
+        .map(|(wi, &omega)| {
+            let brute = res.brute.get(wi).map(|b| {
+                serde_json::json!({
+                    "lanes": b.catalogue.lanes,
+                    "diverged": b.catalogue.diverged,
+                    "attractors": b.catalogue.attractors.iter().map(|at| serde_json::json!({
+                        "id": at.id,
+                        "class": at.class,
+                        "period": at.period,
+                        "lanes": at.lanes,
+                        "basin_fraction": at.basin_fraction,
+                    })).collect::<Vec<_>>(),
+                })
+            });
+            serde_json::json!({
+                "omega": omega,
+                "up": sweep_json(res, wi, res.up.get(wi)),
+                "down": sweep_json(res, wi, res.down.get(wi)),
+                "brute_force": brute,
+            })
+        })
+        .collect();
+    let hysteresis: Vec<f64> = res
+        .up
+        .iter()
+        .zip(&res.down)
+        .enumerate()
+        .filter(|(wi, (u, d))| {
+            u.class.class != d.class.class || {
+                let (iu, id) = (sweep_id(res, *wi, u), sweep_id(res, *wi, d));
+                iu.is_some() && id.is_some() && iu != id
+            }
+        })
+        .map(|(_, (u, _))| u.omega)
+        .collect();
+    let summary = serde_json::json!({
+        "omega_range": [spec.omegas[0], spec.omegas[spec.omegas.len() - 1]],
+        "speeds": spec.omegas.len(),
+        "sweep": spec.sweep,
+        "transient_first": spec.transient_first,
+        "transient": spec.transient,
+        "ics": spec.ics,
+        "seed": spec.seed,
+        "brute_transient": spec.brute_transient,
+        "periods": spec.recorded,
+        "max_seeds": spec.max_seeds,
+        "steps_per_period": spec.stepper.steps_per_period,
+        "brute_force_backend": res.brute_info,
+        "sweep_wall_time_s": res.sweep_seconds,
+        "brute_force_wall_time_s": res.brute_seconds,
+        "catalogue": spec.catalogue,
+        "up_down_differ_at": hysteresis,
+        "per_omega": per_w,
+        "params": spec.params,
+        "files": {
+            "omega.npy": "f64 [W], the speeds [rad/s]",
+            "bifurcation.npy": "f64 [rows, periods, 8], Poincare points of each row's lane, state order x_r, vx_r, y_r, vy_r, x_s, vx_s, y_s, vy_s (m, m/s)",
+            "bifurcation_rows.npy": "f64 [rows, 4]: W [rad/s], sweep (0 quasistatic up, 1 quasistatic down, 2 brute force), lane (index among that W's brute-force lanes: < ics are the common start states, then the neighbour seeds; 0 for sweeps), attractor id in that W's brute-force catalogue (-1: diverged, or not found / no brute force)",
+            "bifurcation.png": "the diagram: brute force grey, up sweep blue, down sweep red",
+        },
+        "jeffcott_version": env!("CARGO_PKG_VERSION"),
+    });
+    // Written last: its presence marks a complete run.
+    output::write_json(&dir.join("summary.json"), &summary)?;
+    Ok(())
+}
+
+fn human_summary(spec: &BifurcationSpec, res: &BifurcationResult, dir: &std::path::Path) -> String {
+    let count =
+        |sw: &[SweepPoint], f: &dyn Fn(&SweepPoint) -> bool| sw.iter().filter(|p| f(p)).count();
+    let mut s = format!(
+        "{} speeds from {} to {} rad/s: sweeps in {:.1} s, brute force in {:.1} s.",
+        spec.omegas.len(),
+        spec.omegas[0],
+        spec.omegas[spec.omegas.len() - 1],
+        res.sweep_seconds,
+        res.brute_seconds
+    );
+    for (name, sw) in [("up", &res.up), ("down", &res.down)] {
+        if sw.is_empty() {
+            continue;
+        }
+        s += &format!(
+            " Sweep {name}: {} period-1, {} other periodic, {} aperiodic, {} diverged.",
+            count(sw, &|p| p.class.class.period() == Some(1)),
+            count(sw, &|p| p.class.class.period().is_some_and(|n| n > 1)),
+            count(sw, &|p| p.class.class.period().is_none()
+                && !p.status.is_frozen()),
+            count(sw, &|p| p.status.is_frozen()),
+        );
+    }
+    if !res.brute.is_empty() {
+        let multi = res
+            .brute
+            .iter()
+            .filter(|b| b.catalogue.attractors.len() > 1)
+            .count();
+        s += &format!(
+            " Brute force: coexisting attractors at {multi} of {} speeds.",
+            res.brute.len()
+        );
+    }
+    s + &format!(" Files in {}.", dir.display())
+}

@@ -1,0 +1,731 @@
+//! `jeffcott reproduce`: regenerates the article's figure set (Figs. 3-12) plus the
+//! down-sweep and brute-force diagrams it does not have, and writes `REPORT.md` with
+//! every figure, what this tool found there, the equivalent command and its time.
+
+use super::basin::{legend_name, run_basin_study, write_basin};
+use super::bifurcation::{diagram_series, run_study, write_bifurcation};
+use crate::analysis::basin::{Axis, BasinSpec};
+use crate::analysis::bifurcation::{BifurcationSpec, Sweep, start_states};
+use crate::analysis::catalogue::{Catalogue, CatalogueConfig, catalogue_result};
+use crate::ensemble::{Backend, EnsembleSpec, LaneSpec, Precision, default_precision};
+use crate::error::{Error, Result};
+use crate::model::{Params, VX_R, VX_S, X_R, X_S, Y_R, Y_S};
+use crate::plot;
+use crate::simulate::{Integrator, SimulateResult, SimulateSpec, simulate};
+use clap::Args;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Arguments of `jeffcott reproduce`.
+#[derive(Args, Debug)]
+pub struct ReproduceArgs {
+    /// Reduced resolution that finishes in under 10 minutes on a 2-core CPU (the default).
+    #[arg(long, conflicts_with = "full")]
+    pub quick: bool,
+    /// Publication resolution (2000 speeds, a 1000 x 1000 basin): meant for a GPU.
+    #[arg(long)]
+    pub full: bool,
+    /// A tiny resolution that only checks the pipeline (for tests).
+    #[arg(long, hide = true, conflicts_with_all = ["quick", "full"])]
+    pub smoke: bool,
+    /// Backend of the ensembles (brute force, basins, surveys).
+    #[arg(long, value_enum, default_value_t = Backend::Auto)]
+    pub backend: Backend,
+    /// Lane precision [default: f64 on the CPU, f32 on a GPU].
+    #[arg(long, value_enum)]
+    pub precision: Option<Precision>,
+    /// Output directory (created if missing).
+    #[arg(long, value_name = "DIR", default_value = "jeffcott-out/reproduce")]
+    pub out: PathBuf,
+    /// Print nothing but errors (no progress bars).
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// Resolutions of one mode.
+#[derive(Clone, Copy, Debug)]
+struct Preset {
+    name: &'static str,
+    speeds: usize,
+    sweep_first: u32,
+    sweep_transient: u32,
+    ics: u32,
+    brute_transient: u32,
+    periods: u32,
+    max_seeds: usize,
+    zoom_speeds: usize,
+    basin_n: usize,
+    basin_transient: u32,
+    basin_periods: u32,
+    section_transient: u32,
+    section_points: u32,
+    survey_ics: u32,
+    survey_transient: u32,
+    survey_periods: u32,
+}
+
+const QUICK: Preset = Preset {
+    name: "quick",
+    speeds: 400,
+    sweep_first: 1000,
+    sweep_transient: 150,
+    ics: 4,
+    brute_transient: 400,
+    periods: 48,
+    max_seeds: 6,
+    zoom_speeds: 200,
+    basin_n: 80,
+    basin_transient: 250,
+    basin_periods: 32,
+    section_transient: 500,
+    section_points: 1500,
+    survey_ics: 24,
+    survey_transient: 400,
+    survey_periods: 64,
+};
+
+const FULL: Preset = Preset {
+    name: "full",
+    speeds: 2000,
+    sweep_first: 2000,
+    sweep_transient: 300,
+    ics: 16,
+    brute_transient: 500,
+    periods: 64,
+    max_seeds: 8,
+    zoom_speeds: 1000,
+    basin_n: 1000,
+    basin_transient: 500,
+    basin_periods: 64,
+    section_transient: 1000,
+    section_points: 20000,
+    survey_ics: 256,
+    survey_transient: 1000,
+    survey_periods: 128,
+};
+
+const SMOKE: Preset = Preset {
+    name: "smoke",
+    speeds: 6,
+    sweep_first: 100,
+    sweep_transient: 20,
+    ics: 2,
+    brute_transient: 30,
+    periods: 8,
+    max_seeds: 2,
+    zoom_speeds: 4,
+    basin_n: 3,
+    basin_transient: 30,
+    basin_periods: 8,
+    section_transient: 30,
+    section_points: 40,
+    survey_ics: 2,
+    survey_transient: 30,
+    survey_periods: 8,
+};
+
+/// The article's speeds and what it reports there (MODEL.md 6 and the issue).
+const ARTICLE_SPEEDS: [(f64, &str); 5] = [
+    (131.7, "period-1 (Fig. 5)"),
+    (132.2, "period-2 (Fig. 6)"),
+    (133.0, "coexisting attractors (Figs. 7-8)"),
+    (135.0, "aperiodic (Figs. 9-10)"),
+    (140.0, "aperiodic (Figs. 11-12)"),
+];
+
+/// Windows enlarged from Fig. 3 (where the diagram is most complex).
+const ZOOMS: [(f64, f64); 2] = [(132.6, 133.8), (138.4, 141.0)];
+
+struct Report {
+    text: String,
+    started: Instant,
+}
+
+impl Report {
+    fn figure(&mut self, title: &str, file: &str, found: &str, command: &str, seconds: f64) {
+        let _ = write!(
+            self.text,
+            "## {title}\n\n![{title}]({file})\n\n{found}\n\nCommand: `{command}`  \nTime: {seconds:.1} s\n\n"
+        );
+    }
+}
+
+fn describe(cat: &Catalogue) -> String {
+    let list: Vec<String> = cat.attractors.iter().map(legend_name).collect();
+    let mut s = format!(
+        "{} attractor{} from {} start states: {}",
+        cat.attractors.len(),
+        if cat.attractors.len() == 1 { "" } else { "s" },
+        cat.lanes,
+        list.join("; ")
+    );
+    if cat.diverged > 0 {
+        let _ = write!(s, "; {:.1} % diverged", 100.0 * cat.diverged_fraction);
+    }
+    s
+}
+
+fn sim(
+    params: &Params,
+    omega: f64,
+    transient: u32,
+    periods: u32,
+    ts: u32,
+) -> Result<SimulateResult> {
+    simulate(&SimulateSpec {
+        params: params.clone(),
+        omega,
+        x0: params.static_equilibrium(),
+        transient,
+        periods,
+        timeseries_periods: ts.min(periods),
+        integrator: Integrator::Lane,
+        stepper: Default::default(),
+        article: Default::default(),
+        classify: Default::default(),
+    })
+}
+
+/// Runs `jeffcott reproduce`.
+pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
+    let p = if a.full {
+        FULL
+    } else if a.smoke {
+        SMOKE
+    } else {
+        QUICK
+    };
+    let params = Params::default();
+    let precision = a.precision.unwrap_or_else(|| default_precision(a.backend));
+    let cfg = CatalogueConfig::for_precision(precision);
+    let dir = &a.out;
+    crate::output::ensure_dir(dir)?;
+    let mode = format!("--{}", p.name);
+    let backend = format!("{:?}", a.backend).to_lowercase();
+    let mut rep = Report {
+        text: String::new(),
+        started: Instant::now(),
+    };
+    let say = |s: &str| {
+        if !a.quiet {
+            eprintln!("{s}");
+        }
+    };
+
+    // Figs. 3-4, the down sweep and the brute force: one study over [130, 141].
+    say("[1/7] bifurcation diagram over 130..141 rad/s");
+    let spec = BifurcationSpec {
+        params: params.clone(),
+        omegas: crate::ensemble::parse_range("omega", &format!("130:141:{}", p.speeds))?,
+        sweep: Some(Sweep::Both),
+        transient_first: p.sweep_first,
+        transient: p.sweep_transient,
+        ics: p.ics,
+        brute_transient: p.brute_transient,
+        recorded: p.periods,
+        seed: 1,
+        stepper: Default::default(),
+        precision,
+        backend: a.backend,
+        catalogue: cfg,
+        max_seeds: p.max_seeds,
+    };
+    let res = run_study(&spec, a.quiet)?;
+    write_bifurcation(&dir.join("bifurcation"), &spec, &res, &[VX_S, VX_R], true)?;
+    let bif_cmd = format!(
+        "jeffcott bifurcation --omega 130:141:{} --coord vx_s,vx_r --sweep both --ics {} --transient {} --transient-first {} --brute-transient {} --periods {} --max-seeds {} --backend {backend} --out {}/bifurcation",
+        p.speeds,
+        p.ics,
+        p.sweep_transient,
+        p.sweep_first,
+        p.brute_transient,
+        p.periods,
+        p.max_seeds,
+        dir.display()
+    );
+    let w = (130.0, 141.0);
+    let count = |sw: &[crate::analysis::bifurcation::SweepPoint],
+                 f: &dyn Fn(Option<usize>) -> bool| {
+        sw.iter()
+            .filter(|q| !q.status.is_frozen() && f(q.class.class.period()))
+            .count()
+    };
+    let sweep_found = |sw: &[crate::analysis::bifurcation::SweepPoint]| {
+        format!(
+            "{} of {} speeds period-1, {} periodic with period > 1, {} aperiodic (no period up to 32), {} diverged",
+            count(sw, &|n| n == Some(1)),
+            sw.len(),
+            count(sw, &|n| n.is_some_and(|n| n > 1)),
+            count(sw, &|n| n.is_none()),
+            sw.iter().filter(|q| q.status.is_frozen()).count()
+        )
+    };
+    let first_non_p1 = res
+        .up
+        .iter()
+        .skip_while(|q| q.class.class.period() != Some(1))
+        .find(|q| q.class.class.period() != Some(1))
+        .map(|q| q.omega);
+    for (fig, coord, name) in [
+        (
+            "fig03_bifurcation_vx_s.png",
+            VX_S,
+            "Fig. 3: bifurcation diagram of vx_s, W increasing",
+        ),
+        (
+            "fig04_bifurcation_vx_r.png",
+            VX_R,
+            "Fig. 4: bifurcation diagram of vx_r, W increasing",
+        ),
+    ] {
+        plot::bifurcation_diagram(
+            &dir.join(fig),
+            &format!("{name} (quasistatic sweep, {} speeds)", p.speeds),
+            &[coord],
+            w,
+            &diagram_series(&spec, &res, true, false, false),
+        )?;
+        rep.figure(
+            name,
+            fig,
+            &format!(
+                "Quasistatic sweep from the static equilibrium at 130 rad/s, each speed started from the last state of the previous one: {}. Leaving the period-1 branch first at W = {}. Arrays and per-speed classes in `bifurcation/`.",
+                sweep_found(&res.up),
+                first_non_p1.map_or("-".into(), |w| format!("{w:.3} rad/s"))
+            ),
+            &bif_cmd,
+            res.sweep_seconds,
+        );
+    }
+    let differ: Vec<f64> = res
+        .up
+        .iter()
+        .zip(&res.down)
+        .filter(|(u, d)| u.class.class != d.class.class)
+        .map(|(u, _)| u.omega)
+        .collect();
+    plot::bifurcation_diagram(
+        &dir.join("fig_down_sweep.png"),
+        "Up and down quasistatic sweeps (hysteresis shows where they differ)",
+        &[VX_S, VX_R],
+        w,
+        &diagram_series(&spec, &res, true, true, false),
+    )?;
+    rep.figure(
+        "Down sweep (not in the article): W decreasing, over the up sweep",
+        "fig_down_sweep.png",
+        &format!(
+            "Down sweep: {}. Up and down classes differ at {} of {} speeds{}.",
+            sweep_found(&res.down),
+            differ.len(),
+            res.up.len(),
+            if differ.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    " (e.g. {})",
+                    differ
+                        .iter()
+                        .take(8)
+                        .map(|w| format!("{w:.3}"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )
+            }
+        ),
+        &bif_cmd,
+        res.sweep_seconds,
+    );
+    plot::bifurcation_diagram(
+        &dir.join("fig_brute_force.png"),
+        &format!(
+            "Brute force: {} start states per W plus the attractors of the neighbouring W",
+            p.ics
+        ),
+        &[VX_S, VX_R],
+        w,
+        &diagram_series(&spec, &res, false, false, true),
+    )?;
+    let multi = res
+        .brute
+        .iter()
+        .filter(|b| b.catalogue.attractors.len() > 1)
+        .count();
+    let max_att = res
+        .brute
+        .iter()
+        .map(|b| (b.catalogue.attractors.len(), b.omega))
+        .max_by_key(|x| x.0)
+        .unwrap_or((0, 0.0));
+    rep.figure(
+        "Brute-force diagram (not in the article)",
+        "fig_brute_force.png",
+        &format!(
+            "Coexisting attractors at {multi} of {} speeds; at most {} (at W = {:.3} rad/s). Aperiodic clouds from different lanes count as one attractor when they cover each other (see `analysis::catalogue`). Backend: {}.",
+            res.brute.len(),
+            max_att.0,
+            max_att.1,
+            res.brute_info
+                .as_ref()
+                .map_or("-".to_string(), |i| format!("{} ({}), {:?}", i.backend, i.device, i.precision))
+        ),
+        &bif_cmd,
+        res.brute_seconds,
+    );
+
+    // Enlargements of Fig. 3.
+    say("[2/7] enlargements of Fig. 3");
+    for (k, &(lo, hi)) in ZOOMS.iter().enumerate() {
+        let t = Instant::now();
+        let zspec = BifurcationSpec {
+            omegas: crate::ensemble::parse_range("omega", &format!("{lo}:{hi}:{}", p.zoom_speeds))?,
+            sweep: Some(Sweep::Up),
+            ics: 0,
+            ..spec.clone()
+        };
+        let zres = run_study(&zspec, a.quiet)?;
+        let fig = format!("fig03{}_zoom_{lo}-{hi}.png", ["b", "c"][k]);
+        plot::bifurcation_diagram(
+            &dir.join(&fig),
+            &format!(
+                "Fig. 3 enlarged: vx_s over {lo}..{hi} rad/s, W increasing ({} speeds)",
+                p.zoom_speeds
+            ),
+            &[VX_S],
+            (lo, hi),
+            &diagram_series(&zspec, &zres, true, false, false),
+        )?;
+        let mut periods: Vec<usize> = zres
+            .up
+            .iter()
+            .filter_map(|q| q.class.class.period())
+            .collect();
+        periods.sort();
+        periods.dedup();
+        rep.figure(
+            &format!("Fig. 3 enlarged over {lo}..{hi} rad/s"),
+            &fig,
+            &format!(
+                "{}. Periods seen: {:?}.",
+                sweep_found(&zres.up),
+                periods
+            ),
+            &format!(
+                "jeffcott bifurcation --omega {lo}:{hi}:{} --coord vx_s --sweep up --ics 0 --transient {} --transient-first {} --periods {} --out {}/zoom{k}",
+                p.zoom_speeds, p.sweep_transient, p.sweep_first, p.periods, dir.display()
+            ),
+            t.elapsed().as_secs_f64(),
+        );
+    }
+
+    // The article's speeds: a survey of start states at each.
+    say("[3/7] attractor survey at the article's speeds");
+    let t = Instant::now();
+    let starts = start_states(&params, p.survey_ics, 135.0, 7);
+    let mut lanes = Vec::new();
+    for &(omega, _) in &ARTICLE_SPEEDS {
+        lanes.extend(starts.iter().map(|&x0| LaneSpec {
+            omega,
+            x0,
+            param_set: 0,
+        }));
+    }
+    let espec = EnsembleSpec {
+        param_sets: vec![params.clone()],
+        lanes,
+        transient: p.survey_transient,
+        recorded: p.survey_periods,
+        stepper: Default::default(),
+        precision,
+    };
+    let per_lane = (p.survey_transient + p.survey_periods) as u64;
+    let bar = crate::progress::Progress::new(
+        "survey",
+        espec.lanes.len() as u64 * per_lane,
+        per_lane,
+        a.quiet,
+    );
+    // With lambda_1 per lane, so aperiodic attractors are told apart as quasiperiodic
+    // or chaotic.
+    let (eres, _) = crate::ensemble::run_with_lambda1(&espec, a.backend, &bar.callback(0))?;
+    bar.finish();
+    let k = p.survey_ics as usize;
+    let mut survey: Vec<Catalogue> = Vec::new();
+    for (i, &(omega, _)) in ARTICLE_SPEEDS.iter().enumerate() {
+        let sub = crate::ensemble::EnsembleResult {
+            poincare: eres.poincare[i * k * eres.recorded * 8..(i + 1) * k * eres.recorded * 8]
+                .to_vec(),
+            recorded: eres.recorded,
+            final_state: eres.final_state[i * k..(i + 1) * k].to_vec(),
+            status: eres.status[i * k..(i + 1) * k].to_vec(),
+            counters: eres.counters[i * k..(i + 1) * k].to_vec(),
+            lambda1: eres
+                .lambda1
+                .as_ref()
+                .map(|l| l[i * k..(i + 1) * k].to_vec()),
+        };
+        survey.push(catalogue_result(omega, &sub, sub.lambda1.as_deref(), &cfg));
+    }
+    let survey_s = t.elapsed().as_secs_f64();
+    let survey_cmd = |w: f64| {
+        format!(
+            "jeffcott ensemble --omega {w} --transient {} --periods {} (x {} seeded start states)",
+            p.survey_transient, p.survey_periods, p.survey_ics
+        )
+    };
+
+    // Figs. 5-6: phase portraits at 131.7 and 132.2 from the static equilibrium.
+    say("[4/7] phase portraits at 131.7 and 132.2 rad/s");
+    let mut static_class: Vec<(f64, String)> = Vec::new();
+    for (i, (fig, omega)) in [
+        ("fig05_phase_131.7.png", 131.7),
+        ("fig06_phase_132.2.png", 132.2),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let t = Instant::now();
+        let r = sim(&params, omega, 1000, 64, 4)?;
+        let class = r.classification.class.label();
+        plot::phase_portraits(
+            &dir.join(fig),
+            &format!(
+                "Fig. {}: W = {omega} rad/s from the static equilibrium: {class}",
+                5 + i
+            ),
+            &r.timeseries,
+            &r.poincare,
+        )?;
+        static_class.push((omega, class.clone()));
+        rep.figure(
+            &format!("Fig. {}: phase spaces and Poincare section at W = {omega} rad/s", 5 + i),
+            fig,
+            &format!(
+                "From the static equilibrium after 1000 periods: **{class}** (the article: {}). Survey of {} start states: {}.",
+                ARTICLE_SPEEDS[i].1,
+                p.survey_ics,
+                describe(&survey[i])
+            ),
+            &format!("jeffcott simulate --omega {omega} --transient 1000 --periods 64 --timeseries-periods 4"),
+            t.elapsed().as_secs_f64(),
+        );
+    }
+
+    // Figs. 7-8: basin at 133 and its coexisting attractors.
+    say("[5/7] basin of attraction at 133 rad/s");
+    let t = Instant::now();
+    let n = p.basin_n;
+    let bspec = BasinSpec {
+        params: params.clone(),
+        omega: 133.0,
+        x: Axis {
+            coord: X_R,
+            lo: -0.006,
+            hi: 0.006,
+            n,
+        },
+        y: Axis {
+            coord: VX_R,
+            lo: -1.0,
+            hi: 1.0,
+            n,
+        },
+        base: params.static_equilibrium(),
+        transient: p.basin_transient,
+        recorded: p.basin_periods,
+        stepper: Default::default(),
+        precision,
+        backend: a.backend,
+        catalogue: cfg,
+        chunk: None,
+    };
+    let bres = run_basin_study(&bspec, a.quiet)?;
+    let bdir = dir.join("basin_133");
+    write_basin(&bdir, &bspec, &bres, true)?;
+    let copy = |from: &Path, to: &str| -> Result<()> {
+        std::fs::copy(from, dir.join(to))
+            .map(|_| ())
+            .map_err(|source| Error::Io {
+                path: dir.join(to),
+                source,
+            })
+    };
+    copy(&bdir.join("basin.png"), "fig07_basin_133.png")?;
+    let basin_s = t.elapsed().as_secs_f64();
+    let r133 = sim(&params, 133.0, 1000, 64, 4)?;
+    static_class.push((133.0, r133.classification.class.label()));
+    let basin_cmd = format!(
+        "jeffcott basin --omega 133 --x x_r:-0.006:0.006:{n} --y vx_r:-1:1:{n} --transient {} --periods {} --backend {backend} --out {}/basin_133",
+        p.basin_transient,
+        p.basin_periods,
+        dir.display()
+    );
+    rep.figure(
+        "Fig. 7: basin of attraction at W = 133 rad/s over the rotor's initial x_r and vx_r",
+        "fig07_basin_133.png",
+        &format!(
+            "{n} x {n} start states (other coordinates at the static equilibrium): {}. From the static equilibrium itself: **{}**.",
+            describe(&bres.catalogue),
+            r133.classification.class.label()
+        ),
+        &basin_cmd,
+        basin_s,
+    );
+    if bdir.join("attractors.png").exists() {
+        copy(&bdir.join("attractors.png"), "fig08_attractors_133.png")?;
+        rep.figure(
+            "Fig. 8: the coexisting attractors at W = 133 rad/s",
+            "fig08_attractors_133.png",
+            &format!(
+                "{} attractor(s) coexist; each drawn over one pass from a point of its Poincare set (same run as Fig. 7). Survey of {} seeded start states: {}.",
+                bres.catalogue.attractors.len(),
+                p.survey_ics,
+                describe(&survey[2])
+            ),
+            &basin_cmd,
+            basin_s,
+        );
+    }
+
+    // Figs. 9-12: sections at 135 and 140.
+    say("[6/7] phase portraits and Poincare sections at 135 and 140 rad/s");
+    for (i, omega) in [(3usize, 135.0), (4, 140.0)] {
+        let t = Instant::now();
+        let r = sim(&params, omega, p.section_transient, p.section_points, 8)?;
+        let class = r.classification.class.label();
+        static_class.push((omega, class.clone()));
+        let found = format!(
+            "From the static equilibrium, {} Poincare points after {} periods: **{class}** (the article: {}). Survey of {} start states: {}. Without the largest Lyapunov exponent the tool does not split aperiodic into quasiperiodic and chaotic.",
+            p.section_points,
+            p.section_transient,
+            ARTICLE_SPEEDS[i].1,
+            p.survey_ics,
+            describe(&survey[i])
+        );
+        let cmd = format!(
+            "jeffcott simulate --omega {omega} --transient {} --periods {} --timeseries-periods 8",
+            p.section_transient, p.section_points
+        );
+        if omega == 135.0 {
+            plot::phase_portraits(
+                &dir.join("fig09_phase_135.png"),
+                &format!("Fig. 9: W = 135 rad/s, last 8 periods: {class}"),
+                &r.timeseries,
+                &r.poincare,
+            )?;
+            plot::poincare_sections(
+                &dir.join("fig10_section_135.png"),
+                "Fig. 10: Poincare section at W = 135 rad/s",
+                &r.poincare,
+                &[(X_S, VX_S), (X_R, VX_R)],
+                None,
+            )?;
+            plot::poincare_sections(
+                &dir.join("fig10b_section_135_zoom.png"),
+                "Fig. 10 enlarged: 30 % of each axis around the median point",
+                &r.poincare,
+                &[(X_S, VX_S), (X_R, VX_R)],
+                Some(0.3),
+            )?;
+            let s = t.elapsed().as_secs_f64();
+            rep.figure(
+                "Fig. 9: phase spaces at W = 135 rad/s",
+                "fig09_phase_135.png",
+                &found,
+                &cmd,
+                s,
+            );
+            rep.figure(
+                "Fig. 10: Poincare section at W = 135 rad/s",
+                "fig10_section_135.png",
+                &found,
+                &cmd,
+                s,
+            );
+            rep.figure(
+                "Fig. 10, enlarged",
+                "fig10b_section_135_zoom.png",
+                "The central 30 % of each axis of the section above.",
+                &cmd,
+                s,
+            );
+        } else {
+            plot::poincare_sections(
+                &dir.join("fig11_section_stator_140.png"),
+                "Fig. 11: stator Poincare section at W = 140 rad/s",
+                &r.poincare,
+                &[(X_S, VX_S), (X_S, Y_S)],
+                None,
+            )?;
+            plot::poincare_sections(
+                &dir.join("fig12_section_rotor_140.png"),
+                "Fig. 12: rotor Poincare section at W = 140 rad/s",
+                &r.poincare,
+                &[(X_R, VX_R), (X_R, Y_R)],
+                None,
+            )?;
+            let s = t.elapsed().as_secs_f64();
+            rep.figure(
+                "Fig. 11: stator section at W = 140 rad/s",
+                "fig11_section_stator_140.png",
+                &found,
+                &cmd,
+                s,
+            );
+            rep.figure(
+                "Fig. 12: rotor section at W = 140 rad/s",
+                "fig12_section_rotor_140.png",
+                &found,
+                &cmd,
+                s,
+            );
+        }
+    }
+
+    // REPORT.md.
+    say("[7/7] REPORT.md");
+    let mut head = String::new();
+    let _ = write!(
+        head,
+        "# jeffcott reproduce {mode}\n\nThe figure set of \"Nonlinear Dynamics and Chaos of a Nonsmooth Rotor-Stator System\" (Mathematical Problems in Engineering, 2017), regenerated with `jeffcott` {} (Table 1 parameters, the corrected model of MODEL.md). Ensembles on backend `{backend}`, {:?}; {} CPU threads. Total time {:.1} s.\n\n",
+        env!("CARGO_PKG_VERSION"),
+        precision,
+        rayon::current_num_threads(),
+        rep.started.elapsed().as_secs_f64()
+    );
+    head += "## Summary at the article's speeds\n\n| W [rad/s] | article | from the static equilibrium | survey of seeded start states |\n|---|---|---|---|\n";
+    for (i, &(omega, article)) in ARTICLE_SPEEDS.iter().enumerate() {
+        let st = static_class
+            .iter()
+            .find(|(w, _)| *w == omega)
+            .map_or("-".to_string(), |(_, c)| c.clone());
+        let _ = writeln!(
+            head,
+            "| {omega} | {article} | {st} | {} |",
+            describe(&survey[i])
+        );
+    }
+    let _ = write!(
+        head,
+        "\nSurvey: {} start states per speed (static equilibrium + seeded random rotor states within the gap), {} transient and {} recorded periods ({}; {:.1} s). Classification: period-n up to n = 32 with tolerances relative to the attractor size; aperiodic otherwise.\n\n",
+        p.survey_ics,
+        p.survey_transient,
+        p.survey_periods,
+        survey_cmd(0.0).replace("--omega 0 ", "--omega W "),
+        survey_s
+    );
+    let text = head + &rep.text;
+    std::fs::write(dir.join("REPORT.md"), text).map_err(|source| Error::Io {
+        path: dir.join("REPORT.md"),
+        source,
+    })?;
+    if !a.quiet {
+        println!(
+            "reproduce {mode}: figures and REPORT.md in {} ({:.1} s)",
+            dir.display(),
+            rep.started.elapsed().as_secs_f64()
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,326 @@
+//! Attractor classification and the attractor catalogue: synthetic Poincare sequences
+//! with known answers, and real runs at the article's W = 131.7 (period-1) and 132.2
+//! (period-2).
+
+use jeffcott::analysis::catalogue::{CatalogueConfig, catalogue, catalogue_result};
+use jeffcott::analysis::classify::Class;
+use jeffcott::ensemble::{Backend, EnsembleSpec, LaneSpec, Precision, run};
+use jeffcott::model::{Params, STATE_DIM, State, VX_R, X_R};
+
+const W: f64 = 133.0;
+
+/// A deterministic hash in [-0.5, 0.5).
+fn unit(i: usize, salt: u64) -> f64 {
+    let mut z = (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ salt.wrapping_mul(0xD1B5);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^= z >> 31;
+    (z >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+}
+
+/// A period-n cycle of diameter ~2 mm around `centre`, started at phase `shift`, with
+/// uniform noise of amplitude `noise` [m].
+fn cycle(n: usize, len: usize, shift: usize, centre: f64, noise: f64, salt: u64) -> Vec<State> {
+    (0..len)
+        .map(|i| {
+            let k = ((i + shift) % n) as f64;
+            let a = std::f64::consts::TAU * k / n as f64 + 0.3;
+            let mut s = [0.0; STATE_DIM];
+            s[0] = centre + 1e-3 * a.cos() + noise * unit(i, salt);
+            s[1] = W * 1e-3 * a.sin() + W * noise * unit(i, salt + 1);
+            s[2] = 5e-4 * (2.0 * a).cos();
+            s[4] = 2e-4 * k / n as f64;
+            s
+        })
+        .collect()
+}
+
+fn flat(lanes: &[Vec<State>]) -> (Vec<f64>, usize) {
+    let rec = lanes[0].len();
+    (lanes.iter().flatten().flatten().copied().collect(), rec)
+}
+
+/// A quasiperiodic circle (golden rotation number) starting at angle index `start`.
+fn circle(len: usize, start: usize) -> Vec<State> {
+    let rho = (5f64.sqrt() - 1.0) / 2.0;
+    (start..start + len)
+        .map(|i| {
+            let a = std::f64::consts::TAU * rho * i as f64;
+            let mut s = [0.0; STATE_DIM];
+            s[0] = 1e-3 * a.cos();
+            s[2] = 1e-3 * a.sin();
+            s
+        })
+        .collect()
+}
+
+#[test]
+fn period_n_with_noise_below_tolerance_is_period_n_and_phase_shifts_share_an_id() {
+    let cfg = CatalogueConfig::default();
+    for n in [1, 2, 3, 5, 7, 12, 32] {
+        let lanes: Vec<Vec<State>> = (0..n.min(4))
+            .map(|s| cycle(n, 64.max(2 * n), s, 0.0, 2e-10, s as u64))
+            .collect();
+        let (pts, rec) = flat(&lanes);
+        let c = catalogue(W, &pts, rec, &vec![false; lanes.len()], None, &cfg);
+        assert_eq!(c.attractors.len(), 1, "n = {n}: {:?}", c.attractors);
+        assert_eq!(c.attractors[0].kind(), Class::Periodic(n), "n = {n}");
+        assert_eq!(c.attractors[0].points.len(), n);
+        assert!(c.labels.iter().all(|&l| l == 0), "n = {n}");
+        assert_eq!(c.attractors[0].basin_fraction, 1.0);
+    }
+}
+
+#[test]
+fn distinct_cycles_of_equal_period_get_distinct_ids() {
+    let lanes = vec![
+        cycle(2, 64, 0, 0.0, 0.0, 1),
+        cycle(2, 64, 1, 3e-3, 0.0, 2),
+        cycle(2, 64, 1, 0.0, 0.0, 3),
+        cycle(3, 64, 0, 0.0, 0.0, 4),
+    ];
+    let (pts, rec) = flat(&lanes);
+    let c = catalogue(W, &pts, rec, &[false; 4], None, &CatalogueConfig::default());
+    assert_eq!(c.labels, vec![0, 1, 0, 2]);
+    assert_eq!(c.attractors[0].basin_fraction, 0.5);
+    assert_eq!(c.attractors[2].kind(), Class::Periodic(3));
+}
+
+#[test]
+fn a_quasiperiodic_circle_is_aperiodic_and_one_attractor_whatever_the_phase() {
+    let lanes = vec![circle(200, 0), circle(200, 37), circle(200, 1001)];
+    let (pts, rec) = flat(&lanes);
+    let c = catalogue(W, &pts, rec, &[false; 3], None, &CatalogueConfig::default());
+    assert_eq!(c.attractors.len(), 1, "{:?}", c.attractors);
+    assert_eq!(c.attractors[0].kind(), Class::Aperiodic);
+    // The Lyapunov hook: lambda1 ~ 0 is quasiperiodic, > 0 chaotic, < 0 stays aperiodic.
+    let lam = [0.01, -0.05, 0.0];
+    let c = catalogue(
+        W,
+        &pts,
+        rec,
+        &[false; 3],
+        Some(&lam),
+        &CatalogueConfig::default(),
+    );
+    assert_eq!(c.attractors[0].kind(), Class::Quasiperiodic);
+    assert_eq!(c.labels, vec![0, 0, 0]);
+    let lam = [3.0, 3.0, -2.0];
+    let c = catalogue(
+        W,
+        &pts,
+        rec,
+        &[false; 3],
+        Some(&lam),
+        &CatalogueConfig::default(),
+    );
+    assert_eq!(c.attractors[0].kind(), Class::Chaotic);
+    assert_eq!(c.attractors[1].kind(), Class::Aperiodic);
+    assert_eq!(c.labels, vec![0, 0, 1]);
+}
+
+#[test]
+fn random_points_are_aperiodic_and_flagged_lanes_are_diverged() {
+    let random: Vec<State> = (0..128)
+        .map(|i| std::array::from_fn(|d| 1e-3 * unit(i, d as u64 + 7)))
+        .collect();
+    let lanes = vec![random, cycle(2, 128, 0, 0.0, 0.0, 1)];
+    let (pts, rec) = flat(&lanes);
+    let c = catalogue(
+        W,
+        &pts,
+        rec,
+        &[false, true],
+        None,
+        &CatalogueConfig::default(),
+    );
+    assert_eq!(c.labels, vec![0, -1]);
+    assert_eq!(c.attractors[0].kind(), Class::Aperiodic);
+    assert_eq!((c.lanes, c.diverged), (2, 1));
+    assert_eq!(c.attractors[0].basin_fraction, 0.5);
+}
+
+#[test]
+fn labels_are_stable_when_tolerances_change_tenfold_either_way() {
+    let mut lanes = Vec::new();
+    for n in [1, 2, 5, 9] {
+        for s in 0..3 {
+            lanes.push(cycle(n, 96, s, n as f64 * 1e-3, 5e-10, (n * 10 + s) as u64));
+        }
+    }
+    lanes.push(circle(96, 0));
+    lanes.push(circle(96, 500));
+    let (pts, rec) = flat(&lanes);
+    let frozen = vec![false; lanes.len()];
+    let base = catalogue(W, &pts, rec, &frozen, None, &CatalogueConfig::default());
+    assert_eq!(base.attractors.len(), 5);
+    for f in [0.1, 10.0] {
+        let c = catalogue(
+            W,
+            &pts,
+            rec,
+            &frozen,
+            None,
+            &CatalogueConfig::default().scaled(f),
+        );
+        assert_eq!(c.labels, base.labels, "tolerances x {f}");
+        let classes: Vec<Class> = c.attractors.iter().map(|a| a.kind()).collect();
+        let base_classes: Vec<Class> = base.attractors.iter().map(|a| a.kind()).collect();
+        assert_eq!(classes, base_classes, "tolerances x {f}");
+    }
+}
+
+/// Lanes near the static equilibrium at speed `omega` (f64, CPU).
+fn real_run(omega: f64) -> jeffcott::ensemble::EnsembleResult {
+    let p = Params::default();
+    let lanes = (0..4)
+        .map(|i| {
+            let mut x0 = p.static_equilibrium();
+            x0[X_R] += 2e-4 * i as f64;
+            x0[VX_R] -= 0.01 * i as f64;
+            LaneSpec {
+                omega,
+                x0,
+                param_set: 0,
+            }
+        })
+        .collect();
+    let spec = EnsembleSpec {
+        param_sets: vec![p],
+        lanes,
+        transient: 800,
+        recorded: 64,
+        stepper: Default::default(),
+        precision: Precision::F64,
+    };
+    run(&spec, Backend::Cpu, &|_, _| {}).unwrap().0
+}
+
+#[test]
+fn real_runs_are_one_period_1_attractor_at_131_7_and_one_period_2_attractor_at_132_2() {
+    for (omega, n) in [(131.7, 1), (132.2, 2)] {
+        let res = real_run(omega);
+        for f in [0.1, 1.0, 10.0] {
+            let cfg = CatalogueConfig::default().scaled(f);
+            let c = catalogue_result(omega, &res, None, &cfg);
+            assert_eq!(
+                c.attractors.len(),
+                1,
+                "W = {omega}, x{f}: {:?}",
+                c.attractors
+            );
+            assert_eq!(c.attractors[0].kind(), Class::Periodic(n), "W = {omega}");
+            assert_eq!(c.labels, vec![0; 4]);
+        }
+    }
+}
+
+fn study(omega: &str, ics: u32) -> jeffcott::analysis::bifurcation::BifurcationSpec {
+    use jeffcott::analysis::bifurcation::{BifurcationSpec, Sweep};
+    BifurcationSpec {
+        params: Params::default(),
+        omegas: jeffcott::ensemble::parse_range("omega", omega).unwrap(),
+        sweep: Some(Sweep::Both),
+        transient_first: 800,
+        transient: 200,
+        ics,
+        brute_transient: 300,
+        recorded: 24,
+        seed: 1,
+        stepper: Default::default(),
+        precision: Precision::F64,
+        backend: Backend::Cpu,
+        catalogue: CatalogueConfig::default(),
+        max_seeds: 6,
+    }
+}
+
+#[test]
+fn quasistatic_up_and_down_sweeps_follow_the_same_branch_where_monostable() {
+    use jeffcott::analysis::bifurcation::bifurcation;
+    let spec = study("131.6:131.8:5", 3);
+    let res = bifurcation(&spec, &jeffcott::progress::Progress::new("", 1, 1, true)).unwrap();
+    assert_eq!((res.up.len(), res.down.len()), (5, 5));
+    for (wi, (u, d)) in res.up.iter().zip(&res.down).enumerate() {
+        assert_eq!(u.omega, d.omega);
+        assert_eq!(u.class.class, Class::Periodic(1), "W = {}", u.omega);
+        assert_eq!(d.class.class, Class::Periodic(1), "W = {}", d.omega);
+        let cat = &res.brute[wi].catalogue;
+        assert_eq!(cat.attractors.len(), 1, "W = {}: monostable", u.omega);
+        assert_eq!(cat.identify(&u.class), Some(0));
+        assert_eq!(cat.identify(&d.class), Some(0));
+        for (a, b) in u.points.iter().zip(&d.points) {
+            for i in 0..STATE_DIM {
+                assert!(
+                    (a[i] - b[i]).abs() < 1e-6,
+                    "W = {}: up and down agree",
+                    u.omega
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn brute_force_contains_every_attractor_the_quasistatic_sweeps_found() {
+    use jeffcott::analysis::bifurcation::bifurcation;
+    // Away from bifurcation points, where 300 periods settle every lane (next to one,
+    // e.g. the period-4/period-5 boundary near 132.9, slow convergence leaves the
+    // classification to the transient length).
+    let spec = study("132.3:132.5:3", 4);
+    let res = bifurcation(&spec, &jeffcott::progress::Progress::new("", 1, 1, true)).unwrap();
+    for sw in [&res.up, &res.down] {
+        for (wi, p) in sw.iter().enumerate() {
+            if p.status.is_frozen() {
+                continue;
+            }
+            assert!(
+                res.brute[wi].catalogue.identify(&p.class).is_some(),
+                "W = {}: sweep attractor {} missing from brute force {:?}",
+                p.omega,
+                p.class.class.label(),
+                res.brute[wi]
+                    .catalogue
+                    .attractors
+                    .iter()
+                    .map(|a| a.name())
+                    .collect::<Vec<_>>()
+            );
+        }
+    }
+}
+
+#[test]
+fn streaming_lanes_in_chunks_gives_the_labels_of_one_block() {
+    use jeffcott::analysis::catalogue::CatalogueBuilder;
+    let mut lanes = Vec::new();
+    for k in 0..12 {
+        lanes.push(cycle(
+            1 + k % 4,
+            48,
+            k,
+            (k % 3) as f64 * 2e-3,
+            1e-10,
+            k as u64,
+        ));
+    }
+    lanes.push(circle(48, 0));
+    lanes.push(circle(48, 77));
+    let (pts, rec) = flat(&lanes);
+    let frozen = vec![false; lanes.len()];
+    let cfg = CatalogueConfig::default();
+    let whole = catalogue(W, &pts, rec, &frozen, None, &cfg);
+    let mut b = CatalogueBuilder::new(W, cfg);
+    let mut labels = Vec::new();
+    let lane = rec * STATE_DIM;
+    for c in (0..lanes.len()).step_by(5) {
+        let end = (c + 5).min(lanes.len());
+        labels.extend(b.add_block(&pts[c * lane..end * lane], rec, &frozen[c..end], None));
+    }
+    let streamed = b.finish(labels);
+    assert_eq!(streamed.labels, whole.labels);
+    assert_eq!(streamed.attractors.len(), whole.attractors.len());
+    for (a, w) in streamed.attractors.iter().zip(&whole.attractors) {
+        assert_eq!((a.kind(), a.lanes), (w.kind(), w.lanes));
+    }
+}

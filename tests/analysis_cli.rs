@@ -1,0 +1,286 @@
+//! `jeffcott bifurcation` and `jeffcott basin` from the command line: every promised
+//! file, `.npy` files that follow the NPY format spec, clear errors for bad input.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn jeffcott(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_jeffcott"))
+        .args(args)
+        .output()
+        .expect("binary runs")
+}
+
+/// Checks a file against the NPY v1/v2 format spec (magic, version, little-endian header
+/// length, a Python dict literal with descr / fortran_order / shape, the data start
+/// aligned to 64 bytes, data length = product of the shape x item size) and returns its
+/// descr and shape.
+fn npy_header(path: &Path) -> (String, Vec<usize>) {
+    let bytes = std::fs::read(path).unwrap();
+    assert_eq!(&bytes[..6], b"\x93NUMPY", "{}: magic", path.display());
+    let (major, minor) = (bytes[6], bytes[7]);
+    assert!(
+        matches!((major, minor), (1, 0) | (2, 0) | (3, 0)),
+        "version"
+    );
+    let (hlen, start) = if major == 1 {
+        (u16::from_le_bytes([bytes[8], bytes[9]]) as usize, 10)
+    } else {
+        (
+            u32::from_le_bytes(bytes[8..12].try_into().unwrap()) as usize,
+            12,
+        )
+    };
+    assert_eq!((start + hlen) % 64, 0, "data aligned to 64 bytes");
+    let header = std::str::from_utf8(&bytes[start..start + hlen]).unwrap();
+    assert!(header.ends_with('\n'), "header ends with a newline");
+    let h = header.trim_end();
+    assert!(h.starts_with('{') && h.ends_with('}'), "{header}");
+    assert!(h.contains("'fortran_order': False"), "{header}");
+    let descr = &h[h.find("'descr': '").unwrap() + 10..];
+    let descr = descr[..descr.find('\'').unwrap()].to_string();
+    let shape = &h[h.find("'shape': (").unwrap() + 10..];
+    let shape = &shape[..shape.find(')').unwrap()];
+    let dims: Vec<usize> = shape
+        .split(',')
+        .filter_map(|s| s.trim().parse().ok())
+        .collect();
+    let item: usize = descr[2..].parse().unwrap();
+    assert_eq!(
+        bytes.len() - start - hlen,
+        dims.iter().product::<usize>() * item,
+        "data length"
+    );
+    (descr, dims)
+}
+
+fn json(path: &Path) -> serde_json::Value {
+    serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
+}
+
+#[test]
+fn bifurcation_writes_arrays_summary_and_diagram() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("bif");
+    let o = jeffcott(&[
+        "bifurcation",
+        "--omega",
+        "132.1:132.3:3",
+        "--coord",
+        "vx_s,vx_r",
+        "--ics",
+        "2",
+        "--transient",
+        "60",
+        "--transient-first",
+        "300",
+        "--brute-transient",
+        "150",
+        "--periods",
+        "8",
+        "--backend",
+        "cpu",
+        "--portraits",
+        "132.2",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(npy_header(&out.join("omega.npy")), ("<f8".into(), vec![3]));
+    let png = std::fs::read(out.join("attractors_132.2000.png")).unwrap();
+    assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+    let (_, rows) = npy_header(&out.join("bifurcation_rows.npy"));
+    assert_eq!(rows[1], 4);
+    assert!(rows[0] >= 3 * 2 + 3 * 2, "{rows:?}");
+    assert_eq!(
+        npy_header(&out.join("bifurcation.npy")).1,
+        vec![rows[0], 8, 8]
+    );
+    let png = std::fs::read(out.join("bifurcation.png")).unwrap();
+    assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+    let s = json(&out.join("summary.json"));
+    let per = s["per_omega"].as_array().unwrap();
+    assert_eq!(per.len(), 3);
+    for w in per {
+        assert!(w["up"]["class"].is_string() && w["down"]["class"].is_string());
+        assert!(
+            !w["brute_force"]["attractors"]
+                .as_array()
+                .unwrap()
+                .is_empty()
+        );
+    }
+}
+
+#[test]
+fn basin_writes_int32_labels_catalogue_and_pictures() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("basin");
+    let o = jeffcott(&[
+        "basin",
+        "--omega",
+        "132.2",
+        "--x",
+        "x_r:-0.004:0.004:4",
+        "--y",
+        "vx_r:-0.5:0.5:3",
+        "--fix",
+        "y_r=-0.0005",
+        "--transient",
+        "150",
+        "--periods",
+        "8",
+        "--backend",
+        "cpu",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(
+        npy_header(&out.join("labels.npy")),
+        ("<i4".into(), vec![3, 4])
+    );
+    assert_eq!(npy_header(&out.join("x.npy")).1, vec![4]);
+    for f in ["basin.png", "attractors.png"] {
+        let png = std::fs::read(out.join(f)).unwrap();
+        assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n", "{f}");
+    }
+    let a = json(&out.join("attractors.json"));
+    assert_eq!(a["fixed"]["y_r"], -0.0005);
+    let total: f64 = a["attractors"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x["basin_fraction"].as_f64().unwrap())
+        .sum::<f64>()
+        + a["diverged_fraction"].as_f64().unwrap();
+    assert!((total - 1.0).abs() < 1e-12, "fractions sum to 1: {total}");
+}
+
+#[test]
+fn bad_analysis_input_names_the_field_and_the_allowed_range() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x");
+    let o = out.to_str().unwrap();
+    let cases: [(&[&str], &str); 6] = [
+        (
+            &[
+                "basin",
+                "--omega",
+                "133",
+                "--x",
+                "q_r:0:1:4",
+                "--y",
+                "vx_r:0:1:4",
+                "--out",
+                o,
+            ],
+            "unknown coordinate",
+        ),
+        (
+            &[
+                "basin",
+                "--omega",
+                "133",
+                "--x",
+                "x_r:1:0:4",
+                "--y",
+                "vx_r:0:1:4",
+                "--out",
+                o,
+            ],
+            "lo < hi",
+        ),
+        (
+            &[
+                "basin",
+                "--omega",
+                "133",
+                "--x",
+                "x_r:0:1:4",
+                "--y",
+                "x_r:0:1:4",
+                "--out",
+                o,
+            ],
+            "different coordinates",
+        ),
+        (
+            &[
+                "basin",
+                "--omega",
+                "133",
+                "--x",
+                "x_r:0:1:4",
+                "--y",
+                "vx_r:0:1:4",
+                "--fix",
+                "x_r=0",
+                "--out",
+                o,
+            ],
+            "is an axis",
+        ),
+        (
+            &["bifurcation", "--omega", "133:130:4", "--out", o],
+            "speeds must increase",
+        ),
+        (
+            &[
+                "bifurcation",
+                "--omega",
+                "130:133:4",
+                "--coord",
+                "vz",
+                "--out",
+                o,
+            ],
+            "unknown coordinate",
+        ),
+    ];
+    for (args, msg) in cases {
+        let r = jeffcott(args);
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(r.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(msg), "{args:?}: {err}");
+    }
+    assert!(!out.exists() || !out.join("summary.json").exists());
+}
+
+#[test]
+fn reproduce_writes_every_figure_and_a_report_that_shows_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("rep");
+    let o = jeffcott(&[
+        "reproduce",
+        "--smoke",
+        "--backend",
+        "cpu",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let report = std::fs::read_to_string(out.join("REPORT.md")).unwrap();
+    for fig in [
+        "fig03_bifurcation_vx_s.png",
+        "fig04_bifurcation_vx_r.png",
+        "fig05_phase_131.7.png",
+        "fig06_phase_132.2.png",
+        "fig07_basin_133.png",
+        "fig09_phase_135.png",
+        "fig10_section_135.png",
+        "fig11_section_stator_140.png",
+        "fig12_section_rotor_140.png",
+        "fig_down_sweep.png",
+        "fig_brute_force.png",
+    ] {
+        let png = std::fs::read(out.join(fig)).unwrap();
+        assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n", "{fig}");
+        assert!(
+            report.contains(&format!("]({fig})")),
+            "REPORT.md shows {fig}"
+        );
+    }
+    assert!(report.contains("| 131.7 |") && report.contains("Command: `jeffcott"));
+}

@@ -1,0 +1,71 @@
+//! Basin labels from the GPU f64 path equal the CPU's for a small grid.
+//!
+//! Needs a wgpu adapter with SHADER_F64 (Mesa's lavapipe is enough). Without one the test
+//! prints "skipped" and returns, unless `JEFFCOTT_REQUIRE_GPU=1` is set, as in
+//! `tests/gpu.rs`.
+
+use jeffcott::analysis::basin::{Axis, BasinSpec, basin};
+use jeffcott::ensemble::{Backend, Precision};
+use jeffcott::gpu::{DeviceRequest, GpuDevice};
+use jeffcott::integrate::lane::StepperConfig;
+use jeffcott::model::{Params, VX_R, X_R};
+use jeffcott::progress::Progress;
+
+fn require_gpu() -> bool {
+    std::env::var("JEFFCOTT_REQUIRE_GPU").as_deref() == Ok("1")
+}
+
+#[test]
+fn basin_labels_are_identical_on_cpu_and_gpu_f64() {
+    let req = DeviceRequest {
+        need_f64: true,
+        allow_software: true,
+    };
+    if let Err(e) = GpuDevice::new(&req) {
+        assert!(
+            !require_gpu(),
+            "JEFFCOTT_REQUIRE_GPU=1 but no f64 GPU adapter: {e}"
+        );
+        eprintln!("skipped: no Vulkan adapter with f64 ({e})");
+        return;
+    }
+    let p = Params::default();
+    let mut spec = BasinSpec {
+        base: p.static_equilibrium(),
+        params: p,
+        omega: 133.0,
+        x: Axis {
+            coord: X_R,
+            lo: -0.006,
+            hi: 0.006,
+            n: 5,
+        },
+        y: Axis {
+            coord: VX_R,
+            lo: -1.0,
+            hi: 1.0,
+            n: 4,
+        },
+        transient: 60,
+        recorded: 12,
+        stepper: StepperConfig {
+            steps_per_period: 200,
+            ..StepperConfig::default()
+        },
+        precision: Precision::F64,
+        backend: Backend::Cpu,
+        catalogue: Default::default(),
+        chunk: Some(7),
+    };
+    let quiet = Progress::new("", 1, 1, true);
+    let cpu = basin(&spec, &quiet).unwrap();
+    spec.backend = Backend::Gpu;
+    let gpu = basin(&spec, &quiet).unwrap();
+    assert_eq!(gpu.info.as_ref().unwrap().backend, "gpu");
+    assert_eq!(cpu.labels, gpu.labels);
+    assert_eq!(cpu.labels.len(), 20);
+    let names = |r: &jeffcott::analysis::basin::BasinResult| -> Vec<String> {
+        r.catalogue.attractors.iter().map(|a| a.name()).collect()
+    };
+    assert_eq!(names(&cpu), names(&gpu));
+}
