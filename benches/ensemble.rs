@@ -47,5 +47,11 @@ fn ensemble(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, ensemble);
+criterion_group! {
+    name = benches;
+    // No HTML/SVG plots: criterion's plotters backend needs system fonts, which a
+    // headless CI machine lacks; the figures are in the terminal and target/criterion.
+    config = Criterion::default().without_plots();
+    targets = ensemble
+}
 criterion_main!(benches);
