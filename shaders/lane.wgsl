@@ -543,10 +543,43 @@ struct Switch {
     max_g: Real,
 }
 
+// Kernel-only control structure (lavapipe, see find_switch and macro_step).
+//
+// Mesa's llvmpipe (lavapipe) up to at least Mesa 22.3 runs 8 invocations (one AVX2
+// register of f32, two of f64) in lock-step and compiles every `if` to masked code
+// without a branch: both arms of every `if` are executed, whatever the lanes decide.
+// Only loops branch: a loop iterates while any of the 8 lanes is still in it, and its
+// body runs at least once (the exit test is at the end). So what a SIMD group pays per
+// macro step is the code of every `if` arm in the loop bodies it passes through, not
+// what a lane needs. lane.rs's find_switch written as it is (a sample loop with an
+// extremum evaluation and an Illinois loop inside each sample) costs 25 hermite_gap
+// evaluations per trial step even when no lane is near contact, and macro_step's
+// re-step and refinement-cap sub-steps cost two more RK4 steps per macro step. The
+// kernel therefore runs both functions as loops of one evaluation per iteration (one
+// hermite_gap call in find_switch, one rk4_substep call in macro_step), the phase of
+// each lane choosing the arguments: the same evaluations, with the same arguments, in
+// the same order for every lane, so the arithmetic is that of lane.rs bit for bit, and
+// a group pays one trial step and 9 hermite_gap calls per macro step in free flight.
+
+// What find_switch evaluates next.
+const FS_SAMPLE: u32 = 0u; // the sample j / GRAZE_SAMPLES (j = 0: the start)
+const FS_EXTREMUM: u32 = 1u; // the estimated extremum between samples j - 1 and j
+const FS_ROOT: u32 = 2u; // an Illinois iterate
+const FS_DONE: u32 = 3u;
+// Evaluations of find_switch at most: the start, a sample and an extremum per sample,
+// then the Illinois iterations.
+const FS_MAX_EVALS: u32 = 1u + 2u * GRAZE_SAMPLES + ROOT_MAX_ITERS;
+
 // Looks for the first crossing of g = 0 along the trial sub-step x0 -> x1 (duration hs)
 // taken in mode `contact`; see the docs of src/integrate/lane.rs. Between two samples on
 // the mode's side, an extremum of g heading to the other side (rates of opposite signs)
 // is checked at its estimated location.
+//
+// lane.rs's nested loops (samples; in each, the extremum check and the Illinois loop)
+// are flattened here into one loop with one hermite_gap evaluation per iteration, the
+// lane's `phase` saying which (see the note above FS_SAMPLE). Every lane evaluates the
+// same points in the same order as lane.rs, and the bookkeeping between evaluations
+// (max_g, the bracket, the Illinois weights) is lane.rs's, statement for statement.
 fn find_switch(
     lc: LaneConsts,
     x0: array<Real, STATE_DIM>,
@@ -556,93 +589,162 @@ fn find_switch(
 ) -> Switch {
     let delta = lc.c.delta;
     let zero = Real(0.0);
+    var phase = FS_SAMPLE;
+    var j = 0u;
+    // Where the next evaluation is.
+    var theta = zero;
     var lo = zero;
-    let gr0 = hermite_gap(delta, x0, x1, hs, zero);
-    var g_lo = gr0.x;
-    var rate_lo = gr0.y;
-    var max_g = g_lo;
-    for (var j = 1u; j <= GRAZE_SAMPLES; j++) {
-        // j / GRAZE_SAMPLES: the quotient of two small integers is correctly rounded,
-        // equal to Rust's f64 quotient rounded to Real.
-        let th = Real(j) / Real(GRAZE_SAMPLES);
-        let gr_th = hermite_gap(delta, x0, x1, hs, th);
-        let g_th = gr_th.x;
-        let rate_th = gr_th.y;
-        var hi = th;
-        var g_hi = g_th;
-        var crossing = wrong_side(g_th, contact);
-        var toward: bool;
-        if contact {
-            toward = rate_lo < zero && rate_th > zero;
-        } else {
-            toward = rate_lo > zero && rate_th < zero;
-        }
-        if !crossing && toward {
-            // Extremum where the linearly interpolated rate vanishes.
-            let tp = lo + (th - lo) * rate_lo / (rate_lo - rate_th);
-            let g_p = hermite_gap(delta, x0, x1, hs, tp).x;
+    var g_lo = zero;
+    var rate_lo = zero;
+    var max_g = zero;
+    // Sample j while the extremum before it is checked.
+    var th = zero;
+    var g_th = zero;
+    var rate_th = zero;
+    // Illinois (modified regula falsi); `a` stays on the mode's side, `b` on the other.
+    var a = zero;
+    var ga = zero;
+    var b = zero;
+    var gb = zero;
+    var last_kept_a = false;
+    var last_kept_b = false;
+    var it = 0u;
+    var result = Real(2.0);
+    for (var n = 0u; n < FS_MAX_EVALS; n++) {
+        let gr = hermite_gap(delta, x0, x1, hs, theta);
+        // A crossing between lo and hi (to be bracketed), or sample j passed without one.
+        var crossing = false;
+        var hi = zero;
+        var g_hi = zero;
+        var advance = false;
+        if phase == FS_SAMPLE {
+            if j == 0u {
+                g_lo = gr.x;
+                rate_lo = gr.y;
+                max_g = g_lo;
+                advance = true;
+            } else {
+                th = theta;
+                g_th = gr.x;
+                rate_th = gr.y;
+                crossing = wrong_side(g_th, contact);
+                hi = th;
+                g_hi = g_th;
+                var toward: bool;
+                if contact {
+                    toward = rate_lo < zero && rate_th > zero;
+                } else {
+                    toward = rate_lo > zero && rate_th < zero;
+                }
+                if !crossing && toward {
+                    // Extremum where the linearly interpolated rate vanishes.
+                    theta = lo + (th - lo) * rate_lo / (rate_lo - rate_th);
+                    phase = FS_EXTREMUM;
+                } else if !crossing {
+                    advance = true;
+                }
+            }
+        } else if phase == FS_EXTREMUM {
+            let g_p = gr.x;
             if wrong_side(g_p, contact) {
-                hi = tp;
+                hi = theta;
                 g_hi = g_p;
                 crossing = true;
             } else {
                 max_g = rmax(max_g, g_p);
+                advance = true;
+            }
+        } else if phase == FS_ROOT {
+            let m = theta;
+            let gm = gr.x;
+            if wrong_side(gm, contact) {
+                b = m;
+                gb = gm;
+                if last_kept_a {
+                    ga = Real(0.5) * ga;
+                }
+                last_kept_a = true;
+                last_kept_b = false;
+            } else {
+                a = m;
+                ga = gm;
+                max_g = rmax(max_g, gm);
+                if last_kept_b {
+                    gb = Real(0.5) * gb;
+                }
+                last_kept_b = true;
+                last_kept_a = false;
+            }
+            it += 1u;
+            if it == ROOT_MAX_ITERS {
+                result = b;
+                phase = FS_DONE;
             }
         }
         if crossing {
             if wrong_side(g_lo, contact) {
                 // Only at the start (j = 1): the lane sits on the switching surface and
                 // its mode's flow leaves to the other side; flip now.
-                return Switch(lo, max_g);
+                result = lo;
+                phase = FS_DONE;
+            } else {
+                a = lo;
+                ga = g_lo;
+                b = hi;
+                gb = g_hi;
+                phase = FS_ROOT;
             }
-            // Illinois (modified regula falsi) on [lo, hi]; `a` stays on the mode's
-            // side, `b` on the other. Returns `b`.
-            var a = lo;
-            var ga = g_lo;
-            var b = hi;
-            var gb = g_hi;
-            var last_kept_a = false;
-            var last_kept_b = false;
-            for (var it = 0u; it < ROOT_MAX_ITERS; it++) {
-                if b - a <= lc.root_tol {
-                    break;
-                }
+        }
+        if phase == FS_ROOT {
+            // lane.rs's loop head: stop at the tolerance, else the next iterate.
+            if b - a <= lc.root_tol {
+                result = b;
+                phase = FS_DONE;
+            } else {
                 var m = b - gb * (b - a) / (gb - ga);
                 if !(m > a && m < b) {
                     m = Real(0.5) * (a + b);
                 }
-                let gm = hermite_gap(delta, x0, x1, hs, m).x;
-                if wrong_side(gm, contact) {
-                    b = m;
-                    gb = gm;
-                    if last_kept_a {
-                        ga = Real(0.5) * ga;
-                    }
-                    last_kept_a = true;
-                    last_kept_b = false;
-                } else {
-                    a = m;
-                    ga = gm;
-                    max_g = rmax(max_g, gm);
-                    if last_kept_b {
-                        gb = Real(0.5) * gb;
-                    }
-                    last_kept_b = true;
-                    last_kept_a = false;
-                }
+                theta = m;
             }
-            return Switch(b, max_g);
         }
-        max_g = rmax(max_g, g_th);
-        lo = th;
-        g_lo = g_th;
-        rate_lo = rate_th;
+        if advance {
+            if j > 0u {
+                max_g = rmax(max_g, g_th);
+                lo = th;
+                g_lo = g_th;
+                rate_lo = rate_th;
+            }
+            if j == GRAZE_SAMPLES {
+                phase = FS_DONE;
+            } else {
+                j += 1u;
+                // j / GRAZE_SAMPLES: the quotient of two small integers is correctly
+                // rounded, equal to Rust's f64 quotient rounded to Real.
+                theta = Real(j) / Real(GRAZE_SAMPLES);
+                phase = FS_SAMPLE;
+            }
+        }
+        if phase == FS_DONE {
+            break;
+        }
     }
-    return Switch(Real(2.0), max_g);
+    return Switch(result, max_g);
 }
+
+// What the next sub-step of macro_step is.
+const MS_TRIAL: u32 = 0u; // a trial step to the end of the macro step, then find_switch
+const MS_RESTEP: u32 = 1u; // the step to the located switch
+const MS_CAP: u32 = 2u; // the refinement cap's step to the end
 
 // Advances the lane by one macro step (1/N of a forcing period). Frozen lanes do not
 // move. Keep in sync with `macro_step` in src/integrate/lane.rs.
+//
+// lane.rs's segment loop (a trial step, then perhaps the step to the switch) and the
+// refinement-cap step after it are one loop here with one rk4_substep per iteration,
+// `part` saying which sub-step it is (see the note above FS_SAMPLE): a SIMD group then
+// pays one RK4 step per iteration instead of three. The sub-steps, their arguments and
+// their order are lane.rs's for every lane.
 fn macro_step(
     lc: LaneConsts,
     lane: ptr<function, Lane>,
@@ -666,55 +768,79 @@ fn macro_step(
     // result: the first `rmax` below replaces it by any finite g, and a NaN g freezes
     // the lane before max_g is used.
     var max_g = -REAL_MAX;
-    for (var seg = 0u; seg < lc.max_segments; seg++) {
-        let ds = one - s;
+    // Segments begun (lane.rs's loop counter), this sub-step and its length.
+    var seg = 0u;
+    var part = MS_TRIAL;
+    if lc.max_segments == 0u {
+        part = MS_CAP;
+    }
+    var ds = one;
+    // At most a trial step and a step to the switch per segment, then the cap's step.
+    for (var n = 0u; n <= 2u * lc.max_segments; n++) {
+        if part != MS_RESTEP {
+            ds = one - s;
+        }
         let x1 = rk4_substep(lc, x, k, s, ds, contact);
         substeps += 1u;
-        let sw = find_switch(lc, x, x1, ds * lc.h, contact);
-        max_g = rmax(max_g, sw.max_g);
-        if sw.theta > one {
+        var flip = false;
+        if part == MS_TRIAL {
+            let sw = find_switch(lc, x, x1, ds * lc.h, contact);
+            max_g = rmax(max_g, sw.max_g);
+            if sw.theta > one {
+                if LYAPUNOV {
+                    rk4_tangent_substep(lc, x, k, s, ds, contact, v);
+                }
+                x = x1;
+                done = true;
+            } else if sw.theta >= one {
+                if LYAPUNOV {
+                    rk4_tangent_substep(lc, x, k, s, ds, contact, v);
+                }
+                x = x1;
+                s = one;
+                flip = true;
+            } else if sw.theta > Real(0.0) {
+                // Step to the switch in the next iteration.
+                ds = ds * sw.theta;
+                part = MS_RESTEP;
+            } else {
+                flip = true;
+            }
+        } else if part == MS_RESTEP {
             if LYAPUNOV {
                 rk4_tangent_substep(lc, x, k, s, ds, contact, v);
             }
             x = x1;
-            done = true;
-            break;
-        }
-        if sw.theta >= one {
+            s += ds;
+            flip = true;
+        } else {
+            // Refinement cap: finish the step in the current mode and say so.
             if LYAPUNOV {
                 rk4_tangent_substep(lc, x, k, s, ds, contact, v);
             }
             x = x1;
-            s = one;
-        } else if sw.theta > Real(0.0) {
-            if LYAPUNOV {
-                rk4_tangent_substep(lc, x, k, s, ds * sw.theta, contact, v);
+            contact = penetration(lc.c.delta, x) > Real(0.0);
+            if (*lane).status < STATUS_REFINEMENT_CAP {
+                (*lane).status = STATUS_REFINEMENT_CAP;
             }
-            x = rk4_substep(lc, x, k, s, ds * sw.theta, contact);
-            substeps += 1u;
-            s += ds * sw.theta;
-        }
-        if LYAPUNOV {
-            saltation(lc, x, k, s, contact, v);
-        }
-        contact = !contact;
-        touched = true;
-        switches += 1u;
-        if s >= one {
             done = true;
+        }
+        if flip {
+            if LYAPUNOV {
+                saltation(lc, x, k, s, contact, v);
+            }
+            contact = !contact;
+            touched = true;
+            switches += 1u;
+            if s >= one {
+                done = true;
+            } else {
+                seg += 1u;
+                part = select(MS_TRIAL, MS_CAP, seg == lc.max_segments);
+            }
+        }
+        if done {
             break;
-        }
-    }
-    if !done {
-        // Refinement cap: finish the step in the current mode and say so.
-        if LYAPUNOV {
-            rk4_tangent_substep(lc, x, k, s, one - s, contact, v);
-        }
-        x = rk4_substep(lc, x, k, s, one - s, contact);
-        substeps += 1u;
-        contact = penetration(lc.c.delta, x) > Real(0.0);
-        if (*lane).status < STATUS_REFINEMENT_CAP {
-            (*lane).status = STATUS_REFINEMENT_CAP;
         }
     }
     // Status checks: freeze at the last good state rather than poison anything.
