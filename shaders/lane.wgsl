@@ -555,31 +555,86 @@ struct Switch {
 // extremum evaluation and an Illinois loop inside each sample) costs 25 hermite_gap
 // evaluations per trial step even when no lane is near contact, and macro_step's
 // re-step and refinement-cap sub-steps cost two more RK4 steps per macro step. The
-// kernel therefore runs both functions as loops of one evaluation per iteration (one
-// hermite_gap call in find_switch, one rk4_substep call in macro_step), the phase of
-// each lane choosing the arguments: the same evaluations, with the same arguments, in
-// the same order for every lane, so the arithmetic is that of lane.rs bit for bit, and
-// a group pays one trial step and 9 hermite_gap calls per macro step in free flight.
+// kernel therefore evaluates the samples of find_switch up front, then runs one loop
+// with one hermite_gap call per pass for the data-dependent points (extrema, Illinois
+// iterates), and macro_step as one loop with one rk4_substep call per iteration, the
+// phase of each lane choosing the arguments. Every lane's result is lane.rs's bit for
+// bit (same points evaluated with the same arguments, same bookkeeping in the same
+// order; extra evaluations whose results are not used change nothing), and a group
+// pays one trial step and 10 hermite_gap calls per macro step in free flight.
 
-// What find_switch evaluates next.
-const FS_SAMPLE: u32 = 0u; // the sample j / GRAZE_SAMPLES (j = 0: the start)
-const FS_EXTREMUM: u32 = 1u; // the estimated extremum between samples j - 1 and j
+// What a pass of find_switch's loop does for a lane.
+const FS_SCAN: u32 = 0u; // look for the next sample with a crossing or an extremum before it
+const FS_EXTREMUM: u32 = 1u; // check the estimated extremum before sample `je`
 const FS_ROOT: u32 = 2u; // an Illinois iterate
 const FS_DONE: u32 = 3u;
-// Evaluations of find_switch at most: the start, a sample and an extremum per sample,
-// then the Illinois iterations.
-const FS_MAX_EVALS: u32 = 1u + 2u * GRAZE_SAMPLES + ROOT_MAX_ITERS;
+// Passes at most: the first scan, an extremum check per sample, the Illinois iterations.
+const FS_MAX_PASSES: u32 = 1u + GRAZE_SAMPLES + ROOT_MAX_ITERS;
+
+// State of one scan of find_switch over the samples: lane.rs's sample loop up to the
+// first sample on the wrong side or with an extremum heading there before it (sample
+// `je`), its running max_g and its last sample passed (lo, g_lo).
+struct Scan {
+    found: bool,
+    crossing: bool,
+    je: u32,
+    g_th: Real,
+    rate_lo: Real,
+    rate_th: Real,
+    max_g: Real,
+    lo: Real,
+    g_lo: Real,
+}
+
+// One sample of the scan: sample j (g_j and its rate rate_th; rate_lo that of sample
+// j - 1), if the scan has not stopped yet and the lane's scan starts at or before j.
+// Called with constant j: straight-line code on values held in registers.
+fn scan_sample(
+    sc: ptr<function, Scan>,
+    jn: u32,
+    j: u32,
+    g_j: Real,
+    rate_lo: Real,
+    rate_th: Real,
+    contact: bool,
+) {
+    if (*sc).found || j < jn {
+        return;
+    }
+    let zero = Real(0.0);
+    let crossing = wrong_side(g_j, contact);
+    var toward: bool;
+    if contact {
+        toward = rate_lo < zero && rate_th > zero;
+    } else {
+        toward = rate_lo > zero && rate_th < zero;
+    }
+    if crossing || toward {
+        (*sc).found = true;
+        (*sc).crossing = crossing;
+        (*sc).je = j;
+        (*sc).g_th = g_j;
+        (*sc).rate_lo = rate_lo;
+        (*sc).rate_th = rate_th;
+    } else {
+        (*sc).max_g = rmax((*sc).max_g, g_j);
+        (*sc).lo = Real(j) / Real(GRAZE_SAMPLES);
+        (*sc).g_lo = g_j;
+    }
+}
 
 // Looks for the first crossing of g = 0 along the trial sub-step x0 -> x1 (duration hs)
 // taken in mode `contact`; see the docs of src/integrate/lane.rs. Between two samples on
 // the mode's side, an extremum of g heading to the other side (rates of opposite signs)
 // is checked at its estimated location.
 //
-// lane.rs's nested loops (samples; in each, the extremum check and the Illinois loop)
-// are flattened here into one loop with one hermite_gap evaluation per iteration, the
-// lane's `phase` saying which (see the note above FS_SAMPLE). Every lane evaluates the
-// same points in the same order as lane.rs, and the bookkeeping between evaluations
-// (max_g, the bracket, the Illinois weights) is lane.rs's, statement for statement.
+// lane.rs walks the samples one at a time, evaluating each when it gets there. Here all
+// samples are evaluated first (independent evaluations the CPU core overlaps, where a
+// walk would wait on each sqrt and division in turn; lavapipe runs one SIMD group per
+// thread, so latency is what it pays), then each pass of one loop scans the samples
+// from where the lane is for the next event and evaluates the one point it needs (see
+// the note above FS_SCAN). lane.rs's `lo`, `g_lo`, `rate_lo` are always the last sample
+// passed, i.e. sample j - 1 when sample j is examined.
 fn find_switch(
     lc: LaneConsts,
     x0: array<Real, STATE_DIM>,
@@ -589,18 +644,30 @@ fn find_switch(
 ) -> Switch {
     let delta = lc.c.delta;
     let zero = Real(0.0);
-    var phase = FS_SAMPLE;
-    var j = 0u;
-    // Where the next evaluation is.
-    var theta = zero;
+    // The samples, written out: a loop here is not unrolled by Mesa 22.3 and would keep
+    // them in memory. j / GRAZE_SAMPLES: the quotient of two small integers is
+    // correctly rounded, equal to Rust's f64 quotient rounded to Real.
+    const_assert GRAZE_SAMPLES == 8u;
+    let s0 = hermite_gap(delta, x0, x1, hs, Real(0u) / Real(GRAZE_SAMPLES));
+    let s1 = hermite_gap(delta, x0, x1, hs, Real(1u) / Real(GRAZE_SAMPLES));
+    let s2 = hermite_gap(delta, x0, x1, hs, Real(2u) / Real(GRAZE_SAMPLES));
+    let s3 = hermite_gap(delta, x0, x1, hs, Real(3u) / Real(GRAZE_SAMPLES));
+    let s4 = hermite_gap(delta, x0, x1, hs, Real(4u) / Real(GRAZE_SAMPLES));
+    let s5 = hermite_gap(delta, x0, x1, hs, Real(5u) / Real(GRAZE_SAMPLES));
+    let s6 = hermite_gap(delta, x0, x1, hs, Real(6u) / Real(GRAZE_SAMPLES));
+    let s7 = hermite_gap(delta, x0, x1, hs, Real(7u) / Real(GRAZE_SAMPLES));
+    let s8 = hermite_gap(delta, x0, x1, hs, Real(8u) / Real(GRAZE_SAMPLES));
+    var max_g = s0.x;
+    var phase = FS_SCAN;
+    // The next sample to examine; the sample whose extremum is checked.
+    var jn = 1u;
+    var je = 0u;
     var lo = zero;
-    var g_lo = zero;
-    var rate_lo = zero;
-    var max_g = zero;
-    // Sample j while the extremum before it is checked.
+    var g_lo = s0.x;
     var th = zero;
     var g_th = zero;
-    var rate_th = zero;
+    // Where the pass evaluates (an extremum or an Illinois iterate).
+    var theta = zero;
     // Illinois (modified regula falsi); `a` stays on the mode's side, `b` on the other.
     var a = zero;
     var ga = zero;
@@ -610,56 +677,31 @@ fn find_switch(
     var last_kept_b = false;
     var it = 0u;
     var result = Real(2.0);
-    for (var n = 0u; n < FS_MAX_EVALS; n++) {
-        let gr = hermite_gap(delta, x0, x1, hs, theta);
-        // A crossing between lo and hi (to be bracketed), or sample j passed without one.
+    for (var n = 0u; n < FS_MAX_PASSES; n++) {
+        // The point this pass needs (unused in the first pass, which only scans).
+        let gp = hermite_gap(delta, x0, x1, hs, theta).x;
         var crossing = false;
         var hi = zero;
         var g_hi = zero;
-        var advance = false;
-        if phase == FS_SAMPLE {
-            if j == 0u {
-                g_lo = gr.x;
-                rate_lo = gr.y;
-                max_g = g_lo;
-                advance = true;
-            } else {
-                th = theta;
-                g_th = gr.x;
-                rate_th = gr.y;
-                crossing = wrong_side(g_th, contact);
-                hi = th;
-                g_hi = g_th;
-                var toward: bool;
-                if contact {
-                    toward = rate_lo < zero && rate_th > zero;
-                } else {
-                    toward = rate_lo > zero && rate_th < zero;
-                }
-                if !crossing && toward {
-                    // Extremum where the linearly interpolated rate vanishes.
-                    theta = lo + (th - lo) * rate_lo / (rate_lo - rate_th);
-                    phase = FS_EXTREMUM;
-                } else if !crossing {
-                    advance = true;
-                }
-            }
-        } else if phase == FS_EXTREMUM {
-            let g_p = gr.x;
-            if wrong_side(g_p, contact) {
+        if phase == FS_EXTREMUM {
+            if wrong_side(gp, contact) {
                 hi = theta;
-                g_hi = g_p;
+                g_hi = gp;
                 crossing = true;
             } else {
-                max_g = rmax(max_g, g_p);
-                advance = true;
+                // lane.rs: the extremum's g, then sample je's, and on to the next sample.
+                max_g = rmax(max_g, gp);
+                max_g = rmax(max_g, g_th);
+                lo = th;
+                g_lo = g_th;
+                jn = je + 1u;
+                phase = FS_SCAN;
             }
         } else if phase == FS_ROOT {
             let m = theta;
-            let gm = gr.x;
-            if wrong_side(gm, contact) {
+            if wrong_side(gp, contact) {
                 b = m;
-                gb = gm;
+                gb = gp;
                 if last_kept_a {
                     ga = Real(0.5) * ga;
                 }
@@ -667,8 +709,8 @@ fn find_switch(
                 last_kept_b = false;
             } else {
                 a = m;
-                ga = gm;
-                max_g = rmax(max_g, gm);
+                ga = gp;
+                max_g = rmax(max_g, gp);
                 if last_kept_b {
                     gb = Real(0.5) * gb;
                 }
@@ -679,6 +721,38 @@ fn find_switch(
             if it == ROOT_MAX_ITERS {
                 result = b;
                 phase = FS_DONE;
+            }
+        }
+        if phase == FS_SCAN {
+            // lane.rs's sample loop from sample jn, up to the first sample on the wrong
+            // side or with an extremum heading there before it.
+            var sc = Scan(false, false, 0u, zero, zero, zero, max_g, lo, g_lo);
+            scan_sample(&sc, jn, 1u, s1.x, s0.y, s1.y, contact);
+            scan_sample(&sc, jn, 2u, s2.x, s1.y, s2.y, contact);
+            scan_sample(&sc, jn, 3u, s3.x, s2.y, s3.y, contact);
+            scan_sample(&sc, jn, 4u, s4.x, s3.y, s4.y, contact);
+            scan_sample(&sc, jn, 5u, s5.x, s4.y, s5.y, contact);
+            scan_sample(&sc, jn, 6u, s6.x, s5.y, s6.y, contact);
+            scan_sample(&sc, jn, 7u, s7.x, s6.y, s7.y, contact);
+            scan_sample(&sc, jn, 8u, s8.x, s7.y, s8.y, contact);
+            max_g = sc.max_g;
+            lo = sc.lo;
+            g_lo = sc.g_lo;
+            if !sc.found {
+                phase = FS_DONE;
+            } else {
+                je = sc.je;
+                th = Real(je) / Real(GRAZE_SAMPLES);
+                g_th = sc.g_th;
+                if sc.crossing {
+                    hi = th;
+                    g_hi = g_th;
+                    crossing = true;
+                } else {
+                    // Extremum where the linearly interpolated rate vanishes.
+                    theta = lo + (th - lo) * sc.rate_lo / (sc.rate_lo - sc.rate_th);
+                    phase = FS_EXTREMUM;
+                }
             }
         }
         if crossing {
@@ -696,7 +770,7 @@ fn find_switch(
             }
         }
         if phase == FS_ROOT {
-            // lane.rs's loop head: stop at the tolerance, else the next iterate.
+            // lane.rs's Illinois loop head: stop at the tolerance, else the next iterate.
             if b - a <= lc.root_tol {
                 result = b;
                 phase = FS_DONE;
@@ -706,23 +780,6 @@ fn find_switch(
                     m = Real(0.5) * (a + b);
                 }
                 theta = m;
-            }
-        }
-        if advance {
-            if j > 0u {
-                max_g = rmax(max_g, g_th);
-                lo = th;
-                g_lo = g_th;
-                rate_lo = rate_th;
-            }
-            if j == GRAZE_SAMPLES {
-                phase = FS_DONE;
-            } else {
-                j += 1u;
-                // j / GRAZE_SAMPLES: the quotient of two small integers is correctly
-                // rounded, equal to Rust's f64 quotient rounded to Real.
-                theta = Real(j) / Real(GRAZE_SAMPLES);
-                phase = FS_SAMPLE;
             }
         }
         if phase == FS_DONE {
@@ -938,28 +995,33 @@ fn advance_lanes(@builtin(global_invocation_id) gid: vec3<u32>) {
         if lane.period >= params.period_end {
             break;
         }
+        // One call site of `record` for both cases (its stores would run twice per
+        // iteration on lavapipe, which executes both arms of every `if`).
+        var recorded = false;
+        var norm = Real(1.0);
         if is_frozen(lane.status) || lc.n == 0u {
-            record(lane.period, i, lane.x, Real(1.0));
-            lane.period += 1u;
-            committed = true;
-            continue;
-        }
-        var next = lane;
-        var next_v = tv;
-        macro_step(lc, &next, &next_v);
-        if !loop_budget_left() {
-            break;
-        }
-        lane = next;
-        tv = next_v;
-        committed = true;
-        if lane.k == 0u && !is_frozen(lane.status) {
-            var norm = Real(1.0);
-            if LYAPUNOV {
-                norm = renormalise(&tv);
+            recorded = true;
+        } else {
+            var next = lane;
+            var next_v = tv;
+            macro_step(lc, &next, &next_v);
+            if !loop_budget_left() {
+                break;
             }
+            lane = next;
+            tv = next_v;
+            committed = true;
+            if lane.k == 0u && !is_frozen(lane.status) {
+                if LYAPUNOV {
+                    norm = renormalise(&tv);
+                }
+                recorded = true;
+            }
+        }
+        if recorded {
             record(lane.period, i, lane.x, norm);
             lane.period += 1u;
+            committed = true;
         }
     }
     lanes[i] = lane;
