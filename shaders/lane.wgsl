@@ -128,6 +128,13 @@ fn is_frozen(status: u32) -> bool {
     return status == STATUS_DIVERGED || status == STATUS_NON_FINITE;
 }
 
+// `params.probe`, copied once per invocation by `advance_lanes` (see
+// `loop_budget_left`): lavapipe reloads a uniform at every use inside a loop, as a
+// gather of 8 scalar loads (perf: the probe's bound alone took 5% of a run). `keep`
+// reads `params.n_lanes` itself: a private copy would be a known constant in any other
+// entry point (tests/gpu.rs has one), and the barrier would vanish there.
+var<private> probe_n: u32;
+
 // Returns `v`. An evaluation-order barrier: SPIR-V from naga carries no NoContraction
 // decoration, so Mesa's NIR may apply inexact rewrites to + and *, among them
 // "reassociate add chains for more MAD/FMA-friendly code", (p*q + r*s) + c ->
@@ -939,14 +946,14 @@ fn macro_step(
 // loop of an invocation once the loops together have iterated 65535 times
 // (LP_MAX_TGSI_LOOP_ITERATIONS, shared by all loops of a shader) and carries on after
 // them as if they had finished, which would corrupt a macro step silently. This loop
-// runs `params.probe` (= 2) times unless that limit has been reached, so a failed probe
-// right after a macro step says the step may be corrupt.
+// runs `params.probe` (= 2, in `probe_n`) times unless that limit has been reached, so
+// a failed probe right after a macro step says the step may be corrupt.
 fn loop_budget_left() -> bool {
     var n = 0u;
-    for (var q = 0u; q < params.probe; q++) {
+    for (var q = 0u; q < probe_n; q++) {
         n += 1u;
     }
-    return n == params.probe;
+    return n == probe_n;
 }
 
 // Writes the Poincare point of global period `period` (the state at its end) if it is
@@ -978,12 +985,21 @@ fn record(period: u32, i: u32, x: array<Real, STATE_DIM>, norm: Real) {
 // period, as the CPU's `advance_period` loop does. A lane that could not finish counts
 // itself in `unfinished`, and the host dispatches the slice again: the lane resumes at
 // its last committed macro step, so the result does not depend on where it stopped.
+//
+// Everything happens inside the one loop, on purpose. lavapipe runs the masked stores
+// of `record` at every macro step (about 12% of a run, perf), and an inner loop over a
+// period's macro steps with the record after it would run them once per period, but
+// when llvmpipe's loop limit ends a loop it leaves without taking any `break`, so a
+// value that only a `break` sets (such as "the period is complete") is stale after
+// it: tried, and it recorded mid-period states after a cut.
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn advance_lanes(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.x;
     if i >= params.n_lanes {
         return;
     }
+    probe_n = params.probe;
+    let period_end = params.period_end;
     let lc = consts[i];
     var lane = lanes[i];
     var tv: array<Real, STATE_DIM>;
@@ -992,7 +1008,7 @@ fn advance_lanes(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     var committed = false;
     loop {
-        if lane.period >= params.period_end {
+        if lane.period >= period_end {
             break;
         }
         // One call site of `record` for both cases (its stores would run twice per
@@ -1028,7 +1044,7 @@ fn advance_lanes(@builtin(global_invocation_id) gid: vec3<u32>) {
     if LYAPUNOV {
         tangents[i] = tv;
     }
-    if lane.period < params.period_end {
+    if lane.period < period_end {
         atomicAdd(&unfinished[0], 1u);
         if !committed {
             atomicAdd(&unfinished[1], 1u);
