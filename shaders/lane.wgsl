@@ -801,112 +801,151 @@ const MS_TRIAL: u32 = 0u; // a trial step to the end of the macro step, then fin
 const MS_RESTEP: u32 = 1u; // the step to the located switch
 const MS_CAP: u32 = 2u; // the refinement cap's step to the end
 
-// Advances the lane by one macro step (1/N of a forcing period). Frozen lanes do not
-// move. Keep in sync with `macro_step` in src/integrate/lane.rs.
+// A macro step in progress: the local variables of lane.rs's macro_step, kept between
+// the sub-steps (see macro_step).
+struct MacroStep {
+    x: array<Real, STATE_DIM>,
+    contact: bool,
+    touched: bool,
+    // Sub-step start s, and this sub-step's length ds (set for a step to the switch).
+    s: Real,
+    ds: Real,
+    done: bool,
+    capped: bool,
+    substeps: u32,
+    switches: u32,
+    max_g: Real,
+    // Segments begun (lane.rs's loop counter) and the next sub-step.
+    seg: u32,
+    part: u32,
+}
+
+// lane.rs's macro_step up to its segment loop.
+fn macro_step_begin(lc: LaneConsts, lane: Lane) -> MacroStep {
+    let contact = lane.contact != 0u;
+    // The CPU starts max_g from -inf; WGSL has no infinite literal. -REAL_MAX gives the
+    // same result: the first `rmax` replaces it by any finite g, and a NaN g freezes
+    // the lane before max_g is used.
+    return MacroStep(
+        lane.x,
+        contact,
+        contact,
+        Real(0.0),
+        Real(1.0),
+        false,
+        false,
+        0u,
+        0u,
+        -REAL_MAX,
+        0u,
+        select(MS_TRIAL, MS_CAP, lc.max_segments == 0u),
+    );
+}
+
+// Advances a macro step (1/N of a forcing period) by one sub-step. Keep in sync with
+// `macro_step` in src/integrate/lane.rs: macro_step_begin, then this until `done`, then
+// macro_step_end are lane.rs's macro_step.
 //
 // lane.rs's segment loop (a trial step, then perhaps the step to the switch) and the
-// refinement-cap step after it are one loop here with one rk4_substep per iteration,
-// `part` saying which sub-step it is (see the note above FS_SAMPLE): a SIMD group then
-// pays one RK4 step per iteration instead of three. The sub-steps, their arguments and
-// their order are lane.rs's for every lane.
+// refinement-cap step after it are one sub-step per call here, `part` saying which
+// (see the note above FS_SCAN), and the entry point calls this once per iteration of
+// its one loop, starting the lane's next macro step as soon as one is done. So on
+// lavapipe a SIMD group pays one RK4 step and one switch search per iteration, and a
+// lane that needs more sub-steps in a macro step (a contact switch) does not hold the
+// other 7 lanes of its group back: they carry on with their next macro steps. The
+// sub-steps, their arguments and their order are lane.rs's for every lane.
 fn macro_step(
     lc: LaneConsts,
-    lane: ptr<function, Lane>,
+    k: u32,
+    ms: ptr<function, MacroStep>,
     v: ptr<function, array<Real, STATE_DIM>>,
 ) {
-    if is_frozen((*lane).status) {
-        return;
-    }
-    let one = Real(1.0);
-    let k = (*lane).k;
-    var x = (*lane).x;
     // `v` is the tangent vector (lane.rs: macro_step_tangent with M = 1); every use is
     // dead code when LYAPUNOV is false.
-    var contact = (*lane).contact != 0u;
-    var touched = contact;
-    var s = Real(0.0);
+    let one = Real(1.0);
+    var x = (*ms).x;
+    var s = (*ms).s;
+    var ds = (*ms).ds;
+    var contact = (*ms).contact;
+    let part = (*ms).part;
+    if part != MS_RESTEP {
+        ds = one - s;
+    }
+    let x1 = rk4_substep(lc, x, k, s, ds, contact);
+    (*ms).substeps += 1u;
+    var flip = false;
     var done = false;
-    var substeps = 0u;
-    var switches = 0u;
-    // The CPU starts from -inf; WGSL has no infinite literal. -REAL_MAX gives the same
-    // result: the first `rmax` below replaces it by any finite g, and a NaN g freezes
-    // the lane before max_g is used.
-    var max_g = -REAL_MAX;
-    // Segments begun (lane.rs's loop counter), this sub-step and its length.
-    var seg = 0u;
-    var part = MS_TRIAL;
-    if lc.max_segments == 0u {
-        part = MS_CAP;
-    }
-    var ds = one;
-    // At most a trial step and a step to the switch per segment, then the cap's step.
-    for (var n = 0u; n <= 2u * lc.max_segments; n++) {
-        if part != MS_RESTEP {
-            ds = one - s;
-        }
-        let x1 = rk4_substep(lc, x, k, s, ds, contact);
-        substeps += 1u;
-        var flip = false;
-        if part == MS_TRIAL {
-            let sw = find_switch(lc, x, x1, ds * lc.h, contact);
-            max_g = rmax(max_g, sw.max_g);
-            if sw.theta > one {
-                if LYAPUNOV {
-                    rk4_tangent_substep(lc, x, k, s, ds, contact, v);
-                }
-                x = x1;
-                done = true;
-            } else if sw.theta >= one {
-                if LYAPUNOV {
-                    rk4_tangent_substep(lc, x, k, s, ds, contact, v);
-                }
-                x = x1;
-                s = one;
-                flip = true;
-            } else if sw.theta > Real(0.0) {
-                // Step to the switch in the next iteration.
-                ds = ds * sw.theta;
-                part = MS_RESTEP;
-            } else {
-                flip = true;
-            }
-        } else if part == MS_RESTEP {
+    var next_part = part;
+    if part == MS_TRIAL {
+        let sw = find_switch(lc, x, x1, ds * lc.h, contact);
+        (*ms).max_g = rmax((*ms).max_g, sw.max_g);
+        if sw.theta > one {
             if LYAPUNOV {
                 rk4_tangent_substep(lc, x, k, s, ds, contact, v);
             }
             x = x1;
-            s += ds;
-            flip = true;
-        } else {
-            // Refinement cap: finish the step in the current mode and say so.
-            if LYAPUNOV {
-                rk4_tangent_substep(lc, x, k, s, ds, contact, v);
-            }
-            x = x1;
-            contact = penetration(lc.c.delta, x) > Real(0.0);
-            if (*lane).status < STATUS_REFINEMENT_CAP {
-                (*lane).status = STATUS_REFINEMENT_CAP;
-            }
             done = true;
-        }
-        if flip {
+        } else if sw.theta >= one {
             if LYAPUNOV {
-                saltation(lc, x, k, s, contact, v);
+                rk4_tangent_substep(lc, x, k, s, ds, contact, v);
             }
-            contact = !contact;
-            touched = true;
-            switches += 1u;
-            if s >= one {
-                done = true;
-            } else {
-                seg += 1u;
-                part = select(MS_TRIAL, MS_CAP, seg == lc.max_segments);
-            }
+            x = x1;
+            s = one;
+            flip = true;
+        } else if sw.theta > Real(0.0) {
+            // Step to the switch in the next sub-step.
+            ds = ds * sw.theta;
+            next_part = MS_RESTEP;
+        } else {
+            flip = true;
         }
-        if done {
-            break;
+    } else if part == MS_RESTEP {
+        if LYAPUNOV {
+            rk4_tangent_substep(lc, x, k, s, ds, contact, v);
+        }
+        x = x1;
+        s += ds;
+        flip = true;
+    } else {
+        // Refinement cap: finish the step in the current mode and say so.
+        if LYAPUNOV {
+            rk4_tangent_substep(lc, x, k, s, ds, contact, v);
+        }
+        x = x1;
+        contact = penetration(lc.c.delta, x) > Real(0.0);
+        (*ms).capped = true;
+        done = true;
+    }
+    if flip {
+        if LYAPUNOV {
+            saltation(lc, x, k, s, contact, v);
+        }
+        contact = !contact;
+        (*ms).touched = true;
+        (*ms).switches += 1u;
+        if s >= one {
+            done = true;
+        } else {
+            (*ms).seg += 1u;
+            next_part = select(MS_TRIAL, MS_CAP, (*ms).seg == lc.max_segments);
         }
     }
+    (*ms).x = x;
+    (*ms).s = s;
+    (*ms).ds = ds;
+    (*ms).contact = contact;
+    (*ms).part = next_part;
+    (*ms).done = done;
+}
+
+// lane.rs's macro_step after its segment loop and refinement cap: status checks and
+// counters of the finished macro step `ms` of `lane`.
+fn macro_step_end(lc: LaneConsts, lane: ptr<function, Lane>, ms: MacroStep) {
+    if ms.capped && (*lane).status < STATUS_REFINEMENT_CAP {
+        (*lane).status = STATUS_REFINEMENT_CAP;
+    }
+    let x = ms.x;
+    let k = (*lane).k;
     // Status checks: freeze at the last good state rather than poison anything.
     var finite = true;
     for (var i = 0u; i < STATE_DIM; i++) {
@@ -922,17 +961,20 @@ fn macro_step(
         return;
     }
     (*lane).x = x;
-    (*lane).contact = select(0u, 1u, contact);
+    (*lane).contact = select(0u, 1u, ms.contact);
     (*lane).k = select(k + 1u, 0u, k + 1u == lc.n);
     (*lane).counters.macro_steps = sat_add((*lane).counters.macro_steps, 1u);
     (*lane).counters.contact_steps = sat_add(
         (*lane).counters.contact_steps,
-        select(0u, 1u, touched),
+        select(0u, 1u, ms.touched),
     );
-    (*lane).counters.switches = sat_add((*lane).counters.switches, switches);
-    (*lane).counters.extra_substeps = sat_add((*lane).counters.extra_substeps, substeps - 1u);
-    if touched {
-        (*lane).counters.max_penetration = rmax((*lane).counters.max_penetration, max_g);
+    (*lane).counters.switches = sat_add((*lane).counters.switches, ms.switches);
+    (*lane).counters.extra_substeps = sat_add(
+        (*lane).counters.extra_substeps,
+        ms.substeps - 1u,
+    );
+    if ms.touched {
+        (*lane).counters.max_penetration = rmax((*lane).counters.max_penetration, ms.max_g);
     }
 }
 
@@ -979,7 +1021,8 @@ fn record(period: u32, i: u32, x: array<Real, STATE_DIM>, norm: Real) {
 
 // One time slice: every lane of the chunk goes from the period it has completed
 // (`Lane.period`) to `params.period_end`, the state in registers (`lane`) throughout,
-// one macro step at a time, each committed only when the loop budget held (see
+// one sub-step of a macro step per iteration (see macro_step), a macro step committed
+// only when the loop budget held after each of its sub-steps (see
 // `loop_budget_left`). The Poincare point is written at the end of each recorded
 // period; a frozen lane (or one with N = 0) records its frozen state for each remaining
 // period, as the CPU's `advance_period` loop does. A lane that could not finish counts
@@ -987,7 +1030,7 @@ fn record(period: u32, i: u32, x: array<Real, STATE_DIM>, norm: Real) {
 // its last committed macro step, so the result does not depend on where it stopped.
 //
 // Everything happens inside the one loop, on purpose. lavapipe runs the masked stores
-// of `record` at every macro step (about 12% of a run, perf), and an inner loop over a
+// of `record` at every iteration (about 12% of a run, perf), and an inner loop over a
 // period's macro steps with the record after it would run them once per period, but
 // when llvmpipe's loop limit ends a loop it leaves without taking any `break`, so a
 // value that only a `break` sets (such as "the period is complete") is stale after
@@ -1007,6 +1050,10 @@ fn advance_lanes(@builtin(global_invocation_id) gid: vec3<u32>) {
         tv = tangents[i];
     }
     var committed = false;
+    // The lane's macro step in progress (`busy`) and its tangent vector.
+    var ms = macro_step_begin(lc, lane);
+    var busy = false;
+    var vw = tv;
     loop {
         if lane.period >= period_end {
             break;
@@ -1018,20 +1065,28 @@ fn advance_lanes(@builtin(global_invocation_id) gid: vec3<u32>) {
         if is_frozen(lane.status) || lc.n == 0u {
             recorded = true;
         } else {
-            var next = lane;
-            var next_v = tv;
-            macro_step(lc, &next, &next_v);
+            if !busy {
+                ms = macro_step_begin(lc, lane);
+                vw = tv;
+                busy = true;
+            }
+            macro_step(lc, lane.k, &ms, &vw);
             if !loop_budget_left() {
                 break;
             }
-            lane = next;
-            tv = next_v;
-            committed = true;
-            if lane.k == 0u && !is_frozen(lane.status) {
-                if LYAPUNOV {
-                    norm = renormalise(&tv);
+            if ms.done {
+                var next = lane;
+                macro_step_end(lc, &next, ms);
+                lane = next;
+                tv = vw;
+                committed = true;
+                busy = false;
+                if lane.k == 0u && !is_frozen(lane.status) {
+                    if LYAPUNOV {
+                        norm = renormalise(&tv);
+                    }
+                    recorded = true;
                 }
-                recorded = true;
             }
         }
         if recorded {
