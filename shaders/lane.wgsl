@@ -128,6 +128,13 @@ fn is_frozen(status: u32) -> bool {
     return status == STATUS_DIVERGED || status == STATUS_NON_FINITE;
 }
 
+// `params.probe`, copied once per invocation by `advance_lanes` (see
+// `loop_budget_left`): lavapipe reloads a uniform at every use inside a loop, as a
+// gather of 8 scalar loads (perf: the probe's bound alone took 5% of a run). `keep`
+// reads `params.n_lanes` itself: a private copy would be a known constant in any other
+// entry point (tests/gpu.rs has one), and the barrier would vanish there.
+var<private> probe_n: u32;
+
 // Returns `v`. An evaluation-order barrier: SPIR-V from naga carries no NoContraction
 // decoration, so Mesa's NIR may apply inexact rewrites to + and *, among them
 // "reassociate add chains for more MAD/FMA-friendly code", (p*q + r*s) + c ->
@@ -543,10 +550,98 @@ struct Switch {
     max_g: Real,
 }
 
+// Kernel-only control structure (lavapipe, see find_switch and macro_step).
+//
+// Mesa's llvmpipe (lavapipe) up to at least Mesa 22.3 runs 8 invocations (one AVX2
+// register of f32, two of f64) in lock-step and compiles every `if` to masked code
+// without a branch: both arms of every `if` are executed, whatever the lanes decide.
+// Only loops branch: a loop iterates while any of the 8 lanes is still in it, and its
+// body runs at least once (the exit test is at the end). So what a SIMD group pays per
+// macro step is the code of every `if` arm in the loop bodies it passes through, not
+// what a lane needs. lane.rs's find_switch written as it is (a sample loop with an
+// extremum evaluation and an Illinois loop inside each sample) costs 25 hermite_gap
+// evaluations per trial step even when no lane is near contact, and macro_step's
+// re-step and refinement-cap sub-steps cost two more RK4 steps per macro step. The
+// kernel therefore evaluates the samples of find_switch up front, then runs one loop
+// with one hermite_gap call per pass for the data-dependent points (extrema, Illinois
+// iterates), and macro_step as one loop with one rk4_substep call per iteration, the
+// phase of each lane choosing the arguments. Every lane's result is lane.rs's bit for
+// bit (same points evaluated with the same arguments, same bookkeeping in the same
+// order; extra evaluations whose results are not used change nothing), and a group
+// pays one trial step and 10 hermite_gap calls per macro step in free flight.
+
+// What a pass of find_switch's loop does for a lane.
+const FS_SCAN: u32 = 0u; // look for the next sample with a crossing or an extremum before it
+const FS_EXTREMUM: u32 = 1u; // check the estimated extremum before sample `je`
+const FS_ROOT: u32 = 2u; // an Illinois iterate
+const FS_DONE: u32 = 3u;
+// Passes at most: the first scan, an extremum check per sample, the Illinois iterations.
+const FS_MAX_PASSES: u32 = 1u + GRAZE_SAMPLES + ROOT_MAX_ITERS;
+
+// State of one scan of find_switch over the samples: lane.rs's sample loop up to the
+// first sample on the wrong side or with an extremum heading there before it (sample
+// `je`), its running max_g and its last sample passed (lo, g_lo).
+struct Scan {
+    found: bool,
+    crossing: bool,
+    je: u32,
+    g_th: Real,
+    rate_lo: Real,
+    rate_th: Real,
+    max_g: Real,
+    lo: Real,
+    g_lo: Real,
+}
+
+// One sample of the scan: sample j (g_j and its rate rate_th; rate_lo that of sample
+// j - 1), if the scan has not stopped yet and the lane's scan starts at or before j.
+// Called with constant j: straight-line code on values held in registers.
+fn scan_sample(
+    sc: ptr<function, Scan>,
+    jn: u32,
+    j: u32,
+    g_j: Real,
+    rate_lo: Real,
+    rate_th: Real,
+    contact: bool,
+) {
+    if (*sc).found || j < jn {
+        return;
+    }
+    let zero = Real(0.0);
+    let crossing = wrong_side(g_j, contact);
+    var toward: bool;
+    if contact {
+        toward = rate_lo < zero && rate_th > zero;
+    } else {
+        toward = rate_lo > zero && rate_th < zero;
+    }
+    if crossing || toward {
+        (*sc).found = true;
+        (*sc).crossing = crossing;
+        (*sc).je = j;
+        (*sc).g_th = g_j;
+        (*sc).rate_lo = rate_lo;
+        (*sc).rate_th = rate_th;
+    } else {
+        (*sc).max_g = rmax((*sc).max_g, g_j);
+        (*sc).lo = Real(j) / Real(GRAZE_SAMPLES);
+        (*sc).g_lo = g_j;
+    }
+}
+
 // Looks for the first crossing of g = 0 along the trial sub-step x0 -> x1 (duration hs)
 // taken in mode `contact`; see the docs of src/integrate/lane.rs. Between two samples on
 // the mode's side, an extremum of g heading to the other side (rates of opposite signs)
 // is checked at its estimated location.
+//
+// lane.rs walks the samples one at a time, evaluating each when it gets there. Here all
+// samples are evaluated first (independent evaluations the CPU core overlaps, where a
+// walk would wait on each sqrt and division in turn; lavapipe runs one SIMD group per
+// thread, so latency is what it pays), then each pass of one loop scans the samples
+// from where the lane is for the next event and evaluates the one point it needs (see
+// the note above FS_SCAN). lane.rs's `lo`, `g_lo`, `rate_lo` are always the last sample
+// passed, i.e. sample j - 1 when sample j is examined.
 fn find_switch(
     lc: LaneConsts,
     x0: array<Real, STATE_DIM>,
@@ -556,167 +651,301 @@ fn find_switch(
 ) -> Switch {
     let delta = lc.c.delta;
     let zero = Real(0.0);
+    // The samples, written out: a loop here is not unrolled by Mesa 22.3 and would keep
+    // them in memory. j / GRAZE_SAMPLES: the quotient of two small integers is
+    // correctly rounded, equal to Rust's f64 quotient rounded to Real.
+    const_assert GRAZE_SAMPLES == 8u;
+    let s0 = hermite_gap(delta, x0, x1, hs, Real(0u) / Real(GRAZE_SAMPLES));
+    let s1 = hermite_gap(delta, x0, x1, hs, Real(1u) / Real(GRAZE_SAMPLES));
+    let s2 = hermite_gap(delta, x0, x1, hs, Real(2u) / Real(GRAZE_SAMPLES));
+    let s3 = hermite_gap(delta, x0, x1, hs, Real(3u) / Real(GRAZE_SAMPLES));
+    let s4 = hermite_gap(delta, x0, x1, hs, Real(4u) / Real(GRAZE_SAMPLES));
+    let s5 = hermite_gap(delta, x0, x1, hs, Real(5u) / Real(GRAZE_SAMPLES));
+    let s6 = hermite_gap(delta, x0, x1, hs, Real(6u) / Real(GRAZE_SAMPLES));
+    let s7 = hermite_gap(delta, x0, x1, hs, Real(7u) / Real(GRAZE_SAMPLES));
+    let s8 = hermite_gap(delta, x0, x1, hs, Real(8u) / Real(GRAZE_SAMPLES));
+    var max_g = s0.x;
+    var phase = FS_SCAN;
+    // The next sample to examine; the sample whose extremum is checked.
+    var jn = 1u;
+    var je = 0u;
     var lo = zero;
-    let gr0 = hermite_gap(delta, x0, x1, hs, zero);
-    var g_lo = gr0.x;
-    var rate_lo = gr0.y;
-    var max_g = g_lo;
-    for (var j = 1u; j <= GRAZE_SAMPLES; j++) {
-        // j / GRAZE_SAMPLES: the quotient of two small integers is correctly rounded,
-        // equal to Rust's f64 quotient rounded to Real.
-        let th = Real(j) / Real(GRAZE_SAMPLES);
-        let gr_th = hermite_gap(delta, x0, x1, hs, th);
-        let g_th = gr_th.x;
-        let rate_th = gr_th.y;
-        var hi = th;
-        var g_hi = g_th;
-        var crossing = wrong_side(g_th, contact);
-        var toward: bool;
-        if contact {
-            toward = rate_lo < zero && rate_th > zero;
-        } else {
-            toward = rate_lo > zero && rate_th < zero;
-        }
-        if !crossing && toward {
-            // Extremum where the linearly interpolated rate vanishes.
-            let tp = lo + (th - lo) * rate_lo / (rate_lo - rate_th);
-            let g_p = hermite_gap(delta, x0, x1, hs, tp).x;
-            if wrong_side(g_p, contact) {
-                hi = tp;
-                g_hi = g_p;
+    var g_lo = s0.x;
+    var th = zero;
+    var g_th = zero;
+    // Where the pass evaluates (an extremum or an Illinois iterate).
+    var theta = zero;
+    // Illinois (modified regula falsi); `a` stays on the mode's side, `b` on the other.
+    var a = zero;
+    var ga = zero;
+    var b = zero;
+    var gb = zero;
+    var last_kept_a = false;
+    var last_kept_b = false;
+    var it = 0u;
+    var result = Real(2.0);
+    for (var n = 0u; n < FS_MAX_PASSES; n++) {
+        // The point this pass needs (unused in the first pass, which only scans).
+        let gp = hermite_gap(delta, x0, x1, hs, theta).x;
+        var crossing = false;
+        var hi = zero;
+        var g_hi = zero;
+        if phase == FS_EXTREMUM {
+            if wrong_side(gp, contact) {
+                hi = theta;
+                g_hi = gp;
                 crossing = true;
             } else {
-                max_g = rmax(max_g, g_p);
+                // lane.rs: the extremum's g, then sample je's, and on to the next sample.
+                max_g = rmax(max_g, gp);
+                max_g = rmax(max_g, g_th);
+                lo = th;
+                g_lo = g_th;
+                jn = je + 1u;
+                phase = FS_SCAN;
+            }
+        } else if phase == FS_ROOT {
+            let m = theta;
+            if wrong_side(gp, contact) {
+                b = m;
+                gb = gp;
+                if last_kept_a {
+                    ga = Real(0.5) * ga;
+                }
+                last_kept_a = true;
+                last_kept_b = false;
+            } else {
+                a = m;
+                ga = gp;
+                max_g = rmax(max_g, gp);
+                if last_kept_b {
+                    gb = Real(0.5) * gb;
+                }
+                last_kept_b = true;
+                last_kept_a = false;
+            }
+            it += 1u;
+            if it == ROOT_MAX_ITERS {
+                result = b;
+                phase = FS_DONE;
+            }
+        }
+        if phase == FS_SCAN {
+            // lane.rs's sample loop from sample jn, up to the first sample on the wrong
+            // side or with an extremum heading there before it.
+            var sc = Scan(false, false, 0u, zero, zero, zero, max_g, lo, g_lo);
+            scan_sample(&sc, jn, 1u, s1.x, s0.y, s1.y, contact);
+            scan_sample(&sc, jn, 2u, s2.x, s1.y, s2.y, contact);
+            scan_sample(&sc, jn, 3u, s3.x, s2.y, s3.y, contact);
+            scan_sample(&sc, jn, 4u, s4.x, s3.y, s4.y, contact);
+            scan_sample(&sc, jn, 5u, s5.x, s4.y, s5.y, contact);
+            scan_sample(&sc, jn, 6u, s6.x, s5.y, s6.y, contact);
+            scan_sample(&sc, jn, 7u, s7.x, s6.y, s7.y, contact);
+            scan_sample(&sc, jn, 8u, s8.x, s7.y, s8.y, contact);
+            max_g = sc.max_g;
+            lo = sc.lo;
+            g_lo = sc.g_lo;
+            if !sc.found {
+                phase = FS_DONE;
+            } else {
+                je = sc.je;
+                th = Real(je) / Real(GRAZE_SAMPLES);
+                g_th = sc.g_th;
+                if sc.crossing {
+                    hi = th;
+                    g_hi = g_th;
+                    crossing = true;
+                } else {
+                    // Extremum where the linearly interpolated rate vanishes.
+                    theta = lo + (th - lo) * sc.rate_lo / (sc.rate_lo - sc.rate_th);
+                    phase = FS_EXTREMUM;
+                }
             }
         }
         if crossing {
             if wrong_side(g_lo, contact) {
                 // Only at the start (j = 1): the lane sits on the switching surface and
                 // its mode's flow leaves to the other side; flip now.
-                return Switch(lo, max_g);
+                result = lo;
+                phase = FS_DONE;
+            } else {
+                a = lo;
+                ga = g_lo;
+                b = hi;
+                gb = g_hi;
+                phase = FS_ROOT;
             }
-            // Illinois (modified regula falsi) on [lo, hi]; `a` stays on the mode's
-            // side, `b` on the other. Returns `b`.
-            var a = lo;
-            var ga = g_lo;
-            var b = hi;
-            var gb = g_hi;
-            var last_kept_a = false;
-            var last_kept_b = false;
-            for (var it = 0u; it < ROOT_MAX_ITERS; it++) {
-                if b - a <= lc.root_tol {
-                    break;
-                }
+        }
+        if phase == FS_ROOT {
+            // lane.rs's Illinois loop head: stop at the tolerance, else the next iterate.
+            if b - a <= lc.root_tol {
+                result = b;
+                phase = FS_DONE;
+            } else {
                 var m = b - gb * (b - a) / (gb - ga);
                 if !(m > a && m < b) {
                     m = Real(0.5) * (a + b);
                 }
-                let gm = hermite_gap(delta, x0, x1, hs, m).x;
-                if wrong_side(gm, contact) {
-                    b = m;
-                    gb = gm;
-                    if last_kept_a {
-                        ga = Real(0.5) * ga;
-                    }
-                    last_kept_a = true;
-                    last_kept_b = false;
-                } else {
-                    a = m;
-                    ga = gm;
-                    max_g = rmax(max_g, gm);
-                    if last_kept_b {
-                        gb = Real(0.5) * gb;
-                    }
-                    last_kept_b = true;
-                    last_kept_a = false;
-                }
+                theta = m;
             }
-            return Switch(b, max_g);
         }
-        max_g = rmax(max_g, g_th);
-        lo = th;
-        g_lo = g_th;
-        rate_lo = rate_th;
+        if phase == FS_DONE {
+            break;
+        }
     }
-    return Switch(Real(2.0), max_g);
+    return Switch(result, max_g);
 }
 
-// Advances the lane by one macro step (1/N of a forcing period). Frozen lanes do not
-// move. Keep in sync with `macro_step` in src/integrate/lane.rs.
+// What the next sub-step of macro_step is.
+const MS_TRIAL: u32 = 0u; // a trial step to the end of the macro step, then find_switch
+const MS_RESTEP: u32 = 1u; // the step to the located switch
+const MS_CAP: u32 = 2u; // the refinement cap's step to the end
+
+// A macro step in progress: the local variables of lane.rs's macro_step, kept between
+// the sub-steps (see macro_step).
+struct MacroStep {
+    x: array<Real, STATE_DIM>,
+    contact: bool,
+    touched: bool,
+    // Sub-step start s, and this sub-step's length ds (set for a step to the switch).
+    s: Real,
+    ds: Real,
+    done: bool,
+    capped: bool,
+    substeps: u32,
+    switches: u32,
+    max_g: Real,
+    // Segments begun (lane.rs's loop counter) and the next sub-step.
+    seg: u32,
+    part: u32,
+}
+
+// lane.rs's macro_step up to its segment loop.
+fn macro_step_begin(lc: LaneConsts, lane: Lane) -> MacroStep {
+    let contact = lane.contact != 0u;
+    // The CPU starts max_g from -inf; WGSL has no infinite literal. -REAL_MAX gives the
+    // same result: the first `rmax` replaces it by any finite g, and a NaN g freezes
+    // the lane before max_g is used.
+    return MacroStep(
+        lane.x,
+        contact,
+        contact,
+        Real(0.0),
+        Real(1.0),
+        false,
+        false,
+        0u,
+        0u,
+        -REAL_MAX,
+        0u,
+        select(MS_TRIAL, MS_CAP, lc.max_segments == 0u),
+    );
+}
+
+// Advances a macro step (1/N of a forcing period) by one sub-step. Keep in sync with
+// `macro_step` in src/integrate/lane.rs: macro_step_begin, then this until `done`, then
+// macro_step_end are lane.rs's macro_step.
+//
+// lane.rs's segment loop (a trial step, then perhaps the step to the switch) and the
+// refinement-cap step after it are one sub-step per call here, `part` saying which
+// (see the note above FS_SCAN), and the entry point calls this once per iteration of
+// its one loop, starting the lane's next macro step as soon as one is done. So on
+// lavapipe a SIMD group pays one RK4 step and one switch search per iteration, and a
+// lane that needs more sub-steps in a macro step (a contact switch) does not hold the
+// other 7 lanes of its group back: they carry on with their next macro steps. The
+// sub-steps, their arguments and their order are lane.rs's for every lane.
 fn macro_step(
     lc: LaneConsts,
-    lane: ptr<function, Lane>,
+    k: u32,
+    ms: ptr<function, MacroStep>,
     v: ptr<function, array<Real, STATE_DIM>>,
 ) {
-    if is_frozen((*lane).status) {
-        return;
-    }
-    let one = Real(1.0);
-    let k = (*lane).k;
-    var x = (*lane).x;
     // `v` is the tangent vector (lane.rs: macro_step_tangent with M = 1); every use is
     // dead code when LYAPUNOV is false.
-    var contact = (*lane).contact != 0u;
-    var touched = contact;
-    var s = Real(0.0);
+    let one = Real(1.0);
+    var x = (*ms).x;
+    var s = (*ms).s;
+    var ds = (*ms).ds;
+    var contact = (*ms).contact;
+    let part = (*ms).part;
+    if part != MS_RESTEP {
+        ds = one - s;
+    }
+    let x1 = rk4_substep(lc, x, k, s, ds, contact);
+    (*ms).substeps += 1u;
+    var flip = false;
     var done = false;
-    var substeps = 0u;
-    var switches = 0u;
-    // The CPU starts from -inf; WGSL has no infinite literal. -REAL_MAX gives the same
-    // result: the first `rmax` below replaces it by any finite g, and a NaN g freezes
-    // the lane before max_g is used.
-    var max_g = -REAL_MAX;
-    for (var seg = 0u; seg < lc.max_segments; seg++) {
-        let ds = one - s;
-        let x1 = rk4_substep(lc, x, k, s, ds, contact);
-        substeps += 1u;
+    var next_part = part;
+    if part == MS_TRIAL {
         let sw = find_switch(lc, x, x1, ds * lc.h, contact);
-        max_g = rmax(max_g, sw.max_g);
+        (*ms).max_g = rmax((*ms).max_g, sw.max_g);
         if sw.theta > one {
             if LYAPUNOV {
                 rk4_tangent_substep(lc, x, k, s, ds, contact, v);
             }
             x = x1;
             done = true;
-            break;
-        }
-        if sw.theta >= one {
+        } else if sw.theta >= one {
             if LYAPUNOV {
                 rk4_tangent_substep(lc, x, k, s, ds, contact, v);
             }
             x = x1;
             s = one;
+            flip = true;
         } else if sw.theta > Real(0.0) {
-            if LYAPUNOV {
-                rk4_tangent_substep(lc, x, k, s, ds * sw.theta, contact, v);
-            }
-            x = rk4_substep(lc, x, k, s, ds * sw.theta, contact);
-            substeps += 1u;
-            s += ds * sw.theta;
+            // Step to the switch in the next sub-step.
+            ds = ds * sw.theta;
+            next_part = MS_RESTEP;
+        } else {
+            flip = true;
         }
+    } else if part == MS_RESTEP {
+        if LYAPUNOV {
+            rk4_tangent_substep(lc, x, k, s, ds, contact, v);
+        }
+        x = x1;
+        s += ds;
+        flip = true;
+    } else {
+        // Refinement cap: finish the step in the current mode and say so.
+        if LYAPUNOV {
+            rk4_tangent_substep(lc, x, k, s, ds, contact, v);
+        }
+        x = x1;
+        contact = penetration(lc.c.delta, x) > Real(0.0);
+        (*ms).capped = true;
+        done = true;
+    }
+    if flip {
         if LYAPUNOV {
             saltation(lc, x, k, s, contact, v);
         }
         contact = !contact;
-        touched = true;
-        switches += 1u;
+        (*ms).touched = true;
+        (*ms).switches += 1u;
         if s >= one {
             done = true;
-            break;
+        } else {
+            (*ms).seg += 1u;
+            next_part = select(MS_TRIAL, MS_CAP, (*ms).seg == lc.max_segments);
         }
     }
-    if !done {
-        // Refinement cap: finish the step in the current mode and say so.
-        if LYAPUNOV {
-            rk4_tangent_substep(lc, x, k, s, one - s, contact, v);
-        }
-        x = rk4_substep(lc, x, k, s, one - s, contact);
-        substeps += 1u;
-        contact = penetration(lc.c.delta, x) > Real(0.0);
-        if (*lane).status < STATUS_REFINEMENT_CAP {
-            (*lane).status = STATUS_REFINEMENT_CAP;
-        }
+    (*ms).x = x;
+    (*ms).s = s;
+    (*ms).ds = ds;
+    (*ms).contact = contact;
+    (*ms).part = next_part;
+    (*ms).done = done;
+}
+
+// lane.rs's macro_step after its segment loop and refinement cap: status checks and
+// counters of the finished macro step `ms` of `lane`.
+fn macro_step_end(lc: LaneConsts, lane: ptr<function, Lane>, ms: MacroStep) {
+    if ms.capped && (*lane).status < STATUS_REFINEMENT_CAP {
+        (*lane).status = STATUS_REFINEMENT_CAP;
     }
+    let x = ms.x;
+    let k = (*lane).k;
     // Status checks: freeze at the last good state rather than poison anything.
     var finite = true;
     for (var i = 0u; i < STATE_DIM; i++) {
@@ -732,17 +961,20 @@ fn macro_step(
         return;
     }
     (*lane).x = x;
-    (*lane).contact = select(0u, 1u, contact);
+    (*lane).contact = select(0u, 1u, ms.contact);
     (*lane).k = select(k + 1u, 0u, k + 1u == lc.n);
     (*lane).counters.macro_steps = sat_add((*lane).counters.macro_steps, 1u);
     (*lane).counters.contact_steps = sat_add(
         (*lane).counters.contact_steps,
-        select(0u, 1u, touched),
+        select(0u, 1u, ms.touched),
     );
-    (*lane).counters.switches = sat_add((*lane).counters.switches, switches);
-    (*lane).counters.extra_substeps = sat_add((*lane).counters.extra_substeps, substeps - 1u);
-    if touched {
-        (*lane).counters.max_penetration = rmax((*lane).counters.max_penetration, max_g);
+    (*lane).counters.switches = sat_add((*lane).counters.switches, ms.switches);
+    (*lane).counters.extra_substeps = sat_add(
+        (*lane).counters.extra_substeps,
+        ms.substeps - 1u,
+    );
+    if ms.touched {
+        (*lane).counters.max_penetration = rmax((*lane).counters.max_penetration, ms.max_g);
     }
 }
 
@@ -756,14 +988,14 @@ fn macro_step(
 // loop of an invocation once the loops together have iterated 65535 times
 // (LP_MAX_TGSI_LOOP_ITERATIONS, shared by all loops of a shader) and carries on after
 // them as if they had finished, which would corrupt a macro step silently. This loop
-// runs `params.probe` (= 2) times unless that limit has been reached, so a failed probe
-// right after a macro step says the step may be corrupt.
+// runs `params.probe` (= 2, in `probe_n`) times unless that limit has been reached, so
+// a failed probe right after a macro step says the step may be corrupt.
 fn loop_budget_left() -> bool {
     var n = 0u;
-    for (var q = 0u; q < params.probe; q++) {
+    for (var q = 0u; q < probe_n; q++) {
         n += 1u;
     }
-    return n == params.probe;
+    return n == probe_n;
 }
 
 // Writes the Poincare point of global period `period` (the state at its end) if it is
@@ -789,18 +1021,28 @@ fn record(period: u32, i: u32, x: array<Real, STATE_DIM>, norm: Real) {
 
 // One time slice: every lane of the chunk goes from the period it has completed
 // (`Lane.period`) to `params.period_end`, the state in registers (`lane`) throughout,
-// one macro step at a time, each committed only when the loop budget held (see
+// one sub-step of a macro step per iteration (see macro_step), a macro step committed
+// only when the loop budget held after each of its sub-steps (see
 // `loop_budget_left`). The Poincare point is written at the end of each recorded
 // period; a frozen lane (or one with N = 0) records its frozen state for each remaining
 // period, as the CPU's `advance_period` loop does. A lane that could not finish counts
 // itself in `unfinished`, and the host dispatches the slice again: the lane resumes at
 // its last committed macro step, so the result does not depend on where it stopped.
+//
+// Everything happens inside the one loop, on purpose. lavapipe runs the masked stores
+// of `record` at every iteration (about 12% of a run, perf), and an inner loop over a
+// period's macro steps with the record after it would run them once per period, but
+// when llvmpipe's loop limit ends a loop it leaves without taking any `break`, so a
+// value that only a `break` sets (such as "the period is complete") is stale after
+// it: tried, and it recorded mid-period states after a cut.
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn advance_lanes(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.x;
     if i >= params.n_lanes {
         return;
     }
+    probe_n = params.probe;
+    let period_end = params.period_end;
     let lc = consts[i];
     var lane = lanes[i];
     var tv: array<Real, STATE_DIM>;
@@ -808,39 +1050,56 @@ fn advance_lanes(@builtin(global_invocation_id) gid: vec3<u32>) {
         tv = tangents[i];
     }
     var committed = false;
+    // The lane's macro step in progress (`busy`) and its tangent vector.
+    var ms = macro_step_begin(lc, lane);
+    var busy = false;
+    var vw = tv;
     loop {
-        if lane.period >= params.period_end {
+        if lane.period >= period_end {
             break;
         }
+        // One call site of `record` for both cases (its stores would run twice per
+        // iteration on lavapipe, which executes both arms of every `if`).
+        var recorded = false;
+        var norm = Real(1.0);
         if is_frozen(lane.status) || lc.n == 0u {
-            record(lane.period, i, lane.x, Real(1.0));
-            lane.period += 1u;
-            committed = true;
-            continue;
-        }
-        var next = lane;
-        var next_v = tv;
-        macro_step(lc, &next, &next_v);
-        if !loop_budget_left() {
-            break;
-        }
-        lane = next;
-        tv = next_v;
-        committed = true;
-        if lane.k == 0u && !is_frozen(lane.status) {
-            var norm = Real(1.0);
-            if LYAPUNOV {
-                norm = renormalise(&tv);
+            recorded = true;
+        } else {
+            if !busy {
+                ms = macro_step_begin(lc, lane);
+                vw = tv;
+                busy = true;
             }
+            macro_step(lc, lane.k, &ms, &vw);
+            if !loop_budget_left() {
+                break;
+            }
+            if ms.done {
+                var next = lane;
+                macro_step_end(lc, &next, ms);
+                lane = next;
+                tv = vw;
+                committed = true;
+                busy = false;
+                if lane.k == 0u && !is_frozen(lane.status) {
+                    if LYAPUNOV {
+                        norm = renormalise(&tv);
+                    }
+                    recorded = true;
+                }
+            }
+        }
+        if recorded {
             record(lane.period, i, lane.x, norm);
             lane.period += 1u;
+            committed = true;
         }
     }
     lanes[i] = lane;
     if LYAPUNOV {
         tangents[i] = tv;
     }
-    if lane.period < params.period_end {
+    if lane.period < period_end {
         atomicAdd(&unfinished[0], 1u);
         if !committed {
             atomicAdd(&unfinished[1], 1u);
