@@ -132,11 +132,43 @@ pub struct Attractor {
     /// Index of the first lane (in the order added) that settled on it: a start state
     /// that reaches it.
     pub first_lane: u64,
+    /// Mean largest Lyapunov exponent of its lanes [1/s], when lambda1 was computed
+    /// (`None` otherwise).
+    pub lambda1: Option<f64>,
+    /// Smallest and largest lambda1 among its lanes [1/s].
+    pub lambda1_range: Option<(f64, f64)>,
     #[serde(skip)]
     kind: Class,
+    #[serde(skip)]
+    l1_sum: f64,
+    #[serde(skip)]
+    l1_n: u64,
 }
 
 impl Attractor {
+    /// Adds one lane's lambda1 to the mean and range (NaN: not computed, ignored).
+    fn add_lambda1(&mut self, l: f64) {
+        if l.is_finite() {
+            self.merge_lambda1(l, 1, Some((l, l)));
+        }
+    }
+
+    /// Adds `n` lanes' lambda1 (sum and range) to the mean and range.
+    fn merge_lambda1(&mut self, sum: f64, n: u64, range: Option<(f64, f64)>) {
+        if n == 0 {
+            return;
+        }
+        self.l1_sum += sum;
+        self.l1_n += n;
+        self.lambda1 = Some(self.l1_sum / self.l1_n as f64);
+        if let Some((lo, hi)) = range {
+            self.lambda1_range = Some(match self.lambda1_range {
+                Some((a, b)) => (a.min(lo), b.max(hi)),
+                None => (lo, hi),
+            });
+        }
+    }
+
     /// The class as an enum.
     pub fn kind(&self) -> Class {
         self.kind
@@ -158,6 +190,8 @@ pub struct LaneClass {
     /// The points that represent the lane: the last cycle for periodic lanes (canonical
     /// rotation), all points otherwise.
     pub points: Vec<State>,
+    /// The lane's largest Lyapunov exponent [1/s] (NaN when not computed).
+    pub lambda1: f64,
 }
 
 /// Classifies one lane's Poincare sequence (`frozen`: flagged diverged / non-finite),
@@ -194,6 +228,7 @@ pub fn classify_lane(
         class,
         size: c.size,
         points,
+        lambda1: lambda1.unwrap_or(f64::NAN),
     }
 }
 
@@ -282,6 +317,7 @@ impl CatalogueBuilder {
         if let Some(k) = find(&self.cfg, self.omega, &self.attractors, &l) {
             let a = &mut self.attractors[k];
             a.lanes += 1;
+            a.add_lambda1(l.lambda1);
             if a.period.is_none() && a.points.len() < CLOUD_POINTS {
                 let room = CLOUD_POINTS - a.points.len();
                 a.points.extend(l.points.iter().take(room));
@@ -299,8 +335,13 @@ impl CatalogueBuilder {
             size_m: l.size,
             points: l.points,
             first_lane: lane,
+            lambda1: None,
+            lambda1_range: None,
             kind: l.class,
+            l1_sum: 0.0,
+            l1_n: 0,
         });
+        self.attractors[id as usize].add_lambda1(l.lambda1);
         id as i32
     }
 
@@ -341,6 +382,7 @@ impl CatalogueBuilder {
                 class: self.attractors[b].kind,
                 size: self.attractors[b].size_m,
                 points: self.attractors[b].points.clone(),
+                lambda1: f64::NAN,
             };
             if let Some(a) = (0..b).find(|&a| {
                 target[a] == a && {
@@ -348,6 +390,7 @@ impl CatalogueBuilder {
                         class: self.attractors[a].kind,
                         size: self.attractors[a].size_m,
                         points: self.attractors[a].points.clone(),
+                        lambda1: f64::NAN,
                     };
                     same(&self.cfg, self.omega, &lb, &self.attractors[a])
                         || same(&self.cfg, self.omega, &la, &self.attractors[b])
@@ -380,6 +423,12 @@ impl CatalogueBuilder {
                     .collect();
                 kept[t].lanes += extra;
                 kept[t].points.extend(pts);
+                let (sum, n, range) = (
+                    self.attractors[k].l1_sum,
+                    self.attractors[k].l1_n,
+                    self.attractors[k].lambda1_range,
+                );
+                kept[t].merge_lambda1(sum, n, range);
             }
         }
         self.attractors = kept;
