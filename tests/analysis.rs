@@ -114,9 +114,23 @@ fn a_quasiperiodic_circle_is_aperiodic_and_one_attractor_whatever_the_phase() {
         Some(&lam),
         &CatalogueConfig::default(),
     );
+    // One cloud is one attractor whatever each lane's short-time lambda1; its class
+    // follows the mean (4/3 1/s: chaotic).
+    assert_eq!(c.attractors.len(), 1, "{:?}", c.attractors);
     assert_eq!(c.attractors[0].kind(), Class::Chaotic);
-    assert_eq!(c.attractors[1].kind(), Class::Aperiodic);
-    assert_eq!(c.labels, vec![0, 0, 1]);
+    assert!((c.attractors[0].lambda1.unwrap() - 4.0 / 3.0).abs() < 1e-12);
+    assert_eq!(c.attractors[0].lambda1_range, Some((-2.0, 3.0)));
+    assert_eq!(c.labels, vec![0, 0, 0]);
+    let lam = [-3.0, -3.0, -2.0];
+    let c = catalogue(
+        W,
+        &pts,
+        rec,
+        &[false; 3],
+        Some(&lam),
+        &CatalogueConfig::default(),
+    );
+    assert_eq!(c.attractors[0].kind(), Class::Aperiodic);
 }
 
 #[test]

@@ -19,7 +19,9 @@
 //!
 //! Lyapunov hook: when a largest exponent lambda1 [1/s] is known per lane, aperiodic
 //! lanes split into quasiperiodic (|lambda1| < `lambda_tol`) and chaotic
-//! (lambda1 > `lambda_tol`).
+//! (lambda1 > `lambda_tol`). Identity stays with the clouds: lanes of the aperiodic
+//! family on one cloud are one attractor whatever their own short-time lambda1, and the
+//! attractor's class follows the mean lambda1 of its lanes.
 
 use super::classify::{Class, ClassifyConfig, classify, distance};
 use crate::error::{Error, Result};
@@ -232,9 +234,16 @@ pub fn classify_lane(
     }
 }
 
-/// True when lane `l` lies on attractor `a` (the rules of the module docs).
+/// True for the classes without a period (aperiodic and its lambda_1 refinements).
+fn aperiodic_family(c: Class) -> bool {
+    matches!(c, Class::Aperiodic | Class::Quasiperiodic | Class::Chaotic)
+}
+
+/// True when lane `l` lies on attractor `a` (the rules of the module docs). Aperiodic,
+/// quasiperiodic and chaotic lanes may share an attractor: their clouds decide, since a
+/// lane's lambda_1 over a few dozen periods scatters around the attractor's.
 fn same(cfg: &CatalogueConfig, w: f64, l: &LaneClass, a: &Attractor) -> bool {
-    if l.class != a.kind {
+    if l.class != a.kind && !(aperiodic_family(l.class) && aperiodic_family(a.kind)) {
         return false;
     }
     match l.class {
@@ -435,11 +444,23 @@ impl CatalogueBuilder {
         map
     }
 
-    /// The attractors so far with their basin fractions.
+    /// The attractors so far with their basin fractions; an aperiodic attractor's class
+    /// comes from the mean lambda_1 of its lanes when known (quasiperiodic if
+    /// |mean| < `lambda_tol`, chaotic above, aperiodic otherwise).
     pub fn attractors(&self) -> Vec<Attractor> {
         let mut v = self.attractors.clone();
         for a in &mut v {
             a.basin_fraction = a.lanes as f64 / self.total.max(1) as f64;
+            if let (true, Some(l)) = (aperiodic_family(a.kind), a.lambda1) {
+                a.kind = if l.abs() < self.cfg.lambda_tol {
+                    Class::Quasiperiodic
+                } else if l > self.cfg.lambda_tol {
+                    Class::Chaotic
+                } else {
+                    Class::Aperiodic
+                };
+                a.class = a.kind.label();
+            }
         }
         v
     }

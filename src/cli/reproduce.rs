@@ -309,6 +309,30 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
             sw.iter().filter(|q| q.status.is_frozen()).count()
         )
     };
+    // What the lambda_1 row under a sweep shows.
+    let l1_row = |sw: &[crate::analysis::bifurcation::SweepPoint]| -> String {
+        let f: Vec<f64> = sw
+            .iter()
+            .map(|q| q.lambda1)
+            .filter(|l| l.is_finite())
+            .collect();
+        let pos = f.iter().filter(|&&l| l > cfg.lambda_tol).count();
+        let max = f.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let at = |w: f64| {
+            sw.iter()
+                .min_by(|a, b| (a.omega - w).abs().total_cmp(&(b.omega - w).abs()))
+                .map_or("-".into(), |q| {
+                    format!("{:.2} 1/s at {:.3}", q.lambda1, q.omega)
+                })
+        };
+        format!(
+            "positive (> {} 1/s) at {pos} of {} speeds, largest {max:.1} 1/s; {} and {}",
+            cfg.lambda_tol,
+            f.len(),
+            at(131.7),
+            at(140.0)
+        )
+    };
     let first_non_p1 = res
         .up
         .iter()
@@ -339,9 +363,11 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
             name,
             fig,
             &format!(
-                "Quasistatic sweep from the static equilibrium at 130 rad/s, each speed started from the last state of the previous one: {}. Leaving the period-1 branch first at W = {}. Arrays and per-speed classes in `bifurcation/`.",
+                "Quasistatic sweep from the static equilibrium at 130 rad/s, each speed started from the last state of the previous one: {}. Leaving the period-1 branch first at W = {}. The panel underneath: lambda_1 of each sweep point (one tangent vector over its {} recorded periods), {}. Arrays (`bifurcation_lambda1.npy`) and per-speed classes in `bifurcation/`.",
                 sweep_found(&res.up),
-                first_non_p1.map_or("-".into(), |w| format!("{w:.3} rad/s"))
+                first_non_p1.map_or("-".into(), |w| format!("{w:.3} rad/s")),
+                p.periods,
+                l1_row(&res.up)
             ),
             &bif_cmd,
             res.sweep_seconds,
