@@ -513,7 +513,7 @@ pub fn write_bifurcation(
         .zip(&res.down)
         .enumerate()
         .filter(|(wi, (u, d))| {
-            u.class.class != d.class.class || {
+            u.class.class.unrefined() != d.class.class.unrefined() || {
                 let (iu, id) = (sweep_id(res, *wi, u), sweep_id(res, *wi, d));
                 iu.is_some() && id.is_some() && iu != id
             }
