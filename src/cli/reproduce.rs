@@ -623,7 +623,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
             &format!("Fig. {}: phase spaces and Poincare section at W = {omega} rad/s", 5 + i),
             fig,
             &format!(
-                "From the static equilibrium after 1000 periods: **{class}**, lambda_1 = {} (full spectrum below) (the article: {}). Survey of {} start states: {}.",
+                "From the static equilibrium after 1000 periods: **{class}**, lambda_1 = {} (full spectrum in the table at the top) (the article: {}). Survey of {} start states: {}.",
                 l1_text(omega),
                 ARTICLE_SPEEDS[i].1,
                 p.survey_ics,
