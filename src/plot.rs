@@ -201,25 +201,51 @@ pub fn coord_axis(i: usize) -> (f64, String) {
     }
 }
 
+/// lambda_1 against W for the panel under a bifurcation diagram: one series of
+/// (W [rad/s], lambda_1 [1/s]) values.
+#[derive(Clone, Debug)]
+pub struct Lambda1Series {
+    /// Legend text.
+    pub label: String,
+    /// Colour.
+    pub color: RGBColor,
+    /// Dot radius in pixels (0: single pixels, no line).
+    pub radius: u32,
+    /// Join consecutive values by a line (a sweep), or dots only (brute force).
+    pub line: bool,
+    /// (W, lambda_1) pairs; non-finite values are skipped.
+    pub points: Vec<(f64, f64)>,
+}
+
 /// Draws a bifurcation diagram: one panel per coordinate in `coords`, W on the x axis,
-/// the series drawn in order (later ones on top).
+/// the series drawn in order (later ones on top); with `lambda1` series, a panel under
+/// them with the largest Lyapunov exponent against the same W axis and the zero line.
 pub fn bifurcation_diagram(
     path: &Path,
     title: &str,
     coords: &[usize],
     w_range: (f64, f64),
     series: &[DotSeries],
+    lambda1: &[Lambda1Series],
 ) -> Result<()> {
     register_font();
     let err = plot_err(path);
-    let h = 120 + 620 * coords.len().max(1) as u32;
+    let l1 = lambda1
+        .iter()
+        .any(|s| s.points.iter().any(|p| p.1.is_finite()));
+    let l1_h = if l1 { 380 } else { 0 };
+    let h = 120 + 620 * coords.len().max(1) as u32 + l1_h;
     let root = BitMapBackend::new(path, (1800, h)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
     let root = root
         .titled(title, ("sans-serif", 26))
         .map_err(|e| err(e.to_string()))?;
+    let (top, bottom) = root.split_vertically(root.dim_in_pixel().1 - l1_h);
     let pad = 0.005 * (w_range.1 - w_range.0).max(1e-9);
-    for (area, &ci) in root
+    if l1 {
+        lambda1_panel(&bottom, w_range, pad, lambda1).map_err(|e| err(e.to_string()))?;
+    }
+    for (area, &ci) in top
         .split_evenly((coords.len().max(1), 1))
         .iter()
         .zip(coords)
@@ -279,6 +305,98 @@ pub fn bifurcation_diagram(
             .map_err(|e| err(e.to_string()))?;
     }
     root.present().map_err(|e| err(e.to_string()))
+}
+
+/// The lambda_1 panel of [`bifurcation_diagram`].
+fn lambda1_panel<DB: DrawingBackend>(
+    area: &DrawingArea<DB, plotters::coord::Shift>,
+    w_range: (f64, f64),
+    pad: f64,
+    series: &[Lambda1Series],
+) -> std::result::Result<(), String> {
+    let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
+    let yr = padded_range(
+        series
+            .iter()
+            .flat_map(|s| s.points.iter().map(|p| p.1))
+            .chain([0.0]),
+    );
+    let x = (w_range.0 - pad)..(w_range.1 + pad);
+    let mut chart = ChartBuilder::on(area)
+        .margin(14)
+        .x_label_area_size(50)
+        .y_label_area_size(90)
+        .build_cartesian_2d(x.clone(), yr)
+        .map_err(e)?;
+    chart
+        .configure_mesh()
+        .light_line_style(WHITE)
+        .x_desc("W [rad/s]")
+        .y_desc("lambda_1 [1/s]")
+        .label_style(("sans-serif", 16))
+        .axis_desc_style(("sans-serif", 19))
+        .x_label_formatter(&|v| format!("{v:.2}"))
+        .y_label_formatter(&|v| format!("{v:.1}"))
+        .draw()
+        .map_err(e)?;
+    chart
+        .draw_series(LineSeries::new(
+            [(x.start, 0.0), (x.end, 0.0)],
+            BLACK.stroke_width(1),
+        ))
+        .map_err(e)?
+        .label("lambda_1 = 0")
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK));
+    for s in series {
+        let c = s.color;
+        let pts: Vec<(f64, f64)> = s
+            .points
+            .iter()
+            .copied()
+            .filter(|p| p.1.is_finite())
+            .collect();
+        if pts.is_empty() {
+            continue;
+        }
+        if s.line {
+            // Break the line at gaps (frozen lanes) so it does not bridge them.
+            let mut run: Vec<(f64, f64)> = Vec::new();
+            for p in &s.points {
+                if p.1.is_finite() {
+                    run.push(*p);
+                } else if !run.is_empty() {
+                    chart
+                        .draw_series(LineSeries::new(
+                            std::mem::take(&mut run),
+                            c.mix(0.7).stroke_width(1),
+                        ))
+                        .map_err(e)?;
+                }
+            }
+            if !run.is_empty() {
+                chart
+                    .draw_series(LineSeries::new(run, c.mix(0.7).stroke_width(1)))
+                    .map_err(e)?;
+            }
+        }
+        let anno = if s.radius == 0 {
+            chart.draw_series(pts.iter().map(|&p| Pixel::new(p, c)))
+        } else {
+            chart.draw_series(pts.iter().map(|&p| Circle::new(p, s.radius, c.filled())))
+        }
+        .map_err(e)?;
+        anno.label(s.label.as_str())
+            .legend(move |(x, y)| Circle::new((x + 9, y), 4, c.filled()));
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperLeft)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .label_font(("sans-serif", 16))
+        .draw()
+        .map_err(e)?;
+    Ok(())
 }
 
 /// Draws a basin of attraction: `labels` is [ny, nx] (row 0 at y = y_range.0), each cell
@@ -352,6 +470,131 @@ pub fn basin_map(
             ))
             .map_err(|e| err(e.to_string()))?;
     }
+    root.present().map_err(|e| err(e.to_string()))
+}
+
+/// Colour of lambda_1 `v` on a diverging scale: blue for negative (full at `lo`), white at
+/// 0, red for positive (full at `hi`); black for NaN (diverged lanes).
+pub fn lambda1_color(v: f64, lo: f64, hi: f64) -> RGBColor {
+    if !v.is_finite() {
+        return BLACK;
+    }
+    let mix = |a: (f64, f64, f64), t: f64| {
+        let t = t.clamp(0.0, 1.0);
+        let c = |x: f64| (255.0 + (x - 255.0) * t).round() as u8;
+        RGBColor(c(a.0), c(a.1), c(a.2))
+    };
+    if v < 0.0 {
+        mix((33.0, 102.0, 172.0), if lo < 0.0 { v / lo } else { 1.0 })
+    } else {
+        mix((178.0, 24.0, 43.0), if hi > 0.0 { v / hi } else { 0.0 })
+    }
+}
+
+/// Draws a map of the largest Lyapunov exponent per start state: `values` is [ny, nx]
+/// (row 0 at y = y_range.0) in 1/s, on the diverging scale of [`lambda1_color`] with a
+/// colour bar; NaN cells (diverged) black.
+#[allow(clippy::too_many_arguments)]
+pub fn lambda1_map(
+    path: &Path,
+    title: &str,
+    values: &[f64],
+    (nx, ny): (usize, usize),
+    x_range: (f64, f64),
+    y_range: (f64, f64),
+    (x_label, y_label): (&str, &str),
+) -> Result<()> {
+    register_font();
+    let err = plot_err(path);
+    let (lo, hi) = values
+        .iter()
+        .filter(|v| v.is_finite())
+        .fold((0.0f64, 0.0f64), |(a, b), &v| (a.min(v), b.max(v)));
+    let root = BitMapBackend::new(path, (1300, 1100)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
+    let root = root
+        .titled(title, ("sans-serif", 24))
+        .map_err(|e| err(e.to_string()))?;
+    let (plot_area, bar_area) = root.split_horizontally(1000);
+    let mut chart = ChartBuilder::on(&plot_area)
+        .margin(14)
+        .x_label_area_size(50)
+        .y_label_area_size(90)
+        .build_cartesian_2d(x_range.0..x_range.1, y_range.0..y_range.1)
+        .map_err(|e| err(e.to_string()))?;
+    chart
+        .configure_mesh()
+        .disable_mesh()
+        .x_desc(x_label)
+        .y_desc(y_label)
+        .label_style(("sans-serif", 16))
+        .axis_desc_style(("sans-serif", 19))
+        .x_label_formatter(&|v| format!("{v:.4}"))
+        .y_label_formatter(&|v| format!("{v:.4}"))
+        .draw()
+        .map_err(|e| err(e.to_string()))?;
+    let (pw, ph) = chart.plotting_area().dim_in_pixel();
+    let mut buf = vec![0u8; (pw * ph * 3) as usize];
+    for py in 0..ph as usize {
+        let iy = ((ph as usize - 1 - py) * ny / ph as usize).min(ny - 1);
+        for px in 0..pw as usize {
+            let ix = (px * nx / pw as usize).min(nx - 1);
+            let c = lambda1_color(values[iy * nx + ix], lo, hi);
+            let o = (py * pw as usize + px) * 3;
+            buf[o..o + 3].copy_from_slice(&[c.0, c.1, c.2]);
+        }
+    }
+    let img = BitMapElement::with_owned_buffer((x_range.0, y_range.1), (pw, ph), buf)
+        .ok_or_else(|| err("bitmap buffer size".into()))?;
+    chart
+        .draw_series(std::iter::once(img))
+        .map_err(|e| err(e.to_string()))?;
+    // Colour bar: hi at the top, lo at the bottom.
+    let (top, bot) = (80i32, 880i32);
+    for y in top..bot {
+        let v = hi + (lo - hi) * (y - top) as f64 / (bot - top) as f64;
+        bar_area
+            .draw(&Rectangle::new(
+                [(20, y), (60, y + 1)],
+                lambda1_color(v, lo, hi).filled(),
+            ))
+            .map_err(|e| err(e.to_string()))?;
+    }
+    bar_area
+        .draw(&Rectangle::new([(20, top), (60, bot)], BLACK))
+        .map_err(|e| err(e.to_string()))?;
+    let zero_y = if hi > lo {
+        top + ((hi / (hi - lo)) * (bot - top) as f64).round() as i32
+    } else {
+        top
+    };
+    for (y, text) in [
+        (top, format!("{hi:.2}")),
+        (zero_y, "0".to_string()),
+        (bot, format!("{lo:.2}")),
+    ] {
+        bar_area
+            .draw(&Text::new(
+                text,
+                (68, y - 8),
+                ("sans-serif", 17).into_font(),
+            ))
+            .map_err(|e| err(e.to_string()))?;
+    }
+    bar_area
+        .draw(&Text::new(
+            "lambda_1 [1/s]",
+            (10, top - 40),
+            ("sans-serif", 18).into_font(),
+        ))
+        .map_err(|e| err(e.to_string()))?;
+    bar_area
+        .draw(&Text::new(
+            "black: diverged",
+            (10, bot + 30),
+            ("sans-serif", 16).into_font(),
+        ))
+        .map_err(|e| err(e.to_string()))?;
     root.present().map_err(|e| err(e.to_string()))
 }
 

@@ -105,58 +105,32 @@ fn a_quasiperiodic_circle_is_aperiodic_and_one_attractor_whatever_the_phase() {
     );
     assert_eq!(c.attractors[0].kind(), Class::Quasiperiodic);
     assert_eq!(c.labels, vec![0, 0, 0]);
-    // lambda_1 belongs to the attractor: the lanes' finite-time estimates are averaged
-    // (one cloud stays one attractor), and the mean decides.
+    let lam = [3.0, 3.0, -2.0];
     let c = catalogue(
         W,
         &pts,
         rec,
         &[false; 3],
-        Some(&[3.0, 3.0, -2.0]),
-        &CatalogueConfig::default(),
-    );
-    assert_eq!(c.labels, vec![0, 0, 0]);
-    assert_eq!(c.attractors[0].kind(), Class::Chaotic);
-    assert!((c.attractors[0].lambda1.unwrap() - 4.0 / 3.0).abs() < 1e-12);
-    let c = catalogue(
-        W,
-        &pts,
-        rec,
-        &[false; 3],
-        Some(&[-2.0, -1.0, -0.5]),
-        &CatalogueConfig::default(),
-    );
-    assert_eq!(c.attractors[0].kind(), Class::Aperiodic);
-}
-
-/// Finite-time lambda_1 estimates of lanes on one quasiperiodic attractor scatter on
-/// both sides of the threshold (as over 64 periods at W = 135); classing lane by lane
-/// would cut the attractor into "chaotic" and "quasiperiodic" pieces.
-#[test]
-fn scattered_lambda1_estimates_on_one_cloud_give_one_quasiperiodic_attractor() {
-    let lanes: Vec<Vec<State>> = (0..6).map(|k| circle(200, 13 * k)).collect();
-    let (pts, rec) = flat(&lanes);
-    let lam = [0.25, -0.3, 0.1, 0.35, -0.22, -0.05];
-    let c = catalogue(
-        W,
-        &pts,
-        rec,
-        &[false; 6],
         Some(&lam),
         &CatalogueConfig::default(),
     );
+    // One cloud is one attractor whatever each lane's short-time lambda1; its class
+    // follows the mean (4/3 1/s: chaotic).
     assert_eq!(c.attractors.len(), 1, "{:?}", c.attractors);
-    assert_eq!(c.attractors[0].kind(), Class::Quasiperiodic);
-    assert_eq!(c.labels, vec![0; 6]);
-    // A catalogued quasiperiodic attractor still identifies a new lane on it.
-    let l = jeffcott::analysis::catalogue::classify_lane(
-        &circle(200, 77),
+    assert_eq!(c.attractors[0].kind(), Class::Chaotic);
+    assert!((c.attractors[0].lambda1.unwrap() - 4.0 / 3.0).abs() < 1e-12);
+    assert_eq!(c.attractors[0].lambda1_range, Some((-2.0, 3.0)));
+    assert_eq!(c.labels, vec![0, 0, 0]);
+    let lam = [-3.0, -3.0, -2.0];
+    let c = catalogue(
         W,
-        false,
-        None,
+        &pts,
+        rec,
+        &[false; 3],
+        Some(&lam),
         &CatalogueConfig::default(),
     );
-    assert_eq!(c.identify(&l), Some(0));
+    assert_eq!(c.attractors[0].kind(), Class::Aperiodic);
 }
 
 #[test]
@@ -272,6 +246,7 @@ fn study(omega: &str, ics: u32) -> jeffcott::analysis::bifurcation::BifurcationS
         backend: Backend::Cpu,
         catalogue: CatalogueConfig::default(),
         max_seeds: 6,
+        lyapunov: false,
     }
 }
 
@@ -363,4 +338,110 @@ fn streaming_lanes_in_chunks_gives_the_labels_of_one_block() {
     for (a, w) in streamed.attractors.iter().zip(&whole.attractors) {
         assert_eq!((a.kind(), a.lanes), (w.kind(), w.lanes));
     }
+}
+
+#[test]
+fn lambda1_row_is_negative_on_the_period_1_branch_and_positive_at_140() {
+    use jeffcott::analysis::bifurcation::bifurcation;
+    let mut spec = study("131.7:131.7:1", 2);
+    // 131.7 (period-1), then a jump to 140 (chaotic, lambda_1 ~ 7.5 1/s): sweeps up and
+    // down and two brute-force lanes per W, all with lambda_1.
+    spec.omegas = vec![131.7, 140.0];
+    spec.lyapunov = true;
+    spec.transient_first = 600;
+    spec.transient = 300;
+    spec.brute_transient = 300;
+    spec.recorded = 64;
+    spec.max_seeds = 2;
+    let quiet = jeffcott::progress::Progress::new("", 1, 1, true);
+    let r = bifurcation(&spec, &quiet).unwrap();
+    for sw in [&r.up, &r.down] {
+        assert_eq!(sw[0].class.class, Class::Periodic(1));
+        assert!(sw[0].lambda1 < -0.5, "131.7: {}", sw[0].lambda1);
+        assert_eq!(
+            sw[1].class.class,
+            Class::Chaotic,
+            "140: {:?}",
+            sw[1].class.class
+        );
+        assert!(sw[1].lambda1 > 2.0, "140: {}", sw[1].lambda1);
+    }
+    let (b0, b1) = (&r.brute[0], &r.brute[1]);
+    assert!(b0.lambda1.as_ref().unwrap().iter().all(|&l| l < 0.0));
+    assert!(b1.lambda1.as_ref().unwrap().iter().all(|&l| l > 2.0));
+    assert_eq!(b1.catalogue.attractors[0].kind(), Class::Chaotic);
+    assert!(b1.catalogue.attractors[0].lambda1.unwrap() > 2.0);
+}
+
+#[test]
+fn basin_lambda1_map_is_finite_and_the_catalogue_says_chaotic_at_140() {
+    use jeffcott::analysis::basin::{Axis, BasinSpec, basin};
+    let p = Params::default();
+    let spec = BasinSpec {
+        base: p.static_equilibrium(),
+        params: p,
+        omega: 140.0,
+        x: Axis {
+            coord: X_R,
+            lo: -0.002,
+            hi: 0.002,
+            n: 3,
+        },
+        y: Axis {
+            coord: VX_R,
+            lo: -0.3,
+            hi: 0.3,
+            n: 2,
+        },
+        transient: 300,
+        recorded: 64,
+        stepper: Default::default(),
+        precision: Precision::F64,
+        backend: Backend::Cpu,
+        catalogue: CatalogueConfig::default(),
+        chunk: Some(4),
+        lyapunov: true,
+    };
+    let quiet = jeffcott::progress::Progress::new("", 1, 1, true);
+    let r = basin(&spec, &quiet).unwrap();
+    let l1 = r.lambda1.as_ref().unwrap();
+    assert_eq!(l1.len(), 6);
+    assert!(l1.iter().all(|l| l.is_finite() && *l > 2.0), "{l1:?}");
+    assert!(!r.catalogue.attractors.is_empty());
+    for a in &r.catalogue.attractors {
+        assert_eq!(a.kind(), Class::Chaotic, "{}", a.name());
+        let (lo, hi) = a.lambda1_range.unwrap();
+        assert!(lo <= a.lambda1.unwrap() && a.lambda1.unwrap() <= hi);
+    }
+    assert!(r.labels.iter().all(|&l| l >= 0));
+}
+
+/// Finite-time lambda_1 estimates of lanes on one quasiperiodic attractor scatter on
+/// both sides of the threshold (as over 64 periods at W = 135); classing lane by lane
+/// would cut the attractor into "chaotic" and "quasiperiodic" pieces.
+#[test]
+fn scattered_lambda1_estimates_on_one_cloud_give_one_quasiperiodic_attractor() {
+    let lanes: Vec<Vec<State>> = (0..6).map(|k| circle(200, 13 * k)).collect();
+    let (pts, rec) = flat(&lanes);
+    let lam = [0.25, -0.3, 0.1, 0.35, -0.22, -0.05];
+    let c = catalogue(
+        W,
+        &pts,
+        rec,
+        &[false; 6],
+        Some(&lam),
+        &CatalogueConfig::default(),
+    );
+    assert_eq!(c.attractors.len(), 1, "{:?}", c.attractors);
+    assert_eq!(c.attractors[0].kind(), Class::Quasiperiodic);
+    assert_eq!(c.labels, vec![0; 6]);
+    // A catalogued quasiperiodic attractor still identifies a new lane on it.
+    let l = jeffcott::analysis::catalogue::classify_lane(
+        &circle(200, 77),
+        W,
+        false,
+        None,
+        &CatalogueConfig::default(),
+    );
+    assert_eq!(c.identify(&l), Some(0));
 }

@@ -96,13 +96,20 @@ fn bifurcation_writes_arrays_summary_and_diagram() {
         npy_header(&out.join("bifurcation.npy")).1,
         vec![rows[0], 8, 8]
     );
+    // lambda_1 per row, on by default: f64 [rows], aligned with bifurcation_rows.npy.
+    assert_eq!(
+        npy_header(&out.join("bifurcation_lambda1.npy")),
+        ("<f8".into(), vec![rows[0]])
+    );
     let png = std::fs::read(out.join("bifurcation.png")).unwrap();
     assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
     let s = json(&out.join("summary.json"));
+    assert_eq!(s["lyapunov"], true);
     let per = s["per_omega"].as_array().unwrap();
     assert_eq!(per.len(), 3);
     for w in per {
         assert!(w["up"]["class"].is_string() && w["down"]["class"].is_string());
+        assert!(w["up"]["lambda1"].is_f64() && w["down"]["lambda1"].is_f64());
         assert!(
             !w["brute_force"]["attractors"]
                 .as_array()
@@ -126,6 +133,7 @@ fn basin_writes_int32_labels_catalogue_and_pictures() {
         "vx_r:-0.5:0.5:3",
         "--fix",
         "y_r=-0.0005",
+        "--lyapunov",
         "--transient",
         "150",
         "--periods",
@@ -136,12 +144,24 @@ fn basin_writes_int32_labels_catalogue_and_pictures() {
         out.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let a = json(&out.join("attractors.json"));
+    assert!(
+        a["attractors"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .all(|x| x["lambda1"].is_f64())
+    );
     assert_eq!(
         npy_header(&out.join("labels.npy")),
         ("<i4".into(), vec![3, 4])
     );
     assert_eq!(npy_header(&out.join("x.npy")).1, vec![4]);
-    for f in ["basin.png", "attractors.png"] {
+    assert_eq!(
+        npy_header(&out.join("lambda1.npy")),
+        ("<f8".into(), vec![3, 4])
+    );
+    for f in ["basin.png", "basin_lambda1.png", "attractors.png"] {
         let png = std::fs::read(out.join(f)).unwrap();
         assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n", "{f}");
     }
@@ -283,4 +303,45 @@ fn reproduce_writes_every_figure_and_a_report_that_shows_them() {
         );
     }
     assert!(report.contains("| 131.7 |") && report.contains("Command: `jeffcott"));
+    // The full spectra at the article's speeds: a row per speed with eight exponents.
+    assert!(report.contains("## Lyapunov spectra at the article's speeds"));
+    for w in ["131.7", "132.2", "133", "135", "140"] {
+        let row = report
+            .lines()
+            .filter(|l| l.starts_with(&format!("| {w} |")))
+            .find(|l| l.matches("+-").count() == 8)
+            .unwrap_or_else(|| panic!("a spectrum row at {w}"));
+        assert!(row.contains(" %)"), "{row}");
+    }
+}
+
+#[test]
+fn bifurcation_no_lyapunov_writes_no_lambda1_array() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("bif");
+    let o = jeffcott(&[
+        "bifurcation",
+        "--omega",
+        "131.6:131.8:2",
+        "--ics",
+        "0",
+        "--sweep",
+        "up",
+        "--transient",
+        "20",
+        "--transient-first",
+        "50",
+        "--periods",
+        "4",
+        "--no-lyapunov",
+        "--no-plot",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(!out.join("bifurcation_lambda1.npy").exists());
+    let s = json(&out.join("summary.json"));
+    assert_eq!(s["lyapunov"], false);
+    assert!(s["per_omega"][0]["up"]["lambda1"].is_null());
 }

@@ -56,6 +56,7 @@ fn basin_labels_are_identical_on_cpu_and_gpu_f64() {
         backend: Backend::Cpu,
         catalogue: Default::default(),
         chunk: Some(7),
+        lyapunov: true,
     };
     let quiet = Progress::new("", 1, 1, true);
     let cpu = basin(&spec, &quiet).unwrap();
@@ -68,4 +69,13 @@ fn basin_labels_are_identical_on_cpu_and_gpu_f64() {
         r.catalogue.attractors.iter().map(|a| a.name()).collect()
     };
     assert_eq!(names(&cpu), names(&gpu));
+    // lambda_1 per cell: the same arithmetic on both backends (f64).
+    let (lc, lg) = (cpu.lambda1.unwrap(), gpu.lambda1.unwrap());
+    assert_eq!(lc.len(), 20);
+    for (a, b) in lc.iter().zip(&lg) {
+        assert!(
+            (a.is_nan() && b.is_nan()) || (a - b).abs() < 1e-3,
+            "cpu {a} gpu {b}"
+        );
+    }
 }

@@ -7,6 +7,9 @@
 //! labels (4 bytes per cell) plus one chunk's records (about
 //! `chunk * (recorded * 64 + 400)` bytes, twice while a chunk is copied out), e.g. 16 MB +
 //! ~70 MB for a 2000 x 2000 grid with 64 recorded periods and the default chunk.
+//! With `lyapunov` every lane also gives its largest Lyapunov exponent (the ensembles'
+//! lambda_1 variant, either backend): 8 more bytes per cell (32 MB at 2000 x 2000), and
+//! aperiodic attractors are told apart as quasiperiodic or chaotic.
 
 use super::catalogue::{Catalogue, CatalogueBuilder, CatalogueConfig};
 use crate::ensemble::{Backend, EnsembleSpec, LaneSpec, Precision, RunInfo};
@@ -125,6 +128,8 @@ pub struct BasinSpec {
     pub catalogue: CatalogueConfig,
     /// Lanes per chunk (`None`: about 32 MB of records per chunk).
     pub chunk: Option<usize>,
+    /// Compute the largest Lyapunov exponent of every cell.
+    pub lyapunov: bool,
 }
 
 impl BasinSpec {
@@ -186,6 +191,9 @@ pub struct BasinResult {
     pub labels: Vec<i32>,
     /// The catalogue (its `labels` field is left empty: see `labels` above).
     pub catalogue: Catalogue,
+    /// Largest Lyapunov exponent per cell [1/s], [ny, nx] as `labels`, when computed
+    /// (NaN for diverged cells).
+    pub lambda1: Option<Vec<f64>>,
     /// Backend information (wall time: the last chunk's).
     pub info: Option<RunInfo>,
     /// Wall time [s].
@@ -202,6 +210,7 @@ pub fn basin(spec: &BasinSpec, progress: &Progress) -> Result<BasinResult> {
     let mut labels = Vec::with_capacity(cells);
     let mut builder = CatalogueBuilder::new(spec.omega, spec.catalogue);
     let mut info = None;
+    let mut lambda1 = spec.lyapunov.then(|| Vec::with_capacity(cells));
     let engine = super::engine::Engine::new(spec.backend, spec.precision)?;
     let mut start = 0usize;
     while start < cells {
@@ -222,15 +231,27 @@ pub fn basin(spec: &BasinSpec, progress: &Progress) -> Result<BasinResult> {
             precision: spec.precision,
         };
         let offset = progress.position();
-        let (res, i) = engine.run(&e, &progress.callback(offset))?;
+        let (res, i) = engine.run_maybe_lambda1(&e, spec.lyapunov, &progress.callback(offset))?;
         let frozen: Vec<bool> = res.status.iter().map(|s| s.is_frozen()).collect();
-        labels.extend(builder.add_block(&res.poincare, res.recorded, &frozen, None));
+        labels.extend(builder.add_block(
+            &res.poincare,
+            res.recorded,
+            &frozen,
+            res.lambda1.as_deref(),
+        ));
+        if let (Some(all), Some(l)) = (lambda1.as_mut(), res.lambda1.as_ref()) {
+            all.extend_from_slice(l);
+        }
         info = Some(i);
         start = end;
     }
+    // `finish` may merge aperiodic entries; it remaps the labels accordingly.
+    let mut catalogue = builder.finish(labels);
+    let labels = std::mem::take(&mut catalogue.labels);
     Ok(BasinResult {
         labels,
-        catalogue: builder.finish(Vec::new()),
+        catalogue,
+        lambda1,
         info,
         seconds: t0.elapsed().as_secs_f64(),
     })

@@ -9,11 +9,21 @@
 //!   ensemble starts, at every W, from the attractors found at the neighbouring W (the
 //!   brute-force catalogues and the quasistatic sweeps), so branches that the random set
 //!   misses are continued. Each W gets an attractor catalogue.
+//!
+//! With `lyapunov` every lane also carries one tangent vector and gives its largest
+//! Lyapunov exponent lambda_1 over the recorded periods: the sweeps through the lane
+//! stepper's tangent variant ([`advance_period_tangent`], renormalised every period, a
+//! fresh vector along (1, ..., 1)/sqrt(8) at the start of each W's transient, which
+//! aligns it), the brute force through the ensembles' lambda_1 variant on either backend
+//! (the same arithmetic). Aperiodic lanes then classify as quasiperiodic or chaotic.
 
 use super::catalogue::{Catalogue, CatalogueBuilder, CatalogueConfig, LaneClass, classify_lane};
 use crate::ensemble::{Backend, EnsembleSpec, LaneSpec, Precision, RunInfo};
 use crate::error::{Error, Result};
-use crate::integrate::lane::{Lane, LaneConsts, Status, StepperConfig, advance_period};
+use crate::integrate::lane::{
+    LAMBDA1_START, Lane, LaneConsts, Status, StepperConfig, Tangent, advance_period,
+    advance_period_tangent, renormalise,
+};
 use crate::model::{Params, STATE_DIM, State, VX_R, VY_R, X_R, Y_R};
 use crate::progress::Progress;
 use serde::Serialize;
@@ -61,6 +71,8 @@ pub struct BifurcationSpec {
     pub catalogue: CatalogueConfig,
     /// Neighbour seeds per W in the second brute-force pass, at most.
     pub max_seeds: usize,
+    /// Compute the largest Lyapunov exponent of every lane (sweeps and brute force).
+    pub lyapunov: bool,
 }
 
 impl BifurcationSpec {
@@ -114,6 +126,9 @@ pub struct SweepPoint {
     pub status: Status,
     /// Classification of the points.
     pub class: LaneClass,
+    /// Largest Lyapunov exponent over the recorded periods [1/s] (NaN when not computed
+    /// or the lane froze).
+    pub lambda1: f64,
 }
 
 /// The brute-force lanes at one W and their catalogue.
@@ -127,6 +142,8 @@ pub struct BrutePoint {
     pub points: Vec<f64>,
     /// The attractor catalogue (labels per lane).
     pub catalogue: Catalogue,
+    /// Largest Lyapunov exponent per lane [1/s], when computed (NaN for frozen lanes).
+    pub lambda1: Option<Vec<f64>>,
 }
 
 /// Everything a bifurcation study produced.
@@ -173,23 +190,45 @@ fn sweep(spec: &BifurcationSpec, omegas: &[f64], progress: &Progress) -> Vec<Swe
         } else {
             spec.transient
         };
+        // The tangent vector (with `lyapunov`) starts afresh at each W and aligns during
+        // the transient, as the ensembles' lambda_1 does.
+        let mut tan = Tangent::<f64, 1>::new([[LAMBDA1_START; STATE_DIM]]);
+        let mut step = |lane: &mut Lane<f64>| -> f64 {
+            if spec.lyapunov {
+                advance_period_tangent(&lc, lane, &mut tan);
+                if lane.status.is_frozen() {
+                    1.0
+                } else {
+                    renormalise(&mut tan.v[0])
+                }
+            } else {
+                advance_period(&lc, lane);
+                1.0
+            }
+        };
         for _ in 0..transient {
             if lane.status.is_frozen() {
                 break;
             }
-            advance_period(&lc, &mut lane);
+            step(&mut lane);
         }
         let mut points = Vec::with_capacity(spec.recorded as usize);
+        let mut norms = Vec::with_capacity(spec.recorded as usize);
         for _ in 0..spec.recorded {
-            advance_period(&lc, &mut lane);
+            norms.push(step(&mut lane));
             points.push(lane.x);
         }
         progress.inc((transient + spec.recorded) as u64);
+        let lambda1 = if spec.lyapunov && !lane.status.is_frozen() {
+            crate::lyapunov::lambda1_from_norms(&norms, omega)
+        } else {
+            f64::NAN
+        };
         let class = classify_lane(
             &points,
             omega,
             lane.status.is_frozen(),
-            None,
+            spec.lyapunov.then_some(lambda1),
             &spec.catalogue,
         );
         // A diverged sweep restarts from the static equilibrium.
@@ -203,6 +242,7 @@ fn sweep(spec: &BifurcationSpec, omegas: &[f64], progress: &Progress) -> Vec<Swe
             points,
             status: lane.status,
             class,
+            lambda1,
         });
     }
     out
@@ -301,7 +341,7 @@ fn run_lanes(
         precision: spec.precision,
     };
     let offset = progress.position();
-    engine.run(&e, &progress.callback(offset))
+    engine.run_maybe_lambda1(&e, spec.lyapunov, &progress.callback(offset))
 }
 
 fn brute_force(
@@ -342,7 +382,7 @@ fn brute_force(
             &res1.poincare[wi * k * lane_len..(wi + 1) * k * lane_len],
             rec,
             &frozen,
-            None,
+            res1.lambda1.as_ref().map(|l| &l[wi * k..(wi + 1) * k]),
         ));
         builders.push(b);
     }
@@ -395,14 +435,22 @@ fn brute_force(
     for (wi, (mut b, mut lab)) in builders.into_iter().zip(labels).enumerate() {
         let m = seeds[wi].len();
         let mut points = res1.poincare[wi * k * lane_len..(wi + 1) * k * lane_len].to_vec();
+        let mut lambda1 = res1
+            .lambda1
+            .as_ref()
+            .map(|l| l[wi * k..(wi + 1) * k].to_vec());
         if let Some(r2) = &res2 {
             let frozen: Vec<bool> = r2.status[off2..off2 + m]
                 .iter()
                 .map(|s| s.is_frozen())
                 .collect();
             let p2 = &r2.poincare[off2 * lane_len..(off2 + m) * lane_len];
-            lab.extend(b.add_block(p2, rec, &frozen, None));
+            let l2 = r2.lambda1.as_ref().map(|l| &l[off2..off2 + m]);
+            lab.extend(b.add_block(p2, rec, &frozen, l2));
             points.extend_from_slice(p2);
+            if let (Some(l), Some(l2)) = (lambda1.as_mut(), l2) {
+                l.extend_from_slice(l2);
+            }
         }
         off2 += m;
         let mut starts = common.clone();
@@ -412,6 +460,7 @@ fn brute_force(
             starts,
             points,
             catalogue: b.finish(lab),
+            lambda1,
         });
     }
     Ok((out, info))

@@ -18,14 +18,10 @@
 //! - diverged (flagged) lanes get label -1 and no catalogue entry.
 //!
 //! Lyapunov hook: when a largest exponent lambda1 [1/s] is known per lane, aperiodic
-//! attractors split into quasiperiodic (|mean lambda1| <= `lambda_tol`) and chaotic
-//! (mean lambda1 > `lambda_tol`). The mean is over the lanes on the attractor, decided
-//! after identity (which looks at the Poincare clouds only): lambda_1 is a property of
-//! the attractor, and one lane's finite-time estimate scatters (by ~0.1-0.3 1/s over 64
-//! periods at W = 135), so classing lane by lane would cut one quasiperiodic attractor
-//! into "chaotic" and "quasiperiodic" pieces. A mean below -`lambda_tol` stays
-//! aperiodic (no period up to n_max, yet contracting: a long period or a slow
-//! transient).
+//! lanes split into quasiperiodic (|lambda1| < `lambda_tol`) and chaotic
+//! (lambda1 > `lambda_tol`). Identity stays with the clouds: lanes of the aperiodic
+//! family on one cloud are one attractor whatever their own short-time lambda1, and the
+//! attractor's class follows the mean lambda1 of its lanes.
 
 use super::classify::{Class, ClassifyConfig, classify, distance};
 use crate::error::{Error, Result};
@@ -138,18 +134,43 @@ pub struct Attractor {
     /// Index of the first lane (in the order added) that settled on it: a start state
     /// that reaches it.
     pub first_lane: u64,
-    /// Mean largest Lyapunov exponent of its lanes [1/s], when known.
+    /// Mean largest Lyapunov exponent of its lanes [1/s], when lambda1 was computed
+    /// (`None` otherwise).
     pub lambda1: Option<f64>,
-    /// Standard deviation of the lanes' lambda_1 estimates [1/s], when known.
-    pub lambda1_std: Option<f64>,
+    /// Smallest and largest lambda1 among its lanes [1/s].
+    pub lambda1_range: Option<(f64, f64)>,
     #[serde(skip)]
     kind: Class,
-    /// Sum, sum of squares and count of the finite lambda_1 of its lanes.
     #[serde(skip)]
-    l1: (f64, f64, u64),
+    l1_sum: f64,
+    #[serde(skip)]
+    l1_n: u64,
 }
 
 impl Attractor {
+    /// Adds one lane's lambda1 to the mean and range (NaN: not computed, ignored).
+    fn add_lambda1(&mut self, l: f64) {
+        if l.is_finite() {
+            self.merge_lambda1(l, 1, Some((l, l)));
+        }
+    }
+
+    /// Adds `n` lanes' lambda1 (sum and range) to the mean and range.
+    fn merge_lambda1(&mut self, sum: f64, n: u64, range: Option<(f64, f64)>) {
+        if n == 0 {
+            return;
+        }
+        self.l1_sum += sum;
+        self.l1_n += n;
+        self.lambda1 = Some(self.l1_sum / self.l1_n as f64);
+        if let Some((lo, hi)) = range {
+            self.lambda1_range = Some(match self.lambda1_range {
+                Some((a, b)) => (a.min(lo), b.max(hi)),
+                None => (lo, hi),
+            });
+        }
+    }
+
     /// The class as an enum.
     pub fn kind(&self) -> Class {
         self.kind
@@ -171,12 +192,12 @@ pub struct LaneClass {
     /// The points that represent the lane: the last cycle for periodic lanes (canonical
     /// rotation), all points otherwise.
     pub points: Vec<State>,
-    /// The lane's largest Lyapunov exponent estimate [1/s] (NaN when unknown).
+    /// The lane's largest Lyapunov exponent [1/s] (NaN when not computed).
     pub lambda1: f64,
 }
 
-/// Classifies one lane's Poincare sequence (`frozen`: flagged diverged / non-finite) and
-/// keeps its `lambda1` for the attractor's class (module docs).
+/// Classifies one lane's Poincare sequence (`frozen`: flagged diverged / non-finite),
+/// refining aperiodic with `lambda1` when given.
 pub fn classify_lane(
     points: &[State],
     omega: f64,
@@ -185,7 +206,13 @@ pub fn classify_lane(
     cfg: &CatalogueConfig,
 ) -> LaneClass {
     let c = classify(points, omega, frozen, &cfg.classify);
-    let class = c.class;
+    let class = match (c.class, lambda1) {
+        (Class::Aperiodic, Some(l)) if l.is_finite() && l.abs() < cfg.lambda_tol => {
+            Class::Quasiperiodic
+        }
+        (Class::Aperiodic, Some(l)) if l.is_finite() && l > cfg.lambda_tol => Class::Chaotic,
+        (k, _) => k,
+    };
     let points = match class {
         Class::Diverged => Vec::new(),
         Class::Periodic(n) => {
@@ -207,13 +234,16 @@ pub fn classify_lane(
     }
 }
 
-/// True when lane `l` lies on attractor `a` (the rules of the module docs).
+/// True for the classes without a period (aperiodic and its lambda_1 refinements).
+fn aperiodic_family(c: Class) -> bool {
+    matches!(c, Class::Aperiodic | Class::Quasiperiodic | Class::Chaotic)
+}
+
+/// True when lane `l` lies on attractor `a` (the rules of the module docs). Aperiodic,
+/// quasiperiodic and chaotic lanes may share an attractor: their clouds decide, since a
+/// lane's lambda_1 over a few dozen periods scatters around the attractor's.
 fn same(cfg: &CatalogueConfig, w: f64, l: &LaneClass, a: &Attractor) -> bool {
-    // Aperiodic, quasiperiodic and chaotic are one family here: a finished catalogue's
-    // aperiodic entries carry their lambda_1 class, a lane's class never does.
-    let aperiodic =
-        |c: Class| matches!(c, Class::Aperiodic | Class::Quasiperiodic | Class::Chaotic);
-    if l.class != a.kind && !(aperiodic(l.class) && aperiodic(a.kind)) {
+    if l.class != a.kind && !(aperiodic_family(l.class) && aperiodic_family(a.kind)) {
         return false;
     }
     match l.class {
@@ -293,15 +323,10 @@ impl CatalogueBuilder {
             self.diverged += 1;
             return -1;
         }
-        let l1 = if l.lambda1.is_finite() {
-            (l.lambda1, l.lambda1 * l.lambda1, 1)
-        } else {
-            (0.0, 0.0, 0)
-        };
         if let Some(k) = find(&self.cfg, self.omega, &self.attractors, &l) {
             let a = &mut self.attractors[k];
             a.lanes += 1;
-            a.l1 = (a.l1.0 + l1.0, a.l1.1 + l1.1, a.l1.2 + l1.2);
+            a.add_lambda1(l.lambda1);
             if a.period.is_none() && a.points.len() < CLOUD_POINTS {
                 let room = CLOUD_POINTS - a.points.len();
                 a.points.extend(l.points.iter().take(room));
@@ -320,10 +345,12 @@ impl CatalogueBuilder {
             points: l.points,
             first_lane: lane,
             lambda1: None,
-            lambda1_std: None,
+            lambda1_range: None,
             kind: l.class,
-            l1,
+            l1_sum: 0.0,
+            l1_n: 0,
         });
+        self.attractors[id as usize].add_lambda1(l.lambda1);
         id as i32
     }
 
@@ -404,36 +431,35 @@ impl CatalogueBuilder {
                     .copied()
                     .collect();
                 kept[t].lanes += extra;
-                let l1 = self.attractors[k].l1;
-                let kl = &mut kept[t].l1;
-                *kl = (kl.0 + l1.0, kl.1 + l1.1, kl.2 + l1.2);
                 kept[t].points.extend(pts);
+                let (sum, n, range) = (
+                    self.attractors[k].l1_sum,
+                    self.attractors[k].l1_n,
+                    self.attractors[k].lambda1_range,
+                );
+                kept[t].merge_lambda1(sum, n, range);
             }
         }
         self.attractors = kept;
         map
     }
 
-    /// The attractors so far with their basin fractions.
+    /// The attractors so far with their basin fractions; an aperiodic attractor's class
+    /// comes from the mean lambda_1 of its lanes when known (quasiperiodic if
+    /// |mean| < `lambda_tol`, chaotic above, aperiodic otherwise).
     pub fn attractors(&self) -> Vec<Attractor> {
         let mut v = self.attractors.clone();
         for a in &mut v {
             a.basin_fraction = a.lanes as f64 / self.total.max(1) as f64;
-            let (sum, sq, n) = a.l1;
-            if n > 0 {
-                let mean = sum / n as f64;
-                a.lambda1 = Some(mean);
-                a.lambda1_std = Some((sq / n as f64 - mean * mean).max(0.0).sqrt());
-                if a.period.is_none() {
-                    a.kind = if mean.abs() <= self.cfg.lambda_tol {
-                        Class::Quasiperiodic
-                    } else if mean > self.cfg.lambda_tol {
-                        Class::Chaotic
-                    } else {
-                        Class::Aperiodic
-                    };
-                    a.class = a.kind.label();
-                }
+            if let (true, Some(l)) = (aperiodic_family(a.kind), a.lambda1) {
+                a.kind = if l.abs() < self.cfg.lambda_tol {
+                    Class::Quasiperiodic
+                } else if l > self.cfg.lambda_tol {
+                    Class::Chaotic
+                } else {
+                    Class::Aperiodic
+                };
+                a.class = a.kind.label();
             }
         }
         v

@@ -80,6 +80,16 @@ impl Class {
         }
     }
 
+    /// The class without its lambda_1 refinement (quasiperiodic and chaotic are
+    /// aperiodic): what the Poincare points alone say. Comparisons between runs use it,
+    /// since a lambda_1 over a few dozen periods scatters across the thresholds.
+    pub fn unrefined(&self) -> Class {
+        match self {
+            Class::Quasiperiodic | Class::Chaotic => Class::Aperiodic,
+            c => *c,
+        }
+    }
+
     /// The period, if periodic.
     pub fn period(&self) -> Option<usize> {
         match self {

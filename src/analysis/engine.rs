@@ -2,7 +2,10 @@
 //! the passes of a brute-force diagram): the GPU device and pipeline are set up once and
 //! reused, with the same choice rules as [`crate::ensemble::run`].
 
-use crate::ensemble::{Backend, EnsembleResult, EnsembleSpec, Precision, RunInfo, run, run_on_gpu};
+use crate::ensemble::{
+    Backend, EnsembleResult, EnsembleSpec, Precision, RunInfo, run, run_on_gpu,
+    run_on_gpu_with_lambda1, run_with_lambda1,
+};
 use crate::error::Result;
 use crate::gpu::{DeviceRequest, GpuDevice, GpuRunner};
 
@@ -52,10 +55,24 @@ impl Engine {
         spec: &EnsembleSpec,
         progress: &(dyn Fn(u64, u64) + Sync),
     ) -> Result<(EnsembleResult, RunInfo)> {
+        self.run_maybe_lambda1(spec, false, progress)
+    }
+
+    /// Runs one ensemble on the resolved backend, with the largest Lyapunov exponent per
+    /// lane when `lambda1` (`EnsembleResult::lambda1`; the same arithmetic on both
+    /// backends).
+    pub fn run_maybe_lambda1(
+        &self,
+        spec: &EnsembleSpec,
+        lambda1: bool,
+        progress: &(dyn Fn(u64, u64) + Sync),
+    ) -> Result<(EnsembleResult, RunInfo)> {
         let start = std::time::Instant::now();
-        let (res, backend) = match &self.gpu {
-            Some(runner) => (run_on_gpu(spec, runner, progress)?, "gpu"),
-            None => (run(spec, Backend::Cpu, progress)?.0, "cpu"),
+        let (res, backend) = match (&self.gpu, lambda1) {
+            (Some(runner), false) => (run_on_gpu(spec, runner, progress)?, "gpu"),
+            (Some(runner), true) => (run_on_gpu_with_lambda1(spec, runner, progress)?, "gpu"),
+            (None, false) => (run(spec, Backend::Cpu, progress)?.0, "cpu"),
+            (None, true) => (run_with_lambda1(spec, Backend::Cpu, progress)?.0, "cpu"),
         };
         Ok((
             res,

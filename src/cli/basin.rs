@@ -8,7 +8,9 @@ use crate::ensemble::{Backend, Precision};
 use crate::error::{Error, Result};
 use crate::model::{COORD_NAMES, Params, coord_index};
 use crate::output;
-use crate::plot::{AttractorTrace, attractor_color, basin_map, coexisting_attractors, coord_axis};
+use crate::plot::{
+    AttractorTrace, attractor_color, basin_map, coexisting_attractors, coord_axis, lambda1_map,
+};
 use crate::simulate::{Integrator, SimulateSpec, simulate};
 use clap::Args;
 use std::path::{Path, PathBuf};
@@ -58,7 +60,13 @@ pub struct BasinArgs {
     /// Output directory (created if missing).
     #[arg(long, value_name = "DIR", default_value = "jeffcott-out/basin")]
     pub out: PathBuf,
-    /// Skip basin.png and attractors.png.
+    /// Also compute every cell's largest Lyapunov exponent lambda_1 (one tangent vector
+    /// per lane, either backend): lambda1.npy, basin_lambda1.png, lambda_1 per attractor,
+    /// and aperiodic attractors split into quasiperiodic and chaotic. Costs about 1.8x
+    /// the run time on the CPU (see docs/analysis.md).
+    #[arg(long)]
+    pub lyapunov: bool,
+    /// Skip basin.png, basin_lambda1.png and attractors.png.
     #[arg(long)]
     pub no_plot: bool,
     /// Print nothing but errors (no progress bar).
@@ -111,6 +119,7 @@ impl BasinArgs {
             backend: self.backend,
             catalogue: self.catalogue.config(precision)?,
             chunk: self.chunk,
+            lyapunov: self.lyapunov,
         };
         spec.validate()?;
         Ok(spec)
@@ -138,9 +147,14 @@ pub fn run_basin(a: &BasinArgs) -> Result<()> {
     Ok(())
 }
 
-/// Legend text of an attractor: "#0 period-5, 64.2 %".
+/// Legend text of an attractor: "#0 period-5, 64.2 %", with its mean lambda_1 when
+/// computed ("#1 chaotic, 35.0 %, lambda_1 7.52 1/s").
 pub fn legend_name(a: &Attractor) -> String {
-    format!("{}, {:.1} %", a.name(), 100.0 * a.basin_fraction)
+    let mut s = format!("{}, {:.1} %", a.name(), 100.0 * a.basin_fraction);
+    if let Some(l) = a.lambda1 {
+        s += &format!(", lambda_1 {l:.2} 1/s");
+    }
+    s
 }
 
 /// Time series over a few periods from each attractor's first representative point, for
@@ -186,6 +200,9 @@ pub fn write_basin(dir: &Path, spec: &BasinSpec, res: &BasinResult, plot_it: boo
     output::ensure_dir(dir)?;
     let (nx, ny) = (spec.x.n, spec.y.n);
     output::write_npy(&dir.join("labels.npy"), &[ny, nx], &res.labels)?;
+    if let Some(l1) = &res.lambda1 {
+        output::write_npy(&dir.join("lambda1.npy"), &[ny, nx], l1)?;
+    }
     let xs: Vec<f64> = (0..nx).map(|i| spec.x.value(i)).collect();
     let ys: Vec<f64> = (0..ny).map(|i| spec.y.value(i)).collect();
     output::write_npy(&dir.join("x.npy"), &[nx], &xs)?;
@@ -225,6 +242,20 @@ pub fn write_basin(dir: &Path, spec: &BasinSpec, res: &BasinResult, plot_it: boo
             (&lx, &ly),
             &legend,
         )?;
+        if let Some(l1) = &res.lambda1 {
+            lambda1_map(
+                &dir.join("basin_lambda1.png"),
+                &format!(
+                    "Largest Lyapunov exponent per start state at W = {} rad/s ({} x {})",
+                    spec.omega, nx, ny
+                ),
+                l1,
+                (nx, ny),
+                (x0, x1),
+                (y0, y1),
+                (&lx, &ly),
+            )?;
+        }
         if !cat.attractors.is_empty() {
             let traces = attractor_traces(&spec.params, spec.omega, &cat.attractors, 8)?;
             coexisting_attractors(
@@ -251,6 +282,7 @@ pub fn write_basin(dir: &Path, spec: &BasinSpec, res: &BasinResult, plot_it: boo
         "transient": spec.transient,
         "periods": spec.recorded,
         "steps_per_period": spec.stepper.steps_per_period,
+        "lyapunov": spec.lyapunov,
         "backend": res.info,
         "wall_time_s": res.seconds,
         "cells": nx * ny,
@@ -263,8 +295,10 @@ pub fn write_basin(dir: &Path, spec: &BasinSpec, res: &BasinResult, plot_it: boo
             "labels.npy": "int32 [ny, nx]: attractor id per start state (row iy has y = y.npy[iy], column ix has x = x.npy[ix]); -1 diverged",
             "x.npy": "f64 [nx], the x-axis start values",
             "y.npy": "f64 [ny], the y-axis start values",
-            "attractors.json": "this file: the catalogue (id, class, period, basin fraction, representative Poincare points in state order)",
+            "lambda1.npy": "f64 [ny, nx]: largest Lyapunov exponent per start state over the recorded periods [1/s], NaN diverged (only with --lyapunov)",
+            "attractors.json": "this file: the catalogue (id, class, period, basin fraction, mean lambda_1 and its range over the attractor's cells with --lyapunov, representative Poincare points in state order)",
             "basin.png": "the labels as a picture, legend by class and period",
+            "basin_lambda1.png": "lambda1.npy as a picture (blue negative, white 0, red positive; only with --lyapunov)",
             "attractors.png": "phase portraits of the attractors, overlaid",
         },
         "jeffcott_version": env!("CARGO_PKG_VERSION"),

@@ -6,12 +6,12 @@ use crate::analysis::bifurcation::{
     BifurcationResult, BifurcationSpec, Sweep, SweepPoint, bifurcation, work,
 };
 use crate::analysis::catalogue::CatalogueConfig;
-use crate::analysis::classify::ClassifyConfig;
+use crate::analysis::classify::{Class, ClassifyConfig};
 use crate::ensemble::{Backend, Precision};
 use crate::error::{Error, Result};
 use crate::model::{COORD_NAMES, STATE_DIM, State, coord_index};
 use crate::output;
-use crate::plot::{DotSeries, bifurcation_diagram};
+use crate::plot::{DotSeries, Lambda1Series, bifurcation_diagram};
 use clap::Args;
 use plotters::style::RGBColor;
 use std::path::PathBuf;
@@ -114,6 +114,13 @@ pub struct BifurcationArgs {
     /// attractors overlaid (from the brute force, or the sweeps with --ics 0).
     #[arg(long, value_name = "W,...", value_delimiter = ',')]
     pub portraits: Vec<f64>,
+    /// Skip the largest Lyapunov exponent per lane (by default every sweep point and
+    /// brute-force lane carries one tangent vector: lambda_1 in bifurcation_lambda1.npy,
+    /// summary.json and a panel under the diagram, and aperiodic split into quasiperiodic
+    /// and chaotic). It adds ~5 % to the sweeps and ~3x to a CPU brute force, whose
+    /// lambda_1 lanes are not SIMD-batched (docs/analysis.md).
+    #[arg(long)]
+    pub no_lyapunov: bool,
     /// Skip bifurcation.png.
     #[arg(long)]
     pub no_plot: bool,
@@ -173,6 +180,7 @@ impl BifurcationArgs {
             backend: self.backend,
             catalogue: self.catalogue.config(precision)?,
             max_seeds: self.max_seeds,
+            lyapunov: !self.no_lyapunov,
         };
         spec.validate()?;
         Ok(spec)
@@ -281,8 +289,75 @@ fn sweep_json(res: &BifurcationResult, wi: usize, p: Option<&SweepPoint>) -> ser
             "period": p.class.class.period(),
             "status": p.status,
             "attractor": sweep_id(res, wi, p),
+            "lambda1": finite(p.lambda1),
         }),
     }
+}
+
+/// `Some(v)` for a finite value (JSON null otherwise).
+fn finite(v: f64) -> Option<f64> {
+    v.is_finite().then_some(v)
+}
+
+/// The lambda_1 series under a diagram: brute-force lanes (grey pixels), up sweep (blue
+/// line), down sweep (red line), each included when asked for and computed.
+pub fn lambda1_series(
+    spec: &BifurcationSpec,
+    res: &BifurcationResult,
+    up: bool,
+    down: bool,
+    brute: bool,
+) -> Vec<Lambda1Series> {
+    let mut out = Vec::new();
+    if !spec.lyapunov {
+        return out;
+    }
+    let (r_up, r_down) = if spec.omegas.len() > 600 {
+        (1, 0)
+    } else {
+        (2, 1)
+    };
+    if brute && !res.brute.is_empty() {
+        let points: Vec<(f64, f64)> = res
+            .brute
+            .iter()
+            .flat_map(|b| b.lambda1.iter().flatten().map(move |&l| (b.omega, l)))
+            .collect();
+        out.push(Lambda1Series {
+            label: "lambda_1, brute-force lanes".into(),
+            color: RGBColor(110, 110, 110),
+            radius: 0,
+            line: false,
+            points,
+        });
+    }
+    for (on, sw, label, color, radius) in [
+        (
+            up,
+            &res.up,
+            "lambda_1, W increasing",
+            RGBColor(31, 90, 200),
+            r_up,
+        ),
+        (
+            down,
+            &res.down,
+            "lambda_1, W decreasing",
+            RGBColor(220, 40, 30),
+            r_down,
+        ),
+    ] {
+        if on && !sw.is_empty() {
+            out.push(Lambda1Series {
+                label: label.into(),
+                color,
+                radius,
+                line: true,
+                points: sw.iter().map(|p| (p.omega, p.lambda1)).collect(),
+            });
+        }
+    }
+    out
 }
 
 /// The dot series of a diagram: brute force (grey pixels), up sweep (blue), down sweep
@@ -363,20 +438,26 @@ pub fn write_bifurcation(
     let rec = spec.recorded as usize;
     let mut rows: Vec<f64> = Vec::new();
     let mut pts: Vec<f64> = Vec::new();
+    let mut l1: Vec<f64> = Vec::new();
     for (code, sw) in [(0.0, &res.up), (1.0, &res.down)] {
         for (wi, p) in sw.iter().enumerate() {
             let id = sweep_id(res, wi, p).map_or(-1.0, |i| i as f64);
             rows.extend_from_slice(&[p.omega, code, 0.0, id]);
             pts.extend(p.points.iter().flatten());
+            l1.push(p.lambda1);
         }
     }
     for b in &res.brute {
         for (li, &l) in b.catalogue.labels.iter().enumerate() {
             rows.extend_from_slice(&[b.omega, 2.0, li as f64, l as f64]);
+            l1.push(b.lambda1.as_ref().map_or(f64::NAN, |v| v[li]));
         }
         pts.extend_from_slice(&b.points);
     }
     let nrows = rows.len() / 4;
+    if spec.lyapunov {
+        output::write_npy(&dir.join("bifurcation_lambda1.npy"), &[nrows], &l1)?;
+    }
     output::write_npy(&dir.join("omega.npy"), &[spec.omegas.len()], &spec.omegas)?;
     output::write_npy(&dir.join("bifurcation.npy"), &[nrows, rec, STATE_DIM], &pts)?;
     output::write_npy(&dir.join("bifurcation_rows.npy"), &[nrows, 4], &rows)?;
@@ -389,7 +470,15 @@ pub fn write_bifurcation(
             w.1,
             spec.omegas.len()
         );
-        bifurcation_diagram(&dir.join("bifurcation.png"), &title, coords, w, &series)?;
+        let l1s = lambda1_series(spec, res, true, true, true);
+        bifurcation_diagram(
+            &dir.join("bifurcation.png"),
+            &title,
+            coords,
+            w,
+            &series,
+            &l1s,
+        )?;
     }
     let per_w: Vec<serde_json::Value> = spec
         .omegas
@@ -406,6 +495,7 @@ pub fn write_bifurcation(
                         "period": at.period,
                         "lanes": at.lanes,
                         "basin_fraction": at.basin_fraction,
+                        "lambda1": at.lambda1,
                     })).collect::<Vec<_>>(),
                 })
             });
@@ -423,7 +513,7 @@ pub fn write_bifurcation(
         .zip(&res.down)
         .enumerate()
         .filter(|(wi, (u, d))| {
-            u.class.class != d.class.class || {
+            u.class.class.unrefined() != d.class.class.unrefined() || {
                 let (iu, id) = (sweep_id(res, *wi, u), sweep_id(res, *wi, d));
                 iu.is_some() && id.is_some() && iu != id
             }
@@ -441,6 +531,7 @@ pub fn write_bifurcation(
         "brute_transient": spec.brute_transient,
         "periods": spec.recorded,
         "max_seeds": spec.max_seeds,
+        "lyapunov": spec.lyapunov,
         "steps_per_period": spec.stepper.steps_per_period,
         "brute_force_backend": res.brute_info,
         "sweep_wall_time_s": res.sweep_seconds,
@@ -453,7 +544,8 @@ pub fn write_bifurcation(
             "omega.npy": "f64 [W], the speeds [rad/s]",
             "bifurcation.npy": "f64 [rows, periods, 8], Poincare points of each row's lane, state order x_r, vx_r, y_r, vy_r, x_s, vx_s, y_s, vy_s (m, m/s)",
             "bifurcation_rows.npy": "f64 [rows, 4]: W [rad/s], sweep (0 quasistatic up, 1 quasistatic down, 2 brute force), lane (index among that W's brute-force lanes: < ics are the common start states, then the neighbour seeds; 0 for sweeps), attractor id in that W's brute-force catalogue (-1: diverged, or not found / no brute force)",
-            "bifurcation.png": "the diagram: brute force grey, up sweep blue, down sweep red",
+            "bifurcation_lambda1.npy": "f64 [rows], aligned with bifurcation_rows.npy: the largest Lyapunov exponent of each row's lane over its recorded periods [1/s] (NaN: diverged); absent with --no-lyapunov",
+            "bifurcation.png": "the diagram: brute force grey, up sweep blue, down sweep red; lambda_1 against W in the panel underneath",
         },
         "jeffcott_version": env!("CARGO_PKG_VERSION"),
     });
@@ -478,11 +570,13 @@ fn human_summary(spec: &BifurcationSpec, res: &BifurcationResult, dir: &std::pat
             continue;
         }
         s += &format!(
-            " Sweep {name}: {} period-1, {} other periodic, {} aperiodic, {} diverged.",
+            " Sweep {name}: {} period-1, {} other periodic, {} aperiodic ({} quasiperiodic, {} chaotic), {} diverged.",
             count(sw, &|p| p.class.class.period() == Some(1)),
             count(sw, &|p| p.class.class.period().is_some_and(|n| n > 1)),
             count(sw, &|p| p.class.class.period().is_none()
                 && !p.status.is_frozen()),
+            count(sw, &|p| p.class.class == Class::Quasiperiodic),
+            count(sw, &|p| p.class.class == Class::Chaotic),
             count(sw, &|p| p.status.is_frozen()),
         );
     }

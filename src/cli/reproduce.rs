@@ -3,12 +3,14 @@
 //! every figure, what this tool found there, the equivalent command and its time.
 
 use super::basin::{legend_name, run_basin_study, write_basin};
-use super::bifurcation::{diagram_series, run_study, write_bifurcation};
+use super::bifurcation::{diagram_series, lambda1_series, run_study, write_bifurcation};
 use crate::analysis::basin::{Axis, BasinSpec};
 use crate::analysis::bifurcation::{BifurcationSpec, Sweep, start_states};
 use crate::analysis::catalogue::{Catalogue, CatalogueConfig, catalogue_result};
+use crate::analysis::classify::Class;
 use crate::ensemble::{Backend, EnsembleSpec, LaneSpec, Precision, default_precision};
 use crate::error::{Error, Result};
+use crate::lyapunov::{Spectrum, SpectrumConfig, spectrum};
 use crate::model::{Params, VX_R, VX_S, X_R, X_S, Y_R, Y_S};
 use crate::plot;
 use crate::simulate::{Integrator, SimulateResult, SimulateSpec, simulate};
@@ -63,6 +65,9 @@ struct Preset {
     survey_ics: u32,
     survey_transient: u32,
     survey_periods: u32,
+    spectrum_transient: u32,
+    spectrum_min_time: f64,
+    spectrum_max_time: f64,
 }
 
 const QUICK: Preset = Preset {
@@ -83,6 +88,9 @@ const QUICK: Preset = Preset {
     survey_ics: 24,
     survey_transient: 400,
     survey_periods: 64,
+    spectrum_transient: 1000,
+    spectrum_min_time: 20.0,
+    spectrum_max_time: 100.0,
 };
 
 const FULL: Preset = Preset {
@@ -103,6 +111,9 @@ const FULL: Preset = Preset {
     survey_ics: 256,
     survey_transient: 1000,
     survey_periods: 128,
+    spectrum_transient: 2000,
+    spectrum_min_time: 100.0,
+    spectrum_max_time: 1000.0,
 };
 
 const SMOKE: Preset = Preset {
@@ -123,6 +134,9 @@ const SMOKE: Preset = Preset {
     survey_ics: 2,
     survey_transient: 30,
     survey_periods: 8,
+    spectrum_transient: 30,
+    spectrum_min_time: 0.5,
+    spectrum_max_time: 1.0,
 };
 
 /// The article's speeds and what it reports there (MODEL.md 6 and the issue).
@@ -164,6 +178,33 @@ fn describe(cat: &Catalogue) -> String {
         let _ = write!(s, "; {:.1} % diverged", 100.0 * cat.diverged_fraction);
     }
     s
+}
+
+/// The "Lyapunov spectra" section of REPORT.md: all eight exponents with their error
+/// estimates, the sum against the sum rule, the accumulation time.
+fn spectra_table(spectra: &[Spectrum], params: &Params, seconds: f64, cmd: &str) -> String {
+    // MODEL.md 6: sum = -2 (2 xi_r w_r + 2 xi_s w_s) for viscous damping and S = I.
+    let rule = -2.0 * (2.0 * params.xi_r * params.omega_r + 2.0 * params.xi_s * params.omega_s);
+    let mut t = format!(
+        "\n## Lyapunov spectra at the article's speeds\n\nAll eight exponents [1/s] from the static equilibrium (`lyapunov::spectrum`: eight tangent vectors with the state, saltation at every contact switch, QR every period), each +- its error estimate (the larger of the batch-means standard error and the change over the last window). Sum rule (MODEL.md 6): the exponents sum to {rule:.2} 1/s. Command: `{cmd}`; the five spectra took {seconds:.1} s in all (in parallel).\n\n| W [rad/s] | lambda_1 | lambda_2 | lambda_3 | lambda_4 | lambda_5 | lambda_6 | lambda_7 | lambda_8 | sum (rule {rule:.1}) | accumulated [s] | stop | wall [s] |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
+    );
+    for s in spectra {
+        let _ = write!(t, "| {} |", s.omega);
+        for (e, err) in s.exponents.iter().zip(&s.errors) {
+            let _ = write!(t, " {e:.3} +- {err:.3} |");
+        }
+        let _ = writeln!(
+            t,
+            " {:.2} ({:+.3} %) | {:.1} ({} periods) | {:?} | {:.1} |",
+            s.sum,
+            100.0 * (s.sum - rule) / rule.abs(),
+            s.integration_time,
+            s.periods,
+            s.stop,
+            s.wall_time_s
+        );
+    }
+    t + "\n"
 }
 
 fn sim(
@@ -214,7 +255,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     };
 
     // Figs. 3-4, the down sweep and the brute force: one study over [130, 141].
-    say("[1/7] bifurcation diagram over 130..141 rad/s");
+    say("[1/8] bifurcation diagram over 130..141 rad/s");
     let spec = BifurcationSpec {
         params: params.clone(),
         omegas: crate::ensemble::parse_range("omega", &format!("130:141:{}", p.speeds))?,
@@ -230,6 +271,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         backend: a.backend,
         catalogue: cfg,
         max_seeds: p.max_seeds,
+        lyapunov: true,
     };
     let res = run_study(&spec, a.quiet)?;
     write_bifurcation(&dir.join("bifurcation"), &spec, &res, &[VX_S, VX_R], true)?;
@@ -253,12 +295,42 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     };
     let sweep_found = |sw: &[crate::analysis::bifurcation::SweepPoint]| {
         format!(
-            "{} of {} speeds period-1, {} periodic with period > 1, {} aperiodic (no period up to 32), {} diverged",
+            "{} of {} speeds period-1, {} periodic with period > 1, {} aperiodic (no period up to 32: {} quasiperiodic, {} chaotic by lambda_1), {} diverged",
             count(sw, &|n| n == Some(1)),
             sw.len(),
             count(sw, &|n| n.is_some_and(|n| n > 1)),
             count(sw, &|n| n.is_none()),
+            sw.iter()
+                .filter(|q| q.class.class == Class::Quasiperiodic)
+                .count(),
+            sw.iter()
+                .filter(|q| q.class.class == Class::Chaotic)
+                .count(),
             sw.iter().filter(|q| q.status.is_frozen()).count()
+        )
+    };
+    // What the lambda_1 row under a sweep shows.
+    let l1_row = |sw: &[crate::analysis::bifurcation::SweepPoint]| -> String {
+        let f: Vec<f64> = sw
+            .iter()
+            .map(|q| q.lambda1)
+            .filter(|l| l.is_finite())
+            .collect();
+        let pos = f.iter().filter(|&&l| l > cfg.lambda_tol).count();
+        let max = f.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let at = |w: f64| {
+            sw.iter()
+                .min_by(|a, b| (a.omega - w).abs().total_cmp(&(b.omega - w).abs()))
+                .map_or("-".into(), |q| {
+                    format!("{:.2} 1/s at {:.3}", q.lambda1, q.omega)
+                })
+        };
+        format!(
+            "positive (> {} 1/s) at {pos} of {} speeds, largest {max:.1} 1/s; {} and {}",
+            cfg.lambda_tol,
+            f.len(),
+            at(131.7),
+            at(140.0)
         )
     };
     let first_non_p1 = res
@@ -285,14 +357,17 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
             &[coord],
             w,
             &diagram_series(&spec, &res, true, false, false),
+            &lambda1_series(&spec, &res, true, false, false),
         )?;
         rep.figure(
             name,
             fig,
             &format!(
-                "Quasistatic sweep from the static equilibrium at 130 rad/s, each speed started from the last state of the previous one: {}. Leaving the period-1 branch first at W = {}. Arrays and per-speed classes in `bifurcation/`.",
+                "Quasistatic sweep from the static equilibrium at 130 rad/s, each speed started from the last state of the previous one: {}. Leaving the period-1 branch first at W = {}. The panel underneath: lambda_1 of each sweep point (one tangent vector over its {} recorded periods), {}. Arrays (`bifurcation_lambda1.npy`) and per-speed classes in `bifurcation/`.",
                 sweep_found(&res.up),
-                first_non_p1.map_or("-".into(), |w| format!("{w:.3} rad/s"))
+                first_non_p1.map_or("-".into(), |w| format!("{w:.3} rad/s")),
+                p.periods,
+                l1_row(&res.up)
             ),
             &bif_cmd,
             res.sweep_seconds,
@@ -302,7 +377,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         .up
         .iter()
         .zip(&res.down)
-        .filter(|(u, d)| u.class.class != d.class.class)
+        .filter(|(u, d)| u.class.class.unrefined() != d.class.class.unrefined())
         .map(|(u, _)| u.omega)
         .collect();
     plot::bifurcation_diagram(
@@ -311,12 +386,13 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         &[VX_S, VX_R],
         w,
         &diagram_series(&spec, &res, true, true, false),
+        &lambda1_series(&spec, &res, true, true, false),
     )?;
     rep.figure(
         "Down sweep (not in the article): W decreasing, over the up sweep",
         "fig_down_sweep.png",
         &format!(
-            "Down sweep: {}. Up and down classes differ at {} of {} speeds{}.",
+            "Down sweep: {}. Up and down differ (class without the lambda_1 refinement) at {} of {} speeds{}.",
             sweep_found(&res.down),
             differ.len(),
             res.up.len(),
@@ -346,6 +422,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         &[VX_S, VX_R],
         w,
         &diagram_series(&spec, &res, false, false, true),
+        &lambda1_series(&spec, &res, false, false, true),
     )?;
     let multi = res
         .brute
@@ -375,7 +452,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     );
 
     // Enlargements of Fig. 3.
-    say("[2/7] enlargements of Fig. 3");
+    say("[2/8] enlargements of Fig. 3");
     for (k, &(lo, hi)) in ZOOMS.iter().enumerate() {
         let t = Instant::now();
         let zspec = BifurcationSpec {
@@ -395,6 +472,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
             &[VX_S],
             (lo, hi),
             &diagram_series(&zspec, &zres, true, false, false),
+            &lambda1_series(&zspec, &zres, true, false, false),
         )?;
         let mut periods: Vec<usize> = zres
             .up
@@ -420,7 +498,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     }
 
     // The article's speeds: a survey of start states at each.
-    say("[3/7] attractor survey at the article's speeds");
+    say("[3/8] attractor survey at the article's speeds");
     let t = Instant::now();
     let starts = start_states(&params, p.survey_ics, 135.0, 7);
     let mut lanes = Vec::new();
@@ -470,13 +548,56 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     let survey_s = t.elapsed().as_secs_f64();
     let survey_cmd = |w: f64| {
         format!(
-            "jeffcott ensemble --omega {w} --transient {} --periods {} (x {} seeded start states)",
+            "jeffcott ensemble --omega {w} --lyapunov --transient {} --periods {} (x {} seeded start states)",
             p.survey_transient, p.survey_periods, p.survey_ics
         )
     };
 
+    // The full Lyapunov spectrum at each article speed, from the static equilibrium
+    // (independent, in parallel).
+    say("[4/8] Lyapunov spectra at the article's speeds");
+    let t = Instant::now();
+    let scfg = SpectrumConfig {
+        transient: p.spectrum_transient,
+        min_time: p.spectrum_min_time,
+        max_time: p.spectrum_max_time,
+        ..SpectrumConfig::default()
+    };
+    let spectra: Vec<Spectrum> = {
+        use rayon::prelude::*;
+        ARTICLE_SPEEDS
+            .par_iter()
+            .map(|&(omega, _)| spectrum(&params, omega, &params.static_equilibrium(), &scfg))
+            .collect::<Result<_>>()?
+    };
+    let spectra_s = t.elapsed().as_secs_f64();
+    let spectrum_cmd = format!(
+        "jeffcott lyapunov --omega W --transient {} --min-time {} --time {}",
+        scfg.transient, scfg.min_time, scfg.max_time
+    );
+    // The class from the static equilibrium, refined by the spectrum's lambda_1.
+    let refine = |class: Class, omega: f64| -> String {
+        let l1 = spectra
+            .iter()
+            .find(|s| s.omega == omega)
+            .map(|s| s.exponents[0]);
+        match (class, l1) {
+            (Class::Aperiodic, Some(l)) if l.abs() < cfg.lambda_tol => Class::Quasiperiodic.label(),
+            (Class::Aperiodic, Some(l)) if l > cfg.lambda_tol => Class::Chaotic.label(),
+            (c, _) => c.label(),
+        }
+    };
+    let l1_text = |omega: f64| -> String {
+        spectra
+            .iter()
+            .find(|s| s.omega == omega)
+            .map_or("-".into(), |s| {
+                format!("{:.3} +- {:.3} 1/s", s.exponents[0], s.errors[0])
+            })
+    };
+
     // Figs. 5-6: phase portraits at 131.7 and 132.2 from the static equilibrium.
-    say("[4/7] phase portraits at 131.7 and 132.2 rad/s");
+    say("[5/8] phase portraits at 131.7 and 132.2 rad/s");
     let mut static_class: Vec<(f64, String)> = Vec::new();
     for (i, (fig, omega)) in [
         ("fig05_phase_131.7.png", 131.7),
@@ -487,7 +608,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     {
         let t = Instant::now();
         let r = sim(&params, omega, 1000, 64, 4)?;
-        let class = r.classification.class.label();
+        let class = refine(r.classification.class, omega);
         plot::phase_portraits(
             &dir.join(fig),
             &format!(
@@ -502,7 +623,8 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
             &format!("Fig. {}: phase spaces and Poincare section at W = {omega} rad/s", 5 + i),
             fig,
             &format!(
-                "From the static equilibrium after 1000 periods: **{class}** (the article: {}). Survey of {} start states: {}.",
+                "From the static equilibrium after 1000 periods: **{class}**, lambda_1 = {} (full spectrum in the table at the top) (the article: {}). Survey of {} start states: {}.",
+                l1_text(omega),
                 ARTICLE_SPEEDS[i].1,
                 p.survey_ics,
                 describe(&survey[i])
@@ -513,7 +635,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     }
 
     // Figs. 7-8: basin at 133 and its coexisting attractors.
-    say("[5/7] basin of attraction at 133 rad/s");
+    say("[6/8] basin of attraction at 133 rad/s");
     let t = Instant::now();
     let n = p.basin_n;
     let bspec = BasinSpec {
@@ -539,6 +661,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         backend: a.backend,
         catalogue: cfg,
         chunk: None,
+        lyapunov: false,
     };
     let bres = run_basin_study(&bspec, a.quiet)?;
     let bdir = dir.join("basin_133");
@@ -554,7 +677,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     copy(&bdir.join("basin.png"), "fig07_basin_133.png")?;
     let basin_s = t.elapsed().as_secs_f64();
     let r133 = sim(&params, 133.0, 1000, 64, 4)?;
-    static_class.push((133.0, r133.classification.class.label()));
+    static_class.push((133.0, refine(r133.classification.class, 133.0)));
     let basin_cmd = format!(
         "jeffcott basin --omega 133 --x x_r:-0.006:0.006:{n} --y vx_r:-1:1:{n} --transient {} --periods {} --backend {backend} --out {}/basin_133",
         p.basin_transient,
@@ -565,9 +688,10 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         "Fig. 7: basin of attraction at W = 133 rad/s over the rotor's initial x_r and vx_r",
         "fig07_basin_133.png",
         &format!(
-            "{n} x {n} start states (other coordinates at the static equilibrium): {}. From the static equilibrium itself: **{}**.",
+            "{n} x {n} start states (other coordinates at the static equilibrium): {}. From the static equilibrium itself: **{}**, lambda_1 = {}.",
             describe(&bres.catalogue),
-            r133.classification.class.label()
+            refine(r133.classification.class, 133.0),
+            l1_text(133.0)
         ),
         &basin_cmd,
         basin_s,
@@ -589,16 +713,18 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     }
 
     // Figs. 9-12: sections at 135 and 140.
-    say("[6/7] phase portraits and Poincare sections at 135 and 140 rad/s");
+    say("[7/8] phase portraits and Poincare sections at 135 and 140 rad/s");
     for (i, omega) in [(3usize, 135.0), (4, 140.0)] {
         let t = Instant::now();
         let r = sim(&params, omega, p.section_transient, p.section_points, 8)?;
-        let class = r.classification.class.label();
+        let class = refine(r.classification.class, omega);
         static_class.push((omega, class.clone()));
         let found = format!(
-            "From the static equilibrium, {} Poincare points after {} periods: **{class}** (the article: {}). Survey of {} start states: {}. Without the largest Lyapunov exponent the tool does not split aperiodic into quasiperiodic and chaotic.",
+            "From the static equilibrium, {} Poincare points after {} periods: **{class}** (no period up to 32; lambda_1 = {} from the full spectrum, quasiperiodic when |lambda_1| < {} 1/s, chaotic above) (the article: {}). Survey of {} start states (lambda_1 per lane): {}.",
             p.section_points,
             p.section_transient,
+            l1_text(omega),
+            cfg.lambda_tol,
             ARTICLE_SPEEDS[i].1,
             p.survey_ics,
             describe(&survey[i])
@@ -684,7 +810,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     }
 
     // REPORT.md.
-    say("[7/7] REPORT.md");
+    say("[8/8] REPORT.md");
     let mut head = String::new();
     let _ = write!(
         head,
@@ -694,7 +820,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         rayon::current_num_threads(),
         rep.started.elapsed().as_secs_f64()
     );
-    head += "## Summary at the article's speeds\n\n| W [rad/s] | article | from the static equilibrium | survey of seeded start states |\n|---|---|---|---|\n";
+    head += "## Summary at the article's speeds\n\n| W [rad/s] | article | from the static equilibrium | lambda_1 [1/s] (full spectrum) | survey of seeded start states |\n|---|---|---|---|---|\n";
     for (i, &(omega, article)) in ARTICLE_SPEEDS.iter().enumerate() {
         let st = static_class
             .iter()
@@ -702,18 +828,21 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
             .map_or("-".to_string(), |(_, c)| c.clone());
         let _ = writeln!(
             head,
-            "| {omega} | {article} | {st} | {} |",
+            "| {omega} | {article} | {st} | {} | {} |",
+            l1_text(omega),
             describe(&survey[i])
         );
     }
+    head += &spectra_table(&spectra, &params, spectra_s, &spectrum_cmd);
     let _ = write!(
         head,
-        "\nSurvey: {} start states per speed (static equilibrium + seeded random rotor states within the gap), {} transient and {} recorded periods ({}; {:.1} s). Classification: period-n up to n = 32 with tolerances relative to the attractor size; aperiodic otherwise.\n\n",
+        "\nSurvey: {} start states per speed (static equilibrium + seeded random rotor states within the gap), {} transient and {} recorded periods ({}; {:.1} s). Classification: period-n up to n = 32 with tolerances relative to the attractor size; otherwise quasiperiodic (|lambda_1| < {} 1/s) or chaotic (lambda_1 above), lambda_1 per lane from one tangent vector over the recorded periods (attractor entries show the mean over their lanes).\n\n",
         p.survey_ics,
         p.survey_transient,
         p.survey_periods,
         survey_cmd(0.0).replace("--omega 0 ", "--omega W "),
-        survey_s
+        survey_s,
+        cfg.lambda_tol
     );
     let text = head + &rep.text;
     std::fs::write(dir.join("REPORT.md"), text).map_err(|source| Error::Io {
