@@ -406,20 +406,75 @@ pub fn basin_map(
     path: &Path,
     title: &str,
     labels: &[i32],
-    (nx, ny): (usize, usize),
+    cells: (usize, usize),
     x_range: (f64, f64),
     y_range: (f64, f64),
-    (x_label, y_label): (&str, &str),
+    axes: (&str, &str),
     legend: &[(i32, String)],
+) -> Result<()> {
+    let grid = Grid {
+        cells,
+        x_range,
+        y_range,
+        axes,
+    };
+    grid_map(
+        path,
+        title,
+        &grid,
+        &|i| attractor_color(labels[i]),
+        &|side| {
+            for (k, (id, name)) in legend.iter().enumerate() {
+                let y = 80 + 36 * k as i32;
+                side.draw(&Rectangle::new(
+                    [(10, y), (34, y + 24)],
+                    attractor_color(*id).filled(),
+                ))
+                .map_err(|e| e.to_string())?;
+                side.draw(&Text::new(
+                    name.clone(),
+                    (42, y + 3),
+                    ("sans-serif", 17).into_font(),
+                ))
+                .map_err(|e| e.to_string())?;
+            }
+            Ok(())
+        },
+    )
+}
+
+/// A map over a grid of start states: [ny, nx] cells (row 0 at y = y_range.0), the
+/// ranges of the two start coordinates and their axis labels.
+struct Grid<'a> {
+    cells: (usize, usize),
+    x_range: (f64, f64),
+    y_range: (f64, f64),
+    axes: (&'a str, &'a str),
+}
+
+/// The side panel of a grid map (legend or colour bar), drawn by the caller.
+type SidePanel<'a> = dyn Fn(&DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>) -> std::result::Result<(), String>
+    + 'a;
+
+/// Draws a grid map: each cell (index iy * nx + ix) in `colour(index)`, scaled to the
+/// plotting area pixel by pixel, axes labelled, and a side panel to the right.
+fn grid_map(
+    path: &Path,
+    title: &str,
+    grid: &Grid,
+    colour: &dyn Fn(usize) -> RGBColor,
+    side: &SidePanel,
 ) -> Result<()> {
     register_font();
     let err = plot_err(path);
+    let (nx, ny) = grid.cells;
+    let (x_range, y_range) = (grid.x_range, grid.y_range);
     let root = BitMapBackend::new(path, (1300, 1100)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
     let root = root
         .titled(title, ("sans-serif", 24))
         .map_err(|e| err(e.to_string()))?;
-    let (plot_area, legend_area) = root.split_horizontally(1000);
+    let (plot_area, side_area) = root.split_horizontally(1000);
     let mut chart = ChartBuilder::on(&plot_area)
         .margin(14)
         .x_label_area_size(50)
@@ -429,8 +484,8 @@ pub fn basin_map(
     chart
         .configure_mesh()
         .disable_mesh()
-        .x_desc(x_label)
-        .y_desc(y_label)
+        .x_desc(grid.axes.0)
+        .y_desc(grid.axes.1)
         .label_style(("sans-serif", 16))
         .axis_desc_style(("sans-serif", 19))
         .x_label_formatter(&|v| format!("{v:.4}"))
@@ -444,7 +499,7 @@ pub fn basin_map(
         let iy = ((ph as usize - 1 - py) * ny / ph as usize).min(ny - 1);
         for px in 0..pw as usize {
             let ix = (px * nx / pw as usize).min(nx - 1);
-            let c = attractor_color(labels[iy * nx + ix]);
+            let c = colour(iy * nx + ix);
             let o = (py * pw as usize + px) * 3;
             buf[o..o + 3].copy_from_slice(&[c.0, c.1, c.2]);
         }
@@ -454,22 +509,7 @@ pub fn basin_map(
     chart
         .draw_series(std::iter::once(img))
         .map_err(|e| err(e.to_string()))?;
-    for (k, (id, name)) in legend.iter().enumerate() {
-        let y = 80 + 36 * k as i32;
-        legend_area
-            .draw(&Rectangle::new(
-                [(10, y), (34, y + 24)],
-                attractor_color(*id).filled(),
-            ))
-            .map_err(|e| err(e.to_string()))?;
-        legend_area
-            .draw(&Text::new(
-                name.clone(),
-                (42, y + 3),
-                ("sans-serif", 17).into_font(),
-            ))
-            .map_err(|e| err(e.to_string()))?;
-    }
+    side(&side_area).map_err(&err)?;
     root.present().map_err(|e| err(e.to_string()))
 }
 
@@ -499,103 +539,77 @@ pub fn lambda1_map(
     path: &Path,
     title: &str,
     values: &[f64],
-    (nx, ny): (usize, usize),
+    cells: (usize, usize),
     x_range: (f64, f64),
     y_range: (f64, f64),
-    (x_label, y_label): (&str, &str),
+    axes: (&str, &str),
 ) -> Result<()> {
-    register_font();
-    let err = plot_err(path);
     let (lo, hi) = values
         .iter()
         .filter(|v| v.is_finite())
         .fold((0.0f64, 0.0f64), |(a, b), &v| (a.min(v), b.max(v)));
-    let root = BitMapBackend::new(path, (1300, 1100)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
-    let root = root
-        .titled(title, ("sans-serif", 24))
-        .map_err(|e| err(e.to_string()))?;
-    let (plot_area, bar_area) = root.split_horizontally(1000);
-    let mut chart = ChartBuilder::on(&plot_area)
-        .margin(14)
-        .x_label_area_size(50)
-        .y_label_area_size(90)
-        .build_cartesian_2d(x_range.0..x_range.1, y_range.0..y_range.1)
-        .map_err(|e| err(e.to_string()))?;
-    chart
-        .configure_mesh()
-        .disable_mesh()
-        .x_desc(x_label)
-        .y_desc(y_label)
-        .label_style(("sans-serif", 16))
-        .axis_desc_style(("sans-serif", 19))
-        .x_label_formatter(&|v| format!("{v:.4}"))
-        .y_label_formatter(&|v| format!("{v:.4}"))
-        .draw()
-        .map_err(|e| err(e.to_string()))?;
-    let (pw, ph) = chart.plotting_area().dim_in_pixel();
-    let mut buf = vec![0u8; (pw * ph * 3) as usize];
-    for py in 0..ph as usize {
-        let iy = ((ph as usize - 1 - py) * ny / ph as usize).min(ny - 1);
-        for px in 0..pw as usize {
-            let ix = (px * nx / pw as usize).min(nx - 1);
-            let c = lambda1_color(values[iy * nx + ix], lo, hi);
-            let o = (py * pw as usize + px) * 3;
-            buf[o..o + 3].copy_from_slice(&[c.0, c.1, c.2]);
-        }
-    }
-    let img = BitMapElement::with_owned_buffer((x_range.0, y_range.1), (pw, ph), buf)
-        .ok_or_else(|| err("bitmap buffer size".into()))?;
-    chart
-        .draw_series(std::iter::once(img))
-        .map_err(|e| err(e.to_string()))?;
-    // Colour bar: hi at the top, lo at the bottom.
-    let (top, bot) = (80i32, 880i32);
-    for y in top..bot {
-        let v = hi + (lo - hi) * (y - top) as f64 / (bot - top) as f64;
-        bar_area
-            .draw(&Rectangle::new(
-                [(20, y), (60, y + 1)],
-                lambda1_color(v, lo, hi).filled(),
-            ))
-            .map_err(|e| err(e.to_string()))?;
-    }
-    bar_area
-        .draw(&Rectangle::new([(20, top), (60, bot)], BLACK))
-        .map_err(|e| err(e.to_string()))?;
-    let zero_y = if hi > lo {
-        top + ((hi / (hi - lo)) * (bot - top) as f64).round() as i32
-    } else {
-        top
+    let grid = Grid {
+        cells,
+        x_range,
+        y_range,
+        axes,
     };
-    for (y, text) in [
-        (top, format!("{hi:.2}")),
-        (zero_y, "0".to_string()),
-        (bot, format!("{lo:.2}")),
-    ] {
-        bar_area
-            .draw(&Text::new(
-                text,
-                (68, y - 8),
-                ("sans-serif", 17).into_font(),
-            ))
-            .map_err(|e| err(e.to_string()))?;
-    }
-    bar_area
-        .draw(&Text::new(
-            "lambda_1 [1/s]",
-            (10, top - 40),
-            ("sans-serif", 18).into_font(),
-        ))
-        .map_err(|e| err(e.to_string()))?;
-    bar_area
-        .draw(&Text::new(
-            "black: diverged",
-            (10, bot + 30),
-            ("sans-serif", 16).into_font(),
-        ))
-        .map_err(|e| err(e.to_string()))?;
-    root.present().map_err(|e| err(e.to_string()))
+    grid_map(
+        path,
+        title,
+        &grid,
+        &|i| lambda1_color(values[i], lo, hi),
+        &|bar_area| {
+            let e = |e: DrawingAreaErrorKind<_>| e.to_string();
+            // Colour bar: hi at the top, lo at the bottom.
+            let (top, bot) = (80i32, 880i32);
+            for y in top..bot {
+                let v = hi + (lo - hi) * (y - top) as f64 / (bot - top) as f64;
+                bar_area
+                    .draw(&Rectangle::new(
+                        [(20, y), (60, y + 1)],
+                        lambda1_color(v, lo, hi).filled(),
+                    ))
+                    .map_err(e)?;
+            }
+            bar_area
+                .draw(&Rectangle::new([(20, top), (60, bot)], BLACK))
+                .map_err(e)?;
+            let zero_y = if hi > lo {
+                top + ((hi / (hi - lo)) * (bot - top) as f64).round() as i32
+            } else {
+                top
+            };
+            for (y, text) in [
+                (top, format!("{hi:.2}")),
+                (zero_y, "0".to_string()),
+                (bot, format!("{lo:.2}")),
+            ] {
+                bar_area
+                    .draw(&Text::new(
+                        text,
+                        (68, y - 8),
+                        ("sans-serif", 17).into_font(),
+                    ))
+                    .map_err(e)?;
+            }
+            bar_area
+                .draw(&Text::new(
+                    "lambda_1 [1/s]",
+                    (10, top - 40),
+                    ("sans-serif", 18).into_font(),
+                ))
+                .map_err(e)?;
+            bar_area
+                .draw(&Text::new(
+                    "black: diverged",
+                    (10, bot + 30),
+                    ("sans-serif", 16).into_font(),
+                ))
+                .map_err(e)?;
+            Ok(())
+        },
+    )
 }
 
 /// One attractor in a comparison figure: its name, a time series over a few periods
