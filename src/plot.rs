@@ -19,6 +19,26 @@ fn register_font() {
     });
 }
 
+/// Draws a chart's series legend in the house style (white box, black border).
+pub(crate) fn legend<'a, DB, CT>(
+    chart: &mut ChartContext<'a, DB, CT>,
+    position: SeriesLabelPosition,
+    font: u32,
+) -> std::result::Result<(), String>
+where
+    DB: DrawingBackend + 'a,
+    CT: plotters::coord::CoordTranslate,
+{
+    chart
+        .configure_series_labels()
+        .position(position)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .label_font(("sans-serif", font))
+        .draw()
+        .map_err(|e| e.to_string())
+}
+
 fn plot_err(path: &Path) -> impl Fn(String) -> Error + '_ {
     move |message| Error::Plot {
         path: path.to_path_buf(),
@@ -143,13 +163,7 @@ pub fn phase_portraits(
             .map_err(|e| err(e.to_string()))?
             .label("Poincare points (t = kT)")
             .legend(|(x, y)| Circle::new((x + 9, y), 4, RED.filled()));
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .label_font(("sans-serif", 14))
-            .draw()
-            .map_err(|e| err(e.to_string()))?;
+        legend(&mut chart, SeriesLabelPosition::MiddleRight, 14).map_err(&err)?;
     }
     root.present().map_err(|e| err(e.to_string()))
 }
@@ -295,14 +309,7 @@ pub fn bifurcation_diagram(
             anno.label(se.label.as_str())
                 .legend(move |(x, y)| Circle::new((x + 9, y), 4, c.filled()));
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperLeft)
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .label_font(("sans-serif", 16))
-            .draw()
-            .map_err(|e| err(e.to_string()))?;
+        legend(&mut chart, SeriesLabelPosition::UpperLeft, 16).map_err(&err)?;
     }
     root.present().map_err(|e| err(e.to_string()))
 }
@@ -388,14 +395,7 @@ fn lambda1_panel<DB: DrawingBackend>(
         anno.label(s.label.as_str())
             .legend(move |(x, y)| Circle::new((x + 9, y), 4, c.filled()));
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperLeft)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .label_font(("sans-serif", 16))
-        .draw()
-        .map_err(e)?;
+    legend(&mut chart, SeriesLabelPosition::UpperLeft, 16)?;
     Ok(())
 }
 
@@ -693,13 +693,7 @@ pub fn coexisting_attractors(path: &Path, title: &str, traces: &[AttractorTrace]
                 )
                 .map_err(|e| err(e.to_string()))?;
         }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .label_font(("sans-serif", 14))
-            .draw()
-            .map_err(|e| err(e.to_string()))?;
+        legend(&mut chart, SeriesLabelPosition::MiddleRight, 14).map_err(&err)?;
     }
     root.present().map_err(|e| err(e.to_string()))
 }

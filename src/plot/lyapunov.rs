@@ -72,13 +72,7 @@ pub fn convergence(path: &Path, title: &str, history: &[(f64, [f64; STATE_DIM])]
             .label(format!("lambda_{}", i + 1))
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], c));
     }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .label_font(("sans-serif", 14))
-        .draw()
-        .map_err(|e| err(e.to_string()))?;
+    super::legend(&mut chart, SeriesLabelPosition::MiddleRight, 14).map_err(&err)?;
     root.present().map_err(|e| err(e.to_string()))
 }
 
@@ -135,12 +129,6 @@ pub fn spectrum_vs_omega(
             .label(format!("lambda_{}", i + 1))
             .legend(move |(x, y)| Circle::new((x + 9, y), 4, c.filled()));
     }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .label_font(("sans-serif", 14))
-        .draw()
-        .map_err(|e| err(e.to_string()))?;
+    super::legend(&mut chart, SeriesLabelPosition::MiddleRight, 14).map_err(&err)?;
     root.present().map_err(|e| err(e.to_string()))
 }
