@@ -176,3 +176,49 @@ fn simd_batches_equal_the_scalar_lane_stepper_to_the_bit() {
         assert!(switches > 100, "the lanes must rub: {switches} switches");
     }
 }
+
+/// lambda_1 lanes through the SIMD batches (state batched, each tangent step the scalar
+/// one) equal the scalar lane stepper carrying the tangent: points, statuses, counters
+/// and lambda_1 to the bit.
+#[test]
+fn simd_batches_with_lambda1_equal_the_scalar_tangent_stepper_to_the_bit() {
+    use jeffcott::integrate::lane::{LAMBDA1_START, Tangent, advance_period_tangent, renormalise};
+    use jeffcott::model::STATE_DIM;
+    let mut s = spec(Precision::F64, 21);
+    s.lanes[4].x0[X_R] = f64::NAN;
+    s.lanes[6].x0[VX_R] = 1e6;
+    let r = cpu::run_with_lambda1(&s, &|_| {}).unwrap();
+    let l1 = r.lambda1.as_ref().expect("lambda1");
+    for (i, &got_l1) in l1.iter().enumerate() {
+        let lc = s.lane_consts::<f64>(i);
+        let mut lane = s.initial_lane::<f64>(i);
+        let mut tan = Tangent::<f64, 1>::new([[LAMBDA1_START; STATE_DIM]]);
+        let (mut bits, mut norms) = (Vec::new(), Vec::new());
+        for p in 0..s.transient + s.recorded {
+            if p < s.transient && lane.status.is_frozen() {
+                continue;
+            }
+            advance_period_tangent(&lc, &mut lane, &mut tan);
+            let norm = if lane.status.is_frozen() {
+                1.0
+            } else {
+                renormalise(&mut tan.v[0])
+            };
+            if p >= s.transient {
+                bits.extend(lane.x.iter().map(|v| v.to_bits()));
+                norms.push(norm);
+            }
+        }
+        let got: Vec<u64> = r.lane_points(i).iter().map(|v| v.to_bits()).collect();
+        assert_eq!(got, bits, "lane {i} points");
+        assert_eq!(r.status[i], lane.status, "lane {i} status");
+        assert_eq!(r.counters[i], lane.counters, "lane {i} counters");
+        let want = if lane.status.is_frozen() {
+            f64::NAN
+        } else {
+            jeffcott::lyapunov::lambda1_from_norms(&norms, s.lanes[i].omega)
+        };
+        assert_eq!(got_l1.to_bits(), want.to_bits(), "lane {i} lambda_1");
+    }
+    assert!(l1.iter().filter(|v| v.is_finite()).count() >= 18);
+}

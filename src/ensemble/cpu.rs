@@ -7,7 +7,7 @@
 
 use super::{EnsembleResult, EnsembleSpec, Precision};
 use crate::error::Result;
-use crate::integrate::batch::{BATCH, BatchConsts, batch_macro_step};
+use crate::integrate::batch::{BATCH, BatchConsts, batch_macro_step_tangent};
 use crate::integrate::lane::{
     Counters, LAMBDA1_START, Lane, LaneConsts, Status, Tangent, advance_period,
     advance_period_tangent, renormalise,
@@ -81,41 +81,63 @@ fn run_lane_lambda1<R: Real>(spec: &EnsembleSpec, i: usize) -> Outcome {
     }
 }
 
-/// Lanes `first..first + BATCH` through the batch stepper.
+/// Lanes `first..first + BATCH` through the batch stepper; with `M = 1` also a tangent
+/// vector per lane for lambda_1, renormalised after every period exactly as
+/// `run_lane_lambda1` does (same bits: `tests/ensemble_cpu.rs`).
 #[inline(always)]
-fn run_batch_inner<R: Real>(spec: &EnsembleSpec, first: usize) -> Vec<Outcome> {
+fn run_batch_inner<R: Real, const M: usize>(spec: &EnsembleSpec, first: usize) -> Vec<Outcome> {
     let lc: [LaneConsts<R>; BATCH] = std::array::from_fn(|l| spec.lane_consts(first + l));
     let bc = BatchConsts::new(&lc);
     let mut lanes: [Lane<R>; BATCH] = std::array::from_fn(|l| spec.initial_lane(first + l));
+    let mut tan: [Tangent<R, M>; BATCH] =
+        std::array::from_fn(|_| Tangent::new([[R::lit(LAMBDA1_START); STATE_DIM]; M]));
     let n = spec.stepper.steps_per_period;
-    for _ in 0..spec.transient {
-        if lanes.iter().all(|l| l.status.is_frozen()) {
-            break;
-        }
-        for _ in 0..n {
-            batch_macro_step(&bc, &lc, &mut lanes);
-        }
-    }
     let mut points: Vec<Vec<f64>> = (0..BATCH)
         .map(|_| Vec::with_capacity(spec.recorded as usize * STATE_DIM))
         .collect();
-    for _ in 0..spec.recorded {
-        for _ in 0..n {
-            batch_macro_step(&bc, &lc, &mut lanes);
+    let mut norms: Vec<Vec<f64>> = vec![Vec::new(); BATCH];
+    for p in 0..spec.transient + spec.recorded {
+        let recording = p >= spec.transient;
+        if !recording && lanes.iter().all(|l| l.status.is_frozen()) {
+            continue;
         }
-        for (p, lane) in points.iter_mut().zip(&lanes) {
-            p.extend(lane.x.iter().map(|v| v.to_f64()));
+        for _ in 0..n {
+            batch_macro_step_tangent(&bc, &lc, &mut lanes, &mut tan);
+        }
+        for l in 0..BATCH {
+            if M > 0 {
+                // A lane frozen before this period is skipped by `run_lane_lambda1` in
+                // the transient; it is frozen now too, so it is not renormalised here
+                // either, and its 1.0 is kept only when recording, as there.
+                let norm = if lanes[l].status.is_frozen() {
+                    1.0
+                } else {
+                    renormalise(&mut tan[l].v[0]).to_f64()
+                };
+                if recording {
+                    norms[l].push(norm);
+                }
+            }
+            if recording {
+                points[l].extend(lanes[l].x.iter().map(|v| v.to_f64()));
+            }
         }
     }
     points
         .into_iter()
         .zip(lanes)
-        .map(|(points, lane)| Outcome {
+        .zip(norms)
+        .enumerate()
+        .map(|(l, ((points, lane), norms))| Outcome {
             points,
             final_state: lane.state_f64(),
             status: lane.status,
             counters: lane.counters,
-            lambda1: f64::NAN,
+            lambda1: if M > 0 {
+                super::lane_lambda1(&norms, spec.lanes[first + l].omega, lane.status)
+            } else {
+                f64::NAN
+            },
         })
         .collect()
 }
@@ -123,18 +145,18 @@ fn run_batch_inner<R: Real>(spec: &EnsembleSpec, first: usize) -> Vec<Outcome> {
 /// The batch code compiled for AVX2 (no FMA: fusing would change the rounding).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn run_batch_avx2<R: Real>(spec: &EnsembleSpec, first: usize) -> Vec<Outcome> {
-    run_batch_inner::<R>(spec, first)
+fn run_batch_avx2<R: Real, const M: usize>(spec: &EnsembleSpec, first: usize) -> Vec<Outcome> {
+    run_batch_inner::<R, M>(spec, first)
 }
 
 /// Lanes `first..first + BATCH`, with the widest vector unit this CPU has.
-fn run_batch<R: Real>(spec: &EnsembleSpec, first: usize) -> Vec<Outcome> {
+fn run_batch<R: Real, const M: usize>(spec: &EnsembleSpec, first: usize) -> Vec<Outcome> {
     #[cfg(target_arch = "x86_64")]
     if std::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU has just been found to support AVX2.
-        return unsafe { run_batch_avx2::<R>(spec, first) };
+        return unsafe { run_batch_avx2::<R, M>(spec, first) };
     }
-    run_batch_inner::<R>(spec, first)
+    run_batch_inner::<R, M>(spec, first)
 }
 
 /// Runs the ensemble on the CPU with rayon's global pool; `progress` is called with the
@@ -160,9 +182,8 @@ fn run_inner(
     spec.validate()?;
     let done = std::sync::atomic::AtomicUsize::new(0);
     let n = spec.lanes.len();
-    // Whole batches through the batch stepper, the remainder lane by lane; with
-    // lambda_1 (tangent vectors, not batched) every lane by itself.
-    let batches = if lambda1 { 0 } else { n / BATCH };
+    // Whole batches through the batch stepper, the remainder lane by lane.
+    let batches = n / BATCH;
     let tasks: Vec<(usize, bool)> = (0..batches)
         .map(|b| (b * BATCH, true))
         .chain((batches * BATCH..n).map(|i| (i, false)))
@@ -172,8 +193,10 @@ fn run_inner(
         .with_min_len(2)
         .flat_map_iter(|(first, batched)| {
             let o = match (spec.precision, batched, lambda1) {
-                (Precision::F32, true, false) => run_batch::<f32>(spec, first),
-                (Precision::F64, true, false) => run_batch::<f64>(spec, first),
+                (Precision::F32, true, false) => run_batch::<f32, 0>(spec, first),
+                (Precision::F64, true, false) => run_batch::<f64, 0>(spec, first),
+                (Precision::F32, true, true) => run_batch::<f32, 1>(spec, first),
+                (Precision::F64, true, true) => run_batch::<f64, 1>(spec, first),
                 (Precision::F32, _, false) => vec![run_lane::<f32>(spec, first)],
                 (Precision::F64, _, false) => vec![run_lane::<f64>(spec, first)],
                 (Precision::F32, _, true) => vec![run_lane_lambda1::<f32>(spec, first)],

@@ -15,7 +15,8 @@
 
 use crate::integrate::forcing::phasor_turns;
 use crate::integrate::lane::{
-    GRAZE_SAMPLES, Lane, LaneConsts, Status, hermite_gap, macro_step, wrong_side,
+    GRAZE_SAMPLES, Lane, LaneConsts, Status, Tangent, hermite_gap, macro_step_tangent,
+    rk4_tangent_substep, wrong_side,
 };
 use crate::model::{STATE_DIM, VX_R, VX_S, VY_R, VY_S, X_R, X_S, Y_R, Y_S, contact_force_per_kc};
 use crate::real::Real;
@@ -203,6 +204,23 @@ pub fn batch_macro_step<R: Real>(
     lc: &[LaneConsts<R>; BATCH],
     lane: &mut [Lane<R>; BATCH],
 ) {
+    let mut none: [Tangent<R, 0>; BATCH] = std::array::from_fn(|_| Tangent::new([]));
+    batch_macro_step_tangent(bc, lc, lane, &mut none);
+}
+
+/// [`batch_macro_step`] carrying `M` tangent vectors per lane, as
+/// `lane::macro_step_tangent` does: on the batched path each lane's tangent step is the
+/// scalar `rk4_tangent_substep` over the whole macro step from the lane's start state
+/// (the call the scalar stepper makes when there is no switch), so the tangents too are
+/// bit for bit those of the scalar stepper; switching lanes go to
+/// `macro_step_tangent`.
+#[inline(always)]
+pub fn batch_macro_step_tangent<R: Real, const M: usize>(
+    bc: &BatchConsts<R>,
+    lc: &[LaneConsts<R>; BATCH],
+    lane: &mut [Lane<R>; BATCH],
+    tan: &mut [Tangent<R, M>; BATCH],
+) {
     // Live lanes advance in lock step (they all start at k = 0); frozen ones keep the
     // index they froze at and are skipped.
     let Some(k) = lane.iter().find(|l| !l.status.is_frozen()).map(|l| l.k) else {
@@ -237,8 +255,20 @@ pub fn batch_macro_step<R: Real>(
             continue;
         }
         if scalar[l] || lane[l].k != k {
-            macro_step(&lc[l], &mut lane[l]);
+            macro_step_tangent(&lc[l], &mut lane[l], &mut tan[l]);
             continue;
+        }
+        if M > 0 {
+            let x0 = lane[l].x;
+            rk4_tangent_substep(
+                &lc[l],
+                &x0,
+                k,
+                zero,
+                R::lit(1.0) - zero,
+                contact[l],
+                &mut tan[l],
+            );
         }
         // No switch: accept the trial step, then `macro_step`'s checks and counters.
         let xl: [R; STATE_DIM] = std::array::from_fn(|i| x1[i][l]);

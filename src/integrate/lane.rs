@@ -359,7 +359,7 @@ fn jacobian_trace<R: Real>(c: &Coeffs<R>, pc: &[R; 8]) -> R {
 /// exactly `rk4_substep`'s operations, and each vector takes the RK4 step of
 /// dV/dt = J V on them. Also adds the trace integral over the sub-step.
 #[inline(always)]
-fn rk4_tangent_substep<R: Real, const M: usize>(
+pub(crate) fn rk4_tangent_substep<R: Real, const M: usize>(
     lc: &LaneConsts<R>,
     x: &[R; STATE_DIM],
     k: u32,
