@@ -9,9 +9,8 @@
 //! contact histories, as they do in a real basin or bifurcation run (identical lanes
 //! would flatter a SIMD GPU, whose lanes then never diverge).
 
-use crate::ensemble::{Backend, EnsembleResult, EnsembleSpec, LaneSpec, Precision, run};
+use crate::ensemble::{Backend, Engine, EnsembleSpec, LaneSpec, Precision, run};
 use crate::error::Result;
-use crate::gpu::GpuRunner;
 use crate::integrate::lane::StepperConfig;
 use crate::model::{Params, STATE_DIM, State, VX_R, X_R};
 use serde::Serialize;
@@ -93,52 +92,26 @@ pub struct BenchRow {
     pub flagged_lanes: usize,
 }
 
-/// Where a benchmark runs: the CPU, or an open GPU runner (device and pipeline set-up
-/// are then paid before the clock starts, as in any long run they are amortised).
-#[derive(Clone, Copy)]
-pub enum Engine<'a> {
-    /// The rayon CPU path.
-    Cpu,
-    /// A GPU runner.
-    Gpu(&'a GpuRunner),
-}
-
-impl Engine<'_> {
-    fn run(&self, spec: &EnsembleSpec) -> Result<(EnsembleResult, f64)> {
-        let t = std::time::Instant::now();
-        let res = match self {
-            Engine::Cpu => crate::ensemble::cpu::run(spec, &|_| {})?,
-            Engine::Gpu(r) => crate::ensemble::run_on_gpu(spec, r, &|_, _| {})?,
-        };
-        Ok((res, t.elapsed().as_secs_f64()))
-    }
-
-    fn names(&self) -> (&'static str, String) {
-        match self {
-            Engine::Cpu => ("cpu", format!("{} threads", rayon::current_num_threads())),
-            Engine::Gpu(r) => ("gpu", r.gpu().adapter().name.clone()),
-        }
-    }
-}
-
-/// Runs one configuration (and, when `twin` is set, its free-flight twin) and measures
-/// it. The run itself is checked: every lane must be finite, or the figures would time
-/// a broken computation.
+/// Runs one configuration (and, when `twin` is set, its free-flight twin) on a resolved
+/// backend and measures it; the engine was opened before, so GPU device set-up is not
+/// timed, as in any long run it is amortised. The run itself is checked: every lane
+/// must be finite, or the figures would time a broken computation.
 pub fn measure(
     lanes: usize,
     periods: u32,
     precision: Precision,
-    engine: Engine,
+    engine: &Engine,
     twin: bool,
 ) -> Result<BenchRow> {
+    let quiet = |_: u64, _: u64| {};
     let spec = bench_spec(lanes, periods, precision, false);
-    if let Engine::Gpu(_) = engine {
+    if engine.runner().is_some() {
         // Warm-up: the first run on a runner compiles the pipeline (seconds on
         // llvmpipe); a long run pays that once, so it is not timed.
-        engine.run(&bench_spec(1, 1, precision, false))?;
+        engine.run(&bench_spec(1, 1, precision, false), &quiet)?;
     }
-    let (res, wall) = engine.run(&spec)?;
-    let (backend, device) = engine.names();
+    let (res, info) = engine.run(&spec, &quiet)?;
+    let (backend, device, wall) = (info.backend, info.device, info.elapsed_s);
     let steps: u64 = res.counters.iter().map(|c| c.macro_steps).sum();
     let extra: u64 = res.counters.iter().map(|c| c.extra_substeps).sum();
     let contact: u64 = res.counters.iter().map(|c| c.contact_steps).sum();
@@ -150,8 +123,8 @@ pub fn measure(
     }
     let contact_time_share = if twin {
         let free = bench_spec(lanes, periods, precision, true);
-        let (_, free_wall) = engine.run(&free)?;
-        Some(1.0 - free_wall / wall)
+        let (_, free) = engine.run(&free, &quiet)?;
+        Some(1.0 - free.elapsed_s / wall)
     } else {
         None
     };

@@ -211,7 +211,7 @@ pub fn basin(spec: &BasinSpec, progress: &Progress) -> Result<BasinResult> {
     let mut builder = CatalogueBuilder::new(spec.omega, spec.catalogue);
     let mut info = None;
     let mut lambda1 = spec.lyapunov.then(|| Vec::with_capacity(cells));
-    let engine = super::engine::Engine::new(spec.backend, spec.precision)?;
+    let engine = crate::ensemble::Engine::new(spec.backend, spec.precision)?;
     let mut start = 0usize;
     while start < cells {
         let end = (start + chunk).min(cells);

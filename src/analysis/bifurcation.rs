@@ -328,7 +328,7 @@ pub fn bifurcation(spec: &BifurcationSpec, progress: &Progress) -> Result<Bifurc
 
 fn run_lanes(
     spec: &BifurcationSpec,
-    engine: &super::engine::Engine,
+    engine: &crate::ensemble::Engine,
     lanes: Vec<LaneSpec>,
     progress: &Progress,
 ) -> Result<(crate::ensemble::EnsembleResult, RunInfo)> {
@@ -366,7 +366,7 @@ fn brute_force(
             })
         })
         .collect();
-    let engine = super::engine::Engine::new(spec.backend, spec.precision)?;
+    let engine = crate::ensemble::Engine::new(spec.backend, spec.precision)?;
     let (res1, info) = run_lanes(spec, &engine, lanes, progress)?;
     let lane_len = rec * STATE_DIM;
     // First-pass catalogues, to know what to seed from.

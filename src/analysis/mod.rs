@@ -4,4 +4,3 @@ pub mod basin;
 pub mod bifurcation;
 pub mod catalogue;
 pub mod classify;
-pub mod engine;

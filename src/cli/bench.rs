@@ -2,10 +2,9 @@
 //! precision on the W = 133 workload of [`crate::bench`], as a Markdown table (the
 //! README's) and a JSON file.
 
-use crate::bench::{BenchRow, Engine, measure, periods_for};
-use crate::ensemble::{Backend, Precision};
+use crate::bench::{BenchRow, measure, periods_for};
+use crate::ensemble::{Backend, Engine, Precision};
 use crate::error::{Error, Result};
-use crate::gpu::{DeviceRequest, GpuDevice, GpuRunner};
 use clap::Args;
 use std::path::PathBuf;
 
@@ -71,18 +70,13 @@ pub fn run_bench(a: &BenchArgs) -> Result<()> {
     );
     println!("|---|---|---|---|---|---|---|---|---|---|---|");
     let mut rows: Vec<BenchRow> = Vec::new();
-    let mut runner: Option<GpuRunner> = None;
     for &backend in &backends {
-        if backend != Backend::Cpu && runner.is_none() {
-            let dev = GpuDevice::new(&DeviceRequest {
-                need_f64: false,
-                allow_software: true,
-            })?;
-            runner = Some(GpuRunner::new(dev));
-        }
+        // One engine per backend for all its rows. Opened for f32 so an adapter
+        // without SHADER_F64 still measures f32; its f64 rows are skipped below.
+        let engine = Engine::new(backend, Precision::F32)?;
         for &precision in &a.precision {
-            let gpu_lacks_f64 = runner.as_ref().is_some_and(|r| !r.gpu().supports_f64());
-            if backend != Backend::Cpu && precision == Precision::F64 && gpu_lacks_f64 {
+            let gpu_lacks_f64 = engine.runner().is_some_and(|r| !r.gpu().supports_f64());
+            if precision == Precision::F64 && gpu_lacks_f64 {
                 if a.backend.is_empty() {
                     println!("(GPU f64 skipped: the adapter has no SHADER_F64)");
                     continue;
@@ -95,11 +89,7 @@ pub fn run_bench(a: &BenchArgs) -> Result<()> {
             }
             for &lanes in &a.lanes {
                 let periods = periods_for(lanes, a.lane_periods);
-                let engine = match (&runner, backend) {
-                    (Some(r), Backend::Gpu | Backend::Auto) => Engine::Gpu(r),
-                    _ => Engine::Cpu,
-                };
-                let r = measure(lanes, periods, precision, engine, lanes == a.twin_at)?;
+                let r = measure(lanes, periods, precision, &engine, lanes == a.twin_at)?;
                 println!(
                     "| {} | {} | {:?} | {} | {} | {:.2} | {:.3e} | {:.3e} | {:.1}% | {:.1}% | {} |",
                     r.backend,

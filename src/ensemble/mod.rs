@@ -3,6 +3,9 @@
 //! Bifurcation sweeps, basins and parameter-plane maps are all ensembles (DESIGN.md 1).
 
 pub mod cpu;
+pub mod engine;
+
+pub use engine::Engine;
 
 use crate::error::{Error, Result};
 use crate::integrate::lane::{Counters, Lane, LaneConsts, Status, StepperConfig};
@@ -272,11 +275,7 @@ pub fn run_on_gpu(
     runner: &crate::gpu::GpuRunner,
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<EnsembleResult> {
-    spec.validate()?;
-    match spec.precision {
-        Precision::F32 => run_gpu::<f32>(spec, runner, false, progress),
-        Precision::F64 => run_gpu::<f64>(spec, runner, false, progress),
-    }
+    run_on_gpu_inner(spec, runner, false, progress)
 }
 
 /// [`run_on_gpu`] with the largest Lyapunov exponent of every lane
@@ -286,10 +285,19 @@ pub fn run_on_gpu_with_lambda1(
     runner: &crate::gpu::GpuRunner,
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<EnsembleResult> {
+    run_on_gpu_inner(spec, runner, true, progress)
+}
+
+fn run_on_gpu_inner(
+    spec: &EnsembleSpec,
+    runner: &crate::gpu::GpuRunner,
+    lambda1: bool,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<EnsembleResult> {
     spec.validate()?;
     match spec.precision {
-        Precision::F32 => run_gpu::<f32>(spec, runner, true, progress),
-        Precision::F64 => run_gpu::<f64>(spec, runner, true, progress),
+        Precision::F32 => run_gpu::<f32>(spec, runner, lambda1, progress),
+        Precision::F64 => run_gpu::<f64>(spec, runner, lambda1, progress),
     }
 }
 
@@ -337,65 +345,13 @@ fn run_inner(
     lambda1: bool,
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<(EnsembleResult, RunInfo)> {
-    use crate::gpu::{DeviceRequest, GpuDevice, GpuRunner};
     spec.validate()?;
     let start = std::time::Instant::now();
-    let gpu = match backend {
-        Backend::Cpu => Err("--backend cpu".to_string()),
-        Backend::Gpu | Backend::Auto => {
-            let req = DeviceRequest {
-                need_f64: spec.precision == Precision::F64,
-                allow_software: backend == Backend::Gpu,
-            };
-            match GpuDevice::new(&req) {
-                Ok(dev) => Ok(dev),
-                Err(e) if backend == Backend::Gpu => return Err(e),
-                Err(e) => Err(format!("no hardware GPU ({e})")),
-            }
-        }
-    };
-    match gpu {
-        Ok(dev) => {
-            let device = dev.adapter().name.clone();
-            let runner = GpuRunner::new(dev);
-            let res = if lambda1 {
-                run_on_gpu_with_lambda1(spec, &runner, progress)?
-            } else {
-                run_on_gpu(spec, &runner, progress)?
-            };
-            let reason = if backend == Backend::Gpu {
-                "--backend gpu"
-            } else {
-                "hardware GPU found"
-            };
-            let info = RunInfo {
-                backend: "gpu",
-                device,
-                reason: reason.into(),
-                precision: spec.precision,
-                elapsed_s: start.elapsed().as_secs_f64(),
-            };
-            Ok((res, info))
-        }
-        Err(reason) => {
-            let total = spec.lanes.len() as u64 * (spec.transient + spec.recorded) as u64;
-            let per_lane = (spec.transient + spec.recorded) as u64;
-            let report = |lanes_done: usize| progress(lanes_done as u64 * per_lane, total);
-            let res = if lambda1 {
-                cpu::run_with_lambda1(spec, &report)?
-            } else {
-                cpu::run(spec, &report)?
-            };
-            let info = RunInfo {
-                backend: "cpu",
-                device: format!("{} rayon threads", rayon::current_num_threads()),
-                reason,
-                precision: spec.precision,
-                elapsed_s: start.elapsed().as_secs_f64(),
-            };
-            Ok((res, info))
-        }
-    }
+    let engine = Engine::new(backend, spec.precision)?;
+    let (res, mut info) = engine.run_maybe_lambda1(spec, lambda1, progress)?;
+    // Device set-up included: this call opened the device for this one run.
+    info.elapsed_s = start.elapsed().as_secs_f64();
+    Ok((res, info))
 }
 
 /// Parses the CLI range syntax `a:b:n` (n values from a to b inclusive, evenly spaced)

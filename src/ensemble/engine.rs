@@ -1,11 +1,9 @@
-//! The backend chosen once for a study made of several ensembles (the chunks of a basin,
-//! the passes of a brute-force diagram): the GPU device and pipeline are set up once and
-//! reused, with the same choice rules as [`crate::ensemble::run`].
+//! The backend resolved once: `auto`/`cpu`/`gpu` turned into the CPU or an open GPU
+//! runner. [`crate::ensemble::run`] resolves one per call; a study made of several
+//! ensembles (the chunks of a basin, the passes of a brute-force diagram, benchmark
+//! rows) keeps one, so the GPU device and pipeline are set up once.
 
-use crate::ensemble::{
-    Backend, EnsembleResult, EnsembleSpec, Precision, RunInfo, run, run_on_gpu,
-    run_on_gpu_with_lambda1, run_with_lambda1,
-};
+use super::{Backend, EnsembleResult, EnsembleSpec, Precision, RunInfo, cpu, run_on_gpu_inner};
 use crate::error::Result;
 use crate::gpu::{DeviceRequest, GpuDevice, GpuRunner};
 
@@ -49,6 +47,11 @@ impl Engine {
         }
     }
 
+    /// The GPU runner, when the backend resolved to a GPU.
+    pub fn runner(&self) -> Option<&GpuRunner> {
+        self.gpu.as_ref()
+    }
+
     /// Runs one ensemble on the resolved backend.
     pub fn run(
         &self,
@@ -68,11 +71,21 @@ impl Engine {
         progress: &(dyn Fn(u64, u64) + Sync),
     ) -> Result<(EnsembleResult, RunInfo)> {
         let start = std::time::Instant::now();
-        let (res, backend) = match (&self.gpu, lambda1) {
-            (Some(runner), false) => (run_on_gpu(spec, runner, progress)?, "gpu"),
-            (Some(runner), true) => (run_on_gpu_with_lambda1(spec, runner, progress)?, "gpu"),
-            (None, false) => (run(spec, Backend::Cpu, progress)?.0, "cpu"),
-            (None, true) => (run_with_lambda1(spec, Backend::Cpu, progress)?.0, "cpu"),
+        let (res, backend) = match &self.gpu {
+            Some(runner) => (run_on_gpu_inner(spec, runner, lambda1, progress)?, "gpu"),
+            None => {
+                spec.validate()?;
+                // The CPU reports finished lanes; progress counts lane-periods.
+                let per_lane = (spec.transient + spec.recorded) as u64;
+                let total = spec.lanes.len() as u64 * per_lane;
+                let report = |lanes_done: usize| progress(lanes_done as u64 * per_lane, total);
+                let res = if lambda1 {
+                    cpu::run_with_lambda1(spec, &report)?
+                } else {
+                    cpu::run(spec, &report)?
+                };
+                (res, "cpu")
+            }
         };
         Ok((
             res,
