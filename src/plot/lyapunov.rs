@@ -7,19 +7,9 @@ use crate::model::STATE_DIM;
 use plotters::prelude::*;
 use std::path::Path;
 
-/// One colour per exponent.
+/// One colour per exponent: the attractor palette, so every picture shares one set.
 fn colour(i: usize) -> RGBColor {
-    const C: [RGBColor; STATE_DIM] = [
-        RGBColor(214, 39, 40),
-        RGBColor(31, 119, 180),
-        RGBColor(44, 160, 44),
-        RGBColor(255, 127, 14),
-        RGBColor(148, 103, 189),
-        RGBColor(140, 86, 75),
-        RGBColor(227, 119, 194),
-        RGBColor(23, 190, 207),
-    ];
-    C[i % STATE_DIM]
+    super::PALETTE[i % super::PALETTE.len()]
 }
 
 /// The running estimate of each exponent against the accumulation time, with a zero
