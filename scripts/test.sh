@@ -8,7 +8,10 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 export PATH="$HOME/.cargo/bin:$PATH"
 
-if ! ls /usr/share/vulkan/icd.d/*.json /etc/vulkan/icd.d/*.json >/dev/null 2>&1; then
+# A Vulkan driver is installed when either ICD folder holds a manifest (`ls a/* b/*`
+# would fail whenever one of the two folders is empty, so test each on its own).
+has_icd() { compgen -G "$1/*.json" >/dev/null; }
+if ! has_icd /usr/share/vulkan/icd.d && ! has_icd /etc/vulkan/icd.d; then
   echo "test.sh: no Vulkan driver found; installing Mesa's lavapipe (mesa-vulkan-drivers)"
   SUDO=""
   [ "$(id -u)" -eq 0 ] || SUDO="sudo"
