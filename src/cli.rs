@@ -15,6 +15,7 @@ mod basin;
 mod bench;
 mod bifurcation;
 mod reproduce;
+pub mod rundir;
 pub use basin::{BasinArgs, run_basin};
 pub use bench::{BenchArgs, run_bench};
 pub use bifurcation::{BifurcationArgs, CatalogueArgs, run_bifurcation};
@@ -97,9 +98,12 @@ pub struct EnsembleArgs {
     pub model: ModelArgs,
     #[command(flatten)]
     pub stepper: StepperArgs,
-    /// Output directory (created if missing).
+    /// Output directory (created if missing). An unfinished run of the same command there
+    /// is resumed.
     #[arg(long, value_name = "DIR", default_value = "jeffcott-out/ensemble")]
     pub out: PathBuf,
+    #[command(flatten)]
+    pub run: rundir::RunArgs,
     /// Also compute each lane's largest Lyapunov exponent lambda_1 [1/s] from a tangent
     /// vector renormalised every period (written to `lambda1.npy`).
     #[arg(long)]
@@ -109,9 +113,14 @@ pub struct EnsembleArgs {
     pub quiet: bool,
 }
 
-/// Runs `jeffcott ensemble`.
+/// Final files of an ensemble (run.json aside).
+const ENSEMBLE_OUTPUTS: &[&str] = &["poincare.npy", "status.npy", "lanes.npy", "lambda1.npy"];
+
+/// Runs `jeffcott ensemble`: lanes in work units committed to --out, then the files
+/// assembled from the units (poincare.npy streamed, one unit in memory at a time).
 pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
-    use crate::ensemble::{EnsembleSpec, LaneSpec, lane_table_columns, run};
+    use crate::ensemble::{EnsembleSpec, LaneSpec, lane_table_columns};
+    use crate::run::{Array, Unit};
     let params = a.model.params()?;
     let mut x0 = params.static_equilibrium();
     apply_init(&mut x0, &a.init)?;
@@ -134,34 +143,120 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
         stepper: a.stepper.config(),
         precision,
     };
+    spec.validate()?;
+    let n = spec.lanes.len();
     let per_lane = (spec.transient + spec.recorded) as u64;
-    let bar = crate::progress::Progress::new(
-        "ensemble",
-        spec.lanes.len() as u64 * per_lane,
-        per_lane,
-        a.quiet,
+    let unit = crate::run::unit_lanes(
+        n,
+        per_lane * spec.stepper.steps_per_period as u64 * if a.lyapunov { 2 } else { 1 },
     );
-    let (res, info) = if a.lyapunov {
-        crate::ensemble::run_with_lambda1(&spec, a.backend, &bar.callback(0))?
-    } else {
-        run(&spec, a.backend, &bar.callback(0))?
+    let count = crate::run::unit_count(n, unit);
+    let run_spec = serde_json::json!({
+        "omega": {"first": omegas[0], "last": omegas[n - 1], "count": n},
+        "x0": x0,
+        "transient": spec.transient,
+        "periods": spec.recorded,
+        "stepper": spec.stepper,
+        "precision": spec.precision,
+        "lyapunov": a.lyapunov,
+        "unit_lanes": unit,
+        "params": spec.param_sets,
+    });
+    let rd = rundir::open(
+        &a.out,
+        "ensemble",
+        run_spec,
+        ENSEMBLE_OUTPUTS,
+        a.run,
+        a.quiet,
+    )?;
+    let bar = crate::progress::Progress::new("ensemble", n as u64 * per_lane, per_lane, a.quiet);
+    let start = std::time::Instant::now();
+    let engine = crate::ensemble::Engine::new(a.backend, spec.precision)?;
+    let ensemble = |u: usize| EnsembleSpec {
+        lanes: spec.lanes[u * unit..((u + 1) * unit).min(n)].to_vec(),
+        ..spec.clone()
     };
+    let reduce = |_u: usize, _e: &EnsembleSpec, r: crate::ensemble::EnsembleResult| {
+        let c = &r.counters;
+        let mut out = Unit::new("")
+            .with("poincare", Array::F64(r.poincare))
+            .with(
+                "status",
+                Array::U32(r.status.iter().map(|s| s.code()).collect()),
+            )
+            .with_meta(serde_json::json!({
+                "macro_steps": c.iter().map(|c| c.macro_steps).sum::<u64>(),
+                "contact_steps": c.iter().map(|c| c.contact_steps).sum::<u64>(),
+                "switches": c.iter().map(|c| c.switches).sum::<u64>(),
+                "extra_substeps": c.iter().map(|c| c.extra_substeps).sum::<u64>(),
+                "max_penetration_m": c.iter().map(|c| c.max_penetration).fold(0.0, f64::max),
+            }));
+        if let Some(l) = r.lambda1 {
+            out = out.with("lambda1", Array::F64(l));
+        }
+        Ok(out)
+    };
+    let cancel = crate::run::Cancel::new();
+    let cb = rundir::bar_callback(&bar);
+    let ran = crate::run::lanes::run_units(
+        &rd,
+        &engine,
+        &crate::run::lanes::LaneUnits {
+            stage: "ensemble",
+            count,
+            ensemble: &ensemble,
+            lambda1: a.lyapunov,
+            reduce: &reduce,
+        },
+        crate::run::lanes::Control {
+            progress: &cb,
+            cancel: &cancel,
+        },
+    )?;
     bar.finish();
+    let elapsed = start.elapsed().as_secs_f64();
+    let info = ran.unwrap_or(crate::ensemble::RunInfo {
+        backend: if engine.runner().is_some() {
+            "gpu"
+        } else {
+            "cpu"
+        },
+        device: String::new(),
+        reason: "every unit was already committed".into(),
+        precision: spec.precision,
+        elapsed_s: 0.0,
+    });
     if !a.quiet {
         println!(
             "backend: {} ({}; {}), precision {:?}",
             info.backend, info.device, info.reason, info.precision
         );
     }
-    let dir = &a.out;
-    output::ensure_dir(dir)?;
-    let n = spec.lanes.len();
-    output::write_npy(
+    let dir = rd.path();
+    output::write_npy_parts(
         &dir.join("poincare.npy"),
-        &[n, res.recorded, STATE_DIM],
-        &res.poincare,
+        &[n, spec.recorded as usize, STATE_DIM],
+        (0..count).map(|u| Ok(rd.load("ensemble", u)?.f64s("poincare")?.to_vec())),
     )?;
-    let codes: Vec<u32> = res.status.iter().map(|s| s.code()).collect();
+    let mut codes: Vec<u32> = Vec::with_capacity(n);
+    let mut lambda1: Vec<f64> = Vec::new();
+    let (mut steps, mut contact, mut switches, mut extra, mut max_pen) =
+        (0u64, 0u64, 0u64, 0u64, 0f64);
+    for u in 0..count {
+        let unit = rd.load("ensemble", u)?;
+        codes.extend_from_slice(unit.u32s("status")?);
+        if a.lyapunov {
+            lambda1.extend_from_slice(unit.f64s("lambda1")?);
+        }
+        let m = &unit.meta;
+        let get = |k: &str| m[k].as_u64().unwrap_or(0);
+        steps += get("macro_steps");
+        contact += get("contact_steps");
+        switches += get("switches");
+        extra += get("extra_substeps");
+        max_pen = max_pen.max(m["max_penetration_m"].as_f64().unwrap_or(0.0));
+    }
     output::write_npy(&dir.join("status.npy"), &[n], &codes)?;
     let mut table = Vec::with_capacity(n * (2 + STATE_DIM));
     for l in &spec.lanes {
@@ -170,15 +265,19 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
         table.extend_from_slice(&l.x0);
     }
     output::write_npy(&dir.join("lanes.npy"), &[n, 2 + STATE_DIM], &table)?;
-    if let Some(l1) = &res.lambda1 {
-        output::write_npy(&dir.join("lambda1.npy"), &[n], l1)?;
+    if a.lyapunov {
+        output::write_npy(&dir.join("lambda1.npy"), &[n], &lambda1)?;
     }
-    let steps: u64 = res.counters.iter().map(|c| c.macro_steps).sum();
-    let extra: u64 = res.counters.iter().map(|c| c.extra_substeps).sum();
-    let contact: u64 = res.counters.iter().map(|c| c.contact_steps).sum();
-    let switches: u64 = res.counters.iter().map(|c| c.switches).sum();
-    let count = |s: crate::integrate::lane::Status| res.status.iter().filter(|&&x| x == s).count();
+    let status: Vec<crate::integrate::lane::Status> = codes
+        .iter()
+        .filter_map(|&c| crate::integrate::lane::Status::from_code(c))
+        .collect();
+    let count = |s: crate::integrate::lane::Status| status.iter().filter(|&&x| x == s).count();
     use crate::integrate::lane::Status;
+    let info = crate::ensemble::RunInfo {
+        elapsed_s: elapsed,
+        ..info
+    };
     let run_json = serde_json::json!({
         "backend": info.backend,
         "device": info.device,
@@ -196,7 +295,7 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
             "contact_steps": contact,
             "switches": switches,
             "extra_substeps": extra,
-            "max_penetration_m": res.counters.iter().map(|c| c.max_penetration).fold(0.0, f64::max),
+            "max_penetration_m": max_pen,
         },
         "status_counts": {
             "ok": count(Status::Ok),
@@ -215,7 +314,7 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
         },
         "jeffcott_version": env!("CARGO_PKG_VERSION"),
     });
-    output::write_json(&dir.join("run.json"), &run_json)?;
+    rd.finish(run_json, &rundir::written(&rd, ENSEMBLE_OUTPUTS))?;
     if !a.quiet {
         println!(
             "{n} lanes x {} periods in {:.2} s ({:.3e} lane-steps/s); status ok {}, refinement_cap {}, diverged {}, non_finite {}; files in {}",

@@ -25,8 +25,9 @@ pub enum Error {
         /// What went wrong.
         message: String,
     },
-    /// Reading or writing a file failed.
-    #[error("cannot write {path}: {source}")]
+    /// Reading or writing a file failed (the message names the file and the operating
+    /// system's reason, e.g. "No space left on device").
+    #[error("{path}: {source}")]
     Io {
         /// The file.
         path: PathBuf,
@@ -57,6 +58,32 @@ pub enum Error {
     /// The GPU device was lost (driver reset, watchdog, unplugged) during a run.
     #[error("the GPU device was lost")]
     DeviceLost,
+    /// Another run holds the output directory's lock.
+    #[error(
+        "another jeffcott run is writing into {path}; wait for it to end or choose another --out"
+    )]
+    Busy {
+        /// The output directory.
+        path: PathBuf,
+    },
+    /// The output directory holds another run.
+    #[error(
+        "{path} holds {reason}; choose another --out, or give --overwrite to remove that run's files first"
+    )]
+    Occupied {
+        /// The output directory.
+        path: PathBuf,
+        /// What it holds.
+        reason: String,
+    },
+    /// The run was asked to stop (a signal, a cancel flag); committed units are kept.
+    #[error("interrupted after {committed} of {total} work units were committed")]
+    Interrupted {
+        /// Units committed (this session and earlier ones).
+        committed: usize,
+        /// Units of the run.
+        total: usize,
+    },
 }
 
 impl Error {

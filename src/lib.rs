@@ -33,6 +33,7 @@ pub mod output;
 pub mod plot;
 pub mod progress;
 pub mod real;
+pub mod run;
 pub mod simulate;
 
 pub use error::{Error, Result};

@@ -119,53 +119,58 @@ pub fn phase_portraits(
             y_label: "y_s [mm]",
         },
     ];
-    let root = BitMapBackend::new(path, (1400, 1150)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
-    let root = root
-        .titled(title, ("sans-serif", 26))
-        .map_err(|e| err(e.to_string()))?;
-    for (area, pn) in root.split_evenly((2, 2)).iter().zip(panels.iter()) {
-        // Row layout: timeseries rows are (t, state...), so component i is column i + 1.
-        let line: Vec<(f64, f64)> = timeseries
-            .iter()
-            .map(|r| (r[pn.x + 1] * pn.x_scale, r[pn.y + 1] * pn.y_scale))
-            .collect();
-        let dots: Vec<(f64, f64)> = poincare
-            .iter()
-            .map(|p| (p[pn.x] * pn.x_scale, p[pn.y] * pn.y_scale))
-            .collect();
-        let xr = padded_range(line.iter().chain(dots.iter()).map(|p| p.0));
-        let yr = padded_range(line.iter().chain(dots.iter()).map(|p| p.1));
-        let mut chart = ChartBuilder::on(area)
-            .caption(pn.title, ("sans-serif", 20))
-            .margin(12)
-            .x_label_area_size(48)
-            .y_label_area_size(80)
-            .build_cartesian_2d(xr, yr)
+    let size: (u32, u32) = (1400, 1150);
+    let mut buf = vec![0u8; size.0 as usize * size.1 as usize * 3];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, size).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
+        let root = root
+            .titled(title, ("sans-serif", 26))
             .map_err(|e| err(e.to_string()))?;
-        chart
-            .configure_mesh()
-            .x_desc(pn.x_label)
-            .y_desc(pn.y_label)
-            .label_style(("sans-serif", 15))
-            .axis_desc_style(("sans-serif", 17))
-            .x_label_formatter(&|v| format!("{v:.3}"))
-            .y_label_formatter(&|v| format!("{v:.3}"))
-            .draw()
-            .map_err(|e| err(e.to_string()))?;
-        chart
-            .draw_series(LineSeries::new(line, BLUE.mix(0.55).stroke_width(1)))
-            .map_err(|e| err(e.to_string()))?
-            .label("trajectory")
-            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLUE));
-        chart
-            .draw_series(dots.iter().map(|&p| Circle::new(p, 4, RED.filled())))
-            .map_err(|e| err(e.to_string()))?
-            .label("Poincare points (t = kT)")
-            .legend(|(x, y)| Circle::new((x + 9, y), 4, RED.filled()));
-        legend(&mut chart, SeriesLabelPosition::MiddleRight, 14).map_err(&err)?;
+        for (area, pn) in root.split_evenly((2, 2)).iter().zip(panels.iter()) {
+            // Row layout: timeseries rows are (t, state...), so component i is column i + 1.
+            let line: Vec<(f64, f64)> = timeseries
+                .iter()
+                .map(|r| (r[pn.x + 1] * pn.x_scale, r[pn.y + 1] * pn.y_scale))
+                .collect();
+            let dots: Vec<(f64, f64)> = poincare
+                .iter()
+                .map(|p| (p[pn.x] * pn.x_scale, p[pn.y] * pn.y_scale))
+                .collect();
+            let xr = padded_range(line.iter().chain(dots.iter()).map(|p| p.0));
+            let yr = padded_range(line.iter().chain(dots.iter()).map(|p| p.1));
+            let mut chart = ChartBuilder::on(area)
+                .caption(pn.title, ("sans-serif", 20))
+                .margin(12)
+                .x_label_area_size(48)
+                .y_label_area_size(80)
+                .build_cartesian_2d(xr, yr)
+                .map_err(|e| err(e.to_string()))?;
+            chart
+                .configure_mesh()
+                .x_desc(pn.x_label)
+                .y_desc(pn.y_label)
+                .label_style(("sans-serif", 15))
+                .axis_desc_style(("sans-serif", 17))
+                .x_label_formatter(&|v| format!("{v:.3}"))
+                .y_label_formatter(&|v| format!("{v:.3}"))
+                .draw()
+                .map_err(|e| err(e.to_string()))?;
+            chart
+                .draw_series(LineSeries::new(line, BLUE.mix(0.55).stroke_width(1)))
+                .map_err(|e| err(e.to_string()))?
+                .label("trajectory")
+                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLUE));
+            chart
+                .draw_series(dots.iter().map(|&p| Circle::new(p, 4, RED.filled())))
+                .map_err(|e| err(e.to_string()))?
+                .label("Poincare points (t = kT)")
+                .legend(|(x, y)| Circle::new((x + 9, y), 4, RED.filled()));
+            legend(&mut chart, SeriesLabelPosition::MiddleRight, 14).map_err(&err)?;
+        }
+        root.present().map_err(|e| err(e.to_string()))?;
     }
-    root.present().map_err(|e| err(e.to_string()))
+    crate::output::write_png(path, size, &buf)
 }
 
 /// A palette of distinguishable colours for attractor ids (cycled beyond its length).
@@ -249,69 +254,74 @@ pub fn bifurcation_diagram(
         .any(|s| s.points.iter().any(|p| p.1.is_finite()));
     let l1_h = if l1 { 380 } else { 0 };
     let h = 120 + 620 * coords.len().max(1) as u32 + l1_h;
-    let root = BitMapBackend::new(path, (1800, h)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
-    let root = root
-        .titled(title, ("sans-serif", 26))
-        .map_err(|e| err(e.to_string()))?;
-    let (top, bottom) = root.split_vertically(root.dim_in_pixel().1 - l1_h);
-    let pad = 0.005 * (w_range.1 - w_range.0).max(1e-9);
-    if l1 {
-        lambda1_panel(&bottom, w_range, pad, lambda1).map_err(|e| err(e.to_string()))?;
-    }
-    for (area, &ci) in top
-        .split_evenly((coords.len().max(1), 1))
-        .iter()
-        .zip(coords)
+    let size: (u32, u32) = (1800, h);
+    let mut buf = vec![0u8; size.0 as usize * size.1 as usize * 3];
     {
-        let (s, label) = coord_axis(ci);
-        let yr = padded_range(
-            series
-                .iter()
-                .flat_map(|se| se.points.iter().map(move |p| p.1[ci] * s)),
-        );
-        let mut chart = ChartBuilder::on(area)
-            .margin(14)
-            .x_label_area_size(50)
-            .y_label_area_size(90)
-            .build_cartesian_2d((w_range.0 - pad)..(w_range.1 + pad), yr)
+        let root = BitMapBackend::with_buffer(&mut buf, size).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
+        let root = root
+            .titled(title, ("sans-serif", 26))
             .map_err(|e| err(e.to_string()))?;
-        chart
-            .configure_mesh()
-            .light_line_style(WHITE)
-            .x_desc("W [rad/s]")
-            .y_desc(label.as_str())
-            .label_style(("sans-serif", 16))
-            .axis_desc_style(("sans-serif", 19))
-            .x_label_formatter(&|v| format!("{v:.2}"))
-            .y_label_formatter(&|v| format!("{v:.4}"))
-            .draw()
-            .map_err(|e| err(e.to_string()))?;
-        for se in series.iter().filter(|se| !se.points.is_empty()) {
-            let c = se.color;
-            let r = se.radius;
-            let anno = if r == 0 {
-                chart.draw_series(
-                    se.points
-                        .iter()
-                        .filter(|p| p.1[ci].is_finite())
-                        .map(|p| Pixel::new((p.0, p.1[ci] * s), c)),
-                )
-            } else {
-                chart.draw_series(
-                    se.points
-                        .iter()
-                        .filter(|p| p.1[ci].is_finite())
-                        .map(|p| Circle::new((p.0, p.1[ci] * s), r, c.filled())),
-                )
-            }
-            .map_err(|e| err(e.to_string()))?;
-            anno.label(se.label.as_str())
-                .legend(move |(x, y)| Circle::new((x + 9, y), 4, c.filled()));
+        let (top, bottom) = root.split_vertically(root.dim_in_pixel().1 - l1_h);
+        let pad = 0.005 * (w_range.1 - w_range.0).max(1e-9);
+        if l1 {
+            lambda1_panel(&bottom, w_range, pad, lambda1).map_err(|e| err(e.to_string()))?;
         }
-        legend(&mut chart, SeriesLabelPosition::UpperLeft, 16).map_err(&err)?;
+        for (area, &ci) in top
+            .split_evenly((coords.len().max(1), 1))
+            .iter()
+            .zip(coords)
+        {
+            let (s, label) = coord_axis(ci);
+            let yr = padded_range(
+                series
+                    .iter()
+                    .flat_map(|se| se.points.iter().map(move |p| p.1[ci] * s)),
+            );
+            let mut chart = ChartBuilder::on(area)
+                .margin(14)
+                .x_label_area_size(50)
+                .y_label_area_size(90)
+                .build_cartesian_2d((w_range.0 - pad)..(w_range.1 + pad), yr)
+                .map_err(|e| err(e.to_string()))?;
+            chart
+                .configure_mesh()
+                .light_line_style(WHITE)
+                .x_desc("W [rad/s]")
+                .y_desc(label.as_str())
+                .label_style(("sans-serif", 16))
+                .axis_desc_style(("sans-serif", 19))
+                .x_label_formatter(&|v| format!("{v:.2}"))
+                .y_label_formatter(&|v| format!("{v:.4}"))
+                .draw()
+                .map_err(|e| err(e.to_string()))?;
+            for se in series.iter().filter(|se| !se.points.is_empty()) {
+                let c = se.color;
+                let r = se.radius;
+                let anno = if r == 0 {
+                    chart.draw_series(
+                        se.points
+                            .iter()
+                            .filter(|p| p.1[ci].is_finite())
+                            .map(|p| Pixel::new((p.0, p.1[ci] * s), c)),
+                    )
+                } else {
+                    chart.draw_series(
+                        se.points
+                            .iter()
+                            .filter(|p| p.1[ci].is_finite())
+                            .map(|p| Circle::new((p.0, p.1[ci] * s), r, c.filled())),
+                    )
+                }
+                .map_err(|e| err(e.to_string()))?;
+                anno.label(se.label.as_str())
+                    .legend(move |(x, y)| Circle::new((x + 9, y), 4, c.filled()));
+            }
+            legend(&mut chart, SeriesLabelPosition::UpperLeft, 16).map_err(&err)?;
+        }
+        root.present().map_err(|e| err(e.to_string()))?;
     }
-    root.present().map_err(|e| err(e.to_string()))
+    crate::output::write_png(path, size, &buf)
 }
 
 /// The lambda_1 panel of [`bifurcation_diagram`].
@@ -469,48 +479,53 @@ fn grid_map(
     let err = plot_err(path);
     let (nx, ny) = grid.cells;
     let (x_range, y_range) = (grid.x_range, grid.y_range);
-    let root = BitMapBackend::new(path, (1300, 1100)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
-    let root = root
-        .titled(title, ("sans-serif", 24))
-        .map_err(|e| err(e.to_string()))?;
-    let (plot_area, side_area) = root.split_horizontally(1000);
-    let mut chart = ChartBuilder::on(&plot_area)
-        .margin(14)
-        .x_label_area_size(50)
-        .y_label_area_size(90)
-        .build_cartesian_2d(x_range.0..x_range.1, y_range.0..y_range.1)
-        .map_err(|e| err(e.to_string()))?;
-    chart
-        .configure_mesh()
-        .disable_mesh()
-        .x_desc(grid.axes.0)
-        .y_desc(grid.axes.1)
-        .label_style(("sans-serif", 16))
-        .axis_desc_style(("sans-serif", 19))
-        .x_label_formatter(&|v| format!("{v:.4}"))
-        .y_label_formatter(&|v| format!("{v:.4}"))
-        .draw()
-        .map_err(|e| err(e.to_string()))?;
-    let (pw, ph) = chart.plotting_area().dim_in_pixel();
-    let mut buf = vec![0u8; (pw * ph * 3) as usize];
-    for py in 0..ph as usize {
-        // Pixel row 0 is the top, i.e. the largest y.
-        let iy = ((ph as usize - 1 - py) * ny / ph as usize).min(ny - 1);
-        for px in 0..pw as usize {
-            let ix = (px * nx / pw as usize).min(nx - 1);
-            let c = colour(iy * nx + ix);
-            let o = (py * pw as usize + px) * 3;
-            buf[o..o + 3].copy_from_slice(&[c.0, c.1, c.2]);
+    let size: (u32, u32) = (1300, 1100);
+    let mut buf = vec![0u8; size.0 as usize * size.1 as usize * 3];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, size).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
+        let root = root
+            .titled(title, ("sans-serif", 24))
+            .map_err(|e| err(e.to_string()))?;
+        let (plot_area, side_area) = root.split_horizontally(1000);
+        let mut chart = ChartBuilder::on(&plot_area)
+            .margin(14)
+            .x_label_area_size(50)
+            .y_label_area_size(90)
+            .build_cartesian_2d(x_range.0..x_range.1, y_range.0..y_range.1)
+            .map_err(|e| err(e.to_string()))?;
+        chart
+            .configure_mesh()
+            .disable_mesh()
+            .x_desc(grid.axes.0)
+            .y_desc(grid.axes.1)
+            .label_style(("sans-serif", 16))
+            .axis_desc_style(("sans-serif", 19))
+            .x_label_formatter(&|v| format!("{v:.4}"))
+            .y_label_formatter(&|v| format!("{v:.4}"))
+            .draw()
+            .map_err(|e| err(e.to_string()))?;
+        let (pw, ph) = chart.plotting_area().dim_in_pixel();
+        let mut buf = vec![0u8; (pw * ph * 3) as usize];
+        for py in 0..ph as usize {
+            // Pixel row 0 is the top, i.e. the largest y.
+            let iy = ((ph as usize - 1 - py) * ny / ph as usize).min(ny - 1);
+            for px in 0..pw as usize {
+                let ix = (px * nx / pw as usize).min(nx - 1);
+                let c = colour(iy * nx + ix);
+                let o = (py * pw as usize + px) * 3;
+                buf[o..o + 3].copy_from_slice(&[c.0, c.1, c.2]);
+            }
         }
+        let img = BitMapElement::with_owned_buffer((x_range.0, y_range.1), (pw, ph), buf)
+            .ok_or_else(|| err("bitmap buffer size".into()))?;
+        chart
+            .draw_series(std::iter::once(img))
+            .map_err(|e| err(e.to_string()))?;
+        side(&side_area).map_err(&err)?;
+        root.present().map_err(|e| err(e.to_string()))?;
     }
-    let img = BitMapElement::with_owned_buffer((x_range.0, y_range.1), (pw, ph), buf)
-        .ok_or_else(|| err("bitmap buffer size".into()))?;
-    chart
-        .draw_series(std::iter::once(img))
-        .map_err(|e| err(e.to_string()))?;
-    side(&side_area).map_err(&err)?;
-    root.present().map_err(|e| err(e.to_string()))
+    crate::output::write_png(path, size, &buf)
 }
 
 /// Colour of lambda_1 `v` on a diverging scale: blue for negative (full at `lo`), white at
@@ -637,65 +652,70 @@ pub fn coexisting_attractors(path: &Path, title: &str, traces: &[AttractorTrace]
         (X_S, VX_S, "stator phase portrait"),
         (X_S, Y_S, "stator orbit"),
     ];
-    let root = BitMapBackend::new(path, (1400, 1150)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
-    let root = root
-        .titled(title, ("sans-serif", 26))
-        .map_err(|e| err(e.to_string()))?;
-    for (area, &(xi, yi, name)) in root.split_evenly((2, 2)).iter().zip(panels.iter()) {
-        let (xs, xl) = coord_axis(xi);
-        let (ys, yl) = coord_axis(yi);
-        let all = || {
-            traces.iter().flat_map(|t| {
-                t.timeseries
-                    .iter()
-                    .map(|r| (r[xi + 1] * xs, r[yi + 1] * ys))
-                    .chain(t.poincare.iter().map(|p| (p[xi] * xs, p[yi] * ys)))
-            })
-        };
-        let mut chart = ChartBuilder::on(area)
-            .caption(name, ("sans-serif", 20))
-            .margin(12)
-            .x_label_area_size(48)
-            .y_label_area_size(80)
-            .build_cartesian_2d(
-                padded_range(all().map(|p| p.0)),
-                padded_range(all().map(|p| p.1)),
-            )
+    let size: (u32, u32) = (1400, 1150);
+    let mut buf = vec![0u8; size.0 as usize * size.1 as usize * 3];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, size).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
+        let root = root
+            .titled(title, ("sans-serif", 26))
             .map_err(|e| err(e.to_string()))?;
-        chart
-            .configure_mesh()
-            .x_desc(xl.as_str())
-            .y_desc(yl.as_str())
-            .label_style(("sans-serif", 15))
-            .axis_desc_style(("sans-serif", 17))
-            .x_label_formatter(&|v| format!("{v:.3}"))
-            .y_label_formatter(&|v| format!("{v:.3}"))
-            .draw()
-            .map_err(|e| err(e.to_string()))?;
-        for t in traces {
-            let c = t.color;
-            chart
-                .draw_series(LineSeries::new(
+        for (area, &(xi, yi, name)) in root.split_evenly((2, 2)).iter().zip(panels.iter()) {
+            let (xs, xl) = coord_axis(xi);
+            let (ys, yl) = coord_axis(yi);
+            let all = || {
+                traces.iter().flat_map(|t| {
                     t.timeseries
                         .iter()
-                        .map(|r| (r[xi + 1] * xs, r[yi + 1] * ys)),
-                    c.mix(0.6).stroke_width(1),
-                ))
-                .map_err(|e| err(e.to_string()))?
-                .label(t.name.as_str())
-                .legend(move |(x, y)| Circle::new((x + 9, y), 5, c.filled()));
-            chart
-                .draw_series(
-                    t.poincare
-                        .iter()
-                        .map(|p| Circle::new((p[xi] * xs, p[yi] * ys), 5, c.filled())),
+                        .map(|r| (r[xi + 1] * xs, r[yi + 1] * ys))
+                        .chain(t.poincare.iter().map(|p| (p[xi] * xs, p[yi] * ys)))
+                })
+            };
+            let mut chart = ChartBuilder::on(area)
+                .caption(name, ("sans-serif", 20))
+                .margin(12)
+                .x_label_area_size(48)
+                .y_label_area_size(80)
+                .build_cartesian_2d(
+                    padded_range(all().map(|p| p.0)),
+                    padded_range(all().map(|p| p.1)),
                 )
                 .map_err(|e| err(e.to_string()))?;
+            chart
+                .configure_mesh()
+                .x_desc(xl.as_str())
+                .y_desc(yl.as_str())
+                .label_style(("sans-serif", 15))
+                .axis_desc_style(("sans-serif", 17))
+                .x_label_formatter(&|v| format!("{v:.3}"))
+                .y_label_formatter(&|v| format!("{v:.3}"))
+                .draw()
+                .map_err(|e| err(e.to_string()))?;
+            for t in traces {
+                let c = t.color;
+                chart
+                    .draw_series(LineSeries::new(
+                        t.timeseries
+                            .iter()
+                            .map(|r| (r[xi + 1] * xs, r[yi + 1] * ys)),
+                        c.mix(0.6).stroke_width(1),
+                    ))
+                    .map_err(|e| err(e.to_string()))?
+                    .label(t.name.as_str())
+                    .legend(move |(x, y)| Circle::new((x + 9, y), 5, c.filled()));
+                chart
+                    .draw_series(
+                        t.poincare
+                            .iter()
+                            .map(|p| Circle::new((p[xi] * xs, p[yi] * ys), 5, c.filled())),
+                    )
+                    .map_err(|e| err(e.to_string()))?;
+            }
+            legend(&mut chart, SeriesLabelPosition::MiddleRight, 14).map_err(&err)?;
         }
-        legend(&mut chart, SeriesLabelPosition::MiddleRight, 14).map_err(&err)?;
+        root.present().map_err(|e| err(e.to_string()))?;
     }
-    root.present().map_err(|e| err(e.to_string()))
+    crate::output::write_png(path, size, &buf)
 }
 
 /// Draws Poincare sections: one panel per (x, y) component pair, every point a small dot.
@@ -712,64 +732,68 @@ pub fn poincare_sections(
     let err = plot_err(path);
     let cols = panels.len().clamp(1, 2);
     let rows = panels.len().div_ceil(2).max(1);
-    let root =
-        BitMapBackend::new(path, (700 * cols as u32, 80 + 620 * rows as u32)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
-    let root = root
-        .titled(title, ("sans-serif", 24))
-        .map_err(|e| err(e.to_string()))?;
-    for (area, &(xi, yi)) in root.split_evenly((rows, cols)).iter().zip(panels) {
-        let (xs, xl) = coord_axis(xi);
-        let (ys, yl) = coord_axis(yi);
-        let pts: Vec<(f64, f64)> = points
-            .iter()
-            .map(|p| (p[xi] * xs, p[yi] * ys))
-            .filter(|p| p.0.is_finite() && p.1.is_finite())
-            .collect();
-        let mut xr = padded_range(pts.iter().map(|p| p.0));
-        let mut yr = padded_range(pts.iter().map(|p| p.1));
-        if let Some(f) = zoom {
-            let median = |mut v: Vec<f64>| {
-                v.sort_by(f64::total_cmp);
-                v.get(v.len() / 2).copied().unwrap_or(0.0)
-            };
-            let (mx, my) = (
-                median(pts.iter().map(|p| p.0).collect()),
-                median(pts.iter().map(|p| p.1).collect()),
-            );
-            let (hx, hy) = (0.5 * f * (xr.end - xr.start), 0.5 * f * (yr.end - yr.start));
-            xr = (mx - hx)..(mx + hx);
-            yr = (my - hy)..(my + hy);
+    let size: (u32, u32) = (700 * cols as u32, 80 + 620 * rows as u32);
+    let mut buf = vec![0u8; size.0 as usize * size.1 as usize * 3];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, size).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
+        let root = root
+            .titled(title, ("sans-serif", 24))
+            .map_err(|e| err(e.to_string()))?;
+        for (area, &(xi, yi)) in root.split_evenly((rows, cols)).iter().zip(panels) {
+            let (xs, xl) = coord_axis(xi);
+            let (ys, yl) = coord_axis(yi);
+            let pts: Vec<(f64, f64)> = points
+                .iter()
+                .map(|p| (p[xi] * xs, p[yi] * ys))
+                .filter(|p| p.0.is_finite() && p.1.is_finite())
+                .collect();
+            let mut xr = padded_range(pts.iter().map(|p| p.0));
+            let mut yr = padded_range(pts.iter().map(|p| p.1));
+            if let Some(f) = zoom {
+                let median = |mut v: Vec<f64>| {
+                    v.sort_by(f64::total_cmp);
+                    v.get(v.len() / 2).copied().unwrap_or(0.0)
+                };
+                let (mx, my) = (
+                    median(pts.iter().map(|p| p.0).collect()),
+                    median(pts.iter().map(|p| p.1).collect()),
+                );
+                let (hx, hy) = (0.5 * f * (xr.end - xr.start), 0.5 * f * (yr.end - yr.start));
+                xr = (mx - hx)..(mx + hx);
+                yr = (my - hy)..(my + hy);
+            }
+            let inside: Vec<(f64, f64)> = pts
+                .into_iter()
+                .filter(|p| xr.contains(&p.0) && yr.contains(&p.1))
+                .collect();
+            let mut chart = ChartBuilder::on(area)
+                .margin(12)
+                .x_label_area_size(48)
+                .y_label_area_size(85)
+                .build_cartesian_2d(xr, yr)
+                .map_err(|e| err(e.to_string()))?;
+            chart
+                .configure_mesh()
+                .x_desc(xl.as_str())
+                .y_desc(yl.as_str())
+                .label_style(("sans-serif", 15))
+                .axis_desc_style(("sans-serif", 17))
+                .light_line_style(WHITE)
+                .x_label_formatter(&|v| format!("{v:.4}"))
+                .y_label_formatter(&|v| format!("{v:.4}"))
+                .draw()
+                .map_err(|e| err(e.to_string()))?;
+            let r = if inside.len() > 5000 { 1 } else { 2 };
+            chart
+                .draw_series(
+                    inside
+                        .iter()
+                        .map(|&p| Circle::new(p, r, RGBColor(20, 60, 160).filled())),
+                )
+                .map_err(|e| err(e.to_string()))?;
         }
-        let inside: Vec<(f64, f64)> = pts
-            .into_iter()
-            .filter(|p| xr.contains(&p.0) && yr.contains(&p.1))
-            .collect();
-        let mut chart = ChartBuilder::on(area)
-            .margin(12)
-            .x_label_area_size(48)
-            .y_label_area_size(85)
-            .build_cartesian_2d(xr, yr)
-            .map_err(|e| err(e.to_string()))?;
-        chart
-            .configure_mesh()
-            .x_desc(xl.as_str())
-            .y_desc(yl.as_str())
-            .label_style(("sans-serif", 15))
-            .axis_desc_style(("sans-serif", 17))
-            .light_line_style(WHITE)
-            .x_label_formatter(&|v| format!("{v:.4}"))
-            .y_label_formatter(&|v| format!("{v:.4}"))
-            .draw()
-            .map_err(|e| err(e.to_string()))?;
-        let r = if inside.len() > 5000 { 1 } else { 2 };
-        chart
-            .draw_series(
-                inside
-                    .iter()
-                    .map(|&p| Circle::new(p, r, RGBColor(20, 60, 160).filled())),
-            )
-            .map_err(|e| err(e.to_string()))?;
+        root.present().map_err(|e| err(e.to_string()))?;
     }
-    root.present().map_err(|e| err(e.to_string()))
+    crate::output::write_png(path, size, &buf)
 }

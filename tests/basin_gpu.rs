@@ -9,7 +9,6 @@ use jeffcott::ensemble::{Backend, Precision};
 use jeffcott::gpu::{DeviceRequest, GpuDevice};
 use jeffcott::integrate::lane::StepperConfig;
 use jeffcott::model::{Params, VX_R, X_R};
-use jeffcott::progress::Progress;
 
 fn require_gpu() -> bool {
     std::env::var("JEFFCOTT_REQUIRE_GPU").as_deref() == Ok("1")
@@ -58,10 +57,9 @@ fn basin_labels_are_identical_on_cpu_and_gpu_f64() {
         chunk: Some(7),
         lyapunov: true,
     };
-    let quiet = Progress::new("", 1, 1, true);
-    let cpu = basin(&spec, &quiet).unwrap();
+    let cpu = basin(&spec, &jeffcott::run::no_progress).unwrap();
     spec.backend = Backend::Gpu;
-    let gpu = basin(&spec, &quiet).unwrap();
+    let gpu = basin(&spec, &jeffcott::run::no_progress).unwrap();
     assert_eq!(gpu.info.as_ref().unwrap().backend, "gpu");
     assert_eq!(cpu.labels, gpu.labels);
     assert_eq!(cpu.labels.len(), 20);

@@ -11,12 +11,13 @@
 //! lambda_1 variant, either backend): 8 more bytes per cell (32 MB at 2000 x 2000), and
 //! aperiodic attractors are told apart as quasiperiodic or chaotic.
 
-use super::catalogue::{Catalogue, CatalogueBuilder, CatalogueConfig};
+use super::catalogue::{Catalogue, CatalogueBuilder, CatalogueConfig, PartAttractor};
 use crate::ensemble::{Backend, EnsembleSpec, LaneSpec, Precision, RunInfo};
 use crate::error::{Error, Result};
 use crate::integrate::lane::StepperConfig;
 use crate::model::{COORD_NAMES, Params, STATE_DIM, State, coord_index};
-use crate::progress::Progress;
+use crate::run::lanes::{Control, LaneUnits};
+use crate::run::{Array, Cancel, MemoryStore, ProgressFn, Unit, UnitStore};
 
 /// One axis of the grid: a state coordinate from `lo` to `hi` inclusive in `n` values.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
@@ -126,7 +127,7 @@ pub struct BasinSpec {
     pub backend: Backend,
     /// Classification tolerances.
     pub catalogue: CatalogueConfig,
-    /// Lanes per chunk (`None`: about 32 MB of records per chunk).
+    /// Lanes per work unit (`None`: [`crate::run::unit_lanes`]).
     pub chunk: Option<usize>,
     /// Compute the largest Lyapunov exponent of every cell.
     pub lyapunov: bool,
@@ -168,13 +169,6 @@ impl BasinSpec {
         Ok(())
     }
 
-    /// Lanes per chunk.
-    pub fn chunk_lanes(&self) -> usize {
-        self.chunk.unwrap_or_else(|| {
-            ((32usize << 20) / (self.recorded as usize * STATE_DIM * 8)).max(256)
-        })
-    }
-
     /// The start state of cell (ix, iy).
     pub fn start(&self, ix: usize, iy: usize) -> State {
         let mut x = self.base;
@@ -200,50 +194,140 @@ pub struct BasinResult {
     pub seconds: f64,
 }
 
-/// Computes a basin chunk by chunk; `progress` counts lane-periods.
-pub fn basin(spec: &BasinSpec, progress: &Progress) -> Result<BasinResult> {
+/// Stage name of a basin's units.
+pub const STAGE: &str = "basin";
+
+impl BasinSpec {
+    /// Lanes per work unit: `chunk`, or [`crate::run::unit_lanes`] of the grid.
+    pub fn unit_lanes(&self) -> usize {
+        let per_lane = (self.transient + self.recorded) as u64
+            * self.stepper.steps_per_period as u64
+            * if self.lyapunov { 2 } else { 1 };
+        self.chunk
+            .unwrap_or_else(|| crate::run::unit_lanes(self.x.n * self.y.n, per_lane))
+    }
+
+    /// The specification as `run.json` records it: everything the labels depend on
+    /// (not the backend: units computed on any backend may be combined).
+    pub fn to_json(&self) -> serde_json::Value {
+        serde_json::json!({
+            "omega": self.omega,
+            "x": {"coord": COORD_NAMES[self.x.coord], "lo": self.x.lo, "hi": self.x.hi, "n": self.x.n},
+            "y": {"coord": COORD_NAMES[self.y.coord], "lo": self.y.lo, "hi": self.y.hi, "n": self.y.n},
+            "base": self.base,
+            "transient": self.transient,
+            "periods": self.recorded,
+            "stepper": self.stepper,
+            "precision": self.precision,
+            "catalogue": self.catalogue,
+            "lyapunov": self.lyapunov,
+            "unit_lanes": self.unit_lanes(),
+            "params": self.params,
+        })
+    }
+}
+
+/// Computes a basin in memory; `progress` counts lane-periods.
+pub fn basin(spec: &BasinSpec, progress: ProgressFn) -> Result<BasinResult> {
+    let engine = crate::ensemble::Engine::new(spec.backend, spec.precision)?;
+    let cancel = Cancel::new();
+    basin_with(
+        spec,
+        &engine,
+        &MemoryStore::new(),
+        Control {
+            progress,
+            cancel: &cancel,
+        },
+    )
+}
+
+/// Computes a basin unit by unit into `store` (resuming from the units it holds), then
+/// assembles the labels and the catalogue from the units in order. Each unit's lanes are
+/// catalogued on their own ([`CatalogueBuilder::finish_part`]) and the unit keeps its
+/// labels, lambda_1 and partial catalogue only; the assembly absorbs the partial
+/// catalogues in unit order, so memory is the labels plus one unit, and the result
+/// depends on the specification alone.
+pub fn basin_with(
+    spec: &BasinSpec,
+    engine: &crate::ensemble::Engine,
+    store: &dyn UnitStore,
+    ctl: Control,
+) -> Result<BasinResult> {
     spec.validate()?;
     let t0 = std::time::Instant::now();
     let (nx, ny) = (spec.x.n, spec.y.n);
     let cells = nx * ny;
-    let chunk = spec.chunk_lanes();
-    let mut labels = Vec::with_capacity(cells);
-    let mut builder = CatalogueBuilder::new(spec.omega, spec.catalogue);
-    let mut info = None;
-    let mut lambda1 = spec.lyapunov.then(|| Vec::with_capacity(cells));
-    let engine = crate::ensemble::Engine::new(spec.backend, spec.precision)?;
-    let mut start = 0usize;
-    while start < cells {
-        let end = (start + chunk).min(cells);
-        let lanes: Vec<LaneSpec> = (start..end)
+    let per_unit = spec.unit_lanes();
+    let count = crate::run::unit_count(cells, per_unit);
+    let ensemble = |u: usize| EnsembleSpec {
+        param_sets: vec![spec.params.clone()],
+        lanes: (u * per_unit..((u + 1) * per_unit).min(cells))
             .map(|c| LaneSpec {
                 omega: spec.omega,
                 x0: spec.start(c % nx, c / nx),
                 param_set: 0,
             })
-            .collect();
-        let e = EnsembleSpec {
-            param_sets: vec![spec.params.clone()],
-            lanes,
-            transient: spec.transient,
-            recorded: spec.recorded,
-            stepper: spec.stepper,
-            precision: spec.precision,
-        };
-        let offset = progress.position();
-        let (res, i) = engine.run_maybe_lambda1(&e, spec.lyapunov, &progress.callback(offset))?;
+            .collect(),
+        transient: spec.transient,
+        recorded: spec.recorded,
+        stepper: spec.stepper,
+        precision: spec.precision,
+    };
+    let reduce = |_u: usize, _e: &EnsembleSpec, res: crate::ensemble::EnsembleResult| {
+        let mut b = CatalogueBuilder::new(spec.omega, spec.catalogue);
         let frozen: Vec<bool> = res.status.iter().map(|s| s.is_frozen()).collect();
-        labels.extend(builder.add_block(
-            &res.poincare,
-            res.recorded,
-            &frozen,
-            res.lambda1.as_deref(),
-        ));
-        if let (Some(all), Some(l)) = (lambda1.as_mut(), res.lambda1.as_ref()) {
-            all.extend_from_slice(l);
+        let labels = b.add_block(&res.poincare, res.recorded, &frozen, res.lambda1.as_deref());
+        let (parts, labels, diverged) = b.finish_part(labels);
+        let mut unit = Unit::new("").with("labels", Array::I32(labels)).with(
+            "points",
+            Array::F64(
+                parts
+                    .iter()
+                    .flat_map(|p| p.points.iter().flatten().copied())
+                    .collect(),
+            ),
+        );
+        if let Some(l) = res.lambda1 {
+            unit = unit.with("lambda1", Array::F64(l));
         }
-        info = Some(i);
-        start = end;
+        let counts: Vec<usize> = parts.iter().map(|p| p.points.len()).collect();
+        Ok(unit.with_meta(serde_json::json!({
+            "parts": parts, "part_points": counts, "diverged": diverged,
+        })))
+    };
+    let info = crate::run::lanes::run_units(
+        store,
+        engine,
+        &LaneUnits {
+            stage: STAGE,
+            count,
+            ensemble: &ensemble,
+            lambda1: spec.lyapunov,
+            reduce: &reduce,
+        },
+        ctl,
+    )?;
+    // Assembly, in unit order.
+    let mut labels = Vec::with_capacity(cells);
+    let mut lambda1 = spec.lyapunov.then(|| Vec::with_capacity(cells));
+    let mut builder = CatalogueBuilder::new(spec.omega, spec.catalogue);
+    for u in 0..count {
+        let unit = store.load(STAGE, u)?;
+        let (parts, diverged) = unit_parts(&unit)?;
+        let ids: Vec<i32> = parts
+            .iter()
+            .map(|p| builder.absorb(p, (u * per_unit) as u64))
+            .collect();
+        let lab = unit.i32s("labels")?;
+        builder.add_lanes(lab.len() as u64, diverged);
+        labels.extend(
+            lab.iter()
+                .map(|&l| if l >= 0 { ids[l as usize] } else { -1 }),
+        );
+        if let Some(all) = lambda1.as_mut() {
+            all.extend_from_slice(unit.f64s("lambda1")?);
+        }
     }
     // `finish` may merge aperiodic entries; it remaps the labels accordingly.
     let mut catalogue = builder.finish(labels);
@@ -255,4 +339,32 @@ pub fn basin(spec: &BasinSpec, progress: &Progress) -> Result<BasinResult> {
         info,
         seconds: t0.elapsed().as_secs_f64(),
     })
+}
+
+/// The partial catalogue a basin unit stores, with its points, and its diverged count.
+fn unit_parts(unit: &Unit) -> Result<(Vec<PartAttractor>, u64)> {
+    let bad = |what: &str| Error::Io {
+        path: format!("unit {}", unit.key).into(),
+        source: std::io::Error::new(std::io::ErrorKind::InvalidData, what.to_string()),
+    };
+    let mut parts: Vec<PartAttractor> = serde_json::from_value(unit.meta["parts"].clone())
+        .map_err(|e| bad(&format!("partial catalogue: {e}")))?;
+    let counts: Vec<usize> = serde_json::from_value(unit.meta["part_points"].clone())
+        .map_err(|e| bad(&format!("partial catalogue: {e}")))?;
+    let diverged = unit.meta["diverged"]
+        .as_u64()
+        .ok_or_else(|| bad("diverged count"))?;
+    let flat = unit.f64s("points")?;
+    if counts.len() != parts.len() || counts.iter().sum::<usize>() * STATE_DIM != flat.len() {
+        return Err(bad("partial catalogue points do not match"));
+    }
+    let mut at = 0;
+    for (p, &n) in parts.iter_mut().zip(&counts) {
+        p.points = flat[at * STATE_DIM..(at + n) * STATE_DIM]
+            .chunks_exact(STATE_DIM)
+            .map(|c| c.try_into().unwrap_or([f64::NAN; STATE_DIM]))
+            .collect();
+        at += n;
+    }
+    Ok((parts, diverged))
 }

@@ -25,7 +25,8 @@ use crate::integrate::lane::{
     advance_period_tangent, renormalise,
 };
 use crate::model::{Params, STATE_DIM, State, VX_R, VY_R, X_R, Y_R};
-use crate::progress::Progress;
+use crate::run::lanes::{Control, LaneUnits};
+use crate::run::{Array, Cancel, MemoryStore, ProgressFn, Unit, UnitStore};
 use serde::Serialize;
 
 /// Which quasistatic sweeps to run.
@@ -115,6 +116,29 @@ impl BifurcationSpec {
     }
 }
 
+impl BifurcationSpec {
+    /// The specification as `run.json` records it (not the backend: units computed on
+    /// any backend may be combined).
+    pub fn to_json(&self) -> serde_json::Value {
+        serde_json::json!({
+            "omegas": {"first": self.omegas[0], "last": self.omegas[self.omegas.len() - 1], "count": self.omegas.len()},
+            "sweep": self.sweep,
+            "transient_first": self.transient_first,
+            "transient": self.transient,
+            "ics": self.ics,
+            "brute_transient": self.brute_transient,
+            "periods": self.recorded,
+            "seed": self.seed,
+            "stepper": self.stepper,
+            "precision": self.precision,
+            "catalogue": self.catalogue,
+            "max_seeds": self.max_seeds,
+            "lyapunov": self.lyapunov,
+            "params": self.params,
+        })
+    }
+}
+
 /// One W of a quasistatic sweep.
 #[derive(Clone, Debug)]
 pub struct SweepPoint {
@@ -178,74 +202,170 @@ pub fn work(spec: &BifurcationSpec) -> u64 {
         + n * spec.max_seeds as u64 * (spec.brute_transient + spec.recorded) as u64
 }
 
-/// One quasistatic sweep over `omegas` in the given order.
-fn sweep(spec: &BifurcationSpec, omegas: &[f64], progress: &Progress) -> Vec<SweepPoint> {
+/// W steps per unit of a quasistatic sweep: at most 1/20 of the sweep and about 25 s
+/// of one core (a sweep is one lane, stepped at about a quarter of the batched
+/// ensemble rate that [`crate::run::MAX_UNIT_LANE_STEPS`] assumes).
+pub fn sweep_unit(spec: &BifurcationSpec) -> usize {
+    let per_w = (spec.transient.max(spec.transient_first) + spec.recorded) as u64
+        * spec.stepper.steps_per_period as u64
+        * if spec.lyapunov { 2 } else { 1 };
+    crate::run::unit_lanes(spec.omegas.len(), 4 * per_w)
+}
+
+/// One W of a sweep, from start state `x`: the point and the state the next W starts
+/// from (the static equilibrium again after a diverged lane).
+fn sweep_step(spec: &BifurcationSpec, omega: f64, first: bool, x: &State) -> (SweepPoint, State) {
+    let lc = LaneConsts::<f64>::new(&spec.params, omega, &spec.stepper);
+    let mut lane = Lane::<f64>::new(x, spec.params.delta);
+    let transient = if first {
+        spec.transient_first
+    } else {
+        spec.transient
+    };
+    // The tangent vector (with `lyapunov`) starts afresh at each W and aligns during
+    // the transient, as the ensembles' lambda_1 does.
+    let mut tan = Tangent::<f64, 1>::new([[LAMBDA1_START; STATE_DIM]]);
+    let mut step = |lane: &mut Lane<f64>| -> f64 {
+        if spec.lyapunov {
+            advance_period_tangent(&lc, lane, &mut tan);
+            if lane.status.is_frozen() {
+                1.0
+            } else {
+                renormalise(&mut tan.v[0])
+            }
+        } else {
+            advance_period(&lc, lane);
+            1.0
+        }
+    };
+    for _ in 0..transient {
+        if lane.status.is_frozen() {
+            break;
+        }
+        step(&mut lane);
+    }
+    let mut points = Vec::with_capacity(spec.recorded as usize);
+    let mut norms = Vec::with_capacity(spec.recorded as usize);
+    for _ in 0..spec.recorded {
+        norms.push(step(&mut lane));
+        points.push(lane.x);
+    }
+    let lambda1 = if spec.lyapunov && !lane.status.is_frozen() {
+        crate::lyapunov::lambda1_from_norms(&norms, omega)
+    } else {
+        f64::NAN
+    };
+    let next = if lane.status.is_frozen() {
+        spec.params.static_equilibrium()
+    } else {
+        lane.x
+    };
+    (sweep_point(spec, omega, points, lane.status, lambda1), next)
+}
+
+fn sweep_point(
+    spec: &BifurcationSpec,
+    omega: f64,
+    points: Vec<State>,
+    status: Status,
+    lambda1: f64,
+) -> SweepPoint {
+    let class = classify_lane(
+        &points,
+        omega,
+        status.is_frozen(),
+        spec.lyapunov.then_some(lambda1),
+        &spec.catalogue,
+    );
+    SweepPoint {
+        omega,
+        points,
+        status,
+        class,
+        lambda1,
+    }
+}
+
+/// One quasistatic sweep over `omegas` in the given order, unit by unit into `store`
+/// under `stage` (a unit: [`sweep_unit`] consecutive speeds, with the state the next
+/// unit starts from); committed units are read back, not recomputed.
+fn sweep(
+    spec: &BifurcationSpec,
+    omegas: &[f64],
+    stage: &str,
+    store: &dyn UnitStore,
+    done_work: &std::sync::atomic::AtomicU64,
+    ctl: Control,
+    total: u64,
+) -> Result<Vec<SweepPoint>> {
+    let per = sweep_unit(spec);
+    let count = crate::run::unit_count(omegas.len(), per);
+    let done = store.committed(stage, count)?;
+    let rec = spec.recorded as usize;
     let mut x = spec.params.static_equilibrium();
     let mut out = Vec::with_capacity(omegas.len());
-    for (k, &omega) in omegas.iter().enumerate() {
-        let lc = LaneConsts::<f64>::new(&spec.params, omega, &spec.stepper);
-        let mut lane = Lane::<f64>::new(&x, spec.params.delta);
-        let transient = if k == 0 {
-            spec.transient_first
-        } else {
-            spec.transient
-        };
-        // The tangent vector (with `lyapunov`) starts afresh at each W and aligns during
-        // the transient, as the ensembles' lambda_1 does.
-        let mut tan = Tangent::<f64, 1>::new([[LAMBDA1_START; STATE_DIM]]);
-        let mut step = |lane: &mut Lane<f64>| -> f64 {
-            if spec.lyapunov {
-                advance_period_tangent(&lc, lane, &mut tan);
-                if lane.status.is_frozen() {
-                    1.0
+    let add = |periods: u64| {
+        let d = done_work.fetch_add(periods, std::sync::atomic::Ordering::Relaxed) + periods;
+        (ctl.progress)(d, total);
+    };
+    for (u, &is_done) in done.iter().enumerate() {
+        let range = u * per..((u + 1) * per).min(omegas.len());
+        let periods: u64 = range
+            .clone()
+            .map(|k| {
+                (if k == 0 {
+                    spec.transient_first
                 } else {
-                    renormalise(&mut tan.v[0])
-                }
-            } else {
-                advance_period(&lc, lane);
-                1.0
+                    spec.transient
+                } + spec.recorded) as u64
+            })
+            .sum();
+        if is_done {
+            let unit = store.load(stage, u)?;
+            let pts = unit.f64s("points")?;
+            let codes = unit.u32s("status")?;
+            let l1 = unit.f64s("lambda1")?;
+            for (j, k) in range.clone().enumerate() {
+                let points: Vec<State> = pts[j * rec * STATE_DIM..(j + 1) * rec * STATE_DIM]
+                    .chunks_exact(STATE_DIM)
+                    .map(|c| c.try_into().unwrap_or([f64::NAN; STATE_DIM]))
+                    .collect();
+                let status = Status::from_code(codes[j]).unwrap_or(Status::NonFinite);
+                out.push(sweep_point(spec, omegas[k], points, status, l1[j]));
             }
-        };
-        for _ in 0..transient {
-            if lane.status.is_frozen() {
-                break;
-            }
-            step(&mut lane);
+            x = unit
+                .f64s("carry")?
+                .try_into()
+                .unwrap_or([f64::NAN; STATE_DIM]);
+            add(periods);
+            continue;
         }
-        let mut points = Vec::with_capacity(spec.recorded as usize);
-        let mut norms = Vec::with_capacity(spec.recorded as usize);
-        for _ in 0..spec.recorded {
-            norms.push(step(&mut lane));
-            points.push(lane.x);
+        if ctl.cancel.is_set() {
+            return Err(Error::Interrupted {
+                committed: u,
+                total: count,
+            });
         }
-        progress.inc((transient + spec.recorded) as u64);
-        let lambda1 = if spec.lyapunov && !lane.status.is_frozen() {
-            crate::lyapunov::lambda1_from_norms(&norms, omega)
-        } else {
-            f64::NAN
-        };
-        let class = classify_lane(
-            &points,
-            omega,
-            lane.status.is_frozen(),
-            spec.lyapunov.then_some(lambda1),
-            &spec.catalogue,
-        );
-        // A diverged sweep restarts from the static equilibrium.
-        x = if lane.status.is_frozen() {
-            spec.params.static_equilibrium()
-        } else {
-            lane.x
-        };
-        out.push(SweepPoint {
-            omega,
-            points,
-            status: lane.status,
-            class,
-            lambda1,
-        });
+        let mut pts = Vec::with_capacity(range.len() * rec * STATE_DIM);
+        let mut codes = Vec::with_capacity(range.len());
+        let mut l1 = Vec::with_capacity(range.len());
+        for k in range.clone() {
+            let (p, next) = sweep_step(spec, omegas[k], k == 0, &x);
+            pts.extend(p.points.iter().flatten());
+            codes.push(p.status.code());
+            l1.push(p.lambda1);
+            x = next;
+            out.push(p);
+        }
+        let unit = Unit::new(crate::run::dir::unit_key(stage, u))
+            .with("points", Array::F64(pts))
+            .with("status", Array::U32(codes))
+            .with("lambda1", Array::F64(l1))
+            .with("carry", Array::F64(x.to_vec()));
+        store.commit(stage, u, &unit)?;
+        add(periods);
     }
-    out
+    Ok(out)
 }
 
 /// A deterministic hash in [-1, 1) (splitmix64).
@@ -279,8 +399,27 @@ pub fn start_states(params: &Params, k: u32, w_ref: f64, seed: u64) -> Vec<State
         .collect()
 }
 
-/// Runs the study; `progress` counts lane-periods (see [`work`]).
-pub fn bifurcation(spec: &BifurcationSpec, progress: &Progress) -> Result<BifurcationResult> {
+/// Runs the study in memory; `progress` counts lane-periods (see [`work`]).
+pub fn bifurcation(spec: &BifurcationSpec, progress: ProgressFn) -> Result<BifurcationResult> {
+    let cancel = Cancel::new();
+    bifurcation_with(
+        spec,
+        &MemoryStore::new(),
+        Control {
+            progress,
+            cancel: &cancel,
+        },
+    )
+}
+
+/// Runs the study unit by unit into `store`, resuming from the units it holds: the
+/// sweeps (stages `up`, `down`), the first brute-force pass (`bf1`), then the second
+/// (`bf2`), whose seeds come from the assembled first pass and the sweeps.
+pub fn bifurcation_with(
+    spec: &BifurcationSpec,
+    store: &dyn UnitStore,
+    ctl: Control,
+) -> Result<BifurcationResult> {
     spec.validate()?;
     let t0 = std::time::Instant::now();
     let (run_up, run_down) = match spec.sweep {
@@ -289,32 +428,42 @@ pub fn bifurcation(spec: &BifurcationSpec, progress: &Progress) -> Result<Bifurc
         Some(Sweep::Down) => (false, true),
         Some(Sweep::Both) => (true, true),
     };
+    let total = work(spec);
+    let done_work = std::sync::atomic::AtomicU64::new(0);
     let rev: Vec<f64> = spec.omegas.iter().rev().copied().collect();
-    let (up, mut down) = rayon::join(
+    let (up, down) = rayon::join(
         || {
             if run_up {
-                sweep(spec, &spec.omegas, progress)
+                sweep(spec, &spec.omegas, "up", store, &done_work, ctl, total)
             } else {
-                Vec::new()
+                Ok(Vec::new())
             }
         },
         || {
             if run_down {
-                sweep(spec, &rev, progress)
+                sweep(spec, &rev, "down", store, &done_work, ctl, total)
             } else {
-                Vec::new()
+                Ok(Vec::new())
             }
         },
     );
+    let up = up?;
+    let mut down = down?;
     down.reverse();
     let sweep_seconds = t0.elapsed().as_secs_f64();
     let t1 = std::time::Instant::now();
     let mut brute = Vec::new();
     let mut brute_info = None;
     if spec.ics > 0 {
-        let (b, info) = brute_force(spec, &up, &down, progress)?;
+        let offset = done_work.load(std::sync::atomic::Ordering::Relaxed);
+        let progress = |d: u64, _t: u64| (ctl.progress)(offset + d, total);
+        let ctl2 = Control {
+            progress: &progress,
+            cancel: ctl.cancel,
+        };
+        let (b, info) = brute_force(spec, &up, &down, store, ctl2)?;
         brute = b;
-        brute_info = Some(info);
+        brute_info = info;
     }
     Ok(BifurcationResult {
         up,
@@ -326,48 +475,109 @@ pub fn bifurcation(spec: &BifurcationSpec, progress: &Progress) -> Result<Bifurc
     })
 }
 
-fn run_lanes(
+/// Concatenated results of all units of a brute-force stage.
+struct StageResult {
+    poincare: Vec<f64>,
+    status: Vec<Status>,
+    lambda1: Option<Vec<f64>>,
+}
+
+/// Runs (or resumes) one brute-force stage: `lanes_of(wi)` are the lanes at speed index
+/// wi; a unit holds consecutive speeds (at most 1/20 of them and ~25 s of work).
+fn brute_stage(
     spec: &BifurcationSpec,
     engine: &crate::ensemble::Engine,
-    lanes: Vec<LaneSpec>,
-    progress: &Progress,
-) -> Result<(crate::ensemble::EnsembleResult, RunInfo)> {
-    let e = EnsembleSpec {
+    stage: &str,
+    lanes_of: &(dyn Fn(usize) -> Vec<State> + Sync),
+    store: &dyn UnitStore,
+    ctl: Control,
+    base: u64,
+) -> Result<(StageResult, Option<RunInfo>)> {
+    let n = spec.omegas.len();
+    let per_w = spec.ics.max(1) as u64
+        * (spec.brute_transient + spec.recorded) as u64
+        * spec.stepper.steps_per_period as u64
+        * if spec.lyapunov { 2 } else { 1 };
+    let per = crate::run::unit_lanes(n, per_w);
+    let count = crate::run::unit_count(n, per);
+    let ensemble = |u: usize| EnsembleSpec {
         param_sets: vec![spec.params.clone()],
-        lanes,
+        lanes: (u * per..((u + 1) * per).min(n))
+            .flat_map(|wi| {
+                let omega = spec.omegas[wi];
+                lanes_of(wi).into_iter().map(move |x0| LaneSpec {
+                    omega,
+                    x0,
+                    param_set: 0,
+                })
+            })
+            .collect(),
         transient: spec.brute_transient,
         recorded: spec.recorded,
         stepper: spec.stepper,
         precision: spec.precision,
     };
-    let offset = progress.position();
-    engine.run_maybe_lambda1(&e, spec.lyapunov, &progress.callback(offset))
+    let reduce = |_u: usize, _e: &EnsembleSpec, r: crate::ensemble::EnsembleResult| {
+        let mut unit = Unit::new("").with("poincare", Array::F64(r.poincare)).with(
+            "status",
+            Array::U32(r.status.iter().map(|s| s.code()).collect()),
+        );
+        if let Some(l) = r.lambda1 {
+            unit = unit.with("lambda1", Array::F64(l));
+        }
+        Ok(unit)
+    };
+    let progress = |d: u64, _t: u64| (ctl.progress)(base + d, 0);
+    let info = crate::run::lanes::run_units(
+        store,
+        engine,
+        &LaneUnits {
+            stage,
+            count,
+            ensemble: &ensemble,
+            lambda1: spec.lyapunov,
+            reduce: &reduce,
+        },
+        Control {
+            progress: &progress,
+            cancel: ctl.cancel,
+        },
+    )?;
+    let mut out = StageResult {
+        poincare: Vec::new(),
+        status: Vec::new(),
+        lambda1: spec.lyapunov.then(Vec::new),
+    };
+    for u in 0..count {
+        let unit = store.load(stage, u)?;
+        out.poincare.extend_from_slice(unit.f64s("poincare")?);
+        out.status.extend(
+            unit.u32s("status")?
+                .iter()
+                .map(|&c| Status::from_code(c).unwrap_or(Status::NonFinite)),
+        );
+        if let Some(l) = out.lambda1.as_mut() {
+            l.extend_from_slice(unit.f64s("lambda1")?);
+        }
+    }
+    Ok((out, info))
 }
 
 fn brute_force(
     spec: &BifurcationSpec,
     up: &[SweepPoint],
     down: &[SweepPoint],
-    progress: &Progress,
-) -> Result<(Vec<BrutePoint>, RunInfo)> {
+    store: &dyn UnitStore,
+    ctl: Control,
+) -> Result<(Vec<BrutePoint>, Option<RunInfo>)> {
     let n = spec.omegas.len();
     let k = spec.ics as usize;
     let rec = spec.recorded as usize;
     let w_mid = 0.5 * (spec.omegas[0] + spec.omegas[n - 1]);
     let common = start_states(&spec.params, spec.ics, w_mid, spec.seed);
-    let lanes: Vec<LaneSpec> = spec
-        .omegas
-        .iter()
-        .flat_map(|&omega| {
-            common.iter().map(move |&x0| LaneSpec {
-                omega,
-                x0,
-                param_set: 0,
-            })
-        })
-        .collect();
     let engine = crate::ensemble::Engine::new(spec.backend, spec.precision)?;
-    let (res1, info) = run_lanes(spec, &engine, lanes, progress)?;
+    let (res1, info1) = brute_stage(spec, &engine, "bf1", &|_| common.clone(), store, ctl, 0)?;
+    let pass1 = (n * k) as u64 * (spec.brute_transient + spec.recorded) as u64;
     let lane_len = rec * STATE_DIM;
     // First-pass catalogues, to know what to seed from.
     let mut builders: Vec<CatalogueBuilder> = Vec::with_capacity(n);
@@ -413,22 +623,19 @@ fn brute_force(
         cand.truncate(spec.max_seeds);
         *s = cand;
     }
-    let lanes2: Vec<LaneSpec> = spec
-        .omegas
-        .iter()
-        .zip(&seeds)
-        .flat_map(|(&omega, s)| {
-            s.iter().map(move |&x0| LaneSpec {
-                omega,
-                x0,
-                param_set: 0,
-            })
-        })
-        .collect();
-    let res2 = if lanes2.is_empty() {
-        None
+    let (res2, info2) = if seeds.iter().all(|s| s.is_empty()) {
+        (None, None)
     } else {
-        Some(run_lanes(spec, &engine, lanes2, progress)?.0)
+        let (r, i) = brute_stage(
+            spec,
+            &engine,
+            "bf2",
+            &|wi| seeds[wi].clone(),
+            store,
+            ctl,
+            pass1,
+        )?;
+        (Some(r), i)
     };
     let mut out = Vec::with_capacity(n);
     let mut off2 = 0usize;
@@ -463,5 +670,5 @@ fn brute_force(
             lambda1,
         });
     }
-    Ok((out, info))
+    Ok((out, info2.or(info1)))
 }

@@ -52,7 +52,7 @@ impl ClassifyConfig {
 }
 
 /// The class of a trajectory's long-time behaviour.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub enum Class {
     /// Poincare points repeat after `n` periods.
     Periodic(usize),

@@ -1,8 +1,9 @@
 //! `jeffcott basin`: basin of attraction over two initial coordinates at one W, streamed
 //! in chunks; `labels.npy`, `attractors.json`, `basin.png` and `attractors.png`.
 
+use super::rundir::{self, RunArgs};
 use super::{CatalogueArgs, ModelArgs, StepperArgs, parse_assignments};
-use crate::analysis::basin::{Axis, BasinResult, BasinSpec, basin};
+use crate::analysis::basin::{Axis, BasinResult, BasinSpec, basin_with};
 use crate::analysis::catalogue::Attractor;
 use crate::ensemble::{Backend, Precision};
 use crate::error::{Error, Result};
@@ -42,7 +43,8 @@ pub struct BasinArgs {
     /// Forcing periods recorded per cell (at least 2 n to see period n).
     #[arg(long, default_value_t = 64, value_name = "P")]
     pub periods: u32,
-    /// Lanes per chunk [default: records of about 32 MB per chunk].
+    /// Lanes per work unit, the piece of the run committed to --out as it finishes
+    /// [default: at most 1/20 of the grid and about 25 s of CPU work].
     #[arg(long, value_name = "LANES")]
     pub chunk: Option<usize>,
     /// Backend: auto (a hardware GPU if present, else the CPU), cpu, or gpu.
@@ -57,9 +59,12 @@ pub struct BasinArgs {
     pub stepper: StepperArgs,
     #[command(flatten)]
     pub catalogue: CatalogueArgs,
-    /// Output directory (created if missing).
+    /// Output directory (created if missing). An unfinished run of the same command there
+    /// is resumed.
     #[arg(long, value_name = "DIR", default_value = "jeffcott-out/basin")]
     pub out: PathBuf,
+    #[command(flatten)]
+    pub run: RunArgs,
     /// Also compute every cell's largest Lyapunov exponent lambda_1 (one tangent vector
     /// per lane, either backend): lambda1.npy, basin_lambda1.png, lambda_1 per attractor,
     /// and aperiodic attractors split into quasiperiodic and chaotic. Costs about 1.8x
@@ -126,21 +131,54 @@ impl BasinArgs {
     }
 }
 
-/// Runs a basin with a progress bar.
-pub fn run_basin_study(spec: &BasinSpec, quiet: bool) -> Result<BasinResult> {
+/// Final files of a basin (run.json aside).
+pub const OUTPUTS: &[&str] = &[
+    "labels.npy",
+    "lambda1.npy",
+    "x.npy",
+    "y.npy",
+    "attractors.json",
+    "basin.png",
+    "basin_lambda1.png",
+    "attractors.png",
+];
+
+/// Runs a basin with a progress bar, its units committed to `store`.
+pub fn run_basin_study(
+    spec: &BasinSpec,
+    store: &dyn crate::run::UnitStore,
+    quiet: bool,
+) -> Result<BasinResult> {
     let per_lane = (spec.transient + spec.recorded) as u64;
     let total = (spec.x.n * spec.y.n) as u64 * per_lane;
     let bar = crate::progress::Progress::new("basin", total, per_lane, quiet);
-    let r = basin(spec, &bar);
+    let engine = crate::ensemble::Engine::new(spec.backend, spec.precision)?;
+    let cancel = crate::run::Cancel::new();
+    let cb = rundir::bar_callback(&bar);
+    let ctl = crate::run::lanes::Control {
+        progress: &cb,
+        cancel: &cancel,
+    };
+    let r = basin_with(spec, &engine, store, ctl);
     bar.finish();
     r
+}
+
+/// What run.json records of a finished basin besides its specification.
+pub fn run_json(res: &BasinResult) -> serde_json::Value {
+    serde_json::json!({
+        "backend": res.info,
+        "wall_time_s": res.seconds,
+    })
 }
 
 /// Runs `jeffcott basin`.
 pub fn run_basin(a: &BasinArgs) -> Result<()> {
     let spec = a.spec()?;
-    let res = run_basin_study(&spec, a.quiet)?;
+    let rd = rundir::open(&a.out, "basin", spec.to_json(), OUTPUTS, a.run, a.quiet)?;
+    let res = run_basin_study(&spec, &rd, a.quiet)?;
     write_basin(&a.out, &spec, &res, !a.no_plot)?;
+    rd.finish(run_json(&res), &rundir::written(&rd, OUTPUTS))?;
     if !a.quiet {
         println!("{}", human_summary(&spec, &res, &a.out));
     }
@@ -283,8 +321,6 @@ pub fn write_basin(dir: &Path, spec: &BasinSpec, res: &BasinResult, plot_it: boo
         "periods": spec.recorded,
         "steps_per_period": spec.stepper.steps_per_period,
         "lyapunov": spec.lyapunov,
-        "backend": res.info,
-        "wall_time_s": res.seconds,
         "cells": nx * ny,
         "diverged": cat.diverged,
         "diverged_fraction": cat.diverged_fraction,
@@ -300,10 +336,10 @@ pub fn write_basin(dir: &Path, spec: &BasinSpec, res: &BasinResult, plot_it: boo
             "basin.png": "the labels as a picture, legend by class and period",
             "basin_lambda1.png": "lambda1.npy as a picture (blue negative, white 0, red positive; only with --lyapunov)",
             "attractors.png": "phase portraits of the attractors, overlaid",
+            "run.json": "the run: state (running or complete), command, specification, backend and wall time",
         },
         "jeffcott_version": env!("CARGO_PKG_VERSION"),
     });
-    // Written last: its presence marks a complete run.
     output::write_json(&dir.join("attractors.json"), &json)
 }
 

@@ -3,7 +3,7 @@
 
 use super::{ModelArgs, StepperArgs};
 use crate::analysis::bifurcation::{
-    BifurcationResult, BifurcationSpec, Sweep, SweepPoint, bifurcation, work,
+    BifurcationResult, BifurcationSpec, Sweep, SweepPoint, bifurcation_with, work,
 };
 use crate::analysis::catalogue::CatalogueConfig;
 use crate::analysis::classify::{Class, ClassifyConfig};
@@ -106,9 +106,12 @@ pub struct BifurcationArgs {
     pub stepper: StepperArgs,
     #[command(flatten)]
     pub catalogue: CatalogueArgs,
-    /// Output directory (created if missing).
+    /// Output directory (created if missing). An unfinished run of the same command there
+    /// is resumed.
     #[arg(long, value_name = "DIR", default_value = "jeffcott-out/bifurcation")]
     pub out: PathBuf,
+    #[command(flatten)]
+    pub run: super::rundir::RunArgs,
     /// Speeds at which to draw phase portraits of the attractors found there (the nearest
     /// speed of the grid), e.g. `--portraits 133,135`: `attractors_W.png`, coexisting
     /// attractors overlaid (from the brute force, or the sweeps with --ics 0).
@@ -191,25 +194,57 @@ impl BifurcationArgs {
 pub fn run_bifurcation(a: &BifurcationArgs) -> Result<()> {
     let coords = parse_coords("coord", &a.coord)?;
     let spec = a.spec()?;
-    let res = run_study(&spec, a.quiet)?;
+    let rd = super::rundir::open(
+        &a.out,
+        "bifurcation",
+        spec.to_json(),
+        OUTPUTS,
+        a.run,
+        a.quiet,
+    )?;
+    let res = run_study(&spec, &rd, a.quiet)?;
     write_bifurcation(&a.out, &spec, &res, &coords, !a.no_plot)?;
+    let mut outputs = super::rundir::written(&rd, OUTPUTS);
     for &w in &a.portraits {
-        write_portraits(&a.out, &spec, &res, w)?;
+        if let Some(f) = write_portraits(&a.out, &spec, &res, w)? {
+            outputs.push(f);
+        }
     }
+    rd.finish(run_json(&res), &outputs)?;
     if !a.quiet {
         println!("{}", human_summary(&spec, &res, &a.out));
     }
     Ok(())
 }
 
+/// Final files of a bifurcation study (run.json and the portraits aside).
+pub const OUTPUTS: &[&str] = &[
+    "omega.npy",
+    "bifurcation.npy",
+    "bifurcation_rows.npy",
+    "bifurcation_lambda1.npy",
+    "bifurcation.png",
+    "summary.json",
+];
+
+/// What run.json records of a finished study besides its specification.
+pub fn run_json(res: &BifurcationResult) -> serde_json::Value {
+    serde_json::json!({
+        "brute_force_backend": res.brute_info,
+        "sweep_wall_time_s": res.sweep_seconds,
+        "brute_force_wall_time_s": res.brute_seconds,
+    })
+}
+
 /// Draws `attractors_W.png` at the grid speed nearest `w`: the brute-force catalogue's
-/// attractors, or the sweeps' final cycles when there was no brute force.
+/// attractors, or the sweeps' final cycles when there was no brute force. Returns the
+/// file's name when one was drawn.
 pub fn write_portraits(
     dir: &std::path::Path,
     spec: &BifurcationSpec,
     res: &BifurcationResult,
     w: f64,
-) -> Result<()> {
+) -> Result<Option<String>> {
     if !w.is_finite() {
         return Err(Error::invalid("portraits", w, "must be a finite speed"));
     }
@@ -255,21 +290,33 @@ pub fn write_portraits(
         }
     };
     if traces.is_empty() {
-        return Ok(());
+        return Ok(None);
     }
     output::ensure_dir(dir)?;
+    let name = format!("attractors_{omega:.4}.png");
     crate::plot::coexisting_attractors(
-        &dir.join(format!("attractors_{omega:.4}.png")),
+        &dir.join(&name),
         &format!("Attractors at W = {omega:.4} rad/s (lines: one pass; dots: Poincare points)"),
         &traces,
     )
+    .map(|()| Some(name))
 }
 
-/// Runs a study with a progress bar.
-pub fn run_study(spec: &BifurcationSpec, quiet: bool) -> Result<BifurcationResult> {
+/// Runs a study with a progress bar, its units committed to `store`.
+pub fn run_study(
+    spec: &BifurcationSpec,
+    store: &dyn crate::run::UnitStore,
+    quiet: bool,
+) -> Result<BifurcationResult> {
     let per_lane = (spec.brute_transient + spec.recorded) as u64;
     let bar = crate::progress::Progress::new("bifurcation", work(spec), per_lane, quiet);
-    let res = bifurcation(spec, &bar);
+    let cancel = crate::run::Cancel::new();
+    let cb = super::rundir::bar_callback(&bar);
+    let ctl = crate::run::lanes::Control {
+        progress: &cb,
+        cancel: &cancel,
+    };
+    let res = bifurcation_with(spec, store, ctl);
     bar.finish();
     res
 }
@@ -533,9 +580,6 @@ pub fn write_bifurcation(
         "max_seeds": spec.max_seeds,
         "lyapunov": spec.lyapunov,
         "steps_per_period": spec.stepper.steps_per_period,
-        "brute_force_backend": res.brute_info,
-        "sweep_wall_time_s": res.sweep_seconds,
-        "brute_force_wall_time_s": res.brute_seconds,
         "catalogue": spec.catalogue,
         "up_down_differ_at": hysteresis,
         "per_omega": per_w,

@@ -4,10 +4,12 @@
 
 use super::{ModelArgs, StepperArgs, apply_init};
 use crate::error::{Error, Result};
-use crate::lyapunov::{Spectrum, SpectrumConfig, SweepStart, spectrum, sweep};
+use crate::lyapunov::{Spectrum, SpectrumConfig, StopReason, SweepStart, spectrum, sweep_starts};
 use crate::model::STATE_DIM;
+use crate::run::{Array, Unit};
 use crate::{output, plot};
 use clap::Args;
+use rayon::prelude::*;
 use std::path::PathBuf;
 
 /// Arguments of `jeffcott lyapunov`.
@@ -51,9 +53,12 @@ pub struct LyapunovArgs {
     pub model: ModelArgs,
     #[command(flatten)]
     pub stepper: StepperArgs,
-    /// Output directory (created if missing).
+    /// Output directory (created if missing). An unfinished range of the same command
+    /// there is resumed (speeds already computed are kept).
     #[arg(long, value_name = "DIR", default_value = "jeffcott-out/lyapunov")]
     pub out: PathBuf,
+    #[command(flatten)]
+    pub run: super::rundir::RunArgs,
     /// Print nothing but errors.
     #[arg(long)]
     pub quiet: bool,
@@ -124,9 +129,23 @@ pub fn run_lyapunov(a: &LyapunovArgs) -> Result<()> {
                            and the change of the running estimate over the last window",
         "jeffcott_version": env!("CARGO_PKG_VERSION"),
     });
+    let run_spec = serde_json::json!({
+        "omegas": {"first": omegas[0], "last": omegas[omegas.len() - 1], "count": omegas.len()},
+        "config": cfg,
+        "start": a.start,
+        "initial_state": nums(&x0),
+        "params": params,
+    });
     if let [omega] = omegas[..] {
+        let rd = super::rundir::open(
+            dir,
+            "lyapunov",
+            run_spec,
+            &["spectrum.json", "convergence.png"],
+            a.run,
+            a.quiet,
+        )?;
         let s = spectrum(&params, omega, &x0, &cfg)?;
-        output::ensure_dir(dir)?;
         plot::lyapunov::convergence(
             &dir.join("convergence.png"),
             &format!("Lyapunov spectrum at W = {omega} rad/s: running estimates"),
@@ -136,6 +155,10 @@ pub fn run_lyapunov(a: &LyapunovArgs) -> Result<()> {
         j["run"] = settings;
         j["units"] = serde_json::json!({"exponents": "1/s", "exponents_bits": "bits/s"});
         output::write_json(&dir.join("spectrum.json"), &j)?;
+        rd.finish(
+            serde_json::json!({"wall_time_s": s.wall_time_s}),
+            &["spectrum.json".into(), "convergence.png".into()],
+        )?;
         if !a.quiet {
             println!(
                 "W = {omega} rad/s: exponents [1/s] {}; sum {:.4} (= <tr J> {:.4} + saltation {:.1e}); \
@@ -160,10 +183,16 @@ pub fn run_lyapunov(a: &LyapunovArgs) -> Result<()> {
     if omegas.is_empty() {
         return Err(Error::invalid("omega", &a.omega, "no speeds"));
     }
+    let outputs = [
+        "lyapunov.npy",
+        "lyapunov_errors.npy",
+        "lyapunov.json",
+        "lyapunov.png",
+    ];
+    let rd = super::rundir::open(dir, "lyapunov", run_spec, &outputs, a.run, a.quiet)?;
     let start = std::time::Instant::now();
-    let all = sweep(&params, &omegas, &x0, a.start, &cfg)?;
+    let all = range_units(&rd, &params, &omegas, &x0, a.start, &cfg)?;
     let wall = start.elapsed().as_secs_f64();
-    output::ensure_dir(dir)?;
     let n = omegas.len();
     let flat: Vec<f64> = all.iter().flat_map(|s| s.exponents).collect();
     output::write_npy(&dir.join("lyapunov.npy"), &[n, STATE_DIM], &flat)?;
@@ -189,7 +218,6 @@ pub fn run_lyapunov(a: &LyapunovArgs) -> Result<()> {
         "integration_time": all.iter().map(|s| s.integration_time).collect::<Vec<_>>(),
         "stop": all.iter().map(|s| s.stop).collect::<Vec<_>>(),
         "status": all.iter().map(|s| s.status).collect::<Vec<_>>(),
-        "wall_time_s": wall,
         "run": settings,
         "files": {
             "lyapunov.npy": "f64 [n_omega, 8], exponents [1/s] in QR order (descending), rows in the order of omega",
@@ -198,6 +226,10 @@ pub fn run_lyapunov(a: &LyapunovArgs) -> Result<()> {
         },
     });
     output::write_json(&dir.join("lyapunov.json"), &j)?;
+    rd.finish(
+        serde_json::json!({"wall_time_s": wall}),
+        &outputs.map(String::from),
+    )?;
     if !a.quiet {
         for s in &all {
             println!(
@@ -211,4 +243,103 @@ pub fn run_lyapunov(a: &LyapunovArgs) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// What a range keeps of each speed's spectrum.
+struct Row {
+    omega: f64,
+    exponents: [f64; STATE_DIM],
+    errors: [f64; STATE_DIM],
+    sum: f64,
+    trace_average: f64,
+    saltation_log_det_rate: f64,
+    integration_time: f64,
+    stop: StopReason,
+    status: crate::integrate::lane::Status,
+}
+
+const STOPS: [StopReason; 3] = [
+    StopReason::Converged,
+    StopReason::MaxTime,
+    StopReason::LaneFrozen,
+];
+
+/// The spectra of a range, unit by unit into the run directory (a unit: consecutive
+/// speeds, at most 1/20 of them, computed in parallel). The quasistatic transients that
+/// give every speed its start state run first, in sequence, and are cheap beside the
+/// spectra; they are recomputed on resume (deterministic).
+fn range_units(
+    rd: &crate::run::RunDir,
+    params: &crate::model::Params,
+    omegas: &[f64],
+    x0: &crate::model::State,
+    start: SweepStart,
+    cfg: &SpectrumConfig,
+) -> Result<Vec<Row>> {
+    let (starts, per_cfg) = sweep_starts(params, omegas, x0, start, cfg)?;
+    let n = omegas.len();
+    let per = crate::run::unit_lanes(n, 1).min(rayon::current_num_threads().max(1) * 4);
+    let count = crate::run::unit_count(n, per);
+    let done = rd.committed("lyapunov", count)?;
+    for (u, _) in done.iter().enumerate().filter(|(_, d)| !**d) {
+        let range = u * per..((u + 1) * per).min(n);
+        let spectra: Vec<Spectrum> = range
+            .clone()
+            .into_par_iter()
+            .map(|i| spectrum(params, omegas[i], &starts[i], &per_cfg))
+            .collect::<Result<_>>()?;
+        let f = |g: &dyn Fn(&Spectrum) -> f64| Array::F64(spectra.iter().map(g).collect());
+        let unit = Unit::new(crate::run::dir::unit_key("lyapunov", u))
+            .with(
+                "exponents",
+                Array::F64(spectra.iter().flat_map(|s| s.exponents).collect()),
+            )
+            .with(
+                "errors",
+                Array::F64(spectra.iter().flat_map(|s| s.errors).collect()),
+            )
+            .with("sum", f(&|s| s.sum))
+            .with("trace_average", f(&|s| s.trace_average))
+            .with("saltation_log_det_rate", f(&|s| s.saltation_log_det_rate))
+            .with("integration_time", f(&|s| s.integration_time))
+            .with(
+                "stop",
+                Array::U32(
+                    spectra
+                        .iter()
+                        .map(|s| STOPS.iter().position(|x| *x == s.stop).unwrap_or(0) as u32)
+                        .collect(),
+                ),
+            )
+            .with(
+                "status",
+                Array::U32(spectra.iter().map(|s| s.status.code()).collect()),
+            );
+        rd.commit("lyapunov", u, &unit)?;
+    }
+    let mut rows = Vec::with_capacity(n);
+    for u in 0..count {
+        let unit = rd.load("lyapunov", u)?;
+        let (e, r) = (unit.f64s("exponents")?, unit.f64s("errors")?);
+        for (j, i) in (u * per..((u + 1) * per).min(n)).enumerate() {
+            let eight = |v: &[f64]| -> [f64; STATE_DIM] {
+                v[j * STATE_DIM..(j + 1) * STATE_DIM]
+                    .try_into()
+                    .unwrap_or([f64::NAN; STATE_DIM])
+            };
+            rows.push(Row {
+                omega: omegas[i],
+                exponents: eight(e),
+                errors: eight(r),
+                sum: unit.f64s("sum")?[j],
+                trace_average: unit.f64s("trace_average")?[j],
+                saltation_log_det_rate: unit.f64s("saltation_log_det_rate")?[j],
+                integration_time: unit.f64s("integration_time")?[j],
+                stop: STOPS[(unit.u32s("stop")?[j] as usize).min(2)],
+                status: crate::integrate::lane::Status::from_code(unit.u32s("status")?[j])
+                    .unwrap_or(crate::integrate::lane::Status::NonFinite),
+            });
+        }
+    }
+    Ok(rows)
 }

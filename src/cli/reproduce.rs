@@ -37,9 +37,12 @@ pub struct ReproduceArgs {
     /// Lane precision [default: f64 on the CPU, f32 on a GPU].
     #[arg(long, value_enum)]
     pub precision: Option<Precision>,
-    /// Output directory (created if missing).
+    /// Output directory (created if missing). An unfinished reproduce of the same mode
+    /// there is resumed (its finished studies are not computed again).
     #[arg(long, value_name = "DIR", default_value = "jeffcott-out/reproduce")]
     pub out: PathBuf,
+    #[command(flatten)]
+    pub run: super::rundir::RunArgs,
     /// Print nothing but errors (no progress bars).
     #[arg(long)]
     pub quiet: bool,
@@ -241,7 +244,17 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     let precision = a.precision.unwrap_or_else(|| default_precision(a.backend));
     let cfg = CatalogueConfig::for_precision(precision);
     let dir = &a.out;
-    crate::output::ensure_dir(dir)?;
+    // One run directory for the whole figure set; each study keeps its units under its
+    // own prefix, so an interrupted reproduce resumes where it stopped.
+    let rd = super::rundir::open(
+        dir,
+        "reproduce",
+        serde_json::json!({"mode": p.name, "precision": precision}),
+        &["REPORT.md"],
+        a.run,
+        a.quiet,
+    )?;
+    let store = |prefix: &'static str| crate::run::Prefixed { inner: &rd, prefix };
     let mode = format!("--{}", p.name);
     let backend = format!("{:?}", a.backend).to_lowercase();
     let mut rep = Report {
@@ -273,7 +286,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         max_seeds: p.max_seeds,
         lyapunov: true,
     };
-    let res = run_study(&spec, a.quiet)?;
+    let res = run_study(&spec, &store("bifurcation"), a.quiet)?;
     write_bifurcation(&dir.join("bifurcation"), &spec, &res, &[VX_S, VX_R], true)?;
     let bif_cmd = format!(
         "jeffcott bifurcation --omega 130:141:{} --coord vx_s,vx_r --sweep both --ics {} --transient {} --transient-first {} --brute-transient {} --periods {} --max-seeds {} --backend {backend} --out {}/bifurcation",
@@ -461,7 +474,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
             ics: 0,
             ..spec.clone()
         };
-        let zres = run_study(&zspec, a.quiet)?;
+        let zres = run_study(&zspec, &store(["zoom0", "zoom1"][k]), a.quiet)?;
         let fig = format!("fig03{}_zoom_{lo}-{hi}.png", ["b", "c"][k]);
         plot::bifurcation_diagram(
             &dir.join(&fig),
@@ -663,16 +676,15 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         chunk: None,
         lyapunov: false,
     };
-    let bres = run_basin_study(&bspec, a.quiet)?;
+    let bres = run_basin_study(&bspec, &store("basin_133"), a.quiet)?;
     let bdir = dir.join("basin_133");
     write_basin(&bdir, &bspec, &bres, true)?;
     let copy = |from: &Path, to: &str| -> Result<()> {
-        std::fs::copy(from, dir.join(to))
-            .map(|_| ())
-            .map_err(|source| Error::Io {
-                path: dir.join(to),
-                source,
-            })
+        let bytes = std::fs::read(from).map_err(|source| Error::Io {
+            path: from.to_path_buf(),
+            source,
+        })?;
+        crate::output::write_atomically(&dir.join(to), |w| std::io::Write::write_all(w, &bytes))
     };
     copy(&bdir.join("basin.png"), "fig07_basin_133.png")?;
     let basin_s = t.elapsed().as_secs_f64();
@@ -845,10 +857,13 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         cfg.lambda_tol
     );
     let text = head + &rep.text;
-    std::fs::write(dir.join("REPORT.md"), text).map_err(|source| Error::Io {
-        path: dir.join("REPORT.md"),
-        source,
+    crate::output::write_atomically(&dir.join("REPORT.md"), |w| {
+        std::io::Write::write_all(w, text.as_bytes())
     })?;
+    rd.finish(
+        serde_json::json!({"wall_time_s": rep.started.elapsed().as_secs_f64()}),
+        &super::rundir::files_under(dir)?,
+    )?;
     if !a.quiet {
         println!(
             "reproduce {mode}: figures and REPORT.md in {} ({:.1} s)",

@@ -244,14 +244,14 @@ mod tests {
     /// Size, and (member name, offset) of a struct as naga lays it out from the WGSL.
     fn wgsl_struct(module: &naga::Module, name: &str) -> (u32, Vec<(String, u32)>) {
         for (_, ty) in module.types.iter() {
-            if ty.name.as_deref() == Some(name) {
-                if let naga::TypeInner::Struct { members, span } = &ty.inner {
-                    let m = members
-                        .iter()
-                        .map(|m| (m.name.clone().unwrap_or_default(), m.offset))
-                        .collect();
-                    return (*span, m);
-                }
+            if ty.name.as_deref() == Some(name)
+                && let naga::TypeInner::Struct { members, span } = &ty.inner
+            {
+                let m = members
+                    .iter()
+                    .map(|m| (m.name.clone().unwrap_or_default(), m.offset))
+                    .collect();
+                return (*span, m);
             }
         }
         panic!("struct {name} not found in the shader");

@@ -353,12 +353,31 @@ pub fn sweep(
     start: SweepStart,
     cfg: &SpectrumConfig,
 ) -> Result<Vec<Spectrum>> {
+    let (starts, per_cfg) = sweep_starts(p, omegas, x0, start, cfg)?;
+    omegas
+        .par_iter()
+        .zip(starts.par_iter())
+        .map(|(&w, x)| spectrum(p, w, x, &per_cfg))
+        .collect()
+}
+
+/// Where each speed of a sweep starts, and the configuration its spectrum then runs
+/// with: for [`SweepStart::Quasistatic`] the transients run here, in sequence, and the
+/// returned configuration has no transient left. The spectra themselves are
+/// independent (a resumable range computes them unit by unit from these starts).
+pub fn sweep_starts(
+    p: &Params,
+    omegas: &[f64],
+    x0: &State,
+    start: SweepStart,
+    cfg: &SpectrumConfig,
+) -> Result<(Vec<State>, SpectrumConfig)> {
     p.validate()?;
     cfg.validate()?;
     for &w in omegas {
         validate_omega(w)?;
     }
-    let (starts, per_cfg) = match start {
+    Ok(match start {
         SweepStart::Given => (vec![*x0; omegas.len()], cfg.clone()),
         SweepStart::Quasistatic => {
             let mut x = *x0;
@@ -385,12 +404,7 @@ pub fn sweep(
                 },
             )
         }
-    };
-    omegas
-        .par_iter()
-        .zip(starts.par_iter())
-        .map(|(&w, x)| spectrum(p, w, x, &per_cfg))
-        .collect()
+    })
 }
 
 /// The largest Lyapunov exponent lambda_1 of one lane, as the ensembles compute it on

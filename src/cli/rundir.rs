@@ -1,0 +1,143 @@
+//! The command line's side of the run engine ([`crate::run`]): opening `--out` for a
+//! run (resume or refuse, `--overwrite`), a progress bar fed by the engine's callback,
+//! and the SIGINT/SIGTERM handler that stops cleanly and prints the command that resumes.
+
+use crate::error::Result;
+use crate::run::{Found, RunDir};
+use clap::Args;
+use std::path::Path;
+use std::sync::{Mutex, OnceLock};
+
+/// Options every resumable command takes.
+#[derive(Args, Debug, Clone, Copy)]
+pub struct RunArgs {
+    /// Replace the run in --out if it has another specification (its files are removed
+    /// first). Without it such a directory is refused. The same command into the same
+    /// --out always resumes: committed work units are kept, and the files are identical
+    /// to those of an uninterrupted run.
+    #[arg(long)]
+    pub overwrite: bool,
+}
+
+/// The shell command that resumes this run: the arguments as given, `--overwrite`
+/// dropped (a resume must not remove what it resumes), each quoted where needed.
+fn resume_command() -> String {
+    std::env::args()
+        .filter(|a| a != "--overwrite")
+        .map(|a| {
+            if !a.is_empty()
+                && a.chars()
+                    .all(|c| c.is_ascii_alphanumeric() || "-_./:=,+@%".contains(c))
+            {
+                a
+            } else {
+                format!("'{}'", a.replace('\'', r"'\''"))
+            }
+        })
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+static RUN_DIRS: Mutex<Vec<String>> = Mutex::new(Vec::new());
+
+/// Installs (once) the handler of SIGINT and SIGTERM: it waits for a file being
+/// committed to be in place ([`crate::output::commit_lock`]), prints which directory
+/// keeps the committed units and the command that resumes, and exits with status 130.
+/// Nothing else needs undoing: every file is written under a temporary name and
+/// renamed, and the run's lock goes with the process.
+fn install_signal_handler() {
+    static ONCE: OnceLock<()> = OnceLock::new();
+    ONCE.get_or_init(|| {
+        let _ = ctrlc::set_handler(|| {
+            let _guard = crate::output::commit_lock();
+            let dirs = RUN_DIRS.lock().map(|d| d.join(", ")).unwrap_or_default();
+            eprintln!(
+                "\njeffcott: interrupted. Committed work units are kept in {dirs}; resume with:\n  {}",
+                resume_command()
+            );
+            std::process::exit(130);
+        });
+    });
+}
+
+/// Opens `dir` for a run (see [`RunDir::open`]), says on stderr when it resumes, and
+/// arms the signal handler.
+pub fn open(
+    dir: &Path,
+    command: &str,
+    spec: serde_json::Value,
+    outputs: &[&str],
+    args: RunArgs,
+    quiet: bool,
+) -> Result<RunDir> {
+    let rd = RunDir::open(dir, command, spec, outputs, args.overwrite)?;
+    if let Ok(mut d) = RUN_DIRS.lock() {
+        d.push(dir.display().to_string());
+    }
+    install_signal_handler();
+    if !quiet {
+        match rd.found() {
+            Found::Unfinished => eprintln!(
+                "resuming the unfinished run in {} (committed work units are kept)",
+                dir.display()
+            ),
+            Found::Complete => eprintln!(
+                "{} holds this run, complete; writing its files again from its units",
+                dir.display()
+            ),
+            Found::Overwritten => eprintln!(
+                "--overwrite: removed the other run's files from {}",
+                dir.display()
+            ),
+            Found::Fresh => {}
+        }
+    }
+    Ok(rd)
+}
+
+/// The names among `candidates` that exist in the run's directory (for `outputs` in
+/// run.json).
+pub fn written(rd: &RunDir, candidates: &[&str]) -> Vec<String> {
+    candidates
+        .iter()
+        .filter(|f| rd.path().join(f).exists())
+        .map(|f| f.to_string())
+        .collect()
+}
+
+/// A progress bar as the engine's callback.
+pub fn bar_callback(bar: &crate::progress::Progress) -> impl Fn(u64, u64) + Sync + '_ {
+    move |done, _total| bar.set(done)
+}
+
+/// Every file under `dir` (relative paths), the run's own bookkeeping (run.json, the
+/// lock, units/) aside: the outputs of a composite run such as `reproduce`.
+pub fn files_under(dir: &Path) -> Result<Vec<String>> {
+    fn walk(root: &Path, sub: &Path, out: &mut Vec<String>) -> Result<()> {
+        let here = root.join(sub);
+        let entries = std::fs::read_dir(&here).map_err(|source| crate::Error::Io {
+            path: here.clone(),
+            source,
+        })?;
+        for e in entries.flatten() {
+            let rel = sub.join(e.file_name());
+            let name = rel.to_string_lossy().to_string();
+            if name == crate::run::dir::RUN_JSON
+                || name == crate::run::dir::UNITS
+                || name.starts_with('.')
+            {
+                continue;
+            }
+            if e.path().is_dir() {
+                walk(root, &rel, out)?;
+            } else {
+                out.push(name);
+            }
+        }
+        Ok(())
+    }
+    let mut out = Vec::new();
+    walk(dir, Path::new(""), &mut out)?;
+    out.sort();
+    Ok(out)
+}

@@ -1,0 +1,534 @@
+//! Runs that survive (the run engine, `jeffcott::run`): a run killed at any point and
+//! resumed by the same command ends with files bit-identical to an uninterrupted run;
+//! an output directory never holds a half-written file under a final name, nor files of
+//! two runs; a different specification is refused unless `--overwrite`.
+//!
+//! The harness runs the real binary, kills it with SIGKILL once a given number of work
+//! units are committed (it polls `units/`), and runs the same command again.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_jeffcott"))
+}
+
+fn jeffcott(args: &[String]) -> Output {
+    bin().args(args).output().expect("binary runs")
+}
+
+fn args(list: &[&str], out: &Path) -> Vec<String> {
+    let mut v: Vec<String> = list.iter().map(|s| s.to_string()).collect();
+    v.push("--out".into());
+    v.push(out.to_str().unwrap().into());
+    v
+}
+
+fn ok(o: &Output) {
+    assert!(
+        o.status.success(),
+        "exit {:?}\nstdout: {}\nstderr: {}",
+        o.status.code(),
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+fn units(dir: &Path) -> usize {
+    std::fs::read_dir(dir.join("units"))
+        .map(|d| {
+            d.flatten()
+                .filter(|e| e.file_name().to_string_lossy().ends_with(".unit"))
+                .count()
+        })
+        .unwrap_or(0)
+}
+
+/// Starts the command, waits until at least `k` units are committed, kills it with
+/// SIGKILL. Returns the units committed when it died (the run may also have finished
+/// first on a fast machine; then it returns None).
+fn kill_after_units(a: &[String], out: &Path, k: usize) -> Option<usize> {
+    let mut child = bin()
+        .args(a)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let t = Instant::now();
+    loop {
+        if let Some(_status) = child.try_wait().unwrap() {
+            return None;
+        }
+        if units(out) >= k {
+            child.kill().unwrap();
+            child.wait().unwrap();
+            return Some(units(out));
+        }
+        assert!(
+            t.elapsed() < Duration::from_secs(300),
+            "run did not progress"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// Modification times of the committed unit files.
+fn unit_times(dir: &Path) -> std::collections::HashMap<String, std::time::SystemTime> {
+    std::fs::read_dir(dir.join("units"))
+        .unwrap()
+        .flatten()
+        .map(|e| {
+            (
+                e.file_name().to_string_lossy().to_string(),
+                e.metadata().unwrap().modified().unwrap(),
+            )
+        })
+        .collect()
+}
+
+/// Every final file of a finished run (run.json, the lock and units/ aside), relative.
+fn final_files(dir: &Path) -> Vec<PathBuf> {
+    fn walk(root: &Path, sub: &Path, out: &mut Vec<PathBuf>) {
+        for e in std::fs::read_dir(root.join(sub)).unwrap().flatten() {
+            let rel = sub.join(e.file_name());
+            let name = e.file_name().to_string_lossy().to_string();
+            if name == "run.json" || name == "units" || name == ".jeffcott.lock" {
+                continue;
+            }
+            if e.path().is_dir() {
+                walk(root, &rel, out);
+            } else {
+                out.push(rel);
+            }
+        }
+    }
+    let mut v = Vec::new();
+    walk(dir, Path::new(""), &mut v);
+    v.sort();
+    v
+}
+
+fn assert_same_files(reference: &Path, resumed: &Path) {
+    let a = final_files(reference);
+    assert_eq!(a, final_files(resumed), "the same files");
+    assert!(!a.is_empty());
+    for f in &a {
+        assert!(
+            std::fs::read(reference.join(f)).unwrap() == std::fs::read(resumed.join(f)).unwrap(),
+            "{} differs from the uninterrupted run's",
+            f.display()
+        );
+    }
+}
+
+fn state(dir: &Path) -> String {
+    let j: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("run.json")).unwrap()).unwrap();
+    j["state"].as_str().unwrap().to_string()
+}
+
+/// No temporary anywhere under `dir`.
+fn no_temporaries(dir: &Path) {
+    fn walk(d: &Path) {
+        for e in std::fs::read_dir(d).unwrap().flatten() {
+            let name = e.file_name().to_string_lossy().to_string();
+            assert!(
+                !name.ends_with(".tmp"),
+                "temporary left: {}",
+                e.path().display()
+            );
+            if e.path().is_dir() {
+                walk(&e.path());
+            }
+        }
+    }
+    walk(dir);
+}
+
+/// Kills the command after 1, a few and most units, resumes each time, and compares
+/// with an uninterrupted run.
+fn killed_and_resumed_equals_uninterrupted(cmd: &[&str], kill_at: &[usize]) {
+    let dir = tempfile::tempdir().unwrap();
+    let reference = dir.path().join("reference");
+    ok(&jeffcott(&args(cmd, &reference)));
+    assert_eq!(state(&reference), "complete");
+    let out = dir.path().join("resumed");
+    let a = args(cmd, &out);
+    let mut killed = 0;
+    for &k in kill_at {
+        if let Some(n) = kill_after_units(&a, &out, k) {
+            killed += 1;
+            assert_eq!(
+                state(&out),
+                "running",
+                "killed after {n} units: still marked running"
+            );
+        }
+    }
+    assert!(killed > 0, "the run was never interrupted");
+    let before = unit_times(&out);
+    assert!(!before.is_empty());
+    ok(&jeffcott(&a));
+    let after = unit_times(&out);
+    for (name, t) in &before {
+        assert_eq!(
+            after.get(name),
+            Some(t),
+            "committed unit {name} was computed again"
+        );
+    }
+    assert_eq!(state(&out), "complete");
+    assert_same_files(&reference, &out);
+    no_temporaries(&out);
+}
+
+const BASIN: &[&str] = &[
+    "basin",
+    "--omega",
+    "133",
+    "--x",
+    "x_r:-0.006:0.006:24",
+    "--y",
+    "vx_r:-1:1:20",
+    "--transient",
+    "60",
+    "--periods",
+    "16",
+    "--backend",
+    "cpu",
+    "--quiet",
+];
+
+#[test]
+fn basin_killed_with_sigkill_and_resumed_has_the_files_of_an_uninterrupted_run() {
+    killed_and_resumed_equals_uninterrupted(BASIN, &[1, 5, 14]);
+}
+
+#[test]
+fn bifurcation_sweeps_and_brute_force_killed_and_resumed_equal_an_uninterrupted_run() {
+    killed_and_resumed_equals_uninterrupted(
+        &[
+            "bifurcation",
+            "--omega",
+            "131:134:24",
+            "--ics",
+            "2",
+            "--transient",
+            "40",
+            "--transient-first",
+            "100",
+            "--brute-transient",
+            "60",
+            "--periods",
+            "16",
+            "--portraits",
+            "133",
+            "--backend",
+            "cpu",
+            "--quiet",
+        ],
+        // Sweep units (up and down), then the two brute-force passes.
+        &[2, 25, 45],
+    );
+}
+
+#[test]
+fn ensemble_killed_and_resumed_equals_an_uninterrupted_run() {
+    killed_and_resumed_equals_uninterrupted(
+        &[
+            "ensemble",
+            "--omega",
+            "130:141:200",
+            "--transient",
+            "60",
+            "--periods",
+            "8",
+            "--lyapunov",
+            "--backend",
+            "cpu",
+            "--quiet",
+        ],
+        &[2, 11],
+    );
+}
+
+#[test]
+fn gpu_basin_killed_and_resumed_equals_an_uninterrupted_cpu_run_bit_for_bit() {
+    let req = jeffcott::gpu::DeviceRequest {
+        need_f64: true,
+        allow_software: true,
+    };
+    if let Err(e) = jeffcott::gpu::GpuDevice::new(&req) {
+        assert!(
+            std::env::var("JEFFCOTT_REQUIRE_GPU").as_deref() != Ok("1"),
+            "JEFFCOTT_REQUIRE_GPU=1 but no f64 GPU adapter: {e}"
+        );
+        eprintln!("skipped: no Vulkan adapter with f64 ({e})");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let cpu: Vec<&str> = BASIN.to_vec();
+    let mut gpu: Vec<&str> = BASIN.to_vec();
+    let b = gpu.iter().position(|a| *a == "cpu").unwrap();
+    gpu[b] = "gpu";
+    gpu.extend(["--precision", "f64"]);
+    let reference = dir.path().join("cpu");
+    ok(&jeffcott(&args(&cpu, &reference)));
+    // Part on the GPU, killed, then finished on the GPU: the units are backend-free,
+    // and f64 lanes on lavapipe are bit-identical to the CPU's.
+    let out = dir.path().join("gpu");
+    let a = args(&gpu, &out);
+    kill_after_units(&a, &out, 3);
+    ok(&jeffcott(&a));
+    for f in ["labels.npy", "attractors.json", "x.npy", "y.npy"] {
+        assert!(
+            std::fs::read(reference.join(f)).unwrap() == std::fs::read(out.join(f)).unwrap(),
+            "{f}: GPU resumed run differs from the CPU run"
+        );
+    }
+}
+
+#[test]
+fn sigint_and_sigterm_stop_cleanly_and_print_the_command_that_resumes() {
+    for sig in ["INT", "TERM"] {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("b");
+        let a = args(BASIN, &out);
+        let child = bin()
+            .args(&a)
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let t = Instant::now();
+        while units(&out) < 2 {
+            assert!(t.elapsed() < Duration::from_secs(300));
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        let status = Command::new("kill")
+            .args([&format!("-{sig}"), &child.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(status.success());
+        let o = child.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(130), "SIG{sig}: {err}");
+        assert!(err.contains("resume with"), "{err}");
+        assert!(err.contains("basin --omega 133"), "{err}");
+        assert_eq!(state(&out), "running");
+        no_temporaries(&out);
+        let kept = units(&out);
+        assert!(kept >= 2, "committed units kept");
+        ok(&jeffcott(&a));
+        assert_eq!(state(&out), "complete");
+    }
+}
+
+#[test]
+fn a_different_specification_is_refused_and_overwrite_leaves_no_file_of_the_old_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("b");
+    let small: Vec<&str> = BASIN
+        .iter()
+        .map(|a| match *a {
+            "x_r:-0.006:0.006:24" => "x_r:-0.006:0.006:6",
+            "vx_r:-1:1:20" => "vx_r:-1:1:5",
+            a => a,
+        })
+        .collect();
+    let mut first = small.clone();
+    first.push("--lyapunov");
+    ok(&jeffcott(&args(&first, &out)));
+    assert!(out.join("lambda1.npy").exists() && out.join("basin_lambda1.png").exists());
+    std::fs::write(out.join("notes.txt"), "mine").unwrap();
+    let mut other = small.clone();
+    other[2] = "134";
+    let o = jeffcott(&args(&other, &out));
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("--overwrite") && err.contains("omega"),
+        "{err}"
+    );
+    assert!(
+        out.join("lambda1.npy").exists(),
+        "the refused run touched nothing"
+    );
+    let mut a = args(&other, &out);
+    a.push("--overwrite".into());
+    ok(&jeffcott(&a));
+    assert!(!out.join("lambda1.npy").exists(), "old lambda1.npy removed");
+    assert!(
+        !out.join("basin_lambda1.png").exists(),
+        "old picture removed"
+    );
+    assert!(
+        out.join("notes.txt").exists(),
+        "files of no run are left alone"
+    );
+    let j: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("attractors.json")).unwrap()).unwrap();
+    assert_eq!(j["omega"], 134.0);
+    // A different command into the directory is refused too.
+    let o = jeffcott(&args(
+        &[
+            "ensemble",
+            "--omega",
+            "133",
+            "--transient",
+            "1",
+            "--periods",
+            "2",
+            "--quiet",
+        ],
+        &out,
+    ));
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("`basin` run"));
+}
+
+#[test]
+fn two_concurrent_runs_into_one_directory_never_mix_their_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("b");
+    let a = args(BASIN, &out);
+    let mut other: Vec<&str> = BASIN.to_vec();
+    other[2] = "134";
+    let b = args(&other, &out);
+    let ca = bin()
+        .args(&a)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let cb = bin()
+        .args(&b)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let (oa, ob) = (
+        ca.wait_with_output().unwrap(),
+        cb.wait_with_output().unwrap(),
+    );
+    let succeeded = [&oa, &ob].iter().filter(|o| o.status.success()).count();
+    assert_eq!(succeeded, 1, "exactly one run owns the directory");
+    for o in [&oa, &ob] {
+        if !o.status.success() {
+            let err = String::from_utf8_lossy(&o.stderr);
+            assert!(
+                err.contains("another jeffcott run is writing") || err.contains("holds"),
+                "{err}"
+            );
+        }
+    }
+    assert_eq!(state(&out), "complete");
+    let j: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("attractors.json")).unwrap()).unwrap();
+    let run: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("run.json")).unwrap()).unwrap();
+    assert_eq!(j["omega"], run["spec"]["omega"], "files of one run only");
+    no_temporaries(&out);
+}
+
+#[test]
+fn an_unwritable_out_is_refused_before_any_computing() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("plain-file");
+    std::fs::write(&file, "x").unwrap();
+    let t = Instant::now();
+    let mut big: Vec<&str> = BASIN.to_vec();
+    big[4] = "x_r:-0.006:0.006:2000";
+    let o = jeffcott(&args(&big, &file));
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("plain-file") && err.contains("not a directory"),
+        "{err}"
+    );
+    assert!(
+        t.elapsed() < Duration::from_secs(20),
+        "refused before computing"
+    );
+    let o = jeffcott(&args(&big, Path::new("/proc/jeffcott-cannot-write-here")));
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("/proc/jeffcott-cannot-write-here"));
+}
+
+/// A small tmpfs (mounted here; the test runs as root in CI) fills during the run: the
+/// run fails naming the file, leaves no temporary and no truncated final file, and once
+/// space is freed the same command resumes to the uninterrupted run's files.
+#[test]
+fn a_full_disk_leaves_no_partial_file_and_the_run_resumes_after_space_is_freed() {
+    let dir = tempfile::tempdir().unwrap();
+    let reference = dir.path().join("reference");
+    ok(&jeffcott(&args(BASIN, &reference)));
+    let units_bytes: u64 = std::fs::read_dir(reference.join("units"))
+        .unwrap()
+        .flatten()
+        .map(|e| e.metadata().unwrap().len())
+        .sum();
+    let mnt = dir.path().join("mnt");
+    std::fs::create_dir(&mnt).unwrap();
+    // Room for about half of the units, none of the pictures.
+    let size = (units_bytes / 2).max(64 * 1024);
+    let mounted = Command::new("mount")
+        .args(["-t", "tmpfs", "-o", &format!("size={size}"), "tmpfs"])
+        .arg(&mnt)
+        .status()
+        .map(|s| s.success())
+        .unwrap_or(false);
+    if !mounted {
+        let root = Command::new("id")
+            .arg("-u")
+            .output()
+            .map(|o| o.stdout == b"0\n");
+        assert!(
+            std::env::var("CI").is_err() && root.as_ref().map(|r| !r).unwrap_or(true),
+            "cannot mount a tmpfs (CI runs as root and must run this test)"
+        );
+        eprintln!("skipped: not root, cannot mount a tmpfs");
+        return;
+    }
+    struct Unmount(PathBuf);
+    impl Drop for Unmount {
+        fn drop(&mut self) {
+            let _ = Command::new("umount").arg(&self.0).status();
+        }
+    }
+    let _guard = Unmount(mnt.clone());
+    let out = mnt.join("b");
+    let a = args(BASIN, &out);
+    let o = jeffcott(&a);
+    assert_eq!(o.status.code(), Some(2), "the run must fail on a full disk");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("No space left on device"), "{err}");
+    assert!(
+        err.contains(out.to_str().unwrap()),
+        "the error names the file: {err}"
+    );
+    no_temporaries(&out);
+    for f in final_files(&out) {
+        let p = out.join(&f);
+        let bytes = std::fs::read(&p).unwrap();
+        if f.extension().is_some_and(|e| e == "png") {
+            assert!(
+                bytes.ends_with(&[0xAE, 0x42, 0x60, 0x82]),
+                "{} truncated",
+                f.display()
+            );
+        }
+    }
+    assert_eq!(state(&out), "running");
+    let committed = units(&out);
+    assert!(committed > 0);
+    let status = Command::new("mount")
+        .args(["-o", "remount,size=64m"])
+        .arg(&mnt)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    ok(&jeffcott(&a));
+    assert_same_files(&reference, &out);
+}
