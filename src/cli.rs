@@ -51,8 +51,9 @@ pub enum Command {
     #[command(allow_negative_numbers = true)]
     Bifurcation(BifurcationArgs),
     /// Basin of attraction at one W over two start coordinates: labels.npy (attractor id
-    /// per cell), attractors.json, basin.png. Streams chunks, so memory stays bounded
-    /// (about 16 MB + 70 MB for 2000 x 2000 cells).
+    /// per cell), attractors.json, basin.png. Runs in work units committed to --out as
+    /// they finish (resumable), so memory stays bounded (about 16 MB + 10 MB for
+    /// 2000 x 2000 cells).
     #[command(allow_negative_numbers = true)]
     Basin(BasinArgs),
     /// Regenerate the article's figures (Figs. 3-12, plus down-sweep and brute-force
@@ -437,6 +438,8 @@ pub struct SimulateArgs {
     /// Output directory (created if missing).
     #[arg(long, value_name = "DIR", default_value = "jeffcott-out/simulate")]
     pub out: PathBuf,
+    #[command(flatten)]
+    pub run: rundir::RunArgs,
     /// Integrator: the ensemble lane stepper (crossing-located RK4, the default) or the
     /// article's variable-step RK4 (a cross-check; slower).
     #[arg(long, value_enum, default_value_t = Integrator::Lane)]
@@ -564,8 +567,37 @@ pub fn run_simulate(a: &SimulateArgs) -> Result<()> {
         ));
     }
     spec.validate()?;
+    let outputs = [
+        "poincare.npy",
+        "timeseries.npy",
+        "phase.png",
+        "summary.json",
+    ];
+    let rd = rundir::open(
+        &a.out,
+        "simulate",
+        serde_json::json!({
+            "omega": spec.omega,
+            "x0": spec.x0,
+            "transient": spec.transient,
+            "periods": spec.periods,
+            "timeseries_periods": spec.timeseries_periods,
+            "integrator": spec.integrator,
+            "stepper": spec.stepper,
+            "article": spec.article,
+            "classify": spec.classify,
+            "params": spec.params,
+        }),
+        &outputs,
+        a.run,
+        a.quiet,
+    )?;
     let res = simulate(&spec)?;
     write_simulation(&a.out, &spec, &res, !a.no_plot)?;
+    rd.finish(
+        serde_json::json!({"wall_time_s": res.elapsed.as_secs_f64()}),
+        &rundir::written(&rd, &outputs),
+    )?;
     if !a.quiet {
         println!("{}", human_summary(&spec, &res, &a.out));
     }

@@ -2,11 +2,12 @@
 //! every other coordinate fixed, each cell labelled with the id of the attractor its
 //! lane settles on (the catalogue of [`super::catalogue`]), -1 for diverged lanes.
 //!
-//! The grid is streamed in chunks of lanes: each chunk is one ensemble run, classified
-//! and matched against the catalogue so far, then dropped. Memory is bounded by the
-//! labels (4 bytes per cell) plus one chunk's records (about
-//! `chunk * (recorded * 64 + 400)` bytes, twice while a chunk is copied out), e.g. 16 MB +
-//! ~70 MB for a 2000 x 2000 grid with 64 recorded periods and the default chunk.
+//! The grid is cut into work units of lanes ([`crate::run`]): each unit is run,
+//! catalogued on its own (labels plus a partial catalogue) and committed; the assembly
+//! absorbs the partial catalogues in unit order. Memory is bounded by the labels
+//! (4 bytes per cell) plus one unit's records (about `unit * (recorded * 64 + 400)`
+//! bytes; on a GPU, one batch of units, at most 512 MB of records), e.g. 16 MB + a few MB
+//! for a 2000 x 2000 grid with 64 recorded periods.
 //! With `lyapunov` every lane also gives its largest Lyapunov exponent (the ensembles'
 //! lambda_1 variant, either backend): 8 more bytes per cell (32 MB at 2000 x 2000), and
 //! aperiodic attractors are told apart as quasiperiodic or chaotic.
@@ -188,7 +189,8 @@ pub struct BasinResult {
     /// Largest Lyapunov exponent per cell [1/s], [ny, nx] as `labels`, when computed
     /// (NaN for diverged cells).
     pub lambda1: Option<Vec<f64>>,
-    /// Backend information (wall time: the last chunk's).
+    /// Backend information (wall time: the last batch's; `None` when every unit was
+    /// already committed).
     pub info: Option<RunInfo>,
     /// Wall time [s].
     pub seconds: f64,

@@ -1,5 +1,5 @@
 //! `jeffcott basin`: basin of attraction over two initial coordinates at one W, streamed
-//! in chunks; `labels.npy`, `attractors.json`, `basin.png` and `attractors.png`.
+//! in work units committed to --out (resumable); `labels.npy`, `attractors.json`, `basin.png` and `attractors.png`.
 
 use super::rundir::{self, RunArgs};
 use super::{CatalogueArgs, ModelArgs, StepperArgs, parse_assignments};
@@ -18,9 +18,10 @@ use std::path::{Path, PathBuf};
 
 /// Arguments of `jeffcott basin`.
 ///
-/// Memory stays bounded for any grid: the labels take 4 bytes per cell and one chunk of
-/// lanes at a time is held, about chunk x (periods x 64 + 400) bytes (the default chunk
-/// keeps the records near 32 MB), so a 2000 x 2000 grid needs roughly 16 MB + 70 MB.
+/// Memory stays bounded for any grid: the labels take 4 bytes per cell and one unit of
+/// lanes at a time is held, about unit x (periods x 64 + 400) bytes (the default unit
+/// is at most 1/20 of the grid and ~25 s of CPU work), so a 2000 x 2000 grid needs
+/// roughly 16 MB + 10 MB.
 #[derive(Args, Debug)]
 pub struct BasinArgs {
     /// Rotor speed W [rad/s].

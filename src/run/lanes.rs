@@ -2,8 +2,8 @@
 //!
 //! The CPU runs one unit at a time (rayon inside it). A GPU runs batches of consecutive
 //! units as one ensemble, so dispatches stay large: the first batch is one unit, later
-//! ones are sized from the measured speed to about [`GPU_BATCH_SECONDS`] of work (and a
-//! memory cap). Lanes are independent, so a lane's result does not depend on its batch:
+//! ones are sized from the measured speed to about [`GPU_BATCH_SECONDS`] of work, at
+//! most 1/20 of the run (what a SIGKILL may lose) and a memory cap. Lanes are independent, so a lane's result does not depend on its batch:
 //! the units committed are the same whatever the batching.
 
 use super::{Cancel, ProgressFn, Unit, UnitStore};
@@ -146,7 +146,10 @@ pub fn run_units(
             res
         };
         let secs = t.elapsed().as_secs_f64().max(1e-3);
-        batch_work_target = ((bw as f64 / secs) * GPU_BATCH_SECONDS) as u64;
+        // About GPU_BATCH_SECONDS of work, and never more than 1/MIN_UNITS of the run,
+        // so a SIGKILL loses at most that much (a batch is committed as a whole).
+        batch_work_target =
+            (((bw as f64 / secs) * GPU_BATCH_SECONDS) as u64).min(total / super::MIN_UNITS as u64);
         for ((k, s), r) in batch.iter().zip(&specs).zip(split(res, &counts)) {
             let mut unit = (units.reduce)(*k, s, r)?;
             unit.key = super::dir::unit_key(units.stage, *k);
