@@ -14,11 +14,13 @@ use std::path::{Path, PathBuf};
 mod basin;
 mod bench;
 mod bifurcation;
+mod merge;
 mod reproduce;
 pub mod rundir;
 pub use basin::{BasinArgs, run_basin};
 pub use bench::{BenchArgs, run_bench};
 pub use bifurcation::{BifurcationArgs, CatalogueArgs, run_bifurcation};
+pub use merge::{MergeArgs, run_merge};
 pub mod lyapunov;
 pub use reproduce::{ReproduceArgs, run_reproduce};
 
@@ -68,6 +70,24 @@ pub enum Command {
     /// speed or over a range of speeds.
     #[command(allow_negative_numbers = true)]
     Lyapunov(lyapunov::LyapunovArgs),
+    /// Merge the shard directories of a run computed with --shard i/n (e.g. a Slurm job
+    /// array) into the files of the unsharded run, identical to the bit.
+    Merge(MergeArgs),
+}
+
+/// Runs a parsed command.
+pub fn dispatch(command: &Command) -> Result<()> {
+    match command {
+        Command::Simulate(a) => run_simulate(a),
+        Command::Ensemble(a) => run_ensemble(a),
+        Command::Bifurcation(a) => run_bifurcation(a),
+        Command::Basin(a) => run_basin(a),
+        Command::Reproduce(a) => run_reproduce(a),
+        Command::Info => run_info(),
+        Command::Bench(a) => run_bench(a),
+        Command::Lyapunov(a) => lyapunov::run_lyapunov(a),
+        Command::Merge(a) => run_merge(a),
+    }
 }
 
 /// Arguments of `jeffcott ensemble`.
@@ -105,6 +125,8 @@ pub struct EnsembleArgs {
     pub out: PathBuf,
     #[command(flatten)]
     pub run: rundir::RunArgs,
+    #[command(flatten)]
+    pub shard: rundir::ShardArgs,
     /// Also compute each lane's largest Lyapunov exponent lambda_1 [1/s] from a tangent
     /// vector renormalised every period (written to `lambda1.npy`).
     #[arg(long)]
@@ -115,7 +137,8 @@ pub struct EnsembleArgs {
 }
 
 /// Final files of an ensemble (run.json aside).
-const ENSEMBLE_OUTPUTS: &[&str] = &["poincare.npy", "status.npy", "lanes.npy", "lambda1.npy"];
+pub(crate) const ENSEMBLE_OUTPUTS: &[&str] =
+    &["poincare.npy", "status.npy", "lanes.npy", "lambda1.npy"];
 
 /// Runs `jeffcott ensemble`: lanes in work units committed to --out, then the files
 /// assembled from the units (poincare.npy streamed, one unit in memory at a time).
@@ -163,14 +186,17 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
         "unit_lanes": unit,
         "params": spec.param_sets,
     });
-    let rd = rundir::open(
+    let shard = a.shard.shard()?;
+    let rd = rundir::open_shard(
         &a.out,
         "ensemble",
         run_spec,
         ENSEMBLE_OUTPUTS,
         a.run,
+        shard,
         a.quiet,
     )?;
+    let store = rundir::store(&rd);
     let bar = crate::progress::Progress::new("ensemble", n as u64 * per_lane, per_lane, a.quiet);
     let start = std::time::Instant::now();
     let engine = crate::ensemble::Engine::new(a.backend, spec.precision)?;
@@ -198,10 +224,10 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
         }
         Ok(out)
     };
-    let cancel = crate::run::Cancel::new();
+    let cancel = rundir::cancel();
     let cb = rundir::bar_callback(&bar);
     let ran = crate::run::lanes::run_units(
-        &rd,
+        store.as_ref(),
         &engine,
         &crate::run::lanes::LaneUnits {
             stage: "ensemble",
@@ -216,6 +242,9 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
         },
     )?;
     bar.finish();
+    if shard.is_some() {
+        return rundir::finish_shard(&rd, a.quiet);
+    }
     let elapsed = start.elapsed().as_secs_f64();
     let info = ran.unwrap_or(crate::ensemble::RunInfo {
         backend: if engine.runner().is_some() {

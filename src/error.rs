@@ -76,6 +76,10 @@ pub enum Error {
         /// What it holds.
         reason: String,
     },
+    /// A shard reached the assembly: its own share is done (the command line turns this
+    /// into a finished shard directory, not an error).
+    #[error("a shard computes units only; `jeffcott merge` assembles them")]
+    NotInShard,
     /// The run was asked to stop (a signal, a cancel flag); committed units are kept.
     #[error("interrupted after {committed} of {total} work units were committed")]
     Interrupted {

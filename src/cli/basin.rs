@@ -66,6 +66,8 @@ pub struct BasinArgs {
     pub out: PathBuf,
     #[command(flatten)]
     pub run: RunArgs,
+    #[command(flatten)]
+    pub shard: rundir::ShardArgs,
     /// Also compute every cell's largest Lyapunov exponent lambda_1 (one tangent vector
     /// per lane, either backend): lambda1.npy, basin_lambda1.png, lambda_1 per attractor,
     /// and aperiodic attractors split into quasiperiodic and chaotic. Costs about 1.8x
@@ -154,7 +156,7 @@ pub fn run_basin_study(
     let total = (spec.x.n * spec.y.n) as u64 * per_lane;
     let bar = crate::progress::Progress::new("basin", total, per_lane, quiet);
     let engine = crate::ensemble::Engine::new(spec.backend, spec.precision)?;
-    let cancel = crate::run::Cancel::new();
+    let cancel = rundir::cancel();
     let cb = rundir::bar_callback(&bar);
     let ctl = crate::run::lanes::Control {
         progress: &cb,
@@ -176,8 +178,20 @@ pub fn run_json(res: &BasinResult) -> serde_json::Value {
 /// Runs `jeffcott basin`.
 pub fn run_basin(a: &BasinArgs) -> Result<()> {
     let spec = a.spec()?;
-    let rd = rundir::open(&a.out, "basin", spec.to_json(), OUTPUTS, a.run, a.quiet)?;
-    let res = run_basin_study(&spec, &rd, a.quiet)?;
+    let shard = a.shard.shard()?;
+    let rd = rundir::open_shard(
+        &a.out,
+        "basin",
+        spec.to_json(),
+        OUTPUTS,
+        a.run,
+        shard,
+        a.quiet,
+    )?;
+    let res = match run_basin_study(&spec, rundir::store(&rd).as_ref(), a.quiet) {
+        Err(Error::NotInShard) => return rundir::finish_shard(&rd, a.quiet),
+        r => r?,
+    };
     write_basin(&a.out, &spec, &res, !a.no_plot)?;
     rd.finish(run_json(&res), &rundir::written(&rd, OUTPUTS))?;
     if !a.quiet {

@@ -310,7 +310,7 @@ pub fn run_study(
 ) -> Result<BifurcationResult> {
     let per_lane = (spec.brute_transient + spec.recorded) as u64;
     let bar = crate::progress::Progress::new("bifurcation", work(spec), per_lane, quiet);
-    let cancel = crate::run::Cancel::new();
+    let cancel = super::rundir::cancel();
     let cb = super::rundir::bar_callback(&bar);
     let ctl = crate::run::lanes::Control {
         progress: &cb,

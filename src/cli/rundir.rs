@@ -3,9 +3,10 @@
 //! and the SIGINT/SIGTERM handler that stops cleanly and prints the command that resumes.
 
 use crate::error::Result;
-use crate::run::{Found, RunDir};
+use crate::run::{Found, RunDir, Shard, ShardStore, UnitStore};
 use clap::Args;
 use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Mutex, OnceLock};
 
 /// Options every resumable command takes.
@@ -17,6 +18,83 @@ pub struct RunArgs {
     /// to those of an uninterrupted run.
     #[arg(long)]
     pub overwrite: bool,
+}
+
+/// Options of the commands that can run one shard of a run spread over many machines.
+#[derive(Args, Debug, Clone, Default)]
+pub struct ShardArgs {
+    /// Compute one shard of the run: `i/n` (shard i of n, 0 <= i < n; the units whose
+    /// index is i modulo n) or `slurm` (i and n from the Slurm job array's
+    /// SLURM_ARRAY_TASK_ID, _MIN and _COUNT). Each shard writes its own --out (its units
+    /// and run.json, no final files); `jeffcott merge` turns the shard directories into
+    /// the files of the unsharded run, identical to the bit. A shard resumes like any run.
+    #[arg(long, value_name = "i/n|slurm")]
+    pub shard: Option<String>,
+}
+
+impl ShardArgs {
+    /// The shard, parsed (environment read for `slurm`).
+    pub fn shard(&self) -> Result<Option<Shard>> {
+        self.shard.as_deref().map(Shard::parse).transpose()
+    }
+}
+
+/// Set by `jeffcott merge` while it assembles shards: every unit must already be
+/// committed, so the engine computes nothing (a missing unit is an error).
+static NO_COMPUTE: AtomicBool = AtomicBool::new(false);
+
+/// Makes the commands that follow assemble only (see `NO_COMPUTE`).
+pub fn assemble_only(on: bool) {
+    NO_COMPUTE.store(on, Ordering::SeqCst);
+}
+
+/// The cancel flag a command's engine runs with: already set while merging, so a unit
+/// that no shard computed ends the run with [`crate::Error::Interrupted`].
+pub fn cancel() -> crate::run::Cancel {
+    let c = crate::run::Cancel::new();
+    if NO_COMPUTE.load(Ordering::SeqCst) {
+        c.set();
+    }
+    c
+}
+
+/// The store a command's study commits to: the directory, seen through its shard.
+pub fn store(rd: &RunDir) -> Box<dyn UnitStore + '_> {
+    match rd.shard() {
+        Some(shard) => Box::new(ShardStore { inner: rd, shard }),
+        None => Box::new(UnitStoreRef(rd)),
+    }
+}
+
+struct UnitStoreRef<'a>(&'a RunDir);
+
+impl UnitStore for UnitStoreRef<'_> {
+    fn committed(&self, stage: &str, count: usize) -> Result<Vec<bool>> {
+        self.0.committed(stage, count)
+    }
+    fn commit(&self, stage: &str, index: usize, unit: &crate::run::Unit) -> Result<()> {
+        self.0.commit(stage, index, unit)
+    }
+    fn load(&self, stage: &str, index: usize) -> Result<crate::run::Unit> {
+        self.0.load(stage, index)
+    }
+}
+
+/// Ends a shard's run: its units are committed; `run.json` says complete and lists them.
+pub fn finish_shard(rd: &RunDir, quiet: bool) -> Result<()> {
+    let keys = rd.unit_keys()?;
+    let shard = rd.shard().unwrap_or(Shard { index: 0, count: 1 });
+    rd.finish(serde_json::json!({"shard_units": keys}), &[])?;
+    if !quiet {
+        println!(
+            "shard {}/{}: {} work units committed in {}; when every shard is done: jeffcott merge --out DIR SHARD_DIR...",
+            shard.index,
+            shard.count,
+            keys.len(),
+            rd.path().display()
+        );
+    }
+    Ok(())
 }
 
 /// The shell command that resumes this run: the arguments as given, `--overwrite`
@@ -70,7 +148,21 @@ pub fn open(
     args: RunArgs,
     quiet: bool,
 ) -> Result<RunDir> {
-    let rd = RunDir::open(dir, command, spec, outputs, args.overwrite)?;
+    open_shard(dir, command, spec, outputs, args, None, quiet)
+}
+
+/// [`open`] for one shard of a run (or the whole run, `shard: None`).
+pub fn open_shard(
+    dir: &Path,
+    command: &str,
+    spec: serde_json::Value,
+    outputs: &[&str],
+    args: RunArgs,
+    shard: Option<Shard>,
+    quiet: bool,
+) -> Result<RunDir> {
+    let argv: Vec<String> = std::env::args().collect();
+    let rd = RunDir::open(dir, command, spec, outputs, args.overwrite, shard, argv)?;
     if let Ok(mut d) = RUN_DIRS.lock() {
         d.push(dir.display().to_string());
     }

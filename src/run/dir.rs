@@ -46,6 +46,8 @@ pub struct RunDir {
     dir: PathBuf,
     command: String,
     spec: serde_json::Value,
+    shard: Option<super::Shard>,
+    argv: Vec<String>,
     found: Found,
     _lock: std::fs::File,
 }
@@ -87,7 +89,9 @@ fn plain_name(name: &str) -> bool {
 
 impl RunDir {
     /// Opens `dir` for a run of `command` with specification `spec`, whose final files
-    /// are named `outputs`. Creates the directory, takes its lock, checks that files can
+    /// are named `outputs`; `shard` when it computes one shard of the run, `argv` the
+    /// command line (recorded, so `jeffcott merge` can assemble shards). Creates the
+    /// directory, takes its lock, checks that files can
     /// be written there, compares with what the directory holds (module docs), removes
     /// temporaries a killed run left, and writes `run.json` with `state: "running"`.
     pub fn open(
@@ -96,6 +100,8 @@ impl RunDir {
         spec: serde_json::Value,
         outputs: &[&str],
         overwrite: bool,
+        shard: Option<super::Shard>,
+        argv: Vec<String>,
     ) -> Result<RunDir> {
         output::ensure_dir(dir)?;
         let lock_path = dir.join(LOCK);
@@ -137,7 +143,9 @@ impl RunDir {
         let found = match &old {
             Some(o)
                 if o.get("command").and_then(|c| c.as_str()) == Some(command)
-                    && o.get("spec") == Some(&spec) =>
+                    && o.get("spec") == Some(&spec)
+                    && o.get("shard").cloned().unwrap_or(serde_json::Value::Null)
+                        == serde_json::json!(shard) =>
             {
                 match o.get("state").and_then(|s| s.as_str()) {
                     Some("complete") => Found::Complete,
@@ -151,6 +159,10 @@ impl RunDir {
             }
             Some(o) => {
                 let what = match (o.get("command").and_then(|c| c.as_str()), o.get("spec")) {
+                    (Some(c), Some(s)) if c == command && s == &spec => format!(
+                        "another shard of this `{c}` run ({})",
+                        o.get("shard").map_or("unsharded".into(), |s| s.to_string())
+                    ),
                     (Some(c), Some(s)) if c == command => format!(
                         "another `{c}` run (its specification differs in: {})",
                         differing_keys(s, &spec).join(", ")
@@ -181,6 +193,8 @@ impl RunDir {
             dir: dir.to_path_buf(),
             command: command.to_string(),
             spec,
+            shard,
+            argv,
             found,
             _lock: lock,
         };
@@ -230,6 +244,10 @@ impl RunDir {
         body.insert("state".into(), state.into());
         body.insert("command".into(), self.command.clone().into());
         body.insert("spec".into(), self.spec.clone());
+        if let Some(s) = self.shard {
+            body.insert("shard".into(), serde_json::json!(s));
+        }
+        body.insert("argv".into(), serde_json::json!(self.argv));
         body.insert("units_dir".into(), UNITS.into());
         if !outputs.is_empty() {
             body.insert("outputs".into(), serde_json::json!(outputs));
@@ -242,6 +260,28 @@ impl RunDir {
     /// The directory.
     pub fn path(&self) -> &Path {
         &self.dir
+    }
+
+    /// The shard this run computes, if any.
+    pub fn shard(&self) -> Option<super::Shard> {
+        self.shard
+    }
+
+    /// Keys of the unit files committed in the directory, sorted.
+    pub fn unit_keys(&self) -> Result<Vec<String>> {
+        let units = self.dir.join(UNITS);
+        let mut keys: Vec<String> = std::fs::read_dir(&units)
+            .map_err(io(&units))?
+            .flatten()
+            .filter_map(|e| {
+                e.file_name()
+                    .to_str()
+                    .and_then(|n| n.strip_suffix(".unit"))
+                    .map(String::from)
+            })
+            .collect();
+        keys.sort();
+        Ok(keys)
     }
 
     /// What the directory held when the run opened it.

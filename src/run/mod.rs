@@ -81,6 +81,114 @@ impl UnitStore for Prefixed<'_> {
     }
 }
 
+/// One shard of a run spread over many machines: shard `index` of `count` computes the
+/// units whose index is congruent to `index` modulo `count` (interleaved, so shards take
+/// about equal time even where the cost varies across a grid).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct Shard {
+    /// 0-based shard index.
+    pub index: usize,
+    /// Number of shards.
+    pub count: usize,
+}
+
+/// Shards at most (far more than a cluster array needs; keeps unit lists small).
+pub const MAX_SHARDS: usize = 100_000;
+
+impl Shard {
+    /// Parses `i/n` (0 <= i < n) or `slurm`: i and n from a Slurm job array's
+    /// `SLURM_ARRAY_TASK_ID - SLURM_ARRAY_TASK_MIN` and `SLURM_ARRAY_TASK_COUNT`.
+    pub fn parse(text: &str) -> Result<Shard> {
+        Self::parse_with(text, &|k| std::env::var(k).ok())
+    }
+
+    /// [`Shard::parse`] with the environment given (for tests).
+    pub fn parse_with(text: &str, env: &dyn Fn(&str) -> Option<String>) -> Result<Shard> {
+        let (i, n) = if text.trim() == "slurm" {
+            let get = |k: &str| -> Result<usize> {
+                let v = env(k).ok_or_else(|| {
+                    Error::invalid(
+                        "shard",
+                        "slurm",
+                        format!("{k} is not set: --shard slurm works inside a Slurm job array (sbatch --array=0-N), give --shard i/n elsewhere"),
+                    )
+                })?;
+                v.trim()
+                    .parse()
+                    .map_err(|_| Error::invalid("shard", format!("{k}={v}"), "not a whole number"))
+            };
+            let (id, min, count) = (
+                get("SLURM_ARRAY_TASK_ID")?,
+                get("SLURM_ARRAY_TASK_MIN")?,
+                get("SLURM_ARRAY_TASK_COUNT")?,
+            );
+            (
+                id.checked_sub(min).ok_or_else(|| {
+                    Error::invalid(
+                        "shard",
+                        id,
+                        "SLURM_ARRAY_TASK_ID below SLURM_ARRAY_TASK_MIN",
+                    )
+                })?,
+                count,
+            )
+        } else {
+            let (i, n) = text.split_once('/').ok_or_else(|| {
+                Error::invalid(
+                    "shard",
+                    text,
+                    "expected i/n (shard i of n, 0 <= i < n) or slurm",
+                )
+            })?;
+            let num = |s: &str| -> Result<usize> {
+                s.trim().parse().map_err(|_| {
+                    Error::invalid("shard", text, format!("`{s}` is not a whole number"))
+                })
+            };
+            (num(i)?, num(n)?)
+        };
+        if n == 0 || n > MAX_SHARDS || i >= n {
+            return Err(Error::invalid(
+                "shard",
+                format!("{i}/{n}"),
+                format!("need 0 <= i < n and 1 <= n <= {MAX_SHARDS}"),
+            ));
+        }
+        Ok(Shard { index: i, count: n })
+    }
+
+    /// Whether unit `u` belongs to this shard.
+    pub fn owns(&self, u: usize) -> bool {
+        u % self.count == self.index
+    }
+}
+
+/// A store seen by one shard: the units of other shards count as committed (so the
+/// engine skips them), and reading any unit is [`Error::NotInShard`]: a shard's work
+/// ends where the assembly would begin (the merge assembles).
+pub struct ShardStore<'a> {
+    /// The shard's own store (its directory).
+    pub inner: &'a dyn UnitStore,
+    /// Which shard.
+    pub shard: Shard,
+}
+
+impl UnitStore for ShardStore<'_> {
+    fn committed(&self, stage: &str, count: usize) -> Result<Vec<bool>> {
+        let mut c = self.inner.committed(stage, count)?;
+        for (u, d) in c.iter_mut().enumerate() {
+            *d |= !self.shard.owns(u);
+        }
+        Ok(c)
+    }
+    fn commit(&self, stage: &str, index: usize, unit: &Unit) -> Result<()> {
+        self.inner.commit(stage, index, unit)
+    }
+    fn load(&self, _stage: &str, _index: usize) -> Result<Unit> {
+        Err(Error::NotInShard)
+    }
+}
+
 /// Units kept in memory for the length of one call.
 #[derive(Debug, Default)]
 pub struct MemoryStore(Mutex<HashMap<String, Unit>>);
@@ -171,6 +279,41 @@ pub fn unit_count(lanes: usize, unit: usize) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn shards_parse_from_i_over_n_and_from_a_slurm_array() {
+        let none = |_: &str| None;
+        assert_eq!(
+            Shard::parse_with("2/7", &none).unwrap(),
+            Shard { index: 2, count: 7 }
+        );
+        for bad in ["7/7", "1/0", "a/3", "3", "-1/2"] {
+            assert!(Shard::parse_with(bad, &none).is_err(), "{bad}");
+        }
+        let e = Shard::parse_with("slurm", &none).unwrap_err().to_string();
+        assert!(
+            e.contains("SLURM_ARRAY_TASK_ID") && e.contains("job array"),
+            "{e}"
+        );
+        let env = |k: &str| {
+            match k {
+                "SLURM_ARRAY_TASK_ID" => Some("12"),
+                "SLURM_ARRAY_TASK_MIN" => Some("10"),
+                "SLURM_ARRAY_TASK_COUNT" => Some("4"),
+                _ => None,
+            }
+            .map(String::from)
+        };
+        assert_eq!(
+            Shard::parse_with("slurm", &env).unwrap(),
+            Shard { index: 2, count: 4 }
+        );
+        let s = Shard { index: 1, count: 3 };
+        assert_eq!(
+            (0..7).filter(|&u| s.owns(u)).collect::<Vec<_>>(),
+            vec![1, 4]
+        );
+    }
 
     #[test]
     fn units_are_at_most_a_twentieth_of_the_run_and_25_seconds_of_cpu_work() {

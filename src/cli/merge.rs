@@ -1,0 +1,289 @@
+//! `jeffcott merge`: shard directories of one run (`--shard i/n` on n machines, e.g. a
+//! Slurm job array) into the files of the unsharded run.
+//!
+//! Checks that every shard carries the same command and specification and that the
+//! shards are 0..n, each once; copies (hard-links where it can) every shard's units into
+//! `--out`; then runs the shards' own command into `--out` with computing switched off,
+//! so the files come from the one assembly code path an unsharded run takes, reading the
+//! units in unit order: the result is identical to the unsharded run's for any n and any
+//! order of the shard directories. A unit that no shard holds is an error.
+
+use super::rundir::{self, RunArgs};
+use crate::error::{Error, Result};
+use crate::run::dir::{RUN_JSON, UNITS};
+use clap::Args;
+use std::path::{Path, PathBuf};
+
+/// Arguments of `jeffcott merge`.
+#[derive(Args, Debug)]
+pub struct MergeArgs {
+    /// The shard directories (any order).
+    #[arg(value_name = "SHARD_DIR", required = true)]
+    pub shards: Vec<PathBuf>,
+    /// Output directory of the merged run (created if missing).
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    #[command(flatten)]
+    pub run: RunArgs,
+    /// Print nothing but errors.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// What a shard directory's run.json says.
+struct ShardRun {
+    dir: PathBuf,
+    command: String,
+    spec: serde_json::Value,
+    index: usize,
+    count: usize,
+    argv: Vec<String>,
+    units: Vec<String>,
+}
+
+fn read_shard(dir: &Path) -> Result<ShardRun> {
+    let path = dir.join(RUN_JSON);
+    let bad = |why: &str| Error::invalid("SHARD_DIR", dir.display(), why.to_string());
+    let bytes = std::fs::read(&path).map_err(|source| Error::Io {
+        path: path.clone(),
+        source,
+    })?;
+    let j: serde_json::Value =
+        serde_json::from_slice(&bytes).map_err(|_| bad("its run.json is not readable JSON"))?;
+    if j["state"] != "complete" {
+        return Err(bad(
+            "is an unfinished shard (run.json state is not complete): run its command again to finish it",
+        ));
+    }
+    let shard = &j["shard"];
+    let (Some(index), Some(count)) = (shard["index"].as_u64(), shard["count"].as_u64()) else {
+        return Err(bad("is not a shard directory (run.json has no shard)"));
+    };
+    let strings = |v: &serde_json::Value| -> Vec<String> {
+        v.as_array()
+            .map(|a| {
+                a.iter()
+                    .filter_map(|s| s.as_str().map(String::from))
+                    .collect()
+            })
+            .unwrap_or_default()
+    };
+    Ok(ShardRun {
+        dir: dir.to_path_buf(),
+        command: j["command"].as_str().unwrap_or_default().to_string(),
+        spec: j["spec"].clone(),
+        index: index as usize,
+        count: count as usize,
+        argv: strings(&j["argv"]),
+        units: strings(&j["shard_units"]),
+    })
+}
+
+/// The unit index of a unit key (`stage-NNNNNNN`).
+fn unit_index(key: &str) -> Option<usize> {
+    key.rsplit_once('-').and_then(|(_, n)| n.parse().ok())
+}
+
+/// The shard's command line for the merge: `--shard`, `--out` and `--overwrite` taken
+/// out, `--out` and (with `quiet`) `--quiet` put in.
+fn replay_argv(argv: &[String], out: &Path, quiet: bool) -> Vec<String> {
+    let mut v = Vec::with_capacity(argv.len() + 3);
+    let mut skip = false;
+    for a in argv {
+        if skip {
+            skip = false;
+            continue;
+        }
+        match a.as_str() {
+            "--shard" | "--out" => skip = true,
+            "--overwrite" => {}
+            s if s.starts_with("--shard=") || s.starts_with("--out=") => {}
+            _ => v.push(a.clone()),
+        }
+    }
+    v.push("--out".into());
+    v.push(out.display().to_string());
+    if quiet && !v.iter().any(|a| a == "--quiet") {
+        v.push("--quiet".into());
+    }
+    v
+}
+
+/// Places a unit file into the merged run: a hard link where the file system allows,
+/// else a copy through a temporary.
+fn place(from: &Path, to: &Path) -> Result<()> {
+    if to.exists() {
+        return Ok(());
+    }
+    if std::fs::hard_link(from, to).is_ok() {
+        return Ok(());
+    }
+    let bytes = std::fs::read(from).map_err(|source| Error::Io {
+        path: from.to_path_buf(),
+        source,
+    })?;
+    crate::output::write_atomically(to, |w| std::io::Write::write_all(w, &bytes))
+}
+
+/// Runs `jeffcott merge`.
+pub fn run_merge(a: &MergeArgs) -> Result<()> {
+    let t = std::time::Instant::now();
+    let shards: Vec<ShardRun> = a
+        .shards
+        .iter()
+        .map(|d| read_shard(d))
+        .collect::<Result<_>>()?;
+    let first = &shards[0];
+    for s in &shards[1..] {
+        if s.command != first.command || s.spec != first.spec || s.count != first.count {
+            return Err(Error::invalid(
+                "SHARD_DIR",
+                s.dir.display(),
+                format!(
+                    "is a shard of another run than {} (command, specification or shard count differ)",
+                    first.dir.display()
+                ),
+            ));
+        }
+    }
+    let n = first.count;
+    let mut by_index: Vec<Option<&ShardRun>> = vec![None; n];
+    for s in &shards {
+        if let Some(other) = by_index[s.index] {
+            return Err(Error::invalid(
+                "SHARD_DIR",
+                s.dir.display(),
+                format!(
+                    "duplicates shard {}/{n}, already given as {}",
+                    s.index,
+                    other.dir.display()
+                ),
+            ));
+        }
+        by_index[s.index] = Some(s);
+    }
+    let missing: Vec<String> = (0..n)
+        .filter(|&i| by_index[i].is_none())
+        .map(|i| i.to_string())
+        .collect();
+    if !missing.is_empty() {
+        return Err(Error::invalid(
+            "SHARD_DIR",
+            format!("{} of {n} shards given", n - missing.len()),
+            format!(
+                "shard(s) {} missing (with Slurm: sbatch --array={} the array script again)",
+                missing.join(", "),
+                missing.join(",")
+            ),
+        ));
+    }
+    for s in &shards {
+        for key in &s.units {
+            match unit_index(key) {
+                Some(u) if u % n == s.index => {}
+                _ => {
+                    return Err(Error::invalid(
+                        "SHARD_DIR",
+                        s.dir.display(),
+                        format!("holds unit {key}, which is not shard {}/{n}'s", s.index),
+                    ));
+                }
+            }
+            let f = s.dir.join(UNITS).join(format!("{key}.unit"));
+            if !f.exists() {
+                return Err(Error::invalid(
+                    "SHARD_DIR",
+                    s.dir.display(),
+                    format!("lacks unit file {} that its run.json lists", f.display()),
+                ));
+            }
+        }
+    }
+    let outputs: &[&str] = match first.command.as_str() {
+        "basin" => super::basin::OUTPUTS,
+        "ensemble" => super::ENSEMBLE_OUTPUTS,
+        c => {
+            return Err(Error::invalid(
+                "SHARD_DIR",
+                first.dir.display(),
+                format!("holds a `{c}` run, which cannot be sharded"),
+            ));
+        }
+    };
+    {
+        let rd = rundir::open(
+            &a.out,
+            &first.command,
+            first.spec.clone(),
+            outputs,
+            a.run,
+            a.quiet,
+        )?;
+        for s in &shards {
+            for key in &s.units {
+                place(
+                    &s.dir.join(UNITS).join(format!("{key}.unit")),
+                    &rd.path().join(UNITS).join(format!("{key}.unit")),
+                )?;
+            }
+        }
+        crate::output::sync_dir(&rd.path().join(UNITS));
+    } // the lock is released here; the replayed command takes it again
+    let argv = replay_argv(&first.argv, &a.out, a.quiet);
+    let cli = <super::Cli as clap::Parser>::try_parse_from(&argv).map_err(|e| {
+        Error::invalid(
+            "SHARD_DIR",
+            first.dir.display(),
+            format!("its recorded command line does not parse: {e}"),
+        )
+    })?;
+    rundir::assemble_only(true);
+    let r = super::dispatch(&cli.command);
+    rundir::assemble_only(false);
+    match r {
+        Err(Error::Interrupted { committed, total }) => Err(Error::invalid(
+            "SHARD_DIR",
+            format!("{} shards", shards.len()),
+            format!("the shards hold {committed} of the {total} work units of the run"),
+        )),
+        r => r,
+    }?;
+    if !a.quiet {
+        println!(
+            "merged {n} shards of a `{}` run into {} in {:.2} s",
+            first.command,
+            a.out.display(),
+            t.elapsed().as_secs_f64()
+        );
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_replayed_command_line_drops_shard_out_and_overwrite() {
+        let argv: Vec<String> = [
+            "jeffcott",
+            "basin",
+            "--shard",
+            "slurm",
+            "--out",
+            "s/3",
+            "--overwrite",
+            "--omega",
+            "133",
+            "--shard=1/2",
+        ]
+        .map(String::from)
+        .to_vec();
+        assert_eq!(
+            replay_argv(&argv, Path::new("m"), true),
+            [
+                "jeffcott", "basin", "--omega", "133", "--out", "m", "--quiet"
+            ]
+        );
+    }
+}

@@ -1,0 +1,307 @@
+//! Runs spread over machines: `--shard i/n` computes every n-th work unit into a shard
+//! directory, and `jeffcott merge` turns the shard directories, in any order, into the
+//! files of the unsharded run, identical to the bit. Attractors found in several shards
+//! get one id.
+
+use jeffcott::analysis::catalogue::{CatalogueBuilder, CatalogueConfig, PartAttractor};
+use jeffcott::analysis::classify::Class;
+use jeffcott::model::{STATE_DIM, State};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn jeffcott(args: &[String]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_jeffcott"))
+        .args(args)
+        .output()
+        .expect("binary runs")
+}
+
+fn ok(o: &Output) {
+    assert!(
+        o.status.success(),
+        "exit {:?}\nstderr: {}",
+        o.status.code(),
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+fn with(list: &[&str], extra: &[&str]) -> Vec<String> {
+    list.iter().chain(extra).map(|s| s.to_string()).collect()
+}
+
+fn p(path: &Path) -> &str {
+    path.to_str().unwrap()
+}
+
+const BASIN: &[&str] = &[
+    "basin",
+    "--omega",
+    "133",
+    "--x",
+    "x_r:-0.006:0.006:24",
+    "--y",
+    "vx_r:-1:1:20",
+    "--transient",
+    "60",
+    "--periods",
+    "16",
+    "--quiet",
+];
+
+fn same_files(a: &Path, b: &Path, files: &[&str]) {
+    for f in files {
+        let (x, y) = (std::fs::read(a.join(f)), std::fs::read(b.join(f)));
+        assert!(x.is_ok(), "{f} missing in {}", a.display());
+        assert!(
+            x.unwrap() == y.unwrap(),
+            "{f} differs between {} and {}",
+            a.display(),
+            b.display()
+        );
+    }
+}
+
+/// Runs `cmd` as n shards, merges them in a shuffled order, and returns the merged dir.
+fn sharded(root: &Path, cmd: &[&str], n: usize, order_seed: usize) -> PathBuf {
+    let mut dirs: Vec<PathBuf> = (0..n)
+        .map(|i| {
+            let d = root.join(format!("n{n}-shard{i}"));
+            let shard = format!("{i}/{n}");
+            ok(&jeffcott(&with(cmd, &["--shard", &shard, "--out", p(&d)])));
+            let j: serde_json::Value =
+                serde_json::from_slice(&std::fs::read(d.join("run.json")).unwrap()).unwrap();
+            assert_eq!(j["state"], "complete");
+            assert!(
+                !d.join("labels.npy").exists(),
+                "a shard writes no final file"
+            );
+            d
+        })
+        .collect();
+    dirs.rotate_left(order_seed % n);
+    dirs.reverse();
+    let out = root.join(format!("n{n}-merged"));
+    let mut a: Vec<String> = vec![
+        "merge".into(),
+        "--quiet".into(),
+        "--out".into(),
+        p(&out).into(),
+    ];
+    a.extend(dirs.iter().map(|d| p(d).to_string()));
+    ok(&jeffcott(&a));
+    out
+}
+
+const BASIN_FILES: &[&str] = &[
+    "labels.npy",
+    "x.npy",
+    "y.npy",
+    "attractors.json",
+    "basin.png",
+    "attractors.png",
+];
+
+#[test]
+fn a_basin_sharded_in_1_2_3_and_7_and_merged_in_any_order_equals_the_unsharded_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let cpu = with(BASIN, &["--backend", "cpu"]);
+    let cpu: Vec<&str> = cpu.iter().map(|s| s.as_str()).collect();
+    let reference = dir.path().join("reference");
+    ok(&jeffcott(&with(&cpu, &["--out", p(&reference)])));
+    for (k, n) in [1, 2, 3, 7].into_iter().enumerate() {
+        let merged = sharded(dir.path(), &cpu, n, k + 1);
+        same_files(&reference, &merged, BASIN_FILES);
+    }
+}
+
+#[test]
+fn a_basin_sharded_on_the_gpu_in_f64_merges_to_the_cpu_run() {
+    let req = jeffcott::gpu::DeviceRequest {
+        need_f64: true,
+        allow_software: true,
+    };
+    if let Err(e) = jeffcott::gpu::GpuDevice::new(&req) {
+        assert!(
+            std::env::var("JEFFCOTT_REQUIRE_GPU").as_deref() != Ok("1"),
+            "JEFFCOTT_REQUIRE_GPU=1 but no f64 GPU adapter: {e}"
+        );
+        eprintln!("skipped: no Vulkan adapter with f64 ({e})");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let reference = dir.path().join("reference");
+    ok(&jeffcott(&with(
+        BASIN,
+        &["--backend", "cpu", "--out", p(&reference)],
+    )));
+    let gpu = with(BASIN, &["--backend", "gpu", "--precision", "f64"]);
+    let gpu: Vec<&str> = gpu.iter().map(|s| s.as_str()).collect();
+    let merged = sharded(dir.path(), &gpu, 2, 0);
+    same_files(&reference, &merged, &["labels.npy", "attractors.json"]);
+}
+
+#[test]
+fn an_ensemble_sharded_and_merged_equals_the_unsharded_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let cmd = [
+        "ensemble",
+        "--omega",
+        "130:141:90",
+        "--transient",
+        "40",
+        "--periods",
+        "8",
+        "--lyapunov",
+        "--backend",
+        "cpu",
+        "--quiet",
+    ];
+    let reference = dir.path().join("reference");
+    ok(&jeffcott(&with(&cmd, &["--out", p(&reference)])));
+    let merged = sharded(dir.path(), &cmd, 3, 1);
+    same_files(
+        &reference,
+        &merged,
+        &["poincare.npy", "status.npy", "lanes.npy", "lambda1.npy"],
+    );
+}
+
+#[test]
+fn merge_refuses_a_missing_a_duplicated_and_a_foreign_shard() {
+    let dir = tempfile::tempdir().unwrap();
+    let small = with(BASIN, &["--backend", "cpu"]);
+    let small: Vec<String> = small
+        .into_iter()
+        .map(|a| match a.as_str() {
+            "x_r:-0.006:0.006:24" => "x_r:-0.006:0.006:6".into(),
+            "vx_r:-1:1:20" => "vx_r:-1:1:5".into(),
+            _ => a,
+        })
+        .collect();
+    let small: Vec<&str> = small.iter().map(|s| s.as_str()).collect();
+    let s = |i: usize, cmd: &[&str], tag: &str| {
+        let d = dir.path().join(format!("{tag}{i}"));
+        ok(&jeffcott(&with(
+            cmd,
+            &["--shard", &format!("{i}/3"), "--out", p(&d)],
+        )));
+        d
+    };
+    let (s0, s1, s2) = (s(0, &small, "a"), s(1, &small, "a"), s(2, &small, "a"));
+    let mut other = small.clone();
+    other[2] = "134";
+    let foreign = s(2, &other, "b");
+    let merge = |dirs: &[&PathBuf]| {
+        let out = dir.path().join("m");
+        let mut a: Vec<String> = vec!["merge".into(), "--out".into(), p(&out).into()];
+        a.extend(dirs.iter().map(|d| p(d).to_string()));
+        let o = jeffcott(&a);
+        assert_eq!(o.status.code(), Some(2));
+        assert!(!out.join("labels.npy").exists());
+        String::from_utf8_lossy(&o.stderr).to_string()
+    };
+    let e = merge(&[&s0, &s2]);
+    assert!(e.contains("shard(s) 1 missing"), "{e}");
+    let e = merge(&[&s0, &s1, &s2, &s1]);
+    assert!(e.contains("duplicates shard 1/3"), "{e}");
+    let e = merge(&[&s0, &s1, &foreign]);
+    assert!(e.contains("another run"), "{e}");
+    // A shard directory whose run is unfinished is refused too.
+    let j = s1.join("run.json");
+    let text = std::fs::read_to_string(&j)
+        .unwrap()
+        .replace("\"complete\"", "\"running\"");
+    std::fs::write(&j, text).unwrap();
+    let e = merge(&[&s0, &s1, &s2]);
+    assert!(e.contains("unfinished shard"), "{e}");
+}
+
+fn cycle(n: usize, scale: f64) -> Vec<State> {
+    (0..n)
+        .map(|k| {
+            let mut s = [0.0; STATE_DIM];
+            let a = std::f64::consts::TAU * k as f64 / n as f64;
+            s[0] = scale * a.cos();
+            s[2] = scale * a.sin();
+            s
+        })
+        .collect()
+}
+
+fn part(class: Class, points: Vec<State>, lanes: u64) -> PartAttractor {
+    let size = 2.0 * points.iter().map(|p| p[0].hypot(p[2])).fold(0.0, f64::max);
+    PartAttractor {
+        class,
+        size_m: size,
+        points,
+        lanes,
+        first_lane: 0,
+        l1_sum: 0.0,
+        l1_n: 0,
+        l1_range: None,
+    }
+}
+
+/// The identity rules across shards' partial catalogues: a cycle seen in some units
+/// only and one seen in all get one id each; an aperiodic cloud whose points are split
+/// between units (each unit saw half of the circle) is one attractor.
+#[test]
+fn attractors_found_in_some_or_all_shards_and_a_split_cloud_get_one_id_each() {
+    let mut b = CatalogueBuilder::new(133.0, CatalogueConfig::default());
+    let p5 = cycle(5, 1e-3);
+    let mut p5_shifted = p5.clone();
+    p5_shifted.rotate_left(2); // the same cycle seen from another phase
+    let p4 = cycle(4, 2e-3);
+    let cloud: Vec<State> = cycle(400, 3e-3);
+    let half_a: Vec<State> = cloud.iter().step_by(2).copied().collect();
+    let half_b: Vec<State> = cloud.iter().skip(1).step_by(2).copied().collect();
+    let units = [
+        vec![
+            part(Class::Periodic(4), p4.clone(), 3),
+            part(Class::Aperiodic, half_a, 2),
+        ],
+        vec![
+            part(Class::Periodic(5), p5.clone(), 1),
+            part(Class::Periodic(4), p4.clone(), 1),
+        ],
+        vec![
+            part(Class::Aperiodic, half_b, 4),
+            part(Class::Periodic(4), p4, 2),
+        ],
+        vec![part(Class::Periodic(5), p5_shifted, 2)],
+    ];
+    let mut ids = Vec::new();
+    for (u, parts) in units.iter().enumerate() {
+        ids.push(
+            parts
+                .iter()
+                .map(|p| b.absorb(p, 10 * u as u64))
+                .collect::<Vec<_>>(),
+        );
+        b.add_lanes(parts.iter().map(|p| p.lanes).sum(), 0);
+    }
+    let c = b.finish(Vec::new());
+    assert_eq!(
+        c.attractors.len(),
+        3,
+        "{:?}",
+        c.attractors.iter().map(|a| a.name()).collect::<Vec<_>>()
+    );
+    let p4_id = ids[0][0];
+    assert!(
+        ids[1][1] == p4_id && ids[2][1] == p4_id,
+        "the cycle in every unit: one id"
+    );
+    assert_eq!(
+        ids[1][0], ids[3][0],
+        "the cycle in two units, phase-shifted: one id"
+    );
+    assert_eq!(ids[0][1], ids[2][0], "the split cloud: one attractor");
+    let lanes: Vec<u64> = c.attractors.iter().map(|a| a.lanes).collect();
+    assert_eq!(lanes.iter().sum::<u64>(), 15);
+    assert_eq!(c.attractors[p4_id as usize].lanes, 6);
+    assert_eq!(
+        c.attractors[ids[1][0] as usize].first_lane, 10,
+        "first lane from its unit"
+    );
+}
