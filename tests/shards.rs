@@ -305,3 +305,47 @@ fn attractors_found_in_some_or_all_shards_and_a_split_cloud_get_one_id_each() {
         "first lane from its unit"
     );
 }
+
+#[test]
+fn a_brute_force_bifurcation_sharded_over_speeds_and_merged_equals_the_unsharded_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let cmd = [
+        "bifurcation",
+        "--omega",
+        "131:134:24",
+        "--ics",
+        "3",
+        "--transient",
+        "40",
+        "--transient-first",
+        "100",
+        "--brute-transient",
+        "60",
+        "--periods",
+        "16",
+        "--portraits",
+        "133",
+        "--backend",
+        "cpu",
+        "--quiet",
+    ];
+    let reference = dir.path().join("reference");
+    ok(&jeffcott(&with(&cmd, &["--out", p(&reference)])));
+    let merged = sharded(dir.path(), &cmd, 3, 2);
+    let j: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(merged.join("run.json")).unwrap()).unwrap();
+    assert_eq!(j["state"], "complete");
+    same_files(
+        &reference,
+        &merged,
+        &[
+            "omega.npy",
+            "bifurcation.npy",
+            "bifurcation_rows.npy",
+            "bifurcation_lambda1.npy",
+            "summary.json",
+            "bifurcation.png",
+            "attractors_132.9565.png",
+        ],
+    );
+}

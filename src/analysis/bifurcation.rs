@@ -413,7 +413,8 @@ pub fn bifurcation(spec: &BifurcationSpec, progress: ProgressFn) -> Result<Bifur
 }
 
 /// Runs the study unit by unit into `store`, resuming from the units it holds: the
-/// sweeps (stages `up`, `down`), the first brute-force pass (`bf1`), then the second
+/// first brute-force pass (`bf1`, independent of everything else, so it is the part a
+/// shard computes), the sweeps (stages `up`, `down`), then the second brute-force pass
 /// (`bf2`), whose seeds come from the assembled first pass and the sweeps.
 pub fn bifurcation_with(
     spec: &BifurcationSpec,
@@ -429,7 +430,24 @@ pub fn bifurcation_with(
         Some(Sweep::Both) => (true, true),
     };
     let total = work(spec);
-    let done_work = std::sync::atomic::AtomicU64::new(0);
+    let progress = |d: u64, _t: u64| (ctl.progress)(d, total);
+    let ctl_bf1 = Control {
+        progress: &progress,
+        cancel: ctl.cancel,
+    };
+    let first_pass = if spec.ics > 0 {
+        let engine = crate::ensemble::Engine::new(spec.backend, spec.precision)?;
+        let w_mid = 0.5 * (spec.omegas[0] + spec.omegas[spec.omegas.len() - 1]);
+        let common = start_states(&spec.params, spec.ics, w_mid, spec.seed);
+        let (res1, info1) =
+            brute_stage(spec, &engine, "bf1", &|_| common.clone(), store, ctl_bf1, 0)?;
+        Some((engine, common, res1, info1))
+    } else {
+        None
+    };
+    let pass1 =
+        spec.omegas.len() as u64 * spec.ics as u64 * (spec.brute_transient + spec.recorded) as u64;
+    let done_work = std::sync::atomic::AtomicU64::new(pass1);
     let rev: Vec<f64> = spec.omegas.iter().rev().copied().collect();
     let (up, down) = rayon::join(
         || {
@@ -454,14 +472,14 @@ pub fn bifurcation_with(
     let t1 = std::time::Instant::now();
     let mut brute = Vec::new();
     let mut brute_info = None;
-    if spec.ics > 0 {
+    if let Some(first) = first_pass {
         let offset = done_work.load(std::sync::atomic::Ordering::Relaxed);
         let progress = |d: u64, _t: u64| (ctl.progress)(offset + d, total);
         let ctl2 = Control {
             progress: &progress,
             cancel: ctl.cancel,
         };
-        let (b, info) = brute_force(spec, &up, &down, store, ctl2)?;
+        let (b, info) = brute_force(spec, &up, &down, first, store, ctl2)?;
         brute = b;
         brute_info = info;
     }
@@ -563,21 +581,27 @@ fn brute_stage(
     Ok((out, info))
 }
 
+/// The first brute-force pass as [`brute_force`] continues it: the engine, the common
+/// start states, the pass's lanes and how it ran.
+type FirstPass = (
+    crate::ensemble::Engine,
+    Vec<State>,
+    StageResult,
+    Option<RunInfo>,
+);
+
 fn brute_force(
     spec: &BifurcationSpec,
     up: &[SweepPoint],
     down: &[SweepPoint],
+    first: FirstPass,
     store: &dyn UnitStore,
     ctl: Control,
 ) -> Result<(Vec<BrutePoint>, Option<RunInfo>)> {
+    let (engine, common, res1, info1) = first;
     let n = spec.omegas.len();
     let k = spec.ics as usize;
     let rec = spec.recorded as usize;
-    let w_mid = 0.5 * (spec.omegas[0] + spec.omegas[n - 1]);
-    let common = start_states(&spec.params, spec.ics, w_mid, spec.seed);
-    let engine = crate::ensemble::Engine::new(spec.backend, spec.precision)?;
-    let (res1, info1) = brute_stage(spec, &engine, "bf1", &|_| common.clone(), store, ctl, 0)?;
-    let pass1 = (n * k) as u64 * (spec.brute_transient + spec.recorded) as u64;
     let lane_len = rec * STATE_DIM;
     // First-pass catalogues, to know what to seed from.
     let mut builders: Vec<CatalogueBuilder> = Vec::with_capacity(n);
@@ -626,15 +650,7 @@ fn brute_force(
     let (res2, info2) = if seeds.iter().all(|s| s.is_empty()) {
         (None, None)
     } else {
-        let (r, i) = brute_stage(
-            spec,
-            &engine,
-            "bf2",
-            &|wi| seeds[wi].clone(),
-            store,
-            ctl,
-            pass1,
-        )?;
+        let (r, i) = brute_stage(spec, &engine, "bf2", &|wi| seeds[wi].clone(), store, ctl, 0)?;
         (Some(r), i)
     };
     let mut out = Vec::with_capacity(n);

@@ -112,6 +112,11 @@ pub struct BifurcationArgs {
     pub out: PathBuf,
     #[command(flatten)]
     pub run: super::rundir::RunArgs,
+    /// Compute one shard of the first brute-force pass (`i/n` or `slurm`, as for
+    /// `basin`); `jeffcott merge` then runs the sweeps and the seeded second pass, which
+    /// need the whole first pass.
+    #[command(flatten)]
+    pub shard: super::rundir::ShardArgs,
     /// Speeds at which to draw phase portraits of the attractors found there (the nearest
     /// speed of the grid), e.g. `--portraits 133,135`: `attractors_W.png`, coexisting
     /// attractors overlaid (from the brute force, or the sweeps with --ics 0).
@@ -194,15 +199,27 @@ impl BifurcationArgs {
 pub fn run_bifurcation(a: &BifurcationArgs) -> Result<()> {
     let coords = parse_coords("coord", &a.coord)?;
     let spec = a.spec()?;
-    let rd = super::rundir::open(
+    let shard = a.shard.shard()?;
+    if shard.is_some() && spec.ics == 0 {
+        return Err(Error::invalid(
+            "shard",
+            a.shard.shard.as_deref().unwrap_or_default(),
+            "only the brute force is sharded: give --ics >= 1",
+        ));
+    }
+    let rd = super::rundir::open_shard(
         &a.out,
         "bifurcation",
         spec.to_json(),
         OUTPUTS,
         a.run,
+        shard,
         a.quiet,
     )?;
-    let res = run_study(&spec, &rd, a.quiet)?;
+    let res = match run_study(&spec, super::rundir::store(&rd).as_ref(), a.quiet) {
+        Err(Error::NotInShard) => return super::rundir::finish_shard(&rd, a.quiet),
+        r => r?,
+    };
     write_bifurcation(&a.out, &spec, &res, &coords, !a.no_plot)?;
     let mut outputs = super::rundir::written(&rd, OUTPUTS);
     for &w in &a.portraits {

@@ -3,10 +3,12 @@
 //!
 //! Checks that every shard carries the same command and specification and that the
 //! shards are 0..n, each once; copies (hard-links where it can) every shard's units into
-//! `--out`; then runs the shards' own command into `--out` with computing switched off,
-//! so the files come from the one assembly code path an unsharded run takes, reading the
-//! units in unit order: the result is identical to the unsharded run's for any n and any
-//! order of the shard directories. A unit that no shard holds is an error.
+//! `--out`; then runs the shards' own command into `--out`, where every unit of the
+//! stages the shards computed must be present (a missing one is an error, never computed
+//! here), so the files come from the one assembly code path an unsharded run takes,
+//! reading the units in unit order: the result is identical to the unsharded run's for
+//! any n and any order of the shard directories. A bifurcation's quasistatic sweeps and
+//! its seeded second brute-force pass need the whole first pass: the merge computes them.
 
 use super::rundir::{self, RunArgs};
 use crate::error::{Error, Result};
@@ -39,6 +41,7 @@ struct ShardRun {
     count: usize,
     argv: Vec<String>,
     units: Vec<String>,
+    stages: Vec<String>,
 }
 
 fn read_shard(dir: &Path) -> Result<ShardRun> {
@@ -76,6 +79,7 @@ fn read_shard(dir: &Path) -> Result<ShardRun> {
         count: count as usize,
         argv: strings(&j["argv"]),
         units: strings(&j["shard_units"]),
+        stages: strings(&j["shard_stages"]),
     })
 }
 
@@ -202,6 +206,7 @@ pub fn run_merge(a: &MergeArgs) -> Result<()> {
     let outputs: &[&str] = match first.command.as_str() {
         "basin" => super::basin::OUTPUTS,
         "ensemble" => super::ENSEMBLE_OUTPUTS,
+        "bifurcation" => super::bifurcation::OUTPUTS,
         c => {
             return Err(Error::invalid(
                 "SHARD_DIR",
@@ -237,17 +242,13 @@ pub fn run_merge(a: &MergeArgs) -> Result<()> {
             format!("its recorded command line does not parse: {e}"),
         )
     })?;
-    rundir::assemble_only(true);
+    let mut stages: Vec<String> = shards.iter().flat_map(|s| s.stages.clone()).collect();
+    stages.sort();
+    stages.dedup();
+    rundir::merging(Some(stages));
     let r = super::dispatch(&cli.command);
-    rundir::assemble_only(false);
-    match r {
-        Err(Error::Interrupted { committed, total }) => Err(Error::invalid(
-            "SHARD_DIR",
-            format!("{} shards", shards.len()),
-            format!("the shards hold {committed} of the {total} work units of the run"),
-        )),
-        r => r,
-    }?;
+    rundir::merging(None);
+    r?;
     if !a.quiet {
         println!(
             "merged {n} shards of a `{}` run into {} in {:.2} s",

@@ -6,7 +6,6 @@ use crate::error::Result;
 use crate::run::{Found, RunDir, Shard, ShardStore, UnitStore};
 use clap::Args;
 use std::path::Path;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Mutex, OnceLock};
 
 /// Options every resumable command takes.
@@ -39,36 +38,41 @@ impl ShardArgs {
     }
 }
 
-/// Set by `jeffcott merge` while it assembles shards: every unit must already be
-/// committed, so the engine computes nothing (a missing unit is an error).
-static NO_COMPUTE: AtomicBool = AtomicBool::new(false);
+/// The stages whose units came from shards, while `jeffcott merge` assembles: their
+/// units must all be there (a missing one is an error, never computed on the merge
+/// node). Other stages of the study (a bifurcation's sweeps and seeded second pass,
+/// which need the whole first pass) are computed by the merge.
+static MERGE_STAGES: Mutex<Option<Vec<String>>> = Mutex::new(None);
 
-/// Makes the commands that follow assemble only (see `NO_COMPUTE`).
-pub fn assemble_only(on: bool) {
-    NO_COMPUTE.store(on, Ordering::SeqCst);
+/// The stages a shard's study asked the store about (recorded in its run.json).
+static SHARD_STAGES: Mutex<Vec<String>> = Mutex::new(Vec::new());
+
+/// Sets (or with `None` clears) the stages of the shards being merged.
+pub fn merging(stages: Option<Vec<String>>) {
+    if let Ok(mut m) = MERGE_STAGES.lock() {
+        *m = stages;
+    }
 }
 
-/// The cancel flag a command's engine runs with: already set while merging, so a unit
-/// that no shard computed ends the run with [`crate::Error::Interrupted`].
+/// The cancel flag a command's engine runs with.
 pub fn cancel() -> crate::run::Cancel {
-    let c = crate::run::Cancel::new();
-    if NO_COMPUTE.load(Ordering::SeqCst) {
-        c.set();
-    }
-    c
+    crate::run::Cancel::new()
 }
 
-/// The store a command's study commits to: the directory, seen through its shard.
+/// The store a command's study commits to: the directory, seen through its shard, or
+/// while merging, checked for the shards' stages.
 pub fn store(rd: &RunDir) -> Box<dyn UnitStore + '_> {
-    match rd.shard() {
-        Some(shard) => Box::new(ShardStore { inner: rd, shard }),
-        None => Box::new(UnitStoreRef(rd)),
+    let merge = MERGE_STAGES.lock().ok().and_then(|m| m.clone());
+    match (rd.shard(), merge) {
+        (Some(shard), _) => Box::new(Recording(ShardStore { inner: rd, shard })),
+        (None, Some(stages)) => Box::new(Merged { rd, stages }),
+        (None, None) => Box::new(Plain(rd)),
     }
 }
 
-struct UnitStoreRef<'a>(&'a RunDir);
+struct Plain<'a>(&'a RunDir);
 
-impl UnitStore for UnitStoreRef<'_> {
+impl UnitStore for Plain<'_> {
     fn committed(&self, stage: &str, count: usize) -> Result<Vec<bool>> {
         self.0.committed(stage, count)
     }
@@ -80,11 +84,66 @@ impl UnitStore for UnitStoreRef<'_> {
     }
 }
 
+/// A shard's store that remembers which stages its study used.
+struct Recording<'a>(ShardStore<'a>);
+
+impl UnitStore for Recording<'_> {
+    fn committed(&self, stage: &str, count: usize) -> Result<Vec<bool>> {
+        if let Ok(mut s) = SHARD_STAGES.lock()
+            && !s.iter().any(|x| x == stage)
+        {
+            s.push(stage.to_string());
+        }
+        self.0.committed(stage, count)
+    }
+    fn commit(&self, stage: &str, index: usize, unit: &crate::run::Unit) -> Result<()> {
+        self.0.commit(stage, index, unit)
+    }
+    fn load(&self, stage: &str, index: usize) -> Result<crate::run::Unit> {
+        self.0.load(stage, index)
+    }
+}
+
+/// The merged run's store: the shards' stages must be complete.
+struct Merged<'a> {
+    rd: &'a RunDir,
+    stages: Vec<String>,
+}
+
+impl UnitStore for Merged<'_> {
+    fn committed(&self, stage: &str, count: usize) -> Result<Vec<bool>> {
+        let c = self.rd.committed(stage, count)?;
+        if self.stages.iter().any(|s| s == stage)
+            && let Some(u) = c.iter().position(|d| !d)
+        {
+            return Err(crate::Error::invalid(
+                "SHARD_DIR",
+                crate::run::dir::unit_key(stage, u),
+                format!(
+                    "no shard holds this unit ({} of {count} units of stage {stage} present); finish or rerun the shard that owns it",
+                    c.iter().filter(|d| **d).count()
+                ),
+            ));
+        }
+        Ok(c)
+    }
+    fn commit(&self, stage: &str, index: usize, unit: &crate::run::Unit) -> Result<()> {
+        self.rd.commit(stage, index, unit)
+    }
+    fn load(&self, stage: &str, index: usize) -> Result<crate::run::Unit> {
+        self.rd.load(stage, index)
+    }
+}
+
 /// Ends a shard's run: its units are committed; `run.json` says complete and lists them.
 pub fn finish_shard(rd: &RunDir, quiet: bool) -> Result<()> {
     let keys = rd.unit_keys()?;
     let shard = rd.shard().unwrap_or(Shard { index: 0, count: 1 });
-    rd.finish(serde_json::json!({"shard_units": keys}), &[])?;
+    let stages = SHARD_STAGES.lock().map(|s| s.clone()).unwrap_or_default();
+    rd.finish(
+        serde_json::json!({"shard_units": keys, "shard_stages": stages}),
+        &[],
+    )?;
     if !quiet {
         println!(
             "shard {}/{}: {} work units committed in {}; when every shard is done: jeffcott merge --out DIR SHARD_DIR...",
