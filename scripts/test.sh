@@ -1,5 +1,9 @@
 #!/usr/bin/env bash
-# Runs jeffcott's test suite in release mode (the physics tests integrate many periods).
+# Runs jeffcott's test suite in release mode (the physics tests integrate many periods),
+# then the real-Slurm test of the cluster recipe (scripts/slurm-test.sh: a single-node
+# Slurm started by hand, a 4-task array job and its merge; it needs root and installs
+# slurm-wlm when absent; JEFFCOTT_REQUIRE_SLURM=1 makes a Slurm that cannot start fail
+# instead of skip, as in CI).
 # GPU tests need a Vulkan adapter: when no Vulkan driver is installed, this installs
 # Mesa's software driver lavapipe (Debian package mesa-vulkan-drivers) first, so the
 # kernel runs for real on the CPU. Set JEFFCOTT_REQUIRE_GPU=1 to make a missing adapter
@@ -20,3 +24,4 @@ if ! has_icd /usr/share/vulkan/icd.d && ! has_icd /etc/vulkan/icd.d; then
 fi
 
 cargo test --release "$@"
+bash scripts/slurm-test.sh target/release/jeffcott
