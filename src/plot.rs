@@ -39,6 +39,19 @@ where
         .map_err(|e| e.to_string())
 }
 
+/// Draws a `size` picture in memory with `draw` and writes it as PNG through a
+/// temporary renamed into place ([`crate::output::write_png`]), so a picture under its
+/// final name is always whole and an I/O error names the file.
+pub(crate) fn render_png(
+    path: &Path,
+    size: (u32, u32),
+    draw: impl for<'b> FnOnce(DrawingArea<BitMapBackend<'b>, plotters::coord::Shift>) -> Result<()>,
+) -> Result<()> {
+    let mut buf = vec![0u8; size.0 as usize * size.1 as usize * 3];
+    draw(BitMapBackend::with_buffer(&mut buf, size).into_drawing_area())?;
+    crate::output::write_png(path, size, &buf)
+}
+
 fn plot_err(path: &Path) -> impl Fn(String) -> Error + '_ {
     move |message| Error::Plot {
         path: path.to_path_buf(),
@@ -119,10 +132,7 @@ pub fn phase_portraits(
             y_label: "y_s [mm]",
         },
     ];
-    let size: (u32, u32) = (1400, 1150);
-    let mut buf = vec![0u8; size.0 as usize * size.1 as usize * 3];
-    {
-        let root = BitMapBackend::with_buffer(&mut buf, size).into_drawing_area();
+    crate::plot::render_png(path, (1400, 1150), |root| {
         root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
         let root = root
             .titled(title, ("sans-serif", 26))
@@ -168,9 +178,8 @@ pub fn phase_portraits(
                 .legend(|(x, y)| Circle::new((x + 9, y), 4, RED.filled()));
             legend(&mut chart, SeriesLabelPosition::MiddleRight, 14).map_err(&err)?;
         }
-        root.present().map_err(|e| err(e.to_string()))?;
-    }
-    crate::output::write_png(path, size, &buf)
+        root.present().map_err(|e| err(e.to_string()))
+    })
 }
 
 /// A palette of distinguishable colours for attractor ids (cycled beyond its length).
@@ -254,10 +263,7 @@ pub fn bifurcation_diagram(
         .any(|s| s.points.iter().any(|p| p.1.is_finite()));
     let l1_h = if l1 { 380 } else { 0 };
     let h = 120 + 620 * coords.len().max(1) as u32 + l1_h;
-    let size: (u32, u32) = (1800, h);
-    let mut buf = vec![0u8; size.0 as usize * size.1 as usize * 3];
-    {
-        let root = BitMapBackend::with_buffer(&mut buf, size).into_drawing_area();
+    crate::plot::render_png(path, (1800, h), |root| {
         root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
         let root = root
             .titled(title, ("sans-serif", 26))
@@ -319,9 +325,8 @@ pub fn bifurcation_diagram(
             }
             legend(&mut chart, SeriesLabelPosition::UpperLeft, 16).map_err(&err)?;
         }
-        root.present().map_err(|e| err(e.to_string()))?;
-    }
-    crate::output::write_png(path, size, &buf)
+        root.present().map_err(|e| err(e.to_string()))
+    })
 }
 
 /// The lambda_1 panel of [`bifurcation_diagram`].
@@ -479,10 +484,7 @@ fn grid_map(
     let err = plot_err(path);
     let (nx, ny) = grid.cells;
     let (x_range, y_range) = (grid.x_range, grid.y_range);
-    let size: (u32, u32) = (1300, 1100);
-    let mut buf = vec![0u8; size.0 as usize * size.1 as usize * 3];
-    {
-        let root = BitMapBackend::with_buffer(&mut buf, size).into_drawing_area();
+    crate::plot::render_png(path, (1300, 1100), |root| {
         root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
         let root = root
             .titled(title, ("sans-serif", 24))
@@ -523,9 +525,8 @@ fn grid_map(
             .draw_series(std::iter::once(img))
             .map_err(|e| err(e.to_string()))?;
         side(&side_area).map_err(&err)?;
-        root.present().map_err(|e| err(e.to_string()))?;
-    }
-    crate::output::write_png(path, size, &buf)
+        root.present().map_err(|e| err(e.to_string()))
+    })
 }
 
 /// Colour of lambda_1 `v` on a diverging scale: blue for negative (full at `lo`), white at
@@ -652,10 +653,7 @@ pub fn coexisting_attractors(path: &Path, title: &str, traces: &[AttractorTrace]
         (X_S, VX_S, "stator phase portrait"),
         (X_S, Y_S, "stator orbit"),
     ];
-    let size: (u32, u32) = (1400, 1150);
-    let mut buf = vec![0u8; size.0 as usize * size.1 as usize * 3];
-    {
-        let root = BitMapBackend::with_buffer(&mut buf, size).into_drawing_area();
+    crate::plot::render_png(path, (1400, 1150), |root| {
         root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
         let root = root
             .titled(title, ("sans-serif", 26))
@@ -713,9 +711,8 @@ pub fn coexisting_attractors(path: &Path, title: &str, traces: &[AttractorTrace]
             }
             legend(&mut chart, SeriesLabelPosition::MiddleRight, 14).map_err(&err)?;
         }
-        root.present().map_err(|e| err(e.to_string()))?;
-    }
-    crate::output::write_png(path, size, &buf)
+        root.present().map_err(|e| err(e.to_string()))
+    })
 }
 
 /// Draws Poincare sections: one panel per (x, y) component pair, every point a small dot.
@@ -732,10 +729,7 @@ pub fn poincare_sections(
     let err = plot_err(path);
     let cols = panels.len().clamp(1, 2);
     let rows = panels.len().div_ceil(2).max(1);
-    let size: (u32, u32) = (700 * cols as u32, 80 + 620 * rows as u32);
-    let mut buf = vec![0u8; size.0 as usize * size.1 as usize * 3];
-    {
-        let root = BitMapBackend::with_buffer(&mut buf, size).into_drawing_area();
+    crate::plot::render_png(path, (700 * cols as u32, 80 + 620 * rows as u32), |root| {
         root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
         let root = root
             .titled(title, ("sans-serif", 24))
@@ -793,7 +787,6 @@ pub fn poincare_sections(
                 )
                 .map_err(|e| err(e.to_string()))?;
         }
-        root.present().map_err(|e| err(e.to_string()))?;
-    }
-    crate::output::write_png(path, size, &buf)
+        root.present().map_err(|e| err(e.to_string()))
+    })
 }

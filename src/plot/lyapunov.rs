@@ -17,10 +17,7 @@ fn colour(i: usize) -> RGBColor {
 pub fn convergence(path: &Path, title: &str, history: &[(f64, [f64; STATE_DIM])]) -> Result<()> {
     register_font();
     let err = plot_err(path);
-    let size: (u32, u32) = (1200, 800);
-    let mut buf = vec![0u8; size.0 as usize * size.1 as usize * 3];
-    {
-        let root = BitMapBackend::with_buffer(&mut buf, size).into_drawing_area();
+    crate::plot::render_png(path, (1200, 800), |root| {
         root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
         let xr = padded_range(history.iter().map(|h| h.0).chain([0.0]));
         // Skip the first tenth for the vertical range: the earliest estimates swing widely.
@@ -66,9 +63,8 @@ pub fn convergence(path: &Path, title: &str, history: &[(f64, [f64; STATE_DIM])]
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], c));
         }
         super::legend(&mut chart, SeriesLabelPosition::MiddleRight, 14).map_err(&err)?;
-        root.present().map_err(|e| err(e.to_string()))?;
-    }
-    crate::output::write_png(path, size, &buf)
+        root.present().map_err(|e| err(e.to_string()))
+    })
 }
 
 /// The eight exponents against the rotor speed W, with the zero line marked.
@@ -80,10 +76,7 @@ pub fn spectrum_vs_omega(
 ) -> Result<()> {
     register_font();
     let err = plot_err(path);
-    let size: (u32, u32) = (1200, 800);
-    let mut buf = vec![0u8; size.0 as usize * size.1 as usize * 3];
-    {
-        let root = BitMapBackend::with_buffer(&mut buf, size).into_drawing_area();
+    crate::plot::render_png(path, (1200, 800), |root| {
         root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
         let xr = padded_range(omegas.iter().copied());
         let yr = padded_range(exponents.iter().flatten().copied().chain([0.0]));
@@ -128,7 +121,6 @@ pub fn spectrum_vs_omega(
                 .legend(move |(x, y)| Circle::new((x + 9, y), 4, c.filled()));
         }
         super::legend(&mut chart, SeriesLabelPosition::MiddleRight, 14).map_err(&err)?;
-        root.present().map_err(|e| err(e.to_string()))?;
-    }
-    crate::output::write_png(path, size, &buf)
+        root.present().map_err(|e| err(e.to_string()))
+    })
 }
