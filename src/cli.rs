@@ -233,6 +233,7 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
             stage: "ensemble",
             count,
             ensemble: &ensemble,
+            lanes: &|u| unit.min(n - u * unit),
             lambda1: a.lyapunov,
             reduce: &reduce,
         },

@@ -305,6 +305,7 @@ pub fn basin_with(
             stage: STAGE,
             count,
             ensemble: &ensemble,
+            lanes: &|u| per_unit.min(cells - u * per_unit),
             lambda1: spec.lyapunov,
             reduce: &reduce,
         },

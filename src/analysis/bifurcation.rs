@@ -553,6 +553,11 @@ fn brute_stage(
             stage,
             count,
             ensemble: &ensemble,
+            lanes: &|u| {
+                (u * per..((u + 1) * per).min(n))
+                    .map(|wi| lanes_of(wi).len())
+                    .sum()
+            },
             lambda1: spec.lyapunov,
             reduce: &reduce,
         },

@@ -24,8 +24,11 @@ pub struct LaneUnits<'a> {
     pub stage: &'a str,
     /// Number of units.
     pub count: usize,
-    /// The ensemble of unit `i` (deterministic).
+    /// The ensemble of unit `i` (deterministic; every unit with the same transient and
+    /// recorded periods).
     pub ensemble: &'a (dyn Fn(usize) -> EnsembleSpec + Sync),
+    /// The number of lanes of unit `i` (without building its ensemble).
+    pub lanes: &'a (dyn Fn(usize) -> usize + Sync),
     /// Run the lambda_1 variant.
     pub lambda1: bool,
     /// Turns unit `i`'s ensemble and result into what is committed (its key is set by
@@ -87,13 +90,15 @@ pub fn run_units(
     ctl: Control,
 ) -> Result<Option<RunInfo>> {
     let done = store.committed(units.stage, units.count)?;
-    let specs_lanes: Vec<(usize, u64)> = (0..units.count)
-        .map(|i| {
-            let e = (units.ensemble)(i);
-            (e.lanes.len(), (e.transient + e.recorded) as u64)
-        })
-        .collect();
-    let work = |i: usize| specs_lanes[i].0 as u64 * specs_lanes[i].1;
+    if units.count == 0 {
+        return Ok(None);
+    }
+    let probe = (units.ensemble)(0);
+    let per_lane = (probe.transient + probe.recorded) as u64;
+    let record_bytes = probe.recorded as usize * STATE_DIM * 8;
+    drop(probe);
+    let lanes_of: Vec<usize> = (0..units.count).map(units.lanes).collect();
+    let work = |i: usize| lanes_of[i] as u64 * per_lane;
     let total: u64 = (0..units.count).map(work).sum();
     let mut base: u64 = (0..units.count).filter(|&i| done[i]).map(work).sum();
     (ctl.progress)(base, total);
@@ -113,15 +118,15 @@ pub fn run_units(
         // Consecutive pending units up to the batch target (at least one).
         let mut batch = vec![pending[next]];
         let mut bw = work(pending[next]);
-        let mut lanes = specs_lanes[pending[next]].0;
+        let mut lanes = lanes_of[pending[next]];
         while gpu && next + batch.len() < pending.len() {
             let j = pending[next + batch.len()];
-            let rec_bytes = (lanes + specs_lanes[j].0) * specs_lanes[j].1 as usize * 8;
+            let rec_bytes = (lanes + lanes_of[j]) * record_bytes;
             if bw + work(j) > batch_work_target || rec_bytes > GPU_BATCH_RECORD_BYTES {
                 break;
             }
             bw += work(j);
-            lanes += specs_lanes[j].0;
+            lanes += lanes_of[j];
             batch.push(j);
         }
         let specs: Vec<EnsembleSpec> = batch.iter().map(|&i| (units.ensemble)(i)).collect();
