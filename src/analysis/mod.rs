@@ -4,3 +4,4 @@ pub mod basin;
 pub mod bifurcation;
 pub mod catalogue;
 pub mod classify;
+pub mod measures;
