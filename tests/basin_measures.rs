@@ -577,3 +577,54 @@ fn measures_of_a_2000_by_2000_grid_run_in_linear_passes() {
     assert_eq!(c.uncertainty.points.len(), n / 20);
     assert_eq!(c.kind, BoundaryKind::Fractal);
 }
+
+/// `jeffcott basin` writes basin_metrics.json (fractions summing to 1, the entropy box
+/// used) and prints the measures; a bad --entropy-box is refused naming the range.
+#[test]
+fn the_basin_command_writes_and_prints_the_measures() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("b");
+    let run = |extra: &[&str]| {
+        let mut a = vec![
+            "basin",
+            "--omega",
+            "133",
+            "--x",
+            "x_r:-0.006:0.006:12",
+            "--y",
+            "vx_r:-1:1:10",
+            "--transient",
+            "60",
+            "--periods",
+            "16",
+            "--backend",
+            "cpu",
+            "--no-plot",
+            "--overwrite",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        a.extend_from_slice(extra);
+        std::process::Command::new(env!("CARGO_BIN_EXE_jeffcott"))
+            .args(&a)
+            .output()
+            .unwrap()
+    };
+    let o = run(&[]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("Basin measures"));
+    let m: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("basin_metrics.json")).unwrap()).unwrap();
+    assert_eq!(m["entropy"]["eps"], 5);
+    let total: f64 = m["fractions"]["basins"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|b| b["fraction"].as_f64().unwrap())
+        .sum();
+    assert!((total - 1.0).abs() < 1e-12, "{total}");
+    let o = run(&["--entropy-box", "11"]);
+    assert_eq!(o.status.code(), Some(2));
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(e.contains("entropy-box") && e.contains("1..=10"), "{e}");
+}

@@ -1070,6 +1070,96 @@ pub fn classify_boundary(grid: &LabelGrid, eps: usize) -> Result<BoundaryClassif
     Ok(classify_measures(&entropy, &uncertainty, Some(&boxes)))
 }
 
+/// Every measure of one basin, as `basin_metrics.json` holds them: the fractions, the
+/// basin entropies at box `eps`, the uncertainty exponent, the boundary's box-counting
+/// dimension, the Wada merge test (with 3 or more basins) and the smooth/fractal verdict.
+/// A measure the grid is too small for is `None` with the reason in `notes`.
+#[derive(Clone, Debug, Serialize)]
+pub struct BasinMetrics {
+    /// Fractions and their errors.
+    pub fractions: BasinFractions,
+    /// S_b and S_bb, when the grid holds at least one box of `eps` cells.
+    pub entropy: Option<BasinEntropy>,
+    /// alpha (and D = 2 - alpha) by the uncertain fraction on the grid.
+    pub uncertainty: UncertaintyExponent,
+    /// Box-counting dimension of the boundary.
+    pub box_counting: BoxCountingDimension,
+    /// The Wada merge test.
+    pub wada: Option<WadaTest>,
+    /// Smooth or fractal, with the criteria that fired.
+    pub boundary: Option<BoundaryClassification>,
+    /// Why a measure is missing.
+    pub notes: Vec<String>,
+}
+
+/// Computes [`BasinMetrics`] of an `[ny, nx]` label grid with entropy boxes of `eps`.
+pub fn basin_metrics(labels: &[i32], nx: usize, ny: usize, eps: usize) -> Result<BasinMetrics> {
+    let grid = LabelGrid::new(labels, nx, ny)?;
+    let mut notes = Vec::new();
+    let entropy = match basin_entropy(&grid, eps) {
+        Ok(e) => Some(e),
+        Err(e) => {
+            notes.push(format!("basin entropy: {e}"));
+            None
+        }
+    };
+    let uncertainty = uncertainty_exponent(&grid);
+    let box_counting = boundary_box_dimension(&grid);
+    let wada = match wada_merge_test(&grid, &WadaOptions::default()) {
+        Ok(w) => Some(w),
+        Err(e) => {
+            notes.push(format!("Wada test: {e}"));
+            None
+        }
+    };
+    let boundary = entropy
+        .as_ref()
+        .map(|e| classify_measures(e, &uncertainty, Some(&box_counting)));
+    Ok(BasinMetrics {
+        fractions: basin_fractions(&grid),
+        entropy,
+        uncertainty,
+        box_counting,
+        wada,
+        boundary,
+        notes,
+    })
+}
+
+impl BasinMetrics {
+    /// One line for a summary: S_b, S_bb, alpha, D, Wada, the verdict.
+    pub fn summary(&self) -> String {
+        let mut parts = Vec::new();
+        if let Some(e) = &self.entropy {
+            parts.push(format!("S_b = {:.4}", e.s_b));
+            if let Some(sbb) = e.s_bb {
+                parts.push(format!(
+                    "S_bb = {sbb:.4}{} (box {} cells)",
+                    if e.fractal_by_sbb { " > ln 2" } else { "" },
+                    e.eps
+                ));
+            }
+        }
+        if let Some(fit) = &self.uncertainty.fit {
+            parts.push(format!(
+                "alpha = {:.3} +- {:.3}, D = {:.3}",
+                fit.slope, fit.slope_std_error, fit.dimension
+            ));
+        }
+        if let Some(w) = self.wada.as_ref().filter(|w| w.applicable) {
+            parts.push(if w.wada {
+                "Wada".into()
+            } else {
+                "not Wada".into()
+            });
+        }
+        if let Some(b) = &self.boundary {
+            parts.push(format!("boundary {:?}", b.kind).to_lowercase());
+        }
+        parts.join(", ")
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

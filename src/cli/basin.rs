@@ -74,6 +74,11 @@ pub struct BasinArgs {
     /// the run time on the CPU (see docs/analysis.md).
     #[arg(long)]
     pub lyapunov: bool,
+    /// Side of the boxes of the basin entropy, in cells (basin_metrics.json; Daza et al.
+    /// 2016) [default: 5, or the grid's shorter side if smaller; the value used is in
+    /// basin_metrics.json as entropy.eps].
+    #[arg(long, value_name = "CELLS")]
+    pub entropy_box: Option<usize>,
     /// Skip basin.png, basin_lambda1.png and attractors.png.
     #[arg(long)]
     pub no_plot: bool,
@@ -141,6 +146,7 @@ pub const OUTPUTS: &[&str] = &[
     "x.npy",
     "y.npy",
     "attractors.json",
+    "basin_metrics.json",
     "basin.png",
     "basin_lambda1.png",
     "attractors.png",
@@ -178,6 +184,17 @@ pub fn run_json(res: &BasinResult) -> serde_json::Value {
 /// Runs `jeffcott basin`.
 pub fn run_basin(a: &BasinArgs) -> Result<()> {
     let spec = a.spec()?;
+    let short = spec.x.n.min(spec.y.n);
+    let entropy_box = a
+        .entropy_box
+        .unwrap_or(crate::analysis::measures::DEFAULT_ENTROPY_BOX.min(short));
+    if entropy_box == 0 || entropy_box > short {
+        return Err(Error::invalid(
+            "entropy-box",
+            entropy_box,
+            format!("must be in 1..={short} (the shorter side of the grid)"),
+        ));
+    }
     let shard = a.shard.shard()?;
     let rd = rundir::open_shard(
         &a.out,
@@ -193,11 +210,30 @@ pub fn run_basin(a: &BasinArgs) -> Result<()> {
         r => r?,
     };
     write_basin(&a.out, &spec, &res, !a.no_plot)?;
+    let metrics = write_metrics(&a.out, &spec, &res, entropy_box)?;
     rd.finish(run_json(&res), &rundir::written(&rd, OUTPUTS))?;
     if !a.quiet {
         println!("{}", human_summary(&spec, &res, &a.out));
+        println!("Basin measures (basin_metrics.json): {}", metrics.summary());
     }
     Ok(())
+}
+
+/// Computes the basin measures of the labels and writes `basin_metrics.json`.
+pub fn write_metrics(
+    dir: &Path,
+    spec: &BasinSpec,
+    res: &BasinResult,
+    entropy_box: usize,
+) -> Result<crate::analysis::measures::BasinMetrics> {
+    let m = crate::analysis::measures::basin_metrics(&res.labels, spec.x.n, spec.y.n, entropy_box)?;
+    let mut j =
+        serde_json::to_value(&m).map_err(|e| Error::invalid("basin_metrics", "", e.to_string()))?;
+    j["definitions"] = serde_json::json!(
+        "docs/basin-measures.md: fractions with the binomial (random sampling) error and the grid's boundary-cell bound; S_b, S_bb in nats, boxes of entropy.eps cells (Daza et al. 2016), S_bb > ln 2 sufficient for a fractal boundary; alpha from the uncertain fraction f(eps) ~ eps^alpha on the grid, D = 2 - alpha; box-counting dimension of the boundary; Wada merge test (Daza et al. 2018) with 3 or more basins"
+    );
+    output::write_json(&dir.join("basin_metrics.json"), &j)?;
+    Ok(m)
 }
 
 /// Legend text of an attractor: "#0 period-5, 64.2 %", with its mean lambda_1 when

@@ -679,6 +679,12 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     let bres = run_basin_study(&bspec, &store("basin_133"), a.quiet)?;
     let bdir = dir.join("basin_133");
     write_basin(&bdir, &bspec, &bres, true)?;
+    let bmetrics = super::basin::write_metrics(
+        &bdir,
+        &bspec,
+        &bres,
+        crate::analysis::measures::DEFAULT_ENTROPY_BOX.min(bspec.x.n.min(bspec.y.n)),
+    )?;
     let copy = |from: &Path, to: &str| -> Result<()> {
         let bytes = std::fs::read(from).map_err(|source| Error::Io {
             path: from.to_path_buf(),
@@ -700,10 +706,11 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         "Fig. 7: basin of attraction at W = 133 rad/s over the rotor's initial x_r and vx_r",
         "fig07_basin_133.png",
         &format!(
-            "{n} x {n} start states (other coordinates at the static equilibrium): {}. From the static equilibrium itself: **{}**, lambda_1 = {}.",
+            "{n} x {n} start states (other coordinates at the static equilibrium): {}. From the static equilibrium itself: **{}**, lambda_1 = {}. Basin measures (`basin_133/basin_metrics.json`, docs/basin-measures.md): {}.",
             describe(&bres.catalogue),
             refine(r133.classification.class, 133.0),
-            l1_text(133.0)
+            l1_text(133.0),
+            bmetrics.summary()
         ),
         &basin_cmd,
         basin_s,
