@@ -5,7 +5,7 @@ use crate::analysis::classify::ClassifyConfig;
 use crate::error::{Error, Result};
 use crate::integrate::article::{ArticleConfig, ErrorNorm};
 use crate::integrate::lane::{DEFAULT_STEPS_PER_PERIOD, StepperConfig};
-use crate::model::{COORD_NAMES, Params, STATE_DIM, coord_index};
+use crate::model::{COORD_NAMES, Params, STATE_DIM, X_R, X_S, Y_R, Y_S, coord_index};
 use crate::simulate::{Integrator, SimulateSpec, simulate};
 use crate::{output, plot};
 use clap::{Args, Parser, Subcommand};
@@ -19,7 +19,7 @@ mod reproduce;
 pub mod rundir;
 pub use basin::{BasinArgs, run_basin};
 pub use bench::{BenchArgs, run_bench};
-pub use bifurcation::{BifurcationArgs, CatalogueArgs, run_bifurcation};
+pub use bifurcation::{BifurcationArgs, CatalogueArgs, SweepArg, run_bifurcation};
 pub use merge::{MergeArgs, run_merge};
 pub mod lyapunov;
 pub use reproduce::{ReproduceArgs, run_reproduce};
@@ -148,7 +148,18 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
     let params = a.model.params()?;
     let mut x0 = params.static_equilibrium();
     apply_init(&mut x0, &a.init)?;
-    let omegas = crate::ensemble::parse_range("omega", &a.omega)?;
+    check_start_within_bound("init", &x0, a.stepper.divergence_bound)?;
+    let range = crate::ensemble::RangeSpec::parse("omega", &a.omega)?;
+    crate::limits::check_periods("transient", a.transient, 0)?;
+    crate::limits::check_periods("periods", a.periods, 1)?;
+    crate::limits::check_memory(
+        "omega",
+        &a.omega,
+        EnsembleSpec::memory_estimate_for(range.len(), a.periods as u64),
+        &format!("{} lanes x {} recorded periods", range.len(), a.periods),
+        "ask for fewer speeds (a smaller n in --omega a:b:n) or fewer --periods",
+    )?;
+    let omegas = range.values();
     let precision = a
         .precision
         .unwrap_or_else(|| crate::ensemble::default_precision(a.backend));
@@ -404,16 +415,16 @@ pub struct ModelArgs {
 }
 
 impl ModelArgs {
-    /// The parameters these arguments describe, validated.
+    /// The parameters these arguments describe, validated. Only the final set is
+    /// validated: a value in the config file that a `--param` override replaces is
+    /// never judged (read and parse errors of the file still are errors).
     pub fn params(&self) -> Result<Params> {
         let mut p = match &self.config {
-            Some(path) => Params::from_toml_file(path)?,
+            Some(path) => Params::read_toml_file(path)?,
             None => Params::default(),
         };
-        for list in &self.param {
-            for (name, value) in parse_assignments("param", list)? {
-                p.set(&name, value)?;
-            }
+        for (name, value) in parse_assignment_lists("param", &self.param)? {
+            p.set(&name, value)?;
         }
         p.validate()?;
         Ok(p)
@@ -521,29 +532,75 @@ pub fn parse_assignments(option: &str, text: &str) -> Result<Vec<(String, f64)>>
     Ok(out)
 }
 
-/// Applies `--init` overrides to a start state.
-pub fn apply_init(x0: &mut [f64; STATE_DIM], lists: &[String]) -> Result<()> {
+/// Parses every `NAME=VALUE,...` list of a repeatable option (`--param`, `--init`,
+/// `--fix`) into pairs in order, refusing a name given twice, in one list or across
+/// repeated flags: which of the two values was meant cannot be guessed.
+pub fn parse_assignment_lists(option: &str, lists: &[String]) -> Result<Vec<(String, f64)>> {
+    let mut out: Vec<(String, f64)> = Vec::new();
     for list in lists {
-        for (name, value) in parse_assignments("init", list)? {
-            let i = coord_index(&name).ok_or_else(|| {
-                Error::invalid(
-                    "init",
-                    &name,
-                    format!(
-                        "unknown coordinate; valid names: {}",
-                        COORD_NAMES.join(", ")
-                    ),
-                )
-            })?;
-            if !value.is_finite() {
+        for (name, value) in parse_assignments(option, list)? {
+            if let Some((_, first)) = out.iter().find(|(n, _)| *n == name) {
                 return Err(Error::invalid(
-                    &format!("init {name}"),
-                    value,
-                    "must be finite",
+                    &format!("{option} {name}"),
+                    format!("{name}={first} and {name}={value}"),
+                    format!("`{name}` is given twice; give each name once"),
                 ));
             }
-            x0[i] = value;
+            out.push((name, value));
         }
+    }
+    Ok(out)
+}
+
+/// Applies `--init` overrides to a start state.
+pub fn apply_init(x0: &mut [f64; STATE_DIM], lists: &[String]) -> Result<()> {
+    for (name, value) in parse_assignment_lists("init", lists)? {
+        let i = coord_index(&name).ok_or_else(|| {
+            Error::invalid(
+                "init",
+                &name,
+                format!(
+                    "unknown coordinate; valid names: {}",
+                    COORD_NAMES.join(", ")
+                ),
+            )
+        })?;
+        if !value.is_finite() {
+            return Err(Error::invalid(
+                &format!("init {name}"),
+                value,
+                "must be finite",
+            ));
+        }
+        x0[i] = value;
+    }
+    Ok(())
+}
+
+/// Refuses a start state with a position coordinate beyond the divergence bound: the
+/// lane stepper declares a lane diverged when |x_r|, |y_r|, |x_s| or |y_s| exceeds it,
+/// so such a start would only report "diverged" without integrating anything.
+/// `option` is the option that set the state (`init`, `fix`).
+pub fn check_start_within_bound(option: &str, x0: &[f64; STATE_DIM], bound: f64) -> Result<()> {
+    for i in [X_R, Y_R, X_S, Y_S] {
+        check_coord_within_bound(option, i, x0[i], bound)?;
+    }
+    Ok(())
+}
+
+/// [`check_start_within_bound`] for one coordinate value (velocities always pass).
+pub fn check_coord_within_bound(option: &str, coord: usize, value: f64, bound: f64) -> Result<()> {
+    let position = [X_R, Y_R, X_S, Y_S].contains(&coord);
+    // NaN passes here: non-finite values have their own checks and messages.
+    if position && value.abs() > bound {
+        return Err(Error::invalid(
+            &format!("{option} {}", COORD_NAMES[coord]),
+            value,
+            format!(
+                "start position beyond --divergence-bound {bound} m; must be in -{bound}..={bound} m \
+                 (or raise --divergence-bound)"
+            ),
+        ));
     }
     Ok(())
 }
@@ -597,6 +654,17 @@ pub fn run_simulate(a: &SimulateArgs) -> Result<()> {
         ));
     }
     spec.validate()?;
+    check_start_within_bound("init", &spec.x0, spec.stepper.divergence_bound)?;
+    crate::limits::check_memory(
+        "periods",
+        a.periods,
+        spec.memory_estimate(),
+        &format!(
+            "{} recorded periods, {} of them in the time series",
+            spec.periods, spec.timeseries_periods
+        ),
+        "ask for fewer --periods or --timeseries-periods",
+    )?;
     let outputs = [
         "poincare.npy",
         "timeseries.npy",
@@ -641,10 +709,13 @@ fn write_simulation(
     plot_it: bool,
 ) -> Result<()> {
     output::ensure_dir(dir)?;
-    let flat: Vec<f64> = res.poincare.iter().flatten().copied().collect();
+    // One row per requested period, as in `ensemble`: a run that froze (diverged,
+    // non-finite) stopped recording, and the periods it never reached are NaN rows.
+    let mut flat: Vec<f64> = res.poincare.iter().flatten().copied().collect();
+    flat.resize(spec.periods as usize * STATE_DIM, f64::NAN);
     output::write_npy(
         &dir.join("poincare.npy"),
-        &[res.poincare.len(), STATE_DIM],
+        &[spec.periods as usize, STATE_DIM],
         &flat,
     )?;
     let flat: Vec<f64> = res.timeseries.iter().flatten().copied().collect();
@@ -688,6 +759,7 @@ fn write_simulation(
             "size_m": finite_or_null(c.size),
             "repeat_error_m": finite_or_null(c.repeat_error),
             "tolerance_m": finite_or_null(c.tol),
+            "reason": classification_reason(spec, res),
             "n_max": spec.classify.n_max,
             "rel_tol": spec.classify.rel_tol,
             "abs_tol": spec.classify.abs_tol,
@@ -721,7 +793,31 @@ fn finite_or_null(v: f64) -> serde_json::Value {
     }
 }
 
+/// Why a run has no class in the usual sense (`unclassified`, `diverged`), for
+/// `summary.json`; null otherwise.
+fn classification_reason(
+    spec: &SimulateSpec,
+    res: &crate::simulate::SimulateResult,
+) -> serde_json::Value {
+    use crate::analysis::classify::{Class, MIN_POINTS};
+    match res.classification.class {
+        Class::Unclassified => serde_json::json!(format!(
+            "{} Poincare point(s) recorded; at least {MIN_POINTS} are needed to classify \
+             (2 n to see period n): record more --periods",
+            res.poincare.len()
+        )),
+        Class::Diverged => serde_json::json!(format!(
+            "the run ended with status {:?} after {} of {} recorded periods",
+            res.status,
+            res.poincare.len(),
+            spec.periods
+        )),
+        _ => serde_json::Value::Null,
+    }
+}
+
 fn human_summary(spec: &SimulateSpec, res: &crate::simulate::SimulateResult, dir: &Path) -> String {
+    use crate::analysis::classify::{Class, MIN_POINTS};
     let c = &res.classification;
     let what = match c.class.period() {
         Some(1) => {
@@ -730,9 +826,14 @@ fn human_summary(spec: &SimulateSpec, res: &crate::simulate::SimulateResult, dir
         Some(n) => format!(
             "a period-{n} response ({n} distinct Poincare points, repeating every {n} forcing periods)"
         ),
-        None if c.class.label() == "diverged" => format!(
+        None if c.class == Class::Diverged => format!(
             "no bounded response: the lane ended with status {:?}",
             res.status
+        ),
+        None if c.class == Class::Unclassified => format!(
+            "an unclassified response: {} recorded Poincare point(s) are too few to classify \
+             (at least {MIN_POINTS}, and 2 n to see period n; record more --periods)",
+            res.poincare.len()
         ),
         None => format!(
             "an aperiodic response (no period up to {}; quasiperiodic or chaotic)",
@@ -746,9 +847,16 @@ fn human_summary(spec: &SimulateSpec, res: &crate::simulate::SimulateResult, dir
             let r = ((p[0] - p[4]).powi(2) + (p[2] - p[6]).powi(2)).sqrt();
             (lo.min(r), hi.max(r))
         });
+    // No recorded point (the lane froze in the transient): no distance to report, and
+    // never the fold's start values (inf, -inf).
+    let distance = if min.is_finite() && max.is_finite() {
+        format!("{:.4} to {:.4} mm", min * 1e3, max * 1e3)
+    } else {
+        "no recorded points".to_string()
+    };
     format!(
         "At W = {} rad/s, started from ({}), after {} transient periods the rotor settles on {}. \
-         Rotor-stator distance at the Poincare points: {:.4} to {:.4} mm (gap {} mm); the rotor is in \
+         Rotor-stator distance at the Poincare points: {} (gap {} mm); the rotor is in \
          contact at {:.1}% of recorded grid points. Integrated {} periods with the {:?} integrator in \
          {:.2} s (status {:?}). Files in {}: poincare.npy, timeseries.npy, summary.json{}.",
         spec.omega,
@@ -759,8 +867,7 @@ fn human_summary(spec: &SimulateSpec, res: &crate::simulate::SimulateResult, dir
         },
         spec.transient,
         what,
-        min * 1e3,
-        max * 1e3,
+        distance,
         spec.params.delta * 1e3,
         100.0 * res.contact_fraction,
         spec.transient + spec.periods,

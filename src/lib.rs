@@ -27,6 +27,7 @@ pub mod ensemble;
 pub mod error;
 pub mod gpu;
 pub mod integrate;
+pub mod limits;
 pub mod lyapunov;
 pub mod model;
 pub mod output;

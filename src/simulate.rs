@@ -61,20 +61,8 @@ impl SimulateSpec {
                 ));
             }
         }
-        if self.periods == 0 || self.periods > 10_000_000 {
-            return Err(Error::invalid(
-                "periods",
-                self.periods,
-                "must be in 1..=10000000",
-            ));
-        }
-        if self.transient > 100_000_000 {
-            return Err(Error::invalid(
-                "transient",
-                self.transient,
-                "must be in 0..=100000000",
-            ));
-        }
+        crate::limits::check_periods("periods", self.periods, 1)?;
+        crate::limits::check_periods("transient", self.transient, 0)?;
         if self.timeseries_periods == 0 || self.timeseries_periods > self.periods {
             return Err(Error::invalid(
                 "timeseries_periods",
@@ -101,6 +89,23 @@ impl SimulateSpec {
             return Err(Error::invalid("n_max", 0, "must be >= 1"));
         }
         Ok(())
+    }
+}
+
+impl SimulateSpec {
+    /// Bytes the run holds at its peak, an upper estimate: the Poincare points and the
+    /// time series (one row per grid step of the last `timeseries_periods` periods),
+    /// each twice (flattened for writing).
+    pub fn memory_estimate(&self) -> u64 {
+        let n = match self.integrator {
+            Integrator::Lane => self.stepper.steps_per_period,
+            Integrator::Article => self.article.steps_per_period,
+        } as u64;
+        let point = (STATE_DIM * 8) as u64;
+        let row = ((STATE_DIM + 1) * 8) as u64;
+        let poincare = 2 * crate::limits::product(&[self.periods as u64, point]);
+        let series = 2 * crate::limits::product(&[self.timeseries_periods as u64, n, row]);
+        poincare.saturating_add(series)
     }
 }
 

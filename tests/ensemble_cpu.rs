@@ -119,7 +119,8 @@ fn invalid_ensembles_name_the_lane_and_field() {
 }
 
 /// Every lane of an ensemble through the scalar lane stepper alone, as the GPU kernel
-/// mirrors it: the reference the SIMD batch path must equal.
+/// mirrors it: the reference the SIMD batch path must equal (records of frozen lanes NaN
+/// from the period they froze in, `ensemble::mask_frozen_records`).
 fn scalar_reference<R: jeffcott::real::Real>(
     s: &EnsembleSpec,
 ) -> Vec<(Vec<u64>, Status, Counters)> {
@@ -133,7 +134,14 @@ fn scalar_reference<R: jeffcott::real::Real>(
             let mut bits = Vec::new();
             for _ in 0..s.recorded {
                 advance_period(&lc, &mut lane);
-                bits.extend(lane.x.iter().map(|v| v.to_f64().to_bits()));
+                // A period in which the lane froze, and every later one, is NaN.
+                bits.extend(lane.x.iter().map(|v| {
+                    if lane.status.is_frozen() {
+                        f64::NAN.to_bits()
+                    } else {
+                        v.to_f64().to_bits()
+                    }
+                }));
             }
             (bits, lane.status, lane.counters)
         })
@@ -205,7 +213,12 @@ fn simd_batches_with_lambda1_equal_the_scalar_tangent_stepper_to_the_bit() {
                 renormalise(&mut tan.v[0])
             };
             if p >= s.transient {
-                bits.extend(lane.x.iter().map(|v| v.to_bits()));
+                let frozen = lane.status.is_frozen();
+                bits.extend(
+                    lane.x
+                        .iter()
+                        .map(|v| if frozen { f64::NAN } else { *v }.to_bits()),
+                );
                 norms.push(norm);
             }
         }

@@ -112,7 +112,50 @@ impl BifurcationSpec {
         if self.ics > 100_000 {
             return Err(Error::invalid("ics", self.ics, "must be in 0..=100000"));
         }
+        crate::limits::check_periods("transient-first", self.transient_first, 0)?;
+        crate::limits::check_periods("transient", self.transient, 0)?;
+        crate::limits::check_periods("brute-transient", self.brute_transient, 0)?;
+        crate::limits::check_periods("periods", self.recorded, 2)?;
         Ok(())
+    }
+
+    /// Bytes the study holds at its peak, an upper estimate:
+    /// [`BifurcationSpec::memory_estimate_for`] of this spec.
+    pub fn memory_estimate(&self) -> u64 {
+        let sweeps = match self.sweep {
+            None => 0,
+            Some(Sweep::Both) => 2,
+            Some(_) => 1,
+        };
+        Self::memory_estimate_for(
+            self.omegas.len() as u64,
+            sweeps,
+            self.ics as u64,
+            self.max_seeds as u64,
+            self.recorded as u64,
+        )
+    }
+
+    /// The memory estimate from the sizes alone, so it can be checked before the speeds
+    /// are allocated: every sweep point keeps its records; the brute force runs all
+    /// `ics` lanes of every W as one ensemble, then up to `max_seeds` more per W, each
+    /// ensemble at [`EnsembleSpec::memory_estimate_for`], and copies both into the
+    /// per-W results; writing `bifurcation.npy` gathers every row once more.
+    pub fn memory_estimate_for(
+        n_omegas: u64,
+        sweeps: u64,
+        ics: u64,
+        max_seeds: u64,
+        recorded: u64,
+    ) -> u64 {
+        use crate::limits::product;
+        let record = (STATE_DIM * 8) as u64;
+        let rows = sweeps.saturating_add(ics.min(1).saturating_mul(ics.saturating_add(max_seeds)));
+        let lanes = product(&[n_omegas, rows]);
+        let brute_lanes = product(&[n_omegas, ics.min(1) * ics.saturating_add(max_seeds)]);
+        EnsembleSpec::memory_estimate_for(brute_lanes, recorded)
+            .saturating_add(product(&[lanes, recorded, record, 2]))
+            .saturating_add(product(&[n_omegas, crate::ensemble::PER_LANE_BYTES]))
     }
 }
 
@@ -248,7 +291,13 @@ fn sweep_step(spec: &BifurcationSpec, omega: f64, first: bool, x: &State) -> (Sw
     let mut norms = Vec::with_capacity(spec.recorded as usize);
     for _ in 0..spec.recorded {
         norms.push(step(&mut lane));
-        points.push(lane.x);
+        // As in the ensembles (`ensemble::mask_frozen_records`): from the period in which
+        // the lane froze on, its records are NaN, not its last finite state.
+        points.push(if lane.status.is_frozen() {
+            [f64::NAN; STATE_DIM]
+        } else {
+            lane.x
+        });
     }
     let lambda1 = if spec.lyapunov && !lane.status.is_frozen() {
         crate::lyapunov::lambda1_from_norms(&norms, omega)

@@ -214,7 +214,7 @@ pub fn classify_lane(
         (k, _) => k,
     };
     let points = match class {
-        Class::Diverged => Vec::new(),
+        Class::Diverged | Class::Unclassified => Vec::new(),
         Class::Periodic(n) => {
             let cycle = &points[points.len() - n..];
             // Canonical rotation: start at the smallest x_r (ties broken by order, which
@@ -254,7 +254,7 @@ fn same(cfg: &CatalogueConfig, w: f64, l: &LaneClass, a: &Attractor) -> bool {
                     && (0..n).all(|i| distance(&l.points[i], &a.points[(i + j) % n], w) <= tol)
             })
         }
-        Class::Diverged => false,
+        Class::Diverged | Class::Unclassified => false,
         _ => {
             // Same attractor: similar diameters, and most of the lane's points lie within
             // cloud_rel * size of the attractor's reference cloud (which grows as lanes

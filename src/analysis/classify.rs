@@ -65,11 +65,17 @@ pub enum Class {
     Chaotic,
     /// The lane was frozen (diverged or non-finite).
     Diverged,
+    /// Fewer than [`MIN_POINTS`] Poincare points: too few to say anything (even
+    /// period-1 needs one repeat).
+    Unclassified,
 }
+
+/// Fewest Poincare points the classifier needs: period-1 is one point that repeats.
+pub const MIN_POINTS: usize = 2;
 
 impl Class {
     /// The label used in files: `period-N`, `aperiodic`, `quasiperiodic`, `chaotic`,
-    /// `diverged`.
+    /// `diverged`, `unclassified`.
     pub fn label(&self) -> String {
         match self {
             Class::Periodic(n) => format!("period-{n}"),
@@ -77,6 +83,7 @@ impl Class {
             Class::Quasiperiodic => "quasiperiodic".into(),
             Class::Chaotic => "chaotic".into(),
             Class::Diverged => "diverged".into(),
+            Class::Unclassified => "unclassified".into(),
         }
     }
 
@@ -123,7 +130,8 @@ pub fn distance(a: &State, b: &State, omega: f64) -> f64 {
 }
 
 /// Classifies a Poincare sequence taken after the transient. `frozen` lanes are
-/// "diverged" whatever their points.
+/// "diverged" whatever their points; fewer than [`MIN_POINTS`] points are
+/// "unclassified".
 pub fn classify(
     points: &[State],
     omega: f64,
@@ -133,6 +141,14 @@ pub fn classify(
     if frozen || points.iter().any(|p| p.iter().any(|v| !v.is_finite())) {
         return Classification {
             class: Class::Diverged,
+            size: f64::NAN,
+            repeat_error: f64::NAN,
+            tol: f64::NAN,
+        };
+    }
+    if points.len() < MIN_POINTS {
+        return Classification {
+            class: Class::Unclassified,
             size: f64::NAN,
             repeat_error: f64::NAN,
             tol: f64::NAN,
@@ -208,6 +224,24 @@ mod tests {
             );
             assert_eq!(c.class, Class::Periodic(n), "n = {n}");
         }
+    }
+
+    #[test]
+    fn fewer_than_two_points_are_unclassified_not_aperiodic() {
+        let cfg = ClassifyConfig::default();
+        for len in [0, 1] {
+            let c = classify(&orbit(1, len, 0.0), 133.0, false, &cfg);
+            assert_eq!(c.class, Class::Unclassified, "{len} points");
+            assert_eq!(c.class.label(), "unclassified");
+        }
+        assert_eq!(
+            classify(&orbit(1, 2, 0.0), 133.0, false, &cfg).class,
+            Class::Periodic(1)
+        );
+        assert_eq!(
+            classify(&orbit(1, 1, 0.0), 133.0, true, &cfg).class,
+            Class::Diverged
+        );
     }
 
     #[test]

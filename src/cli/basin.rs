@@ -2,7 +2,10 @@
 //! in work units committed to --out (resumable); `labels.npy`, `attractors.json`, `basin.png` and `attractors.png`.
 
 use super::rundir::{self, RunArgs};
-use super::{CatalogueArgs, ModelArgs, StepperArgs, parse_assignments};
+use super::{
+    CatalogueArgs, ModelArgs, StepperArgs, check_coord_within_bound, check_start_within_bound,
+    parse_assignment_lists,
+};
 use crate::analysis::basin::{Axis, BasinResult, BasinSpec, basin_with};
 use crate::analysis::catalogue::Attractor;
 use crate::ensemble::{Backend, Precision};
@@ -94,28 +97,37 @@ impl BasinArgs {
         let x = Axis::parse("x", &self.x)?;
         let y = Axis::parse("y", &self.y)?;
         let mut base = params.static_equilibrium();
-        for list in &self.fix {
-            for (name, value) in parse_assignments("fix", list)? {
-                let i = coord_index(&name).ok_or_else(|| {
-                    Error::invalid(
-                        "fix",
-                        &name,
-                        format!(
-                            "unknown coordinate; valid names: {}",
-                            COORD_NAMES.join(", ")
-                        ),
-                    )
-                })?;
-                if i == x.coord || i == y.coord {
-                    return Err(Error::invalid(
-                        "fix",
-                        &name,
-                        "is an axis of the grid; fix only the other coordinates",
-                    ));
-                }
-                base[i] = value;
+        for (name, value) in parse_assignment_lists("fix", &self.fix)? {
+            let i = coord_index(&name).ok_or_else(|| {
+                Error::invalid(
+                    "fix",
+                    &name,
+                    format!(
+                        "unknown coordinate; valid names: {}",
+                        COORD_NAMES.join(", ")
+                    ),
+                )
+            })?;
+            if i == x.coord || i == y.coord {
+                return Err(Error::invalid(
+                    "fix",
+                    &name,
+                    "is an axis of the grid; fix only the other coordinates",
+                ));
+            }
+            base[i] = value;
+        }
+        // Start states beyond the divergence bound would be "diverged" at once.
+        let bound = self.stepper.divergence_bound;
+        check_start_within_bound("fix", &base, bound)?;
+        for (option, axis) in [("x", &x), ("y", &y)] {
+            for v in [axis.lo, axis.hi] {
+                check_coord_within_bound(option, axis.coord, v, bound)?;
             }
         }
+        crate::limits::check_periods("transient", self.transient, 0)?;
+        crate::limits::check_periods("periods", self.periods, 2)?;
+        check_basin_size(x.n as u64, y.n as u64, self)?;
         let precision = self
             .precision
             .unwrap_or_else(|| crate::ensemble::default_precision(self.backend));
@@ -137,6 +149,60 @@ impl BasinArgs {
         spec.validate()?;
         Ok(spec)
     }
+}
+
+/// Most cells a basin may have: 1e9 (4 GB of labels, 12 GB with --lyapunov; at the
+/// default 564 periods per cell about 16 hours at 1e7 lane-periods/s, a large GPU).
+/// Beyond it a grid is refused whatever the memory: 1e10 cells would take a week
+/// on such a GPU and 40 GB of labels.
+pub const MAX_BASIN_CELLS: u64 = 1_000_000_000;
+
+/// Bytes a basin of `cells` cells holds at its peak, an upper estimate: 4 bytes of
+/// labels per cell (+ 8 of lambda_1 with `lyapunov`), plus one chunk of `chunk` lanes
+/// as an ensemble recording `recorded` periods.
+pub fn basin_memory_estimate(cells: u64, lyapunov: bool, chunk: u64, recorded: u64) -> u64 {
+    let per_cell = if lyapunov { 12 } else { 4 };
+    crate::limits::product(&[cells, per_cell]).saturating_add(
+        crate::ensemble::EnsembleSpec::memory_estimate_for(chunk, recorded),
+    )
+}
+
+/// Refuses a grid of more than [`MAX_BASIN_CELLS`] cells, or one whose labels and
+/// chunk do not fit in the memory available, before anything is allocated.
+fn check_basin_size(nx: u64, ny: u64, a: &BasinArgs) -> Result<()> {
+    let cells = nx.saturating_mul(ny);
+    let grid = format!("{nx} x {ny}");
+    if cells > MAX_BASIN_CELLS {
+        return Err(Error::invalid(
+            "x, y",
+            format!("{grid} = {cells} cells"),
+            format!(
+                "a basin may have at most {MAX_BASIN_CELLS} cells (labels alone: {}); use a smaller grid",
+                crate::limits::gb(basin_memory_estimate(cells, a.lyapunov, 0, 0))
+            ),
+        ));
+    }
+    // The default work unit as `BasinSpec::unit_lanes` sizes it.
+    let recorded = a.periods.max(1) as u64;
+    let steps = (a.transient as u64 + recorded)
+        * a.stepper.steps_per_period as u64
+        * if a.lyapunov { 2 } else { 1 };
+    let chunk = a
+        .chunk
+        .map(|c| c as u64)
+        .unwrap_or_else(|| crate::run::unit_lanes(cells as usize, steps) as u64)
+        .min(cells);
+    crate::limits::check_memory(
+        "x, y",
+        format!("{grid} = {cells} cells"),
+        basin_memory_estimate(cells, a.lyapunov, chunk, recorded),
+        &format!(
+            "{} bytes of labels per cell{} plus a work unit of {chunk} lanes x {recorded} recorded periods",
+            if a.lyapunov { 12 } else { 4 },
+            if a.lyapunov { " with lambda_1" } else { "" }
+        ),
+        "use a smaller grid (fewer cells per axis) or a smaller --chunk",
+    )
 }
 
 /// Final files of a basin (run.json aside).

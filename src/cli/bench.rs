@@ -45,6 +45,42 @@ pub fn run_bench(a: &BenchArgs) -> Result<()> {
     if a.lane_periods == 0 {
         return Err(Error::invalid("lane_periods", 0, "must be >= 1"));
     }
+    // The twin is timed at one of the sizes measured; any other value would silently
+    // measure no twin at all.
+    if a.twin_at != 0 && !a.lanes.contains(&a.twin_at) {
+        return Err(Error::invalid(
+            "twin-at",
+            a.twin_at,
+            format!(
+                "must be 0 (no free-flight twin) or one of the --lanes sizes ({})",
+                a.lanes
+                    .iter()
+                    .map(|n| n.to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        ));
+    }
+    for &lanes in &a.lanes {
+        let periods = periods_for(lanes, a.lane_periods);
+        crate::limits::check_periods("lane-periods", periods, 1).map_err(|_| {
+            Error::invalid(
+                "lane-periods",
+                a.lane_periods,
+                format!(
+                    "gives {periods} periods per lane at {lanes} lanes; at most {} periods per lane",
+                    crate::limits::MAX_PERIODS
+                ),
+            )
+        })?;
+        crate::limits::check_memory(
+            "lane-periods",
+            a.lane_periods,
+            crate::ensemble::EnsembleSpec::memory_estimate_for(lanes as u64, periods as u64),
+            &format!("{lanes} lanes x {periods} periods"),
+            "ask for fewer --lane-periods or smaller --lanes",
+        )?;
+    }
     let adapters = crate::gpu::list_adapters();
     let gpu = adapters.iter().find(|s| s.compute);
     let backends = if a.backend.is_empty() {

@@ -56,6 +56,31 @@ impl CatalogueArgs {
     }
 }
 
+/// The `--sweep` values: the library's [`Sweep`] kinds, or none.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum SweepArg {
+    /// W increasing.
+    Up,
+    /// W decreasing.
+    Down,
+    /// Both (concurrently).
+    Both,
+    /// No quasistatic sweep (brute force only).
+    None,
+}
+
+impl SweepArg {
+    /// The sweeps to run (`None`: none).
+    pub fn sweep(self) -> Option<Sweep> {
+        match self {
+            SweepArg::Up => Some(Sweep::Up),
+            SweepArg::Down => Some(Sweep::Down),
+            SweepArg::Both => Some(Sweep::Both),
+            SweepArg::None => None,
+        }
+    }
+}
+
 /// Arguments of `jeffcott bifurcation`.
 #[derive(Args, Debug)]
 pub struct BifurcationArgs {
@@ -66,10 +91,11 @@ pub struct BifurcationArgs {
     /// vy_s).
     #[arg(long, value_name = "NAME,...", default_value = "vx_s")]
     pub coord: String,
-    /// Quasistatic sweeps: up, down or both (run concurrently), or none with --ics > 0.
-    #[arg(long, value_enum, default_value_t = Sweep::Both)]
-    pub sweep: Sweep,
-    /// Skip the quasistatic sweeps (brute force only).
+    /// Quasistatic sweeps: up, down or both (run concurrently), or none (brute force
+    /// only; needs --ics >= 1).
+    #[arg(long, value_enum, default_value_t = SweepArg::Both)]
+    pub sweep: SweepArg,
+    /// Skip the quasistatic sweeps (brute force only), the same as --sweep none.
     #[arg(long)]
     pub no_sweep: bool,
     /// Brute-force start states per W (the static equilibrium and a seeded random set);
@@ -165,18 +191,48 @@ pub fn parse_coords(option: &str, text: &str) -> Result<Vec<usize>> {
 impl BifurcationArgs {
     /// The study these arguments describe.
     pub fn spec(&self) -> Result<BifurcationSpec> {
-        let omegas = crate::ensemble::parse_range("omega", &self.omega)?;
+        let range = crate::ensemble::RangeSpec::parse("omega", &self.omega)?;
+        let sweep = if self.no_sweep {
+            None
+        } else {
+            self.sweep.sweep()
+        };
+        // Every count is checked before the speeds and lanes are allocated.
+        crate::limits::check_periods("transient-first", self.transient_first, 0)?;
+        crate::limits::check_periods("transient", self.transient, 0)?;
+        crate::limits::check_periods("brute-transient", self.brute_transient, 0)?;
+        crate::limits::check_periods("periods", self.periods, 2)?;
+        let sweeps = match sweep {
+            None => 0,
+            Some(Sweep::Both) => 2,
+            Some(_) => 1,
+        };
+        let (ics, seeds) = (self.ics.min(100_000) as u64, self.max_seeds as u64);
+        crate::limits::check_memory(
+            "omega",
+            &self.omega,
+            BifurcationSpec::memory_estimate_for(
+                range.len(),
+                sweeps,
+                ics,
+                seeds,
+                self.periods as u64,
+            ),
+            &format!(
+                "{} speeds x ({sweeps} sweeps + {ics} start states + up to {seeds} seeds) x {} recorded periods",
+                range.len(),
+                self.periods
+            ),
+            "ask for fewer speeds (a smaller n in --omega a:b:n), fewer --ics or --max-seeds, or fewer --periods",
+        )?;
+        let omegas = range.values();
         let precision = self
             .precision
             .unwrap_or_else(|| crate::ensemble::default_precision(self.backend));
         let spec = BifurcationSpec {
             params: self.model.params()?,
             omegas,
-            sweep: if self.no_sweep {
-                None
-            } else {
-                Some(self.sweep)
-            },
+            sweep,
             transient_first: self.transient_first,
             transient: self.transient,
             ics: self.ics,
@@ -199,6 +255,9 @@ impl BifurcationArgs {
 pub fn run_bifurcation(a: &BifurcationArgs) -> Result<()> {
     let coords = parse_coords("coord", &a.coord)?;
     let spec = a.spec()?;
+    for &w in &a.portraits {
+        check_portrait_speed(&spec.omegas, w)?;
+    }
     let shard = a.shard.shard()?;
     if shard.is_some() && spec.ics == 0 {
         return Err(Error::invalid(
@@ -251,6 +310,30 @@ pub fn run_json(res: &BifurcationResult) -> serde_json::Value {
         "sweep_wall_time_s": res.sweep_seconds,
         "brute_force_wall_time_s": res.brute_seconds,
     })
+}
+
+/// Refuses a `--portraits` speed outside the `--omega` range (up to half a grid step
+/// beyond either end, which still has a nearest grid speed on its side): the portrait
+/// would be drawn at an end of the range, not at the speed asked for.
+pub fn check_portrait_speed(omegas: &[f64], w: f64) -> Result<()> {
+    let (Some(&lo), Some(&hi)) = (omegas.first(), omegas.last()) else {
+        return Ok(());
+    };
+    let half_step = if omegas.len() > 1 {
+        0.5 * (hi - lo) / (omegas.len() - 1) as f64
+    } else {
+        0.0
+    };
+    let slack = half_step + 1e-9 * hi.abs();
+    if w.is_finite() && w >= lo - slack && w <= hi + slack {
+        Ok(())
+    } else {
+        Err(Error::invalid(
+            "portraits",
+            crate::model::short_number(w),
+            format!("must be a speed within the --omega range {lo}..={hi} rad/s"),
+        ))
+    }
 }
 
 /// Draws `attractors_W.png` at the grid speed nearest `w`: the brute-force catalogue's

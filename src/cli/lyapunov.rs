@@ -2,7 +2,7 @@
 //! `convergence.png`) or over a range of speeds (`lyapunov.npy`, `lyapunov.json`,
 //! `lyapunov.png`). The numerics are in [`crate::lyapunov`].
 
-use super::{ModelArgs, StepperArgs, apply_init};
+use super::{ModelArgs, StepperArgs, apply_init, check_start_within_bound};
 use crate::error::{Error, Result};
 use crate::lyapunov::{Spectrum, SpectrumConfig, StopReason, SweepStart, spectrum, sweep_starts};
 use crate::model::STATE_DIM;
@@ -31,9 +31,10 @@ pub struct LyapunovArgs {
     /// Largest accumulation time [s] (the stopping rule's maximum).
     #[arg(long, default_value_t = 100.0, value_name = "T")]
     pub time: f64,
-    /// Accumulation time before the stopping rule may stop [s].
-    #[arg(long, default_value_t = 20.0, value_name = "T")]
-    pub min_time: f64,
+    /// Accumulation time before the stopping rule may stop [s]; at most --time
+    /// [default: 20, or --time if that is shorter].
+    #[arg(long, value_name = "T")]
+    pub min_time: Option<f64>,
     /// Stop when no exponent changed by more than this over the last window [1/s].
     #[arg(long, default_value_t = 2e-3)]
     pub tol: f64,
@@ -106,11 +107,26 @@ pub fn run_lyapunov(a: &LyapunovArgs) -> Result<()> {
     let params = a.model.params()?;
     let mut x0 = params.static_equilibrium();
     apply_init(&mut x0, &a.init)?;
-    let omegas = crate::ensemble::parse_range("omega", &a.omega)?;
+    check_start_within_bound("init", &x0, a.stepper.divergence_bound)?;
+    let range = crate::ensemble::RangeSpec::parse("omega", &a.omega)?;
+    let min_time = match a.min_time {
+        Some(m) => m,
+        None => SpectrumConfig::default().min_time.min(a.time),
+    };
+    if min_time.is_finite() && a.time.is_finite() && min_time > a.time {
+        return Err(Error::invalid(
+            "min-time",
+            min_time,
+            format!(
+                "must be in 0..=--time ({} s): the stopping rule may act only within the maximum time",
+                a.time
+            ),
+        ));
+    }
     let cfg = SpectrumConfig {
         transient: a.transient,
         tangent_transient: a.tangent_transient,
-        min_time: a.min_time.min(a.time),
+        min_time,
         max_time: a.time,
         window: a.window,
         tol: a.tol,
@@ -119,6 +135,32 @@ pub fn run_lyapunov(a: &LyapunovArgs) -> Result<()> {
         ..SpectrumConfig::default()
     };
     cfg.validate()?;
+    // The accumulation is counted in forcing periods like every transient: the same cap.
+    let omega_max = range.a.max(range.b);
+    crate::model::validate_omega(omega_max)?;
+    let periods = cfg.max_accumulated_periods(omega_max);
+    if periods > crate::limits::MAX_PERIODS as f64 {
+        return Err(Error::invalid(
+            "time",
+            a.time,
+            format!(
+                "{periods:.3e} forcing periods at W = {omega_max} rad/s; --time must be at most {:.4e} s there ({} periods)",
+                crate::limits::MAX_PERIODS as f64 * std::f64::consts::TAU / omega_max,
+                crate::limits::MAX_PERIODS
+            ),
+        ));
+    }
+    crate::limits::check_memory(
+        "omega",
+        &a.omega,
+        cfg.memory_estimate(range.len(), omega_max),
+        &format!(
+            "{} speeds x up to {periods:.0} accumulated periods of running estimates",
+            range.len()
+        ),
+        "ask for fewer speeds (a smaller n in --omega a:b:n) or a shorter --time",
+    )?;
+    let omegas = range.values();
     let dir = &a.out;
     let settings = serde_json::json!({
         "config": cfg,

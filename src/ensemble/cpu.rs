@@ -37,7 +37,8 @@ fn run_lane<R: Real>(spec: &EnsembleSpec, i: usize) -> Outcome {
     let mut points = Vec::with_capacity(spec.recorded as usize * STATE_DIM);
     for _ in 0..spec.recorded {
         advance_period(&lc, &mut lane);
-        // A frozen lane repeats the state it froze at, as on the GPU.
+        // A frozen lane repeats the state it froze at, as on the GPU; the host replaces
+        // those rows by NaN afterwards (`mask_frozen_records`).
         points.extend(lane.x.iter().map(|v| v.to_f64()));
     }
     Outcome {
@@ -221,5 +222,6 @@ fn run_inner(
         res.status.push(o.status);
         res.counters.push(o.counters);
     }
+    super::mask_frozen_records(spec, &mut res);
     Ok(res)
 }

@@ -9,7 +9,9 @@ pub use engine::Engine;
 
 use crate::error::{Error, Result};
 use crate::integrate::lane::{Counters, Lane, LaneConsts, Status, StepperConfig};
-use crate::model::{COORD_NAMES, Params, STATE_DIM, State, validate_omega};
+use crate::model::{
+    COORD_NAMES, OMEGA_RANGE, Params, STATE_DIM, State, short_number, validate_omega,
+};
 use crate::real::Real;
 use serde::Serialize;
 
@@ -74,13 +76,8 @@ impl EnsembleSpec {
                 "an ensemble needs at least one lane",
             ));
         }
-        if self.recorded == 0 {
-            return Err(Error::invalid(
-                "periods",
-                0,
-                "at least one period must be recorded",
-            ));
-        }
+        crate::limits::check_periods("transient", self.transient, 0)?;
+        crate::limits::check_periods("periods", self.recorded, 1)?;
         let cells = self.lanes.len() as u128 * self.recorded as u128 * STATE_DIM as u128;
         if cells > (1u128 << 34) {
             return Err(Error::invalid(
@@ -97,8 +94,8 @@ impl EnsembleSpec {
             validate_omega(l.omega).map_err(|_| {
                 Error::invalid(
                     &format!("omega (lane {i})"),
-                    l.omega,
-                    "rotor speed must be finite and > 0 rad/s",
+                    short_number(l.omega),
+                    OMEGA_RANGE,
                 )
             })?;
             if l.param_set as usize >= self.param_sets.len() {
@@ -176,6 +173,73 @@ impl EnsembleResult {
                 s
             })
             .collect()
+    }
+}
+
+impl EnsembleSpec {
+    /// Bytes an ensemble of `lanes` lanes recording `recorded` periods holds at its peak,
+    /// an upper estimate: the Poincare records twice (per-lane results are gathered into
+    /// the flat array while they still exist), plus per-lane specs, constants, states,
+    /// counters and the lane table written to `lanes.npy`.
+    pub fn memory_estimate_for(lanes: u64, recorded: u64) -> u64 {
+        let record = (STATE_DIM * std::mem::size_of::<f64>()) as u64;
+        let per_lane = 2 * recorded.saturating_mul(record) + PER_LANE_BYTES;
+        crate::limits::product(&[lanes, per_lane])
+    }
+
+    /// [`EnsembleSpec::memory_estimate_for`] of this spec.
+    pub fn memory_estimate(&self) -> u64 {
+        Self::memory_estimate_for(self.lanes.len() as u64, self.recorded as u64)
+    }
+}
+
+/// Bytes per lane besides its records (spec, constants, state, status, counters, lane
+/// table row, lambda_1), rounded up.
+pub const PER_LANE_BYTES: u64 = 1024;
+
+/// The global forcing period in which a frozen lane froze (its state at the end of that
+/// period and of every later one was never reached), from its count of completed macro
+/// steps: a lane advances one macro step at a time and stops counting when it freezes,
+/// so `macro_steps = period * N + k` with k < N the step that failed. Both backends
+/// count the same steps; the GPU's counter saturates at `u32::MAX`, so beyond that the
+/// period is found from the records (`None` here).
+pub fn freeze_period(macro_steps: u64, steps_per_period: u32) -> Option<u64> {
+    (macro_steps < u32::MAX as u64).then(|| macro_steps / steps_per_period.max(1) as u64)
+}
+
+/// Replaces the records of frozen lanes (diverged, non-finite) from the period in which
+/// they froze onward by NaN, so a frozen lane's last finite state, which both backends
+/// repeat in every later record, cannot be read as a period-1 response. The rule, the
+/// same for both backends and applied on the host after the run: the rows of the freeze
+/// period ([`freeze_period`]) and of every later one are NaN; where the step counter cannot tell
+/// (a GPU counter saturated after 4.29e9 steps), every trailing row bit-identical to the
+/// frozen final state is NaN. Rows before the freeze are untouched.
+pub fn mask_frozen_records(spec: &EnsembleSpec, res: &mut EnsembleResult) {
+    let rec = res.recorded;
+    let len = rec * STATE_DIM;
+    for i in 0..res.status.len() {
+        if !res.status[i].is_frozen() {
+            continue;
+        }
+        let rows = &mut res.poincare[i * len..(i + 1) * len];
+        let first = match freeze_period(res.counters[i].macro_steps, spec.stepper.steps_per_period)
+        {
+            Some(p) => p.saturating_sub(spec.transient as u64).min(rec as u64) as usize,
+            None => {
+                let fin = res.final_state[i].map(f64::to_bits);
+                let mut first = rec;
+                while first > 0
+                    && rows[(first - 1) * STATE_DIM..first * STATE_DIM]
+                        .iter()
+                        .zip(&fin)
+                        .all(|(v, f)| v.to_bits() == *f)
+                {
+                    first -= 1;
+                }
+                first
+            }
+        };
+        rows[first * STATE_DIM..].fill(f64::NAN);
     }
 }
 
@@ -265,6 +329,7 @@ fn run_gpu<R: crate::gpu::GpuReal>(
         res.status.push(o.lane.status);
         res.counters.push(o.lane.counters);
     }
+    mask_frozen_records(spec, &mut res);
     Ok(res)
 }
 
@@ -354,56 +419,111 @@ fn run_inner(
     Ok((res, info))
 }
 
-/// Parses the CLI range syntax `a:b:n` (n values from a to b inclusive, evenly spaced)
-/// or a single number. `option` names the option in errors.
-pub fn parse_range(option: &str, text: &str) -> Result<Vec<f64>> {
-    let parts: Vec<&str> = text.split(':').map(str::trim).collect();
-    let num = |s: &str| -> Result<f64> {
-        let v: f64 = s.parse().map_err(|_| {
-            Error::invalid(
-                option,
-                text,
-                format!("`{s}` is not a number; expected a:b:n or a number"),
-            )
-        })?;
-        if v.is_finite() {
-            Ok(v)
-        } else {
-            Err(Error::invalid(option, text, "values must be finite"))
-        }
-    };
-    match parts.as_slice() {
-        [a] => Ok(vec![num(a)?]),
-        [a, b, n] => {
-            let (a, b) = (num(a)?, num(b)?);
-            let n: usize = n.parse().map_err(|_| {
+/// A range of the CLI syntax `a:b:n` (n values from a to b inclusive, evenly spaced)
+/// or a single number, parsed and checked without materialising its values, so that
+/// callers can check what `n` values cost before allocating them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RangeSpec {
+    /// First value.
+    pub a: f64,
+    /// Last value (== `a` when n == 1).
+    pub b: f64,
+    /// Number of values (>= 1).
+    pub n: u64,
+}
+
+/// Most values [`parse_range`] materialises: 1e9 (8 GB of f64 for the values alone).
+/// [`RangeSpec`] itself takes any count, so that commands can say what a larger one
+/// would cost ([`crate::limits::check_memory`]) before they allocate anything.
+pub const MAX_RANGE_VALUES: u64 = 1_000_000_000;
+
+impl RangeSpec {
+    /// Parses `a:b:n` or a number; `option` names the option in errors.
+    pub fn parse(option: &str, text: &str) -> Result<RangeSpec> {
+        let parts: Vec<&str> = text.split(':').map(str::trim).collect();
+        let num = |s: &str| -> Result<f64> {
+            let v: f64 = s.parse().map_err(|_| {
                 Error::invalid(
                     option,
                     text,
-                    "the count n in a:b:n must be a positive integer",
+                    format!("`{s}` is not a number; expected a:b:n or a number"),
                 )
             })?;
-            match n {
-                0 => Err(Error::invalid(
-                    option,
-                    text,
-                    "the count n in a:b:n must be >= 1",
-                )),
-                1 if a != b => Err(Error::invalid(
-                    option,
-                    text,
-                    "a:b:1 needs a == b (one value)",
-                )),
-                1 => Ok(vec![a]),
-                _ => Ok((0..n)
-                    .map(|i| a + (b - a) * i as f64 / (n - 1) as f64)
-                    .collect()),
+            if v.is_finite() {
+                Ok(v)
+            } else {
+                Err(Error::invalid(option, text, "values must be finite"))
             }
+        };
+        match parts.as_slice() {
+            [a] => {
+                let a = num(a)?;
+                Ok(RangeSpec { a, b: a, n: 1 })
+            }
+            [a, b, n] => {
+                let (a, b) = (num(a)?, num(b)?);
+                let n: u64 = n.parse().map_err(|_| {
+                    Error::invalid(
+                        option,
+                        text,
+                        "the count n in a:b:n must be a positive integer",
+                    )
+                })?;
+                match n {
+                    0 => Err(Error::invalid(
+                        option,
+                        text,
+                        "the count n in a:b:n must be >= 1",
+                    )),
+                    1 if a != b => Err(Error::invalid(
+                        option,
+                        text,
+                        "a:b:1 needs a == b (one value)",
+                    )),
+                    n => Ok(RangeSpec { a, b, n }),
+                }
+            }
+            _ => Err(Error::invalid(
+                option,
+                text,
+                "expected a:b:n (n values from a to b inclusive) or a number",
+            )),
         }
-        _ => Err(Error::invalid(
+    }
+
+    /// Number of values.
+    pub fn len(&self) -> u64 {
+        self.n
+    }
+
+    /// Always false (a range has at least one value); for clippy's `len` rule.
+    pub fn is_empty(&self) -> bool {
+        self.n == 0
+    }
+
+    /// The values.
+    pub fn values(&self) -> Vec<f64> {
+        match self.n {
+            1 => vec![self.a],
+            n => (0..n)
+                .map(|i| self.a + (self.b - self.a) * i as f64 / (n - 1) as f64)
+                .collect(),
+        }
+    }
+}
+
+/// Parses the CLI range syntax `a:b:n` (n values from a to b inclusive, evenly spaced)
+/// or a single number. `option` names the option in errors. The count is checked
+/// (at most [`MAX_RANGE_VALUES`]) before any value is allocated; callers that will
+/// allocate more per value should use [`RangeSpec`] and check memory first.
+pub fn parse_range(option: &str, text: &str) -> Result<Vec<f64>> {
+    let r = RangeSpec::parse(option, text)?;
+    if r.n > MAX_RANGE_VALUES {
+        return Err(Error::invalid(
             option,
             text,
-            "expected a:b:n (n values from a to b inclusive) or a number",
-        )),
+            format!("the count n in a:b:n must be in 1..={MAX_RANGE_VALUES}"),
+        ));
     }
+    Ok(r.values())
 }

@@ -115,7 +115,33 @@ impl SpectrumConfig {
         if self.blocks < 2 {
             return Err(Error::invalid("blocks", self.blocks, "must be >= 2"));
         }
+        crate::limits::check_periods("transient", self.transient, 0)?;
+        crate::limits::check_periods("tangent-transient", self.tangent_transient, 0)?;
         Ok(())
+    }
+
+    /// Forcing periods accumulated at most at speed `omega` (`max_time / T`, rounded
+    /// up): the length of [`Spectrum::history`].
+    pub fn max_accumulated_periods(&self, omega: f64) -> f64 {
+        (self.max_time * omega / std::f64::consts::TAU)
+            .ceil()
+            .max(1.0)
+    }
+
+    /// Bytes a computation over `n_omegas` speeds up to `omega_max` holds at its peak, an
+    /// upper estimate: every spectrum keeps its running estimates, one entry per
+    /// accumulated period.
+    pub fn memory_estimate(&self, n_omegas: u64, omega_max: f64) -> u64 {
+        let entry = std::mem::size_of::<(f64, [f64; STATE_DIM])>() as f64;
+        let per_speed = self.max_accumulated_periods(omega_max) * entry
+            + std::mem::size_of::<Spectrum>() as f64
+            + 1024.0;
+        let total = n_omegas as f64 * per_speed;
+        if total >= u64::MAX as f64 {
+            u64::MAX
+        } else {
+            total as u64
+        }
     }
 }
 
