@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
-# A real single-node Slurm cluster runs scripts/slurm/: a 4-task basin array job plus
-# the dependent merge job; the merged files must equal a single-process run bit for
-# bit. Installs Debian's slurm-wlm and munge when absent, starts munged, slurmctld and
+# A real single-node Slurm cluster runs scripts/slurm/: a 4-task basin array job and a
+# 3-task two-parameter map array job, each plus its dependent merge job; the merged files
+# must equal a single-process run bit for bit. Installs Debian's slurm-wlm and munge when absent, starts munged, slurmctld and
 # slurmd by hand (no systemd; see docs/cluster.md), stops them by PID at the end.
 #
 # Usage: bash scripts/slurm-test.sh [path to the jeffcott binary]
@@ -10,7 +10,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bin=$(realpath "${1:-target/release/jeffcott}")
-name=slurm_array_basin_sharded_and_merged_equals_the_single_process_run
+name=slurm_arrays_of_a_basin_and_a_map_sharded_and_merged_equal_the_single_process_runs
 t0=$(date +%s)
 
 skip_or_fail() {
@@ -104,36 +104,57 @@ for _ in $(seq 60); do
 done
 [ "$state" = idle ] || skip_or_fail "the node is '$state', not idle"
 
-basin="--omega 133 --x x_r:-0.006:0.006:24 --y vx_r:-1:1:20 --transient 60 --periods 16 --backend cpu"
-# shellcheck disable=SC2086
-"$bin" basin $basin --quiet --out "$work/single" 2>/dev/null
-
-export JEFFCOTT="$bin" RUN_DIR="$work/run" BASIN_ARGS="$basin"
-mkdir -p "$RUN_DIR"
-cd "$work"
-ids=$(bash "$OLDPWD/scripts/slurm/submit.sh" 4 basin-array.sbatch)
-echo "slurm-test.sh: $ids"
-array=$(echo "$ids" | sed -E 's/array job ([0-9]+).*/\1/')
-merge=$(echo "$ids" | sed -E 's/.*merge job ([0-9]+).*/\1/')
-cd "$OLDPWD"
-for _ in $(seq 360); do
-  left=$(squeue -h -j "$array,$merge" 2>/dev/null | wc -l)
-  [ "$left" -eq 0 ] && break
-  sleep 0.5
-done
-[ "$left" -eq 0 ] || { squeue; echo "test $name ... FAILED (jobs still queued after 180 s)"; echo "0 passed, 1 failed"; exit 1; }
 fail() {
-  echo "--- job output"; cat "$work"/*.out 2>/dev/null || true
+  echo "--- job output"; cat "$work"/*/*.out 2>/dev/null || true
   echo "test $name ... FAILED ($1)"; echo "0 passed, 1 failed"; exit 1
 }
-merge_state=$(scontrol show job "$merge" 2>/dev/null | grep -o 'JobState=[A-Z]*' | head -n1)
-[ "$merge_state" = JobState=COMPLETED ] || fail "merge job: $merge_state"
-for i in 0 1 2 3; do
-  grep -q '"state": "complete"' "$work/run/shard-$i/run.json" || fail "shard $i not complete"
-done
-for f in labels.npy x.npy y.npy attractors.json basin.png attractors.png; do
-  cmp -s "$work/single/$f" "$work/run/merged/$f" || fail "$f differs from the single-process run"
-done
-grep -q '"state": "complete"' "$work/run/merged/run.json" || fail "merged run not complete"
-echo "test $name ... ok ($(( $(date +%s) - t0 )) s, 4 array tasks + dependent merge)"
+
+# Submits N array tasks of SCRIPT plus the dependent merge into $work/<tag>/run, waits
+# (bounded) and checks the merged FILES against the single-process run in $work/<tag>/single.
+array_and_merge() {
+  local tag=$1 n=$2 script=$3; shift 3
+  export RUN_DIR="$work/$tag/run"
+  mkdir -p "$RUN_DIR"
+  local ids array merge left state i f
+  ids=$(cd "$work/$tag" && bash "$root/scripts/slurm/submit.sh" "$n" "$script")
+  echo "slurm-test.sh: $tag: $ids"
+  array=$(echo "$ids" | sed -E 's/array job ([0-9]+).*/\1/')
+  merge=$(echo "$ids" | sed -E 's/.*merge job ([0-9]+).*/\1/')
+  for _ in $(seq 360); do
+    left=$(squeue -h -j "$array,$merge" 2>/dev/null | wc -l)
+    [ "$left" -eq 0 ] && break
+    sleep 0.5
+  done
+  [ "$left" -eq 0 ] || { squeue; fail "$tag: jobs still queued after 180 s"; }
+  state=$(scontrol show job "$merge" 2>/dev/null | grep -o 'JobState=[A-Z]*' | head -n1)
+  [ "$state" = JobState=COMPLETED ] || fail "$tag merge job: $state"
+  for ((i = 0; i < n; i++)); do
+    grep -q '"state": "complete"' "$RUN_DIR/shard-$i/run.json" || fail "$tag shard $i not complete"
+  done
+  for f in "$@"; do
+    cmp -s "$work/$tag/single/$f" "$RUN_DIR/merged/$f" || fail "$tag: $f differs from the single-process run"
+  done
+  grep -q '"state": "complete"' "$RUN_DIR/merged/run.json" || fail "$tag: merged run not complete"
+}
+
+root=$(pwd)
+export JEFFCOTT="$bin"
+mkdir -p "$work/basin" "$work/map"
+
+# A basin in 4 shards.
+basin="--omega 133 --x x_r:-0.006:0.006:24 --y vx_r:-1:1:20 --transient 60 --periods 16 --backend cpu"
+# shellcheck disable=SC2086
+"$bin" basin $basin --quiet --out "$work/basin/single" 2>/dev/null
+export BASIN_ARGS="$basin"
+array_and_merge basin 4 basin-array.sbatch labels.npy x.npy y.npy attractors.json basin.png attractors.png
+
+# A two-parameter map (speed against unbalance) in 3 shards.
+map="--x omega:131:134:6 --y e:0.0009:0.0011:2 --ics 2 --transient 60 --periods 16 --chunk 1 --backend cpu"
+# shellcheck disable=SC2086
+"$bin" map $map --quiet --out "$work/map/single" 2>/dev/null
+export MAP_ARGS="$map"
+array_and_merge map 3 map-array.sbatch period.npy class.npy lambda1.npy attractors.npy contact.npy \
+  peak_force.npy map.json map_period.png map_lambda1.png map_multistability.png
+
+echo "test $name ... ok ($(( $(date +%s) - t0 )) s: a 4-task basin array and a 3-task map array, each with its dependent merge)"
 echo "1 passed, 0 failed"

@@ -14,12 +14,14 @@ use std::path::{Path, PathBuf};
 mod basin;
 mod bench;
 mod bifurcation;
+mod map;
 mod merge;
 mod reproduce;
 pub mod rundir;
 pub use basin::{BasinArgs, run_basin};
 pub use bench::{BenchArgs, run_bench};
 pub use bifurcation::{BifurcationArgs, CatalogueArgs, SweepArg, run_bifurcation};
+pub use map::{MapArgs, run_map};
 pub use merge::{MergeArgs, run_merge};
 pub mod lyapunov;
 pub use reproduce::{ReproduceArgs, run_reproduce};
@@ -58,6 +60,12 @@ pub enum Command {
     /// 2000 x 2000 cells).
     #[command(allow_negative_numbers = true)]
     Basin(BasinArgs),
+    /// Two-parameter map (design chart) over any two of omega, the model parameters and
+    /// the start coordinates: per cell the response from the static equilibrium (period,
+    /// lambda_1, contact fraction, peak contact force) and the coexisting attractors
+    /// from K start states. Resumable and shardable like basin.
+    #[command(allow_negative_numbers = true)]
+    Map(MapArgs),
     /// Regenerate the article's figures (Figs. 3-12, plus down-sweep and brute-force
     /// diagrams) and a REPORT.md; --quick (default) takes under 10 minutes on 2 CPU cores.
     Reproduce(ReproduceArgs),
@@ -82,6 +90,7 @@ pub fn dispatch(command: &Command) -> Result<()> {
         Command::Ensemble(a) => run_ensemble(a),
         Command::Bifurcation(a) => run_bifurcation(a),
         Command::Basin(a) => run_basin(a),
+        Command::Map(a) => run_map(a),
         Command::Reproduce(a) => run_reproduce(a),
         Command::Info => run_info(),
         Command::Bench(a) => run_bench(a),

@@ -427,35 +427,54 @@ pub fn basin_map(
     axes: (&str, &str),
     legend: &[(i32, String)],
 ) -> Result<()> {
-    let grid = Grid {
-        cells,
-        x_range,
-        y_range,
-        axes,
-    };
-    grid_map(
+    category_map(
         path,
         title,
-        &grid,
-        &|i| attractor_color(labels[i]),
-        &|side| {
-            for (k, (id, name)) in legend.iter().enumerate() {
-                let y = 80 + 36 * k as i32;
-                side.draw(&Rectangle::new(
-                    [(10, y), (34, y + 24)],
-                    attractor_color(*id).filled(),
-                ))
-                .map_err(|e| e.to_string())?;
-                side.draw(&Text::new(
-                    name.clone(),
-                    (42, y + 3),
-                    ("sans-serif", 17).into_font(),
-                ))
-                .map_err(|e| e.to_string())?;
-            }
-            Ok(())
-        },
+        labels,
+        cells,
+        (x_range, y_range),
+        axes,
+        legend,
+        &attractor_color,
     )
+}
+
+/// Draws a map of categories: `labels` is [ny, nx] (row 0 at y = ranges.1 .0), each cell
+/// in `colour(label)`; `legend` names the labels shown in the side panel.
+#[allow(clippy::too_many_arguments)]
+pub fn category_map(
+    path: &Path,
+    title: &str,
+    labels: &[i32],
+    cells: (usize, usize),
+    ranges: ((f64, f64), (f64, f64)),
+    axes: (&str, &str),
+    legend: &[(i32, String)],
+    colour: &dyn Fn(i32) -> RGBColor,
+) -> Result<()> {
+    let grid = Grid {
+        cells,
+        x_range: ranges.0,
+        y_range: ranges.1,
+        axes,
+    };
+    grid_map(path, title, &grid, &|i| colour(labels[i]), &|side| {
+        for (k, (id, name)) in legend.iter().enumerate() {
+            let y = 80 + 36 * k as i32;
+            side.draw(&Rectangle::new(
+                [(10, y), (34, y + 24)],
+                colour(*id).filled(),
+            ))
+            .map_err(|e| e.to_string())?;
+            side.draw(&Text::new(
+                name.clone(),
+                (42, y + 3),
+                ("sans-serif", 17).into_font(),
+            ))
+            .map_err(|e| e.to_string())?;
+        }
+        Ok(())
+    })
 }
 
 /// A map over a grid of start states: [ny, nx] cells (row 0 at y = y_range.0), the

@@ -349,3 +349,45 @@ fn a_brute_force_bifurcation_sharded_over_speeds_and_merged_equals_the_unsharded
         ],
     );
 }
+
+#[test]
+fn a_map_sharded_in_2_and_5_and_merged_in_any_order_equals_the_unsharded_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let cmd = [
+        "map",
+        "--x",
+        "omega:131:135:5",
+        "--y",
+        "e:0.0008:0.0012:3",
+        "--ics",
+        "2",
+        "--transient",
+        "60",
+        "--periods",
+        "16",
+        "--chunk",
+        "1",
+        "--backend",
+        "cpu",
+        "--quiet",
+    ];
+    let reference = dir.path().join("reference");
+    ok(&jeffcott(&with(&cmd, &["--out", p(&reference)])));
+    for (k, n) in [2, 5].into_iter().enumerate() {
+        let merged = sharded(dir.path(), &cmd, n, k + 2);
+        same_files(
+            &reference,
+            &merged,
+            &[
+                "period.npy",
+                "class.npy",
+                "lambda1.npy",
+                "attractors.npy",
+                "contact.npy",
+                "peak_force.npy",
+                "map.json",
+                "map_period.png",
+            ],
+        );
+    }
+}

@@ -4,4 +4,6 @@ pub mod basin;
 pub mod bifurcation;
 pub mod catalogue;
 pub mod classify;
+pub mod map;
 pub mod measures;
+pub mod rub;

@@ -207,6 +207,7 @@ pub fn run_merge(a: &MergeArgs) -> Result<()> {
         "basin" => super::basin::OUTPUTS,
         "ensemble" => super::ENSEMBLE_OUTPUTS,
         "bifurcation" => super::bifurcation::OUTPUTS,
+        "map" => super::map::OUTPUTS,
         c => {
             return Err(Error::invalid(
                 "SHARD_DIR",

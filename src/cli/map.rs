@@ -1,0 +1,408 @@
+//! `jeffcott map`: a two-parameter map (design chart) over any two of the speed, the
+//! model parameters and the start coordinates, run in work units committed to --out
+//! (resumable, shardable): period.npy, lambda1.npy, attractors.npy, contact.npy,
+//! peak_force.npy, map.json and three pictures.
+
+use super::rundir::{self, RunArgs};
+use super::{CatalogueArgs, ModelArgs, StepperArgs};
+use crate::analysis::map::{MapAxis, MapResult, MapSpec, MapVar, code, map_with};
+use crate::ensemble::{Backend, Precision};
+use crate::error::{Error, Result};
+use crate::output;
+use crate::plot::{basin_map, category_map, lambda1_map};
+use clap::Args;
+use std::path::{Path, PathBuf};
+
+/// Arguments of `jeffcott map`.
+#[derive(Args, Debug)]
+pub struct MapArgs {
+    /// Horizontal axis, NAME:lo:hi:n: `omega`, a model parameter (omega_r, omega_s, xi_r,
+    /// xi_s, delta, mu, m_r, m_s, e, k_c, c_c, e_max, a_g, phi0) or a start coordinate
+    /// (x_r, vx_r, ...), n values from lo to hi inclusive, e.g. omega:130:141:200.
+    #[arg(long, value_name = "NAME:lo:hi:n", allow_hyphen_values = true)]
+    pub x: String,
+    /// Vertical axis, NAME:lo:hi:n, e.g. e:0.0001:0.002:100.
+    #[arg(long, value_name = "NAME:lo:hi:n", allow_hyphen_values = true)]
+    pub y: String,
+    /// Space the x values geometrically (lo > 0).
+    #[arg(long)]
+    pub log_x: bool,
+    /// Space the y values geometrically (lo > 0).
+    #[arg(long)]
+    pub log_y: bool,
+    /// Rotor speed W of every cell when neither axis is omega [rad/s].
+    #[arg(long, value_name = "W")]
+    pub omega: Option<f64>,
+    /// Start states per cell: the static equilibrium of the cell's parameters plus K - 1
+    /// seeded ones (rotor positions within the gap, velocities within W delta of the
+    /// cell's W, drawn as the brute-force bifurcation draws them; the same draws in every
+    /// cell). K = 1 is the
+    /// classical diagram from the static equilibrium.
+    #[arg(long, default_value_t = 1, value_name = "K")]
+    pub ics: u32,
+    /// Seed of the start states.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Forcing periods integrated and discarded.
+    #[arg(long, default_value_t = 500, value_name = "Q")]
+    pub transient: u32,
+    /// Forcing periods recorded per lane (at least 2 n to see period n).
+    #[arg(long, default_value_t = 64, value_name = "P")]
+    pub periods: u32,
+    /// Skip lambda_1 (then lambda1.npy is NaN and aperiodic cells are not told apart as
+    /// quasiperiodic or chaotic); lambda_1 costs about 1.8x the run time on the CPU.
+    #[arg(long)]
+    pub no_lyapunov: bool,
+    /// Cells per work unit [default: at most 1/20 of the map and about 25 s of CPU work].
+    #[arg(long, value_name = "CELLS")]
+    pub chunk: Option<usize>,
+    /// Backend: auto (a hardware GPU if present, else the CPU), cpu, or gpu.
+    #[arg(long, value_enum, default_value_t = Backend::Auto)]
+    pub backend: Backend,
+    /// Lane precision [default: f64 on the CPU, f32 on a GPU].
+    #[arg(long, value_enum)]
+    pub precision: Option<Precision>,
+    #[command(flatten)]
+    pub model: ModelArgs,
+    #[command(flatten)]
+    pub stepper: StepperArgs,
+    #[command(flatten)]
+    pub catalogue: CatalogueArgs,
+    /// Output directory (created if missing). An unfinished run of the same command there
+    /// is resumed.
+    #[arg(long, value_name = "DIR", default_value = "jeffcott-out/map")]
+    pub out: PathBuf,
+    #[command(flatten)]
+    pub run: RunArgs,
+    #[command(flatten)]
+    pub shard: rundir::ShardArgs,
+    /// Skip the pictures.
+    #[arg(long)]
+    pub no_plot: bool,
+    /// Print nothing but errors (no progress bar).
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// Most cells a map may have (its per-cell attractor lists are held in memory).
+pub const MAX_MAP_CELLS: u64 = 100_000_000;
+
+impl MapArgs {
+    /// The map these arguments describe, validated.
+    pub fn spec(&self) -> Result<MapSpec> {
+        let params = self.model.params()?;
+        let x = MapAxis::parse("x", &self.x, self.log_x)?;
+        let y = MapAxis::parse("y", &self.y, self.log_y)?;
+        let cells = x.n as u64 * y.n as u64;
+        if cells > MAX_MAP_CELLS {
+            return Err(Error::invalid(
+                "x, y",
+                format!("{} x {} = {cells} cells", x.n, y.n),
+                format!("a map may have at most {MAX_MAP_CELLS} cells; use fewer per axis"),
+            ));
+        }
+        crate::limits::check_memory(
+            "x, y",
+            format!("{} x {} cells", x.n, y.n),
+            // Per cell: the arrays (36 bytes) and its attractor list (~200 bytes per
+            // attractor), plus one unit of lanes.
+            cells.saturating_mul(36 + 200 * self.ics.min(8) as u64),
+            "the per-cell arrays and attractor lists",
+            "use fewer cells or fewer --ics",
+        )?;
+        let precision = self
+            .precision
+            .unwrap_or_else(|| crate::ensemble::default_precision(self.backend));
+        let spec = MapSpec {
+            params,
+            omega: self.omega,
+            x,
+            y,
+            ics: self.ics,
+            seed: self.seed,
+            transient: self.transient,
+            recorded: self.periods,
+            stepper: self.stepper.config(),
+            precision,
+            backend: self.backend,
+            catalogue: self.catalogue.config(precision)?,
+            lyapunov: !self.no_lyapunov,
+            chunk: self.chunk,
+        };
+        spec.validate()?;
+        Ok(spec)
+    }
+}
+
+/// Final files of a map (run.json aside).
+pub const OUTPUTS: &[&str] = &[
+    "period.npy",
+    "class.npy",
+    "lambda1.npy",
+    "attractors.npy",
+    "contact.npy",
+    "peak_force.npy",
+    "x.npy",
+    "y.npy",
+    "map.json",
+    "map_period.png",
+    "map_lambda1.png",
+    "map_multistability.png",
+];
+
+/// Runs a map with a progress bar, its units committed to `store`.
+pub fn run_map_study(
+    spec: &MapSpec,
+    store: &dyn crate::run::UnitStore,
+    quiet: bool,
+) -> Result<MapResult> {
+    let per_lane = (spec.transient + spec.recorded) as u64;
+    let bar = crate::progress::Progress::new("map", spec.lane_periods(), per_lane, quiet);
+    let engine = crate::ensemble::Engine::new(spec.backend, spec.precision)?;
+    let cancel = rundir::cancel();
+    let cb = rundir::bar_callback(&bar);
+    let ctl = crate::run::lanes::Control {
+        progress: &cb,
+        cancel: &cancel,
+    };
+    let r = map_with(spec, &engine, store, ctl);
+    bar.finish();
+    r
+}
+
+/// Runs `jeffcott map`.
+pub fn run_map(a: &MapArgs) -> Result<()> {
+    let spec = a.spec()?;
+    let shard = a.shard.shard()?;
+    let rd = rundir::open_shard(
+        &a.out,
+        "map",
+        spec.to_json(),
+        OUTPUTS,
+        a.run,
+        shard,
+        a.quiet,
+    )?;
+    let res = match run_map_study(&spec, rundir::store(&rd).as_ref(), a.quiet) {
+        Err(Error::NotInShard) => return rundir::finish_shard(&rd, a.quiet),
+        r => r?,
+    };
+    write_map(&a.out, &spec, &res, !a.no_plot)?;
+    rd.finish(
+        serde_json::json!({"backend": res.info, "wall_time_s": res.seconds}),
+        &rundir::written(&rd, OUTPUTS),
+    )?;
+    if !a.quiet {
+        println!("{}", human_summary(&spec, &res, &a.out));
+    }
+    Ok(())
+}
+
+/// Axis label with unit, and the plotted range (log10 of the values on a log axis).
+fn axis_label(axis: &MapAxis) -> (String, (f64, f64)) {
+    let name = format!("{} [{}]", axis.var.name(), axis.var.unit());
+    let hi = if axis.n > 1 {
+        axis.hi
+    } else {
+        axis.lo * 1.0001 + 1e-12
+    };
+    if axis.log {
+        (format!("log10 {name}"), (axis.lo.log10(), hi.log10()))
+    } else {
+        (name, (axis.lo, hi))
+    }
+}
+
+/// Name of a class code, for legends and map.json.
+pub fn class_name(c: i32) -> String {
+    match c {
+        n if n > 0 => format!("period-{n}"),
+        code::APERIODIC => "aperiodic".into(),
+        code::QUASIPERIODIC => "quasiperiodic".into(),
+        code::CHAOTIC => "chaotic".into(),
+        code::UNCLASSIFIED => "unclassified".into(),
+        _ => "diverged".into(),
+    }
+}
+
+/// Periods drawn in colours of their own on the isoperiodic map; longer ones share one.
+const OWN_COLOUR_PERIODS: i32 = 8;
+
+/// Colour of a class code on the isoperiodic map: periods 1..=8 the palette's first
+/// eight colours, longer periods one light grey, quasiperiodic cyan, chaotic dark
+/// magenta, undecided aperiodic mid grey, unclassified white, diverged black.
+fn class_colour(c: i32) -> plotters::style::RGBColor {
+    use plotters::style::RGBColor;
+    match c {
+        n if (1..=OWN_COLOUR_PERIODS).contains(&n) => crate::plot::PALETTE[(n - 1) as usize],
+        n if n > OWN_COLOUR_PERIODS => RGBColor(200, 200, 200),
+        code::QUASIPERIODIC => crate::plot::PALETTE[8],
+        code::CHAOTIC => RGBColor(110, 20, 80),
+        code::APERIODIC => crate::plot::PALETTE[9],
+        code::UNCLASSIFIED => RGBColor(255, 255, 255),
+        _ => RGBColor(0, 0, 0),
+    }
+}
+
+/// The isoperiodic map's legend: the classes present, periods in order (those beyond
+/// [`OWN_COLOUR_PERIODS`] as one entry), then quasiperiodic, chaotic, aperiodic,
+/// unclassified, diverged.
+fn class_legend(classes: &[i32]) -> Vec<(i32, String)> {
+    let has = |c: i32| classes.contains(&c);
+    let mut legend: Vec<(i32, String)> = (1..=OWN_COLOUR_PERIODS)
+        .filter(|&n| has(n))
+        .map(|n| (n, class_name(n)))
+        .collect();
+    if let Some(top) = classes
+        .iter()
+        .copied()
+        .filter(|&n| n > OWN_COLOUR_PERIODS)
+        .max()
+    {
+        let low = OWN_COLOUR_PERIODS + 1;
+        legend.push((low, format!("period {low}..{top}")));
+    }
+    for c in [
+        code::QUASIPERIODIC,
+        code::CHAOTIC,
+        code::APERIODIC,
+        code::UNCLASSIFIED,
+        code::DIVERGED,
+    ] {
+        if has(c) {
+            legend.push((c, class_name(c)));
+        }
+    }
+    legend
+}
+
+/// Writes the arrays, map.json and the pictures.
+pub fn write_map(dir: &Path, spec: &MapSpec, res: &MapResult, plot_it: bool) -> Result<()> {
+    output::ensure_dir(dir)?;
+    let (nx, ny) = (spec.x.n, spec.y.n);
+    output::write_npy(&dir.join("period.npy"), &[ny, nx], &res.period)?;
+    output::write_npy(&dir.join("class.npy"), &[ny, nx], &res.class)?;
+    output::write_npy(&dir.join("lambda1.npy"), &[ny, nx], &res.lambda1)?;
+    output::write_npy(&dir.join("attractors.npy"), &[ny, nx], &res.attractors)?;
+    output::write_npy(&dir.join("contact.npy"), &[ny, nx], &res.contact)?;
+    output::write_npy(&dir.join("peak_force.npy"), &[ny, nx], &res.peak_force)?;
+    output::write_npy(&dir.join("x.npy"), &[nx], &spec.x.values())?;
+    output::write_npy(&dir.join("y.npy"), &[ny], &spec.y.values())?;
+    if plot_it {
+        let (lx, rx) = axis_label(&spec.x);
+        let (ly, ry) = axis_label(&spec.y);
+        let what = format!("{} x {} cells, {} start state(s) each", nx, ny, spec.ics);
+        category_map(
+            &dir.join("map_period.png"),
+            &format!("Response from the static equilibrium ({what})"),
+            &res.class,
+            (nx, ny),
+            (rx, ry),
+            (&lx, &ly),
+            &class_legend(&res.class),
+            &class_colour,
+        )?;
+        if spec.lyapunov {
+            lambda1_map(
+                &dir.join("map_lambda1.png"),
+                &format!("Largest Lyapunov exponent from the static equilibrium ({what})"),
+                &res.lambda1,
+                (nx, ny),
+                rx,
+                ry,
+                (&lx, &ly),
+            )?;
+        }
+        let most = res.attractors.iter().copied().max().unwrap_or(0).max(1);
+        let counts: Vec<i32> = res.attractors.iter().map(|&n| n - 1).collect();
+        let legend: Vec<(i32, String)> = (1..=most)
+            .filter(|n| res.attractors.contains(n))
+            .map(|n| {
+                (
+                    n - 1,
+                    format!("{n} attractor{}", if n == 1 { "" } else { "s" }),
+                )
+            })
+            .chain(
+                res.attractors
+                    .contains(&0)
+                    .then(|| (-1, "none (all diverged)".to_string())),
+            )
+            .collect();
+        basin_map(
+            &dir.join("map_multistability.png"),
+            &format!("Coexisting attractors ({what})"),
+            &counts,
+            (nx, ny),
+            rx,
+            ry,
+            (&lx, &ly),
+            &legend,
+        )?;
+    }
+    let mut tally: std::collections::BTreeMap<String, usize> = Default::default();
+    for &c in &res.class {
+        *tally.entry(class_name(c)).or_default() += 1;
+    }
+    let json = serde_json::json!({
+        "x": {"var": spec.x.var.name(), "unit": spec.x.var.unit(), "lo": spec.x.lo, "hi": spec.x.hi, "n": nx, "log": spec.x.log},
+        "y": {"var": spec.y.var.name(), "unit": spec.y.var.unit(), "lo": spec.y.lo, "hi": spec.y.hi, "n": ny, "log": spec.y.log},
+        "omega": spec.omega,
+        "ics": spec.ics,
+        "seed": spec.seed,
+        "transient": spec.transient,
+        "periods": spec.recorded,
+        "steps_per_period": spec.stepper.steps_per_period,
+        "lyapunov": spec.lyapunov,
+        "cells": nx * ny,
+        "classes_from_static_equilibrium": tally,
+        "multistable_cells": res.attractors.iter().filter(|&&n| n > 1).count(),
+        "rubbing_cells": res.contact.iter().filter(|&&c| c > 0.0).count(),
+        "max_attractors": res.attractors.iter().copied().max().unwrap_or(0),
+        "cell_attractors": res.cells,
+        "params": spec.params,
+        "files": {
+            "period.npy": "int32 [ny, nx]: period of the attractor reached from the static equilibrium; 0 aperiodic (quasiperiodic, chaotic or undecided), -1 diverged",
+            "class.npy": "int32 [ny, nx]: its class code: n > 0 period-n, 0 aperiodic, -1 diverged, -2 quasiperiodic, -3 chaotic, -4 unclassified",
+            "lambda1.npy": "f64 [ny, nx]: its mean largest Lyapunov exponent [1/s] (NaN when diverged or with --no-lyapunov)",
+            "attractors.npy": "int32 [ny, nx]: number of coexisting attractors found from the cell's start states",
+            "contact.npy": "f64 [ny, nx]: fraction of time in contact on the attractor from the static equilibrium (NaN when diverged)",
+            "peak_force.npy": "f64 [ny, nx]: peak normal contact force on it [N] (NaN when diverged)",
+            "x.npy": "f64 [nx]: the x-axis values",
+            "y.npy": "f64 [ny]: the y-axis values",
+            "map.json": "this file; cell_attractors lists every cell's attractors (class, period, start states reaching it, lambda_1, rub figures: contact fraction, impacts per revolution, peak and mean normal force [N], peak penetration [m])",
+            "map_period.png": "isoperiodic map: class of the response from the static equilibrium",
+            "map_lambda1.png": "lambda1.npy (blue negative, white 0, red positive)",
+            "map_multistability.png": "attractors.npy",
+            "run.json": "the run: state, command, specification, backend and wall time",
+        },
+        "jeffcott_version": env!("CARGO_PKG_VERSION"),
+    });
+    output::write_json(&dir.join("map.json"), &json)
+}
+
+fn human_summary(spec: &MapSpec, res: &MapResult, dir: &Path) -> String {
+    let mut tally: std::collections::BTreeMap<i32, usize> = Default::default();
+    for &c in &res.class {
+        *tally.entry(c).or_default() += 1;
+    }
+    let classes: Vec<String> = tally
+        .iter()
+        .map(|(&c, &n)| format!("{} {}", class_name(c), n))
+        .collect();
+    let var = |v: MapVar| v.name();
+    format!(
+        "Map over {} ({} values) and {} ({} values), {} start state(s) per cell: from the static equilibrium {}; {} cell(s) rub, {} multistable (at most {} attractors); {:.1} s. Files in {}.",
+        var(spec.x.var),
+        spec.x.n,
+        var(spec.y.var),
+        spec.y.n,
+        spec.ics,
+        classes.join(", "),
+        res.contact.iter().filter(|&&c| c > 0.0).count(),
+        res.attractors.iter().filter(|&&n| n > 1).count(),
+        res.attractors.iter().copied().max().unwrap_or(0),
+        res.seconds,
+        dir.display()
+    )
+}
