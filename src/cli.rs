@@ -5,7 +5,7 @@ use crate::analysis::classify::ClassifyConfig;
 use crate::error::{Error, Result};
 use crate::integrate::article::{ArticleConfig, ErrorNorm};
 use crate::integrate::lane::{DEFAULT_STEPS_PER_PERIOD, StepperConfig};
-use crate::model::{COORD_NAMES, Params, STATE_DIM, X_R, X_S, Y_R, Y_S, coord_index};
+use crate::model::{COORD_NAMES, Params, STATE_DIM, State, X_R, X_S, Y_R, Y_S, coord_index};
 use crate::simulate::{Integrator, SimulateSpec, simulate};
 use crate::{output, plot};
 use clap::{Args, Parser, Subcommand};
@@ -14,6 +14,7 @@ use std::path::{Path, PathBuf};
 mod basin;
 mod bench;
 mod bifurcation;
+mod continuation;
 mod map;
 mod merge;
 mod reproduce;
@@ -21,6 +22,7 @@ pub mod rundir;
 pub use basin::{BasinArgs, run_basin};
 pub use bench::{BenchArgs, run_bench};
 pub use bifurcation::{BifurcationArgs, CatalogueArgs, SweepArg, run_bifurcation};
+pub use continuation::{ContinuationArgs, run_continuation};
 pub use map::{MapArgs, run_map};
 pub use merge::{MergeArgs, run_merge};
 pub mod lyapunov;
@@ -66,6 +68,11 @@ pub enum Command {
     /// from K start states. Resumable and shardable like basin.
     #[command(allow_negative_numbers = true)]
     Map(MapArgs),
+    /// Follow the attractors over omega or a model parameter, run-up and run-down
+    /// (Attractors.jl's seeded find-and-match): basin fractions with errors, where
+    /// attractors are born and die, and tipping probabilities between consecutive values.
+    #[command(allow_negative_numbers = true)]
+    Continuation(ContinuationArgs),
     /// Regenerate the article's figures (Figs. 3-12, plus down-sweep and brute-force
     /// diagrams) and a REPORT.md; --quick (default) takes under 10 minutes on 2 CPU cores.
     Reproduce(ReproduceArgs),
@@ -91,6 +98,7 @@ pub fn dispatch(command: &Command) -> Result<()> {
         Command::Bifurcation(a) => run_bifurcation(a),
         Command::Basin(a) => run_basin(a),
         Command::Map(a) => run_map(a),
+        Command::Continuation(a) => run_continuation(a),
         Command::Reproduce(a) => run_reproduce(a),
         Command::Info => run_info(),
         Command::Bench(a) => run_bench(a),
@@ -103,9 +111,30 @@ pub fn dispatch(command: &Command) -> Result<()> {
 #[derive(Args, Debug)]
 pub struct EnsembleArgs {
     /// Rotor speeds: `a:b:n` is n speeds from a to b inclusive, evenly spaced, or one
-    /// number [rad/s].
-    #[arg(long, value_name = "a:b:n", allow_hyphen_values = true)]
-    pub omega: String,
+    /// number [rad/s]. With --lanes: the speed of lanes whose table has no omega column.
+    #[arg(
+        long,
+        value_name = "a:b:n",
+        allow_hyphen_values = true,
+        required_unless_present = "lanes"
+    )]
+    pub omega: Option<String>,
+    /// Lanes from a table, one row each: a CSV file with a header, or a 2-D f64 .npy with
+    /// --columns (a lanes.npy of an earlier run needs none; a params.npy beside it gives
+    /// its param_set column's parameter sets). Columns: omega, any parameter key
+    /// (omega_r, omega_s, xi_r, xi_s, delta, mu, m_r, m_s, e, k_c, c_c, e_max, a_g, phi0),
+    /// start coordinates (x_r, vx_r, ... or x_r0, ...), param_set. Absent columns take
+    /// --omega, --config/--param and the static equilibrium with --init.
+    #[arg(long, value_name = "FILE")]
+    pub lanes: Option<PathBuf>,
+    /// Column names of an .npy lane table, e.g. `--columns omega,mu,k_c`.
+    #[arg(
+        long,
+        value_name = "NAME,...",
+        value_delimiter = ',',
+        requires = "lanes"
+    )]
+    pub columns: Option<Vec<String>>,
     /// Override coordinates of every lane's start state (default: static equilibrium),
     /// e.g. `--init x_r=0.005,vx_r=-0.5`.
     #[arg(long, value_name = "NAME=VALUE,...")]
@@ -146,42 +175,126 @@ pub struct EnsembleArgs {
 }
 
 /// Final files of an ensemble (run.json aside).
-pub(crate) const ENSEMBLE_OUTPUTS: &[&str] =
-    &["poincare.npy", "status.npy", "lanes.npy", "lambda1.npy"];
+pub(crate) const ENSEMBLE_OUTPUTS: &[&str] = &[
+    "poincare.npy",
+    "status.npy",
+    "lanes.npy",
+    "params.npy",
+    "lambda1.npy",
+];
 
-/// Runs `jeffcott ensemble`: lanes in work units committed to --out, then the files
-/// assembled from the units (poincare.npy streamed, one unit in memory at a time).
-pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
-    use crate::ensemble::{EnsembleSpec, LaneSpec, lane_table_columns};
-    use crate::run::{Array, Unit};
+/// The lanes of `jeffcott ensemble`: a speed range from one start state, or a table.
+/// Returns the parameter sets, the lanes and what run.json records of them.
+fn ensemble_lanes(
+    a: &EnsembleArgs,
+) -> Result<(
+    Vec<Params>,
+    Vec<crate::ensemble::LaneSpec>,
+    serde_json::Value,
+)> {
+    use crate::ensemble::LaneSpec;
+    use crate::ensemble::table::{
+        LaneTable, TableDefaults, lanes_checksum, lanes_from_table, read_params_table,
+    };
     let params = a.model.params()?;
+    let bound = a.stepper.divergence_bound;
+    if let Some(path) = &a.lanes {
+        let table = LaneTable::read(path, a.columns.as_deref())?;
+        crate::limits::check_memory(
+            "lanes",
+            path.display(),
+            crate::ensemble::EnsembleSpec::memory_estimate_for(
+                table.rows.len() as u64,
+                a.periods as u64,
+            ),
+            &format!(
+                "{} lanes x {} recorded periods",
+                table.rows.len(),
+                a.periods
+            ),
+            "use a shorter table or fewer --periods",
+        )?;
+        // A params.npy beside the table holds the sets its param_set column indexes.
+        let beside = path.with_file_name("params.npy");
+        let sets = if table.columns.iter().any(|c| c == "param_set") && beside.exists() {
+            read_params_table(&beside)?
+        } else {
+            Vec::new()
+        };
+        let init = |x: &mut State| apply_init(x, &a.init);
+        // --omega with a table: one speed for lanes without an omega column.
+        let omega = match &a.omega {
+            Some(text) => {
+                let r = crate::ensemble::RangeSpec::parse("omega", text)?;
+                if r.n != 1 {
+                    return Err(Error::invalid(
+                        "omega",
+                        text,
+                        "with --lanes give one speed (for lanes without an omega column), not a range",
+                    ));
+                }
+                Some(r.a)
+            }
+            None => None,
+        };
+        let (sets, lanes) = lanes_from_table(
+            &table,
+            &TableDefaults {
+                params: &params,
+                param_sets: &sets,
+                omega,
+                init: &init,
+                divergence_bound: bound,
+            },
+        )?;
+        let j = serde_json::json!({
+            "table": path.display().to_string(),
+            "columns": table.columns,
+            "count": lanes.len(),
+            "checksum": lanes_checksum(&sets, &lanes),
+        });
+        return Ok((sets, lanes, j));
+    }
+    let omega = a.omega.as_deref().unwrap_or_default();
     let mut x0 = params.static_equilibrium();
     apply_init(&mut x0, &a.init)?;
-    check_start_within_bound("init", &x0, a.stepper.divergence_bound)?;
-    let range = crate::ensemble::RangeSpec::parse("omega", &a.omega)?;
-    crate::limits::check_periods("transient", a.transient, 0)?;
-    crate::limits::check_periods("periods", a.periods, 1)?;
+    check_start_within_bound("init", &x0, bound)?;
+    let range = crate::ensemble::RangeSpec::parse("omega", omega)?;
     crate::limits::check_memory(
         "omega",
-        &a.omega,
-        EnsembleSpec::memory_estimate_for(range.len(), a.periods as u64),
+        omega,
+        crate::ensemble::EnsembleSpec::memory_estimate_for(range.len(), a.periods as u64),
         &format!("{} lanes x {} recorded periods", range.len(), a.periods),
         "ask for fewer speeds (a smaller n in --omega a:b:n) or fewer --periods",
     )?;
     let omegas = range.values();
+    let n = omegas.len();
+    let j = serde_json::json!({"first": omegas[0], "last": omegas[n - 1], "count": n, "x0": x0});
+    let lanes = omegas
+        .iter()
+        .map(|&omega| LaneSpec {
+            omega,
+            x0,
+            param_set: 0,
+        })
+        .collect();
+    Ok((vec![params], lanes, j))
+}
+
+/// Runs `jeffcott ensemble`: lanes in work units committed to --out, then the files
+/// assembled from the units (poincare.npy streamed, one unit in memory at a time).
+pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
+    use crate::ensemble::{EnsembleSpec, lane_table_columns};
+    use crate::run::{Array, Unit};
+    crate::limits::check_periods("transient", a.transient, 0)?;
+    crate::limits::check_periods("periods", a.periods, 1)?;
+    let (param_sets, lanes, lanes_json) = ensemble_lanes(a)?;
     let precision = a
         .precision
         .unwrap_or_else(|| crate::ensemble::default_precision(a.backend));
     let spec = EnsembleSpec {
-        lanes: omegas
-            .iter()
-            .map(|&omega| LaneSpec {
-                omega,
-                x0,
-                param_set: 0,
-            })
-            .collect(),
-        param_sets: vec![params],
+        lanes,
+        param_sets,
         transient: a.transient,
         recorded: a.periods,
         stepper: a.stepper.config(),
@@ -195,9 +308,8 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
         per_lane * spec.stepper.steps_per_period as u64 * if a.lyapunov { 2 } else { 1 },
     );
     let count = crate::run::unit_count(n, unit);
-    let run_spec = serde_json::json!({
-        "omega": {"first": omegas[0], "last": omegas[n - 1], "count": n},
-        "x0": x0,
+    // A speed range keeps the keys of earlier versions (omega, x0), so their runs resume.
+    let mut run_spec = serde_json::json!({
         "transient": spec.transient,
         "periods": spec.recorded,
         "stepper": spec.stepper,
@@ -206,6 +318,12 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
         "unit_lanes": unit,
         "params": spec.param_sets,
     });
+    if a.lanes.is_some() {
+        run_spec["lanes"] = lanes_json;
+    } else {
+        run_spec["omega"] = serde_json::json!({"first": lanes_json["first"], "last": lanes_json["last"], "count": n});
+        run_spec["x0"] = lanes_json["x0"].clone();
+    }
     let shard = a.shard.shard()?;
     let rd = rundir::open_shard(
         &a.out,
@@ -316,6 +434,11 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
         table.extend_from_slice(&l.x0);
     }
     output::write_npy(&dir.join("lanes.npy"), &[n, 2 + STATE_DIM], &table)?;
+    output::write_npy(
+        &dir.join("params.npy"),
+        &[spec.param_sets.len(), Params::FIELDS.len()],
+        &crate::ensemble::table::params_table(&spec.param_sets),
+    )?;
     if a.lyapunov {
         output::write_npy(&dir.join("lambda1.npy"), &[n], &lambda1)?;
     }

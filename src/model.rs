@@ -142,6 +142,11 @@ impl Params {
         })
     }
 
+    /// One field by name (as in the TOML file), `None` for an unknown name.
+    pub fn get(&self, name: &str) -> Option<f64> {
+        self.clone().field_mut(name).map(|(v, _)| *v)
+    }
+
     /// Sets one field by name (as in the TOML file), e.g. `set("k_c", 2e8)`.
     /// Unknown names are an error listing the valid ones. The value is checked by
     /// [`Params::validate`], not here.

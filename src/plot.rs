@@ -809,3 +809,72 @@ pub fn poincare_sections(
         root.present().map_err(|e| err(e.to_string()))
     })
 }
+
+/// One panel of [`stacked_fractions`]: a title and, per band, its legend text, colour and
+/// value at each x (bands stacked bottom-up in the order given).
+pub struct StackedPanel {
+    /// Panel caption.
+    pub title: String,
+    /// (legend, colour, values at each x).
+    pub bands: Vec<(String, RGBColor, Vec<f64>)>,
+}
+
+/// Stacked-area chart of fractions (0..1) against `x`, one panel per entry, stacked
+/// vertically: which attractor's basin dominates where.
+pub fn stacked_fractions(
+    path: &Path,
+    title: &str,
+    x_label: &str,
+    x: &[f64],
+    panels: &[StackedPanel],
+) -> Result<()> {
+    register_font();
+    let err = plot_err(path);
+    let h = 140 + 430 * panels.len().max(1) as u32;
+    let (x0, x1) = (x[0], x[x.len() - 1].max(x[0] + 1e-12));
+    crate::plot::render_png(path, (1300, h), |root| {
+        root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
+        let root = root
+            .titled(title, ("sans-serif", 24))
+            .map_err(|e| err(e.to_string()))?;
+        let areas = root.split_evenly((panels.len().max(1), 1));
+        for (area, panel) in areas.iter().zip(panels) {
+            let mut chart = ChartBuilder::on(area)
+                .caption(panel.title.as_str(), ("sans-serif", 19))
+                .margin(12)
+                .x_label_area_size(46)
+                .y_label_area_size(70)
+                .build_cartesian_2d(x0..x1, 0.0..1.0)
+                .map_err(|e| err(e.to_string()))?;
+            chart
+                .configure_mesh()
+                .x_desc(x_label)
+                .y_desc("basin fraction")
+                .label_style(("sans-serif", 15))
+                .axis_desc_style(("sans-serif", 17))
+                .draw()
+                .map_err(|e| err(e.to_string()))?;
+            let mut lower = vec![0.0; x.len()];
+            for (name, colour, values) in &panel.bands {
+                let upper: Vec<f64> = lower.iter().zip(values).map(|(l, v)| l + v).collect();
+                let outline: Vec<(f64, f64)> = x
+                    .iter()
+                    .zip(&upper)
+                    .map(|(&a, &b)| (a, b))
+                    .chain(x.iter().zip(&lower).rev().map(|(&a, &b)| (a, b)))
+                    .collect();
+                let c = *colour;
+                chart
+                    .draw_series(std::iter::once(Polygon::new(outline, c.mix(0.85).filled())))
+                    .map_err(|e| err(e.to_string()))?
+                    .label(name.as_str())
+                    .legend(move |(x, y)| {
+                        Rectangle::new([(x, y - 6), (x + 16, y + 6)], c.filled())
+                    });
+                lower = upper;
+            }
+            legend(&mut chart, SeriesLabelPosition::UpperRight, 14).map_err(&err)?;
+        }
+        root.present().map_err(|e| err(e.to_string()))
+    })
+}

@@ -391,3 +391,38 @@ fn a_map_sharded_in_2_and_5_and_merged_in_any_order_equals_the_unsharded_run() {
         );
     }
 }
+
+#[test]
+fn a_continuation_sharded_in_3_and_merged_equals_the_unsharded_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let cmd = [
+        "continuation",
+        "--param",
+        "omega:132.6:133.4:9",
+        "--ics",
+        "8",
+        "--transient",
+        "60",
+        "--periods",
+        "16",
+        "--backend",
+        "cpu",
+        "--quiet",
+    ];
+    let reference = dir.path().join("reference");
+    ok(&jeffcott(&with(&cmd, &["--out", p(&reference)])));
+    let merged = sharded(dir.path(), &cmd, 3, 1);
+    same_files(
+        &reference,
+        &merged,
+        &[
+            "values.npy",
+            "fractions_up.npy",
+            "tipping_up.npy",
+            "fractions_down.npy",
+            "tipping_down.npy",
+            "continuation.json",
+            "continuation.png",
+        ],
+    );
+}

@@ -12,13 +12,13 @@
 //! lambda_1 variant, either backend): 8 more bytes per cell (32 MB at 2000 x 2000), and
 //! aperiodic attractors are told apart as quasiperiodic or chaotic.
 
-use super::catalogue::{Catalogue, CatalogueBuilder, CatalogueConfig, PartAttractor};
+use super::catalogue::{Catalogue, CatalogueBuilder, CatalogueConfig, part_unit, unit_parts};
 use crate::ensemble::{Backend, EnsembleSpec, LaneSpec, Precision, RunInfo};
 use crate::error::{Error, Result};
 use crate::integrate::lane::StepperConfig;
-use crate::model::{COORD_NAMES, Params, STATE_DIM, State, coord_index};
+use crate::model::{COORD_NAMES, Params, State, coord_index};
 use crate::run::lanes::{Control, LaneUnits};
-use crate::run::{Array, Cancel, MemoryStore, ProgressFn, Unit, UnitStore};
+use crate::run::{Array, Cancel, MemoryStore, ProgressFn, UnitStore};
 
 /// One axis of the grid: a state coordinate from `lo` to `hi` inclusive in `n` values.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
@@ -281,22 +281,11 @@ pub fn basin_with(
         let frozen: Vec<bool> = res.status.iter().map(|s| s.is_frozen()).collect();
         let labels = b.add_block(&res.poincare, res.recorded, &frozen, res.lambda1.as_deref());
         let (parts, labels, diverged) = b.finish_part(labels);
-        let mut unit = Unit::new("").with("labels", Array::I32(labels)).with(
-            "points",
-            Array::F64(
-                parts
-                    .iter()
-                    .flat_map(|p| p.points.iter().flatten().copied())
-                    .collect(),
-            ),
-        );
+        let mut unit = part_unit(labels, &parts, diverged);
         if let Some(l) = res.lambda1 {
             unit = unit.with("lambda1", Array::F64(l));
         }
-        let counts: Vec<usize> = parts.iter().map(|p| p.points.len()).collect();
-        Ok(unit.with_meta(serde_json::json!({
-            "parts": parts, "part_points": counts, "diverged": diverged,
-        })))
+        Ok(unit)
     };
     let info = crate::run::lanes::run_units(
         store,
@@ -342,32 +331,4 @@ pub fn basin_with(
         info,
         seconds: t0.elapsed().as_secs_f64(),
     })
-}
-
-/// The partial catalogue a basin unit stores, with its points, and its diverged count.
-fn unit_parts(unit: &Unit) -> Result<(Vec<PartAttractor>, u64)> {
-    let bad = |what: &str| Error::Io {
-        path: format!("unit {}", unit.key).into(),
-        source: std::io::Error::new(std::io::ErrorKind::InvalidData, what.to_string()),
-    };
-    let mut parts: Vec<PartAttractor> = serde_json::from_value(unit.meta["parts"].clone())
-        .map_err(|e| bad(&format!("partial catalogue: {e}")))?;
-    let counts: Vec<usize> = serde_json::from_value(unit.meta["part_points"].clone())
-        .map_err(|e| bad(&format!("partial catalogue: {e}")))?;
-    let diverged = unit.meta["diverged"]
-        .as_u64()
-        .ok_or_else(|| bad("diverged count"))?;
-    let flat = unit.f64s("points")?;
-    if counts.len() != parts.len() || counts.iter().sum::<usize>() * STATE_DIM != flat.len() {
-        return Err(bad("partial catalogue points do not match"));
-    }
-    let mut at = 0;
-    for (p, &n) in parts.iter_mut().zip(&counts) {
-        p.points = flat[at * STATE_DIM..(at + n) * STATE_DIM]
-            .chunks_exact(STATE_DIM)
-            .map(|c| c.try_into().unwrap_or([f64::NAN; STATE_DIM]))
-            .collect();
-        at += n;
-    }
-    Ok((parts, diverged))
 }

@@ -418,7 +418,7 @@ fn sweep(
 }
 
 /// A deterministic hash in [-1, 1) (splitmix64).
-fn unit(i: u64, salt: u64) -> f64 {
+pub(crate) fn unit(i: u64, salt: u64) -> f64 {
     let mut z = i
         .wrapping_add(salt.wrapping_mul(0x9E37_79B9_7F4A_7C15))
         .wrapping_mul(0x9E37_79B9_7F4A_7C15);

@@ -597,6 +597,56 @@ impl CatalogueBuilder {
     }
 }
 
+/// A work unit holding a partial catalogue: the lanes' `labels` (unit-local attractor
+/// ids, -1 diverged), the attractors ([`PartAttractor`], their points flattened into the
+/// `points` array) and the diverged count; read back by [`unit_parts`].
+pub fn part_unit(labels: Vec<i32>, parts: &[PartAttractor], diverged: u64) -> crate::run::Unit {
+    use crate::run::{Array, Unit};
+    let counts: Vec<usize> = parts.iter().map(|p| p.points.len()).collect();
+    Unit::new("")
+        .with("labels", Array::I32(labels))
+        .with(
+            "points",
+            Array::F64(
+                parts
+                    .iter()
+                    .flat_map(|p| p.points.iter().flatten().copied())
+                    .collect(),
+            ),
+        )
+        .with_meta(serde_json::json!({
+            "parts": parts, "part_points": counts, "diverged": diverged,
+        }))
+}
+
+/// The partial catalogue a [`part_unit`] stores, with its points, and its diverged count.
+pub fn unit_parts(unit: &crate::run::Unit) -> crate::error::Result<(Vec<PartAttractor>, u64)> {
+    let bad = |what: &str| crate::error::Error::Io {
+        path: format!("unit {}", unit.key).into(),
+        source: std::io::Error::new(std::io::ErrorKind::InvalidData, what.to_string()),
+    };
+    let mut parts: Vec<PartAttractor> = serde_json::from_value(unit.meta["parts"].clone())
+        .map_err(|e| bad(&format!("partial catalogue: {e}")))?;
+    let counts: Vec<usize> = serde_json::from_value(unit.meta["part_points"].clone())
+        .map_err(|e| bad(&format!("partial catalogue: {e}")))?;
+    let diverged = unit.meta["diverged"]
+        .as_u64()
+        .ok_or_else(|| bad("diverged count"))?;
+    let flat = unit.f64s("points")?;
+    if counts.len() != parts.len() || counts.iter().sum::<usize>() * STATE_DIM != flat.len() {
+        return Err(bad("partial catalogue points do not match"));
+    }
+    let mut at = 0;
+    for (p, &n) in parts.iter_mut().zip(&counts) {
+        p.points = flat[at * STATE_DIM..(at + n) * STATE_DIM]
+            .chunks_exact(STATE_DIM)
+            .map(|c| c.try_into().unwrap_or([f64::NAN; STATE_DIM]))
+            .collect();
+        at += n;
+    }
+    Ok((parts, diverged))
+}
+
 /// The catalogue of a set of lanes at one W.
 #[derive(Clone, Debug, Serialize)]
 pub struct Catalogue {

@@ -4,6 +4,7 @@ pub mod basin;
 pub mod bifurcation;
 pub mod catalogue;
 pub mod classify;
+pub mod continuation;
 pub mod map;
 pub mod measures;
 pub mod rub;

@@ -208,6 +208,7 @@ pub fn run_merge(a: &MergeArgs) -> Result<()> {
         "ensemble" => super::ENSEMBLE_OUTPUTS,
         "bifurcation" => super::bifurcation::OUTPUTS,
         "map" => super::map::OUTPUTS,
+        "continuation" => super::continuation::OUTPUTS,
         c => {
             return Err(Error::invalid(
                 "SHARD_DIR",

@@ -4,6 +4,7 @@
 
 pub mod cpu;
 pub mod engine;
+pub mod table;
 
 pub use engine::Engine;
 

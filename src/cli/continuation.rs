@@ -1,0 +1,354 @@
+//! `jeffcott continuation`: attractors followed over omega or a model parameter, run-up
+//! and run-down, with basin fractions, births and deaths, and tipping probabilities;
+//! resumable, its fresh pass shardable.
+
+use super::rundir::{self, RunArgs};
+use super::{CatalogueArgs, ModelArgs, StepperArgs};
+use crate::analysis::continuation::{
+    ContinuationResult, ContinuationSpec, Direction, Ramp, continuation_with,
+};
+use crate::analysis::map::MapAxis;
+use crate::ensemble::{Backend, Precision};
+use crate::error::{Error, Result};
+use crate::output;
+use crate::plot::{PALETTE, StackedPanel, stacked_fractions};
+use clap::{Args, ValueEnum};
+use std::path::{Path, PathBuf};
+
+/// Which ramps to run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum DirectionArg {
+    /// First value to last.
+    Up,
+    /// Last value to first.
+    Down,
+    /// Both.
+    Both,
+}
+
+/// Arguments of `jeffcott continuation`.
+#[derive(Args, Debug)]
+pub struct ContinuationArgs {
+    /// The continued parameter, NAME:lo:hi:n: omega or a model parameter (omega_r,
+    /// omega_s, xi_r, xi_s, delta, mu, m_r, m_s, e, k_c, c_c, e_max, a_g, phi0), n >= 2
+    /// values from lo to hi inclusive, e.g. omega:130:141:111.
+    #[arg(long, value_name = "NAME:lo:hi:n", allow_hyphen_values = true)]
+    pub param: String,
+    /// Rotor speed when the parameter is not omega [rad/s].
+    #[arg(long, value_name = "W")]
+    pub omega: Option<f64>,
+    /// Fresh start states per value (the static equilibrium plus seeded draws, the same at
+    /// every value): they give the basin fractions and tipping probabilities.
+    #[arg(long, default_value_t = 32, value_name = "K")]
+    pub ics: u32,
+    /// Draw the fresh start states uniformly in a box of start coordinates instead,
+    /// e.g. `--box x_r:-0.006:0.006,vx_r:-1:1` (the others at the static equilibrium):
+    /// the fractions are then the basin stability of that box (Menck et al. 2013).
+    #[arg(
+        long = "box",
+        value_name = "NAME:lo:hi,...",
+        allow_hyphen_values = true
+    )]
+    pub start_box: Option<String>,
+    /// Seed of the start states.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Ramp direction: up (run-up), down (run-down) or both.
+    #[arg(long, value_enum, default_value_t = DirectionArg::Both)]
+    pub direction: DirectionArg,
+    /// Largest Poincare-set distance at which attractors of consecutive values are one
+    /// attractor [m; velocities count divided by W] [default: inf, always the nearest].
+    #[arg(long, value_name = "M")]
+    pub match_threshold: Option<f64>,
+    /// Forcing periods integrated and discarded per lane.
+    #[arg(long, default_value_t = 500, value_name = "Q")]
+    pub transient: u32,
+    /// Forcing periods recorded per lane.
+    #[arg(long, default_value_t = 64, value_name = "P")]
+    pub periods: u32,
+    /// Skip lambda_1 (aperiodic attractors are then not told apart as quasiperiodic or
+    /// chaotic).
+    #[arg(long)]
+    pub no_lyapunov: bool,
+    /// Backend: auto (a hardware GPU if present, else the CPU), cpu, or gpu.
+    #[arg(long, value_enum, default_value_t = Backend::Auto)]
+    pub backend: Backend,
+    /// Lane precision [default: f64 on the CPU, f32 on a GPU].
+    #[arg(long, value_enum)]
+    pub precision: Option<Precision>,
+    #[command(flatten)]
+    pub model: ModelArgs,
+    #[command(flatten)]
+    pub stepper: StepperArgs,
+    #[command(flatten)]
+    pub catalogue: CatalogueArgs,
+    /// Output directory (created if missing). An unfinished run of the same command there
+    /// is resumed.
+    #[arg(long, value_name = "DIR", default_value = "jeffcott-out/continuation")]
+    pub out: PathBuf,
+    #[command(flatten)]
+    pub run: RunArgs,
+    #[command(flatten)]
+    pub shard: rundir::ShardArgs,
+    /// Skip continuation.png.
+    #[arg(long)]
+    pub no_plot: bool,
+    /// Print nothing but errors (no progress bar).
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+impl ContinuationArgs {
+    /// The continuation these arguments describe, validated.
+    pub fn spec(&self) -> Result<ContinuationSpec> {
+        let precision = self
+            .precision
+            .unwrap_or_else(|| crate::ensemble::default_precision(self.backend));
+        let spec = ContinuationSpec {
+            params: self.model.params()?,
+            omega: self.omega,
+            param: MapAxis::parse("param", &self.param, false)?,
+            ics: self.ics,
+            start_box: self
+                .start_box
+                .as_deref()
+                .map(|b| crate::analysis::continuation::parse_box("box", b))
+                .transpose()?,
+            seed: self.seed,
+            transient: self.transient,
+            recorded: self.periods,
+            stepper: self.stepper.config(),
+            precision,
+            backend: self.backend,
+            catalogue: self.catalogue.config(precision)?,
+            lyapunov: !self.no_lyapunov,
+            directions: match self.direction {
+                DirectionArg::Up => vec![Direction::Up],
+                DirectionArg::Down => vec![Direction::Down],
+                DirectionArg::Both => vec![Direction::Up, Direction::Down],
+            },
+            match_threshold: self.match_threshold.unwrap_or(f64::INFINITY),
+        };
+        spec.validate()?;
+        Ok(spec)
+    }
+}
+
+/// Final files (run.json aside).
+pub const OUTPUTS: &[&str] = &[
+    "values.npy",
+    "fractions_up.npy",
+    "fraction_errors_up.npy",
+    "tipping_up.npy",
+    "fractions_down.npy",
+    "fraction_errors_down.npy",
+    "tipping_down.npy",
+    "continuation.json",
+    "continuation.png",
+];
+
+/// Runs a continuation with a progress bar, its units committed to `store`.
+pub fn run_continuation_study(
+    spec: &ContinuationSpec,
+    store: &dyn crate::run::UnitStore,
+    quiet: bool,
+) -> Result<ContinuationResult> {
+    let per_lane = (spec.transient + spec.recorded) as u64;
+    let bar = crate::progress::Progress::new("continuation", spec.lane_periods(), per_lane, quiet);
+    let engine = crate::ensemble::Engine::new(spec.backend, spec.precision)?;
+    let cancel = rundir::cancel();
+    let cb = rundir::bar_callback(&bar);
+    let ctl = crate::run::lanes::Control {
+        progress: &cb,
+        cancel: &cancel,
+    };
+    let r = continuation_with(spec, &engine, store, ctl);
+    bar.finish();
+    r
+}
+
+/// Runs `jeffcott continuation`.
+pub fn run_continuation(a: &ContinuationArgs) -> Result<()> {
+    let spec = a.spec()?;
+    let shard = a.shard.shard()?;
+    let rd = rundir::open_shard(
+        &a.out,
+        "continuation",
+        spec.to_json(),
+        OUTPUTS,
+        a.run,
+        shard,
+        a.quiet,
+    )?;
+    let res = match run_continuation_study(&spec, rundir::store(&rd).as_ref(), a.quiet) {
+        Err(Error::NotInShard) => return rundir::finish_shard(&rd, a.quiet),
+        r => r?,
+    };
+    write_continuation(&a.out, &spec, &res, !a.no_plot)?;
+    rd.finish(
+        serde_json::json!({"backend": res.info, "wall_time_s": res.seconds}),
+        &rundir::written(&rd, OUTPUTS),
+    )?;
+    if !a.quiet {
+        println!("{}", human_summary(&spec, &res, &a.out));
+    }
+    Ok(())
+}
+
+/// Legend name of continuation id `id` in a ramp: its class where it has the largest
+/// basin, e.g. "#1 period-4".
+fn id_name(r: &Ramp, id: u32) -> String {
+    let best = r
+        .steps
+        .iter()
+        .flat_map(|s| s.attractors.iter())
+        .filter(|a| a.id == id)
+        .max_by(|a, b| a.fraction.total_cmp(&b.fraction));
+    match best {
+        Some(a) => format!("#{id} {}", a.class),
+        None => format!("#{id}"),
+    }
+}
+
+/// Writes the arrays, continuation.json and continuation.png.
+pub fn write_continuation(
+    dir: &Path,
+    spec: &ContinuationSpec,
+    res: &ContinuationResult,
+    plot_it: bool,
+) -> Result<()> {
+    output::ensure_dir(dir)?;
+    let n = res.values.len();
+    output::write_npy(&dir.join("values.npy"), &[n], &res.values)?;
+    let mut ramps_json = serde_json::Map::new();
+    for r in &res.ramps {
+        let d = r.direction.name();
+        let g = r.ids + 1;
+        let (f, e) = r.fractions();
+        output::write_npy(&dir.join(format!("fractions_{d}.npy")), &[n, g], &f)?;
+        output::write_npy(&dir.join(format!("fraction_errors_{d}.npy")), &[n, g], &e)?;
+        output::write_npy(
+            &dir.join(format!("tipping_{d}.npy")),
+            &[n - 1, g, g],
+            &r.tipping(),
+        )?;
+        let lifetimes: Vec<serde_json::Value> = r
+            .lifetimes()
+            .into_iter()
+            .map(|(id, first, last)| {
+                serde_json::json!({"id": id, "name": id_name(r, id), "first_value": first, "last_value": last,
+                    "born_inside": first != r.steps[0].value, "dies_inside": last != r.steps[n - 1].value})
+            })
+            .collect();
+        ramps_json.insert(
+            d.to_string(),
+            serde_json::json!({
+                "order": "steps in ramp order (up: ascending values, down: descending)",
+                "attractors": lifetimes,
+                "steps": r.steps,
+            }),
+        );
+    }
+    if plot_it {
+        let panels: Vec<StackedPanel> = res
+            .ramps
+            .iter()
+            .map(|r| {
+                // Bands in ascending parameter order whatever the ramp direction.
+                let asc = |col: &dyn Fn(&crate::analysis::continuation::Step) -> f64| {
+                    let mut v: Vec<(f64, f64)> = r.steps.iter().map(|s| (s.value, col(s))).collect();
+                    v.sort_by(|a, b| a.0.total_cmp(&b.0));
+                    v.into_iter().map(|p| p.1).collect::<Vec<f64>>()
+                };
+                let mut bands: Vec<(String, plotters::style::RGBColor, Vec<f64>)> = (0..r.ids as u32)
+                    .map(|id| {
+                        let v = asc(&|s| {
+                            s.attractors
+                                .iter()
+                                .find(|a| a.id == id)
+                                .map(|a| a.fraction)
+                                .unwrap_or(0.0)
+                        });
+                        (id_name(r, id), PALETTE[id as usize % PALETTE.len()], v)
+                    })
+                    .filter(|b| b.2.iter().any(|&f| f > 0.0))
+                    .collect();
+                let div = asc(&|s| s.diverged_fraction);
+                if div.iter().any(|&f| f > 0.0) {
+                    bands.push(("diverged".into(), plotters::style::RGBColor(0, 0, 0), div));
+                }
+                StackedPanel {
+                    title: format!(
+                        "run-{} ({} start states per value; attractors found only from seeds have no basin band)",
+                        r.direction.name(),
+                        spec.ics
+                    ),
+                    bands,
+                }
+            })
+            .collect();
+        stacked_fractions(
+            &dir.join("continuation.png"),
+            &format!(
+                "Basin fractions of the continued attractors over {}",
+                spec.param.var.name()
+            ),
+            &format!("{} [{}]", spec.param.var.name(), spec.param.var.unit()),
+            &res.values,
+            &panels,
+        )?;
+    }
+    let json = serde_json::json!({
+        "param": {"var": spec.param.var.name(), "unit": spec.param.var.unit(), "lo": spec.param.lo, "hi": spec.param.hi, "n": n},
+        "omega": spec.omega,
+        "ics": spec.ics,
+        "box": spec.start_box.as_ref().map(|b| b.iter().map(|&(c, lo, hi)| serde_json::json!({"coord": crate::model::COORD_NAMES[c], "lo": lo, "hi": hi})).collect::<Vec<_>>()),
+        "seed": spec.seed,
+        "transient": spec.transient,
+        "periods": spec.recorded,
+        "lyapunov": spec.lyapunov,
+        "match_threshold": if spec.match_threshold.is_finite() { serde_json::json!(spec.match_threshold) } else { serde_json::json!("inf") },
+        "ramps": ramps_json,
+        "params": spec.params,
+        "files": {
+            "values.npy": "f64 [n]: the parameter values, ascending",
+            "fractions_<dir>.npy": "f64 [n, ids + 1]: basin fraction of each continued attractor among the fresh start states at each step in ramp order (up ascending, down descending); last column diverged",
+            "fraction_errors_<dir>.npy": "f64 [n, ids + 1]: binomial standard errors sqrt(f (1 - f) / K)",
+            "tipping_<dir>.npy": "f64 [n - 1, ids + 1, ids + 1]: P(i -> j) from step k to step k + 1: the fraction of attractor i's basin at step k lying in attractor j's basin at step k + 1 (index ids: diverged); NaN rows: i has no basin at step k",
+            "continuation.json": "this file: per ramp, every attractor's first and last value and every step's attractors (id, class, period, fraction, error, lambda_1, seeded_only)",
+            "continuation.png": "stacked basin fractions against the parameter, one panel per ramp",
+        },
+        "jeffcott_version": env!("CARGO_PKG_VERSION"),
+    });
+    output::write_json(&dir.join("continuation.json"), &json)
+}
+
+fn human_summary(spec: &ContinuationSpec, res: &ContinuationResult, dir: &Path) -> String {
+    let ramps: Vec<String> = res
+        .ramps
+        .iter()
+        .map(|r| {
+            let most = r
+                .steps
+                .iter()
+                .map(|s| s.attractors.len())
+                .max()
+                .unwrap_or(0);
+            format!(
+                "run-{}: {} attractor(s) followed, at most {} at once",
+                r.direction.name(),
+                r.ids,
+                most
+            )
+        })
+        .collect();
+    format!(
+        "Continuation over {} ({} values, {} start states each): {}; {:.1} s. Files in {}.",
+        spec.param.var.name(),
+        res.values.len(),
+        spec.ics,
+        ramps.join("; "),
+        res.seconds,
+        dir.display()
+    )
+}

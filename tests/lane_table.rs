@@ -1,0 +1,187 @@
+//! `jeffcott ensemble --lanes FILE`: ensembles from a lane table. What they prove: the
+//! lanes.npy (+ params.npy) of a run is a valid input and reproduces the run; a CSV row
+//! with its own parameters is the same lane as a plain run with those parameters; bad
+//! tables are refused naming row and column.
+
+use npyz::WriterBuilder;
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn jeffcott(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_jeffcott"))
+        .args(args)
+        .output()
+        .expect("run jeffcott")
+}
+
+fn ok(o: &Output) {
+    assert!(
+        o.status.success(),
+        "exit {:?}\nstderr: {}",
+        o.status.code(),
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+fn p(path: &Path) -> &str {
+    path.to_str().unwrap()
+}
+
+const SHORT: &[&str] = &[
+    "--transient",
+    "30",
+    "--periods",
+    "8",
+    "--backend",
+    "cpu",
+    "--quiet",
+];
+
+fn ensemble(out: &Path, extra: &[&str]) -> Output {
+    let mut a = vec!["ensemble", "--out", p(out)];
+    a.extend_from_slice(SHORT);
+    a.extend_from_slice(extra);
+    jeffcott(&a)
+}
+
+fn read(path: &Path) -> Vec<u8> {
+    std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+#[test]
+fn the_lanes_npy_of_a_run_fed_back_reproduces_its_files() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (a, b) = (tmp.path().join("a"), tmp.path().join("b"));
+    ok(&ensemble(
+        &a,
+        &["--omega", "131:135:7", "--init", "x_r=0.004,vy_r=0.2"],
+    ));
+    ok(&ensemble(&b, &["--lanes", p(&a.join("lanes.npy"))]));
+    for f in ["poincare.npy", "status.npy", "lanes.npy", "params.npy"] {
+        assert_eq!(read(&a.join(f)), read(&b.join(f)), "{f}");
+    }
+}
+
+#[test]
+fn a_csv_row_with_its_own_parameters_is_the_lane_of_a_plain_run_with_them() {
+    let tmp = tempfile::tempdir().unwrap();
+    let csv = tmp.path().join("mc.csv");
+    std::fs::write(
+        &csv,
+        "# Monte Carlo over friction and contact stiffness\n\
+         omega, mu, k_c, x_r\n\
+         133, 0.0, 1e8, 0.004\n\
+         133, 0.2, 1e8, 0.004\n\
+         134, 0.1, 5e7, -0.002\n\
+         133, 0.2, 1e8, 0.004\n",
+    )
+    .unwrap();
+    let t = tmp.path().join("table");
+    ok(&ensemble(&t, &["--lanes", p(&csv)]));
+    // Rows 2 and 4 share a parameter set: three distinct sets.
+    let params = read(&t.join("params.npy"));
+    let f = npyz::NpyFile::new(&params[..]).unwrap();
+    assert_eq!(f.shape(), &[3, 14]);
+    // Row 2 is the lane of a plain run at W = 133 with mu = 0.2 from x_r = 4 mm.
+    let plain = tmp.path().join("plain");
+    ok(&ensemble(
+        &plain,
+        &["--omega", "133", "--param", "mu=0.2", "--init", "x_r=0.004"],
+    ));
+    let rows = |dir: &Path| -> Vec<f64> {
+        let b = read(&dir.join("poincare.npy"));
+        npyz::NpyFile::new(&b[..]).unwrap().into_vec().unwrap()
+    };
+    let (table, single) = (rows(&t), rows(&plain));
+    let per = 8 * 8;
+    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    assert_eq!(bits(&table[per..2 * per]), bits(&single));
+    assert_eq!(bits(&table[3 * per..4 * per]), bits(&single));
+    assert_ne!(bits(&table[..per]), bits(&single), "mu = 0 must differ");
+    // The run's lanes.npy (param_set column) with its params.npy is itself a table.
+    let again = tmp.path().join("again");
+    ok(&ensemble(&again, &["--lanes", p(&t.join("lanes.npy"))]));
+    assert_eq!(
+        read(&t.join("poincare.npy")),
+        read(&again.join("poincare.npy"))
+    );
+    assert_eq!(read(&t.join("params.npy")), read(&again.join("params.npy")));
+}
+
+#[test]
+fn bad_tables_are_refused_naming_row_and_column() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("out");
+    let mut body = String::from("omega,m_r,mu\n");
+    for r in 1..=20 {
+        let m = if r == 17 { "-50" } else { "50" };
+        body += &format!("133,{m},0.1\n");
+    }
+    let cases: Vec<(&str, String, Vec<&str>)> = vec![
+        (
+            "unknown.csv",
+            "omega,spin\n133,1\n".into(),
+            vec!["spin", "unknown column", "mu"],
+        ),
+        (
+            "nan.csv",
+            "omega\n133\n134\nNaN\n".into(),
+            vec!["row 3, column omega", "NaN"],
+        ),
+        ("mass.csv", body, vec!["row 17, column m_r", "-50"]),
+        (
+            "text.csv",
+            "omega,mu\n133,0.1\n133,lots\n".into(),
+            vec!["row 2, column mu", "not a number"],
+        ),
+        (
+            "ragged.csv",
+            "omega,mu\n133\n".into(),
+            vec!["row 1", "header has 2"],
+        ),
+        (
+            "twice.csv",
+            "x_r,x_r0\n0.001,0.002\n".into(),
+            vec!["x_r0", "same thing as column x_r"],
+        ),
+        ("noomega.csv", "mu\n0.1\n".into(), vec!["omega", "--omega"]),
+        (
+            "far.csv",
+            "omega,x_r\n133,2.0\n".into(),
+            vec!["row 1, column x_r", "divergence-bound"],
+        ),
+    ];
+    for (name, text, needles) in cases {
+        let path = tmp.path().join(name);
+        std::fs::write(&path, text).unwrap();
+        let o = ensemble(&out, &["--lanes", p(&path)]);
+        assert_eq!(o.status.code(), Some(2), "{name}");
+        let e = String::from_utf8_lossy(&o.stderr);
+        for n in needles {
+            assert!(e.contains(n), "{name}: `{n}` not in {e}");
+        }
+        assert!(!out.join("poincare.npy").exists(), "{name}");
+    }
+    // An .npy of other than 10 columns needs --columns; a wrong count is named.
+    let npy = tmp.path().join("three.npy");
+    {
+        let mut w = npyz::WriteOptions::new()
+            .default_dtype()
+            .shape(&[2, 3])
+            .writer(std::fs::File::create(&npy).unwrap())
+            .begin_nd()
+            .unwrap();
+        w.extend([133.0, 0.1, 0.0, 134.0, 0.2, 0.0]).unwrap();
+        w.finish().unwrap();
+    }
+    let o = ensemble(&out, &["--lanes", p(&npy)]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--columns"));
+    let o = ensemble(&out, &["--lanes", p(&npy), "--columns", "omega,mu"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("names 2 columns"));
+    ok(&ensemble(
+        &out,
+        &["--lanes", p(&npy), "--columns", "omega,mu,x_r"],
+    ));
+}
