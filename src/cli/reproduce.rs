@@ -71,6 +71,15 @@ struct Preset {
     spectrum_transient: u32,
     spectrum_min_time: f64,
     spectrum_max_time: f64,
+    map_nx: usize,
+    map_ny: usize,
+    map_ics: u32,
+    map_transient: u32,
+    map_periods: u32,
+    cont_values: usize,
+    cont_ics: u32,
+    cont_transient: u32,
+    cont_periods: u32,
 }
 
 const QUICK: Preset = Preset {
@@ -94,6 +103,15 @@ const QUICK: Preset = Preset {
     spectrum_transient: 1000,
     spectrum_min_time: 20.0,
     spectrum_max_time: 100.0,
+    map_nx: 56,
+    map_ny: 20,
+    map_ics: 1,
+    map_transient: 300,
+    map_periods: 32,
+    cont_values: 45,
+    cont_ics: 16,
+    cont_transient: 400,
+    cont_periods: 48,
 };
 
 const FULL: Preset = Preset {
@@ -117,6 +135,15 @@ const FULL: Preset = Preset {
     spectrum_transient: 2000,
     spectrum_min_time: 100.0,
     spectrum_max_time: 1000.0,
+    map_nx: 400,
+    map_ny: 200,
+    map_ics: 4,
+    map_transient: 500,
+    map_periods: 64,
+    cont_values: 221,
+    cont_ics: 64,
+    cont_transient: 500,
+    cont_periods: 64,
 };
 
 const SMOKE: Preset = Preset {
@@ -140,6 +167,15 @@ const SMOKE: Preset = Preset {
     spectrum_transient: 30,
     spectrum_min_time: 0.5,
     spectrum_max_time: 1.0,
+    map_nx: 3,
+    map_ny: 2,
+    map_ics: 1,
+    map_transient: 30,
+    map_periods: 8,
+    cont_values: 3,
+    cont_ics: 2,
+    cont_transient: 30,
+    cont_periods: 8,
 };
 
 /// The article's speeds and what it reports there (MODEL.md 6 and the issue).
@@ -268,7 +304,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     };
 
     // Figs. 3-4, the down sweep and the brute force: one study over [130, 141].
-    say("[1/8] bifurcation diagram over 130..141 rad/s");
+    say("[1/10] bifurcation diagram over 130..141 rad/s");
     let spec = BifurcationSpec {
         params: params.clone(),
         omegas: crate::ensemble::parse_range("omega", &format!("130:141:{}", p.speeds))?,
@@ -465,7 +501,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     );
 
     // Enlargements of Fig. 3.
-    say("[2/8] enlargements of Fig. 3");
+    say("[2/10] enlargements of Fig. 3");
     for (k, &(lo, hi)) in ZOOMS.iter().enumerate() {
         let t = Instant::now();
         let zspec = BifurcationSpec {
@@ -511,7 +547,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     }
 
     // The article's speeds: a survey of start states at each.
-    say("[3/8] attractor survey at the article's speeds");
+    say("[3/10] attractor survey at the article's speeds");
     let t = Instant::now();
     let starts = start_states(&params, p.survey_ics, 135.0, 7);
     let mut lanes = Vec::new();
@@ -568,7 +604,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
 
     // The full Lyapunov spectrum at each article speed, from the static equilibrium
     // (independent, in parallel).
-    say("[4/8] Lyapunov spectra at the article's speeds");
+    say("[4/10] Lyapunov spectra at the article's speeds");
     let t = Instant::now();
     let scfg = SpectrumConfig {
         transient: p.spectrum_transient,
@@ -610,7 +646,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     };
 
     // Figs. 5-6: phase portraits at 131.7 and 132.2 from the static equilibrium.
-    say("[5/8] phase portraits at 131.7 and 132.2 rad/s");
+    say("[5/10] phase portraits at 131.7 and 132.2 rad/s");
     let mut static_class: Vec<(f64, String)> = Vec::new();
     for (i, (fig, omega)) in [
         ("fig05_phase_131.7.png", 131.7),
@@ -648,7 +684,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     }
 
     // Figs. 7-8: basin at 133 and its coexisting attractors.
-    say("[6/8] basin of attraction at 133 rad/s");
+    say("[6/10] basin of attraction at 133 rad/s");
     let t = Instant::now();
     let n = p.basin_n;
     let bspec = BasinSpec {
@@ -732,7 +768,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     }
 
     // Figs. 9-12: sections at 135 and 140.
-    say("[7/8] phase portraits and Poincare sections at 135 and 140 rad/s");
+    say("[7/10] phase portraits and Poincare sections at 135 and 140 rad/s");
     for (i, omega) in [(3usize, 135.0), (4, 140.0)] {
         let t = Instant::now();
         let r = sim(&params, omega, p.section_transient, p.section_points, 8)?;
@@ -828,8 +864,198 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         }
     }
 
+    // Beyond the article: a design chart over (W, e) and the continuation over W.
+    say("[8/10] design chart: speed against unbalance");
+    let t = Instant::now();
+    let mspec = crate::analysis::map::MapSpec {
+        params: params.clone(),
+        omega: None,
+        x: crate::analysis::map::MapAxis {
+            var: crate::analysis::map::MapVar::Omega,
+            lo: 128.0,
+            hi: 142.0,
+            n: p.map_nx,
+            log: false,
+        },
+        y: crate::analysis::map::MapAxis {
+            var: crate::analysis::map::MapVar::Param("e"),
+            lo: 0.0002,
+            hi: 0.002,
+            n: p.map_ny,
+            log: false,
+        },
+        ics: p.map_ics,
+        seed: 1,
+        transient: p.map_transient,
+        recorded: p.map_periods,
+        stepper: Default::default(),
+        precision,
+        backend: a.backend,
+        catalogue: cfg,
+        lyapunov: true,
+        chunk: None,
+    };
+    mspec.validate()?;
+    let mres = super::map::run_map_study(&mspec, &store("map_w_e"), a.quiet)?;
+    let mdir = dir.join("map_w_e");
+    super::map::write_map(&mdir, &mspec, &mres, true)?;
+    copy(&mdir.join("map_period.png"), "map_w_e_period.png")?;
+    copy(
+        &mdir.join("map_multistability.png"),
+        "map_w_e_multistability.png",
+    )?;
+    let cells = mres.class.len();
+    let count = |f: &dyn Fn(usize) -> bool| (0..cells).filter(|&i| f(i)).count();
+    let rubbing = count(&|i| mres.contact[i] > 0.0);
+    let periodic1 = count(&|i| mres.period[i] == 1);
+    let chaotic = count(&|i| mres.class[i] == crate::analysis::map::code::CHAOTIC);
+    let quasi = count(&|i| mres.class[i] == crate::analysis::map::code::QUASIPERIODIC);
+    let multistable = count(&|i| mres.attractors[i] > 1);
+    // Where along the article's e = 1 mm the rotor first and last rubs.
+    let e_row = (0..p.map_ny)
+        .min_by(|&a, &b| {
+            (mspec.y.value(a) - 0.001)
+                .abs()
+                .total_cmp(&(mspec.y.value(b) - 0.001).abs())
+        })
+        .unwrap_or(0);
+    let rub_w: Vec<f64> = (0..p.map_nx)
+        .filter(|&ix| mres.contact[e_row * p.map_nx + ix] > 0.0)
+        .map(|ix| mspec.x.value(ix))
+        .collect();
+    let peak = mres
+        .peak_force
+        .iter()
+        .copied()
+        .filter(|v| v.is_finite())
+        .fold(0.0, f64::max);
+    let map_cmd = format!(
+        "jeffcott map --x omega:128:142:{} --y e:0.0002:0.002:{} --ics {} --transient {} --periods {} --backend {backend} --out {}/map_w_e",
+        p.map_nx,
+        p.map_ny,
+        p.map_ics,
+        p.map_transient,
+        p.map_periods,
+        dir.display()
+    );
+    rep.figure(
+        "Design chart (beyond the article): response over rotor speed W and unbalance e",
+        "map_w_e_period.png",
+        &format!(
+            "{} x {} cells (W 128..142 rad/s, e 0.2..2 mm), {} start state(s) per cell. From the static equilibrium: period-1 in {periodic1} cells, chaotic in {chaotic}, quasiperiodic in {quasi}, the rest periodic of higher period or undecided; the rotor rubs in {rubbing} cells (peak normal contact force up to {:.0} N), {multistable} cells hold coexisting attractors. At e = {:.2} mm (the row nearest the article's 1 mm) it rubs at {} of {} speeds{}. Contact fraction, peak force and every cell's attractors are in `map_w_e/` (docs/maps.md); the multistability map is `map_w_e_multistability.png`.",
+            p.map_nx,
+            p.map_ny,
+            p.map_ics,
+            peak,
+            mspec.y.value(e_row) * 1e3,
+            rub_w.len(),
+            p.map_nx,
+            match (rub_w.first(), rub_w.last()) {
+                (Some(a), Some(b)) => format!(", between {a:.2} and {b:.2} rad/s"),
+                _ => String::new(),
+            }
+        ),
+        &map_cmd,
+        t.elapsed().as_secs_f64(),
+    );
+
+    say("[9/10] attractor continuation over 130..141 rad/s");
+    let t = Instant::now();
+    let cspec = crate::analysis::continuation::ContinuationSpec {
+        params: params.clone(),
+        omega: None,
+        param: crate::analysis::map::MapAxis {
+            var: crate::analysis::map::MapVar::Omega,
+            lo: 130.0,
+            hi: 141.0,
+            n: p.cont_values,
+            log: false,
+        },
+        ics: p.cont_ics,
+        start_box: None,
+        seed: 1,
+        transient: p.cont_transient,
+        recorded: p.cont_periods,
+        stepper: Default::default(),
+        precision,
+        backend: a.backend,
+        catalogue: cfg,
+        lyapunov: true,
+        directions: vec![
+            crate::analysis::continuation::Direction::Up,
+            crate::analysis::continuation::Direction::Down,
+        ],
+        match_threshold: f64::INFINITY,
+    };
+    let cres =
+        super::continuation::run_continuation_study(&cspec, &store("continuation"), a.quiet)?;
+    let cdir = dir.join("continuation");
+    super::continuation::write_continuation(&cdir, &cspec, &cres, true)?;
+    copy(&cdir.join("continuation.png"), "continuation.png")?;
+    let ramp_text: Vec<String> = cres
+        .ramps
+        .iter()
+        .map(|r| {
+            let most = r.steps.iter().map(|s| s.attractors.len()).max().unwrap_or(0);
+            let coexist: Vec<f64> = r
+                .steps
+                .iter()
+                .filter(|s| s.attractors.iter().filter(|a| a.fraction > 0.0).count() > 1)
+                .map(|s| s.value)
+                .collect();
+            // The largest one-step tipping probability away from an attractor.
+            let g = r.ids + 1;
+            let tip = r.tipping();
+            let mut worst = (0.0, 0.0, 0, 0);
+            for k in 0..r.steps.len().saturating_sub(1) {
+                for i in 0..r.ids {
+                    for j in 0..g {
+                        let v = tip[(k * g + i) * g + j];
+                        if j != i && v.is_finite() && v > worst.0 {
+                            worst = (v, r.steps[k].value, i, j);
+                        }
+                    }
+                }
+            }
+            format!(
+                "run-{}: {} attractors followed, at most {most} at one speed; basins shared by two or more at {} of {} speeds{}; largest one-step tipping probability {:.2} (attractor #{} at {:.2} rad/s to {} at the next speed)",
+                r.direction.name(),
+                r.ids,
+                coexist.len(),
+                r.steps.len(),
+                match (coexist.first(), coexist.last()) {
+                    (Some(a), Some(b)) => format!(" (from {a:.2} to {b:.2} rad/s)"),
+                    _ => String::new(),
+                },
+                worst.0,
+                worst.2,
+                worst.1,
+                if worst.3 == r.ids { "divergence".to_string() } else { format!("#{}", worst.3) },
+            )
+        })
+        .collect();
+    rep.figure(
+        "Attractor continuation over W (beyond the article): run-up and run-down",
+        "continuation.png",
+        &format!(
+            "{} speeds, {} fresh start states each plus one seed per attractor of the previous speed (Attractors.jl's seeded find-and-match). {}. Fractions, errors and tipping matrices are in `continuation/` (docs/maps.md).",
+            p.cont_values,
+            p.cont_ics,
+            ramp_text.join("; ")
+        ),
+        &format!(
+            "jeffcott continuation --param omega:130:141:{} --ics {} --transient {} --periods {} --backend {backend} --out {}/continuation",
+            p.cont_values,
+            p.cont_ics,
+            p.cont_transient,
+            p.cont_periods,
+            dir.display()
+        ),
+        t.elapsed().as_secs_f64(),
+    );
+
     // REPORT.md.
-    say("[8/8] REPORT.md");
+    say("[10/10] REPORT.md");
     let mut head = String::new();
     let _ = write!(
         head,
