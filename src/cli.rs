@@ -14,14 +14,17 @@ use std::path::{Path, PathBuf};
 mod basin;
 mod bench;
 mod bifurcation;
+mod cascade;
 mod continuation;
 mod map;
 mod merge;
 mod reproduce;
+pub mod rubout;
 pub mod rundir;
 pub use basin::{BasinArgs, run_basin};
 pub use bench::{BenchArgs, run_bench};
 pub use bifurcation::{BifurcationArgs, CatalogueArgs, SweepArg, run_bifurcation};
+pub use cascade::{CascadeArgs, run_cascade};
 pub use continuation::{ContinuationArgs, run_continuation};
 pub use map::{MapArgs, run_map};
 pub use merge::{MergeArgs, run_merge};
@@ -73,6 +76,11 @@ pub enum Command {
     /// attractors are born and die, and tipping probabilities between consecutive values.
     #[command(allow_negative_numbers = true)]
     Continuation(ContinuationArgs),
+    /// Full-spectrum cascade of a quasistatic run-up and run-down: the rotor's and
+    /// stator's full spectra (forward and backward whirl) against speed, with the 1X line
+    /// and the natural frequencies, and the rub regime at each speed.
+    #[command(allow_negative_numbers = true)]
+    Cascade(CascadeArgs),
     /// Regenerate the article's figures (Figs. 3-12, plus down-sweep and brute-force
     /// diagrams) and a REPORT.md; --quick (default) takes under 10 minutes on 2 CPU cores.
     Reproduce(ReproduceArgs),
@@ -99,6 +107,7 @@ pub fn dispatch(command: &Command) -> Result<()> {
         Command::Basin(a) => run_basin(a),
         Command::Map(a) => run_map(a),
         Command::Continuation(a) => run_continuation(a),
+        Command::Cascade(a) => run_cascade(a),
         Command::Reproduce(a) => run_reproduce(a),
         Command::Info => run_info(),
         Command::Bench(a) => run_bench(a),
@@ -640,7 +649,15 @@ pub struct SimulateArgs {
     /// Classifier repeat tolerance floor [m].
     #[arg(long, default_value_t = 1e-7)]
     pub abs_tol: f64,
-    /// Skip phase.png.
+    /// Forcing periods of the stretch, continued from the final state, that the rub
+    /// figures, full spectra and contact histories are taken over (a multiple of 6 shows
+    /// the 1/2X, 1/3X and 2/3X lines on bins).
+    #[arg(long, default_value_t = 24, value_name = "S")]
+    pub spectrum_periods: u32,
+    /// Also write timeseries.csv, full_spectrum.csv and contact.csv.
+    #[arg(long)]
+    pub csv: bool,
+    /// Skip phase.png, full_spectrum.png and contact.png.
     #[arg(long)]
     pub no_plot: bool,
     /// Print nothing but errors.
@@ -797,12 +814,20 @@ pub fn run_simulate(a: &SimulateArgs) -> Result<()> {
         ),
         "ask for fewer --periods or --timeseries-periods",
     )?;
-    let outputs = [
+    if !(1..=10_000).contains(&a.spectrum_periods) {
+        return Err(Error::invalid(
+            "spectrum-periods",
+            a.spectrum_periods,
+            "must be in 1..=10000",
+        ));
+    }
+    let mut outputs = vec![
         "poincare.npy",
         "timeseries.npy",
         "phase.png",
         "summary.json",
     ];
+    outputs.extend_from_slice(rubout::FILES);
     let rd = rundir::open(
         &a.out,
         "simulate",
@@ -816,6 +841,7 @@ pub fn run_simulate(a: &SimulateArgs) -> Result<()> {
             "stepper": spec.stepper,
             "article": spec.article,
             "classify": spec.classify,
+            "spectrum_periods": a.spectrum_periods,
             "params": spec.params,
         }),
         &outputs,
@@ -823,13 +849,39 @@ pub fn run_simulate(a: &SimulateArgs) -> Result<()> {
         a.quiet,
     )?;
     let res = simulate(&spec)?;
-    write_simulation(&a.out, &spec, &res, !a.no_plot)?;
+    let rub = if res.status.is_frozen() {
+        None
+    } else {
+        rubout::rub_outputs(
+            &spec.params,
+            spec.omega,
+            &res.final_state,
+            a.spectrum_periods,
+            &spec.stepper,
+        )?
+    };
+    if let Some(o) = &rub {
+        rubout::write_rub_outputs(
+            &a.out,
+            &format!("W = {} rad/s", spec.omega),
+            &spec.params,
+            o,
+            &res.timeseries,
+            !a.no_plot,
+            a.csv,
+        )?;
+    }
+    write_simulation(&a.out, &spec, &res, rub.as_ref(), !a.no_plot)?;
     rd.finish(
         serde_json::json!({"wall_time_s": res.elapsed.as_secs_f64()}),
         &rundir::written(&rd, &outputs),
     )?;
     if !a.quiet {
         println!("{}", human_summary(&spec, &res, &a.out));
+        match &rub {
+            Some(o) => println!("{}", rubout::rub_sentence(o)),
+            None => println!("Rub regime: diverged."),
+        }
     }
     Ok(())
 }
@@ -838,6 +890,7 @@ fn write_simulation(
     dir: &Path,
     spec: &SimulateSpec,
     res: &crate::simulate::SimulateResult,
+    rub: Option<&rubout::RubOutputs>,
     plot_it: bool,
 ) -> Result<()> {
     output::ensure_dir(dir)?;
@@ -900,6 +953,16 @@ fn write_simulation(
             "fraction_of_recorded_grid_points": res.contact_fraction,
             "counters": res.counters,
         },
+        "rub": match rub {
+            Some(o) => serde_json::json!({
+                "periods": o.periods,
+                "figures": o.figures,
+                "regime": o.figures.regime.label(),
+                "rotor_lines": rubout::strongest_lines(&o.rotor, 8).iter().map(|(ord, a)| serde_json::json!({"order": ord, "name": rubout::order_name(*ord), "amplitude_m": a})).collect::<Vec<_>>(),
+                "stator_lines": rubout::strongest_lines(&o.stator, 8).iter().map(|(ord, a)| serde_json::json!({"order": ord, "name": rubout::order_name(*ord), "amplitude_m": a})).collect::<Vec<_>>(),
+            }),
+            None => serde_json::json!({"regime": "diverged"}),
+        },
         "initial_state": named_state(&spec.x0),
         "final_state": named_state(&res.final_state),
         "wall_time_s": res.elapsed.as_secs_f64(),
@@ -910,6 +973,11 @@ fn write_simulation(
             "poincare.npy": "f64 [K, 8], state order x_r, vx_r, y_r, vy_r, x_s, vx_s, y_s, vy_s (m, m/s)",
             "timeseries.npy": "f64 [M, 9], t [s] then the state, on the integrator's grid",
             "phase.png": if plot_it { "rotor and stator phase portraits and orbits" } else { "not drawn (--no-plot)" },
+            "full_spectrum.npy": "f64 [bins, 4]: order (frequency / W, < 0 backward whirl), frequency [Hz], rotor and stator amplitude [m] of the full spectrum of x + i y over rub.periods periods continued from the final state (Hann window, line-calibrated)",
+            "contact.npy": "f64 [M, 5]: t [s], x_r - x_s, y_r - y_s [m], penetration g [m] (> 0 in contact), normal contact force [N], at each grid point of that stretch",
+            "full_spectrum.png": "the full spectra with 1X, 2X, 3X, 1/2X, 1/3X, 2/3X marks",
+            "contact.png": "the rotor orbit relative to the stator with the clearance circle and contact points; normal force and penetration against time",
+            "*.csv": "with --csv: timeseries.csv, full_spectrum.csv, contact.csv (the same columns, headed)",
         },
         "jeffcott_version": env!("CARGO_PKG_VERSION"),
     });

@@ -195,6 +195,19 @@ pub fn ensure_dir(dir: &Path) -> Result<()> {
     std::fs::create_dir_all(dir).map_err(io_err(dir))
 }
 
+/// Writes a CSV table (header, then one line per row, numbers in Rust's shortest
+/// round-trip form) through a temporary renamed into place, as every other file.
+pub fn write_csv(path: &Path, header: &[&str], rows: impl Iterator<Item = Vec<f64>>) -> Result<()> {
+    write_atomically(path, |w| {
+        writeln!(w, "{}", header.join(","))?;
+        for r in rows {
+            let line: Vec<String> = r.iter().map(|v| v.to_string()).collect();
+            writeln!(w, "{}", line.join(","))?;
+        }
+        Ok(())
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -8,6 +8,7 @@ use std::path::Path;
 use std::sync::Once;
 
 pub mod lyapunov;
+pub mod rub;
 
 static FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
 

@@ -456,6 +456,8 @@ pub struct MapResult {
     pub contact: Vec<f64>,
     /// Peak normal contact force on it [N] (NaN when diverged).
     pub peak_force: Vec<f64>,
+    /// Its rub regime code ([`crate::analysis::rub::RubRegime::code`]; -1 diverged).
+    pub regime: Vec<i32>,
     /// Every cell's attractors.
     pub cells: Vec<Cell>,
     /// Backend information of the last batch (`None` when every unit was committed).
@@ -612,6 +614,7 @@ pub fn map_with(
         attractors: Vec::with_capacity(cells),
         contact: Vec::with_capacity(cells),
         peak_force: Vec::with_capacity(cells),
+        regime: Vec::with_capacity(cells),
         cells: Vec::with_capacity(cells),
         info,
         seconds: 0.0,
@@ -656,6 +659,11 @@ impl MapResult {
             .push(rub.map(|r| r.contact_fraction).unwrap_or(f64::NAN));
         self.peak_force
             .push(rub.map(|r| r.peak_force_n).unwrap_or(f64::NAN));
+        self.regime.push(
+            rub.map(|r| r.regime)
+                .unwrap_or(super::rub::RubRegime::Diverged)
+                .code(),
+        );
         self.cells.push(cell);
     }
 }

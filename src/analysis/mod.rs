@@ -2,9 +2,11 @@
 
 pub mod basin;
 pub mod bifurcation;
+pub mod cascade;
 pub mod catalogue;
 pub mod classify;
 pub mod continuation;
 pub mod map;
 pub mod measures;
 pub mod rub;
+pub mod spectrum;

@@ -441,7 +441,7 @@ pub fn write_basin(dir: &Path, spec: &BasinSpec, res: &BasinResult, plot_it: boo
         "cells": nx * ny,
         "diverged": cat.diverged,
         "diverged_fraction": cat.diverged_fraction,
-        "attractors": cat.attractors,
+        "attractors": crate::analysis::rub::attractors_with_rub(&spec.params, &cat.attractors, &spec.stepper)?,
         "catalogue_config": cat.config,
         "params": spec.params,
         "files": {
@@ -449,7 +449,7 @@ pub fn write_basin(dir: &Path, spec: &BasinSpec, res: &BasinResult, plot_it: boo
             "x.npy": "f64 [nx], the x-axis start values",
             "y.npy": "f64 [ny], the y-axis start values",
             "lambda1.npy": "f64 [ny, nx]: largest Lyapunov exponent per start state over the recorded periods [1/s], NaN diverged (only with --lyapunov)",
-            "attractors.json": "this file: the catalogue (id, class, period, basin fraction, mean lambda_1 and its range over the attractor's cells with --lyapunov, representative Poincare points in state order)",
+            "attractors.json": "this file: the catalogue (id, class, period, basin fraction, mean lambda_1 and its range over the attractor's cells with --lyapunov, representative Poincare points in state order, rub figures and regime on the attractor: docs/rub.md)",
             "basin.png": "the labels as a picture, legend by class and period",
             "basin_lambda1.png": "lambda1.npy as a picture (blue negative, white 0, red positive; only with --lyapunov)",
             "attractors.png": "phase portraits of the attractors, overlaid",

@@ -627,6 +627,31 @@ pub fn write_bifurcation(
             &l1s,
         )?;
     }
+    // Rub figures of every brute-force attractor (docs/rub.md), all speeds in parallel.
+    let rubs: Vec<Vec<serde_json::Value>> = {
+        use rayon::prelude::*;
+        res.brute
+            .par_iter()
+            .map(|b| {
+                b.catalogue
+                    .attractors
+                    .iter()
+                    .map(|at| {
+                        Ok(
+                            match crate::analysis::rub::attractor_rub(
+                                &spec.params,
+                                at,
+                                &spec.stepper,
+                            )? {
+                                Some(r) => serde_json::to_value(r).unwrap_or_default(),
+                                None => serde_json::json!({"regime": "diverged"}),
+                            },
+                        )
+                    })
+                    .collect::<Result<Vec<_>>>()
+            })
+            .collect::<Result<Vec<_>>>()?
+    };
     let per_w: Vec<serde_json::Value> = spec
         .omegas
         .iter()
@@ -636,13 +661,14 @@ pub fn write_bifurcation(
                 serde_json::json!({
                     "lanes": b.catalogue.lanes,
                     "diverged": b.catalogue.diverged,
-                    "attractors": b.catalogue.attractors.iter().map(|at| serde_json::json!({
+                    "attractors": b.catalogue.attractors.iter().zip(&rubs[wi]).map(|(at, rub)| serde_json::json!({
                         "id": at.id,
                         "class": at.class,
                         "period": at.period,
                         "lanes": at.lanes,
                         "basin_fraction": at.basin_fraction,
                         "lambda1": at.lambda1,
+                        "rub": rub,
                     })).collect::<Vec<_>>(),
                 })
             });

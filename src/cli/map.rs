@@ -142,12 +142,14 @@ pub const OUTPUTS: &[&str] = &[
     "attractors.npy",
     "contact.npy",
     "peak_force.npy",
+    "regime.npy",
     "x.npy",
     "y.npy",
     "map.json",
     "map_period.png",
     "map_lambda1.png",
     "map_multistability.png",
+    "map_regime.png",
 ];
 
 /// Runs a map with a progress bar, its units committed to `store`.
@@ -276,6 +278,34 @@ fn class_legend(classes: &[i32]) -> Vec<(i32, String)> {
     legend
 }
 
+/// Colour of a rub regime code on the regime map.
+pub fn regime_colour(c: i32) -> plotters::style::RGBColor {
+    use plotters::style::RGBColor;
+    match c {
+        0 => RGBColor(200, 220, 240),
+        1 => RGBColor(255, 170, 60),
+        2 => RGBColor(200, 30, 30),
+        3 => RGBColor(110, 40, 160),
+        _ => RGBColor(0, 0, 0),
+    }
+}
+
+/// Legend of the regime codes present.
+pub fn regime_legend(codes: &[i32]) -> Vec<(i32, String)> {
+    use crate::analysis::rub::RubRegime::*;
+    [
+        NoContact,
+        PartialRub,
+        FullAnnularRub,
+        BackwardWhirl,
+        Diverged,
+    ]
+    .iter()
+    .filter(|r| codes.contains(&r.code()))
+    .map(|r| (r.code(), r.label().replace('_', " ")))
+    .collect()
+}
+
 /// Writes the arrays, map.json and the pictures.
 pub fn write_map(dir: &Path, spec: &MapSpec, res: &MapResult, plot_it: bool) -> Result<()> {
     output::ensure_dir(dir)?;
@@ -286,6 +316,7 @@ pub fn write_map(dir: &Path, spec: &MapSpec, res: &MapResult, plot_it: bool) -> 
     output::write_npy(&dir.join("attractors.npy"), &[ny, nx], &res.attractors)?;
     output::write_npy(&dir.join("contact.npy"), &[ny, nx], &res.contact)?;
     output::write_npy(&dir.join("peak_force.npy"), &[ny, nx], &res.peak_force)?;
+    output::write_npy(&dir.join("regime.npy"), &[ny, nx], &res.regime)?;
     output::write_npy(&dir.join("x.npy"), &[nx], &spec.x.values())?;
     output::write_npy(&dir.join("y.npy"), &[ny], &spec.y.values())?;
     if plot_it {
@@ -313,6 +344,16 @@ pub fn write_map(dir: &Path, spec: &MapSpec, res: &MapResult, plot_it: bool) -> 
                 (&lx, &ly),
             )?;
         }
+        category_map(
+            &dir.join("map_regime.png"),
+            &format!("Rub regime from the static equilibrium ({what})"),
+            &res.regime,
+            (nx, ny),
+            (rx, ry),
+            (&lx, &ly),
+            &regime_legend(&res.regime),
+            &regime_colour,
+        )?;
         let most = res.attractors.iter().copied().max().unwrap_or(0).max(1);
         let counts: Vec<i32> = res.attractors.iter().map(|&n| n - 1).collect();
         let legend: Vec<(i32, String)> = (1..=most)
@@ -368,6 +409,8 @@ pub fn write_map(dir: &Path, spec: &MapSpec, res: &MapResult, plot_it: bool) -> 
             "attractors.npy": "int32 [ny, nx]: number of coexisting attractors found from the cell's start states",
             "contact.npy": "f64 [ny, nx]: fraction of time in contact on the attractor from the static equilibrium (NaN when diverged)",
             "peak_force.npy": "f64 [ny, nx]: peak normal contact force on it [N] (NaN when diverged)",
+            "regime.npy": "int32 [ny, nx]: its rub regime: 0 no_contact, 1 partial_rub, 2 full_annular_rub, 3 backward_whirl, -1 diverged (docs/rub.md)",
+            "map_regime.png": "regime.npy as a picture",
             "x.npy": "f64 [nx]: the x-axis values",
             "y.npy": "f64 [ny]: the y-axis values",
             "map.json": "this file; cell_attractors lists every cell's attractors (class, period, start states reaching it, lambda_1, rub figures: contact fraction, impacts per revolution, peak and mean normal force [N], peak penetration [m])",

@@ -80,6 +80,9 @@ struct Preset {
     cont_ics: u32,
     cont_transient: u32,
     cont_periods: u32,
+    rub_nx: usize,
+    rub_ny: usize,
+    cascade_speeds: usize,
 }
 
 const QUICK: Preset = Preset {
@@ -112,6 +115,9 @@ const QUICK: Preset = Preset {
     cont_ics: 16,
     cont_transient: 400,
     cont_periods: 48,
+    rub_nx: 49,
+    rub_ny: 7,
+    cascade_speeds: 101,
 };
 
 const FULL: Preset = Preset {
@@ -144,6 +150,9 @@ const FULL: Preset = Preset {
     cont_ics: 64,
     cont_transient: 500,
     cont_periods: 64,
+    rub_nx: 241,
+    rub_ny: 31,
+    cascade_speeds: 1001,
 };
 
 const SMOKE: Preset = Preset {
@@ -176,6 +185,9 @@ const SMOKE: Preset = Preset {
     cont_ics: 2,
     cont_transient: 30,
     cont_periods: 8,
+    rub_nx: 3,
+    rub_ny: 2,
+    cascade_speeds: 3,
 };
 
 /// The article's speeds and what it reports there (MODEL.md 6 and the issue).
@@ -267,6 +279,18 @@ fn sim(
     })
 }
 
+/// The regime summary a cascade wrote into its cascade.json.
+fn json_regimes(dir: &Path) -> Result<String> {
+    let path = dir.join("cascade.json");
+    let bytes = std::fs::read(&path).map_err(|source| Error::Io {
+        path: path.clone(),
+        source,
+    })?;
+    let j: serde_json::Value = serde_json::from_slice(&bytes)
+        .map_err(|e| Error::invalid("cascade.json", path.display(), e.to_string()))?;
+    Ok(j["regimes"].as_str().unwrap_or_default().to_string())
+}
+
 /// Runs `jeffcott reproduce`.
 pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     let p = if a.full {
@@ -304,7 +328,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     };
 
     // Figs. 3-4, the down sweep and the brute force: one study over [130, 141].
-    say("[1/10] bifurcation diagram over 130..141 rad/s");
+    say("[1/11] bifurcation diagram over 130..141 rad/s");
     let spec = BifurcationSpec {
         params: params.clone(),
         omegas: crate::ensemble::parse_range("omega", &format!("130:141:{}", p.speeds))?,
@@ -501,7 +525,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     );
 
     // Enlargements of Fig. 3.
-    say("[2/10] enlargements of Fig. 3");
+    say("[2/11] enlargements of Fig. 3");
     for (k, &(lo, hi)) in ZOOMS.iter().enumerate() {
         let t = Instant::now();
         let zspec = BifurcationSpec {
@@ -547,7 +571,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     }
 
     // The article's speeds: a survey of start states at each.
-    say("[3/10] attractor survey at the article's speeds");
+    say("[3/11] attractor survey at the article's speeds");
     let t = Instant::now();
     let starts = start_states(&params, p.survey_ics, 135.0, 7);
     let mut lanes = Vec::new();
@@ -604,7 +628,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
 
     // The full Lyapunov spectrum at each article speed, from the static equilibrium
     // (independent, in parallel).
-    say("[4/10] Lyapunov spectra at the article's speeds");
+    say("[4/11] Lyapunov spectra at the article's speeds");
     let t = Instant::now();
     let scfg = SpectrumConfig {
         transient: p.spectrum_transient,
@@ -646,7 +670,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     };
 
     // Figs. 5-6: phase portraits at 131.7 and 132.2 from the static equilibrium.
-    say("[5/10] phase portraits at 131.7 and 132.2 rad/s");
+    say("[5/11] phase portraits at 131.7 and 132.2 rad/s");
     let mut static_class: Vec<(f64, String)> = Vec::new();
     for (i, (fig, omega)) in [
         ("fig05_phase_131.7.png", 131.7),
@@ -684,7 +708,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     }
 
     // Figs. 7-8: basin at 133 and its coexisting attractors.
-    say("[6/10] basin of attraction at 133 rad/s");
+    say("[6/11] basin of attraction at 133 rad/s");
     let t = Instant::now();
     let n = p.basin_n;
     let bspec = BasinSpec {
@@ -768,7 +792,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     }
 
     // Figs. 9-12: sections at 135 and 140.
-    say("[7/10] phase portraits and Poincare sections at 135 and 140 rad/s");
+    say("[7/11] phase portraits and Poincare sections at 135 and 140 rad/s");
     for (i, omega) in [(3usize, 135.0), (4, 140.0)] {
         let t = Instant::now();
         let r = sim(&params, omega, p.section_transient, p.section_points, 8)?;
@@ -865,7 +889,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     }
 
     // Beyond the article: a design chart over (W, e) and the continuation over W.
-    say("[8/10] design chart: speed against unbalance");
+    say("[8/11] design chart: speed against unbalance");
     let t = Instant::now();
     let mspec = crate::analysis::map::MapSpec {
         params: params.clone(),
@@ -959,7 +983,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         t.elapsed().as_secs_f64(),
     );
 
-    say("[9/10] attractor continuation over 130..141 rad/s");
+    say("[9/11] attractor continuation over 130..141 rad/s");
     let t = Instant::now();
     let cspec = crate::analysis::continuation::ContinuationSpec {
         params: params.clone(),
@@ -1054,8 +1078,208 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         t.elapsed().as_secs_f64(),
     );
 
+    // Rub regimes beyond the article's range: a (W, mu) map, a cascade, a full spectrum.
+    say("[10/11] rub regimes: (W, mu) map, full-spectrum cascade, full spectrum at 132.2");
+    let t = Instant::now();
+    let rspec = crate::analysis::map::MapSpec {
+        params: params.clone(),
+        omega: None,
+        x: crate::analysis::map::MapAxis {
+            var: crate::analysis::map::MapVar::Omega,
+            lo: 60.0,
+            hi: 300.0,
+            n: p.rub_nx,
+            log: false,
+        },
+        y: crate::analysis::map::MapAxis {
+            var: crate::analysis::map::MapVar::Param("mu"),
+            lo: 0.0,
+            hi: 0.3,
+            n: p.rub_ny,
+            log: false,
+        },
+        ics: 1,
+        seed: 1,
+        transient: p.map_transient,
+        recorded: p.map_periods,
+        stepper: Default::default(),
+        precision,
+        backend: a.backend,
+        catalogue: cfg,
+        lyapunov: false,
+        chunk: None,
+    };
+    rspec.validate()?;
+    let rres = super::map::run_map_study(&rspec, &store("map_w_mu"), a.quiet)?;
+    let rdir = dir.join("map_w_mu");
+    super::map::write_map(&rdir, &rspec, &rres, true)?;
+    copy(&rdir.join("map_regime.png"), "rub_regimes_w_mu.png")?;
+    let mut found: Vec<String> = Vec::new();
+    for r in [
+        crate::analysis::rub::RubRegime::NoContact,
+        crate::analysis::rub::RubRegime::PartialRub,
+        crate::analysis::rub::RubRegime::FullAnnularRub,
+        crate::analysis::rub::RubRegime::BackwardWhirl,
+        crate::analysis::rub::RubRegime::Diverged,
+    ] {
+        let cells: Vec<usize> = (0..rres.regime.len())
+            .filter(|&i| rres.regime[i] == r.code())
+            .collect();
+        if cells.is_empty() {
+            found.push(format!("{}: nowhere", r.label()));
+            continue;
+        }
+        let ws: Vec<f64> = cells.iter().map(|&i| rspec.x.value(i % p.rub_nx)).collect();
+        let mus: Vec<f64> = cells.iter().map(|&i| rspec.y.value(i / p.rub_nx)).collect();
+        let (lo, hi) = (
+            ws.iter().copied().fold(f64::INFINITY, f64::min),
+            ws.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        );
+        let (mlo, mhi) = (
+            mus.iter().copied().fold(f64::INFINITY, f64::min),
+            mus.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        );
+        found.push(format!(
+            "{}: {} cells, W {lo:.0}..{hi:.0} rad/s, mu {mlo:.2}..{mhi:.2}",
+            r.label(),
+            cells.len()
+        ));
+    }
+    // Backward whirl from a backward throw, stiff and soft contact (docs/rub.md).
+    let thrown = |mu: f64, k_c: f64| -> Result<String> {
+        let mut q = params.clone();
+        q.mu = mu;
+        q.k_c = k_c;
+        let mut x0 = q.static_equilibrium();
+        x0[X_R] = 0.0065;
+        x0[crate::model::VY_R] = -1.0;
+        let r = simulate(&SimulateSpec {
+            params: q.clone(),
+            omega: 140.0,
+            x0,
+            transient: 1000,
+            periods: 8,
+            timeseries_periods: 1,
+            integrator: Integrator::Lane,
+            stepper: Default::default(),
+            article: Default::default(),
+            classify: Default::default(),
+        })?;
+        if r.status.is_frozen() {
+            return Ok(format!(
+                "diverged ({:?}) within the {} periods integrated (`jeffcott simulate --omega 140 --param mu={mu},k_c={k_c:e} --init x_r=0.0065,vy_r=-1`)",
+                r.status, 1008
+            ));
+        }
+        Ok(
+            match super::rubout::rub_outputs(&q, 140.0, &r.final_state, 24, &Default::default())? {
+                Some(o) => format!(
+                    "settles on {} (`jeffcott simulate --omega 140 --param mu={mu},k_c={k_c:e} --init x_r=0.0065,vy_r=-1`): {}",
+                    o.figures.regime.label(),
+                    super::rubout::rub_sentence(&o)
+                ),
+                None => "diverges".to_string(),
+            },
+        )
+    };
+    let whip_stiff = thrown(0.3, 1e8)?;
+    let whip_soft = thrown(0.25, 1e6)?;
+    let soft_modes = crate::analysis::rub::natural_frequencies(&Params {
+        k_c: 1e6,
+        ..params.clone()
+    });
+    rep.figure(
+        "Rub regimes over speed and friction (beyond the article)",
+        "rub_regimes_w_mu.png",
+        &format!(
+            "The response from the static equilibrium over W = 60..300 rad/s and mu = 0..0.3 ({} x {} cells), labelled by the documented rules of docs/rub.md (contact fraction, contact arc, whirl from the full spectrum): {}. Backward whirl does not start from the static equilibrium: it needs the rotor thrown backward into the stator. With the article's contact stiffness, permanent-contact backward whirl (dry whip) is a self-excited instability without amplitude limit in this penalty model: thrown backward at W = 140 rad/s with mu = 0.3 the rotor {}. With a soft contact (k_c = 1e6 N/m, mu = 0.25, same start) it {} The coupled contact modes of that soft contact are at {:.0} and {:.0} rad/s, the rotor alone at {:.0} rad/s.",
+            p.rub_nx,
+            p.rub_ny,
+            found.join("; "),
+            whip_stiff,
+            whip_soft,
+            soft_modes[2].1,
+            soft_modes[3].1,
+            soft_modes[0].1,
+        ),
+        &format!(
+            "jeffcott map --x omega:60:300:{} --y mu:0:0.3:{} --no-lyapunov --transient {} --periods {} --backend {backend} --out {}/map_w_mu",
+            p.rub_nx,
+            p.rub_ny,
+            p.map_transient,
+            p.map_periods,
+            dir.display()
+        ),
+        t.elapsed().as_secs_f64(),
+    );
+    let t = Instant::now();
+    let cspec2 = crate::analysis::cascade::CascadeSpec {
+        params: params.clone(),
+        omegas: crate::ensemble::parse_range("omega", &format!("100:200:{}", p.cascade_speeds))?,
+        transient_first: 1000,
+        transient: 100,
+        periods: 24,
+        max_order: 4.0,
+        stepper: Default::default(),
+        up: true,
+        down: true,
+    };
+    let cres2 = crate::analysis::cascade::cascade_with(
+        &cspec2,
+        &store("cascade"),
+        &super::rundir::cancel(),
+        &|_, _| {},
+    )?;
+    let kdir = dir.join("cascade");
+    super::cascade::write_cascade(&kdir, &cspec2, &cres2, true, false)?;
+    copy(&kdir.join("cascade_up.png"), "cascade_up.png")?;
+    copy(&kdir.join("cascade_down.png"), "cascade_down.png")?;
+    let regimes = json_regimes(&kdir)?;
+    rep.figure(
+        "Full-spectrum cascade over 100..200 rad/s, run-up (run-down: cascade_down.png)",
+        "cascade_up.png",
+        &format!(
+            "Rotor full spectrum at each speed of a quasistatic run-up (24 periods per spectrum, forward whirl above 0 Hz, backward below), with the 1X line and the natural frequencies of rotor, stator and the coupled contact system. Rub regimes along the sweeps: {regimes}."
+        ),
+        &format!(
+            "jeffcott cascade --omega 100:200:{} --out {}/cascade",
+            p.cascade_speeds,
+            dir.display()
+        ),
+        t.elapsed().as_secs_f64(),
+    );
+    let t = Instant::now();
+    let r = sim(&params, 132.2, 1000, 64, 4)?;
+    if let Some(o) =
+        super::rubout::rub_outputs(&params, 132.2, &r.final_state, 24, &Default::default())?
+    {
+        let fdir = dir.join("spectrum_132.2");
+        crate::output::ensure_dir(&fdir)?;
+        super::rubout::write_rub_outputs(
+            &fdir,
+            "W = 132.2 rad/s",
+            &params,
+            &o,
+            &r.timeseries,
+            true,
+            false,
+        )?;
+        copy(&fdir.join("full_spectrum.png"), "full_spectrum_132.2.png")?;
+        copy(&fdir.join("contact.png"), "contact_132.2.png")?;
+        rep.figure(
+            "Full spectrum and contact loads at W = 132.2 rad/s (period-2)",
+            "full_spectrum_132.2.png",
+            &format!(
+                "{} The orbit relative to the stator with the clearance circle and the contact force history: contact_132.2.png.",
+                super::rubout::rub_sentence(&o)
+            ),
+            "jeffcott simulate --omega 132.2",
+            t.elapsed().as_secs_f64(),
+        );
+    }
+
     // REPORT.md.
-    say("[10/10] REPORT.md");
+    say("[11/11] REPORT.md");
     let mut head = String::new();
     let _ = write!(
         head,
