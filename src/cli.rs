@@ -21,6 +21,7 @@ mod merge;
 mod reproduce;
 pub mod rubout;
 pub mod rundir;
+mod stability;
 pub use basin::{BasinArgs, run_basin};
 pub use bench::{BenchArgs, run_bench};
 pub use bifurcation::{BifurcationArgs, CatalogueArgs, SweepArg, run_bifurcation};
@@ -30,6 +31,7 @@ pub use map::{MapArgs, run_map};
 pub use merge::{MergeArgs, run_merge};
 pub mod lyapunov;
 pub use reproduce::{ReproduceArgs, run_reproduce};
+pub use stability::{StabilityArgs, run_stability};
 
 /// Nonlinear dynamics of a rubbing Jeffcott rotor hitting a flexibly suspended stator.
 ///
@@ -81,6 +83,11 @@ pub enum Command {
     /// and the natural frequencies, and the rub regime at each speed.
     #[command(allow_negative_numbers = true)]
     Cascade(CascadeArgs),
+    /// Basin stability (Menck et al. 2013): fractions of start states drawn uniformly in a
+    /// box of any start coordinates that end on each attractor, with 95 % intervals; over a
+    /// speed range, stacked against W.
+    #[command(name = "basin-stability", allow_negative_numbers = true)]
+    BasinStability(StabilityArgs),
     /// Regenerate the article's figures (Figs. 3-12, plus down-sweep and brute-force
     /// diagrams) and a REPORT.md; --quick (default) takes under 10 minutes on 2 CPU cores.
     Reproduce(ReproduceArgs),
@@ -108,6 +115,7 @@ pub fn dispatch(command: &Command) -> Result<()> {
         Command::Map(a) => run_map(a),
         Command::Continuation(a) => run_continuation(a),
         Command::Cascade(a) => run_cascade(a),
+        Command::BasinStability(a) => run_stability(a),
         Command::Reproduce(a) => run_reproduce(a),
         Command::Info => run_info(),
         Command::Bench(a) => run_bench(a),

@@ -108,13 +108,6 @@ impl ContinuationSpec {
                 "a continuation follows attractors over omega or a model parameter, not a start coordinate",
             ));
         }
-        if self.param.n < 2 {
-            return Err(Error::invalid(
-                "param",
-                self.param.n,
-                "a continuation needs at least 2 values",
-            ));
-        }
         if self.param.var != MapVar::Omega {
             match self.omega {
                 Some(w) => crate::model::validate_omega(w)?,
@@ -127,7 +120,7 @@ impl ContinuationSpec {
                 }
             }
         }
-        for i in [0, self.param.n - 1] {
+        for i in [0, self.param.n.saturating_sub(1)] {
             let (p, w) = self.value_params(i);
             crate::model::validate_omega(w)
                 .and_then(|_| p.validate())

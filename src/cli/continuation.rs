@@ -129,6 +129,13 @@ impl ContinuationArgs {
             },
             match_threshold: self.match_threshold.unwrap_or(f64::INFINITY),
         };
+        if spec.param.n < 2 {
+            return Err(Error::invalid(
+                "param",
+                spec.param.n,
+                "a continuation needs at least 2 values",
+            ));
+        }
         spec.validate()?;
         Ok(spec)
     }

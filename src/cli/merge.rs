@@ -209,6 +209,7 @@ pub fn run_merge(a: &MergeArgs) -> Result<()> {
         "bifurcation" => super::bifurcation::OUTPUTS,
         "map" => super::map::OUTPUTS,
         "continuation" => super::continuation::OUTPUTS,
+        "basin-stability" => super::stability::OUTPUTS,
         c => {
             return Err(Error::invalid(
                 "SHARD_DIR",
