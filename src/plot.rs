@@ -879,3 +879,92 @@ pub fn stacked_fractions(
         root.present().map_err(|e| err(e.to_string()))
     })
 }
+
+/// The uncertain fraction f(eps) against eps (a fraction of the box side), log-log: the
+/// grid estimate and the re-integration estimate as points, each with its fitted slope
+/// drawn through the mean of its fitted points (where a least-squares line passes).
+pub fn uncertainty(
+    path: &Path,
+    title: &str,
+    grid: &[(f64, f64)],
+    grid_alpha: Option<f64>,
+    reint: &[(f64, f64)],
+    reint_alpha: Option<f64>,
+) -> Result<()> {
+    register_font();
+    let err = plot_err(path);
+    let all: Vec<(f64, f64)> = grid
+        .iter()
+        .chain(reint)
+        .copied()
+        .filter(|p| p.0 > 0.0 && p.1 > 0.0)
+        .collect();
+    let (x0, x1) = all
+        .iter()
+        .fold((1e-7f64, 1.0f64), |(a, b), p| (a.min(p.0), b.max(p.0)));
+    let (y0, y1) = all
+        .iter()
+        .fold((1e-4f64, 1.0f64), |(a, b), p| (a.min(p.1), b.max(p.1)));
+    crate::plot::render_png(path, (1100, 800), |root| {
+        root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(title, ("sans-serif", 20))
+            .margin(14)
+            .x_label_area_size(50)
+            .y_label_area_size(80)
+            .build_cartesian_2d(
+                (x0 * 0.5..x1 * 2.0).log_scale(),
+                (y0 * 0.5..y1 * 2.0).log_scale(),
+            )
+            .map_err(|e| err(e.to_string()))?;
+        chart
+            .configure_mesh()
+            .x_desc("eps (fraction of the box side)")
+            .y_desc("uncertain fraction f(eps)")
+            .label_style(("sans-serif", 15))
+            .axis_desc_style(("sans-serif", 17))
+            .x_label_formatter(&|v| format!("{v:.0e}"))
+            .y_label_formatter(&|v| format!("{v:.0e}"))
+            .draw()
+            .map_err(|e| err(e.to_string()))?;
+        for (k, (pts, alpha, name)) in [
+            (grid, grid_alpha, "labelled grid"),
+            (reint, reint_alpha, "re-integration (Grebogi et al. 1983)"),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let c = PALETTE[k];
+            let used: Vec<(f64, f64)> = pts.iter().copied().filter(|p| p.1 > 0.0).collect();
+            if used.is_empty() {
+                continue;
+            }
+            let label = match alpha {
+                Some(a) => format!("{name}: alpha = {a:.3}"),
+                None => format!("{name}: not fitted"),
+            };
+            chart
+                .draw_series(used.iter().map(|&p| Circle::new(p, 5, c.filled())))
+                .map_err(|e| err(e.to_string()))?
+                .label(label)
+                .legend(move |(x, y)| Circle::new((x + 9, y), 5, c.filled()));
+            if let Some(a) = alpha {
+                let n = used.len() as f64;
+                let mx = used.iter().map(|p| p.0.ln()).sum::<f64>() / n;
+                let my = used.iter().map(|p| p.1.ln()).sum::<f64>() / n;
+                let (lo, hi) = used.iter().fold((f64::INFINITY, 0.0f64), |(l, h), p| {
+                    (l.min(p.0), h.max(p.0))
+                });
+                let line = [lo, hi].map(|x| (x, (my + a * (x.ln() - mx)).exp()));
+                chart
+                    .draw_series(std::iter::once(PathElement::new(
+                        line.to_vec(),
+                        c.stroke_width(2),
+                    )))
+                    .map_err(|e| err(e.to_string()))?;
+            }
+        }
+        legend(&mut chart, SeriesLabelPosition::LowerRight, 15).map_err(&err)?;
+        root.present().map_err(|e| err(e.to_string()))
+    })
+}

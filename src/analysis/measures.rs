@@ -514,15 +514,15 @@ pub struct BoxCountingDimension {
     pub not_fitted: Option<String>,
 }
 
-/// Least squares through (ln eps, ln value); `None` when fewer than 3 points or a
-/// degenerate abscissa.
-fn fit_log_log(points: &[ScalePoint], dimension: impl Fn(f64) -> f64) -> Option<LogLogFit> {
-    let m = points.len();
+/// Least squares through (ln x, ln y): (slope, intercept, slope standard error
+/// sqrt(SSR / (m - 2) / Sxx)); `None` for fewer than 3 points or a degenerate abscissa.
+pub fn log_log_line(x: &[f64], y: &[f64]) -> Option<(f64, f64, f64)> {
+    let m = x.len().min(y.len());
     if m < MIN_FIT_POINTS {
         return None;
     }
-    let xs: Vec<f64> = points.iter().map(|p| (p.eps as f64).ln()).collect();
-    let ys: Vec<f64> = points.iter().map(|p| p.value.ln()).collect();
+    let xs: Vec<f64> = x[..m].iter().map(|v| v.ln()).collect();
+    let ys: Vec<f64> = y[..m].iter().map(|v| v.ln()).collect();
     let mx = xs.iter().sum::<f64>() / m as f64;
     let my = ys.iter().sum::<f64>() / m as f64;
     let sxx: f64 = xs.iter().map(|x| (x - mx).powi(2)).sum();
@@ -537,7 +537,16 @@ fn fit_log_log(points: &[ScalePoint], dimension: impl Fn(f64) -> f64) -> Option<
         .zip(&ys)
         .map(|(x, y)| (y - intercept - slope * x).powi(2))
         .sum();
-    let se = (ssr / (m - 2) as f64 / sxx).sqrt();
+    Some((slope, intercept, (ssr / (m - 2) as f64 / sxx).sqrt()))
+}
+
+/// Least squares through (ln eps, ln value); `None` when fewer than 3 points or a
+/// degenerate abscissa.
+fn fit_log_log(points: &[ScalePoint], dimension: impl Fn(f64) -> f64) -> Option<LogLogFit> {
+    let m = points.len();
+    let x: Vec<f64> = points.iter().map(|p| p.eps as f64).collect();
+    let y: Vec<f64> = points.iter().map(|p| p.value).collect();
+    let (slope, intercept, se) = log_log_line(&x, &y)?;
     Some(LogLogFit {
         eps_min: points[0].eps,
         eps_max: points[m - 1].eps,

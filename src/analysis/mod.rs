@@ -8,5 +8,7 @@ pub mod classify;
 pub mod continuation;
 pub mod map;
 pub mod measures;
+pub mod refine;
 pub mod rub;
 pub mod spectrum;
+pub mod uncertainty;

@@ -82,7 +82,23 @@ pub struct BasinArgs {
     /// basin_metrics.json as entropy.eps].
     #[arg(long, value_name = "CELLS")]
     pub entropy_box: Option<usize>,
-    /// Skip basin.png, basin_lambda1.png and attractors.png.
+    /// Boundary refinement: K levels of 2 x 2 subdivision around every point with a
+    /// differently labelled neighbour, interiors filled from their parent; labels.npy at
+    /// the finest ((n - 1) 2^K + 1 points per axis), refined.npy marking computed points,
+    /// the measures on the fine grid (not with --lyapunov).
+    #[arg(long, default_value_t = 0, value_name = "K")]
+    pub refine: u32,
+    /// Also draw basin_boundary.png: the basin with its boundary points (a 4-neighbour of
+    /// another label) in dark grey.
+    #[arg(long)]
+    pub highlight_boundary: bool,
+    /// Draws of the uncertainty exponent by re-integration (Grebogi et al. 1983): each
+    /// draw is integrated as it is and displaced by +-eps along both axes for eps =
+    /// 1e-1 .. 1e-7 of the box side (29 lanes a draw); 0 skips it. f(eps) cannot go below
+    /// 1/M, so smooth boundaries need many draws.
+    #[arg(long, default_value_t = 100, value_name = "M")]
+    pub uncertainty_samples: usize,
+    /// Skip basin.png, basin_lambda1.png, attractors.png and uncertainty.png.
     #[arg(long)]
     pub no_plot: bool,
     /// Print nothing but errors (no progress bar).
@@ -213,6 +229,9 @@ pub const OUTPUTS: &[&str] = &[
     "y.npy",
     "attractors.json",
     "basin_metrics.json",
+    "refined.npy",
+    "uncertainty.png",
+    "basin_boundary.png",
     "basin.png",
     "basin_lambda1.png",
     "attractors.png",
@@ -261,40 +280,281 @@ pub fn run_basin(a: &BasinArgs) -> Result<()> {
             format!("must be in 1..={short} (the shorter side of the grid)"),
         ));
     }
+    if a.refine > crate::analysis::refine::MAX_LEVELS {
+        return Err(Error::invalid(
+            "refine",
+            a.refine,
+            format!("must be in 0..={}", crate::analysis::refine::MAX_LEVELS),
+        ));
+    }
+    if a.refine > 0 && a.lyapunov {
+        return Err(Error::invalid(
+            "refine",
+            a.refine,
+            "--refine computes labels only; run --lyapunov without it",
+        ));
+    }
+    let fine_cells = ((spec.x.n as u64 - 1) << a.refine) + 1;
+    let fine_cells = fine_cells.saturating_mul(((spec.y.n as u64 - 1) << a.refine) + 1);
+    if fine_cells > MAX_BASIN_CELLS {
+        return Err(Error::invalid(
+            "refine",
+            a.refine,
+            format!("the finest grid would have {fine_cells} points; at most {MAX_BASIN_CELLS}"),
+        ));
+    }
     let shard = a.shard.shard()?;
-    let rd = rundir::open_shard(
-        &a.out,
-        "basin",
-        spec.to_json(),
-        OUTPUTS,
-        a.run,
-        shard,
-        a.quiet,
-    )?;
+    let mut run_spec = spec.to_json();
+    run_spec["refine"] = a.refine.into();
+    run_spec["uncertainty_samples"] = a.uncertainty_samples.into();
+    let rd = rundir::open_shard(&a.out, "basin", run_spec, OUTPUTS, a.run, shard, a.quiet)?;
     let res = match run_basin_study(&spec, rundir::store(&rd).as_ref(), a.quiet) {
         Err(Error::NotInShard) => return rundir::finish_shard(&rd, a.quiet),
         r => r?,
     };
+    let (spec, res, refined) = if a.refine > 0 {
+        let (s, r, f) = refine_basin(&spec, res, rundir::store(&rd).as_ref(), a.refine, a.quiet)?;
+        output::write_npy(&a.out.join("refined.npy"), &[f.ny, f.nx], &f.computed)?;
+        (s, r, Some(f))
+    } else {
+        (spec, res, None)
+    };
     write_basin(&a.out, &spec, &res, !a.no_plot)?;
-    let metrics = write_metrics(&a.out, &spec, &res, entropy_box)?;
-    rd.finish(run_json(&res), &rundir::written(&rd, OUTPUTS))?;
+    if a.highlight_boundary && !a.no_plot {
+        boundary_picture(&a.out.join("basin_boundary.png"), &spec, &res)?;
+    }
+    let reint = reintegrate(
+        &spec,
+        &res,
+        rundir::store(&rd).as_ref(),
+        a.uncertainty_samples,
+        a.quiet,
+    )?;
+    let metrics = write_metrics(&a.out, &spec, &res, entropy_box, reint.as_ref(), !a.no_plot)?;
+    let mut rj = run_json(&res);
+    if let Some(f) = &refined {
+        rj["refinement"] = refinement_json(f, &spec);
+    }
+    rd.finish(rj, &rundir::written(&rd, OUTPUTS))?;
     if !a.quiet {
         println!("{}", human_summary(&spec, &res, &a.out));
-        println!("Basin measures (basin_metrics.json): {}", metrics.summary());
+        if let Some(f) = &refined {
+            let lanes: usize = f.levels.iter().map(|l| l.lanes).sum();
+            println!(
+                "Refined {} level(s) to {} x {}: {} lanes integrated besides the coarse grid, against {} for the full fine grid ({:.1} %).",
+                f.levels.len(),
+                f.nx,
+                f.ny,
+                lanes,
+                f.nx * f.ny,
+                100.0 * lanes as f64 / (f.nx * f.ny) as f64
+            );
+        }
+        println!(
+            "Basin measures (basin_metrics.json): {}{}",
+            metrics.summary(),
+            reint
+                .as_ref()
+                .map(|r| format!("; {}", r.summary()))
+                .unwrap_or_default()
+        );
     }
     Ok(())
 }
 
-/// Computes the basin measures of the labels and writes `basin_metrics.json`.
+/// The basin with its boundary points (a 4-neighbour of another label) in dark grey.
+fn boundary_picture(path: &Path, spec: &BasinSpec, res: &BasinResult) -> Result<()> {
+    const BOUNDARY: i32 = -3;
+    let (nx, ny) = (spec.x.n, spec.y.n);
+    let labels: Vec<i32> = (0..nx * ny)
+        .map(|p| {
+            if crate::analysis::refine::on_boundary(&res.labels, nx, ny, p % nx, p / nx) {
+                BOUNDARY
+            } else {
+                res.labels[p]
+            }
+        })
+        .collect();
+    let boundary = labels.iter().filter(|&&l| l == BOUNDARY).count();
+    let mut legend: Vec<(i32, String)> = res
+        .catalogue
+        .attractors
+        .iter()
+        .map(|a| (a.id as i32, legend_name(a)))
+        .collect();
+    if res.catalogue.diverged > 0 {
+        legend.push((-1, "diverged".into()));
+    }
+    legend.push((
+        BOUNDARY,
+        format!(
+            "boundary, {:.1} % of the points",
+            100.0 * boundary as f64 / labels.len() as f64
+        ),
+    ));
+    let (sx, lx) = coord_axis(spec.x.coord);
+    let (sy, ly) = coord_axis(spec.y.coord);
+    crate::plot::category_map(
+        path,
+        &format!(
+            "Basin boundary at W = {} rad/s ({} x {} start states)",
+            spec.omega, nx, ny
+        ),
+        &labels,
+        (nx, ny),
+        (
+            (spec.x.lo * sx, spec.x.hi.max(spec.x.lo + 1e-12) * sx),
+            (spec.y.lo * sy, spec.y.hi.max(spec.y.lo + 1e-12) * sy),
+        ),
+        (&lx, &ly),
+        &legend,
+        &|l| {
+            if l == BOUNDARY {
+                plotters::style::RGBColor(60, 60, 60)
+            } else {
+                attractor_color(l)
+            }
+        },
+    )
+}
+
+/// Refines a computed basin `levels` times ([`crate::analysis::refine`]), its lanes
+/// committed to `store`: the basin at the finest resolution (the spec with the fine axis
+/// counts, the labels replaced, basin fractions recounted as area fractions of the fine
+/// grid) and the refinement.
+pub fn refine_basin(
+    spec: &BasinSpec,
+    mut res: BasinResult,
+    store: &dyn crate::run::UnitStore,
+    levels: u32,
+    quiet: bool,
+) -> Result<(BasinSpec, BasinResult, crate::analysis::refine::Refined)> {
+    let engine = crate::ensemble::Engine::new(spec.backend, spec.precision)?;
+    let per_lane = (spec.transient + spec.recorded) as u64;
+    // The boundary's lanes are not known in advance: the bar counts the coarse grid's
+    // size per level as a scale.
+    let bar = crate::progress::Progress::new(
+        "refine",
+        (spec.x.n * spec.y.n) as u64 * per_lane * levels as u64,
+        per_lane,
+        quiet,
+    );
+    let cancel = rundir::cancel();
+    let cb = rundir::bar_callback(&bar);
+    let f = crate::analysis::refine::refine(
+        spec,
+        &res.catalogue,
+        &res.labels,
+        levels,
+        &engine,
+        store,
+        crate::run::lanes::Control {
+            progress: &cb,
+            cancel: &cancel,
+        },
+    );
+    bar.finish();
+    let f = f?;
+    let mut fine = spec.clone();
+    fine.x.n = f.nx;
+    fine.y.n = f.ny;
+    let total = f.labels.len() as f64;
+    for a in &mut res.catalogue.attractors {
+        a.basin_fraction = f.labels.iter().filter(|&&l| l == a.id as i32).count() as f64 / total;
+    }
+    res.catalogue.diverged_fraction = f.labels.iter().filter(|&&l| l == -1).count() as f64 / total;
+    res.labels = f.labels.clone();
+    Ok((fine, res, f))
+}
+
+/// What run.json records of a refinement.
+fn refinement_json(f: &crate::analysis::refine::Refined, spec: &BasinSpec) -> serde_json::Value {
+    let lanes: usize = f.levels.iter().map(|l| l.lanes).sum();
+    serde_json::json!({
+        "levels": f.levels,
+        "finest": [f.nx, f.ny],
+        "lanes": lanes,
+        "full_fine_grid_lanes": f.nx * f.ny,
+        "computed_points": f.computed.iter().filter(|&&c| c == 1).count(),
+        "not_in_the_coarse_catalogue": f.labels.iter().filter(|&&l| l == -2).count(),
+        "x_n": spec.x.n,
+        "y_n": spec.y.n,
+    })
+}
+
+/// The uncertainty exponent by re-integration ([`crate::analysis::uncertainty`]) of a
+/// computed basin, its lanes committed to `store` (stage `uncertainty`); `None` for 0
+/// samples.
+pub fn reintegrate(
+    spec: &BasinSpec,
+    res: &BasinResult,
+    store: &dyn crate::run::UnitStore,
+    samples: usize,
+    quiet: bool,
+) -> Result<Option<crate::analysis::uncertainty::Reintegration>> {
+    if samples == 0 {
+        return Ok(None);
+    }
+    let per_lane = (spec.transient + spec.recorded) as u64;
+    let lanes = (samples * (1 + 4 * crate::analysis::uncertainty::EPS.len())) as u64;
+    let bar = crate::progress::Progress::new("uncertainty", lanes * per_lane, per_lane, quiet);
+    let engine = crate::ensemble::Engine::new(spec.backend, spec.precision)?;
+    let cancel = rundir::cancel();
+    let cb = rundir::bar_callback(&bar);
+    let r = crate::analysis::uncertainty::reintegration(
+        spec,
+        &res.catalogue,
+        samples,
+        1,
+        &engine,
+        store,
+        crate::run::lanes::Control {
+            progress: &cb,
+            cancel: &cancel,
+        },
+    );
+    bar.finish();
+    r.map(Some)
+}
+
+/// Computes the basin measures of the labels and writes `basin_metrics.json` (with the
+/// re-integration estimate when given) and, with `plot_it`, `uncertainty.png`.
 pub fn write_metrics(
     dir: &Path,
     spec: &BasinSpec,
     res: &BasinResult,
     entropy_box: usize,
+    reint: Option<&crate::analysis::uncertainty::Reintegration>,
+    plot_it: bool,
 ) -> Result<crate::analysis::measures::BasinMetrics> {
     let m = crate::analysis::measures::basin_metrics(&res.labels, spec.x.n, spec.y.n, entropy_box)?;
     let mut j =
         serde_json::to_value(&m).map_err(|e| Error::invalid("basin_metrics", "", e.to_string()))?;
+    j["uncertainty_reintegration"] = match reint {
+        Some(r) => serde_json::to_value(r).unwrap_or_default(),
+        None => serde_json::Value::Null,
+    };
+    if plot_it {
+        // The grid estimate's eps in cells, as a fraction of the box side (nx - 1 cells).
+        let side = (spec.x.n.max(2) - 1) as f64;
+        let grid: Vec<(f64, f64)> = m
+            .uncertainty
+            .points
+            .iter()
+            .map(|p| (p.eps as f64 / side, p.value))
+            .collect();
+        crate::plot::uncertainty(
+            &dir.join("uncertainty.png"),
+            &format!(
+                "Uncertain fraction f(eps) at W = {} rad/s: f ~ eps^alpha, D = 2 - alpha",
+                spec.omega
+            ),
+            &grid,
+            m.uncertainty.fit.map(|f| f.slope),
+            reint.map(|r| r.points.as_slice()).unwrap_or(&[]),
+            reint.and_then(|r| r.alpha),
+        )?;
+    }
     j["definitions"] = serde_json::json!(
         "docs/basin-measures.md: fractions with the binomial (random sampling) error and the grid's boundary-cell bound; S_b, S_bb in nats, boxes of entropy.eps cells (Daza et al. 2016), S_bb > ln 2 sufficient for a fractal boundary; alpha from the uncertain fraction f(eps) ~ eps^alpha on the grid, D = 2 - alpha; box-counting dimension of the boundary; Wada merge test (Daza et al. 2018) with 3 or more basins"
     );
@@ -445,7 +705,8 @@ pub fn write_basin(dir: &Path, spec: &BasinSpec, res: &BasinResult, plot_it: boo
         "catalogue_config": cat.config,
         "params": spec.params,
         "files": {
-            "labels.npy": "int32 [ny, nx]: attractor id per start state (row iy has y = y.npy[iy], column ix has x = x.npy[ix]); -1 diverged",
+            "labels.npy": "int32 [ny, nx]: attractor id per start state (row iy has y = y.npy[iy], column ix has x = x.npy[ix]); -1 diverged; -2 (with --refine) an attractor the coarse grid did not find",
+            "refined.npy": "uint8 [ny, nx] (with --refine): 1 where the label was integrated, 0 where it was filled from the parent point; labels.npy is at the finest resolution",
             "x.npy": "f64 [nx], the x-axis start values",
             "y.npy": "f64 [ny], the y-axis start values",
             "lambda1.npy": "f64 [ny, nx]: largest Lyapunov exponent per start state over the recorded periods [1/s], NaN diverged (only with --lyapunov)",

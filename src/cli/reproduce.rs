@@ -83,6 +83,7 @@ struct Preset {
     rub_nx: usize,
     rub_ny: usize,
     cascade_speeds: usize,
+    uncertainty_samples: usize,
 }
 
 const QUICK: Preset = Preset {
@@ -118,6 +119,7 @@ const QUICK: Preset = Preset {
     rub_nx: 49,
     rub_ny: 7,
     cascade_speeds: 101,
+    uncertainty_samples: 100,
 };
 
 const FULL: Preset = Preset {
@@ -153,6 +155,7 @@ const FULL: Preset = Preset {
     rub_nx: 241,
     rub_ny: 31,
     cascade_speeds: 1001,
+    uncertainty_samples: 4000,
 };
 
 const SMOKE: Preset = Preset {
@@ -188,6 +191,7 @@ const SMOKE: Preset = Preset {
     rub_nx: 3,
     rub_ny: 2,
     cascade_speeds: 3,
+    uncertainty_samples: 2,
 };
 
 /// The article's speeds and what it reports there (MODEL.md 6 and the issue).
@@ -739,11 +743,20 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     let bres = run_basin_study(&bspec, &store("basin_133"), a.quiet)?;
     let bdir = dir.join("basin_133");
     write_basin(&bdir, &bspec, &bres, true)?;
+    let reint = super::basin::reintegrate(
+        &bspec,
+        &bres,
+        &store("basin_133"),
+        p.uncertainty_samples,
+        a.quiet,
+    )?;
     let bmetrics = super::basin::write_metrics(
         &bdir,
         &bspec,
         &bres,
         crate::analysis::measures::DEFAULT_ENTROPY_BOX.min(bspec.x.n.min(bspec.y.n)),
+        reint.as_ref(),
+        true,
     )?;
     let copy = |from: &Path, to: &str| -> Result<()> {
         let bytes = std::fs::read(from).map_err(|source| Error::Io {
@@ -766,11 +779,12 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         "Fig. 7: basin of attraction at W = 133 rad/s over the rotor's initial x_r and vx_r",
         "fig07_basin_133.png",
         &format!(
-            "{n} x {n} start states (other coordinates at the static equilibrium): {}. From the static equilibrium itself: **{}**, lambda_1 = {}. Basin measures (`basin_133/basin_metrics.json`, docs/basin-measures.md): {}.",
+            "{n} x {n} start states (other coordinates at the static equilibrium): {}. From the static equilibrium itself: **{}**, lambda_1 = {}. Basin measures (`basin_133/basin_metrics.json`, docs/basin-measures.md; f(eps) of both methods in `basin_133/uncertainty.png`): {}{}.",
             describe(&bres.catalogue),
             refine(r133.classification.class, 133.0),
             l1_text(133.0),
-            bmetrics.summary()
+            bmetrics.summary(),
+            reint.as_ref().map(|r| format!("; {}", r.summary())).unwrap_or_default()
         ),
         &basin_cmd,
         basin_s,
