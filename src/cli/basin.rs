@@ -527,7 +527,19 @@ pub fn write_metrics(
     reint: Option<&crate::analysis::uncertainty::Reintegration>,
     plot_it: bool,
 ) -> Result<crate::analysis::measures::BasinMetrics> {
-    let m = crate::analysis::measures::basin_metrics(&res.labels, spec.x.n, spec.y.n, entropy_box)?;
+    // A refinement's -2 (an attractor the coarse catalogue lacks) is one more basin for the
+    // measures: the next free id.
+    let other = res.labels.iter().copied().max().unwrap_or(0).max(-1) + 1;
+    let labels: std::borrow::Cow<[i32]> = if res.labels.contains(&-2) {
+        res.labels
+            .iter()
+            .map(|&l| if l == -2 { other } else { l })
+            .collect::<Vec<i32>>()
+            .into()
+    } else {
+        (&res.labels[..]).into()
+    };
+    let m = crate::analysis::measures::basin_metrics(&labels, spec.x.n, spec.y.n, entropy_box)?;
     let mut j =
         serde_json::to_value(&m).map_err(|e| Error::invalid("basin_metrics", "", e.to_string()))?;
     j["uncertainty_reintegration"] = match reint {

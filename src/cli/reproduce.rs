@@ -84,6 +84,7 @@ struct Preset {
     rub_ny: usize,
     cascade_speeds: usize,
     uncertainty_samples: usize,
+    basin_refine: u32,
 }
 
 const QUICK: Preset = Preset {
@@ -120,6 +121,7 @@ const QUICK: Preset = Preset {
     rub_ny: 7,
     cascade_speeds: 101,
     uncertainty_samples: 100,
+    basin_refine: 1,
 };
 
 const FULL: Preset = Preset {
@@ -156,6 +158,7 @@ const FULL: Preset = Preset {
     rub_ny: 31,
     cascade_speeds: 1001,
     uncertainty_samples: 4000,
+    basin_refine: 2,
 };
 
 const SMOKE: Preset = Preset {
@@ -192,6 +195,7 @@ const SMOKE: Preset = Preset {
     rub_ny: 2,
     cascade_speeds: 3,
     uncertainty_samples: 2,
+    basin_refine: 1,
 };
 
 /// The article's speeds and what it reports there (MODEL.md 6 and the issue).
@@ -742,6 +746,37 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     };
     let bres = run_basin_study(&bspec, &store("basin_133"), a.quiet)?;
     let bdir = dir.join("basin_133");
+    // Boundary refinement: the basin at ((n - 1) 2^K + 1)^2, the measures on it.
+    let (bspec, bres, refined) = if p.basin_refine > 0 {
+        let (s, r, f) = super::basin::refine_basin(
+            &bspec,
+            bres,
+            &store("basin_133"),
+            p.basin_refine,
+            a.quiet,
+        )?;
+        crate::output::ensure_dir(&bdir)?;
+        crate::output::write_npy(&bdir.join("refined.npy"), &[f.ny, f.nx], &f.computed)?;
+        (s, r, Some(f))
+    } else {
+        (bspec, bres, None)
+    };
+    let refine_text = match &refined {
+        Some(f) => {
+            let lanes: usize = f.levels.iter().map(|l| l.lanes).sum();
+            format!(
+                " Refined {} level(s) around the boundary to {} x {} points: {} lanes besides the {n} x {n} grid, {:.0} % of the {} of the full fine grid (`--refine {}`, refined.npy).",
+                f.levels.len(),
+                f.nx,
+                f.ny,
+                lanes,
+                100.0 * (lanes + n * n) as f64 / (f.nx * f.ny) as f64,
+                f.nx * f.ny,
+                f.levels.len()
+            )
+        }
+        None => String::new(),
+    };
     write_basin(&bdir, &bspec, &bres, true)?;
     let reint = super::basin::reintegrate(
         &bspec,
@@ -770,16 +805,18 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     let r133 = sim(&params, 133.0, 1000, 64, 4)?;
     static_class.push((133.0, refine(r133.classification.class, 133.0)));
     let basin_cmd = format!(
-        "jeffcott basin --omega 133 --x x_r:-0.006:0.006:{n} --y vx_r:-1:1:{n} --transient {} --periods {} --backend {backend} --out {}/basin_133",
+        "jeffcott basin --omega 133 --x x_r:-0.006:0.006:{n} --y vx_r:-1:1:{n} --transient {} --periods {} --refine {} --uncertainty-samples {} --backend {backend} --out {}/basin_133",
         p.basin_transient,
         p.basin_periods,
+        p.basin_refine,
+        p.uncertainty_samples,
         dir.display()
     );
     rep.figure(
         "Fig. 7: basin of attraction at W = 133 rad/s over the rotor's initial x_r and vx_r",
         "fig07_basin_133.png",
         &format!(
-            "{n} x {n} start states (other coordinates at the static equilibrium): {}. From the static equilibrium itself: **{}**, lambda_1 = {}. Basin measures (`basin_133/basin_metrics.json`, docs/basin-measures.md; f(eps) of both methods in `basin_133/uncertainty.png`): {}{}.",
+            "{n} x {n} start states (other coordinates at the static equilibrium): {}. From the static equilibrium itself: **{}**, lambda_1 = {}.{refine_text} Basin measures (`basin_133/basin_metrics.json`, docs/basin-measures.md; f(eps) of both methods in `basin_133/uncertainty.png`): {}{}.",
             describe(&bres.catalogue),
             refine(r133.classification.class, 133.0),
             l1_text(133.0),
