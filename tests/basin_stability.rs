@@ -2,28 +2,8 @@
 //! agree with a dense basin grid over the same box within their 95 % intervals; more than
 //! two coordinates and a speed range work, with the stacked plot; bad boxes are refused.
 
-use std::path::Path;
-use std::process::{Command, Output};
-
-fn jeffcott(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_jeffcott"))
-        .args(args)
-        .output()
-        .expect("run jeffcott")
-}
-
-fn ok(o: &Output) {
-    assert!(
-        o.status.success(),
-        "exit {:?}\nstderr: {}",
-        o.status.code(),
-        String::from_utf8_lossy(&o.stderr)
-    );
-}
-
-fn json(path: &Path) -> serde_json::Value {
-    serde_json::from_slice(&std::fs::read(path).expect("read json")).expect("parse json")
-}
+mod common;
+use common::*;
 
 const RUN: &[&str] = &[
     "--transient",

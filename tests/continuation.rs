@@ -4,35 +4,11 @@
 //! fractions (uniform start states in a box) agree with `basin` over that box within
 //! their errors; every tipping row with a basin sums to 1; bad input is refused.
 
+mod common;
+use common::*;
+use std::process::Output;
+
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn jeffcott(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_jeffcott"))
-        .args(args)
-        .output()
-        .expect("run jeffcott")
-}
-
-fn ok(o: &Output) {
-    assert!(
-        o.status.success(),
-        "exit {:?}\nstderr: {}",
-        o.status.code(),
-        String::from_utf8_lossy(&o.stderr)
-    );
-}
-
-fn json(path: &Path) -> serde_json::Value {
-    serde_json::from_slice(&std::fs::read(path).expect("read json")).expect("parse json")
-}
-
-fn npy(path: &Path) -> (Vec<u64>, Vec<f64>) {
-    let bytes = std::fs::read(path).expect("read npy");
-    let f = npyz::NpyFile::new(&bytes[..]).expect("npy header");
-    let shape = f.shape().to_vec();
-    (shape, f.into_vec().expect("npy data"))
-}
 
 fn continuation(out: &Path, extra: &[&str]) -> Output {
     let mut a = vec![
@@ -70,7 +46,7 @@ fn over_a_monostable_range_one_attractor_keeps_its_id_with_fraction_one() {
             assert_eq!(a[0]["fraction"], 1.0);
             assert_eq!(a[0]["error"], 0.0);
         }
-        let (shape, f) = npy(&out.join(format!("fractions_{d}.npy")));
+        let (shape, f) = npy::<f64>(&out.join(format!("fractions_{d}.npy")));
         assert_eq!(shape, vec![5, 2]);
         assert!(f.chunks(2).all(|r| r == [1.0, 0.0]), "{f:?}");
     }
@@ -156,7 +132,7 @@ fn every_tipping_row_with_a_basin_sums_to_one() {
         &["--param", "omega:132.6:133.4:5", "--ics", "24"],
     ));
     for d in ["up", "down"] {
-        let (shape, t) = npy(&out.join(format!("tipping_{d}.npy")));
+        let (shape, t) = npy::<f64>(&out.join(format!("tipping_{d}.npy")));
         let g = shape[1] as usize;
         assert_eq!(shape, vec![4, g as u64, g as u64]);
         let mut rows = 0;

@@ -3,25 +3,12 @@
 //! with its own parameters is the same lane as a plain run with those parameters; bad
 //! tables are refused naming row and column.
 
+mod common;
+use common::*;
+use std::process::Output;
+
 use npyz::WriterBuilder;
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn jeffcott(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_jeffcott"))
-        .args(args)
-        .output()
-        .expect("run jeffcott")
-}
-
-fn ok(o: &Output) {
-    assert!(
-        o.status.success(),
-        "exit {:?}\nstderr: {}",
-        o.status.code(),
-        String::from_utf8_lossy(&o.stderr)
-    );
-}
 
 fn p(path: &Path) -> &str {
     path.to_str().unwrap()

@@ -6,58 +6,14 @@
 //! GPU checks need an adapter; without one they are skipped unless
 //! `JEFFCOTT_REQUIRE_GPU=1` (CI, lavapipe), where they fail.
 
+mod common;
+use common::*;
+use std::process::{Command, Output};
+
 use jeffcott::ensemble::{Backend, EnsembleSpec, LaneSpec, Precision};
 use jeffcott::integrate::lane::StepperConfig;
 use jeffcott::model::Params;
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn jeffcott(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_jeffcott"))
-        .args(args)
-        .output()
-        .expect("run jeffcott")
-}
-
-fn ok(o: &Output) {
-    assert!(
-        o.status.success(),
-        "exit {:?}\nstdout: {}\nstderr: {}",
-        o.status.code(),
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    );
-}
-
-fn require_gpu() -> bool {
-    std::env::var("JEFFCOTT_REQUIRE_GPU").as_deref() == Ok("1")
-}
-
-/// True when an f64-capable adapter exists; panics without one when required.
-fn gpu_f64_present() -> bool {
-    let present = jeffcott::gpu::list_adapters()
-        .iter()
-        .any(|a| a.compute && a.f64);
-    assert!(
-        present || !require_gpu(),
-        "JEFFCOTT_REQUIRE_GPU=1 but no adapter with SHADER_F64 was found"
-    );
-    if !present {
-        eprintln!("skipped: no GPU adapter with f64");
-    }
-    present
-}
-
-fn json(path: &Path) -> serde_json::Value {
-    serde_json::from_slice(&std::fs::read(path).expect("read json")).expect("parse json")
-}
-
-fn npy<T: npyz::Deserialize>(path: &Path) -> (Vec<u64>, Vec<T>) {
-    let bytes = std::fs::read(path).expect("read npy");
-    let f = npyz::NpyFile::new(&bytes[..]).expect("npy header");
-    let shape = f.shape().to_vec();
-    (shape, f.into_vec().expect("npy data"))
-}
 
 /// Short runs: 300 transient and 32 recorded periods at N = 500.
 const RUN: &[&str] = &["--transient", "300", "--periods", "32", "--quiet"];

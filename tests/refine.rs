@@ -3,35 +3,10 @@
 //! (interiors filled from their parents) agree with the full fine grid in >= 99 % of all
 //! points, for fewer lanes than the fine grid.
 
+mod common;
+use common::*;
+
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn jeffcott(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_jeffcott"))
-        .args(args)
-        .output()
-        .expect("run jeffcott")
-}
-
-fn ok(o: &Output) {
-    assert!(
-        o.status.success(),
-        "exit {:?}\nstderr: {}",
-        o.status.code(),
-        String::from_utf8_lossy(&o.stderr)
-    );
-}
-
-fn json(path: &Path) -> serde_json::Value {
-    serde_json::from_slice(&std::fs::read(path).expect("read json")).expect("parse json")
-}
-
-fn npy<T: npyz::Deserialize>(path: &Path) -> (Vec<u64>, Vec<T>) {
-    let bytes = std::fs::read(path).expect("read npy");
-    let f = npyz::NpyFile::new(&bytes[..]).expect("npy header");
-    let shape = f.shape().to_vec();
-    (shape, f.into_vec().expect("npy data"))
-}
 
 /// Labels as attractor classes (ids differ between runs; at 133 every class is one
 /// attractor).

@@ -5,37 +5,12 @@
 //! 1/2X; full annular rub and backward whirl are found and stable under doubling the
 //! record; the contact statistics are those of the time series.
 
+mod common;
+use common::*;
+
 use jeffcott::analysis::spectrum::{Whirl, full_spectrum, line, whirl};
 use rustfft::num_complex::Complex64;
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn jeffcott(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_jeffcott"))
-        .args(args)
-        .output()
-        .expect("run jeffcott")
-}
-
-fn ok(o: &Output) {
-    assert!(
-        o.status.success(),
-        "exit {:?}\nstderr: {}",
-        o.status.code(),
-        String::from_utf8_lossy(&o.stderr)
-    );
-}
-
-fn json(path: &Path) -> serde_json::Value {
-    serde_json::from_slice(&std::fs::read(path).expect("read json")).expect("parse json")
-}
-
-fn npy(path: &Path) -> (Vec<u64>, Vec<f64>) {
-    let bytes = std::fs::read(path).expect("read npy");
-    let f = npyz::NpyFile::new(&bytes[..]).expect("npy header");
-    let shape = f.shape().to_vec();
-    (shape, f.into_vec().expect("npy data"))
-}
 
 /// z(t) = a cos(w t) + i b sin(w t) sampled 200 times per period over `p` periods.
 fn ellipse(a: f64, b: f64, p: u32) -> Vec<Complex64> {
@@ -107,7 +82,7 @@ fn free_flight_never_rubs_and_its_spectrum_is_the_linear_unbalance_response() {
     );
     assert_eq!(s["rub"]["regime"], "no_contact");
     assert_eq!(s["rub"]["figures"]["contact_fraction"], 0.0);
-    let (_, spec) = npy(&tmp.path().join("free/full_spectrum.npy"));
+    let (_, spec) = npy::<f64>(&tmp.path().join("free/full_spectrum.npy"));
     let rows: Vec<&[f64]> = spec.chunks(4).collect();
     let at = |o: f64| rows.iter().find(|r| (r[0] - o).abs() < 1e-12).unwrap()[2];
     let p = jeffcott::model::Params::default();
@@ -132,7 +107,7 @@ fn free_flight_never_rubs_and_its_spectrum_is_the_linear_unbalance_response() {
 fn period_1_has_lines_at_multiples_of_1x_only_and_period_2_adds_a_half_x_line() {
     let tmp = tempfile::tempdir().unwrap();
     let top_and_fractional = |dir: &Path| {
-        let (_, spec) = npy(&dir.join("full_spectrum.npy"));
+        let (_, spec) = npy::<f64>(&dir.join("full_spectrum.npy"));
         let rows: Vec<&[f64]> = spec.chunks(4).collect();
         let top = rows.iter().map(|r| r[2]).fold(0.0, f64::max);
         let half = rows.iter().find(|r| (r[0] - 0.5).abs() < 1e-12).unwrap()[2];
@@ -228,7 +203,7 @@ fn contact_statistics_equal_those_integrated_from_the_time_series() {
             "--csv",
         ],
     );
-    let (shape, ts) = npy(&dir.join("timeseries.npy"));
+    let (shape, ts) = npy::<f64>(&dir.join("timeseries.npy"));
     assert_eq!(shape[1], 9);
     let p = jeffcott::model::Params::default();
     let (mut n, mut inc, mut sum, mut peak) = (0usize, 0usize, 0.0, 0.0f64);
@@ -255,7 +230,7 @@ fn contact_statistics_equal_those_integrated_from_the_time_series() {
         "{f}"
     );
     // contact.npy holds the normal force of each grid point, and the CSV twin the same.
-    let (cshape, c) = npy(&dir.join("contact.npy"));
+    let (cshape, c) = npy::<f64>(&dir.join("contact.npy"));
     assert_eq!(cshape[1], 5);
     let cpeak = c.chunks(5).map(|r| r[4]).fold(0.0, f64::max);
     assert!(rel(cpeak, f["peak_force_n"].as_f64().unwrap()) < 1e-12);
@@ -298,10 +273,10 @@ fn a_cascade_shows_no_contact_below_the_rub_band_and_hysteresis_above_it() {
         "--out",
         out.to_str().unwrap(),
     ]));
-    let (shape, amp) = npy(&out.join("cascade.npy"));
+    let (shape, amp) = npy::<f64>(&out.join("cascade.npy"));
     assert_eq!(shape[..2], [2, 26]);
     let bins = shape[2] as usize;
-    let (_, orders) = npy(&out.join("orders.npy"));
+    let (_, orders) = npy::<f64>(&out.join("orders.npy"));
     let one = orders.iter().position(|&o| o == 1.0).unwrap();
     let bytes = std::fs::read(out.join("regime.npy")).unwrap();
     let regime: Vec<i32> = npyz::NpyFile::new(&bytes[..]).unwrap().into_vec().unwrap();

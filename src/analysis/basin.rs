@@ -18,7 +18,34 @@ use crate::error::{Error, Result};
 use crate::integrate::lane::StepperConfig;
 use crate::model::{COORD_NAMES, Params, State, coord_index};
 use crate::run::lanes::{Control, LaneUnits};
-use crate::run::{Array, Cancel, MemoryStore, ProgressFn, UnitStore};
+use crate::run::{Array, ProgressFn, UnitStore};
+
+/// Splits `NAME:lo:hi:n` into its name, finite bounds and count (the name unchecked);
+/// `option` names the CLI option and `example` shows the form in errors.
+pub fn parse_named_range<'a>(
+    option: &str,
+    text: &'a str,
+    example: &str,
+) -> Result<(&'a str, f64, f64, usize)> {
+    let parts: Vec<&str> = text.split(':').map(str::trim).collect();
+    let [name, lo, hi, n] = parts.as_slice() else {
+        return Err(Error::invalid(
+            option,
+            text,
+            format!("expected NAME:lo:hi:n, e.g. {example}"),
+        ));
+    };
+    let num = |s: &str| -> Result<f64> {
+        s.parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite())
+            .ok_or_else(|| Error::invalid(option, text, format!("`{s}` is not a finite number")))
+    };
+    let n: usize = n
+        .parse()
+        .map_err(|_| Error::invalid(option, text, "the count n must be a positive integer"))?;
+    Ok((name, num(lo)?, num(hi)?, n))
+}
 
 /// One axis of the grid: a state coordinate from `lo` to `hi` inclusive in `n` values.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
@@ -39,14 +66,7 @@ pub const MAX_CELLS_PER_AXIS: usize = 100_000;
 impl Axis {
     /// Parses `name:lo:hi:n`; `option` names the CLI option in errors.
     pub fn parse(option: &str, text: &str) -> Result<Axis> {
-        let parts: Vec<&str> = text.split(':').map(str::trim).collect();
-        let [name, lo, hi, n] = parts.as_slice() else {
-            return Err(Error::invalid(
-                option,
-                text,
-                "expected NAME:lo:hi:n, e.g. x_r:-0.006:0.006:200",
-            ));
-        };
+        let (name, lo, hi, n) = parse_named_range(option, text, "x_r:-0.006:0.006:200")?;
         let coord = coord_index(name).ok_or_else(|| {
             Error::invalid(
                 option,
@@ -57,18 +77,6 @@ impl Axis {
                 ),
             )
         })?;
-        let num = |s: &str| -> Result<f64> {
-            s.parse::<f64>()
-                .ok()
-                .filter(|v| v.is_finite())
-                .ok_or_else(|| {
-                    Error::invalid(option, text, format!("`{s}` is not a finite number"))
-                })
-        };
-        let (lo, hi) = (num(lo)?, num(hi)?);
-        let n: usize = n
-            .parse()
-            .map_err(|_| Error::invalid(option, text, "the count n must be a positive integer"))?;
         let axis = Axis { coord, lo, hi, n };
         axis.validate(option)?;
         Ok(axis)
@@ -231,17 +239,9 @@ impl BasinSpec {
 
 /// Computes a basin in memory; `progress` counts lane-periods.
 pub fn basin(spec: &BasinSpec, progress: ProgressFn) -> Result<BasinResult> {
-    let engine = crate::ensemble::Engine::new(spec.backend, spec.precision)?;
-    let cancel = Cancel::new();
-    basin_with(
-        spec,
-        &engine,
-        &MemoryStore::new(),
-        Control {
-            progress,
-            cancel: &cancel,
-        },
-    )
+    crate::run::in_memory(spec.backend, spec.precision, progress, |e, store, ctl| {
+        basin_with(spec, e, store, ctl)
+    })
 }
 
 /// Computes a basin unit by unit into `store` (resuming from the units it holds), then

@@ -33,7 +33,7 @@ use crate::error::{Error, Result};
 use crate::integrate::lane::StepperConfig;
 use crate::model::{Params, STATE_DIM, State};
 use crate::run::lanes::{Control, LaneUnits};
-use crate::run::{Array, Cancel, MemoryStore, ProgressFn, Unit, UnitStore};
+use crate::run::{Array, ProgressFn, Unit, UnitStore};
 use serde::{Deserialize, Serialize};
 
 /// A ramp direction.
@@ -442,17 +442,9 @@ pub const FRESH: &str = "fresh";
 
 /// Computes a continuation in memory; `progress` counts lane-periods of the fresh pass.
 pub fn continuation(spec: &ContinuationSpec, progress: ProgressFn) -> Result<ContinuationResult> {
-    let engine = crate::ensemble::Engine::new(spec.backend, spec.precision)?;
-    let cancel = Cancel::new();
-    continuation_with(
-        spec,
-        &engine,
-        &MemoryStore::new(),
-        Control {
-            progress,
-            cancel: &cancel,
-        },
-    )
+    crate::run::in_memory(spec.backend, spec.precision, progress, |e, store, ctl| {
+        continuation_with(spec, e, store, ctl)
+    })
 }
 
 /// Runs the continuation unit by unit into `store` (resuming from what it holds).

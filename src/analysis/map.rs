@@ -17,7 +17,7 @@ use crate::error::{Error, Result};
 use crate::integrate::lane::StepperConfig;
 use crate::model::{COORD_NAMES, Params, State, X_R, X_S, Y_R, Y_S, coord_index, validate_omega};
 use crate::run::lanes::{Control, LaneUnits};
-use crate::run::{Array, Cancel, MemoryStore, ProgressFn, Unit, UnitStore};
+use crate::run::{Array, ProgressFn, Unit, UnitStore};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -105,30 +105,12 @@ pub const MAX_CELLS_PER_AXIS: usize = 100_000;
 impl MapAxis {
     /// Parses `NAME:lo:hi:n`; `option` names the CLI option in errors.
     pub fn parse(option: &str, text: &str, log: bool) -> Result<MapAxis> {
-        let parts: Vec<&str> = text.split(':').map(str::trim).collect();
-        let [name, lo, hi, n] = parts.as_slice() else {
-            return Err(Error::invalid(
-                option,
-                text,
-                "expected NAME:lo:hi:n, e.g. omega:130:141:200 or e:0:0.002:100",
-            ));
-        };
-        let var = MapVar::parse(option, name)?;
-        let num = |s: &str| -> Result<f64> {
-            s.parse::<f64>()
-                .ok()
-                .filter(|v| v.is_finite())
-                .ok_or_else(|| {
-                    Error::invalid(option, text, format!("`{s}` is not a finite number"))
-                })
-        };
-        let n: usize = n
-            .parse()
-            .map_err(|_| Error::invalid(option, text, "the count n must be a positive integer"))?;
+        let (name, lo, hi, n) =
+            super::basin::parse_named_range(option, text, "omega:130:141:200 or e:0:0.002:100")?;
         let axis = MapAxis {
-            var,
-            lo: num(lo)?,
-            hi: num(hi)?,
+            var: MapVar::parse(option, name)?,
+            lo,
+            hi,
             n,
             log,
         };
@@ -471,17 +453,9 @@ pub const STAGE: &str = "map";
 
 /// Computes a map in memory; `progress` counts lane-periods.
 pub fn map(spec: &MapSpec, progress: ProgressFn) -> Result<MapResult> {
-    let engine = crate::ensemble::Engine::new(spec.backend, spec.precision)?;
-    let cancel = Cancel::new();
-    map_with(
-        spec,
-        &engine,
-        &MemoryStore::new(),
-        Control {
-            progress,
-            cancel: &cancel,
-        },
-    )
+    crate::run::in_memory(spec.backend, spec.precision, progress, |e, store, ctl| {
+        map_with(spec, e, store, ctl)
+    })
 }
 
 /// The cells of one unit from its ensemble result: per cell, its K lanes catalogued

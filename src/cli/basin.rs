@@ -245,17 +245,15 @@ pub fn run_basin_study(
 ) -> Result<BasinResult> {
     let per_lane = (spec.transient + spec.recorded) as u64;
     let total = (spec.x.n * spec.y.n) as u64 * per_lane;
-    let bar = crate::progress::Progress::new("basin", total, per_lane, quiet);
-    let engine = crate::ensemble::Engine::new(spec.backend, spec.precision)?;
-    let cancel = rundir::cancel();
-    let cb = rundir::bar_callback(&bar);
-    let ctl = crate::run::lanes::Control {
-        progress: &cb,
-        cancel: &cancel,
-    };
-    let r = basin_with(spec, &engine, store, ctl);
-    bar.finish();
-    r
+    rundir::with_bar(
+        "basin",
+        total,
+        per_lane,
+        quiet,
+        spec.backend,
+        spec.precision,
+        |engine, ctl| basin_with(spec, engine, store, ctl),
+    )
 }
 
 /// What run.json records of a finished basin besides its specification.
@@ -429,31 +427,28 @@ pub fn refine_basin(
     levels: u32,
     quiet: bool,
 ) -> Result<(BasinSpec, BasinResult, crate::analysis::refine::Refined)> {
-    let engine = crate::ensemble::Engine::new(spec.backend, spec.precision)?;
     let per_lane = (spec.transient + spec.recorded) as u64;
     // The boundary's lanes are not known in advance: the bar counts the coarse grid's
     // size per level as a scale.
-    let bar = crate::progress::Progress::new(
+    let f = rundir::with_bar(
         "refine",
         (spec.x.n * spec.y.n) as u64 * per_lane * levels as u64,
         per_lane,
         quiet,
-    );
-    let cancel = rundir::cancel();
-    let cb = rundir::bar_callback(&bar);
-    let f = crate::analysis::refine::refine(
-        spec,
-        &res.catalogue,
-        &res.labels,
-        levels,
-        &engine,
-        store,
-        crate::run::lanes::Control {
-            progress: &cb,
-            cancel: &cancel,
+        spec.backend,
+        spec.precision,
+        |engine, ctl| {
+            crate::analysis::refine::refine(
+                spec,
+                &res.catalogue,
+                &res.labels,
+                levels,
+                engine,
+                store,
+                ctl,
+            )
         },
     );
-    bar.finish();
     let f = f?;
     let mut fine = spec.clone();
     fine.x.n = f.nx;
@@ -497,24 +492,26 @@ pub fn reintegrate(
     }
     let per_lane = (spec.transient + spec.recorded) as u64;
     let lanes = (samples * (1 + 4 * crate::analysis::uncertainty::EPS.len())) as u64;
-    let bar = crate::progress::Progress::new("uncertainty", lanes * per_lane, per_lane, quiet);
-    let engine = crate::ensemble::Engine::new(spec.backend, spec.precision)?;
-    let cancel = rundir::cancel();
-    let cb = rundir::bar_callback(&bar);
-    let r = crate::analysis::uncertainty::reintegration(
-        spec,
-        &res.catalogue,
-        samples,
-        1,
-        &engine,
-        store,
-        crate::run::lanes::Control {
-            progress: &cb,
-            cancel: &cancel,
+    rundir::with_bar(
+        "uncertainty",
+        lanes * per_lane,
+        per_lane,
+        quiet,
+        spec.backend,
+        spec.precision,
+        |engine, ctl| {
+            crate::analysis::uncertainty::reintegration(
+                spec,
+                &res.catalogue,
+                samples,
+                1,
+                engine,
+                store,
+                ctl,
+            )
         },
-    );
-    bar.finish();
-    r.map(Some)
+    )
+    .map(Some)
 }
 
 /// Computes the basin measures of the labels and writes `basin_metrics.json` (with the

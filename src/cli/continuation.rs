@@ -161,17 +161,15 @@ pub fn run_continuation_study(
     quiet: bool,
 ) -> Result<ContinuationResult> {
     let per_lane = (spec.transient + spec.recorded) as u64;
-    let bar = crate::progress::Progress::new("continuation", spec.lane_periods(), per_lane, quiet);
-    let engine = crate::ensemble::Engine::new(spec.backend, spec.precision)?;
-    let cancel = rundir::cancel();
-    let cb = rundir::bar_callback(&bar);
-    let ctl = crate::run::lanes::Control {
-        progress: &cb,
-        cancel: &cancel,
-    };
-    let r = continuation_with(spec, &engine, store, ctl);
-    bar.finish();
-    r
+    rundir::with_bar(
+        "continuation",
+        spec.lane_periods(),
+        per_lane,
+        quiet,
+        spec.backend,
+        spec.precision,
+        |engine, ctl| continuation_with(spec, engine, store, ctl),
+    )
 }
 
 /// Runs `jeffcott continuation`.

@@ -159,17 +159,15 @@ pub fn run_map_study(
     quiet: bool,
 ) -> Result<MapResult> {
     let per_lane = (spec.transient + spec.recorded) as u64;
-    let bar = crate::progress::Progress::new("map", spec.lane_periods(), per_lane, quiet);
-    let engine = crate::ensemble::Engine::new(spec.backend, spec.precision)?;
-    let cancel = rundir::cancel();
-    let cb = rundir::bar_callback(&bar);
-    let ctl = crate::run::lanes::Control {
-        progress: &cb,
-        cancel: &cancel,
-    };
-    let r = map_with(spec, &engine, store, ctl);
-    bar.finish();
-    r
+    rundir::with_bar(
+        "map",
+        spec.lane_periods(),
+        per_lane,
+        quiet,
+        spec.backend,
+        spec.precision,
+        |engine, ctl| map_with(spec, engine, store, ctl),
+    )
 }
 
 /// Runs `jeffcott map`.

@@ -748,13 +748,8 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     let bdir = dir.join("basin_133");
     // Boundary refinement: the basin at ((n - 1) 2^K + 1)^2, the measures on it.
     let (bspec, bres, refined) = if p.basin_refine > 0 {
-        let (s, r, f) = super::basin::refine_basin(
-            &bspec,
-            bres,
-            &store("basin_133"),
-            p.basin_refine,
-            a.quiet,
-        )?;
+        let (s, r, f) =
+            super::basin::refine_basin(&bspec, bres, &store("basin_133"), p.basin_refine, a.quiet)?;
         crate::output::ensure_dir(&bdir)?;
         crate::output::write_npy(&bdir.join("refined.npy"), &[f.ny, f.nx], &f.computed)?;
         (s, r, Some(f))

@@ -54,6 +54,33 @@ pub fn merging(stages: Option<Vec<String>>) {
     }
 }
 
+/// Runs a study with a progress bar `name` over `total` lane-periods (`per_lane` each), on
+/// an engine for `backend` and `precision`, with the command's cancel flag: the frame
+/// every command's study runs in.
+pub fn with_bar<T>(
+    name: &str,
+    total: u64,
+    per_lane: u64,
+    quiet: bool,
+    backend: crate::ensemble::Backend,
+    precision: crate::ensemble::Precision,
+    study: impl FnOnce(&crate::ensemble::Engine, crate::run::lanes::Control) -> Result<T>,
+) -> Result<T> {
+    let bar = crate::progress::Progress::new(name, total, per_lane, quiet);
+    let engine = crate::ensemble::Engine::new(backend, precision)?;
+    let cancel = cancel();
+    let cb = bar_callback(&bar);
+    let r = study(
+        &engine,
+        crate::run::lanes::Control {
+            progress: &cb,
+            cancel: &cancel,
+        },
+    );
+    bar.finish();
+    r
+}
+
 /// The cancel flag a command's engine runs with.
 pub fn cancel() -> crate::run::Cancel {
     crate::run::Cancel::new()

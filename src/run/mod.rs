@@ -253,6 +253,27 @@ impl Cancel {
     }
 }
 
+/// Runs a study in memory (a [`MemoryStore`], nothing written, no cancel) on a freshly
+/// opened engine: the library entry points of the studies (`basin`, `map`,
+/// `continuation`) are this around their `*_with` form.
+pub fn in_memory<T>(
+    backend: crate::ensemble::Backend,
+    precision: crate::ensemble::Precision,
+    progress: ProgressFn,
+    study: impl FnOnce(&crate::ensemble::Engine, &dyn UnitStore, lanes::Control) -> Result<T>,
+) -> Result<T> {
+    let engine = crate::ensemble::Engine::new(backend, precision)?;
+    let cancel = Cancel::new();
+    study(
+        &engine,
+        &MemoryStore::new(),
+        lanes::Control {
+            progress,
+            cancel: &cancel,
+        },
+    )
+}
+
 /// Lane-steps per unit at most: about 25 s on the 2-core CPU the defaults were measured
 /// on (2e7 lane-steps/s), far less on a GPU, which batches units.
 pub const MAX_UNIT_LANE_STEPS: u64 = 500_000_000;
