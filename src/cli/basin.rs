@@ -317,7 +317,7 @@ pub fn run_basin(a: &BasinArgs) -> Result<()> {
     } else {
         (spec, res, None)
     };
-    write_basin(&a.out, &spec, &res, !a.no_plot)?;
+    let rub_line = write_basin(&a.out, &spec, &res, !a.no_plot)?;
     if a.highlight_boundary && !a.no_plot {
         boundary_picture(&a.out.join("basin_boundary.png"), &spec, &res)?;
     }
@@ -336,6 +336,9 @@ pub fn run_basin(a: &BasinArgs) -> Result<()> {
     rd.finish(rj, &rundir::written(&rd, OUTPUTS))?;
     if !a.quiet {
         println!("{}", human_summary(&spec, &res, &a.out));
+        if !rub_line.is_empty() {
+            println!("Rub on the attractors (attractors.json, docs/rub.md): {rub_line}.");
+        }
         if let Some(f) = &refined {
             let lanes: usize = f.levels.iter().map(|l| l.lanes).sum();
             println!(
@@ -619,8 +622,14 @@ pub fn attractor_traces(
         .collect()
 }
 
-/// Writes labels.npy, attractors.json, basin.png and attractors.png.
-pub fn write_basin(dir: &Path, spec: &BasinSpec, res: &BasinResult, plot_it: bool) -> Result<()> {
+/// Writes labels.npy, attractors.json, basin.png and attractors.png; returns one line
+/// on the rub of each attractor (its regime and loads) for the summary.
+pub fn write_basin(
+    dir: &Path,
+    spec: &BasinSpec,
+    res: &BasinResult,
+    plot_it: bool,
+) -> Result<String> {
     output::ensure_dir(dir)?;
     let (nx, ny) = (spec.x.n, spec.y.n);
     output::write_npy(&dir.join("labels.npy"), &[ny, nx], &res.labels)?;
@@ -692,6 +701,25 @@ pub fn write_basin(dir: &Path, spec: &BasinSpec, res: &BasinResult, plot_it: boo
             )?;
         }
     }
+    let with_rub =
+        crate::analysis::rub::attractors_with_rub(&spec.params, &cat.attractors, &spec.stepper)?;
+    let rub_line = with_rub
+        .iter()
+        .map(|a| {
+            let r = &a["rub"];
+            match r["contact_fraction"].as_f64() {
+                Some(c) => format!(
+                    "#{} {} (contact {:.1} % of the time, peak normal force {:.0} N)",
+                    a["id"],
+                    r["regime"].as_str().unwrap_or("?"),
+                    100.0 * c,
+                    r["peak_force_n"].as_f64().unwrap_or(f64::NAN)
+                ),
+                None => format!("#{} {}", a["id"], r["regime"].as_str().unwrap_or("?")),
+            }
+        })
+        .collect::<Vec<_>>()
+        .join(", ");
     let fixed: serde_json::Map<String, serde_json::Value> = COORD_NAMES
         .iter()
         .enumerate()
@@ -710,7 +738,7 @@ pub fn write_basin(dir: &Path, spec: &BasinSpec, res: &BasinResult, plot_it: boo
         "cells": nx * ny,
         "diverged": cat.diverged,
         "diverged_fraction": cat.diverged_fraction,
-        "attractors": crate::analysis::rub::attractors_with_rub(&spec.params, &cat.attractors, &spec.stepper)?,
+        "attractors": with_rub,
         "catalogue_config": cat.config,
         "params": spec.params,
         "files": {
@@ -727,7 +755,8 @@ pub fn write_basin(dir: &Path, spec: &BasinSpec, res: &BasinResult, plot_it: boo
         },
         "jeffcott_version": env!("CARGO_PKG_VERSION"),
     });
-    output::write_json(&dir.join("attractors.json"), &json)
+    output::write_json(&dir.join("attractors.json"), &json)?;
+    Ok(rub_line)
 }
 
 fn human_summary(spec: &BasinSpec, res: &BasinResult, dir: &Path) -> String {

@@ -772,7 +772,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         }
         None => String::new(),
     };
-    write_basin(&bdir, &bspec, &bres, true)?;
+    let basin_rub = write_basin(&bdir, &bspec, &bres, true)?;
     let reint = super::basin::reintegrate(
         &bspec,
         &bres,
@@ -811,7 +811,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         "Fig. 7: basin of attraction at W = 133 rad/s over the rotor's initial x_r and vx_r",
         "fig07_basin_133.png",
         &format!(
-            "{n} x {n} start states (other coordinates at the static equilibrium): {}. From the static equilibrium itself: **{}**, lambda_1 = {}.{refine_text} Basin measures (`basin_133/basin_metrics.json`, docs/basin-measures.md; f(eps) of both methods in `basin_133/uncertainty.png`): {}{}.",
+            "{n} x {n} start states (other coordinates at the static equilibrium): {}. From the static equilibrium itself: **{}**, lambda_1 = {}. Rub on the attractors: {basin_rub}.{refine_text} Basin measures (`basin_133/basin_metrics.json`, docs/basin-measures.md; f(eps) of both methods in `basin_133/uncertainty.png`): {}{}.",
             describe(&bres.catalogue),
             refine(r133.classification.class, 133.0),
             l1_text(133.0),
