@@ -968,3 +968,77 @@ pub fn uncertainty(
         root.present().map_err(|e| err(e.to_string()))
     })
 }
+
+/// One series of a work-precision diagram: legend, colour, dashed, and its points of
+/// (lane-periods per second, error [m]).
+pub type WorkPrecisionSeries = (String, RGBColor, bool, Vec<(f64, f64)>);
+
+/// A work-precision diagram (SciML style): a line through each series' points, log-log,
+/// with a horizontal line at `target` [m].
+pub fn work_precision(
+    path: &Path,
+    title: &str,
+    series: &[WorkPrecisionSeries],
+    target: f64,
+) -> Result<()> {
+    register_font();
+    let err = plot_err(path);
+    let pts: Vec<(f64, f64)> = series
+        .iter()
+        .flat_map(|s| s.3.iter().copied())
+        .filter(|p| p.0 > 0.0 && p.1 > 0.0)
+        .collect();
+    let (x0, x1) = pts.iter().fold((f64::INFINITY, 0.0f64), |(a, b), p| {
+        (a.min(p.0), b.max(p.0))
+    });
+    let (y0, y1) = pts
+        .iter()
+        .fold((target, target), |(a, b), p| (a.min(p.1), b.max(p.1)));
+    crate::plot::render_png(path, (1200, 850), |root| {
+        root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(title, ("sans-serif", 20))
+            .margin(14)
+            .x_label_area_size(50)
+            .y_label_area_size(80)
+            .build_cartesian_2d(
+                (x0 * 0.7..x1 * 1.4).log_scale(),
+                (y0 * 0.3..y1 * 3.0).log_scale(),
+            )
+            .map_err(|e| err(e.to_string()))?;
+        chart
+            .configure_mesh()
+            .x_desc("throughput [lane-periods per second] (higher is better)")
+            .y_desc("position error after 200 periods [m] (lower is better)")
+            .label_style(("sans-serif", 15))
+            .axis_desc_style(("sans-serif", 17))
+            .x_label_formatter(&|v| format!("{v:.0e}"))
+            .y_label_formatter(&|v| format!("{v:.0e}"))
+            .draw()
+            .map_err(|e| err(e.to_string()))?;
+        chart
+            .draw_series(std::iter::once(PathElement::new(
+                vec![(x0 * 0.7, target), (x1 * 1.4, target)],
+                RGBColor(150, 150, 150).stroke_width(1),
+            )))
+            .map_err(|e| err(e.to_string()))?;
+        for (name, c, dashed, p) in series {
+            let c = *c;
+            let style = if *dashed {
+                c.mix(0.6).stroke_width(2)
+            } else {
+                c.stroke_width(3)
+            };
+            chart
+                .draw_series(LineSeries::new(p.iter().copied(), style))
+                .map_err(|e| err(e.to_string()))?
+                .label(name.as_str())
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], c));
+            chart
+                .draw_series(p.iter().map(|&q| Circle::new(q, 4, c.filled())))
+                .map_err(|e| err(e.to_string()))?;
+        }
+        legend(&mut chart, SeriesLabelPosition::LowerLeft, 15).map_err(&err)?;
+        root.present().map_err(|e| err(e.to_string()))
+    })
+}
