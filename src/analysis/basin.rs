@@ -47,6 +47,26 @@ pub fn parse_named_range<'a>(
     Ok((name, num(lo)?, num(hi)?, n))
 }
 
+/// Checks an axis of `n` values from `lo` to `hi`: n in 1..=[`MAX_CELLS_PER_AXIS`],
+/// finite bounds, lo < hi (lo == hi only with n = 1); `option` names it in errors.
+pub fn check_axis(option: &str, lo: f64, hi: f64, n: usize) -> Result<()> {
+    if !(1..=MAX_CELLS_PER_AXIS).contains(&n) {
+        return Err(Error::invalid(
+            option,
+            n,
+            format!("the count n must be in 1..={MAX_CELLS_PER_AXIS}"),
+        ));
+    }
+    if !(lo.is_finite() && hi.is_finite()) || (n > 1 && lo >= hi) {
+        return Err(Error::invalid(
+            option,
+            format!("{lo}..{hi}"),
+            "need finite lo < hi (lo == hi only with n = 1)",
+        ));
+    }
+    Ok(())
+}
+
 /// One axis of the grid: a state coordinate from `lo` to `hi` inclusive in `n` values.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct Axis {
@@ -84,30 +104,12 @@ impl Axis {
 
     /// Checks the axis; `option` names it in errors.
     pub fn validate(&self, option: &str) -> Result<()> {
-        if !(1..=MAX_CELLS_PER_AXIS).contains(&self.n) {
-            return Err(Error::invalid(
-                option,
-                self.n,
-                format!("the count n must be in 1..={MAX_CELLS_PER_AXIS}"),
-            ));
-        }
-        if !(self.lo.is_finite() && self.hi.is_finite()) || (self.n > 1 && self.lo >= self.hi) {
-            return Err(Error::invalid(
-                option,
-                format!("{}..{}", self.lo, self.hi),
-                "need finite lo < hi (lo == hi only with n = 1)",
-            ));
-        }
-        Ok(())
+        check_axis(option, self.lo, self.hi, self.n)
     }
 
-    /// The i-th value.
+    /// The i-th value ([`crate::ensemble::range_value`]).
     pub fn value(&self, i: usize) -> f64 {
-        if self.n == 1 {
-            self.lo
-        } else {
-            self.lo + (self.hi - self.lo) * i as f64 / (self.n - 1) as f64
-        }
+        crate::ensemble::range_value(self.lo, self.hi, self.n as u64, i as u64)
     }
 }
 

@@ -99,8 +99,8 @@ pub struct MapAxis {
     pub log: bool,
 }
 
-/// Cells per map axis at most.
-pub const MAX_CELLS_PER_AXIS: usize = 100_000;
+/// Cells per map axis at most (the basin's bound).
+pub use super::basin::MAX_CELLS_PER_AXIS;
 
 impl MapAxis {
     /// Parses `NAME:lo:hi:n`; `option` names the CLI option in errors.
@@ -120,20 +120,7 @@ impl MapAxis {
 
     /// Checks count, order and (for `log`) positivity; `option` names the axis.
     pub fn validate(&self, option: &str) -> Result<()> {
-        if !(1..=MAX_CELLS_PER_AXIS).contains(&self.n) {
-            return Err(Error::invalid(
-                option,
-                self.n,
-                format!("the count n must be in 1..={MAX_CELLS_PER_AXIS}"),
-            ));
-        }
-        if !(self.lo.is_finite() && self.hi.is_finite()) || (self.n > 1 && self.lo >= self.hi) {
-            return Err(Error::invalid(
-                option,
-                format!("{}..{}", self.lo, self.hi),
-                "need finite lo < hi (lo == hi only with n = 1)",
-            ));
-        }
+        super::basin::check_axis(option, self.lo, self.hi, self.n)?;
         if self.log && self.lo <= 0.0 {
             return Err(Error::invalid(
                 option,
@@ -154,7 +141,7 @@ impl MapAxis {
         if self.log {
             self.lo * (self.hi / self.lo).powf(i as f64 / (self.n - 1) as f64)
         } else {
-            self.lo + (self.hi - self.lo) * i as f64 / (self.n - 1) as f64
+            crate::ensemble::range_value(self.lo, self.hi, self.n as u64, i as u64)
         }
     }
 

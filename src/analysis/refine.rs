@@ -120,13 +120,16 @@ pub fn refine(
             }
         }
         let points: Vec<usize> = (0..fx * fy).filter(|&p| todo[p]).collect();
-        let value = |axis: &super::basin::Axis, idx: usize, n: usize| {
-            axis.lo + (axis.hi - axis.lo) * idx as f64 / (n - 1) as f64
-        };
+        // The level's axes: the same bounds, more points (the coarse points keep their
+        // values bit for bit, range_value's index scaling by a power of 2).
+        let (ax, ay) = (
+            super::basin::Axis { n: fx, ..spec.x },
+            super::basin::Axis { n: fy, ..spec.y },
+        );
         let start = |p: usize| {
             let mut x = spec.base;
-            x[spec.x.coord] = value(&spec.x, p % fx, fx);
-            x[spec.y.coord] = value(&spec.y, p / fx, fy);
+            x[spec.x.coord] = ax.value(p % fx);
+            x[spec.y.coord] = ay.value(p / fx);
             x
         };
         let n = points.len();

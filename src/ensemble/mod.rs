@@ -504,12 +504,20 @@ impl RangeSpec {
 
     /// The values.
     pub fn values(&self) -> Vec<f64> {
-        match self.n {
-            1 => vec![self.a],
-            n => (0..n)
-                .map(|i| self.a + (self.b - self.a) * i as f64 / (n - 1) as f64)
-                .collect(),
-        }
+        (0..self.n)
+            .map(|i| range_value(self.a, self.b, self.n, i))
+            .collect()
+    }
+}
+
+/// The i-th of n values from a to b inclusive, `a + (b - a) i / (n - 1)` (`a` when
+/// n = 1): the one arithmetic of every evenly spaced axis (`a:b:n` ranges, basin and map
+/// axes, refined grids), so the same index gives the same bits whichever study asks.
+pub fn range_value(a: f64, b: f64, n: u64, i: u64) -> f64 {
+    if n <= 1 {
+        a
+    } else {
+        a + (b - a) * i as f64 / (n - 1) as f64
     }
 }
 
