@@ -57,6 +57,8 @@ struct LaneConsts {
     phase0: Real,
     bound: Real,
     root_tol: Real,
+    // 1/R: the longest sub-step in contact (contact refinement).
+    inv_r: Real,
     n: u32,
     max_segments: u32,
 }
@@ -796,8 +798,22 @@ fn find_switch(
     return Switch(result, max_g);
 }
 
+// lane.rs's trial_extent: length and end of the next trial sub-step from fraction s.
+struct Extent {
+    ds: Real,
+    end: Real,
+}
+
+fn trial_extent(lc: LaneConsts, s: Real, contact: bool) -> Extent {
+    let one = Real(1.0);
+    if contact && one - s > lc.inv_r {
+        return Extent(lc.inv_r, s + lc.inv_r);
+    }
+    return Extent(one - s, one);
+}
+
 // What the next sub-step of macro_step is.
-const MS_TRIAL: u32 = 0u; // a trial step to the end of the macro step, then find_switch
+const MS_TRIAL: u32 = 0u; // a trial step (trial_extent), then find_switch
 const MS_RESTEP: u32 = 1u; // the step to the located switch
 const MS_CAP: u32 = 2u; // the refinement cap's step to the end
 
@@ -868,7 +884,12 @@ fn macro_step(
     var ds = (*ms).ds;
     var contact = (*ms).contact;
     let part = (*ms).part;
-    if part != MS_RESTEP {
+    var end = one;
+    if part == MS_TRIAL {
+        let ext = trial_extent(lc, s, contact);
+        ds = ext.ds;
+        end = ext.end;
+    } else if part == MS_CAP {
         ds = one - s;
     }
     let x1 = rk4_substep(lc, x, k, s, ds, contact);
@@ -880,17 +901,20 @@ fn macro_step(
         let sw = find_switch(lc, x, x1, ds * lc.h, contact);
         (*ms).max_g = rmax((*ms).max_g, sw.max_g);
         if sw.theta > one {
+            // No switch: the macro step is done, or a contact sub-step of 1/R is (and
+            // the next trial follows).
             if LYAPUNOV {
                 rk4_tangent_substep(lc, x, k, s, ds, contact, v);
             }
             x = x1;
-            done = true;
+            s = end;
+            done = s >= one;
         } else if sw.theta >= one {
             if LYAPUNOV {
                 rk4_tangent_substep(lc, x, k, s, ds, contact, v);
             }
             x = x1;
-            s = one;
+            s = end;
             flip = true;
         } else if sw.theta > Real(0.0) {
             // Step to the switch in the next sub-step.

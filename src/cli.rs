@@ -4,7 +4,7 @@
 use crate::analysis::classify::ClassifyConfig;
 use crate::error::{Error, Result};
 use crate::integrate::article::{ArticleConfig, ErrorNorm};
-use crate::integrate::lane::{DEFAULT_STEPS_PER_PERIOD, StepperConfig};
+use crate::integrate::lane::{DEFAULT_CONTACT_SUBSTEPS, DEFAULT_STEPS_PER_PERIOD, StepperConfig};
 use crate::model::{COORD_NAMES, Params, STATE_DIM, State, X_R, X_S, Y_R, Y_S, coord_index};
 use crate::simulate::{Integrator, SimulateSpec, simulate};
 use crate::{output, plot};
@@ -592,6 +592,10 @@ pub struct StepperArgs {
     /// A lane whose |position| exceeds this [m] is declared diverged.
     #[arg(long, default_value_t = 1.0, value_name = "METRES")]
     pub divergence_bound: f64,
+    /// Contact refinement: a sub-step in contact covers at most 1/R of a macro step
+    /// (1, 2, 4, 8 or 16; 1 turns it off; docs/performance.md).
+    #[arg(long, default_value_t = DEFAULT_CONTACT_SUBSTEPS, value_name = "R")]
+    pub contact_substeps: u32,
 }
 
 impl StepperArgs {
@@ -601,6 +605,7 @@ impl StepperArgs {
             steps_per_period: self.steps_per_period,
             max_segments: self.max_segments,
             divergence_bound: self.divergence_bound,
+            contact_substeps: self.contact_substeps,
         }
     }
 }

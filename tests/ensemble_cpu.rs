@@ -150,11 +150,24 @@ fn scalar_reference<R: jeffcott::real::Real>(
 
 #[test]
 fn simd_batches_equal_the_scalar_lane_stepper_to_the_bit() {
-    for precision in [Precision::F64, Precision::F32] {
+    // Every precision, and contact refinement off (R = 1), at its default and at the
+    // largest R: the batch takes R passes for lanes in contact and hands a lane over to
+    // the scalar stepper in the middle of a macro step.
+    let cases = [
+        (Precision::F64, None),
+        (Precision::F32, None),
+        (Precision::F64, Some(1)),
+        (Precision::F64, Some(16)),
+        (Precision::F32, Some(4)),
+    ];
+    for (precision, refine) in cases {
         // 53 lanes: six batches of 8 and five single lanes; one batch holds a NaN lane
         // and a lane thrown out of every bound, so frozen lanes share batches with live
         // ones.
         let mut s = spec(precision, 53);
+        if let Some(r) = refine {
+            s.stepper.contact_substeps = r;
+        }
         s.lanes[9].x0[X_R] = f64::NAN;
         s.lanes[12].x0[VX_R] = 1e6;
         // A third parameter set with contact damping (a velocity-dependent force that
@@ -174,9 +187,15 @@ fn simd_batches_equal_the_scalar_lane_stepper_to_the_bit() {
         };
         for (i, (bits, status, counters)) in reference.iter().enumerate() {
             let got: Vec<u64> = r.lane_points(i).iter().map(|v| v.to_bits()).collect();
-            assert_eq!(&got, bits, "{precision:?} lane {i} points");
-            assert_eq!(r.status[i], *status, "{precision:?} lane {i} status");
-            assert_eq!(r.counters[i], *counters, "{precision:?} lane {i} counters");
+            assert_eq!(&got, bits, "{precision:?} R {refine:?} lane {i} points");
+            assert_eq!(
+                r.status[i], *status,
+                "{precision:?} R {refine:?} lane {i} status"
+            );
+            assert_eq!(
+                r.counters[i], *counters,
+                "{precision:?} R {refine:?} lane {i} counters"
+            );
         }
         assert_eq!(r.status[9], Status::NonFinite);
         assert!(r.status[12].is_frozen());

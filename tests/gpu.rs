@@ -137,7 +137,15 @@ fn config() -> StepperConfig {
 
 /// Lane constants and initial lanes of the parity ensemble in precision `R`.
 fn ensemble<R: GpuReal>(n: usize) -> (Vec<LaneConsts<R>>, Vec<Lane<R>>, Vec<Kind>) {
-    let cfg = config();
+    ensemble_with::<R>(n, &config())
+}
+
+/// [`ensemble`] with stepper settings `cfg`.
+fn ensemble_with<R: GpuReal>(
+    n: usize,
+    cfg: &StepperConfig,
+) -> (Vec<LaneConsts<R>>, Vec<Lane<R>>, Vec<Kind>) {
+    let cfg = *cfg;
     let mut consts = Vec::with_capacity(n);
     let mut lanes = Vec::with_capacity(n);
     let mut kinds = Vec::with_capacity(n);
@@ -274,6 +282,48 @@ fn f64_kernel_reproduces_cpu_f64_lanes_to_the_bit() {
     // Same operations, same order, correctly rounded on both sides: nothing less than
     // identity is expected (a difference would mean the mirror or the driver deviates).
     assert_eq!(exact, n, "lanes not bit-identical (worst {worst:e})");
+}
+
+/// Contact refinement (R sub-steps of 1/R for macro steps in contact, `trial_extent`)
+/// is mirrored too: for R = 1 (off), 4 and 16 the f64 kernel equals the CPU lane to the
+/// bit, and the refinement really ran (more extra sub-steps than located switches can
+/// explain).
+#[test]
+fn f64_kernel_with_contact_refinement_reproduces_cpu_to_the_bit_for_every_r() {
+    let Some(runner) = runner_for::<f64>() else {
+        return;
+    };
+    let n = 96;
+    let mut extra_by_r = Vec::new();
+    for r in [1u32, 4, 16] {
+        let cfg = StepperConfig {
+            contact_substeps: r,
+            ..config()
+        };
+        let (consts, init, _) = ensemble_with::<f64>(n, &cfg);
+        let schedule = Schedule::new(10, 10, 10);
+        let gpu = runner.run(&consts, &init, &schedule).expect("GPU run");
+        let cpu = cpu_run(&consts, &init, 10, 10);
+        for (i, (g, c)) in gpu.iter().zip(&cpu).enumerate() {
+            assert!(identical(g, c), "R = {r}, lane {i} differs");
+            assert_eq!(
+                g.lane.counters, c.lane.counters,
+                "R = {r}, lane {i} counters"
+            );
+        }
+        let extra: u64 = cpu.iter().map(|o| o.lane.counters.extra_substeps).sum();
+        let contact: u64 = cpu.iter().map(|o| o.lane.counters.contact_steps).sum();
+        assert!(
+            contact > 1000,
+            "the lanes must rub: {contact} contact steps"
+        );
+        extra_by_r.push(extra);
+    }
+    // Each macro step begun in contact costs up to R - 1 more sub-steps.
+    assert!(
+        extra_by_r[0] < extra_by_r[1] && extra_by_r[1] < extra_by_r[2],
+        "extra sub-steps for R = 1, 4, 16: {extra_by_r:?}"
+    );
 }
 
 /// The f32 bound. The kernel performs the same IEEE binary32 operations in the same

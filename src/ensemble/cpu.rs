@@ -150,8 +150,35 @@ fn run_batch_avx2<R: Real, const M: usize>(spec: &EnsembleSpec, first: usize) ->
     run_batch_inner::<R, M>(spec, first)
 }
 
+/// The batch code compiled for AVX-512 (one 512-bit register holds the 8 f64 lanes of a
+/// batch; still no FMA). Opt-in with `JEFFCOTT_AVX512=1`: on the 2-core Xeon it was
+/// measured on it was 8 % slower than AVX2 on `jeffcott bench`'s workload and on a W
+/// sweep (docs/performance.md), so AVX2 stays the default.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512dq,avx512vl")]
+fn run_batch_avx512<R: Real, const M: usize>(spec: &EnsembleSpec, first: usize) -> Vec<Outcome> {
+    run_batch_inner::<R, M>(spec, first)
+}
+
+/// Whether the AVX-512 batch code runs: asked for, and the CPU has it.
+#[cfg(target_arch = "x86_64")]
+fn use_avx512() -> bool {
+    static USE: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    *USE.get_or_init(|| {
+        std::is_x86_feature_detected!("avx512f")
+            && std::is_x86_feature_detected!("avx512dq")
+            && std::is_x86_feature_detected!("avx512vl")
+            && std::env::var_os("JEFFCOTT_AVX512").is_some_and(|v| v == "1")
+    })
+}
+
 /// Lanes `first..first + BATCH`, with the widest vector unit this CPU has.
 fn run_batch<R: Real, const M: usize>(spec: &EnsembleSpec, first: usize) -> Vec<Outcome> {
+    #[cfg(target_arch = "x86_64")]
+    if use_avx512() {
+        // SAFETY: the CPU has been found to support AVX-512 F, DQ and VL.
+        return unsafe { run_batch_avx512::<R, M>(spec, first) };
+    }
     #[cfg(target_arch = "x86_64")]
     if std::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU has just been found to support AVX2.

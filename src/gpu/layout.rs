@@ -91,6 +91,8 @@ macro_rules! gpu_layout {
                 pub bound: $r,
                 /// Crossing search tolerance.
                 pub root_tol: $r,
+                /// 1/R, the longest sub-step in contact.
+                pub inv_r: $r,
                 /// N.
                 pub n: u32,
                 /// Segment cap per macro step.
@@ -182,6 +184,7 @@ macro_rules! impl_gpu_real {
                     phase0: lc.phase0,
                     bound: lc.bound,
                     root_tol: lc.root_tol,
+                    inv_r: lc.inv_r,
                     n: lc.n,
                     max_segments: lc.max_segments,
                 }
@@ -311,6 +314,7 @@ mod tests {
                     ("phase0", offset_of!(GpuLaneConsts, phase0)),
                     ("bound", offset_of!(GpuLaneConsts, bound)),
                     ("root_tol", offset_of!(GpuLaneConsts, root_tol)),
+                    ("inv_r", offset_of!(GpuLaneConsts, inv_r)),
                     ("n", offset_of!(GpuLaneConsts, n)),
                     ("max_segments", offset_of!(GpuLaneConsts, max_segments)),
                 ],
@@ -378,8 +382,8 @@ mod tests {
         check_layout!(f32, layout_f32);
         check_layout!(f64, layout_f64);
         // The sizes the module docs promise (no implicit padding anywhere).
-        assert_eq!(size_of::<layout_f32::GpuLaneConsts>(), 16 * 4 + 2 * 4);
-        assert_eq!(size_of::<layout_f64::GpuLaneConsts>(), 16 * 8 + 2 * 4);
+        assert_eq!(size_of::<layout_f32::GpuLaneConsts>(), 17 * 4 + 2 * 4);
+        assert_eq!(size_of::<layout_f64::GpuLaneConsts>(), 17 * 8 + 2 * 4);
         assert_eq!(size_of::<layout_f32::GpuLane>(), 9 * 4 + 8 * 4);
         assert_eq!(size_of::<layout_f64::GpuLane>(), 9 * 8 + 8 * 4);
         assert_eq!(size_of::<Params>(), 32);

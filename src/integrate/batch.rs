@@ -2,21 +2,24 @@
 //! so the compiler vectorises across lanes (SIMD): the CPU mirror of what a GPU
 //! subgroup does.
 //!
-//! Only the common case is batched: a macro step whose trial RK4 step has no contact
-//! switch (about 98% of the steps at W = 133, `jeffcott bench`). Each lane's trial
-//! step and switch search run here with exactly the operations, in exactly the order,
-//! of `lane::rk4_substep` and `lane::find_switch` (Rust never fuses or reorders
-//! floating-point operations, so vectorising does not change a bit). A lane whose trial
-//! step finds a crossing, or a grazing extremum to check, is handed back to the scalar
-//! `lane::macro_step` from its unchanged start state, which redoes the trial step
-//! bit for bit and then refines. So a batched run equals the scalar run to the bit
-//! (tests/ensemble_cpu.rs), and the scalar stepper stays the one definition of the
-//! algorithm that the WGSL kernel mirrors.
+//! Only the common case is batched: sub-steps with no contact switch (about 98% of the
+//! macro steps at W = 133, `jeffcott bench`), one per macro step in free flight and R
+//! per macro step in contact (contact refinement, `lane::trial_extent`; one pass of the
+//! batch per sub-step, all lanes computed in every pass). Each lane's trial step and
+//! switch search run here with exactly the operations, in exactly the order, of
+//! `lane::rk4_substep` and `lane::find_switch` (Rust never fuses or reorders
+//! floating-point operations, so vectorising does not change a bit); so do the tangent
+//! steps of the lambda_1 variant, on the state step's own stages. A lane whose trial
+//! step finds a crossing, or a grazing extremum to check, is handed to the scalar
+//! `lane::finish_macro_step` where it stands (state and fraction of the macro step
+//! done), which redoes that trial step bit for bit and then refines. So a batched run
+//! equals the scalar run to the bit (tests/ensemble_cpu.rs), and the scalar stepper stays
+//! the one definition of the algorithm that the WGSL kernel mirrors.
 
 use crate::integrate::forcing::phasor_turns;
 use crate::integrate::lane::{
-    GRAZE_SAMPLES, Lane, LaneConsts, Status, Tangent, hermite_gap, macro_step_tangent,
-    rk4_tangent_substep, wrong_side,
+    GRAZE_SAMPLES, Lane, LaneConsts, Partial, Tangent, commit_macro_step, finish_macro_step,
+    hermite_gap, jacobian_trace, macro_step_tangent, stage_partials, trial_extent, wrong_side,
 };
 use crate::model::{STATE_DIM, VX_R, VX_S, VY_R, VY_S, X_R, X_S, Y_R, Y_S, contact_force_per_kc};
 use crate::real::Real;
@@ -74,13 +77,13 @@ impl<R: Real> BatchConsts<R> {
     }
 }
 
-/// `lane::forcing_phasor` for every lane at fraction `sigma` of macro step `k`.
+/// `lane::forcing_phasor` for every lane at its fraction `sigma` of macro step `k`.
 #[inline(always)]
-fn phasor<R: Real>(bc: &BatchConsts<R>, k: u32, sigma: R) -> (V<R>, V<R>) {
+fn phasor<R: Real>(bc: &BatchConsts<R>, k: u32, sigma: &V<R>) -> (V<R>, V<R>) {
     let mut c = [R::lit(0.0); BATCH];
     let mut s = [R::lit(0.0); BATCH];
     for l in 0..BATCH {
-        (c[l], s[l]) = phasor_turns((R::lit(k as f64) + sigma) * bc.inv_n[l] - bc.phase0[l]);
+        (c[l], s[l]) = phasor_turns((R::lit(k as f64) + sigma[l]) * bc.inv_n[l] - bc.phase0[l]);
     }
     (c, s)
 }
@@ -145,27 +148,34 @@ fn stage<R: Real>(
     out
 }
 
-/// `lane::rk4_substep` over a whole macro step (s0 = 0, ds = 1) for every lane.
+/// The stage states of one RK4 sub-step for every lane: x, then the states at which k2,
+/// k3 and k4 are evaluated.
+type Stages<R> = [[V<R>; STATE_DIM]; 4];
+
+/// `lane::rk4_substep` over each lane's fraction [s0, s0 + ds] of macro step `k`; also
+/// returns the stage states (the tangent step reuses them, as
+/// `lane::rk4_tangent_substep` recomputes exactly these).
 #[inline(always)]
 fn rk4_step<R: Real>(
     bc: &BatchConsts<R>,
     x: &[V<R>; STATE_DIM],
     k: u32,
+    s0: &V<R>,
+    ds: &V<R>,
     contact: &[bool; BATCH],
-) -> [V<R>; STATE_DIM] {
-    let (s0, ds) = (R::lit(0.0), R::lit(1.0));
+) -> ([V<R>; STATE_DIM], Stages<R>) {
     let half = R::lit(0.5);
-    let hs: V<R> = lanes(|l| ds * bc.h[l]);
+    let hs: V<R> = lanes(|l| ds[l] * bc.h[l]);
     let (c0, s0p) = phasor(bc, k, s0);
-    let (cm, sm) = phasor(bc, k, s0 + half * ds);
-    let (c1, s1) = phasor(bc, k, s0 + ds);
+    let (cm, sm) = phasor(bc, k, &lanes(|l| s0[l] + half * ds[l]));
+    let (c1, s1) = phasor(bc, k, &lanes(|l| s0[l] + ds[l]));
     let k1 = rhs(bc, x, &c0, &s0p, contact);
-    let xt = stage(x, half, &hs, &k1);
-    let k2 = rhs(bc, &xt, &cm, &sm, contact);
-    let xt = stage(x, half, &hs, &k2);
-    let k3 = rhs(bc, &xt, &cm, &sm, contact);
-    let xt = stage(x, R::lit(1.0), &hs, &k3);
-    let k4 = rhs(bc, &xt, &c1, &s1, contact);
+    let xt2 = stage(x, half, &hs, &k1);
+    let k2 = rhs(bc, &xt2, &cm, &sm, contact);
+    let xt3 = stage(x, half, &hs, &k2);
+    let k3 = rhs(bc, &xt3, &cm, &sm, contact);
+    let xt4 = stage(x, R::lit(1.0), &hs, &k3);
+    let k4 = rhs(bc, &xt4, &c1, &s1, contact);
     let sixth = R::lit(1.0 / 6.0);
     let mut out = [[R::lit(0.0); BATCH]; STATE_DIM];
     for i in 0..STATE_DIM {
@@ -174,15 +184,101 @@ fn rk4_step<R: Real>(
                 + hs[l] * sixth * (k1[i][l] + R::lit(2.0) * (k2[i][l] + k3[i][l]) + k4[i][l]);
         }
     }
-    out
+    (out, [*x, xt2, xt3, xt4])
 }
 
-/// `lane::hermite_gap` at `theta` for every lane (x0 -> x1 over each lane's h).
+/// `lane::tangent_rhs` for every lane: J v with each lane's contact block `pc`.
+#[inline(always)]
+fn tangent_rhs<R: Real>(
+    bc: &BatchConsts<R>,
+    pc: &[V<R>; 8],
+    v: &[V<R>; STATE_DIM],
+) -> [V<R>; STATE_DIM] {
+    let mut a = [[R::lit(0.0); BATCH]; STATE_DIM];
+    for l in 0..BATCH {
+        let ddx = v[X_R][l] - v[X_S][l];
+        let ddy = v[Y_R][l] - v[Y_S][l];
+        let ddvx = v[VX_R][l] - v[VX_S][l];
+        let ddvy = v[VY_R][l] - v[VY_S][l];
+        let dfx = pc[0][l] * ddx + pc[1][l] * ddy + pc[2][l] * ddvx + pc[3][l] * ddvy;
+        let dfy = pc[4][l] * ddx + pc[5][l] * ddy + pc[6][l] * ddvx + pc[7][l] * ddvy;
+        a[X_R][l] = v[VX_R][l];
+        a[VX_R][l] = -bc.wr2[l] * v[X_R][l] - bc.dr[l] * v[VX_R][l] + bc.kc_mr[l] * dfx;
+        a[Y_R][l] = v[VY_R][l];
+        a[VY_R][l] = -bc.wr2[l] * v[Y_R][l] - bc.dr[l] * v[VY_R][l] + bc.kc_mr[l] * dfy;
+        a[X_S][l] = v[VX_S][l];
+        a[VX_S][l] = -bc.ws2[l] * v[X_S][l] - bc.ds[l] * v[VX_S][l] - bc.kc_ms[l] * dfx;
+        a[Y_S][l] = v[VY_S][l];
+        a[VY_S][l] = -bc.ws2[l] * v[Y_S][l] - bc.ds[l] * v[VY_S][l] - bc.kc_ms[l] * dfy;
+    }
+    a
+}
+
+/// `lane::rk4_tangent_substep` for the lanes `accept` of a batch at once, on the stage
+/// states of the state's RK4 sub-step (`rk4_step`): the same operations in the same
+/// order per lane, so the tangent vectors and trace integrals are the scalar stepper's
+/// to the bit; the other lanes' tangents are left alone.
+#[inline(always)]
+fn tangent_step<R: Real, const M: usize>(
+    bc: &BatchConsts<R>,
+    lc: &[LaneConsts<R>; BATCH],
+    stages: &Stages<R>,
+    hs: &V<R>,
+    contact: &[bool; BATCH],
+    accept: &[bool; BATCH],
+    tan: &mut [Tangent<R, M>; BATCH],
+) {
+    let half = R::lit(0.5);
+    let sixth = R::lit(1.0 / 6.0);
+    let two = R::lit(2.0);
+    // The contact block at each stage, per lane (zero out of contact).
+    let mut pc = [[[R::lit(0.0); BATCH]; 8]; 4];
+    for (st, p) in stages.iter().zip(pc.iter_mut()) {
+        for l in 0..BATCH {
+            let xl: [R; STATE_DIM] = std::array::from_fn(|i| st[i][l]);
+            let q = stage_partials(&lc[l].c, &xl, contact[l]);
+            for j in 0..8 {
+                p[j][l] = q[j];
+            }
+        }
+    }
+    for m in 0..M {
+        let v: [V<R>; STATE_DIM] = std::array::from_fn(|i| lanes(|l| tan[l].v[m][i]));
+        let a1 = tangent_rhs(bc, &pc[0], &v);
+        let vt = stage(&v, half, hs, &a1);
+        let a2 = tangent_rhs(bc, &pc[1], &vt);
+        let vt = stage(&v, half, hs, &a2);
+        let a3 = tangent_rhs(bc, &pc[2], &vt);
+        let vt = stage(&v, R::lit(1.0), hs, &a3);
+        let a4 = tangent_rhs(bc, &pc[3], &vt);
+        for l in 0..BATCH {
+            if accept[l] {
+                for i in 0..STATE_DIM {
+                    tan[l].v[m][i] = v[i][l]
+                        + hs[l] * sixth * (a1[i][l] + two * (a2[i][l] + a3[i][l]) + a4[i][l]);
+                }
+            }
+        }
+    }
+    for l in 0..BATCH {
+        if accept[l] {
+            let c = &lc[l].c;
+            let tr = |s: usize| {
+                let q: [R; 8] = std::array::from_fn(|j| pc[s][j][l]);
+                jacobian_trace(c, &q).to_f64()
+            };
+            tan[l].trace_integral += hs[l].to_f64() / 6.0 * (tr(0) + 2.0 * (tr(1) + tr(2)) + tr(3));
+        }
+    }
+}
+
+/// `lane::hermite_gap` at `theta` for every lane (x0 -> x1 over each lane's ds h).
 #[inline(always)]
 fn gaps<R: Real>(
     bc: &BatchConsts<R>,
     x0: &[V<R>; STATE_DIM],
     x1: &[V<R>; STATE_DIM],
+    ds: &V<R>,
     theta: R,
 ) -> (V<R>, V<R>) {
     let mut g = [R::lit(0.0); BATCH];
@@ -190,7 +286,7 @@ fn gaps<R: Real>(
     for l in 0..BATCH {
         let a: [R; STATE_DIM] = std::array::from_fn(|i| x0[i][l]);
         let b: [R; STATE_DIM] = std::array::from_fn(|i| x1[i][l]);
-        (g[l], rate[l]) = hermite_gap(bc.delta[l], &a, &b, R::lit(1.0) * bc.h[l], theta);
+        (g[l], rate[l]) = hermite_gap(bc.delta[l], &a, &b, ds[l] * bc.h[l], theta);
     }
     (g, rate)
 }
@@ -209,11 +305,11 @@ pub fn batch_macro_step<R: Real>(
 }
 
 /// [`batch_macro_step`] carrying `M` tangent vectors per lane, as
-/// `lane::macro_step_tangent` does: on the batched path each lane's tangent step is the
-/// scalar `rk4_tangent_substep` over the whole macro step from the lane's start state
-/// (the call the scalar stepper makes when there is no switch), so the tangents too are
-/// bit for bit those of the scalar stepper; switching lanes go to
-/// `macro_step_tangent`.
+/// `lane::macro_step_tangent` does: on the batched path the tangent step over each
+/// accepted sub-step is batched too (`tangent_step`, on the state step's own stages),
+/// with the scalar `rk4_tangent_substep`'s operations per lane, so the tangents too are
+/// bit for bit those of the scalar stepper; a lane that meets a switch goes on in
+/// `lane::finish_macro_step` from where the batch left it.
 #[inline(always)]
 pub fn batch_macro_step_tangent<R: Real, const M: usize>(
     bc: &BatchConsts<R>,
@@ -226,75 +322,78 @@ pub fn batch_macro_step_tangent<R: Real, const M: usize>(
     let Some(k) = lane.iter().find(|l| !l.status.is_frozen()).map(|l| l.k) else {
         return;
     };
-    let x: [V<R>; STATE_DIM] = std::array::from_fn(|i| lanes(|l| lane[l].x[i]));
-    let contact: [bool; BATCH] = lanes(|l| lane[l].contact);
-    let x1 = rk4_step(bc, &x, k, &contact);
-    // The switch search of `lane::find_switch`, kept only as far as deciding that there
-    // is no switch: any sample on the wrong side, or an extremum heading there, sends
-    // the lane to the scalar path.
     let zero = R::lit(0.0);
-    let (g0, mut rate_lo) = gaps(bc, &x, &x1, zero);
-    let mut max_g = g0;
-    let mut scalar = [false; BATCH];
-    for j in 1..=GRAZE_SAMPLES {
-        let th = R::lit(j as f64 / GRAZE_SAMPLES as f64);
-        let (g_th, rate_th) = gaps(bc, &x, &x1, th);
-        for l in 0..BATCH {
-            let toward = if contact[l] {
-                rate_lo[l] < zero && rate_th[l] > zero
-            } else {
-                rate_lo[l] > zero && rate_th[l] < zero
-            };
-            scalar[l] |= wrong_side(g_th[l], contact[l]) || toward;
-            max_g[l] = max_g[l].max(g_th[l]);
+    let one = R::lit(1.0);
+    let mut part: [Partial<R>; BATCH] = lanes(|l| Partial::start(&lane[l]));
+    // Lanes the batch still advances; a lane leaves when its macro step is done (s = 1)
+    // or when its trial sub-step needs the scalar switch search.
+    let mut active: [bool; BATCH] = lanes(|l| !lane[l].status.is_frozen() && lane[l].k == k);
+    // One pass per sub-step: a lane in free flight needs one, a lane in contact R
+    // (contact refinement, `lane::trial_extent`); every pass computes all lanes.
+    while active.iter().any(|&a| a) {
+        let x: [V<R>; STATE_DIM] = std::array::from_fn(|i| lanes(|l| part[l].x[i]));
+        let contact: [bool; BATCH] = lanes(|l| part[l].contact);
+        let s0: V<R> = lanes(|l| part[l].s);
+        let extent: [(R, R); BATCH] = lanes(|l| trial_extent(&lc[l], s0[l], contact[l]));
+        let ds: V<R> = lanes(|l| extent[l].0);
+        let (x1, stages) = rk4_step(bc, &x, k, &s0, &ds, &contact);
+        // The switch search of `lane::find_switch`, kept only as far as deciding that
+        // there is no switch: any sample on the wrong side, or an extremum heading
+        // there, sends the lane to the scalar path.
+        let (g0, mut rate_lo) = gaps(bc, &x, &x1, &ds, zero);
+        let mut max_g = g0;
+        let mut switch = [false; BATCH];
+        for j in 1..=GRAZE_SAMPLES {
+            let th = R::lit(j as f64 / GRAZE_SAMPLES as f64);
+            let (g_th, rate_th) = gaps(bc, &x, &x1, &ds, th);
+            for l in 0..BATCH {
+                let toward = if contact[l] {
+                    rate_lo[l] < zero && rate_th[l] > zero
+                } else {
+                    rate_lo[l] > zero && rate_th[l] < zero
+                };
+                switch[l] |= wrong_side(g_th[l], contact[l]) || toward;
+                max_g[l] = max_g[l].max(g_th[l]);
+            }
+            rate_lo = rate_th;
         }
-        rate_lo = rate_th;
+        // No switch: accept the trial sub-step as `finish_macro_step` does.
+        let accept: [bool; BATCH] = lanes(|l| active[l] && !switch[l]);
+        if M > 0 && accept.iter().any(|&a| a) {
+            let hs: V<R> = lanes(|l| ds[l] * bc.h[l]);
+            tangent_step(bc, lc, &stages, &hs, &contact, &accept, tan);
+        }
+        for l in 0..BATCH {
+            if !active[l] {
+                continue;
+            }
+            if switch[l] {
+                active[l] = false;
+                continue;
+            }
+            let p = &mut part[l];
+            p.substeps += 1;
+            p.max_g = p.max_g.max(max_g[l]);
+            p.x = std::array::from_fn(|i| x1[i][l]);
+            p.s = extent[l].1;
+            active[l] = p.s < one;
+        }
     }
     for l in 0..BATCH {
         if lane[l].status.is_frozen() {
             continue;
         }
-        if scalar[l] || lane[l].k != k {
+        if lane[l].k != k {
             macro_step_tangent(&lc[l], &mut lane[l], &mut tan[l]);
             continue;
         }
-        if M > 0 {
-            let x0 = lane[l].x;
-            rk4_tangent_substep(
-                &lc[l],
-                &x0,
-                k,
-                zero,
-                R::lit(1.0) - zero,
-                contact[l],
-                &mut tan[l],
-            );
-        }
-        // No switch: accept the trial step, then `macro_step`'s checks and counters.
-        let xl: [R; STATE_DIM] = std::array::from_fn(|i| x1[i][l]);
-        let finite = xl.iter().all(|v| v.is_finite());
-        if !finite {
-            lane[l].status = Status::NonFinite;
-            continue;
-        }
-        let reach = xl[X_R]
-            .abs()
-            .max(xl[Y_R].abs())
-            .max(xl[X_S].abs())
-            .max(xl[Y_S].abs());
-        if reach > lc[l].bound {
-            lane[l].status = Status::Diverged;
-            continue;
-        }
-        let ln = &mut lane[l];
-        ln.x = xl;
-        ln.k = if k + 1 == lc[l].n { 0 } else { k + 1 };
-        let ct = &mut ln.counters;
-        ct.macro_steps += 1;
-        ct.contact_steps += contact[l] as u64;
-        if contact[l] {
-            let m = R::lit(f64::NEG_INFINITY).max(max_g[l]);
-            ct.max_penetration = ct.max_penetration.max(m.to_f64());
+        if part[l].s >= R::lit(1.0) {
+            // Done: only the checks and counters are left.
+            commit_macro_step(&lc[l], &mut lane[l], &part[l]);
+        } else {
+            // Handed over: the scalar stepper redoes the trial sub-step at s bit for bit
+            // and locates the switch.
+            finish_macro_step(&lc[l], &mut lane[l], &mut tan[l], part[l]);
         }
     }
 }

@@ -14,14 +14,18 @@
 //! file function by function: keep in sync with it.
 //!
 //! One macro step:
-//! 1. trial RK4 step from the current sub-step start s to the macro step's end, in the
-//!    current contact mode;
+//! 1. trial RK4 step from the current sub-step start s to the macro step's end in free
+//!    flight, or over at most 1/R of the macro step in contact (contact refinement,
+//!    [`trial_extent`]: the contact stiffness's frequency makes RK4's error per step in
+//!    contact ~1000 times that of free flight; the work-precision study in
+//!    docs/performance.md chose R = 2), in the current contact mode;
 //! 2. `find_switch`: sample the penetration g along the step on the cubic Hermite
 //!    interpolant of the relative displacement (exact at both ends, O(H^4) inside) and
 //!    take the first sample on the wrong side of g = 0 for the mode; this catches
 //!    grazing contacts that enter and leave inside one step. Locate the crossing by the
 //!    Illinois method on the interpolant;
-//! 3. no crossing: accept. Crossing at fraction theta: re-step from s to the crossing,
+//! 3. no crossing: accept (and go on from step 1 if the macro step is not done). Crossing
+//!    at fraction theta: re-step from s to the crossing,
 //!    flip the mode, continue from there. At most `max_segments` segments per macro
 //!    step; a lane that needs more is finished without switching and flagged.
 //!
@@ -106,6 +110,8 @@ pub struct LaneConsts<R> {
     pub n: u32,
     /// Cap on segments (contact switches + 1) per macro step.
     pub max_segments: u32,
+    /// 1/R: the longest sub-step taken in contact, as a fraction of the macro step.
+    pub inv_r: R,
 }
 
 /// Settings of the lane stepper that are not model parameters.
@@ -117,6 +123,14 @@ pub struct StepperConfig {
     pub max_segments: u32,
     /// Divergence bound on every position coordinate [m].
     pub divergence_bound: f64,
+    /// Contact refinement R: a sub-step taken in contact covers at most 1/R of the macro
+    /// step (see the module docs). Runs recorded before R existed used R = 1.
+    #[serde(default = "no_contact_refinement")]
+    pub contact_substeps: u32,
+}
+
+fn no_contact_refinement() -> u32 {
+    1
 }
 
 impl Default for StepperConfig {
@@ -125,12 +139,19 @@ impl Default for StepperConfig {
             steps_per_period: DEFAULT_STEPS_PER_PERIOD,
             max_segments: 16,
             divergence_bound: 1.0,
+            contact_substeps: DEFAULT_CONTACT_SUBSTEPS,
         }
     }
 }
 
 /// Default N, fixed by the convergence study (docs/convergence.md).
 pub const DEFAULT_STEPS_PER_PERIOD: u32 = 500;
+
+/// Default contact refinement R, fixed by the work-precision study (docs/performance.md).
+pub const DEFAULT_CONTACT_SUBSTEPS: u32 = 2;
+
+/// The largest contact refinement R accepted.
+pub const MAX_CONTACT_SUBSTEPS: u32 = 16;
 
 impl StepperConfig {
     /// Checks the settings; errors name the option and the allowed range.
@@ -160,6 +181,18 @@ impl StepperConfig {
                 "must be finite and > 0 m",
             ));
         }
+        // Powers of two only: then 1/R and every sum of it from 0 are exact in binary
+        // floating point, so R sub-steps of 1/R end exactly at the macro step's end and
+        // no sliver of a sub-step is left over from rounding.
+        if !(self.contact_substeps.is_power_of_two()
+            && self.contact_substeps <= MAX_CONTACT_SUBSTEPS)
+        {
+            return Err(Error::invalid(
+                "contact_substeps",
+                self.contact_substeps,
+                "must be one of 1, 2, 4, 8, 16",
+            ));
+        }
         Ok(())
     }
 }
@@ -180,6 +213,7 @@ impl<R: Real> LaneConsts<R> {
             root_tol: R::lit(root_tol),
             n,
             max_segments: cfg.max_segments,
+            inv_r: R::lit(1.0 / cfg.contact_substeps as f64),
         }
     }
 }
@@ -318,7 +352,7 @@ impl<R: Real, const M: usize> Tangent<R, M> {
 
 /// The contact block of the Jacobian in mode `contact` (zero out of contact).
 #[inline(always)]
-fn stage_partials<R: Real>(c: &Coeffs<R>, x: &[R; STATE_DIM], contact: bool) -> [R; 8] {
+pub(crate) fn stage_partials<R: Real>(c: &Coeffs<R>, x: &[R; STATE_DIM], contact: bool) -> [R; 8] {
     if contact {
         contact_partials(c, x)
     } else {
@@ -350,7 +384,7 @@ pub fn tangent_rhs<R: Real>(c: &Coeffs<R>, pc: &[R; 8], v: &[R; STATE_DIM]) -> [
 
 /// Trace of the Jacobian given its contact block: only the velocity diagonal counts.
 #[inline(always)]
-fn jacobian_trace<R: Real>(c: &Coeffs<R>, pc: &[R; 8]) -> R {
+pub(crate) fn jacobian_trace<R: Real>(c: &Coeffs<R>, pc: &[R; 8]) -> R {
     -R::lit(2.0) * (c.dr + c.ds) + (c.kc_mr + c.kc_ms) * (pc[2] + pc[7])
 }
 
@@ -647,6 +681,22 @@ fn find_switch<R: Real>(
     }
 }
 
+/// Length `ds` and end of the next trial sub-step from fraction `s` of the macro step:
+/// to the macro step's end (exactly 1) in free flight; in contact at most 1/R of the
+/// macro step (contact refinement: the contact stiffness adds a frequency about 40 times
+/// the forcing's, docs/performance.md, so RK4's error there dominates at a step that
+/// suits free flight). With R a power of two a macro step begun in contact is R exact
+/// sub-steps. Keep in sync with `trial_extent` in `shaders/lane.wgsl`.
+#[inline(always)]
+pub(crate) fn trial_extent<R: Real>(lc: &LaneConsts<R>, s: R, contact: bool) -> (R, R) {
+    let one = R::lit(1.0);
+    if contact && one - s > lc.inv_r {
+        (lc.inv_r, s + lc.inv_r)
+    } else {
+        (one - s, one)
+    }
+}
+
 /// Advances the lane by one macro step (1/N of a forcing period). Frozen lanes do not
 /// move. Keep in sync with `macro_step` in `shaders/lane.wgsl`.
 pub fn macro_step<R: Real>(lc: &LaneConsts<R>, lane: &mut Lane<R>) {
@@ -664,67 +714,117 @@ pub fn macro_step_tangent<R: Real, const M: usize>(
     if lane.status.is_frozen() {
         return;
     }
+    let part = Partial::start(lane);
+    finish_macro_step(lc, lane, tan, part);
+}
+
+/// A macro step in progress: the local variables of [`finish_macro_step`]'s segment
+/// loop, so that the batch stepper can hand over a lane in the middle of a macro step
+/// (after contact sub-steps it took itself) and the scalar stepper carries on exactly
+/// where it stands.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Partial<R> {
+    /// State at the sub-step start `s`.
+    pub x: [R; STATE_DIM],
+    /// Fraction of the macro step done.
+    pub s: R,
+    /// Current contact mode.
+    pub contact: bool,
+    /// In contact at some point of the macro step so far.
+    pub touched: bool,
+    /// RK4 sub-steps taken.
+    pub substeps: u64,
+    /// Located switches (each begins a new segment).
+    pub switches: u32,
+    /// Largest g sampled so far.
+    pub max_g: R,
+}
+
+impl<R: Real> Partial<R> {
+    /// The start of `lane`'s next macro step.
+    #[inline(always)]
+    pub fn start(lane: &Lane<R>) -> Self {
+        Partial {
+            x: lane.x,
+            s: R::lit(0.0),
+            contact: lane.contact,
+            touched: lane.contact,
+            substeps: 0,
+            switches: 0,
+            max_g: R::lit(f64::NEG_INFINITY),
+        }
+    }
+}
+
+/// Runs the segment loop of `lane`'s macro step from `part`, then the refinement cap,
+/// the status checks and the counters.
+pub(crate) fn finish_macro_step<R: Real, const M: usize>(
+    lc: &LaneConsts<R>,
+    lane: &mut Lane<R>,
+    tan: &mut Tangent<R, M>,
+    mut p: Partial<R>,
+) {
     let one = R::lit(1.0);
     let k = lane.k;
-    let mut x = lane.x;
-    let mut contact = lane.contact;
-    let mut touched = contact;
-    let mut s = R::lit(0.0);
-    let mut done = false;
-    let mut substeps: u64 = 0;
-    let mut switches: u64 = 0;
-    let mut max_g = R::lit(f64::NEG_INFINITY);
-    for _ in 0..lc.max_segments {
-        let ds = one - s;
-        let x1 = rk4_substep(lc, &x, k, s, ds, contact);
-        substeps += 1;
-        let sw = find_switch(lc, &x, &x1, ds * lc.h, contact);
-        max_g = max_g.max(sw.max_g);
+    // Each pass is one trial sub-step that ends the macro step, ends a contact sub-step
+    // (at most R per segment) or locates a switch (a new segment), so the loop runs at
+    // most max_segments * (R + 1) times. The macro step is done when s reaches 1 (which a
+    // Partial the batch stepper finished itself already is).
+    while p.s < one && p.switches < lc.max_segments {
+        let (ds, end) = trial_extent(lc, p.s, p.contact);
+        let x1 = rk4_substep(lc, &p.x, k, p.s, ds, p.contact);
+        p.substeps += 1;
+        let sw = find_switch(lc, &p.x, &x1, ds * lc.h, p.contact);
+        p.max_g = p.max_g.max(sw.max_g);
         if sw.theta > one {
             if M > 0 {
-                rk4_tangent_substep(lc, &x, k, s, ds, contact, tan);
+                rk4_tangent_substep(lc, &p.x, k, p.s, ds, p.contact, tan);
             }
-            x = x1;
-            done = true;
-            break;
+            p.x = x1;
+            p.s = end;
+            continue;
         }
         if sw.theta >= one {
             if M > 0 {
-                rk4_tangent_substep(lc, &x, k, s, ds, contact, tan);
+                rk4_tangent_substep(lc, &p.x, k, p.s, ds, p.contact, tan);
             }
-            x = x1;
-            s = one;
+            p.x = x1;
+            p.s = end;
         } else if sw.theta > R::lit(0.0) {
             if M > 0 {
-                rk4_tangent_substep(lc, &x, k, s, ds * sw.theta, contact, tan);
+                rk4_tangent_substep(lc, &p.x, k, p.s, ds * sw.theta, p.contact, tan);
             }
-            x = rk4_substep(lc, &x, k, s, ds * sw.theta, contact);
-            substeps += 1;
-            s += ds * sw.theta;
+            p.x = rk4_substep(lc, &p.x, k, p.s, ds * sw.theta, p.contact);
+            p.substeps += 1;
+            p.s += ds * sw.theta;
         }
         if M > 0 && tan.saltation {
-            saltation(lc, &x, k, s, contact, tan);
+            saltation(lc, &p.x, k, p.s, p.contact, tan);
         }
-        contact = !contact;
-        touched = true;
-        switches += 1;
-        if s >= one {
-            done = true;
-            break;
-        }
+        p.contact = !p.contact;
+        p.touched = true;
+        p.switches += 1;
     }
-    if !done {
+    if p.s < one {
         // Refinement cap: finish the step in the current mode and say so.
         if M > 0 {
-            rk4_tangent_substep(lc, &x, k, s, one - s, contact, tan);
+            rk4_tangent_substep(lc, &p.x, k, p.s, one - p.s, p.contact, tan);
         }
-        x = rk4_substep(lc, &x, k, s, one - s, contact);
-        substeps += 1;
-        contact = penetration(lc.c.delta, &x) > R::lit(0.0);
+        p.x = rk4_substep(lc, &p.x, k, p.s, one - p.s, p.contact);
+        p.substeps += 1;
+        p.contact = penetration(lc.c.delta, &p.x) > R::lit(0.0);
         if lane.status < Status::RefinementCap {
             lane.status = Status::RefinementCap;
         }
     }
+    commit_macro_step(lc, lane, &p);
+}
+
+/// The end of a macro step whose segments are done (`p.s >= 1` or capped): status
+/// checks, then the new lane state and counters.
+#[inline(always)]
+pub(crate) fn commit_macro_step<R: Real>(lc: &LaneConsts<R>, lane: &mut Lane<R>, p: &Partial<R>) {
+    let (x, contact, substeps, k) = (p.x, p.contact, p.substeps, lane.k);
     // Status checks: freeze at the last good state rather than poison anything.
     let mut finite = true;
     for v in x.iter() {
@@ -748,11 +848,11 @@ pub fn macro_step_tangent<R: Real, const M: usize>(
     lane.k = if k + 1 == lc.n { 0 } else { k + 1 };
     let ct = &mut lane.counters;
     ct.macro_steps += 1;
-    ct.contact_steps += touched as u64;
-    ct.switches += switches;
+    ct.contact_steps += p.touched as u64;
+    ct.switches += u64::from(p.switches);
     ct.extra_substeps += substeps - 1;
-    if touched {
-        ct.max_penetration = ct.max_penetration.max(max_g.to_f64());
+    if p.touched {
+        ct.max_penetration = ct.max_penetration.max(p.max_g.to_f64());
     }
 }
 
