@@ -16,8 +16,10 @@ use std::time::Instant;
 const PERIODS: u32 = 200;
 
 fn lane(p: &Params, omega: f64, n: u32) -> (State, f64, f64) {
+    // The study of docs/convergence.md was made without contact refinement.
     let cfg = StepperConfig {
         steps_per_period: n,
+        contact_substeps: 1,
         ..StepperConfig::default()
     };
     let lc = LaneConsts::<f64>::new(p, omega, &cfg);

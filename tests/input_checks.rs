@@ -773,3 +773,23 @@ fn one_recorded_period_is_unclassified_not_aperiodic() {
             .contains("at least 2")
     );
 }
+
+#[test]
+fn contact_refinement_other_than_a_power_of_two_up_to_16_is_refused_naming_the_option() {
+    let dir = tempfile::tempdir().unwrap();
+    for bad in ["3", "0", "32"] {
+        let out = dir.path().join(format!("r{bad}"));
+        let o = jeffcott(&[
+            "simulate",
+            "--omega",
+            "133",
+            "--contact-substeps",
+            bad,
+            "--no-plot",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert_refused(&o, &["`contact_substeps`", "1, 2, 4, 8, 16"]);
+        assert!(!out.exists(), "nothing may be written for R = {bad}");
+    }
+}
