@@ -172,7 +172,7 @@ fn use_avx512() -> bool {
     })
 }
 
-/// Lanes `first..first + BATCH`, with the widest vector unit this CPU has.
+/// Lanes `first..first + BATCH`, with AVX2 where the CPU has it (AVX-512 on request).
 fn run_batch<R: Real, const M: usize>(spec: &EnsembleSpec, first: usize) -> Vec<Outcome> {
     #[cfg(target_arch = "x86_64")]
     if use_avx512() {
