@@ -882,6 +882,41 @@ pub fn stacked_fractions(
 
 /// The uncertain fraction f(eps) against eps (a fraction of the box side), log-log: the
 /// grid estimate and the re-integration estimate as points, each with its fitted slope
+/// Log-log axes over f64.
+type LogLog = Cartesian2d<LogCoord<f64>, LogCoord<f64>>;
+
+/// A white canvas with a captioned chart on log-log axes over `x` and `y`, axes labelled
+/// `desc` (x, y) and ticks in 1e-n notation: the frame of the uncertainty and
+/// work-precision plots. `err` names the file in errors (`plot_err`).
+fn log_log_chart<'a, DB: DrawingBackend + 'a>(
+    err: &impl Fn(String) -> Error,
+    root: &'a DrawingArea<DB, plotters::coord::Shift>,
+    title: &str,
+    x: std::ops::Range<f64>,
+    y: std::ops::Range<f64>,
+    desc: (&str, &str),
+) -> Result<ChartContext<'a, DB, LogLog>> {
+    root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
+    let mut chart = ChartBuilder::on(root)
+        .caption(title, ("sans-serif", 20))
+        .margin(14)
+        .x_label_area_size(50)
+        .y_label_area_size(80)
+        .build_cartesian_2d(x.log_scale(), y.log_scale())
+        .map_err(|e| err(e.to_string()))?;
+    chart
+        .configure_mesh()
+        .x_desc(desc.0)
+        .y_desc(desc.1)
+        .label_style(("sans-serif", 15))
+        .axis_desc_style(("sans-serif", 17))
+        .x_label_formatter(&|v| format!("{v:.0e}"))
+        .y_label_formatter(&|v| format!("{v:.0e}"))
+        .draw()
+        .map_err(|e| err(e.to_string()))?;
+    Ok(chart)
+}
+
 /// drawn through the mean of its fitted points (where a least-squares line passes).
 pub fn uncertainty(
     path: &Path,
@@ -906,27 +941,17 @@ pub fn uncertainty(
         .iter()
         .fold((1e-4f64, 1.0f64), |(a, b), p| (a.min(p.1), b.max(p.1)));
     crate::plot::render_png(path, (1100, 800), |root| {
-        root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
-        let mut chart = ChartBuilder::on(&root)
-            .caption(title, ("sans-serif", 20))
-            .margin(14)
-            .x_label_area_size(50)
-            .y_label_area_size(80)
-            .build_cartesian_2d(
-                (x0 * 0.5..x1 * 2.0).log_scale(),
-                (y0 * 0.5..y1 * 2.0).log_scale(),
-            )
-            .map_err(|e| err(e.to_string()))?;
-        chart
-            .configure_mesh()
-            .x_desc("eps (fraction of the box side)")
-            .y_desc("uncertain fraction f(eps)")
-            .label_style(("sans-serif", 15))
-            .axis_desc_style(("sans-serif", 17))
-            .x_label_formatter(&|v| format!("{v:.0e}"))
-            .y_label_formatter(&|v| format!("{v:.0e}"))
-            .draw()
-            .map_err(|e| err(e.to_string()))?;
+        let mut chart = log_log_chart(
+            &err,
+            &root,
+            title,
+            x0 * 0.5..x1 * 2.0,
+            y0 * 0.5..y1 * 2.0,
+            (
+                "eps (fraction of the box side)",
+                "uncertain fraction f(eps)",
+            ),
+        )?;
         for (k, (pts, alpha, name)) in [
             (grid, grid_alpha, "labelled grid"),
             (reint, reint_alpha, "re-integration (Grebogi et al. 1983)"),
@@ -995,27 +1020,17 @@ pub fn work_precision(
         .iter()
         .fold((target, target), |(a, b), p| (a.min(p.1), b.max(p.1)));
     crate::plot::render_png(path, (1200, 850), |root| {
-        root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
-        let mut chart = ChartBuilder::on(&root)
-            .caption(title, ("sans-serif", 20))
-            .margin(14)
-            .x_label_area_size(50)
-            .y_label_area_size(80)
-            .build_cartesian_2d(
-                (x0 * 0.7..x1 * 1.4).log_scale(),
-                (y0 * 0.3..y1 * 3.0).log_scale(),
-            )
-            .map_err(|e| err(e.to_string()))?;
-        chart
-            .configure_mesh()
-            .x_desc("throughput [lane-periods per second] (higher is better)")
-            .y_desc("position error after 200 periods [m] (lower is better)")
-            .label_style(("sans-serif", 15))
-            .axis_desc_style(("sans-serif", 17))
-            .x_label_formatter(&|v| format!("{v:.0e}"))
-            .y_label_formatter(&|v| format!("{v:.0e}"))
-            .draw()
-            .map_err(|e| err(e.to_string()))?;
+        let mut chart = log_log_chart(
+            &err,
+            &root,
+            title,
+            x0 * 0.7..x1 * 1.4,
+            y0 * 0.3..y1 * 3.0,
+            (
+                "throughput [lane-periods per second] (higher is better)",
+                "position error after 200 periods [m] (lower is better)",
+            ),
+        )?;
         chart
             .draw_series(std::iter::once(PathElement::new(
                 vec![(x0 * 0.7, target), (x1 * 1.4, target)],
