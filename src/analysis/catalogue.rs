@@ -672,6 +672,28 @@ impl Catalogue {
     pub fn identify(&self, l: &LaneClass) -> Option<u32> {
         find(&self.config, self.omega, &self.attractors, l).map(|k| k as u32)
     }
+
+    /// The label of every lane of `r` (integrated at this catalogue's W) against this
+    /// catalogue: the attractor id, -1 for a frozen (diverged) lane, -2 for a lane on no
+    /// catalogued attractor. The labelling of the basin's re-integrated points
+    /// (refinement, uncertainty exponent).
+    pub fn label_lanes(&self, r: &crate::ensemble::EnsembleResult) -> Vec<i32> {
+        (0..r.status.len())
+            .map(|i| {
+                if r.status[i].is_frozen() {
+                    return -1;
+                }
+                let lc = classify_lane(
+                    &r.lane_states(i),
+                    self.omega,
+                    false,
+                    r.lambda1.as_ref().map(|l| l[i]),
+                    &self.config,
+                );
+                self.identify(&lc).map(|id| id as i32).unwrap_or(-2)
+            })
+            .collect()
+    }
 }
 
 /// Catalogues lanes at one W: `points` is [lanes, recorded, 8] flat (as in

@@ -12,7 +12,7 @@
 //! with the coarse basin's catalogue (`-2`: an attractor the coarse grid did not find).
 
 use super::basin::BasinSpec;
-use super::catalogue::{Catalogue, classify_lane};
+use super::catalogue::Catalogue;
 use crate::ensemble::{EnsembleResult, EnsembleSpec, LaneSpec};
 use crate::error::{Error, Result};
 use crate::run::lanes::{Control, LaneUnits};
@@ -154,21 +154,7 @@ pub fn refine(
             precision: spec.precision,
         };
         let reduce = |_u: usize, _e: &EnsembleSpec, r: EnsembleResult| {
-            let labels: Vec<i32> = (0..r.status.len())
-                .map(|i| {
-                    if r.status[i].is_frozen() {
-                        return -1;
-                    }
-                    let lc = classify_lane(
-                        &r.lane_states(i),
-                        spec.omega,
-                        false,
-                        r.lambda1.as_ref().map(|l| l[i]),
-                        &catalogue.config,
-                    );
-                    catalogue.identify(&lc).map(|id| id as i32).unwrap_or(-2)
-                })
-                .collect();
+            let labels = catalogue.label_lanes(&r);
             Ok(Unit::new("").with("labels", Array::I32(labels)))
         };
         if n > 0 {

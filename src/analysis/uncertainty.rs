@@ -11,7 +11,7 @@
 //! assembled, since they are labelled by its catalogue.
 
 use super::basin::BasinSpec;
-use super::catalogue::{Catalogue, classify_lane};
+use super::catalogue::Catalogue;
 use crate::ensemble::{EnsembleResult, EnsembleSpec, LaneSpec};
 use crate::error::Result;
 use crate::model::State;
@@ -122,22 +122,7 @@ pub fn reintegration(
         precision: spec.precision,
     };
     let reduce = |_u: usize, _e: &EnsembleSpec, r: EnsembleResult| {
-        let labels: Vec<i32> = (0..r.status.len())
-            .map(|i| {
-                let frozen = r.status[i].is_frozen();
-                if frozen {
-                    return -1;
-                }
-                let lc = classify_lane(
-                    &r.lane_states(i),
-                    spec.omega,
-                    false,
-                    r.lambda1.as_ref().map(|l| l[i]),
-                    &catalogue.config,
-                );
-                catalogue.identify(&lc).map(|id| id as i32).unwrap_or(-2)
-            })
-            .collect();
+        let labels = catalogue.label_lanes(&r);
         Ok(Unit::new("").with("labels", Array::I32(labels)))
     };
     crate::run::lanes::run_units(
