@@ -1,5 +1,5 @@
 //! Criterion benchmark of the ensemble backends on the W = 133 workload of
-//! `jeffcott::bench` (contact-heavy: lanes thrown against the stator from spread start
+//! `jeffcott_analysis::bench` (contact-heavy: lanes thrown against the stator from spread start
 //! states). Throughput is in macro steps (T/N, N = 500) summed over lanes; one forcing
 //! period is 500 of them. The 128k-lane size and the contact-time share are measured by
 //! `jeffcott bench`, which takes minutes per row on a 2-core CPU, too long for
@@ -8,9 +8,10 @@
 //! Run: `cargo bench --bench ensemble` (GPU rows only when an adapter exists).
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use jeffcott::bench::bench_spec;
-use jeffcott::ensemble::{Precision, run_on_gpu};
-use jeffcott::gpu::{DeviceRequest, GpuDevice, GpuRunner};
+use jeffcott_analysis::backend::run_on_gpu;
+use jeffcott_analysis::bench::bench_spec;
+use jeffcott_core::ensemble::Precision;
+use jeffcott_gpu::{DeviceRequest, GpuDevice, GpuRunner};
 use std::time::Duration;
 
 fn ensemble(c: &mut Criterion) {
@@ -32,7 +33,7 @@ fn ensemble(c: &mut Criterion) {
             let name =
                 |backend: &str| format!("{backend}_{precision:?}_{lanes}_lanes").to_lowercase();
             group.bench_function(name("cpu"), |b| {
-                b.iter(|| jeffcott::ensemble::cpu::run(&spec, &|_| {}).expect("CPU run"))
+                b.iter(|| jeffcott_core::ensemble::cpu::run(&spec, &|_| {}).expect("CPU run"))
             });
             if let Some(r) = runner
                 .as_ref()

@@ -8,9 +8,9 @@
 //!
 //! Run: `cargo run --release --example convergence` (prints a Markdown table).
 
-use jeffcott::integrate::article::{ArticleConfig, ArticleStepper, ErrorNorm};
-use jeffcott::integrate::lane::{Lane, LaneConsts, StepperConfig, advance_period};
-use jeffcott::model::{Params, STATE_DIM, State};
+use jeffcott_core::integrate::article::{ArticleConfig, ArticleStepper, ErrorNorm};
+use jeffcott_core::integrate::lane::{Lane, LaneConsts, StepperConfig, advance_period};
+use jeffcott_core::model::{Params, STATE_DIM, State};
 use std::time::Instant;
 
 const PERIODS: u32 = 200;

@@ -11,10 +11,11 @@
 //! Usage: flop_count [LANES] [CORES] [GHZ] [FP_PORTS]   (default 16384 2 2.6 2: two
 //! 512-bit FMA ports per core, 8 f64 per register)
 
-use jeffcott::bench::bench_spec;
-use jeffcott::ensemble::{Backend, Precision, run};
-use jeffcott::integrate::lane::advance_period;
-use jeffcott::real::Real;
+use jeffcott_analysis::backend::run;
+use jeffcott_analysis::bench::bench_spec;
+use jeffcott_core::ensemble::{Backend, Precision};
+use jeffcott_core::integrate::lane::advance_period;
+use jeffcott_core::real::Real;
 use std::cell::Cell;
 use std::cmp::Ordering;
 use std::ops::{Add, AddAssign, Div, Mul, Neg, Sub};

@@ -1,7 +1,7 @@
 //! The hand-written baseline comparison of issue 3: accuracy and speed of a
 //! straightforward per-trajectory RK4 loop in C (`benches/handwritten/rk4_loop.c`,
 //! contact switched per stage, no crossing location) against the lane stepper on the
-//! same lanes (`jeffcott::bench`, W = 133).
+//! same lanes (`jeffcott_analysis::bench`, W = 133).
 //!
 //! Both are measured against a reference: the lane stepper at N = 8000 steps per period
 //! (its error there is ~1e-12 m, docs/convergence.md). The C loop needs far more steps
@@ -11,8 +11,8 @@
 //! Run: `bash benches/handwritten/run.sh` (builds the C program and calls this with its
 //! path), or `cargo run --release --example handwritten -- ./rk4_loop LANES PERIODS N...`.
 
-use jeffcott::bench::{quantile, reference_final_states, sorted_position_errors};
-use jeffcott::model::{STATE_DIM, State};
+use jeffcott_analysis::bench::{quantile, reference_final_states, sorted_position_errors};
+use jeffcott_core::model::{STATE_DIM, State};
 use std::process::Command;
 use std::time::Instant;
 

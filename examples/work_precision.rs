@@ -9,10 +9,11 @@
 //!
 //! Usage: work_precision PATH_TO_rk4_switch [LANES] [PERIODS]
 
-use jeffcott::bench::{quantile, sorted_position_errors};
-use jeffcott::ensemble::{Backend, EnsembleSpec, LaneSpec, Precision, run};
-use jeffcott::integrate::lane::{DEFAULT_CONTACT_SUBSTEPS, StepperConfig};
-use jeffcott::model::{Params, STATE_DIM, State};
+use jeffcott_analysis::backend::run;
+use jeffcott_analysis::bench::{quantile, sorted_position_errors};
+use jeffcott_core::ensemble::{Backend, EnsembleSpec, LaneSpec, Precision};
+use jeffcott_core::integrate::lane::{DEFAULT_CONTACT_SUBSTEPS, StepperConfig};
+use jeffcott_core::model::{Params, STATE_DIM, State};
 use std::process::Command;
 use std::time::Instant;
 

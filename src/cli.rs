@@ -1,14 +1,19 @@
 //! Command-line interface: argument parsing, file writing, human summaries. Nothing
 //! numerical lives here (DESIGN.md 1).
 
-use crate::analysis::classify::ClassifyConfig;
-use crate::error::{Error, Result};
-use crate::integrate::article::{ArticleConfig, ErrorNorm};
-use crate::integrate::lane::{DEFAULT_CONTACT_SUBSTEPS, DEFAULT_STEPS_PER_PERIOD, StepperConfig};
-use crate::model::{COORD_NAMES, Params, STATE_DIM, State, X_R, X_S, Y_R, Y_S, coord_index};
-use crate::simulate::{Integrator, SimulateSpec, simulate};
-use crate::{output, plot};
+use crate::plot;
 use clap::{Args, Parser, Subcommand};
+use jeffcott_analysis::classify::ClassifyConfig;
+use jeffcott_analysis::output;
+use jeffcott_analysis::simulate::{Integrator, SimulateSpec, simulate};
+use jeffcott_core::error::{Error, Result};
+use jeffcott_core::integrate::article::{ArticleConfig, ErrorNorm};
+use jeffcott_core::integrate::lane::{
+    DEFAULT_CONTACT_SUBSTEPS, DEFAULT_STEPS_PER_PERIOD, StepperConfig,
+};
+use jeffcott_core::model::{
+    COORD_NAMES, Params, STATE_DIM, State, X_R, X_S, Y_R, Y_S, coord_index,
+};
 use std::path::{Path, PathBuf};
 
 mod basin;
@@ -164,12 +169,12 @@ pub struct EnsembleArgs {
     pub periods: u32,
     /// Backend: auto (a hardware GPU if present, else the CPU), cpu, or gpu (any adapter,
     /// software included; an error if none).
-    #[arg(long, value_enum, default_value_t = crate::ensemble::Backend::Auto)]
-    pub backend: crate::ensemble::Backend,
+    #[arg(long, value_enum, default_value_t = jeffcott_core::ensemble::Backend::Auto)]
+    pub backend: jeffcott_core::ensemble::Backend,
     /// Lane precision [default: f64 on the CPU, f32 on a GPU]. f64 on a GPU needs an
     /// adapter with SHADER_F64.
     #[arg(long, value_enum)]
-    pub precision: Option<crate::ensemble::Precision>,
+    pub precision: Option<jeffcott_core::ensemble::Precision>,
     #[command(flatten)]
     pub model: ModelArgs,
     #[command(flatten)]
@@ -206,21 +211,21 @@ fn ensemble_lanes(
     a: &EnsembleArgs,
 ) -> Result<(
     Vec<Params>,
-    Vec<crate::ensemble::LaneSpec>,
+    Vec<jeffcott_core::ensemble::LaneSpec>,
     serde_json::Value,
 )> {
-    use crate::ensemble::LaneSpec;
-    use crate::ensemble::table::{
+    use jeffcott_core::ensemble::LaneSpec;
+    use jeffcott_core::ensemble::table::{
         LaneTable, TableDefaults, lanes_checksum, lanes_from_table, read_params_table,
     };
     let params = a.model.params()?;
     let bound = a.stepper.divergence_bound;
     if let Some(path) = &a.lanes {
         let table = LaneTable::read(path, a.columns.as_deref())?;
-        crate::limits::check_memory(
+        jeffcott_core::limits::check_memory(
             "lanes",
             path.display(),
-            crate::ensemble::EnsembleSpec::memory_estimate_for(
+            jeffcott_core::ensemble::EnsembleSpec::memory_estimate_for(
                 table.rows.len() as u64,
                 a.periods as u64,
             ),
@@ -242,7 +247,7 @@ fn ensemble_lanes(
         // --omega with a table: one speed for lanes without an omega column.
         let omega = match &a.omega {
             Some(text) => {
-                let r = crate::ensemble::RangeSpec::parse("omega", text)?;
+                let r = jeffcott_core::ensemble::RangeSpec::parse("omega", text)?;
                 if r.n != 1 {
                     return Err(Error::invalid(
                         "omega",
@@ -276,11 +281,11 @@ fn ensemble_lanes(
     let mut x0 = params.static_equilibrium();
     apply_init(&mut x0, &a.init)?;
     check_start_within_bound("init", &x0, bound)?;
-    let range = crate::ensemble::RangeSpec::parse("omega", omega)?;
-    crate::limits::check_memory(
+    let range = jeffcott_core::ensemble::RangeSpec::parse("omega", omega)?;
+    jeffcott_core::limits::check_memory(
         "omega",
         omega,
-        crate::ensemble::EnsembleSpec::memory_estimate_for(range.len(), a.periods as u64),
+        jeffcott_core::ensemble::EnsembleSpec::memory_estimate_for(range.len(), a.periods as u64),
         &format!("{} lanes x {} recorded periods", range.len(), a.periods),
         "ask for fewer speeds (a smaller n in --omega a:b:n) or fewer --periods",
     )?;
@@ -301,14 +306,14 @@ fn ensemble_lanes(
 /// Runs `jeffcott ensemble`: lanes in work units committed to --out, then the files
 /// assembled from the units (poincare.npy streamed, one unit in memory at a time).
 pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
-    use crate::ensemble::{EnsembleSpec, lane_table_columns};
-    use crate::run::{Array, Unit};
-    crate::limits::check_periods("transient", a.transient, 0)?;
-    crate::limits::check_periods("periods", a.periods, 1)?;
+    use jeffcott_analysis::run::{Array, Unit};
+    use jeffcott_core::ensemble::{EnsembleSpec, lane_table_columns};
+    jeffcott_core::limits::check_periods("transient", a.transient, 0)?;
+    jeffcott_core::limits::check_periods("periods", a.periods, 1)?;
     let (param_sets, lanes, lanes_json) = ensemble_lanes(a)?;
     let precision = a
         .precision
-        .unwrap_or_else(|| crate::ensemble::default_precision(a.backend));
+        .unwrap_or_else(|| jeffcott_analysis::backend::default_precision(a.backend));
     let spec = EnsembleSpec {
         lanes,
         param_sets,
@@ -320,11 +325,11 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
     spec.validate()?;
     let n = spec.lanes.len();
     let per_lane = (spec.transient + spec.recorded) as u64;
-    let unit = crate::run::unit_lanes(
+    let unit = jeffcott_analysis::run::unit_lanes(
         n,
         per_lane * spec.stepper.steps_per_period as u64 * if a.lyapunov { 2 } else { 1 },
     );
-    let count = crate::run::unit_count(n, unit);
+    let count = jeffcott_analysis::run::unit_count(n, unit);
     // A speed range keeps the keys of earlier versions (omega, x0), so their runs resume.
     let mut run_spec = serde_json::json!({
         "transient": spec.transient,
@@ -354,12 +359,12 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
     let store = rundir::store(&rd);
     let bar = crate::progress::Progress::new("ensemble", n as u64 * per_lane, per_lane, a.quiet);
     let start = std::time::Instant::now();
-    let engine = crate::ensemble::Engine::new(a.backend, spec.precision)?;
+    let engine = jeffcott_analysis::backend::Engine::new(a.backend, spec.precision)?;
     let ensemble = |u: usize| EnsembleSpec {
         lanes: spec.lanes[u * unit..((u + 1) * unit).min(n)].to_vec(),
         ..spec.clone()
     };
-    let reduce = |_u: usize, _e: &EnsembleSpec, r: crate::ensemble::EnsembleResult| {
+    let reduce = |_u: usize, _e: &EnsembleSpec, r: jeffcott_core::ensemble::EnsembleResult| {
         let c = &r.counters;
         let mut out = Unit::new("")
             .with("poincare", Array::F64(r.poincare))
@@ -381,10 +386,10 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
     };
     let cancel = rundir::cancel();
     let cb = rundir::bar_callback(&bar);
-    let ran = crate::run::lanes::run_units(
+    let ran = jeffcott_analysis::run::lanes::run_units(
         store.as_ref(),
         &engine,
-        &crate::run::lanes::LaneUnits {
+        &jeffcott_analysis::run::lanes::LaneUnits {
             stage: "ensemble",
             count,
             ensemble: &ensemble,
@@ -392,7 +397,7 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
             lambda1: a.lyapunov,
             reduce: &reduce,
         },
-        crate::run::lanes::Control {
+        jeffcott_analysis::run::lanes::Control {
             progress: &cb,
             cancel: &cancel,
         },
@@ -402,7 +407,7 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
         return rundir::finish_shard(&rd, a.quiet);
     }
     let elapsed = start.elapsed().as_secs_f64();
-    let info = ran.unwrap_or(crate::ensemble::RunInfo {
+    let info = ran.unwrap_or(jeffcott_core::ensemble::RunInfo {
         backend: if engine.runner().is_some() {
             "gpu"
         } else {
@@ -454,18 +459,19 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
     output::write_npy(
         &dir.join("params.npy"),
         &[spec.param_sets.len(), Params::FIELDS.len()],
-        &crate::ensemble::table::params_table(&spec.param_sets),
+        &jeffcott_core::ensemble::table::params_table(&spec.param_sets),
     )?;
     if a.lyapunov {
         output::write_npy(&dir.join("lambda1.npy"), &[n], &lambda1)?;
     }
-    let status: Vec<crate::integrate::lane::Status> = codes
+    let status: Vec<jeffcott_core::integrate::lane::Status> = codes
         .iter()
-        .filter_map(|&c| crate::integrate::lane::Status::from_code(c))
+        .filter_map(|&c| jeffcott_core::integrate::lane::Status::from_code(c))
         .collect();
-    let count = |s: crate::integrate::lane::Status| status.iter().filter(|&&x| x == s).count();
-    use crate::integrate::lane::Status;
-    let info = crate::ensemble::RunInfo {
+    let count =
+        |s: jeffcott_core::integrate::lane::Status| status.iter().filter(|&&x| x == s).count();
+    use jeffcott_core::integrate::lane::Status;
+    let info = jeffcott_core::ensemble::RunInfo {
         elapsed_s: elapsed,
         ..info
     };
@@ -524,7 +530,7 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
 
 /// Runs `jeffcott info`.
 pub fn run_info() -> Result<()> {
-    let adapters = crate::gpu::list_adapters();
+    let adapters = jeffcott_gpu::list_adapters();
     println!("CPU: {} rayon threads", rayon::current_num_threads());
     if adapters.is_empty() {
         println!(
@@ -817,7 +823,7 @@ pub fn run_simulate(a: &SimulateArgs) -> Result<()> {
     }
     spec.validate()?;
     check_start_within_bound("init", &spec.x0, spec.stepper.divergence_bound)?;
-    crate::limits::check_memory(
+    jeffcott_core::limits::check_memory(
         "periods",
         a.periods,
         spec.memory_estimate(),
@@ -902,7 +908,7 @@ pub fn run_simulate(a: &SimulateArgs) -> Result<()> {
 fn write_simulation(
     dir: &Path,
     spec: &SimulateSpec,
-    res: &crate::simulate::SimulateResult,
+    res: &jeffcott_analysis::simulate::SimulateResult,
     rub: Option<&rubout::RubOutputs>,
     plot_it: bool,
 ) -> Result<()> {
@@ -1010,9 +1016,9 @@ fn finite_or_null(v: f64) -> serde_json::Value {
 /// `summary.json`; null otherwise.
 fn classification_reason(
     spec: &SimulateSpec,
-    res: &crate::simulate::SimulateResult,
+    res: &jeffcott_analysis::simulate::SimulateResult,
 ) -> serde_json::Value {
-    use crate::analysis::classify::{Class, MIN_POINTS};
+    use jeffcott_analysis::classify::{Class, MIN_POINTS};
     match res.classification.class {
         Class::Unclassified => serde_json::json!(format!(
             "{} Poincare point(s) recorded; at least {MIN_POINTS} are needed to classify \
@@ -1029,8 +1035,12 @@ fn classification_reason(
     }
 }
 
-fn human_summary(spec: &SimulateSpec, res: &crate::simulate::SimulateResult, dir: &Path) -> String {
-    use crate::analysis::classify::{Class, MIN_POINTS};
+fn human_summary(
+    spec: &SimulateSpec,
+    res: &jeffcott_analysis::simulate::SimulateResult,
+    dir: &Path,
+) -> String {
+    use jeffcott_analysis::classify::{Class, MIN_POINTS};
     let c = &res.classification;
     let what = match c.class.period() {
         Some(1) => {

@@ -1,8 +1,8 @@
 //! Pictures (plotters, bitmap backend, the bundled DejaVu Sans font so no system font
 //! library is needed).
 
-use crate::error::{Error, Result};
-use crate::model::{STATE_DIM, State, VX_R, VX_S, X_R, X_S, Y_R, Y_S};
+use jeffcott_core::error::{Error, Result};
+use jeffcott_core::model::{STATE_DIM, State, VX_R, VX_S, X_R, X_S, Y_R, Y_S};
 use plotters::prelude::*;
 use std::path::Path;
 use std::sync::Once;
@@ -41,7 +41,7 @@ where
 }
 
 /// Draws a `size` picture in memory with `draw` and writes it as PNG through a
-/// temporary renamed into place ([`crate::output::write_png`]), so a picture under its
+/// temporary renamed into place ([`jeffcott_analysis::output::write_png`]), so a picture under its
 /// final name is always whole and an I/O error names the file.
 pub(crate) fn render_png(
     path: &Path,
@@ -50,7 +50,7 @@ pub(crate) fn render_png(
 ) -> Result<()> {
     let mut buf = vec![0u8; size.0 as usize * size.1 as usize * 3];
     draw(BitMapBackend::with_buffer(&mut buf, size).into_drawing_area())?;
-    crate::output::write_png(path, size, &buf)
+    jeffcott_analysis::output::write_png(path, size, &buf)
 }
 
 fn plot_err(path: &Path) -> impl Fn(String) -> Error + '_ {
@@ -222,7 +222,7 @@ pub struct DotSeries {
 /// Value of component `i` in plot units (positions in mm, velocities in m/s) and the
 /// axis label with its unit.
 pub fn coord_axis(i: usize) -> (f64, String) {
-    let name = crate::model::COORD_NAMES[i];
+    let name = jeffcott_core::model::COORD_NAMES[i];
     if i.is_multiple_of(2) {
         (1e3, format!("{name} [mm]"))
     } else {

@@ -2,10 +2,11 @@
 //! with known answers, and real runs at the article's W = 131.7 (period-1) and 132.2
 //! (period-2).
 
-use jeffcott::analysis::catalogue::{CatalogueConfig, catalogue, catalogue_result};
-use jeffcott::analysis::classify::Class;
-use jeffcott::ensemble::{Backend, EnsembleSpec, LaneSpec, Precision, run};
-use jeffcott::model::{Params, STATE_DIM, State, VX_R, X_R};
+use jeffcott_analysis::backend::run;
+use jeffcott_analysis::catalogue::{CatalogueConfig, catalogue, catalogue_result};
+use jeffcott_analysis::classify::Class;
+use jeffcott_core::ensemble::{Backend, EnsembleSpec, LaneSpec, Precision};
+use jeffcott_core::model::{Params, STATE_DIM, State, VX_R, X_R};
 
 const W: f64 = 133.0;
 
@@ -185,7 +186,7 @@ fn labels_are_stable_when_tolerances_change_tenfold_either_way() {
 }
 
 /// Lanes near the static equilibrium at speed `omega` (f64, CPU).
-fn real_run(omega: f64) -> jeffcott::ensemble::EnsembleResult {
+fn real_run(omega: f64) -> jeffcott_core::ensemble::EnsembleResult {
     let p = Params::default();
     let lanes = (0..4)
         .map(|i| {
@@ -229,11 +230,11 @@ fn real_runs_are_one_period_1_attractor_at_131_7_and_one_period_2_attractor_at_1
     }
 }
 
-fn study(omega: &str, ics: u32) -> jeffcott::analysis::bifurcation::BifurcationSpec {
-    use jeffcott::analysis::bifurcation::{BifurcationSpec, Sweep};
+fn study(omega: &str, ics: u32) -> jeffcott_analysis::bifurcation::BifurcationSpec {
+    use jeffcott_analysis::bifurcation::{BifurcationSpec, Sweep};
     BifurcationSpec {
         params: Params::default(),
-        omegas: jeffcott::ensemble::parse_range("omega", omega).unwrap(),
+        omegas: jeffcott_core::ensemble::parse_range("omega", omega).unwrap(),
         sweep: Some(Sweep::Both),
         transient_first: 800,
         transient: 200,
@@ -252,9 +253,9 @@ fn study(omega: &str, ics: u32) -> jeffcott::analysis::bifurcation::BifurcationS
 
 #[test]
 fn quasistatic_up_and_down_sweeps_follow_the_same_branch_where_monostable() {
-    use jeffcott::analysis::bifurcation::bifurcation;
+    use jeffcott_analysis::bifurcation::bifurcation;
     let spec = study("131.6:131.8:5", 3);
-    let res = bifurcation(&spec, &jeffcott::run::no_progress).unwrap();
+    let res = bifurcation(&spec, &jeffcott_analysis::run::no_progress).unwrap();
     assert_eq!((res.up.len(), res.down.len()), (5, 5));
     for (wi, (u, d)) in res.up.iter().zip(&res.down).enumerate() {
         assert_eq!(u.omega, d.omega);
@@ -278,12 +279,12 @@ fn quasistatic_up_and_down_sweeps_follow_the_same_branch_where_monostable() {
 
 #[test]
 fn brute_force_contains_every_attractor_the_quasistatic_sweeps_found() {
-    use jeffcott::analysis::bifurcation::bifurcation;
+    use jeffcott_analysis::bifurcation::bifurcation;
     // Away from bifurcation points, where 300 periods settle every lane (next to one,
     // e.g. the period-4/period-5 boundary near 132.9, slow convergence leaves the
     // classification to the transient length).
     let spec = study("132.3:132.5:3", 4);
-    let res = bifurcation(&spec, &jeffcott::run::no_progress).unwrap();
+    let res = bifurcation(&spec, &jeffcott_analysis::run::no_progress).unwrap();
     for sw in [&res.up, &res.down] {
         for (wi, p) in sw.iter().enumerate() {
             if p.status.is_frozen() {
@@ -307,7 +308,7 @@ fn brute_force_contains_every_attractor_the_quasistatic_sweeps_found() {
 
 #[test]
 fn streaming_lanes_in_chunks_gives_the_labels_of_one_block() {
-    use jeffcott::analysis::catalogue::CatalogueBuilder;
+    use jeffcott_analysis::catalogue::CatalogueBuilder;
     let mut lanes = Vec::new();
     for k in 0..12 {
         lanes.push(cycle(
@@ -342,7 +343,7 @@ fn streaming_lanes_in_chunks_gives_the_labels_of_one_block() {
 
 #[test]
 fn lambda1_row_is_negative_on_the_period_1_branch_and_positive_at_140() {
-    use jeffcott::analysis::bifurcation::bifurcation;
+    use jeffcott_analysis::bifurcation::bifurcation;
     let mut spec = study("131.7:131.7:1", 2);
     // 131.7 (period-1), then a jump to 140 (chaotic, lambda_1 ~ 7.5 1/s): sweeps up and
     // down and two brute-force lanes per W, all with lambda_1.
@@ -353,7 +354,7 @@ fn lambda1_row_is_negative_on_the_period_1_branch_and_positive_at_140() {
     spec.brute_transient = 300;
     spec.recorded = 64;
     spec.max_seeds = 2;
-    let r = bifurcation(&spec, &jeffcott::run::no_progress).unwrap();
+    let r = bifurcation(&spec, &jeffcott_analysis::run::no_progress).unwrap();
     for sw in [&r.up, &r.down] {
         assert_eq!(sw[0].class.class, Class::Periodic(1));
         assert!(sw[0].lambda1 < -0.5, "131.7: {}", sw[0].lambda1);
@@ -374,7 +375,7 @@ fn lambda1_row_is_negative_on_the_period_1_branch_and_positive_at_140() {
 
 #[test]
 fn basin_lambda1_map_is_finite_and_the_catalogue_says_chaotic_at_140() {
-    use jeffcott::analysis::basin::{Axis, BasinSpec, basin};
+    use jeffcott_analysis::basin::{Axis, BasinSpec, basin};
     let p = Params::default();
     let spec = BasinSpec {
         base: p.static_equilibrium(),
@@ -401,7 +402,7 @@ fn basin_lambda1_map_is_finite_and_the_catalogue_says_chaotic_at_140() {
         chunk: Some(4),
         lyapunov: true,
     };
-    let r = basin(&spec, &jeffcott::run::no_progress).unwrap();
+    let r = basin(&spec, &jeffcott_analysis::run::no_progress).unwrap();
     let l1 = r.lambda1.as_ref().unwrap();
     assert_eq!(l1.len(), 6);
     assert!(l1.iter().all(|l| l.is_finite() && *l > 2.0), "{l1:?}");
@@ -434,7 +435,7 @@ fn scattered_lambda1_estimates_on_one_cloud_give_one_quasiperiodic_attractor() {
     assert_eq!(c.attractors[0].kind(), Class::Quasiperiodic);
     assert_eq!(c.labels, vec![0; 6]);
     // A catalogued quasiperiodic attractor still identifies a new lane on it.
-    let l = jeffcott::analysis::catalogue::classify_lane(
+    let l = jeffcott_analysis::catalogue::classify_lane(
         &circle(200, 77),
         W,
         false,

@@ -1,8 +1,8 @@
 //! The article's reported responses (MODEL.md 6), reproduced from the static equilibrium.
 
-use jeffcott::analysis::classify::{Class, ClassifyConfig};
-use jeffcott::model::Params;
-use jeffcott::simulate::{Integrator, SimulateSpec, simulate};
+use jeffcott_analysis::classify::{Class, ClassifyConfig};
+use jeffcott_analysis::simulate::{Integrator, SimulateSpec, simulate};
+use jeffcott_core::model::Params;
 
 fn spec(omega: f64) -> SimulateSpec {
     let params = Params::default();
@@ -37,8 +37,7 @@ fn static_equilibrium_start_settles_on_period_1_at_131_7_and_period_2_at_132_2()
                 abs_tol: abs,
                 ..ClassifyConfig::default()
             };
-            let c =
-                jeffcott::analysis::classify::classify(&res.poincare, omega, false, &s.classify);
+            let c = jeffcott_analysis::classify::classify(&res.poincare, omega, false, &s.classify);
             assert_eq!(
                 c.class,
                 Class::Periodic(n),

@@ -4,11 +4,11 @@
 //! prints "skipped" and returns, unless `JEFFCOTT_REQUIRE_GPU=1` is set, as in
 //! `tests/gpu.rs`.
 
-use jeffcott::analysis::basin::{Axis, BasinSpec, basin};
-use jeffcott::ensemble::{Backend, Precision};
-use jeffcott::gpu::{DeviceRequest, GpuDevice};
-use jeffcott::integrate::lane::StepperConfig;
-use jeffcott::model::{Params, VX_R, X_R};
+use jeffcott_analysis::basin::{Axis, BasinSpec, basin};
+use jeffcott_core::ensemble::{Backend, Precision};
+use jeffcott_core::integrate::lane::StepperConfig;
+use jeffcott_core::model::{Params, VX_R, X_R};
+use jeffcott_gpu::{DeviceRequest, GpuDevice};
 
 fn require_gpu() -> bool {
     std::env::var("JEFFCOTT_REQUIRE_GPU").as_deref() == Ok("1")
@@ -57,13 +57,13 @@ fn basin_labels_are_identical_on_cpu_and_gpu_f64() {
         chunk: Some(7),
         lyapunov: true,
     };
-    let cpu = basin(&spec, &jeffcott::run::no_progress).unwrap();
+    let cpu = basin(&spec, &jeffcott_analysis::run::no_progress).unwrap();
     spec.backend = Backend::Gpu;
-    let gpu = basin(&spec, &jeffcott::run::no_progress).unwrap();
+    let gpu = basin(&spec, &jeffcott_analysis::run::no_progress).unwrap();
     assert_eq!(gpu.info.as_ref().unwrap().backend, "gpu");
     assert_eq!(cpu.labels, gpu.labels);
     assert_eq!(cpu.labels.len(), 20);
-    let names = |r: &jeffcott::analysis::basin::BasinResult| -> Vec<String> {
+    let names = |r: &jeffcott_analysis::basin::BasinResult| -> Vec<String> {
         r.catalogue.attractors.iter().map(|a| a.name()).collect()
     };
     assert_eq!(names(&cpu), names(&gpu));

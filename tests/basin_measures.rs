@@ -4,7 +4,7 @@
 //! Newton's method for z^3 = 1 (Wada, fractal) and z^2 = 1 (two half-planes).
 //! Every grid is built here; the only numbers written down are analytic expectations.
 
-use jeffcott::analysis::measures::{
+use jeffcott_analysis::measures::{
     BoundaryKind, DEFAULT_ENTROPY_BOX, LabelGrid, WadaOptions, basin_entropy, basin_fractions,
     boundary_box_dimension, classify_boundary, uncertainty_exponent, wada_merge_test,
 };

@@ -1,10 +1,10 @@
 //! The CPU ensemble backend: deterministic across thread counts, lanes isolated from
 //! each other, and the same arithmetic as a single `simulate` run.
 
-use jeffcott::ensemble::{EnsembleSpec, LaneSpec, Precision, cpu};
-use jeffcott::integrate::lane::{Counters, Status, StepperConfig, advance_period};
-use jeffcott::model::{Params, VX_R, X_R};
-use jeffcott::simulate::{Integrator, SimulateSpec, simulate};
+use jeffcott_analysis::simulate::{Integrator, SimulateSpec, simulate};
+use jeffcott_core::ensemble::{EnsembleSpec, LaneSpec, Precision, cpu};
+use jeffcott_core::integrate::lane::{Counters, Status, StepperConfig, advance_period};
+use jeffcott_core::model::{Params, VX_R, X_R};
 
 fn spec(precision: Precision, lanes: usize) -> EnsembleSpec {
     let p = Params::default();
@@ -121,7 +121,7 @@ fn invalid_ensembles_name_the_lane_and_field() {
 /// Every lane of an ensemble through the scalar lane stepper alone, as the GPU kernel
 /// mirrors it: the reference the SIMD batch path must equal (records of frozen lanes NaN
 /// from the period they froze in, `ensemble::mask_frozen_records`).
-fn scalar_reference<R: jeffcott::real::Real>(
+fn scalar_reference<R: jeffcott_core::real::Real>(
     s: &EnsembleSpec,
 ) -> Vec<(Vec<u64>, Status, Counters)> {
     (0..s.lanes.len())
@@ -172,7 +172,7 @@ fn simd_batches_equal_the_scalar_lane_stepper_to_the_bit() {
         s.lanes[12].x0[VX_R] = 1e6;
         // A third parameter set with contact damping (a velocity-dependent force that
         // jumps at g = 0) for every third lane.
-        let damped = jeffcott::model::Params {
+        let damped = jeffcott_core::model::Params {
             c_c: 2e4,
             ..s.param_sets[0].clone()
         };
@@ -209,8 +209,10 @@ fn simd_batches_equal_the_scalar_lane_stepper_to_the_bit() {
 /// and lambda_1 to the bit.
 #[test]
 fn simd_batches_with_lambda1_equal_the_scalar_tangent_stepper_to_the_bit() {
-    use jeffcott::integrate::lane::{LAMBDA1_START, Tangent, advance_period_tangent, renormalise};
-    use jeffcott::model::STATE_DIM;
+    use jeffcott_core::integrate::lane::{
+        LAMBDA1_START, Tangent, advance_period_tangent, renormalise,
+    };
+    use jeffcott_core::model::STATE_DIM;
     let mut s = spec(Precision::F64, 21);
     s.lanes[4].x0[X_R] = f64::NAN;
     s.lanes[6].x0[VX_R] = 1e6;
@@ -248,7 +250,7 @@ fn simd_batches_with_lambda1_equal_the_scalar_tangent_stepper_to_the_bit() {
         let want = if lane.status.is_frozen() {
             f64::NAN
         } else {
-            jeffcott::lyapunov::lambda1_from_norms(&norms, s.lanes[i].omega)
+            jeffcott_core::lyapunov::lambda1_from_norms(&norms, s.lanes[i].omega)
         };
         assert_eq!(got_l1.to_bits(), want.to_bits(), "lane {i} lambda_1");
     }

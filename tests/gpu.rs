@@ -1,13 +1,13 @@
-//! Parity of the WGSL lane kernel (`shaders/lane.wgsl` through `jeffcott::gpu`) with the
+//! Parity of the WGSL lane kernel (`integrate/lane.wgsl` through `jeffcott_gpu`) with the
 //! CPU lane stepper (`integrate::lane`), which is the reference.
 //!
 //! These tests need a Vulkan (or other wgpu) adapter. Without one they print
 //! "skipped: no Vulkan adapter" and return, unless `JEFFCOTT_REQUIRE_GPU=1` is set (CI
 //! with Mesa's lavapipe), in which case they fail.
 
-use jeffcott::gpu::{DeviceRequest, GpuDevice, GpuReal, GpuRunner, LaneOutcome, Schedule};
-use jeffcott::integrate::lane::{Lane, LaneConsts, Status, StepperConfig, advance_period};
-use jeffcott::model::{Params, STATE_DIM, VX_R, X_R};
+use jeffcott_core::integrate::lane::{Lane, LaneConsts, Status, StepperConfig, advance_period};
+use jeffcott_core::model::{Params, STATE_DIM, VX_R, X_R};
+use jeffcott_gpu::{DeviceRequest, GpuDevice, GpuReal, GpuRunner, LaneOutcome, Schedule};
 use rayon::prelude::*;
 use std::sync::OnceLock;
 
@@ -556,7 +556,7 @@ fn probe_kernel<R: GpuReal>(runner: &GpuRunner, rows: &[R]) -> Vec<R> {
     let dev = runner.gpu().device();
     let n = rows.len() / 23;
     let out_bytes = (n * 10 * std::mem::size_of::<R>()) as u64;
-    let src = jeffcott::gpu::shader::source::<R>() + PROBE_ENTRY;
+    let src = jeffcott_gpu::shader::source::<R>() + PROBE_ENTRY;
     let scope = dev.push_error_scope(wgpu::ErrorFilter::Validation);
     let module = dev.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some("probe"),
@@ -571,7 +571,7 @@ fn probe_kernel<R: GpuReal>(runner: &GpuRunner, rows: &[R]) -> Vec<R> {
         cache: None,
     });
     // `keep` reads params.n_lanes, which is never 0 in a real dispatch.
-    let params = jeffcott::gpu::layout::Params {
+    let params = jeffcott_gpu::layout::Params {
         n_lanes: 1,
         ..Default::default()
     };
@@ -631,8 +631,8 @@ fn probe_kernel<R: GpuReal>(runner: &GpuRunner, rows: &[R]) -> Vec<R> {
 /// after many periods: `rhs_frozen` (where Mesa's add-chain reassociation bit, see
 /// `keep` in the kernel) and `phasor_turns` on 50 000 random inputs around contact.
 fn functions_match_cpu_bit_for_bit<R: GpuReal>(runner: &GpuRunner) {
-    use jeffcott::integrate::forcing::phasor_turns;
-    use jeffcott::model::{Coeffs, rhs_frozen};
+    use jeffcott_core::integrate::forcing::phasor_turns;
+    use jeffcott_core::model::{Coeffs, rhs_frozen};
     let n = 50_000;
     let mut rows = Vec::with_capacity(n * 23);
     let mut inputs = Vec::with_capacity(n);
@@ -720,8 +720,9 @@ fn rhs_and_phasor_on_the_gpu_match_the_cpu_bit_for_bit() {
 /// 1e-5 m x W (velocities).
 #[test]
 fn f32_gpu_lanes_find_the_f64_cpu_period_and_points_within_1e_5_m() {
-    use jeffcott::analysis::classify::{Class, ClassifyConfig, classify};
-    use jeffcott::ensemble::{Backend, EnsembleSpec, LaneSpec, Precision, run};
+    use jeffcott_analysis::backend::run;
+    use jeffcott_analysis::classify::{Class, ClassifyConfig, classify};
+    use jeffcott_core::ensemble::{Backend, EnsembleSpec, LaneSpec, Precision};
     if runner_for::<f32>().is_none() {
         return;
     }

@@ -2,11 +2,11 @@
 //! exponents, a periodic attractor, the saltation matrix at contact switches, and the
 //! largest exponent of the ensemble lanes against the full spectrum.
 
-use jeffcott::integrate::lane::{
+use jeffcott_core::integrate::lane::{
     Lane, LaneConsts, StepperConfig, Tangent, advance_period, macro_step_tangent,
 };
-use jeffcott::lyapunov::{Spectrum, SpectrumConfig, spectrum};
-use jeffcott::model::{Params, STATE_DIM, State};
+use jeffcott_core::lyapunov::{Spectrum, SpectrumConfig, spectrum};
+use jeffcott_core::model::{Params, STATE_DIM, State};
 
 /// -2 (2 xi_r w_r + 2 xi_s w_s) for Table 1 (MODEL.md 6) [1/s].
 const TABLE1_TRACE: f64 = -2.0 * (2.0 * 0.02 * 140.0 + 2.0 * 0.05 * 540.0);
@@ -344,8 +344,8 @@ fn ensemble_spec(
     lanes: &[(f64, Params)],
     transient: u32,
     recorded: u32,
-) -> jeffcott::ensemble::EnsembleSpec {
-    use jeffcott::ensemble::{EnsembleSpec, LaneSpec, Precision};
+) -> jeffcott_core::ensemble::EnsembleSpec {
+    use jeffcott_core::ensemble::{EnsembleSpec, LaneSpec, Precision};
     EnsembleSpec {
         param_sets: lanes.iter().map(|(_, p)| p.clone()).collect(),
         lanes: lanes
@@ -377,7 +377,7 @@ fn cpu_lambda1_of_a_lane_agrees_with_the_first_exponent_of_the_full_spectrum() {
             cfg.transient + cfg.tangent_transient,
             s.periods,
         );
-        let res = jeffcott::ensemble::cpu::run_with_lambda1(&spec, &|_| {}).unwrap();
+        let res = jeffcott_core::ensemble::cpu::run_with_lambda1(&spec, &|_| {}).unwrap();
         let l1 = res.lambda1.as_ref().unwrap()[0];
         eprintln!(
             "W = {omega}: lane lambda_1 {l1:.5}, spectrum {:.5} +- {:.1e}",
@@ -390,7 +390,7 @@ fn cpu_lambda1_of_a_lane_agrees_with_the_first_exponent_of_the_full_spectrum() {
             s.errors[0]
         );
         // The plain run records the same points and computes no exponent.
-        let plain = jeffcott::ensemble::cpu::run(&spec, &|_| {}).unwrap();
+        let plain = jeffcott_core::ensemble::cpu::run(&spec, &|_| {}).unwrap();
         assert!(plain.lambda1.is_none());
         assert_eq!(plain.poincare, res.poincare);
     }
@@ -402,8 +402,8 @@ fn require_gpu() -> bool {
 
 /// A runner with f64 support, or `None` (after saying so) when there is none and none is
 /// required; panics when `JEFFCOTT_REQUIRE_GPU=1` and there is none.
-fn gpu_runner_f64() -> Option<jeffcott::gpu::GpuRunner> {
-    use jeffcott::gpu::{DeviceRequest, GpuDevice, GpuRunner};
+fn gpu_runner_f64() -> Option<jeffcott_gpu::GpuRunner> {
+    use jeffcott_gpu::{DeviceRequest, GpuDevice, GpuRunner};
     let req = DeviceRequest {
         need_f64: true,
         allow_software: true,
@@ -451,9 +451,10 @@ fn gpu_lambda1_matches_cpu_lambda1_within_1e_3_per_second() {
     ));
     let spec = ensemble_spec(&lanes, 100, 100);
     let t = std::time::Instant::now();
-    let gpu = jeffcott::ensemble::run_on_gpu_with_lambda1(&spec, &runner, &|_, _| {}).unwrap();
+    let gpu =
+        jeffcott_analysis::backend::run_on_gpu_with_lambda1(&spec, &runner, &|_, _| {}).unwrap();
     eprintln!("GPU: {:.2} s", t.elapsed().as_secs_f64());
-    let cpu = jeffcott::ensemble::cpu::run_with_lambda1(&spec, &|_| {}).unwrap();
+    let cpu = jeffcott_core::ensemble::cpu::run_with_lambda1(&spec, &|_| {}).unwrap();
     let (g, c) = (gpu.lambda1.unwrap(), cpu.lambda1.unwrap());
     let mut identical = 0;
     let mut worst: f64 = 0.0;
@@ -482,7 +483,7 @@ fn gpu_lambda1_matches_cpu_lambda1_within_1e_3_per_second() {
 
 #[test]
 fn damped_contact_force_is_kelvin_voigt_along_the_normal_and_its_jacobian_is_exact() {
-    use jeffcott::model::{
+    use jeffcott_core::model::{
         VX_R, VX_S, VY_R, VY_S, X_R, X_S, Y_R, Y_S, contact_force, jacobian, penetration, rhs,
     };
     for mu in [0.0, 0.2] {
@@ -550,7 +551,7 @@ fn damped_contact_force_is_kelvin_voigt_along_the_normal_and_its_jacobian_is_exa
 
 #[test]
 fn gpu_lambda1_does_not_depend_on_time_slices_or_chunks() {
-    use jeffcott::gpu::Schedule;
+    use jeffcott_gpu::Schedule;
     let Some(runner) = gpu_runner_f64() else {
         return;
     };
@@ -574,7 +575,7 @@ fn gpu_lambda1_does_not_depend_on_time_slices_or_chunks() {
         consts.push(LaneConsts::<f64>::new(&p, omega, &cfg));
         init.push(Lane::<f64>::new(&p.static_equilibrium(), p.delta));
     }
-    let v = [[jeffcott::integrate::lane::LAMBDA1_START; STATE_DIM]; 12];
+    let v = [[jeffcott_core::integrate::lane::LAMBDA1_START; STATE_DIM]; 12];
     let run = |schedule: Schedule| {
         runner
             .run_lyapunov_with_progress(&consts, &init, &v, &schedule, &mut |_| {})

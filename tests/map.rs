@@ -10,9 +10,9 @@ mod common;
 use common::*;
 use std::process::{Command, Output};
 
-use jeffcott::ensemble::{Backend, EnsembleSpec, LaneSpec, Precision};
-use jeffcott::integrate::lane::StepperConfig;
-use jeffcott::model::Params;
+use jeffcott_core::ensemble::{Backend, EnsembleSpec, LaneSpec, Precision};
+use jeffcott_core::integrate::lane::StepperConfig;
+use jeffcott_core::model::Params;
 use std::path::Path;
 
 /// Short runs: 300 transient and 32 recorded periods at N = 500.
@@ -292,8 +292,8 @@ fn per_lane_parameters_on_the_gpu_equal_the_cpu_lanes_bit_for_bit_in_f64() {
         precision: Precision::F64,
     };
     let none = |_: u64, _: u64| {};
-    let (cpu, _) = jeffcott::ensemble::run(&spec, Backend::Cpu, &none).unwrap();
-    let (gpu, _) = jeffcott::ensemble::run(&spec, Backend::Gpu, &none).unwrap();
+    let (cpu, _) = jeffcott_analysis::backend::run(&spec, Backend::Cpu, &none).unwrap();
+    let (gpu, _) = jeffcott_analysis::backend::run(&spec, Backend::Gpu, &none).unwrap();
     assert!(cpu.counters.iter().all(|c| c.contact_steps > 0));
     let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
     assert_eq!(bits(&cpu.poincare), bits(&gpu.poincare));

@@ -1,9 +1,9 @@
 //! Physics statements the model and the integrators must satisfy (MODEL.md 6). Each test
 //! is named by what it proves.
 
-use jeffcott::integrate::article::{ArticleConfig, ArticleStepper, ErrorNorm};
-use jeffcott::integrate::lane::{Lane, LaneConsts, StepperConfig, advance_period, macro_step};
-use jeffcott::model::*;
+use jeffcott_core::integrate::article::{ArticleConfig, ArticleStepper, ErrorNorm};
+use jeffcott_core::integrate::lane::{Lane, LaneConsts, StepperConfig, advance_period, macro_step};
+use jeffcott_core::model::*;
 
 fn lane_run(p: &Params, omega: f64, x0: State, n: u32, periods: u32) -> Vec<State> {
     lane_run_r(

@@ -8,7 +8,7 @@
 mod common;
 use common::*;
 
-use jeffcott::analysis::spectrum::{Whirl, full_spectrum, line, whirl};
+use jeffcott_analysis::spectrum::{Whirl, full_spectrum, line, whirl};
 use rustfft::num_complex::Complex64;
 use std::path::Path;
 
@@ -50,7 +50,7 @@ fn full_spectra_of_circles_and_ellipses_separate_forward_and_backward_whirl() {
     assert!((el.hz[k] - w / std::f64::consts::TAU).abs() < 1e-12);
     // Parseval for the transform itself.
     let z = ellipse(a, b, 3);
-    let x = jeffcott::analysis::spectrum::dft(&z);
+    let x = jeffcott_analysis::spectrum::dft(&z);
     let lhs: f64 = x.iter().map(|v| v.norm_sqr()).sum();
     let rhs = z.iter().map(|v| v.norm_sqr()).sum::<f64>() * z.len() as f64;
     assert!((lhs - rhs).abs() < 1e-12 * rhs);
@@ -85,8 +85,8 @@ fn free_flight_never_rubs_and_its_spectrum_is_the_linear_unbalance_response() {
     let (_, spec) = npy::<f64>(&tmp.path().join("free/full_spectrum.npy"));
     let rows: Vec<&[f64]> = spec.chunks(4).collect();
     let at = |o: f64| rows.iter().find(|r| (r[0] - o).abs() < 1e-12).unwrap()[2];
-    let p = jeffcott::model::Params::default();
-    let (amp, _) = jeffcott::model::linear_unbalance_response(&p, w);
+    let p = jeffcott_core::model::Params::default();
+    let (amp, _) = jeffcott_core::model::linear_unbalance_response(&p, w);
     assert!(
         (at(1.0) - amp).abs() < 1e-6 * amp,
         "+1X {} vs {amp}",
@@ -205,7 +205,7 @@ fn contact_statistics_equal_those_integrated_from_the_time_series() {
     );
     let (shape, ts) = npy::<f64>(&dir.join("timeseries.npy"));
     assert_eq!(shape[1], 9);
-    let p = jeffcott::model::Params::default();
+    let p = jeffcott_core::model::Params::default();
     let (mut n, mut inc, mut sum, mut peak) = (0usize, 0usize, 0.0, 0.0f64);
     for r in ts.chunks(9).skip(1) {
         n += 1;

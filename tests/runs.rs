@@ -1,4 +1,4 @@
-//! Runs that survive (the run engine, `jeffcott::run`): a run killed at any point and
+//! Runs that survive (the run engine, `jeffcott_analysis::run`): a run killed at any point and
 //! resumed by the same command ends with files bit-identical to an uninterrupted run;
 //! an output directory never holds a half-written file under a final name, nor files of
 //! two runs; a different specification is refused unless `--overwrite`.
@@ -295,11 +295,11 @@ fn reproduce_killed_and_resumed_redraws_the_same_figures() {
 
 #[test]
 fn gpu_basin_killed_and_resumed_equals_an_uninterrupted_cpu_run_bit_for_bit() {
-    let req = jeffcott::gpu::DeviceRequest {
+    let req = jeffcott_gpu::DeviceRequest {
         need_f64: true,
         allow_software: true,
     };
-    if let Err(e) = jeffcott::gpu::GpuDevice::new(&req) {
+    if let Err(e) = jeffcott_gpu::GpuDevice::new(&req) {
         assert!(
             std::env::var("JEFFCOTT_REQUIRE_GPU").as_deref() != Ok("1"),
             "JEFFCOTT_REQUIRE_GPU=1 but no f64 GPU adapter: {e}"
@@ -578,9 +578,9 @@ fn a_full_disk_leaves_no_partial_file_and_the_run_resumes_after_space_is_freed()
 /// fractions and representative cycles of one unit holding every lane.
 #[test]
 fn basin_labels_do_not_depend_on_the_unit_size() {
-    use jeffcott::analysis::basin::{Axis, BasinSpec, basin};
-    use jeffcott::ensemble::{Backend, Precision};
-    use jeffcott::model::{Params, VX_R, X_R};
+    use jeffcott_analysis::basin::{Axis, BasinSpec, basin};
+    use jeffcott_core::ensemble::{Backend, Precision};
+    use jeffcott_core::model::{Params, VX_R, X_R};
     let p = Params::default();
     let mut spec = BasinSpec {
         base: p.static_equilibrium(),
@@ -607,7 +607,7 @@ fn basin_labels_do_not_depend_on_the_unit_size() {
         chunk: Some(80),
         lyapunov: false,
     };
-    let one = basin(&spec, &jeffcott::run::no_progress).unwrap();
+    let one = basin(&spec, &jeffcott_analysis::run::no_progress).unwrap();
     let periods: Vec<Option<usize>> = one.catalogue.attractors.iter().map(|a| a.period).collect();
     assert!(
         periods.len() >= 2 && periods.iter().all(|p| p.is_some()),
@@ -615,7 +615,7 @@ fn basin_labels_do_not_depend_on_the_unit_size() {
     );
     for unit in [1, 7, 13] {
         spec.chunk = Some(unit);
-        let cut = basin(&spec, &jeffcott::run::no_progress).unwrap();
+        let cut = basin(&spec, &jeffcott_analysis::run::no_progress).unwrap();
         assert_eq!(cut.labels, one.labels, "units of {unit} lanes");
         for (a, b) in cut
             .catalogue

@@ -3,9 +3,9 @@
 //! files of the unsharded run, identical to the bit. Attractors found in several shards
 //! get one id.
 
-use jeffcott::analysis::catalogue::{CatalogueBuilder, CatalogueConfig, PartAttractor};
-use jeffcott::analysis::classify::Class;
-use jeffcott::model::{STATE_DIM, State};
+use jeffcott_analysis::catalogue::{CatalogueBuilder, CatalogueConfig, PartAttractor};
+use jeffcott_analysis::classify::Class;
+use jeffcott_core::model::{STATE_DIM, State};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -116,11 +116,11 @@ fn a_basin_sharded_in_1_2_3_and_7_and_merged_in_any_order_equals_the_unsharded_r
 
 #[test]
 fn a_basin_sharded_on_the_gpu_in_f64_merges_to_the_cpu_run() {
-    let req = jeffcott::gpu::DeviceRequest {
+    let req = jeffcott_gpu::DeviceRequest {
         need_f64: true,
         allow_software: true,
     };
-    if let Err(e) = jeffcott::gpu::GpuDevice::new(&req) {
+    if let Err(e) = jeffcott_gpu::GpuDevice::new(&req) {
         assert!(
             std::env::var("JEFFCOTT_REQUIRE_GPU").as_deref() != Ok("1"),
             "JEFFCOTT_REQUIRE_GPU=1 but no f64 GPU adapter: {e}"

@@ -6,17 +6,17 @@ use super::{
     CatalogueArgs, ModelArgs, StepperArgs, check_coord_within_bound, check_start_within_bound,
     parse_assignment_lists,
 };
-use crate::analysis::basin::{Axis, BasinResult, BasinSpec, basin_with};
-use crate::analysis::catalogue::Attractor;
-use crate::ensemble::{Backend, Precision};
-use crate::error::{Error, Result};
-use crate::model::{COORD_NAMES, Params, coord_index};
-use crate::output;
 use crate::plot::{
     AttractorTrace, attractor_color, basin_map, coexisting_attractors, coord_axis, lambda1_map,
 };
-use crate::simulate::{Integrator, SimulateSpec, simulate};
 use clap::Args;
+use jeffcott_analysis::basin::{Axis, BasinResult, BasinSpec, basin_with};
+use jeffcott_analysis::catalogue::Attractor;
+use jeffcott_analysis::output;
+use jeffcott_analysis::simulate::{Integrator, SimulateSpec, simulate};
+use jeffcott_core::ensemble::{Backend, Precision};
+use jeffcott_core::error::{Error, Result};
+use jeffcott_core::model::{COORD_NAMES, Params, coord_index};
 use std::path::{Path, PathBuf};
 
 /// Arguments of `jeffcott basin`.
@@ -141,12 +141,12 @@ impl BasinArgs {
                 check_coord_within_bound(option, axis.coord, v, bound)?;
             }
         }
-        crate::limits::check_periods("transient", self.transient, 0)?;
-        crate::limits::check_periods("periods", self.periods, 2)?;
+        jeffcott_core::limits::check_periods("transient", self.transient, 0)?;
+        jeffcott_core::limits::check_periods("periods", self.periods, 2)?;
         check_basin_size(x.n as u64, y.n as u64, self)?;
         let precision = self
             .precision
-            .unwrap_or_else(|| crate::ensemble::default_precision(self.backend));
+            .unwrap_or_else(|| jeffcott_analysis::backend::default_precision(self.backend));
         let spec = BasinSpec {
             params,
             omega: self.omega,
@@ -178,8 +178,8 @@ pub const MAX_BASIN_CELLS: u64 = 1_000_000_000;
 /// as an ensemble recording `recorded` periods.
 pub fn basin_memory_estimate(cells: u64, lyapunov: bool, chunk: u64, recorded: u64) -> u64 {
     let per_cell = if lyapunov { 12 } else { 4 };
-    crate::limits::product(&[cells, per_cell]).saturating_add(
-        crate::ensemble::EnsembleSpec::memory_estimate_for(chunk, recorded),
+    jeffcott_core::limits::product(&[cells, per_cell]).saturating_add(
+        jeffcott_core::ensemble::EnsembleSpec::memory_estimate_for(chunk, recorded),
     )
 }
 
@@ -194,7 +194,7 @@ fn check_basin_size(nx: u64, ny: u64, a: &BasinArgs) -> Result<()> {
             format!("{grid} = {cells} cells"),
             format!(
                 "a basin may have at most {MAX_BASIN_CELLS} cells (labels alone: {}); use a smaller grid",
-                crate::limits::gb(basin_memory_estimate(cells, a.lyapunov, 0, 0))
+                jeffcott_core::limits::gb(basin_memory_estimate(cells, a.lyapunov, 0, 0))
             ),
         ));
     }
@@ -206,9 +206,9 @@ fn check_basin_size(nx: u64, ny: u64, a: &BasinArgs) -> Result<()> {
     let chunk = a
         .chunk
         .map(|c| c as u64)
-        .unwrap_or_else(|| crate::run::unit_lanes(cells as usize, steps) as u64)
+        .unwrap_or_else(|| jeffcott_analysis::run::unit_lanes(cells as usize, steps) as u64)
         .min(cells);
-    crate::limits::check_memory(
+    jeffcott_core::limits::check_memory(
         "x, y",
         format!("{grid} = {cells} cells"),
         basin_memory_estimate(cells, a.lyapunov, chunk, recorded),
@@ -240,7 +240,7 @@ pub const OUTPUTS: &[&str] = &[
 /// Runs a basin with a progress bar, its units committed to `store`.
 pub fn run_basin_study(
     spec: &BasinSpec,
-    store: &dyn crate::run::UnitStore,
+    store: &dyn jeffcott_analysis::run::UnitStore,
     quiet: bool,
 ) -> Result<BasinResult> {
     let per_lane = (spec.transient + spec.recorded) as u64;
@@ -270,7 +270,7 @@ pub fn run_basin(a: &BasinArgs) -> Result<()> {
     let short = spec.x.n.min(spec.y.n);
     let entropy_box = a
         .entropy_box
-        .unwrap_or(crate::analysis::measures::DEFAULT_ENTROPY_BOX.min(short));
+        .unwrap_or(jeffcott_analysis::measures::DEFAULT_ENTROPY_BOX.min(short));
     if entropy_box == 0 || entropy_box > short {
         return Err(Error::invalid(
             "entropy-box",
@@ -278,11 +278,11 @@ pub fn run_basin(a: &BasinArgs) -> Result<()> {
             format!("must be in 1..={short} (the shorter side of the grid)"),
         ));
     }
-    if a.refine > crate::analysis::refine::MAX_LEVELS {
+    if a.refine > jeffcott_analysis::refine::MAX_LEVELS {
         return Err(Error::invalid(
             "refine",
             a.refine,
-            format!("must be in 0..={}", crate::analysis::refine::MAX_LEVELS),
+            format!("must be in 0..={}", jeffcott_analysis::refine::MAX_LEVELS),
         ));
     }
     if a.refine > 0 && a.lyapunov {
@@ -369,7 +369,7 @@ fn boundary_picture(path: &Path, spec: &BasinSpec, res: &BasinResult) -> Result<
     let (nx, ny) = (spec.x.n, spec.y.n);
     let labels: Vec<i32> = (0..nx * ny)
         .map(|p| {
-            if crate::analysis::refine::on_boundary(&res.labels, nx, ny, p % nx, p / nx) {
+            if jeffcott_analysis::refine::on_boundary(&res.labels, nx, ny, p % nx, p / nx) {
                 BOUNDARY
             } else {
                 res.labels[p]
@@ -419,17 +419,17 @@ fn boundary_picture(path: &Path, spec: &BasinSpec, res: &BasinResult) -> Result<
     )
 }
 
-/// Refines a computed basin `levels` times ([`crate::analysis::refine`]), its lanes
+/// Refines a computed basin `levels` times ([`jeffcott_analysis::refine`]), its lanes
 /// committed to `store`: the basin at the finest resolution (the spec with the fine axis
 /// counts, the labels replaced, basin fractions recounted as area fractions of the fine
 /// grid) and the refinement.
 pub fn refine_basin(
     spec: &BasinSpec,
     mut res: BasinResult,
-    store: &dyn crate::run::UnitStore,
+    store: &dyn jeffcott_analysis::run::UnitStore,
     levels: u32,
     quiet: bool,
-) -> Result<(BasinSpec, BasinResult, crate::analysis::refine::Refined)> {
+) -> Result<(BasinSpec, BasinResult, jeffcott_analysis::refine::Refined)> {
     let per_lane = (spec.transient + spec.recorded) as u64;
     // The boundary's lanes are not known in advance: the bar counts the coarse grid's
     // size per level as a scale.
@@ -441,7 +441,7 @@ pub fn refine_basin(
         spec.backend,
         spec.precision,
         |engine, ctl| {
-            crate::analysis::refine::refine(
+            jeffcott_analysis::refine::refine(
                 spec,
                 &res.catalogue,
                 &res.labels,
@@ -466,7 +466,7 @@ pub fn refine_basin(
 }
 
 /// What run.json records of a refinement.
-fn refinement_json(f: &crate::analysis::refine::Refined, spec: &BasinSpec) -> serde_json::Value {
+fn refinement_json(f: &jeffcott_analysis::refine::Refined, spec: &BasinSpec) -> serde_json::Value {
     let lanes: usize = f.levels.iter().map(|l| l.lanes).sum();
     serde_json::json!({
         "levels": f.levels,
@@ -480,21 +480,21 @@ fn refinement_json(f: &crate::analysis::refine::Refined, spec: &BasinSpec) -> se
     })
 }
 
-/// The uncertainty exponent by re-integration ([`crate::analysis::uncertainty`]) of a
+/// The uncertainty exponent by re-integration ([`jeffcott_analysis::uncertainty`]) of a
 /// computed basin, its lanes committed to `store` (stage `uncertainty`); `None` for 0
 /// samples.
 pub fn reintegrate(
     spec: &BasinSpec,
     res: &BasinResult,
-    store: &dyn crate::run::UnitStore,
+    store: &dyn jeffcott_analysis::run::UnitStore,
     samples: usize,
     quiet: bool,
-) -> Result<Option<crate::analysis::uncertainty::Reintegration>> {
+) -> Result<Option<jeffcott_analysis::uncertainty::Reintegration>> {
     if samples == 0 {
         return Ok(None);
     }
     let per_lane = (spec.transient + spec.recorded) as u64;
-    let lanes = (samples * (1 + 4 * crate::analysis::uncertainty::EPS.len())) as u64;
+    let lanes = (samples * (1 + 4 * jeffcott_analysis::uncertainty::EPS.len())) as u64;
     rundir::with_bar(
         "uncertainty",
         lanes * per_lane,
@@ -503,7 +503,7 @@ pub fn reintegrate(
         spec.backend,
         spec.precision,
         |engine, ctl| {
-            crate::analysis::uncertainty::reintegration(
+            jeffcott_analysis::uncertainty::reintegration(
                 spec,
                 &res.catalogue,
                 samples,
@@ -524,9 +524,9 @@ pub fn write_metrics(
     spec: &BasinSpec,
     res: &BasinResult,
     entropy_box: usize,
-    reint: Option<&crate::analysis::uncertainty::Reintegration>,
+    reint: Option<&jeffcott_analysis::uncertainty::Reintegration>,
     plot_it: bool,
-) -> Result<crate::analysis::measures::BasinMetrics> {
+) -> Result<jeffcott_analysis::measures::BasinMetrics> {
     // A refinement's -2 (an attractor the coarse catalogue lacks) is one more basin for the
     // measures: the next free id.
     let other = res.labels.iter().copied().max().unwrap_or(0).max(-1) + 1;
@@ -539,7 +539,7 @@ pub fn write_metrics(
     } else {
         (&res.labels[..]).into()
     };
-    let m = crate::analysis::measures::basin_metrics(&labels, spec.x.n, spec.y.n, entropy_box)?;
+    let m = jeffcott_analysis::measures::basin_metrics(&labels, spec.x.n, spec.y.n, entropy_box)?;
     let mut j =
         serde_json::to_value(&m).map_err(|e| Error::invalid("basin_metrics", "", e.to_string()))?;
     j["uncertainty_reintegration"] = match reint {
@@ -702,7 +702,7 @@ pub fn write_basin(
         }
     }
     let with_rub =
-        crate::analysis::rub::attractors_with_rub(&spec.params, &cat.attractors, &spec.stepper)?;
+        jeffcott_analysis::rub::attractors_with_rub(&spec.params, &cat.attractors, &spec.stepper)?;
     let rub_line = with_rub
         .iter()
         .map(|a| {

@@ -1,11 +1,12 @@
 //! `jeffcott bench`: lane-steps and forcing periods per second of each backend and
-//! precision on the W = 133 workload of [`crate::bench`], as a Markdown table (the
+//! precision on the W = 133 workload of [`jeffcott_analysis::bench`], as a Markdown table (the
 //! README's) and a JSON file.
 
-use crate::bench::{BenchRow, measure, periods_for};
-use crate::ensemble::{Backend, Engine, Precision};
-use crate::error::{Error, Result};
 use clap::Args;
+use jeffcott_analysis::backend::Engine;
+use jeffcott_analysis::bench::{BenchRow, measure, periods_for};
+use jeffcott_core::ensemble::{Backend, Precision};
+use jeffcott_core::error::{Error, Result};
 use std::path::PathBuf;
 
 /// Arguments of `jeffcott bench`.
@@ -63,25 +64,28 @@ pub fn run_bench(a: &BenchArgs) -> Result<()> {
     }
     for &lanes in &a.lanes {
         let periods = periods_for(lanes, a.lane_periods);
-        crate::limits::check_periods("lane-periods", periods, 1).map_err(|_| {
+        jeffcott_core::limits::check_periods("lane-periods", periods, 1).map_err(|_| {
             Error::invalid(
                 "lane-periods",
                 a.lane_periods,
                 format!(
                     "gives {periods} periods per lane at {lanes} lanes; at most {} periods per lane",
-                    crate::limits::MAX_PERIODS
+                    jeffcott_core::limits::MAX_PERIODS
                 ),
             )
         })?;
-        crate::limits::check_memory(
+        jeffcott_core::limits::check_memory(
             "lane-periods",
             a.lane_periods,
-            crate::ensemble::EnsembleSpec::memory_estimate_for(lanes as u64, periods as u64),
+            jeffcott_core::ensemble::EnsembleSpec::memory_estimate_for(
+                lanes as u64,
+                periods as u64,
+            ),
             &format!("{lanes} lanes x {periods} periods"),
             "ask for fewer --lane-periods or smaller --lanes",
         )?;
     }
-    let adapters = crate::gpu::list_adapters();
+    let adapters = jeffcott_gpu::list_adapters();
     let gpu = adapters.iter().find(|s| s.compute);
     let backends = if a.backend.is_empty() {
         match gpu {
@@ -96,8 +100,8 @@ pub fn run_bench(a: &BenchArgs) -> Result<()> {
     };
     println!(
         "workload: W = {} rad/s, start states spread over x_r in [-4, 4] mm, vx_r in [-0.5, 0.5] m/s, {} steps/period, {} lane-periods per row; CPU: {} threads",
-        crate::bench::BENCH_OMEGA,
-        crate::integrate::lane::DEFAULT_STEPS_PER_PERIOD,
+        jeffcott_analysis::bench::BENCH_OMEGA,
+        jeffcott_core::integrate::lane::DEFAULT_STEPS_PER_PERIOD,
         a.lane_periods,
         rayon::current_num_threads()
     );
@@ -144,7 +148,7 @@ pub fn run_bench(a: &BenchArgs) -> Result<()> {
                 rows.push(r);
                 if let Some(path) = &a.out {
                     // Rewritten after every row, so an interrupted run keeps its rows.
-                    crate::output::write_json(path, &rows)?;
+                    jeffcott_analysis::output::write_json(path, &rows)?;
                 }
             }
         }

@@ -2,17 +2,17 @@
 //! per W, with attractor catalogues, arrays, `summary.json` and `bifurcation.png`.
 
 use super::{ModelArgs, StepperArgs};
-use crate::analysis::bifurcation::{
-    BifurcationResult, BifurcationSpec, Sweep, SweepPoint, bifurcation_with, work,
-};
-use crate::analysis::catalogue::CatalogueConfig;
-use crate::analysis::classify::{Class, ClassifyConfig};
-use crate::ensemble::{Backend, Precision};
-use crate::error::{Error, Result};
-use crate::model::{COORD_NAMES, STATE_DIM, State, coord_index};
-use crate::output;
 use crate::plot::{DotSeries, Lambda1Series, bifurcation_diagram};
 use clap::Args;
+use jeffcott_analysis::bifurcation::{
+    BifurcationResult, BifurcationSpec, Sweep, SweepPoint, bifurcation_with, work,
+};
+use jeffcott_analysis::catalogue::CatalogueConfig;
+use jeffcott_analysis::classify::{Class, ClassifyConfig};
+use jeffcott_analysis::output;
+use jeffcott_core::ensemble::{Backend, Precision};
+use jeffcott_core::error::{Error, Result};
+use jeffcott_core::model::{COORD_NAMES, STATE_DIM, State, coord_index};
 use plotters::style::RGBColor;
 use std::path::PathBuf;
 
@@ -191,24 +191,24 @@ pub fn parse_coords(option: &str, text: &str) -> Result<Vec<usize>> {
 impl BifurcationArgs {
     /// The study these arguments describe.
     pub fn spec(&self) -> Result<BifurcationSpec> {
-        let range = crate::ensemble::RangeSpec::parse("omega", &self.omega)?;
+        let range = jeffcott_core::ensemble::RangeSpec::parse("omega", &self.omega)?;
         let sweep = if self.no_sweep {
             None
         } else {
             self.sweep.sweep()
         };
         // Every count is checked before the speeds and lanes are allocated.
-        crate::limits::check_periods("transient-first", self.transient_first, 0)?;
-        crate::limits::check_periods("transient", self.transient, 0)?;
-        crate::limits::check_periods("brute-transient", self.brute_transient, 0)?;
-        crate::limits::check_periods("periods", self.periods, 2)?;
+        jeffcott_core::limits::check_periods("transient-first", self.transient_first, 0)?;
+        jeffcott_core::limits::check_periods("transient", self.transient, 0)?;
+        jeffcott_core::limits::check_periods("brute-transient", self.brute_transient, 0)?;
+        jeffcott_core::limits::check_periods("periods", self.periods, 2)?;
         let sweeps = match sweep {
             None => 0,
             Some(Sweep::Both) => 2,
             Some(_) => 1,
         };
         let (ics, seeds) = (self.ics.min(100_000) as u64, self.max_seeds as u64);
-        crate::limits::check_memory(
+        jeffcott_core::limits::check_memory(
             "omega",
             &self.omega,
             BifurcationSpec::memory_estimate_for(
@@ -228,7 +228,7 @@ impl BifurcationArgs {
         let omegas = range.values();
         let precision = self
             .precision
-            .unwrap_or_else(|| crate::ensemble::default_precision(self.backend));
+            .unwrap_or_else(|| jeffcott_analysis::backend::default_precision(self.backend));
         let spec = BifurcationSpec {
             params: self.model.params()?,
             omegas,
@@ -330,7 +330,7 @@ pub fn check_portrait_speed(omegas: &[f64], w: f64) -> Result<()> {
     } else {
         Err(Error::invalid(
             "portraits",
-            crate::model::short_number(w),
+            jeffcott_core::model::short_number(w),
             format!("must be a speed within the --omega range {lo}..={hi} rad/s"),
         ))
     }
@@ -367,18 +367,21 @@ pub fn write_portraits(
                 let Some(p) = sw.get(wi).filter(|p| !p.status.is_frozen()) else {
                     continue;
                 };
-                let r = crate::simulate::simulate(&crate::simulate::SimulateSpec {
-                    params: spec.params.clone(),
-                    omega,
-                    x0: p.points[p.points.len() - 1],
-                    transient: 0,
-                    periods: p.class.class.period().unwrap_or(12).clamp(1, 32) as u32,
-                    timeseries_periods: p.class.class.period().unwrap_or(12).clamp(1, 32) as u32,
-                    integrator: crate::simulate::Integrator::Lane,
-                    stepper: spec.stepper,
-                    article: Default::default(),
-                    classify: spec.catalogue.classify,
-                })?;
+                let r = jeffcott_analysis::simulate::simulate(
+                    &jeffcott_analysis::simulate::SimulateSpec {
+                        params: spec.params.clone(),
+                        omega,
+                        x0: p.points[p.points.len() - 1],
+                        transient: 0,
+                        periods: p.class.class.period().unwrap_or(12).clamp(1, 32) as u32,
+                        timeseries_periods: p.class.class.period().unwrap_or(12).clamp(1, 32)
+                            as u32,
+                        integrator: jeffcott_analysis::simulate::Integrator::Lane,
+                        stepper: spec.stepper,
+                        article: Default::default(),
+                        classify: spec.catalogue.classify,
+                    },
+                )?;
                 t.push(crate::plot::AttractorTrace {
                     name: format!("{name}: {}", p.class.class.label()),
                     color: crate::plot::attractor_color(k as i32),
@@ -405,14 +408,14 @@ pub fn write_portraits(
 /// Runs a study with a progress bar, its units committed to `store`.
 pub fn run_study(
     spec: &BifurcationSpec,
-    store: &dyn crate::run::UnitStore,
+    store: &dyn jeffcott_analysis::run::UnitStore,
     quiet: bool,
 ) -> Result<BifurcationResult> {
     let per_lane = (spec.brute_transient + spec.recorded) as u64;
     let bar = crate::progress::Progress::new("bifurcation", work(spec), per_lane, quiet);
     let cancel = super::rundir::cancel();
     let cb = super::rundir::bar_callback(&bar);
-    let ctl = crate::run::lanes::Control {
+    let ctl = jeffcott_analysis::run::lanes::Control {
         progress: &cb,
         cancel: &cancel,
     };
@@ -638,7 +641,7 @@ pub fn write_bifurcation(
                     .iter()
                     .map(|at| {
                         Ok(
-                            match crate::analysis::rub::attractor_rub(
+                            match jeffcott_analysis::rub::attractor_rub(
                                 &spec.params,
                                 at,
                                 &spec.stepper,

@@ -3,11 +3,11 @@
 
 use super::rundir::{self, RunArgs};
 use super::{ModelArgs, StepperArgs};
-use crate::analysis::cascade::{CascadeResult, CascadeSpec, Sweep, cascade_with};
-use crate::analysis::rub::natural_frequencies;
-use crate::error::{Error, Result};
-use crate::output;
 use clap::Args;
+use jeffcott_analysis::cascade::{CascadeResult, CascadeSpec, Sweep, cascade_with};
+use jeffcott_analysis::output;
+use jeffcott_analysis::rub::natural_frequencies;
+use jeffcott_core::error::{Error, Result};
 use std::path::{Path, PathBuf};
 
 /// Arguments of `jeffcott cascade`.
@@ -70,7 +70,7 @@ impl CascadeArgs {
     /// The cascade these arguments describe, validated.
     pub fn spec(&self) -> Result<CascadeSpec> {
         use super::continuation::DirectionArg;
-        let r = crate::ensemble::RangeSpec::parse("omega", &self.omega)?;
+        let r = jeffcott_core::ensemble::RangeSpec::parse("omega", &self.omega)?;
         if r.n > 100_000 {
             return Err(Error::invalid(
                 "omega",
@@ -166,7 +166,7 @@ fn regime_summary(spec: &CascadeSpec, res: &CascadeResult) -> String {
 }
 
 fn regime_label(code: i32) -> &'static str {
-    use crate::analysis::rub::RubRegime::*;
+    use jeffcott_analysis::rub::RubRegime::*;
     [
         NoContact,
         PartialRub,

@@ -4,15 +4,15 @@
 
 use super::rundir::{self, RunArgs};
 use super::{CatalogueArgs, ModelArgs, StepperArgs};
-use crate::analysis::continuation::{
-    ContinuationResult, ContinuationSpec, Direction, Ramp, continuation_with,
-};
-use crate::analysis::map::MapAxis;
-use crate::ensemble::{Backend, Precision};
-use crate::error::{Error, Result};
-use crate::output;
 use crate::plot::{PALETTE, StackedPanel, stacked_fractions};
 use clap::{Args, ValueEnum};
+use jeffcott_analysis::continuation::{
+    ContinuationResult, ContinuationSpec, Direction, Ramp, continuation_with,
+};
+use jeffcott_analysis::map::MapAxis;
+use jeffcott_analysis::output;
+use jeffcott_core::ensemble::{Backend, Precision};
+use jeffcott_core::error::{Error, Result};
 use std::path::{Path, PathBuf};
 
 /// Which ramps to run.
@@ -103,7 +103,7 @@ impl ContinuationArgs {
     pub fn spec(&self) -> Result<ContinuationSpec> {
         let precision = self
             .precision
-            .unwrap_or_else(|| crate::ensemble::default_precision(self.backend));
+            .unwrap_or_else(|| jeffcott_analysis::backend::default_precision(self.backend));
         let spec = ContinuationSpec {
             params: self.model.params()?,
             omega: self.omega,
@@ -112,7 +112,7 @@ impl ContinuationArgs {
             start_box: self
                 .start_box
                 .as_deref()
-                .map(|b| crate::analysis::continuation::parse_box("box", b))
+                .map(|b| jeffcott_analysis::continuation::parse_box("box", b))
                 .transpose()?,
             seed: self.seed,
             transient: self.transient,
@@ -157,7 +157,7 @@ pub const OUTPUTS: &[&str] = &[
 /// Runs a continuation with a progress bar, its units committed to `store`.
 pub fn run_continuation_study(
     spec: &ContinuationSpec,
-    store: &dyn crate::run::UnitStore,
+    store: &dyn jeffcott_analysis::run::UnitStore,
     quiet: bool,
 ) -> Result<ContinuationResult> {
     let per_lane = (spec.transient + spec.recorded) as u64;
@@ -260,7 +260,7 @@ pub fn write_continuation(
             .iter()
             .map(|r| {
                 // Bands in ascending parameter order whatever the ramp direction.
-                let asc = |col: &dyn Fn(&crate::analysis::continuation::Step) -> f64| {
+                let asc = |col: &dyn Fn(&jeffcott_analysis::continuation::Step) -> f64| {
                     let mut v: Vec<(f64, f64)> = r.steps.iter().map(|s| (s.value, col(s))).collect();
                     v.sort_by(|a, b| a.0.total_cmp(&b.0));
                     v.into_iter().map(|p| p.1).collect::<Vec<f64>>()
@@ -307,7 +307,7 @@ pub fn write_continuation(
         "param": {"var": spec.param.var.name(), "unit": spec.param.var.unit(), "lo": spec.param.lo, "hi": spec.param.hi, "n": n},
         "omega": spec.omega,
         "ics": spec.ics,
-        "box": spec.start_box.as_ref().map(|b| b.iter().map(|&(c, lo, hi)| serde_json::json!({"coord": crate::model::COORD_NAMES[c], "lo": lo, "hi": hi})).collect::<Vec<_>>()),
+        "box": spec.start_box.as_ref().map(|b| b.iter().map(|&(c, lo, hi)| serde_json::json!({"coord": jeffcott_core::model::COORD_NAMES[c], "lo": lo, "hi": hi})).collect::<Vec<_>>()),
         "seed": spec.seed,
         "transient": spec.transient,
         "periods": spec.recorded,

@@ -1,14 +1,17 @@
 //! `jeffcott lyapunov`: the full Lyapunov spectrum at one speed (`spectrum.json`,
 //! `convergence.png`) or over a range of speeds (`lyapunov.npy`, `lyapunov.json`,
-//! `lyapunov.png`). The numerics are in [`crate::lyapunov`].
+//! `lyapunov.png`). The numerics are in [`jeffcott_core::lyapunov`].
 
 use super::{ModelArgs, StepperArgs, apply_init, check_start_within_bound};
-use crate::error::{Error, Result};
-use crate::lyapunov::{Spectrum, SpectrumConfig, StopReason, SweepStart, spectrum, sweep_starts};
-use crate::model::STATE_DIM;
-use crate::run::{Array, Unit};
-use crate::{output, plot};
+use crate::plot;
 use clap::Args;
+use jeffcott_analysis::output;
+use jeffcott_analysis::run::{Array, Unit};
+use jeffcott_core::error::{Error, Result};
+use jeffcott_core::lyapunov::{
+    Spectrum, SpectrumConfig, StopReason, SweepStart, spectrum, sweep_starts,
+};
+use jeffcott_core::model::STATE_DIM;
 use rayon::prelude::*;
 use std::path::PathBuf;
 
@@ -108,7 +111,7 @@ pub fn run_lyapunov(a: &LyapunovArgs) -> Result<()> {
     let mut x0 = params.static_equilibrium();
     apply_init(&mut x0, &a.init)?;
     check_start_within_bound("init", &x0, a.stepper.divergence_bound)?;
-    let range = crate::ensemble::RangeSpec::parse("omega", &a.omega)?;
+    let range = jeffcott_core::ensemble::RangeSpec::parse("omega", &a.omega)?;
     let min_time = match a.min_time {
         Some(m) => m,
         None => SpectrumConfig::default().min_time.min(a.time),
@@ -137,20 +140,20 @@ pub fn run_lyapunov(a: &LyapunovArgs) -> Result<()> {
     cfg.validate()?;
     // The accumulation is counted in forcing periods like every transient: the same cap.
     let omega_max = range.a.max(range.b);
-    crate::model::validate_omega(omega_max)?;
+    jeffcott_core::model::validate_omega(omega_max)?;
     let periods = cfg.max_accumulated_periods(omega_max);
-    if periods > crate::limits::MAX_PERIODS as f64 {
+    if periods > jeffcott_core::limits::MAX_PERIODS as f64 {
         return Err(Error::invalid(
             "time",
             a.time,
             format!(
                 "{periods:.3e} forcing periods at W = {omega_max} rad/s; --time must be at most {:.4e} s there ({} periods)",
-                crate::limits::MAX_PERIODS as f64 * std::f64::consts::TAU / omega_max,
-                crate::limits::MAX_PERIODS
+                jeffcott_core::limits::MAX_PERIODS as f64 * std::f64::consts::TAU / omega_max,
+                jeffcott_core::limits::MAX_PERIODS
             ),
         ));
     }
-    crate::limits::check_memory(
+    jeffcott_core::limits::check_memory(
         "omega",
         &a.omega,
         cfg.memory_estimate(range.len(), omega_max),
@@ -297,7 +300,7 @@ struct Row {
     saltation_log_det_rate: f64,
     integration_time: f64,
     stop: StopReason,
-    status: crate::integrate::lane::Status,
+    status: jeffcott_core::integrate::lane::Status,
 }
 
 const STOPS: [StopReason; 3] = [
@@ -311,17 +314,17 @@ const STOPS: [StopReason; 3] = [
 /// give every speed its start state run first, in sequence, and are cheap beside the
 /// spectra; they are recomputed on resume (deterministic).
 fn range_units(
-    rd: &crate::run::RunDir,
-    params: &crate::model::Params,
+    rd: &jeffcott_analysis::run::RunDir,
+    params: &jeffcott_core::model::Params,
     omegas: &[f64],
-    x0: &crate::model::State,
+    x0: &jeffcott_core::model::State,
     start: SweepStart,
     cfg: &SpectrumConfig,
 ) -> Result<Vec<Row>> {
     let (starts, per_cfg) = sweep_starts(params, omegas, x0, start, cfg)?;
     let n = omegas.len();
-    let per = crate::run::unit_lanes(n, 1).min(rayon::current_num_threads().max(1) * 4);
-    let count = crate::run::unit_count(n, per);
+    let per = jeffcott_analysis::run::unit_lanes(n, 1).min(rayon::current_num_threads().max(1) * 4);
+    let count = jeffcott_analysis::run::unit_count(n, per);
     let done = rd.committed("lyapunov", count)?;
     for (u, _) in done.iter().enumerate().filter(|(_, d)| !**d) {
         let range = u * per..((u + 1) * per).min(n);
@@ -331,7 +334,7 @@ fn range_units(
             .map(|i| spectrum(params, omegas[i], &starts[i], &per_cfg))
             .collect::<Result<_>>()?;
         let f = |g: &dyn Fn(&Spectrum) -> f64| Array::F64(spectra.iter().map(g).collect());
-        let unit = Unit::new(crate::run::dir::unit_key("lyapunov", u))
+        let unit = Unit::new(jeffcott_analysis::run::dir::unit_key("lyapunov", u))
             .with(
                 "exponents",
                 Array::F64(spectra.iter().flat_map(|s| s.exponents).collect()),
@@ -378,8 +381,8 @@ fn range_units(
                 saltation_log_det_rate: unit.f64s("saltation_log_det_rate")?[j],
                 integration_time: unit.f64s("integration_time")?[j],
                 stop: STOPS[(unit.u32s("stop")?[j] as usize).min(2)],
-                status: crate::integrate::lane::Status::from_code(unit.u32s("status")?[j])
-                    .unwrap_or(crate::integrate::lane::Status::NonFinite),
+                status: jeffcott_core::integrate::lane::Status::from_code(unit.u32s("status")?[j])
+                    .unwrap_or(jeffcott_core::integrate::lane::Status::NonFinite),
             });
         }
     }

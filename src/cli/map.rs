@@ -5,12 +5,12 @@
 
 use super::rundir::{self, RunArgs};
 use super::{CatalogueArgs, ModelArgs, StepperArgs};
-use crate::analysis::map::{MapAxis, MapResult, MapSpec, MapVar, code, map_with};
-use crate::ensemble::{Backend, Precision};
-use crate::error::{Error, Result};
-use crate::output;
 use crate::plot::{basin_map, category_map, lambda1_map};
 use clap::Args;
+use jeffcott_analysis::map::{MapAxis, MapResult, MapSpec, MapVar, code, map_with};
+use jeffcott_analysis::output;
+use jeffcott_core::ensemble::{Backend, Precision};
+use jeffcott_core::error::{Error, Result};
 use std::path::{Path, PathBuf};
 
 /// Arguments of `jeffcott map`.
@@ -101,7 +101,7 @@ impl MapArgs {
                 format!("a map may have at most {MAX_MAP_CELLS} cells; use fewer per axis"),
             ));
         }
-        crate::limits::check_memory(
+        jeffcott_core::limits::check_memory(
             "x, y",
             format!("{} x {} cells", x.n, y.n),
             // Per cell: the arrays (36 bytes) and its attractor list (~200 bytes per
@@ -112,7 +112,7 @@ impl MapArgs {
         )?;
         let precision = self
             .precision
-            .unwrap_or_else(|| crate::ensemble::default_precision(self.backend));
+            .unwrap_or_else(|| jeffcott_analysis::backend::default_precision(self.backend));
         let spec = MapSpec {
             params,
             omega: self.omega,
@@ -155,7 +155,7 @@ pub const OUTPUTS: &[&str] = &[
 /// Runs a map with a progress bar, its units committed to `store`.
 pub fn run_map_study(
     spec: &MapSpec,
-    store: &dyn crate::run::UnitStore,
+    store: &dyn jeffcott_analysis::run::UnitStore,
     quiet: bool,
 ) -> Result<MapResult> {
     let per_lane = (spec.transient + spec.recorded) as u64;
@@ -290,7 +290,7 @@ pub fn regime_colour(c: i32) -> plotters::style::RGBColor {
 
 /// Legend of the regime codes present.
 pub fn regime_legend(codes: &[i32]) -> Vec<(i32, String)> {
-    use crate::analysis::rub::RubRegime::*;
+    use jeffcott_analysis::rub::RubRegime::*;
     [
         NoContact,
         PartialRub,

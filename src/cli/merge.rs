@@ -11,9 +11,9 @@
 //! its seeded second brute-force pass need the whole first pass: the merge computes them.
 
 use super::rundir::{self, RunArgs};
-use crate::error::{Error, Result};
-use crate::run::dir::{RUN_JSON, UNITS};
 use clap::Args;
+use jeffcott_analysis::run::dir::{RUN_JSON, UNITS};
+use jeffcott_core::error::{Error, Result};
 use std::path::{Path, PathBuf};
 
 /// Arguments of `jeffcott merge`.
@@ -126,7 +126,7 @@ fn place(from: &Path, to: &Path) -> Result<()> {
         path: from.to_path_buf(),
         source,
     })?;
-    crate::output::write_atomically(to, |w| std::io::Write::write_all(w, &bytes))
+    jeffcott_analysis::output::write_atomically(to, |w| std::io::Write::write_all(w, &bytes))
 }
 
 /// Runs `jeffcott merge`.
@@ -235,7 +235,7 @@ pub fn run_merge(a: &MergeArgs) -> Result<()> {
                 )?;
             }
         }
-        crate::output::sync_dir(&rd.path().join(UNITS));
+        jeffcott_analysis::output::sync_dir(&rd.path().join(UNITS));
     } // the lock is released here; the replayed command takes it again
     let argv = replay_argv(&first.argv, &a.out, a.quiet);
     let cli = <super::Cli as clap::Parser>::try_parse_from(&argv).map_err(|e| {

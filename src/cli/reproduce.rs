@@ -4,17 +4,18 @@
 
 use super::basin::{legend_name, run_basin_study, write_basin};
 use super::bifurcation::{diagram_series, lambda1_series, run_study, write_bifurcation};
-use crate::analysis::basin::{Axis, BasinSpec};
-use crate::analysis::bifurcation::{BifurcationSpec, Sweep, start_states};
-use crate::analysis::catalogue::{Catalogue, CatalogueConfig, catalogue_result};
-use crate::analysis::classify::Class;
-use crate::ensemble::{Backend, EnsembleSpec, LaneSpec, Precision, default_precision};
-use crate::error::{Error, Result};
-use crate::lyapunov::{Spectrum, SpectrumConfig, spectrum};
-use crate::model::{Params, VX_R, VX_S, X_R, X_S, Y_R, Y_S};
 use crate::plot;
-use crate::simulate::{Integrator, SimulateResult, SimulateSpec, simulate};
 use clap::Args;
+use jeffcott_analysis::backend::default_precision;
+use jeffcott_analysis::basin::{Axis, BasinSpec};
+use jeffcott_analysis::bifurcation::{BifurcationSpec, Sweep, start_states};
+use jeffcott_analysis::catalogue::{Catalogue, CatalogueConfig, catalogue_result};
+use jeffcott_analysis::classify::Class;
+use jeffcott_analysis::simulate::{Integrator, SimulateResult, SimulateSpec, simulate};
+use jeffcott_core::ensemble::{Backend, EnsembleSpec, LaneSpec, Precision};
+use jeffcott_core::error::{Error, Result};
+use jeffcott_core::lyapunov::{Spectrum, SpectrumConfig, spectrum};
+use jeffcott_core::model::{Params, VX_R, VX_S, X_R, X_S, Y_R, Y_S};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -322,7 +323,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         a.run,
         a.quiet,
     )?;
-    let store = |prefix: &'static str| crate::run::Prefixed { inner: &rd, prefix };
+    let store = |prefix: &'static str| jeffcott_analysis::run::Prefixed { inner: &rd, prefix };
     let mode = format!("--{}", p.name);
     let backend = format!("{:?}", a.backend).to_lowercase();
     let mut rep = Report {
@@ -339,7 +340,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     say("[1/11] bifurcation diagram over 130..141 rad/s");
     let spec = BifurcationSpec {
         params: params.clone(),
-        omegas: crate::ensemble::parse_range("omega", &format!("130:141:{}", p.speeds))?,
+        omegas: jeffcott_core::ensemble::parse_range("omega", &format!("130:141:{}", p.speeds))?,
         sweep: Some(Sweep::Both),
         transient_first: p.sweep_first,
         transient: p.sweep_transient,
@@ -368,13 +369,13 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         dir.display()
     );
     let w = (130.0, 141.0);
-    let count = |sw: &[crate::analysis::bifurcation::SweepPoint],
+    let count = |sw: &[jeffcott_analysis::bifurcation::SweepPoint],
                  f: &dyn Fn(Option<usize>) -> bool| {
         sw.iter()
             .filter(|q| !q.status.is_frozen() && f(q.class.class.period()))
             .count()
     };
-    let sweep_found = |sw: &[crate::analysis::bifurcation::SweepPoint]| {
+    let sweep_found = |sw: &[jeffcott_analysis::bifurcation::SweepPoint]| {
         format!(
             "{} of {} speeds period-1, {} periodic with period > 1, {} aperiodic (no period up to 32: {} quasiperiodic, {} chaotic by lambda_1), {} diverged",
             count(sw, &|n| n == Some(1)),
@@ -391,7 +392,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         )
     };
     // What the lambda_1 row under a sweep shows.
-    let l1_row = |sw: &[crate::analysis::bifurcation::SweepPoint]| -> String {
+    let l1_row = |sw: &[jeffcott_analysis::bifurcation::SweepPoint]| -> String {
         let f: Vec<f64> = sw
             .iter()
             .map(|q| q.lambda1)
@@ -537,7 +538,10 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     for (k, &(lo, hi)) in ZOOMS.iter().enumerate() {
         let t = Instant::now();
         let zspec = BifurcationSpec {
-            omegas: crate::ensemble::parse_range("omega", &format!("{lo}:{hi}:{}", p.zoom_speeds))?,
+            omegas: jeffcott_core::ensemble::parse_range(
+                "omega",
+                &format!("{lo}:{hi}:{}", p.zoom_speeds),
+            )?,
             sweep: Some(Sweep::Up),
             ics: 0,
             ..spec.clone()
@@ -607,12 +611,13 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     );
     // With lambda_1 per lane, so aperiodic attractors are told apart as quasiperiodic
     // or chaotic.
-    let (eres, _) = crate::ensemble::run_with_lambda1(&espec, a.backend, &bar.callback(0))?;
+    let (eres, _) =
+        jeffcott_analysis::backend::run_with_lambda1(&espec, a.backend, &bar.callback(0))?;
     bar.finish();
     let k = p.survey_ics as usize;
     let mut survey: Vec<Catalogue> = Vec::new();
     for (i, &(omega, _)) in ARTICLE_SPEEDS.iter().enumerate() {
-        let sub = crate::ensemble::EnsembleResult {
+        let sub = jeffcott_core::ensemble::EnsembleResult {
             poincare: eres.poincare[i * k * eres.recorded * 8..(i + 1) * k * eres.recorded * 8]
                 .to_vec(),
             recorded: eres.recorded,
@@ -750,8 +755,12 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     let (bspec, bres, refined) = if p.basin_refine > 0 {
         let (s, r, f) =
             super::basin::refine_basin(&bspec, bres, &store("basin_133"), p.basin_refine, a.quiet)?;
-        crate::output::ensure_dir(&bdir)?;
-        crate::output::write_npy(&bdir.join("refined.npy"), &[f.ny, f.nx], &f.computed)?;
+        jeffcott_analysis::output::ensure_dir(&bdir)?;
+        jeffcott_analysis::output::write_npy(
+            &bdir.join("refined.npy"),
+            &[f.ny, f.nx],
+            &f.computed,
+        )?;
         (s, r, Some(f))
     } else {
         (bspec, bres, None)
@@ -784,7 +793,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         &bdir,
         &bspec,
         &bres,
-        crate::analysis::measures::DEFAULT_ENTROPY_BOX.min(bspec.x.n.min(bspec.y.n)),
+        jeffcott_analysis::measures::DEFAULT_ENTROPY_BOX.min(bspec.x.n.min(bspec.y.n)),
         reint.as_ref(),
         true,
     )?;
@@ -793,7 +802,9 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
             path: from.to_path_buf(),
             source,
         })?;
-        crate::output::write_atomically(&dir.join(to), |w| std::io::Write::write_all(w, &bytes))
+        jeffcott_analysis::output::write_atomically(&dir.join(to), |w| {
+            std::io::Write::write_all(w, &bytes)
+        })
     };
     copy(&bdir.join("basin.png"), "fig07_basin_133.png")?;
     let basin_s = t.elapsed().as_secs_f64();
@@ -937,18 +948,18 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     // Beyond the article: a design chart over (W, e) and the continuation over W.
     say("[8/11] design chart: speed against unbalance");
     let t = Instant::now();
-    let mspec = crate::analysis::map::MapSpec {
+    let mspec = jeffcott_analysis::map::MapSpec {
         params: params.clone(),
         omega: None,
-        x: crate::analysis::map::MapAxis {
-            var: crate::analysis::map::MapVar::Omega,
+        x: jeffcott_analysis::map::MapAxis {
+            var: jeffcott_analysis::map::MapVar::Omega,
             lo: 128.0,
             hi: 142.0,
             n: p.map_nx,
             log: false,
         },
-        y: crate::analysis::map::MapAxis {
-            var: crate::analysis::map::MapVar::Param("e"),
+        y: jeffcott_analysis::map::MapAxis {
+            var: jeffcott_analysis::map::MapVar::Param("e"),
             lo: 0.0002,
             hi: 0.002,
             n: p.map_ny,
@@ -978,8 +989,8 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     let count = |f: &dyn Fn(usize) -> bool| (0..cells).filter(|&i| f(i)).count();
     let rubbing = count(&|i| mres.contact[i] > 0.0);
     let periodic1 = count(&|i| mres.period[i] == 1);
-    let chaotic = count(&|i| mres.class[i] == crate::analysis::map::code::CHAOTIC);
-    let quasi = count(&|i| mres.class[i] == crate::analysis::map::code::QUASIPERIODIC);
+    let chaotic = count(&|i| mres.class[i] == jeffcott_analysis::map::code::CHAOTIC);
+    let quasi = count(&|i| mres.class[i] == jeffcott_analysis::map::code::QUASIPERIODIC);
     let multistable = count(&|i| mres.attractors[i] > 1);
     // Where along the article's e = 1 mm the rotor first and last rubs.
     let e_row = (0..p.map_ny)
@@ -1031,11 +1042,11 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
 
     say("[9/11] attractor continuation over 130..141 rad/s");
     let t = Instant::now();
-    let cspec = crate::analysis::continuation::ContinuationSpec {
+    let cspec = jeffcott_analysis::continuation::ContinuationSpec {
         params: params.clone(),
         omega: None,
-        param: crate::analysis::map::MapAxis {
-            var: crate::analysis::map::MapVar::Omega,
+        param: jeffcott_analysis::map::MapAxis {
+            var: jeffcott_analysis::map::MapVar::Omega,
             lo: 130.0,
             hi: 141.0,
             n: p.cont_values,
@@ -1052,8 +1063,8 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         catalogue: cfg,
         lyapunov: true,
         directions: vec![
-            crate::analysis::continuation::Direction::Up,
-            crate::analysis::continuation::Direction::Down,
+            jeffcott_analysis::continuation::Direction::Up,
+            jeffcott_analysis::continuation::Direction::Down,
         ],
         match_threshold: f64::INFINITY,
     };
@@ -1127,18 +1138,18 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     // Rub regimes beyond the article's range: a (W, mu) map, a cascade, a full spectrum.
     say("[10/11] rub regimes: (W, mu) map, full-spectrum cascade, full spectrum at 132.2");
     let t = Instant::now();
-    let rspec = crate::analysis::map::MapSpec {
+    let rspec = jeffcott_analysis::map::MapSpec {
         params: params.clone(),
         omega: None,
-        x: crate::analysis::map::MapAxis {
-            var: crate::analysis::map::MapVar::Omega,
+        x: jeffcott_analysis::map::MapAxis {
+            var: jeffcott_analysis::map::MapVar::Omega,
             lo: 60.0,
             hi: 300.0,
             n: p.rub_nx,
             log: false,
         },
-        y: crate::analysis::map::MapAxis {
-            var: crate::analysis::map::MapVar::Param("mu"),
+        y: jeffcott_analysis::map::MapAxis {
+            var: jeffcott_analysis::map::MapVar::Param("mu"),
             lo: 0.0,
             hi: 0.3,
             n: p.rub_ny,
@@ -1162,11 +1173,11 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     copy(&rdir.join("map_regime.png"), "rub_regimes_w_mu.png")?;
     let mut found: Vec<String> = Vec::new();
     for r in [
-        crate::analysis::rub::RubRegime::NoContact,
-        crate::analysis::rub::RubRegime::PartialRub,
-        crate::analysis::rub::RubRegime::FullAnnularRub,
-        crate::analysis::rub::RubRegime::BackwardWhirl,
-        crate::analysis::rub::RubRegime::Diverged,
+        jeffcott_analysis::rub::RubRegime::NoContact,
+        jeffcott_analysis::rub::RubRegime::PartialRub,
+        jeffcott_analysis::rub::RubRegime::FullAnnularRub,
+        jeffcott_analysis::rub::RubRegime::BackwardWhirl,
+        jeffcott_analysis::rub::RubRegime::Diverged,
     ] {
         let cells: Vec<usize> = (0..rres.regime.len())
             .filter(|&i| rres.regime[i] == r.code())
@@ -1198,7 +1209,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         q.k_c = k_c;
         let mut x0 = q.static_equilibrium();
         x0[X_R] = 0.0065;
-        x0[crate::model::VY_R] = -1.0;
+        x0[jeffcott_core::model::VY_R] = -1.0;
         let r = simulate(&SimulateSpec {
             params: q.clone(),
             omega: 140.0,
@@ -1230,7 +1241,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     };
     let whip_stiff = thrown(0.3, 1e8)?;
     let whip_soft = thrown(0.25, 1e6)?;
-    let soft_modes = crate::analysis::rub::natural_frequencies(&Params {
+    let soft_modes = jeffcott_analysis::rub::natural_frequencies(&Params {
         k_c: 1e6,
         ..params.clone()
     });
@@ -1259,9 +1270,12 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         t.elapsed().as_secs_f64(),
     );
     let t = Instant::now();
-    let cspec2 = crate::analysis::cascade::CascadeSpec {
+    let cspec2 = jeffcott_analysis::cascade::CascadeSpec {
         params: params.clone(),
-        omegas: crate::ensemble::parse_range("omega", &format!("100:200:{}", p.cascade_speeds))?,
+        omegas: jeffcott_core::ensemble::parse_range(
+            "omega",
+            &format!("100:200:{}", p.cascade_speeds),
+        )?,
         transient_first: 1000,
         transient: 100,
         periods: 24,
@@ -1270,7 +1284,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         up: true,
         down: true,
     };
-    let cres2 = crate::analysis::cascade::cascade_with(
+    let cres2 = jeffcott_analysis::cascade::cascade_with(
         &cspec2,
         &store("cascade"),
         &super::rundir::cancel(),
@@ -1300,7 +1314,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         super::rubout::rub_outputs(&params, 132.2, &r.final_state, 24, &Default::default())?
     {
         let fdir = dir.join("spectrum_132.2");
-        crate::output::ensure_dir(&fdir)?;
+        jeffcott_analysis::output::ensure_dir(&fdir)?;
         super::rubout::write_rub_outputs(
             &fdir,
             "W = 132.2 rad/s",
@@ -1360,7 +1374,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         cfg.lambda_tol
     );
     let text = head + &rep.text;
-    crate::output::write_atomically(&dir.join("REPORT.md"), |w| {
+    jeffcott_analysis::output::write_atomically(&dir.join("REPORT.md"), |w| {
         std::io::Write::write_all(w, text.as_bytes())
     })?;
     rd.finish(

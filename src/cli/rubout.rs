@@ -3,12 +3,12 @@
 //! stator, from a stretch of whole forcing periods continued from the run's final state
 //! (on the attractor) with the lane stepper (docs/rub.md); optionally as CSV.
 
-use crate::analysis::rub::{RubFigures, normal_force, rub_figures};
-use crate::analysis::spectrum::{FullSpectrum, full_spectrum, orbit};
-use crate::error::Result;
-use crate::integrate::lane::StepperConfig;
-use crate::model::{Params, STATE_DIM, State, X_R, X_S, Y_R, Y_S, penetration};
-use crate::output;
+use jeffcott_analysis::output;
+use jeffcott_analysis::rub::{RubFigures, normal_force, rub_figures};
+use jeffcott_analysis::spectrum::{FullSpectrum, full_spectrum, orbit};
+use jeffcott_core::error::Result;
+use jeffcott_core::integrate::lane::StepperConfig;
+use jeffcott_core::model::{Params, STATE_DIM, State, X_R, X_S, Y_R, Y_S, penetration};
 use std::path::Path;
 
 /// The rub outputs of a trajectory.
@@ -34,19 +34,19 @@ pub fn rub_outputs(
     periods: u32,
     stepper: &StepperConfig,
 ) -> Result<Option<RubOutputs>> {
-    let spec = crate::simulate::SimulateSpec {
+    let spec = jeffcott_analysis::simulate::SimulateSpec {
         params: p.clone(),
         omega,
         x0: *x0,
         transient: 0,
         periods,
         timeseries_periods: periods,
-        integrator: crate::simulate::Integrator::Lane,
+        integrator: jeffcott_analysis::simulate::Integrator::Lane,
         stepper: *stepper,
         article: Default::default(),
         classify: Default::default(),
     };
-    let r = crate::simulate::simulate(&spec)?;
+    let r = jeffcott_analysis::simulate::simulate(&spec)?;
     if r.status.is_frozen() || x0.iter().any(|v| !v.is_finite()) {
         return Ok(None);
     }
@@ -158,7 +158,7 @@ pub fn write_rub_outputs(
             o.contact.iter().map(|r| r.to_vec()),
         )?;
         let mut header = vec!["t_s"];
-        header.extend(crate::model::COORD_NAMES);
+        header.extend(jeffcott_core::model::COORD_NAMES);
         output::write_csv(
             &dir.join("timeseries.csv"),
             &header,

@@ -1,10 +1,10 @@
-//! The command line's side of the run engine ([`crate::run`]): opening `--out` for a
+//! The command line's side of the run engine ([`jeffcott_analysis::run`]): opening `--out` for a
 //! run (resume or refuse, `--overwrite`), a progress bar fed by the engine's callback,
 //! and the SIGINT/SIGTERM handler that stops cleanly and prints the command that resumes.
 
-use crate::error::Result;
-use crate::run::{Found, RunDir, Shard, ShardStore, UnitStore};
 use clap::Args;
+use jeffcott_analysis::run::{Found, RunDir, Shard, ShardStore, UnitStore};
+use jeffcott_core::error::Result;
 use std::path::Path;
 use std::sync::{Mutex, OnceLock};
 
@@ -62,17 +62,20 @@ pub fn with_bar<T>(
     total: u64,
     per_lane: u64,
     quiet: bool,
-    backend: crate::ensemble::Backend,
-    precision: crate::ensemble::Precision,
-    study: impl FnOnce(&crate::ensemble::Engine, crate::run::lanes::Control) -> Result<T>,
+    backend: jeffcott_core::ensemble::Backend,
+    precision: jeffcott_core::ensemble::Precision,
+    study: impl FnOnce(
+        &jeffcott_analysis::backend::Engine,
+        jeffcott_analysis::run::lanes::Control,
+    ) -> Result<T>,
 ) -> Result<T> {
     let bar = crate::progress::Progress::new(name, total, per_lane, quiet);
-    let engine = crate::ensemble::Engine::new(backend, precision)?;
+    let engine = jeffcott_analysis::backend::Engine::new(backend, precision)?;
     let cancel = cancel();
     let cb = bar_callback(&bar);
     let r = study(
         &engine,
-        crate::run::lanes::Control {
+        jeffcott_analysis::run::lanes::Control {
             progress: &cb,
             cancel: &cancel,
         },
@@ -82,8 +85,8 @@ pub fn with_bar<T>(
 }
 
 /// The cancel flag a command's engine runs with.
-pub fn cancel() -> crate::run::Cancel {
-    crate::run::Cancel::new()
+pub fn cancel() -> jeffcott_analysis::run::Cancel {
+    jeffcott_analysis::run::Cancel::new()
 }
 
 /// The store a command's study commits to: the directory, seen through its shard, or
@@ -103,10 +106,10 @@ impl UnitStore for Plain<'_> {
     fn committed(&self, stage: &str, count: usize) -> Result<Vec<bool>> {
         self.0.committed(stage, count)
     }
-    fn commit(&self, stage: &str, index: usize, unit: &crate::run::Unit) -> Result<()> {
+    fn commit(&self, stage: &str, index: usize, unit: &jeffcott_analysis::run::Unit) -> Result<()> {
         self.0.commit(stage, index, unit)
     }
-    fn load(&self, stage: &str, index: usize) -> Result<crate::run::Unit> {
+    fn load(&self, stage: &str, index: usize) -> Result<jeffcott_analysis::run::Unit> {
         self.0.load(stage, index)
     }
 }
@@ -123,10 +126,10 @@ impl UnitStore for Recording<'_> {
         }
         self.0.committed(stage, count)
     }
-    fn commit(&self, stage: &str, index: usize, unit: &crate::run::Unit) -> Result<()> {
+    fn commit(&self, stage: &str, index: usize, unit: &jeffcott_analysis::run::Unit) -> Result<()> {
         self.0.commit(stage, index, unit)
     }
-    fn load(&self, stage: &str, index: usize) -> Result<crate::run::Unit> {
+    fn load(&self, stage: &str, index: usize) -> Result<jeffcott_analysis::run::Unit> {
         self.0.load(stage, index)
     }
 }
@@ -143,9 +146,9 @@ impl UnitStore for Merged<'_> {
         if self.stages.iter().any(|s| s == stage)
             && let Some(u) = c.iter().position(|d| !d)
         {
-            return Err(crate::Error::invalid(
+            return Err(jeffcott_core::Error::invalid(
                 "SHARD_DIR",
-                crate::run::dir::unit_key(stage, u),
+                jeffcott_analysis::run::dir::unit_key(stage, u),
                 format!(
                     "no shard holds this unit ({} of {count} units of stage {stage} present); finish or rerun the shard that owns it",
                     c.iter().filter(|d| **d).count()
@@ -154,10 +157,10 @@ impl UnitStore for Merged<'_> {
         }
         Ok(c)
     }
-    fn commit(&self, stage: &str, index: usize, unit: &crate::run::Unit) -> Result<()> {
+    fn commit(&self, stage: &str, index: usize, unit: &jeffcott_analysis::run::Unit) -> Result<()> {
         self.rd.commit(stage, index, unit)
     }
-    fn load(&self, stage: &str, index: usize) -> Result<crate::run::Unit> {
+    fn load(&self, stage: &str, index: usize) -> Result<jeffcott_analysis::run::Unit> {
         self.rd.load(stage, index)
     }
 }
@@ -205,7 +208,7 @@ fn resume_command() -> String {
 static RUN_DIRS: Mutex<Vec<String>> = Mutex::new(Vec::new());
 
 /// Installs (once) the handler of SIGINT and SIGTERM: it waits for a file being
-/// committed to be in place ([`crate::output::commit_lock`]), prints which directory
+/// committed to be in place ([`jeffcott_analysis::output::commit_lock`]), prints which directory
 /// keeps the committed units and the command that resumes, and exits with status 130.
 /// Nothing else needs undoing: every file is written under a temporary name and
 /// renamed, and the run's lock goes with the process.
@@ -213,7 +216,7 @@ fn install_signal_handler() {
     static ONCE: OnceLock<()> = OnceLock::new();
     ONCE.get_or_init(|| {
         let _ = ctrlc::set_handler(|| {
-            let _guard = crate::output::commit_lock();
+            let _guard = jeffcott_analysis::output::commit_lock();
             let dirs = RUN_DIRS.lock().map(|d| d.join(", ")).unwrap_or_default();
             eprintln!(
                 "\njeffcott: interrupted. Committed work units are kept in {dirs}; resume with:\n  {}",
@@ -293,15 +296,15 @@ pub fn bar_callback(bar: &crate::progress::Progress) -> impl Fn(u64, u64) + Sync
 pub fn files_under(dir: &Path) -> Result<Vec<String>> {
     fn walk(root: &Path, sub: &Path, out: &mut Vec<String>) -> Result<()> {
         let here = root.join(sub);
-        let entries = std::fs::read_dir(&here).map_err(|source| crate::Error::Io {
+        let entries = std::fs::read_dir(&here).map_err(|source| jeffcott_core::Error::Io {
             path: here.clone(),
             source,
         })?;
         for e in entries.flatten() {
             let rel = sub.join(e.file_name());
             let name = rel.to_string_lossy().to_string();
-            if name == crate::run::dir::RUN_JSON
-                || name == crate::run::dir::UNITS
+            if name == jeffcott_analysis::run::dir::RUN_JSON
+                || name == jeffcott_analysis::run::dir::UNITS
                 || name.starts_with('.')
             {
                 continue;

@@ -8,13 +8,13 @@
 use super::continuation::run_continuation_study;
 use super::rundir::{self, RunArgs};
 use super::{CatalogueArgs, ModelArgs, StepperArgs};
-use crate::analysis::continuation::{ContinuationResult, ContinuationSpec, Direction, parse_box};
-use crate::analysis::map::{MapAxis, MapVar};
-use crate::ensemble::{Backend, Precision};
-use crate::error::{Error, Result};
-use crate::output;
 use crate::plot::{PALETTE, StackedPanel, stacked_fractions};
 use clap::Args;
+use jeffcott_analysis::continuation::{ContinuationResult, ContinuationSpec, Direction, parse_box};
+use jeffcott_analysis::map::{MapAxis, MapVar};
+use jeffcott_analysis::output;
+use jeffcott_core::ensemble::{Backend, Precision};
+use jeffcott_core::error::{Error, Result};
 use std::path::{Path, PathBuf};
 
 /// Arguments of `jeffcott basin-stability`.
@@ -107,7 +107,7 @@ pub fn wilson95(k: u64, n: u64) -> (f64, f64) {
 impl StabilityArgs {
     /// The study as a continuation over W of uniform draws in the box.
     pub fn spec(&self) -> Result<ContinuationSpec> {
-        let r = crate::ensemble::RangeSpec::parse("omega", &self.omega)?;
+        let r = jeffcott_core::ensemble::RangeSpec::parse("omega", &self.omega)?;
         if r.n > 100_000 {
             return Err(Error::invalid(
                 "omega",
@@ -117,7 +117,7 @@ impl StabilityArgs {
         }
         let precision = self
             .precision
-            .unwrap_or_else(|| crate::ensemble::default_precision(self.backend));
+            .unwrap_or_else(|| jeffcott_analysis::backend::default_precision(self.backend));
         if !(2..=100_000_000).contains(&self.sample) {
             return Err(Error::invalid(
                 "sample",
@@ -228,7 +228,7 @@ pub fn write_stability(
         .start_box
         .iter()
         .flatten()
-        .map(|&(c, lo, hi)| serde_json::json!({"coord": crate::model::COORD_NAMES[c], "lo": lo, "hi": hi}))
+        .map(|&(c, lo, hi)| serde_json::json!({"coord": jeffcott_core::model::COORD_NAMES[c], "lo": lo, "hi": hi}))
         .collect();
     let json = serde_json::json!({
         "box": boxed,

@@ -2,8 +2,8 @@
 //! (`convergence.png`) and the spectrum against the rotor speed (`lyapunov.png`).
 
 use super::{padded_range, plot_err, register_font};
-use crate::error::Result;
-use crate::model::STATE_DIM;
+use jeffcott_core::error::Result;
+use jeffcott_core::model::STATE_DIM;
 use plotters::prelude::*;
 use std::path::Path;
 

@@ -4,8 +4,8 @@
 //! against speed (`cascade.png`).
 
 use super::{padded_range, plot_err, register_font};
-use crate::analysis::spectrum::FullSpectrum;
-use crate::error::Result;
+use jeffcott_analysis::spectrum::FullSpectrum;
+use jeffcott_core::error::Result;
 use plotters::prelude::*;
 use std::path::Path;
 

@@ -44,7 +44,7 @@ pub fn require_gpu() -> bool {
 
 /// True when an f64-capable adapter exists; panics without one when required.
 pub fn gpu_f64_present() -> bool {
-    let present = jeffcott::gpu::list_adapters()
+    let present = jeffcott_gpu::list_adapters()
         .iter()
         .any(|a| a.compute && a.f64);
     assert!(

@@ -1,0 +1,249 @@
+//! The backend resolved once: `auto`/`cpu`/`gpu` turned into the CPU path of
+//! `jeffcott-core` or an open `jeffcott-gpu` runner. [`run`] resolves one per call; a study made of several
+//! ensembles (the chunks of a basin, the passes of a brute-force diagram, benchmark
+//! rows) keeps one, so the GPU device and pipeline are set up once.
+
+use jeffcott_core::Result;
+use jeffcott_core::ensemble::{
+    Backend, EnsembleResult, EnsembleSpec, Precision, RunInfo, cpu, lane_lambda1,
+    mask_frozen_records,
+};
+use jeffcott_core::integrate::lane::{Lane, LaneConsts};
+use jeffcott_core::model::STATE_DIM;
+use jeffcott_gpu::{DeviceRequest, GpuDevice, GpuRunner};
+
+/// A resolved backend.
+pub struct Engine {
+    gpu: Option<GpuRunner>,
+    device: String,
+    reason: String,
+}
+
+impl Engine {
+    /// Resolves `backend` for lanes of `precision`: `gpu` errors without a usable adapter,
+    /// `auto` takes a hardware GPU or else the CPU.
+    pub fn new(backend: Backend, precision: Precision) -> Result<Engine> {
+        let cpu = |reason: String| Engine {
+            gpu: None,
+            device: format!("{} rayon threads", rayon::current_num_threads()),
+            reason,
+        };
+        match backend {
+            Backend::Cpu => Ok(cpu("--backend cpu".into())),
+            Backend::Gpu | Backend::Auto => {
+                let req = DeviceRequest {
+                    need_f64: precision == Precision::F64,
+                    allow_software: backend == Backend::Gpu,
+                };
+                match GpuDevice::new(&req) {
+                    Ok(dev) => Ok(Engine {
+                        device: dev.adapter().name.clone(),
+                        gpu: Some(GpuRunner::new(dev)),
+                        reason: if backend == Backend::Gpu {
+                            "--backend gpu".into()
+                        } else {
+                            "hardware GPU found".into()
+                        },
+                    }),
+                    Err(e) if backend == Backend::Gpu => Err(e),
+                    Err(e) => Ok(cpu(format!("no hardware GPU ({e})"))),
+                }
+            }
+        }
+    }
+
+    /// The GPU runner, when the backend resolved to a GPU.
+    pub fn runner(&self) -> Option<&GpuRunner> {
+        self.gpu.as_ref()
+    }
+
+    /// Runs one ensemble on the resolved backend.
+    pub fn run(
+        &self,
+        spec: &EnsembleSpec,
+        progress: &(dyn Fn(u64, u64) + Sync),
+    ) -> Result<(EnsembleResult, RunInfo)> {
+        self.run_maybe_lambda1(spec, false, progress)
+    }
+
+    /// Runs one ensemble on the resolved backend, with the largest Lyapunov exponent per
+    /// lane when `lambda1` (`EnsembleResult::lambda1`; the same arithmetic on both
+    /// backends).
+    pub fn run_maybe_lambda1(
+        &self,
+        spec: &EnsembleSpec,
+        lambda1: bool,
+        progress: &(dyn Fn(u64, u64) + Sync),
+    ) -> Result<(EnsembleResult, RunInfo)> {
+        let start = std::time::Instant::now();
+        let (res, backend) = match &self.gpu {
+            Some(runner) => (run_on_gpu_inner(spec, runner, lambda1, progress)?, "gpu"),
+            None => {
+                spec.validate()?;
+                // The CPU reports finished lanes; progress counts lane-periods.
+                let per_lane = (spec.transient + spec.recorded) as u64;
+                let total = spec.lanes.len() as u64 * per_lane;
+                let report = |lanes_done: usize| progress(lanes_done as u64 * per_lane, total);
+                let res = if lambda1 {
+                    cpu::run_with_lambda1(spec, &report)?
+                } else {
+                    cpu::run(spec, &report)?
+                };
+                (res, "cpu")
+            }
+        };
+        Ok((
+            res,
+            RunInfo {
+                backend,
+                device: self.device.clone(),
+                reason: self.reason.clone(),
+                precision: spec.precision,
+                elapsed_s: start.elapsed().as_secs_f64(),
+            },
+        ))
+    }
+}
+
+/// Lane-steps per GPU dispatch aimed at: short enough for a watchdog (DESIGN.md 3),
+/// long enough to amortise the dispatch.
+const LANE_STEPS_PER_SLICE: u64 = 50_000_000;
+
+fn run_gpu<R: jeffcott_gpu::GpuReal>(
+    spec: &EnsembleSpec,
+    runner: &jeffcott_gpu::GpuRunner,
+    lambda1: bool,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<EnsembleResult> {
+    let n = spec.lanes.len();
+    let consts: Vec<LaneConsts<R>> = (0..n).map(|i| spec.lane_consts(i)).collect();
+    let init: Vec<Lane<R>> = (0..n).map(|i| spec.initial_lane(i)).collect();
+    let per_period = n as u64 * spec.stepper.steps_per_period as u64;
+    let slice = (LANE_STEPS_PER_SLICE / per_period.max(1))
+        .clamp(1, (spec.transient + spec.recorded) as u64) as u32;
+    let schedule = jeffcott_gpu::Schedule::new(spec.transient, spec.recorded, slice);
+    let mut report =
+        |p: jeffcott_gpu::Progress| progress(p.lane_periods_done, p.lane_periods_total);
+    let (outs, norms) = if lambda1 {
+        let v = [R::lit(jeffcott_core::integrate::lane::LAMBDA1_START); STATE_DIM];
+        let tangents = vec![v; n];
+        let (outs, norms) =
+            runner.run_lyapunov_with_progress(&consts, &init, &tangents, &schedule, &mut report)?;
+        (outs, Some(norms))
+    } else {
+        (
+            runner.run_with_progress(&consts, &init, &schedule, &mut report)?,
+            None,
+        )
+    };
+    let mut res = EnsembleResult {
+        poincare: Vec::with_capacity(n * spec.recorded as usize * STATE_DIM),
+        recorded: spec.recorded as usize,
+        final_state: Vec::with_capacity(n),
+        status: Vec::with_capacity(n),
+        counters: Vec::with_capacity(n),
+        lambda1: norms.map(|all| {
+            all.iter()
+                .zip(&outs)
+                .zip(&spec.lanes)
+                .map(|((nm, o), l)| lane_lambda1(nm, l.omega, o.lane.status))
+                .collect()
+        }),
+    };
+    for o in outs {
+        for p in &o.poincare {
+            res.poincare.extend_from_slice(p);
+        }
+        res.final_state.push(o.lane.state_f64());
+        res.status.push(o.lane.status);
+        res.counters.push(o.lane.counters);
+    }
+    mask_frozen_records(spec, &mut res);
+    Ok(res)
+}
+
+/// Runs an ensemble on an existing GPU runner, so repeated runs (chunks of a basin,
+/// benchmark samples) pay the device and pipeline set-up once.
+pub fn run_on_gpu(
+    spec: &EnsembleSpec,
+    runner: &jeffcott_gpu::GpuRunner,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<EnsembleResult> {
+    run_on_gpu_inner(spec, runner, false, progress)
+}
+
+/// [`run_on_gpu`] with the largest Lyapunov exponent of every lane
+/// ([`EnsembleResult::lambda1`]), by the kernel's lambda_1 variant.
+pub fn run_on_gpu_with_lambda1(
+    spec: &EnsembleSpec,
+    runner: &jeffcott_gpu::GpuRunner,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<EnsembleResult> {
+    run_on_gpu_inner(spec, runner, true, progress)
+}
+
+fn run_on_gpu_inner(
+    spec: &EnsembleSpec,
+    runner: &jeffcott_gpu::GpuRunner,
+    lambda1: bool,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<EnsembleResult> {
+    spec.validate()?;
+    match spec.precision {
+        Precision::F32 => run_gpu::<f32>(spec, runner, lambda1, progress),
+        Precision::F64 => run_gpu::<f64>(spec, runner, lambda1, progress),
+    }
+}
+
+/// The precision used when the user names none: f32 where the run will go to a GPU,
+/// f64 on the CPU (for `auto` that depends on whether a hardware GPU is present).
+pub fn default_precision(backend: Backend) -> Precision {
+    let hardware = || {
+        jeffcott_gpu::list_adapters()
+            .iter()
+            .any(|a| a.compute && !a.software)
+    };
+    match backend {
+        Backend::Cpu => Precision::F64,
+        Backend::Gpu => Precision::F32,
+        Backend::Auto if hardware() => Precision::F32,
+        Backend::Auto => Precision::F64,
+    }
+}
+
+/// Runs an ensemble on the chosen backend. `precision: None` means f64 on the CPU and
+/// f32 on a GPU. `progress(done, total)` counts lane-periods.
+pub fn run(
+    spec: &EnsembleSpec,
+    backend: Backend,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<(EnsembleResult, RunInfo)> {
+    run_inner(spec, backend, false, progress)
+}
+
+/// [`run`], also computing the largest Lyapunov exponent of every lane
+/// ([`EnsembleResult::lambda1`]) on whichever backend runs it. The plain [`run`] pays
+/// nothing for this: the tangent vector lives in a separate kernel variant and a
+/// separate monomorphisation of the CPU stepper.
+pub fn run_with_lambda1(
+    spec: &EnsembleSpec,
+    backend: Backend,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<(EnsembleResult, RunInfo)> {
+    run_inner(spec, backend, true, progress)
+}
+
+fn run_inner(
+    spec: &EnsembleSpec,
+    backend: Backend,
+    lambda1: bool,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<(EnsembleResult, RunInfo)> {
+    spec.validate()?;
+    let start = std::time::Instant::now();
+    let engine = Engine::new(backend, spec.precision)?;
+    let (res, mut info) = engine.run_maybe_lambda1(spec, lambda1, progress)?;
+    // Device set-up included: this call opened the device for this one run.
+    info.elapsed_s = start.elapsed().as_secs_f64();
+    Ok((res, info))
+}

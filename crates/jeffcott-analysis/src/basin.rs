@@ -1,0 +1,336 @@
+//! Basins of attraction (MODEL.md 5): a grid over two initial coordinates at one W,
+//! every other coordinate fixed, each cell labelled with the id of the attractor its
+//! lane settles on (the catalogue of [`super::catalogue`]), -1 for diverged lanes.
+//!
+//! The grid is cut into work units of lanes ([`crate::run`]): each unit is run,
+//! catalogued on its own (labels plus a partial catalogue) and committed; the assembly
+//! absorbs the partial catalogues in unit order. Memory is bounded by the labels
+//! (4 bytes per cell) plus one unit's records (about `unit * (recorded * 64 + 400)`
+//! bytes; on a GPU, one batch of units, at most 512 MB of records), e.g. 16 MB + a few MB
+//! for a 2000 x 2000 grid with 64 recorded periods.
+//! With `lyapunov` every lane also gives its largest Lyapunov exponent (the ensembles'
+//! lambda_1 variant, either backend): 8 more bytes per cell (32 MB at 2000 x 2000), and
+//! aperiodic attractors are told apart as quasiperiodic or chaotic.
+
+use super::catalogue::{Catalogue, CatalogueBuilder, CatalogueConfig, part_unit, unit_parts};
+use crate::run::lanes::{Control, LaneUnits};
+use crate::run::{Array, ProgressFn, UnitStore};
+use jeffcott_core::ensemble::{Backend, EnsembleSpec, LaneSpec, Precision, RunInfo};
+use jeffcott_core::error::{Error, Result};
+use jeffcott_core::integrate::lane::StepperConfig;
+use jeffcott_core::model::{COORD_NAMES, Params, State, coord_index};
+
+/// Splits `NAME:lo:hi:n` into its name, finite bounds and count (the name unchecked);
+/// `option` names the CLI option and `example` shows the form in errors.
+pub fn parse_named_range<'a>(
+    option: &str,
+    text: &'a str,
+    example: &str,
+) -> Result<(&'a str, f64, f64, usize)> {
+    let parts: Vec<&str> = text.split(':').map(str::trim).collect();
+    let [name, lo, hi, n] = parts.as_slice() else {
+        return Err(Error::invalid(
+            option,
+            text,
+            format!("expected NAME:lo:hi:n, e.g. {example}"),
+        ));
+    };
+    let num = |s: &str| -> Result<f64> {
+        s.parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite())
+            .ok_or_else(|| Error::invalid(option, text, format!("`{s}` is not a finite number")))
+    };
+    let n: usize = n
+        .parse()
+        .map_err(|_| Error::invalid(option, text, "the count n must be a positive integer"))?;
+    Ok((name, num(lo)?, num(hi)?, n))
+}
+
+/// Checks an axis of `n` values from `lo` to `hi`: n in 1..=[`MAX_CELLS_PER_AXIS`],
+/// finite bounds, lo < hi (lo == hi only with n = 1); `option` names it in errors.
+pub fn check_axis(option: &str, lo: f64, hi: f64, n: usize) -> Result<()> {
+    if !(1..=MAX_CELLS_PER_AXIS).contains(&n) {
+        return Err(Error::invalid(
+            option,
+            n,
+            format!("the count n must be in 1..={MAX_CELLS_PER_AXIS}"),
+        ));
+    }
+    if !(lo.is_finite() && hi.is_finite()) || (n > 1 && lo >= hi) {
+        return Err(Error::invalid(
+            option,
+            format!("{lo}..{hi}"),
+            "need finite lo < hi (lo == hi only with n = 1)",
+        ));
+    }
+    Ok(())
+}
+
+/// One axis of the grid: a state coordinate from `lo` to `hi` inclusive in `n` values.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct Axis {
+    /// Index of the state coordinate.
+    pub coord: usize,
+    /// First value.
+    pub lo: f64,
+    /// Last value.
+    pub hi: f64,
+    /// Number of values.
+    pub n: usize,
+}
+
+/// Cells per axis at most.
+pub const MAX_CELLS_PER_AXIS: usize = 100_000;
+
+impl Axis {
+    /// Parses `name:lo:hi:n`; `option` names the CLI option in errors.
+    pub fn parse(option: &str, text: &str) -> Result<Axis> {
+        let (name, lo, hi, n) = parse_named_range(option, text, "x_r:-0.006:0.006:200")?;
+        let coord = coord_index(name).ok_or_else(|| {
+            Error::invalid(
+                option,
+                name,
+                format!(
+                    "unknown coordinate; valid names: {}",
+                    COORD_NAMES.join(", ")
+                ),
+            )
+        })?;
+        let axis = Axis { coord, lo, hi, n };
+        axis.validate(option)?;
+        Ok(axis)
+    }
+
+    /// Checks the axis; `option` names it in errors.
+    pub fn validate(&self, option: &str) -> Result<()> {
+        check_axis(option, self.lo, self.hi, self.n)
+    }
+
+    /// The i-th value ([`jeffcott_core::ensemble::range_value`]).
+    pub fn value(&self, i: usize) -> f64 {
+        jeffcott_core::ensemble::range_value(self.lo, self.hi, self.n as u64, i as u64)
+    }
+}
+
+/// What a basin computes.
+#[derive(Clone, Debug)]
+pub struct BasinSpec {
+    /// Model parameters.
+    pub params: Params,
+    /// Rotor speed W [rad/s].
+    pub omega: f64,
+    /// Horizontal axis (cells along a row).
+    pub x: Axis,
+    /// Vertical axis (rows).
+    pub y: Axis,
+    /// The start state of every cell before the two axis coordinates are set.
+    pub base: State,
+    /// Forcing periods integrated and discarded.
+    pub transient: u32,
+    /// Forcing periods recorded per cell (>= 2 n to see period n).
+    pub recorded: u32,
+    /// Lane stepper settings.
+    pub stepper: StepperConfig,
+    /// Lane precision.
+    pub precision: Precision,
+    /// Backend.
+    pub backend: Backend,
+    /// Classification tolerances.
+    pub catalogue: CatalogueConfig,
+    /// Lanes per work unit (`None`: [`crate::run::unit_lanes`]).
+    pub chunk: Option<usize>,
+    /// Compute the largest Lyapunov exponent of every cell.
+    pub lyapunov: bool,
+}
+
+impl BasinSpec {
+    /// Checks the inputs; errors name the option and the allowed range.
+    pub fn validate(&self) -> Result<()> {
+        self.params.validate()?;
+        jeffcott_core::model::validate_omega(self.omega)?;
+        self.stepper.validate()?;
+        self.catalogue.validate()?;
+        self.x.validate("x")?;
+        self.y.validate("y")?;
+        if self.x.coord == self.y.coord {
+            return Err(Error::invalid(
+                "y",
+                COORD_NAMES[self.y.coord],
+                "the two axes must be different coordinates",
+            ));
+        }
+        if self.recorded < 2 {
+            return Err(Error::invalid(
+                "periods",
+                self.recorded,
+                "at least 2 periods must be recorded",
+            ));
+        }
+        if let Some((i, v)) = self.base.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+            return Err(Error::invalid(
+                COORD_NAMES[i],
+                v,
+                "fixed coordinates must be finite",
+            ));
+        }
+        if self.chunk == Some(0) {
+            return Err(Error::invalid("chunk", 0, "must be >= 1 lane"));
+        }
+        Ok(())
+    }
+
+    /// The start state of cell (ix, iy).
+    pub fn start(&self, ix: usize, iy: usize) -> State {
+        let mut x = self.base;
+        x[self.x.coord] = self.x.value(ix);
+        x[self.y.coord] = self.y.value(iy);
+        x
+    }
+}
+
+/// A computed basin.
+#[derive(Clone, Debug)]
+pub struct BasinResult {
+    /// Attractor id per cell, [ny, nx] row-major (row iy at y = y.value(iy)); -1 diverged.
+    pub labels: Vec<i32>,
+    /// The catalogue (its `labels` field is left empty: see `labels` above).
+    pub catalogue: Catalogue,
+    /// Largest Lyapunov exponent per cell [1/s], [ny, nx] as `labels`, when computed
+    /// (NaN for diverged cells).
+    pub lambda1: Option<Vec<f64>>,
+    /// Backend information (wall time: the last batch's; `None` when every unit was
+    /// already committed).
+    pub info: Option<RunInfo>,
+    /// Wall time [s].
+    pub seconds: f64,
+}
+
+/// Stage name of a basin's units.
+pub const STAGE: &str = "basin";
+
+impl BasinSpec {
+    /// Lanes per work unit: `chunk`, or [`crate::run::unit_lanes`] of the grid.
+    pub fn unit_lanes(&self) -> usize {
+        let per_lane = (self.transient + self.recorded) as u64
+            * self.stepper.steps_per_period as u64
+            * if self.lyapunov { 2 } else { 1 };
+        self.chunk
+            .unwrap_or_else(|| crate::run::unit_lanes(self.x.n * self.y.n, per_lane))
+    }
+
+    /// The specification as `run.json` records it: everything the labels depend on
+    /// (not the backend: units computed on any backend may be combined).
+    pub fn to_json(&self) -> serde_json::Value {
+        serde_json::json!({
+            "omega": self.omega,
+            "x": {"coord": COORD_NAMES[self.x.coord], "lo": self.x.lo, "hi": self.x.hi, "n": self.x.n},
+            "y": {"coord": COORD_NAMES[self.y.coord], "lo": self.y.lo, "hi": self.y.hi, "n": self.y.n},
+            "base": self.base,
+            "transient": self.transient,
+            "periods": self.recorded,
+            "stepper": self.stepper,
+            "precision": self.precision,
+            "catalogue": self.catalogue,
+            "lyapunov": self.lyapunov,
+            "unit_lanes": self.unit_lanes(),
+            "params": self.params,
+        })
+    }
+}
+
+/// Computes a basin in memory; `progress` counts lane-periods.
+pub fn basin(spec: &BasinSpec, progress: ProgressFn) -> Result<BasinResult> {
+    crate::run::in_memory(spec.backend, spec.precision, progress, |e, store, ctl| {
+        basin_with(spec, e, store, ctl)
+    })
+}
+
+/// Computes a basin unit by unit into `store` (resuming from the units it holds), then
+/// assembles the labels and the catalogue from the units in order. Each unit's lanes are
+/// catalogued on their own ([`CatalogueBuilder::finish_part`]) and the unit keeps its
+/// labels, lambda_1 and partial catalogue only; the assembly absorbs the partial
+/// catalogues in unit order, so memory is the labels plus one unit, and the result
+/// depends on the specification alone.
+pub fn basin_with(
+    spec: &BasinSpec,
+    engine: &crate::backend::Engine,
+    store: &dyn UnitStore,
+    ctl: Control,
+) -> Result<BasinResult> {
+    spec.validate()?;
+    let t0 = std::time::Instant::now();
+    let (nx, ny) = (spec.x.n, spec.y.n);
+    let cells = nx * ny;
+    let per_unit = spec.unit_lanes();
+    let count = crate::run::unit_count(cells, per_unit);
+    let ensemble = |u: usize| EnsembleSpec {
+        param_sets: vec![spec.params.clone()],
+        lanes: (u * per_unit..((u + 1) * per_unit).min(cells))
+            .map(|c| LaneSpec {
+                omega: spec.omega,
+                x0: spec.start(c % nx, c / nx),
+                param_set: 0,
+            })
+            .collect(),
+        transient: spec.transient,
+        recorded: spec.recorded,
+        stepper: spec.stepper,
+        precision: spec.precision,
+    };
+    let reduce = |_u: usize, _e: &EnsembleSpec, res: jeffcott_core::ensemble::EnsembleResult| {
+        let mut b = CatalogueBuilder::new(spec.omega, spec.catalogue);
+        let frozen: Vec<bool> = res.status.iter().map(|s| s.is_frozen()).collect();
+        let labels = b.add_block(&res.poincare, res.recorded, &frozen, res.lambda1.as_deref());
+        let (parts, labels, diverged) = b.finish_part(labels);
+        let mut unit = part_unit(labels, &parts, diverged);
+        if let Some(l) = res.lambda1 {
+            unit = unit.with("lambda1", Array::F64(l));
+        }
+        Ok(unit)
+    };
+    let info = crate::run::lanes::run_units(
+        store,
+        engine,
+        &LaneUnits {
+            stage: STAGE,
+            count,
+            ensemble: &ensemble,
+            lanes: &|u| per_unit.min(cells - u * per_unit),
+            lambda1: spec.lyapunov,
+            reduce: &reduce,
+        },
+        ctl,
+    )?;
+    // Assembly, in unit order.
+    let mut labels = Vec::with_capacity(cells);
+    let mut lambda1 = spec.lyapunov.then(|| Vec::with_capacity(cells));
+    let mut builder = CatalogueBuilder::new(spec.omega, spec.catalogue);
+    for u in 0..count {
+        let unit = store.load(STAGE, u)?;
+        let (parts, diverged) = unit_parts(&unit)?;
+        let ids: Vec<i32> = parts
+            .iter()
+            .map(|p| builder.absorb(p, (u * per_unit) as u64))
+            .collect();
+        let lab = unit.i32s("labels")?;
+        builder.add_lanes(lab.len() as u64, diverged);
+        labels.extend(
+            lab.iter()
+                .map(|&l| if l >= 0 { ids[l as usize] } else { -1 }),
+        );
+        if let Some(all) = lambda1.as_mut() {
+            all.extend_from_slice(unit.f64s("lambda1")?);
+        }
+    }
+    // `finish` may merge aperiodic entries; it remaps the labels accordingly.
+    let mut catalogue = builder.finish(labels);
+    let labels = std::mem::take(&mut catalogue.labels);
+    Ok(BasinResult {
+        labels,
+        catalogue,
+        lambda1,
+        info,
+        seconds: t0.elapsed().as_secs_f64(),
+    })
+}

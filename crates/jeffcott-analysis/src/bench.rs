@@ -1,0 +1,189 @@
+//! Throughput measurement of the ensemble backends (issue 3's benchmark), shared by
+//! `jeffcott bench`, `benches/ensemble.rs` (criterion) and the hand-written baseline
+//! (`benches/handwritten/rk4_loop.c`, which builds the same lanes).
+//!
+//! The workload is a basin-like ensemble at W = 133 rad/s, a contact-heavy regime
+//! (period-5 rubbing and coexisting attractors): lane i starts from the static
+//! equilibrium with the rotor's (x_r, vx_r) spread over [-4, 4] mm x [-0.5, 0.5] m/s
+//! by two incommensurate golden-ratio sequences, so neighbouring lanes take different
+//! contact histories, as they do in a real basin or bifurcation run (identical lanes
+//! would flatter a SIMD GPU, whose lanes then never diverge).
+
+use jeffcott_core::ensemble::{Backend, EnsembleSpec, LaneSpec, Precision};
+
+use crate::backend::{Engine, run};
+use jeffcott_core::error::Result;
+use jeffcott_core::integrate::lane::StepperConfig;
+use jeffcott_core::model::{Params, STATE_DIM, State, VX_R, X_R};
+use serde::Serialize;
+
+/// The benchmark speed [rad/s].
+pub const BENCH_OMEGA: f64 = 133.0;
+
+/// Start state of lane `i` of the benchmark workload. Keep in sync with `init` in
+/// `benches/handwritten/rk4_loop.c`.
+pub fn bench_lane(params: &Params, i: usize) -> State {
+    let u = (i as f64 * 0.618_033_988_749_894_9) % 1.0;
+    let v = (i as f64 * 0.754_877_666_246_692_7) % 1.0;
+    let mut x = params.static_equilibrium();
+    x[X_R] = 0.008 * u - 0.004;
+    x[VX_R] = v - 0.5;
+    x
+}
+
+/// The benchmark ensemble: `lanes` lanes at W = 133, `periods` periods all recorded
+/// (no transient: the first periods, where the lanes are thrown about, are the
+/// contact-heaviest), with the default stepper. `free_flight` widens the gap to 1 m so
+/// the same lanes never touch: the difference in time is the cost of contact.
+pub fn bench_spec(
+    lanes: usize,
+    periods: u32,
+    precision: Precision,
+    free_flight: bool,
+) -> EnsembleSpec {
+    let mut params = Params::default();
+    let x0: Vec<State> = (0..lanes).map(|i| bench_lane(&params, i)).collect();
+    if free_flight {
+        params.delta = 1.0;
+    }
+    EnsembleSpec {
+        param_sets: vec![params],
+        lanes: x0
+            .into_iter()
+            .map(|x0| LaneSpec {
+                omega: BENCH_OMEGA,
+                x0,
+                param_set: 0,
+            })
+            .collect(),
+        transient: 0,
+        recorded: periods,
+        stepper: StepperConfig::default(),
+        precision,
+    }
+}
+
+/// One measured configuration.
+#[derive(Clone, Debug, Serialize)]
+pub struct BenchRow {
+    /// "cpu" or "gpu".
+    pub backend: &'static str,
+    /// CPU thread count or GPU adapter name.
+    pub device: String,
+    /// Lane precision.
+    pub precision: Precision,
+    /// Lanes.
+    pub lanes: usize,
+    /// Forcing periods per lane.
+    pub periods: u32,
+    /// Wall time of the run [s] (GPU device and pipeline set-up excluded).
+    pub wall_s: f64,
+    /// Macro steps (T/N) advanced per second, summed over lanes.
+    pub lane_steps_per_s: f64,
+    /// Forcing periods advanced per second, summed over lanes.
+    pub lane_periods_per_s: f64,
+    /// Share of RK4 sub-steps spent on refinement (sub-steps beyond one per macro
+    /// step, over all sub-steps), from the lanes' counters.
+    pub refinement_substep_share: f64,
+    /// Share of macro steps in contact.
+    pub contact_step_share: f64,
+    /// Share of wall time due to contact: 1 - t(free flight) / t(W = 133), from a twin
+    /// run with the gap widened so no lane touches (None when not measured).
+    pub contact_time_share: Option<f64>,
+    /// Lanes that ended with a status other than ok.
+    pub flagged_lanes: usize,
+}
+
+/// Runs one configuration (and, when `twin` is set, its free-flight twin) on a resolved
+/// backend and measures it; the engine was opened before, so GPU device set-up is not
+/// timed, as in any long run it is amortised. The run itself is checked: every lane
+/// must be finite, or the figures would time a broken computation.
+pub fn measure(
+    lanes: usize,
+    periods: u32,
+    precision: Precision,
+    engine: &Engine,
+    twin: bool,
+) -> Result<BenchRow> {
+    let quiet = |_: u64, _: u64| {};
+    let spec = bench_spec(lanes, periods, precision, false);
+    if engine.runner().is_some() {
+        // Warm-up: the first run on a runner compiles the pipeline (seconds on
+        // llvmpipe); a long run pays that once, so it is not timed.
+        engine.run(&bench_spec(1, 1, precision, false), &quiet)?;
+    }
+    let (res, info) = engine.run(&spec, &quiet)?;
+    let (backend, device, wall) = (info.backend, info.device, info.elapsed_s);
+    let steps: u64 = res.counters.iter().map(|c| c.macro_steps).sum();
+    let extra: u64 = res.counters.iter().map(|c| c.extra_substeps).sum();
+    let contact: u64 = res.counters.iter().map(|c| c.contact_steps).sum();
+    let flagged = res.status.iter().filter(|s| s.code() != 0).count();
+    if res.final_state.iter().flatten().any(|v| !v.is_finite()) {
+        return Err(jeffcott_core::Error::Gpu {
+            message: format!("benchmark run on {device} produced non-finite states"),
+        });
+    }
+    let contact_time_share = if twin {
+        let free = bench_spec(lanes, periods, precision, true);
+        let (_, free) = engine.run(&free, &quiet)?;
+        Some(1.0 - free.elapsed_s / wall)
+    } else {
+        None
+    };
+    Ok(BenchRow {
+        backend,
+        device,
+        precision,
+        lanes,
+        periods,
+        wall_s: wall,
+        lane_steps_per_s: steps as f64 / wall,
+        lane_periods_per_s: lanes as f64 * periods as f64 / wall,
+        refinement_substep_share: extra as f64 / (steps + extra).max(1) as f64,
+        contact_step_share: contact as f64 / steps.max(1) as f64,
+        contact_time_share,
+        flagged_lanes: flagged,
+    })
+}
+
+/// Fewest periods a benchmark row integrates: the lanes need about three periods to
+/// be thrown against the stator (in the first period 0.1% of the steps are in
+/// contact, over four 15%), and the benchmark is meant to be contact-heavy.
+pub const MIN_BENCH_PERIODS: u32 = 4;
+
+/// Periods per lane for `lanes` lanes so that every size does about the same work
+/// (`lane_periods` in all), at least [`MIN_BENCH_PERIODS`].
+pub fn periods_for(lanes: usize, lane_periods: u64) -> u32 {
+    (lane_periods / lanes.max(1) as u64).clamp(MIN_BENCH_PERIODS as u64, u32::MAX as u64) as u32
+}
+
+/// Final states of the benchmark lanes after `periods` periods with `n` steps per
+/// period on the CPU in f64 (the accuracy side of the hand-written comparison).
+pub fn reference_final_states(lanes: usize, periods: u32, n: u32) -> Result<Vec<State>> {
+    let mut spec = bench_spec(lanes, periods, Precision::F64, false);
+    spec.stepper.steps_per_period = n;
+    let (res, _) = run(&spec, Backend::Cpu, &|_, _| {})?;
+    Ok(res.final_state)
+}
+
+/// Per-lane position error [m] (largest over the four positions) between two sets of
+/// final states, sorted ascending, so quantiles can be read off.
+pub fn sorted_position_errors(a: &[State], b: &[State]) -> Vec<f64> {
+    let mut e: Vec<f64> = a
+        .iter()
+        .zip(b)
+        .map(|(p, q)| {
+            (0..STATE_DIM)
+                .step_by(2)
+                .map(|d| (p[d] - q[d]).abs())
+                .fold(0.0, f64::max)
+        })
+        .collect();
+    e.sort_by(f64::total_cmp);
+    e
+}
+
+/// The `q` quantile (0..=1) of sorted values.
+pub fn quantile(sorted: &[f64], q: f64) -> f64 {
+    sorted[((sorted.len() - 1) as f64 * q).round() as usize]
+}

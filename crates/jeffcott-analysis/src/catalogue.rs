@@ -1,0 +1,753 @@
+//! The attractor catalogue of an ensemble at one rotor speed W (MODEL.md 5): every lane
+//! is classified from its Poincare points ([`classify`]) and given the id of the
+//! attractor it settled on; lanes on the same orbit get the same id even when their
+//! Poincare sequences are shifted in phase.
+//!
+//! Identity, in the metric of [`classify`] (positions in metres, velocities divided by W):
+//! - period-n: two cycles are the same when they have the same n and some cyclic shift
+//!   of one matches the other point by point within
+//!   `max(match_rel * size, match_abs)` (size = the larger of the two cycles' diameters).
+//!   The shift is found from the first point, so a comparison costs O(n). Cycles are
+//!   stored in a canonical rotation (starting at the point of smallest x_r), so the
+//!   representative points do not depend on which lane was seen first.
+//! - aperiodic (quasiperiodic, chaotic): a lane's cloud lies on an attractor when their
+//!   diameters agree within a factor 2 and at least 60 % of the lane's points are within
+//!   `cloud_rel` times the diameter of the attractor's reference cloud (the points of
+//!   the lanes that joined it, up to 512). Coexisting aperiodic attractors that overlap
+//!   that closely are not told apart.
+//! - diverged (flagged) lanes get label -1 and no catalogue entry.
+//!
+//! Lyapunov hook: when a largest exponent lambda1 [1/s] is known per lane, aperiodic
+//! lanes split into quasiperiodic (|lambda1| < `lambda_tol`) and chaotic
+//! (lambda1 > `lambda_tol`). Identity stays with the clouds: lanes of the aperiodic
+//! family on one cloud are one attractor whatever their own short-time lambda1, and the
+//! attractor's class follows the mean lambda1 of its lanes.
+
+use super::classify::{Class, ClassifyConfig, classify, distance};
+use jeffcott_core::error::{Error, Result};
+use jeffcott_core::model::{STATE_DIM, State, X_R};
+use rayon::prelude::*;
+use serde::Serialize;
+
+/// Tolerances of the catalogue; `Default` gives sound values for Table 1 runs.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, serde::Deserialize)]
+pub struct CatalogueConfig {
+    /// Period detection (n_max, repeat tolerances).
+    pub classify: ClassifyConfig,
+    /// Cycle match tolerance relative to the cycle's diameter.
+    pub match_rel: f64,
+    /// Cycle match tolerance floor [m] (period-1 cycles have zero diameter).
+    pub match_abs: f64,
+    /// Aperiodic clouds match when most points lie within this fraction of the diameter
+    /// of the attractor's reference cloud.
+    pub cloud_rel: f64,
+    /// |lambda1| below this [1/s] is quasiperiodic, above it (positive) chaotic.
+    pub lambda_tol: f64,
+}
+
+impl Default for CatalogueConfig {
+    fn default() -> Self {
+        CatalogueConfig {
+            classify: ClassifyConfig::default(),
+            match_rel: 1e-2,
+            match_abs: 1e-6,
+            cloud_rel: 0.1,
+            lambda_tol: 0.2,
+        }
+    }
+}
+
+impl CatalogueConfig {
+    /// The defaults for lanes integrated in `precision`: f32 lanes get the 10x floors of
+    /// [`ClassifyConfig::for_precision`] (their rounding noise never dies out).
+    pub fn for_precision(precision: jeffcott_core::ensemble::Precision) -> Self {
+        let d = CatalogueConfig::default();
+        match precision {
+            jeffcott_core::ensemble::Precision::F64 => d,
+            jeffcott_core::ensemble::Precision::F32 => CatalogueConfig {
+                classify: ClassifyConfig::for_precision(precision),
+                match_abs: 10.0 * d.match_abs,
+                ..d
+            },
+        }
+    }
+
+    /// The repeat and cycle-match tolerances and lambda_tol multiplied by `factor`
+    /// (n_max and cloud_rel unchanged); used to show that labels do not hinge on them.
+    pub fn scaled(&self, factor: f64) -> Self {
+        CatalogueConfig {
+            classify: ClassifyConfig {
+                n_max: self.classify.n_max,
+                rel_tol: self.classify.rel_tol * factor,
+                abs_tol: self.classify.abs_tol * factor,
+            },
+            match_rel: self.match_rel * factor,
+            match_abs: self.match_abs * factor,
+            cloud_rel: self.cloud_rel,
+            lambda_tol: self.lambda_tol * factor,
+        }
+    }
+
+    /// Checks the tolerances; errors name the option and its allowed range.
+    pub fn validate(&self) -> Result<()> {
+        let c = &self.classify;
+        if !(1..=4096).contains(&c.n_max) {
+            return Err(Error::invalid("n-max", c.n_max, "must be in 1..=4096"));
+        }
+        for (name, v) in [
+            ("rel-tol", c.rel_tol),
+            ("abs-tol", c.abs_tol),
+            ("match-rel", self.match_rel),
+            ("match-abs", self.match_abs),
+            ("cloud-rel", self.cloud_rel),
+            ("lambda-tol", self.lambda_tol),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(Error::invalid(name, v, "must be finite and > 0"));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// One attractor of the catalogue.
+#[derive(Clone, Debug, Serialize)]
+pub struct Attractor {
+    /// Id, 0-based in order of discovery (labels refer to it).
+    pub id: u32,
+    /// Class label (`period-N`, `aperiodic`, `quasiperiodic`, `chaotic`).
+    pub class: String,
+    /// The period for periodic attractors.
+    pub period: Option<usize>,
+    /// Rotor speed W [rad/s].
+    pub omega: f64,
+    /// Lanes that settled on it.
+    pub lanes: u64,
+    /// Fraction of all lanes of the catalogue (diverged ones included) that settled on it.
+    pub basin_fraction: f64,
+    /// Diameter of its Poincare set in the classification metric [m].
+    pub size_m: f64,
+    /// Representative Poincare points (states at t = kT, state order): the cycle in
+    /// canonical rotation, or for aperiodic attractors the reference cloud (the points of
+    /// the lanes that joined it, up to 512).
+    pub points: Vec<State>,
+    /// Index of the first lane (in the order added) that settled on it: a start state
+    /// that reaches it.
+    pub first_lane: u64,
+    /// Mean largest Lyapunov exponent of its lanes [1/s], when lambda1 was computed
+    /// (`None` otherwise).
+    pub lambda1: Option<f64>,
+    /// Smallest and largest lambda1 among its lanes [1/s].
+    pub lambda1_range: Option<(f64, f64)>,
+    #[serde(skip)]
+    kind: Class,
+    #[serde(skip)]
+    l1_sum: f64,
+    #[serde(skip)]
+    l1_n: u64,
+}
+
+impl Attractor {
+    /// Adds one lane's lambda1 to the mean and range (NaN: not computed, ignored).
+    fn add_lambda1(&mut self, l: f64) {
+        if l.is_finite() {
+            self.merge_lambda1(l, 1, Some((l, l)));
+        }
+    }
+
+    /// Adds `n` lanes' lambda1 (sum and range) to the mean and range.
+    fn merge_lambda1(&mut self, sum: f64, n: u64, range: Option<(f64, f64)>) {
+        if n == 0 {
+            return;
+        }
+        self.l1_sum += sum;
+        self.l1_n += n;
+        self.lambda1 = Some(self.l1_sum / self.l1_n as f64);
+        if let Some((lo, hi)) = range {
+            self.lambda1_range = Some(match self.lambda1_range {
+                Some((a, b)) => (a.min(lo), b.max(hi)),
+                None => (lo, hi),
+            });
+        }
+    }
+
+    /// The class as an enum.
+    pub fn kind(&self) -> Class {
+        self.kind
+    }
+
+    /// "period-2 (#1)"-style name for legends.
+    pub fn name(&self) -> String {
+        format!("#{} {}", self.id, self.class)
+    }
+}
+
+/// A lane after classification, before it is matched to the catalogue.
+#[derive(Clone, Debug)]
+pub struct LaneClass {
+    /// The class.
+    pub class: Class,
+    /// Diameter of the Poincare set [m] (NaN when diverged).
+    pub size: f64,
+    /// The points that represent the lane: the last cycle for periodic lanes (canonical
+    /// rotation), all points otherwise.
+    pub points: Vec<State>,
+    /// The lane's largest Lyapunov exponent [1/s] (NaN when not computed).
+    pub lambda1: f64,
+}
+
+/// Classifies one lane's Poincare sequence (`frozen`: flagged diverged / non-finite),
+/// refining aperiodic with `lambda1` when given.
+pub fn classify_lane(
+    points: &[State],
+    omega: f64,
+    frozen: bool,
+    lambda1: Option<f64>,
+    cfg: &CatalogueConfig,
+) -> LaneClass {
+    let c = classify(points, omega, frozen, &cfg.classify);
+    let class = match (c.class, lambda1) {
+        (Class::Aperiodic, Some(l)) if l.is_finite() && l.abs() < cfg.lambda_tol => {
+            Class::Quasiperiodic
+        }
+        (Class::Aperiodic, Some(l)) if l.is_finite() && l > cfg.lambda_tol => Class::Chaotic,
+        (k, _) => k,
+    };
+    let points = match class {
+        Class::Diverged | Class::Unclassified => Vec::new(),
+        Class::Periodic(n) => {
+            let cycle = &points[points.len() - n..];
+            // Canonical rotation: start at the smallest x_r (ties broken by order, which
+            // only matters for points that agree within roundoff anyway).
+            let start = (0..n)
+                .min_by(|&a, &b| cycle[a][X_R].total_cmp(&cycle[b][X_R]))
+                .unwrap_or(0);
+            (0..n).map(|k| cycle[(start + k) % n]).collect()
+        }
+        _ => points.to_vec(),
+    };
+    LaneClass {
+        class,
+        size: c.size,
+        points,
+        lambda1: lambda1.unwrap_or(f64::NAN),
+    }
+}
+
+/// True for the classes without a period (aperiodic and its lambda_1 refinements).
+fn aperiodic_family(c: Class) -> bool {
+    matches!(c, Class::Aperiodic | Class::Quasiperiodic | Class::Chaotic)
+}
+
+/// True when lane `l` lies on attractor `a` (the rules of the module docs). Aperiodic,
+/// quasiperiodic and chaotic lanes may share an attractor: their clouds decide, since a
+/// lane's lambda_1 over a few dozen periods scatters around the attractor's.
+fn same(cfg: &CatalogueConfig, w: f64, l: &LaneClass, a: &Attractor) -> bool {
+    if l.class != a.kind && !(aperiodic_family(l.class) && aperiodic_family(a.kind)) {
+        return false;
+    }
+    match l.class {
+        Class::Periodic(n) => {
+            let tol = (cfg.match_rel * l.size.max(a.size_m)).max(cfg.match_abs);
+            (0..n).any(|j| {
+                distance(&l.points[0], &a.points[j], w) <= tol
+                    && (0..n).all(|i| distance(&l.points[i], &a.points[(i + j) % n], w) <= tol)
+            })
+        }
+        Class::Diverged | Class::Unclassified => false,
+        _ => {
+            // Same attractor: similar diameters, and most of the lane's points lie within
+            // cloud_rel * size of the attractor's reference cloud (which grows as lanes
+            // join it, so its coverage improves).
+            let size = l.size.max(a.size_m);
+            if !(l.size <= 2.0 * a.size_m && a.size_m <= 2.0 * l.size) {
+                return false;
+            }
+            let tol = cfg.cloud_rel * size;
+            let need = (l.points.len() as f64 * CLOUD_COVERAGE).ceil() as usize;
+            let mut near = 0usize;
+            for (k, p) in l.points.iter().enumerate() {
+                if a.points.iter().any(|q| distance(p, q, w) <= tol) {
+                    near += 1;
+                    if near >= need {
+                        return true;
+                    }
+                }
+                if near + (l.points.len() - k - 1) < need {
+                    return false;
+                }
+            }
+            near >= need
+        }
+    }
+}
+
+/// Fraction of an aperiodic lane's points that must lie near an attractor's cloud.
+const CLOUD_COVERAGE: f64 = 0.6;
+
+/// Points kept in an aperiodic attractor's reference cloud, at most.
+const CLOUD_POINTS: usize = 512;
+
+/// The index of the attractor lane `l` lies on, if any.
+fn find(cfg: &CatalogueConfig, w: f64, attractors: &[Attractor], l: &LaneClass) -> Option<usize> {
+    attractors.iter().position(|a| same(cfg, w, l, a))
+}
+
+/// Builds a catalogue lane by lane (so basins can stream chunks with bounded memory).
+#[derive(Clone, Debug)]
+pub struct CatalogueBuilder {
+    cfg: CatalogueConfig,
+    omega: f64,
+    attractors: Vec<Attractor>,
+    total: u64,
+    diverged: u64,
+}
+
+impl CatalogueBuilder {
+    /// An empty catalogue at speed `omega`.
+    pub fn new(omega: f64, cfg: CatalogueConfig) -> Self {
+        CatalogueBuilder {
+            cfg,
+            omega,
+            attractors: Vec::new(),
+            total: 0,
+            diverged: 0,
+        }
+    }
+
+    /// Adds a classified lane; returns its attractor id, or -1 for a diverged lane.
+    pub fn add(&mut self, l: LaneClass) -> i32 {
+        let lane = self.total;
+        self.total += 1;
+        if l.class == Class::Diverged {
+            self.diverged += 1;
+            return -1;
+        }
+        if let Some(k) = find(&self.cfg, self.omega, &self.attractors, &l) {
+            let a = &mut self.attractors[k];
+            a.lanes += 1;
+            a.add_lambda1(l.lambda1);
+            if a.period.is_none() && a.points.len() < CLOUD_POINTS {
+                let room = CLOUD_POINTS - a.points.len();
+                a.points.extend(l.points.iter().take(room));
+            }
+            return k as i32;
+        }
+        let id = self.attractors.len() as u32;
+        self.attractors.push(Attractor {
+            id,
+            class: l.class.label(),
+            period: l.class.period(),
+            omega: self.omega,
+            lanes: 1,
+            basin_fraction: 0.0,
+            size_m: l.size,
+            points: l.points,
+            first_lane: lane,
+            lambda1: None,
+            lambda1_range: None,
+            kind: l.class,
+            l1_sum: 0.0,
+            l1_n: 0,
+        });
+        self.attractors[id as usize].add_lambda1(l.lambda1);
+        id as i32
+    }
+
+    /// Classifies (in parallel) and adds a block of lanes: `points` is
+    /// [lanes, recorded, 8] flat, `frozen[i]` says lane i was flagged. Returns the labels.
+    pub fn add_block(
+        &mut self,
+        points: &[f64],
+        recorded: usize,
+        frozen: &[bool],
+        lambda1: Option<&[f64]>,
+    ) -> Vec<i32> {
+        let (omega, cfg) = (self.omega, self.cfg);
+        let classes: Vec<LaneClass> = frozen
+            .par_iter()
+            .enumerate()
+            .map(|(i, &f)| {
+                let flat = &points[i * recorded * STATE_DIM..(i + 1) * recorded * STATE_DIM];
+                let states: Vec<State> = flat
+                    .chunks_exact(STATE_DIM)
+                    .map(|c| c.try_into().unwrap_or([f64::NAN; STATE_DIM]))
+                    .collect();
+                classify_lane(&states, omega, f, lambda1.map(|l| l[i]), &cfg)
+            })
+            .collect();
+        classes.into_iter().map(|c| self.add(c)).collect()
+    }
+
+    /// Merges aperiodic entries that are one attractor; returns old id -> new id.
+    fn merge_clouds(&mut self) -> Vec<i32> {
+        let n = self.attractors.len();
+        let mut target: Vec<usize> = (0..n).collect();
+        for b in 1..n {
+            if self.attractors[b].period.is_some() {
+                continue;
+            }
+            let lb = LaneClass {
+                class: self.attractors[b].kind,
+                size: self.attractors[b].size_m,
+                points: self.attractors[b].points.clone(),
+                lambda1: f64::NAN,
+            };
+            if let Some(a) = (0..b).find(|&a| {
+                target[a] == a && {
+                    let la = LaneClass {
+                        class: self.attractors[a].kind,
+                        size: self.attractors[a].size_m,
+                        points: self.attractors[a].points.clone(),
+                        lambda1: f64::NAN,
+                    };
+                    same(&self.cfg, self.omega, &lb, &self.attractors[a])
+                        || same(&self.cfg, self.omega, &la, &self.attractors[b])
+                }
+            }) {
+                target[b] = a;
+            }
+        }
+        let mut map = vec![-1i32; n];
+        let mut kept: Vec<Attractor> = Vec::new();
+        for k in 0..n {
+            if target[k] == k {
+                map[k] = kept.len() as i32;
+                let mut a = self.attractors[k].clone();
+                a.id = kept.len() as u32;
+                kept.push(a);
+            }
+        }
+        for k in 0..n {
+            if target[k] != k {
+                let t = map[target[k]] as usize;
+                map[k] = t as i32;
+                let extra = self.attractors[k].lanes;
+                let room = CLOUD_POINTS.saturating_sub(kept[t].points.len());
+                let pts: Vec<State> = self.attractors[k]
+                    .points
+                    .iter()
+                    .take(room)
+                    .copied()
+                    .collect();
+                kept[t].lanes += extra;
+                kept[t].points.extend(pts);
+                let (sum, n, range) = (
+                    self.attractors[k].l1_sum,
+                    self.attractors[k].l1_n,
+                    self.attractors[k].lambda1_range,
+                );
+                kept[t].merge_lambda1(sum, n, range);
+            }
+        }
+        self.attractors = kept;
+        map
+    }
+
+    /// The attractors so far with their basin fractions; an aperiodic attractor's class
+    /// comes from the mean lambda_1 of its lanes when known (quasiperiodic if
+    /// |mean| < `lambda_tol`, chaotic above, aperiodic otherwise).
+    pub fn attractors(&self) -> Vec<Attractor> {
+        let mut v = self.attractors.clone();
+        for a in &mut v {
+            a.basin_fraction = a.lanes as f64 / self.total.max(1) as f64;
+            if let (true, Some(l)) = (aperiodic_family(a.kind), a.lambda1) {
+                a.kind = if l.abs() < self.cfg.lambda_tol {
+                    Class::Quasiperiodic
+                } else if l > self.cfg.lambda_tol {
+                    Class::Chaotic
+                } else {
+                    Class::Aperiodic
+                };
+                a.class = a.kind.label();
+            }
+        }
+        v
+    }
+
+    /// Lanes added so far, and how many of them diverged.
+    pub fn counts(&self) -> (u64, u64) {
+        (self.total, self.diverged)
+    }
+}
+
+/// An attractor of a partial catalogue (one work unit's lanes), with what it takes to
+/// absorb it into the catalogue of the whole run ([`CatalogueBuilder::absorb`]): units
+/// store these instead of their lanes' Poincare records.
+#[derive(Clone, Debug, Serialize, serde::Deserialize)]
+pub struct PartAttractor {
+    /// The class (before the lambda_1 mean refines an aperiodic one).
+    pub class: Class,
+    /// Diameter of its Poincare set [m].
+    pub size_m: f64,
+    /// Representative points (cycle in canonical rotation, or the reference cloud).
+    #[serde(skip)]
+    pub points: Vec<State>,
+    /// Its lanes in the unit.
+    pub lanes: u64,
+    /// The unit-local index of its first lane.
+    pub first_lane: u64,
+    /// Sum, count and range of its lanes' finite lambda_1.
+    pub l1_sum: f64,
+    /// See `l1_sum`.
+    pub l1_n: u64,
+    /// See `l1_sum`.
+    pub l1_range: Option<(f64, f64)>,
+}
+
+impl CatalogueBuilder {
+    /// Finishes a partial catalogue (one unit's lanes, `labels` as `add` returned them):
+    /// aperiodic entries merged as in [`CatalogueBuilder::finish`], the attractors in id
+    /// order, the labels remapped, and the number of diverged lanes.
+    pub fn finish_part(mut self, mut labels: Vec<i32>) -> (Vec<PartAttractor>, Vec<i32>, u64) {
+        let map = self.merge_clouds();
+        for l in labels.iter_mut() {
+            if *l >= 0 {
+                *l = map[*l as usize];
+            }
+        }
+        let parts = self
+            .attractors
+            .into_iter()
+            .map(|a| PartAttractor {
+                class: a.kind,
+                size_m: a.size_m,
+                points: a.points,
+                lanes: a.lanes,
+                first_lane: a.first_lane,
+                l1_sum: a.l1_sum,
+                l1_n: a.l1_n,
+                l1_range: a.lambda1_range,
+            })
+            .collect();
+        (parts, labels, self.diverged)
+    }
+
+    /// Absorbs an attractor of a partial catalogue whose lanes start at lane
+    /// `lane_offset` of this catalogue; returns its id here. It joins the attractor it
+    /// is the same as by the rules of the module docs (for aperiodic clouds in either
+    /// direction, as the end merge compares them), else it becomes a new one. Lane
+    /// counts are not touched: see [`CatalogueBuilder::add_lanes`].
+    pub fn absorb(&mut self, p: &PartAttractor, lane_offset: u64) -> i32 {
+        let lc = LaneClass {
+            class: p.class,
+            size: p.size_m,
+            points: p.points.clone(),
+            lambda1: f64::NAN,
+        };
+        let (cfg, w) = (self.cfg, self.omega);
+        let found = self.attractors.iter().position(|a| {
+            same(&cfg, w, &lc, a)
+                || (a.period.is_none()
+                    && aperiodic_family(p.class)
+                    && same(
+                        &cfg,
+                        w,
+                        &LaneClass {
+                            class: a.kind,
+                            size: a.size_m,
+                            points: a.points.clone(),
+                            lambda1: f64::NAN,
+                        },
+                        &Attractor {
+                            kind: p.class,
+                            size_m: p.size_m,
+                            points: p.points.clone(),
+                            ..a.clone()
+                        },
+                    ))
+        });
+        if let Some(k) = found {
+            let a = &mut self.attractors[k];
+            a.lanes += p.lanes;
+            a.merge_lambda1(p.l1_sum, p.l1_n, p.l1_range);
+            if a.period.is_none() && a.points.len() < CLOUD_POINTS {
+                let room = CLOUD_POINTS - a.points.len();
+                a.points.extend(p.points.iter().take(room));
+            }
+            return k as i32;
+        }
+        let id = self.attractors.len() as u32;
+        let mut a = Attractor {
+            id,
+            class: p.class.label(),
+            period: p.class.period(),
+            omega: self.omega,
+            lanes: p.lanes,
+            basin_fraction: 0.0,
+            size_m: p.size_m,
+            points: p.points.clone(),
+            first_lane: lane_offset + p.first_lane,
+            lambda1: None,
+            lambda1_range: None,
+            kind: p.class,
+            l1_sum: 0.0,
+            l1_n: 0,
+        };
+        a.merge_lambda1(p.l1_sum, p.l1_n, p.l1_range);
+        self.attractors.push(a);
+        id as i32
+    }
+
+    /// Counts `lanes` more lanes of which `diverged` diverged (the lanes of absorbed
+    /// partial catalogues).
+    pub fn add_lanes(&mut self, lanes: u64, diverged: u64) {
+        self.total += lanes;
+        self.diverged += diverged;
+    }
+}
+
+/// A work unit holding a partial catalogue: the lanes' `labels` (unit-local attractor
+/// ids, -1 diverged), the attractors ([`PartAttractor`], their points flattened into the
+/// `points` array) and the diverged count; read back by [`unit_parts`].
+pub fn part_unit(labels: Vec<i32>, parts: &[PartAttractor], diverged: u64) -> crate::run::Unit {
+    use crate::run::{Array, Unit};
+    let counts: Vec<usize> = parts.iter().map(|p| p.points.len()).collect();
+    Unit::new("")
+        .with("labels", Array::I32(labels))
+        .with(
+            "points",
+            Array::F64(
+                parts
+                    .iter()
+                    .flat_map(|p| p.points.iter().flatten().copied())
+                    .collect(),
+            ),
+        )
+        .with_meta(serde_json::json!({
+            "parts": parts, "part_points": counts, "diverged": diverged,
+        }))
+}
+
+/// The partial catalogue a [`part_unit`] stores, with its points, and its diverged count.
+pub fn unit_parts(
+    unit: &crate::run::Unit,
+) -> jeffcott_core::error::Result<(Vec<PartAttractor>, u64)> {
+    let bad = |what: &str| jeffcott_core::error::Error::Io {
+        path: format!("unit {}", unit.key).into(),
+        source: std::io::Error::new(std::io::ErrorKind::InvalidData, what.to_string()),
+    };
+    let mut parts: Vec<PartAttractor> = serde_json::from_value(unit.meta["parts"].clone())
+        .map_err(|e| bad(&format!("partial catalogue: {e}")))?;
+    let counts: Vec<usize> = serde_json::from_value(unit.meta["part_points"].clone())
+        .map_err(|e| bad(&format!("partial catalogue: {e}")))?;
+    let diverged = unit.meta["diverged"]
+        .as_u64()
+        .ok_or_else(|| bad("diverged count"))?;
+    let flat = unit.f64s("points")?;
+    if counts.len() != parts.len() || counts.iter().sum::<usize>() * STATE_DIM != flat.len() {
+        return Err(bad("partial catalogue points do not match"));
+    }
+    let mut at = 0;
+    for (p, &n) in parts.iter_mut().zip(&counts) {
+        p.points = flat[at * STATE_DIM..(at + n) * STATE_DIM]
+            .chunks_exact(STATE_DIM)
+            .map(|c| c.try_into().unwrap_or([f64::NAN; STATE_DIM]))
+            .collect();
+        at += n;
+    }
+    Ok((parts, diverged))
+}
+
+/// The catalogue of a set of lanes at one W.
+#[derive(Clone, Debug, Serialize)]
+pub struct Catalogue {
+    /// Rotor speed W [rad/s].
+    pub omega: f64,
+    /// The attractors, by id.
+    pub attractors: Vec<Attractor>,
+    /// Per lane: the attractor id, -1 for diverged lanes.
+    #[serde(skip)]
+    pub labels: Vec<i32>,
+    /// Lanes in all.
+    pub lanes: u64,
+    /// Lanes flagged diverged or non-finite.
+    pub diverged: u64,
+    /// Fraction of lanes that diverged.
+    pub diverged_fraction: f64,
+    /// The tolerances used.
+    pub config: CatalogueConfig,
+}
+
+impl Catalogue {
+    /// The id of the catalogued attractor that the classified lane `l` lies on, if any.
+    pub fn identify(&self, l: &LaneClass) -> Option<u32> {
+        find(&self.config, self.omega, &self.attractors, l).map(|k| k as u32)
+    }
+
+    /// The label of every lane of `r` (integrated at this catalogue's W) against this
+    /// catalogue: the attractor id, -1 for a frozen (diverged) lane, -2 for a lane on no
+    /// catalogued attractor. The labelling of the basin's re-integrated points
+    /// (refinement, uncertainty exponent).
+    pub fn label_lanes(&self, r: &jeffcott_core::ensemble::EnsembleResult) -> Vec<i32> {
+        (0..r.status.len())
+            .map(|i| {
+                if r.status[i].is_frozen() {
+                    return -1;
+                }
+                let lc = classify_lane(
+                    &r.lane_states(i),
+                    self.omega,
+                    false,
+                    r.lambda1.as_ref().map(|l| l[i]),
+                    &self.config,
+                );
+                self.identify(&lc).map(|id| id as i32).unwrap_or(-2)
+            })
+            .collect()
+    }
+}
+
+/// Catalogues lanes at one W: `points` is [lanes, recorded, 8] flat (as in
+/// `EnsembleResult::poincare`), `frozen` flags diverged lanes, `lambda1` is the largest
+/// Lyapunov exponent per lane [1/s] when known.
+pub fn catalogue(
+    omega: f64,
+    points: &[f64],
+    recorded: usize,
+    frozen: &[bool],
+    lambda1: Option<&[f64]>,
+    cfg: &CatalogueConfig,
+) -> Catalogue {
+    let mut b = CatalogueBuilder::new(omega, *cfg);
+    let labels = b.add_block(points, recorded, frozen, lambda1);
+    b.finish(labels)
+}
+
+impl CatalogueBuilder {
+    /// The finished catalogue with the given labels (all lanes' ids, in order).
+    ///
+    /// Aperiodic attractors whose reference clouds cover each other are merged first
+    /// (a lane compared early against a still sparse cloud may have opened a second
+    /// entry for the same attractor); ids are renumbered in order and `labels` remapped.
+    pub fn finish(mut self, mut labels: Vec<i32>) -> Catalogue {
+        let map = self.merge_clouds();
+        for l in labels.iter_mut() {
+            if *l >= 0 {
+                *l = map[*l as usize];
+            }
+        }
+        let attractors = self.attractors();
+        let (lanes, diverged) = self.counts();
+        Catalogue {
+            omega: self.omega,
+            attractors,
+            labels,
+            lanes,
+            diverged,
+            diverged_fraction: diverged as f64 / lanes.max(1) as f64,
+            config: self.cfg,
+        }
+    }
+}
+
+/// Catalogues lanes of an ensemble result that all run at speed `omega`.
+pub fn catalogue_result(
+    omega: f64,
+    res: &jeffcott_core::ensemble::EnsembleResult,
+    lambda1: Option<&[f64]>,
+    cfg: &CatalogueConfig,
+) -> Catalogue {
+    let frozen: Vec<bool> = res.status.iter().map(|s| s.is_frozen()).collect();
+    catalogue(omega, &res.poincare, res.recorded, &frozen, lambda1, cfg)
+}

@@ -1,0 +1,644 @@
+//! Two-parameter maps (design charts): a grid over any two of the rotor speed, the model
+//! parameters and the start coordinates; per cell, K start states (the static
+//! equilibrium of the cell's parameters plus seeded ones, as the brute-force bifurcation
+//! draws them), the attractors they reach with class, lambda_1 and rub figures.
+//!
+//! One parameter set per cell goes to the backend as lane data
+//! ([`EnsembleSpec::param_sets`]), so a GPU runs the whole map from one kernel. The grid
+//! is cut into work units of whole cells ([`crate::run`]); each unit keeps its cells'
+//! figures and attractor lists, so a map resumes and shards like a basin, and a cell's
+//! figures depend on that cell alone (lanes are independent).
+
+use super::catalogue::{CatalogueBuilder, CatalogueConfig};
+use super::classify::Class;
+use super::rub::{RubFigures, rub_on_attractor, rub_periods};
+use crate::run::lanes::{Control, LaneUnits};
+use crate::run::{Array, ProgressFn, Unit, UnitStore};
+use jeffcott_core::ensemble::{
+    Backend, EnsembleResult, EnsembleSpec, LaneSpec, Precision, RunInfo,
+};
+use jeffcott_core::error::{Error, Result};
+use jeffcott_core::integrate::lane::StepperConfig;
+use jeffcott_core::model::{
+    COORD_NAMES, Params, State, X_R, X_S, Y_R, Y_S, coord_index, validate_omega,
+};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// What an axis of a map varies.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MapVar {
+    /// The rotor speed W [rad/s].
+    Omega,
+    /// A model parameter, by its TOML key ([`Params::FIELDS`]).
+    Param(&'static str),
+    /// A start coordinate (index into the state), set in every start state of the cell.
+    Coord(usize),
+}
+
+impl MapVar {
+    /// Parses a name: `omega`, a parameter key or a coordinate name.
+    pub fn parse(option: &str, name: &str) -> Result<MapVar> {
+        if name == "omega" {
+            return Ok(MapVar::Omega);
+        }
+        if let Some(k) = Params::FIELDS.iter().find(|k| **k == name) {
+            return Ok(MapVar::Param(k));
+        }
+        if let Some(i) = coord_index(name) {
+            return Ok(MapVar::Coord(i));
+        }
+        Err(Error::invalid(
+            option,
+            name,
+            format!(
+                "unknown axis; valid names: omega, {}, or a start coordinate {}",
+                Params::FIELDS.join(", "),
+                COORD_NAMES.join(", ")
+            ),
+        ))
+    }
+
+    /// The name as given on the command line.
+    pub fn name(&self) -> &'static str {
+        match self {
+            MapVar::Omega => "omega",
+            MapVar::Param(k) => k,
+            MapVar::Coord(i) => COORD_NAMES[*i],
+        }
+    }
+
+    /// Unit of the variable, for axis labels.
+    pub fn unit(&self) -> &'static str {
+        match self {
+            MapVar::Omega => "rad/s",
+            MapVar::Coord(i) => jeffcott_core::model::COORD_UNITS[*i],
+            MapVar::Param(k) => match *k {
+                "omega_r" | "omega_s" => "rad/s",
+                "delta" | "e" | "e_max" => "m",
+                "m_r" | "m_s" => "kg",
+                "k_c" => "N/m",
+                "c_c" => "N s/m",
+                "a_g" => "m/s^2",
+                "phi0" => "rad",
+                _ => "-",
+            },
+        }
+    }
+}
+
+/// One axis of a map: `n` values of a variable from `lo` to `hi` inclusive, evenly
+/// spaced, or geometrically with `log`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MapAxis {
+    /// What the axis varies.
+    pub var: MapVar,
+    /// First value.
+    pub lo: f64,
+    /// Last value.
+    pub hi: f64,
+    /// Number of values.
+    pub n: usize,
+    /// Geometric spacing (lo, hi > 0).
+    pub log: bool,
+}
+
+/// Cells per map axis at most (the basin's bound).
+pub use super::basin::MAX_CELLS_PER_AXIS;
+
+impl MapAxis {
+    /// Parses `NAME:lo:hi:n`; `option` names the CLI option in errors.
+    pub fn parse(option: &str, text: &str, log: bool) -> Result<MapAxis> {
+        let (name, lo, hi, n) =
+            super::basin::parse_named_range(option, text, "omega:130:141:200 or e:0:0.002:100")?;
+        let axis = MapAxis {
+            var: MapVar::parse(option, name)?,
+            lo,
+            hi,
+            n,
+            log,
+        };
+        axis.validate(option)?;
+        Ok(axis)
+    }
+
+    /// Checks count, order and (for `log`) positivity; `option` names the axis.
+    pub fn validate(&self, option: &str) -> Result<()> {
+        super::basin::check_axis(option, self.lo, self.hi, self.n)?;
+        if self.log && self.lo <= 0.0 {
+            return Err(Error::invalid(
+                option,
+                self.lo,
+                "a logarithmic axis needs lo > 0",
+            ));
+        }
+        Ok(())
+    }
+
+    /// The i-th value: `lo + (hi - lo) i / (n - 1)`, the arithmetic of the `a:b:n`
+    /// ranges of the other commands (so a map over omega hits the very speeds of a
+    /// bifurcation over the same range), or `lo (hi/lo)^(i/(n-1))` with `log`.
+    pub fn value(&self, i: usize) -> f64 {
+        if self.n == 1 {
+            return self.lo;
+        }
+        if self.log {
+            self.lo * (self.hi / self.lo).powf(i as f64 / (self.n - 1) as f64)
+        } else {
+            jeffcott_core::ensemble::range_value(self.lo, self.hi, self.n as u64, i as u64)
+        }
+    }
+
+    /// All values.
+    pub fn values(&self) -> Vec<f64> {
+        (0..self.n).map(|i| self.value(i)).collect()
+    }
+
+    fn to_json(self) -> serde_json::Value {
+        serde_json::json!({
+            "var": self.var.name(), "lo": self.lo, "hi": self.hi, "n": self.n, "log": self.log,
+        })
+    }
+}
+
+/// What a map computes.
+#[derive(Clone, Debug)]
+pub struct MapSpec {
+    /// Model parameters of every cell before the axes set theirs.
+    pub params: Params,
+    /// Rotor speed of every cell when no axis is `omega` [rad/s].
+    pub omega: Option<f64>,
+    /// Horizontal axis (cells along a row).
+    pub x: MapAxis,
+    /// Vertical axis (rows).
+    pub y: MapAxis,
+    /// Start states per cell: the static equilibrium plus `ics - 1` seeded ones.
+    pub ics: u32,
+    /// Seed of the start states (the same draws in every cell).
+    pub seed: u64,
+    /// Forcing periods integrated and discarded.
+    pub transient: u32,
+    /// Forcing periods recorded per lane.
+    pub recorded: u32,
+    /// Lane stepper settings.
+    pub stepper: StepperConfig,
+    /// Lane precision.
+    pub precision: Precision,
+    /// Backend.
+    pub backend: Backend,
+    /// Classification tolerances.
+    pub catalogue: CatalogueConfig,
+    /// Compute lambda_1 of every lane.
+    pub lyapunov: bool,
+    /// Cells per work unit (`None`: [`crate::run::unit_lanes`] in cells).
+    pub chunk: Option<usize>,
+}
+
+/// Start states per cell at most.
+pub const MAX_ICS: u32 = 10_000;
+
+impl MapSpec {
+    /// Checks the inputs, every cell's parameter set included (through the extreme
+    /// values of each axis); errors name the option and the allowed range.
+    pub fn validate(&self) -> Result<()> {
+        self.params.validate()?;
+        self.stepper.validate()?;
+        self.catalogue.validate()?;
+        self.x.validate("x")?;
+        self.y.validate("y")?;
+        if self.x.var == self.y.var {
+            return Err(Error::invalid(
+                "y",
+                self.y.var.name(),
+                "the two axes must vary different things",
+            ));
+        }
+        let has_omega = self.x.var == MapVar::Omega || self.y.var == MapVar::Omega;
+        match (self.omega, has_omega) {
+            (None, false) => {
+                return Err(Error::invalid(
+                    "omega",
+                    "none",
+                    "give --omega W when neither axis is omega",
+                ));
+            }
+            (Some(w), false) => validate_omega(w)?,
+            _ => {}
+        }
+        if !(1..=MAX_ICS).contains(&self.ics) {
+            return Err(Error::invalid(
+                "ics",
+                self.ics,
+                format!("must be in 1..={MAX_ICS}"),
+            ));
+        }
+        jeffcott_core::limits::check_periods("transient", self.transient, 0)?;
+        jeffcott_core::limits::check_periods("periods", self.recorded, 2)?;
+        if self.chunk == Some(0) {
+            return Err(Error::invalid("chunk", 0, "must be >= 1 cell"));
+        }
+        // Every cell's parameters lie between those of the corners (each axis is
+        // monotone), and the checks are ranges: the corners decide.
+        for (ix, iy) in [
+            (0, 0),
+            (self.x.n - 1, 0),
+            (0, self.y.n - 1),
+            (self.x.n - 1, self.y.n - 1),
+        ] {
+            // Errors name the corner: which axis values make the cell invalid.
+            let corner = || {
+                format!(
+                    "{} = {}, {} = {}",
+                    self.x.var.name(),
+                    self.x.value(ix),
+                    self.y.var.name(),
+                    self.y.value(iy)
+                )
+            };
+            let (p, w) = self.cell_params(ix, iy);
+            validate_omega(w).and_then(|_| p.validate()).map_err(|e| {
+                Error::invalid(
+                    "x, y",
+                    corner(),
+                    format!("a cell of the map is invalid: {e}"),
+                )
+            })?;
+            let bound = self.stepper.divergence_bound;
+            for s in self.cell_starts(ix, iy) {
+                for c in [X_R, Y_R, X_S, Y_S] {
+                    if s[c].abs() > bound {
+                        return Err(Error::invalid(
+                            &format!("start {}", COORD_NAMES[c]),
+                            s[c],
+                            format!(
+                                "start position beyond --divergence-bound {bound} m; must be in -{bound}..={bound} m"
+                            ),
+                        ));
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Number of cells.
+    pub fn cells(&self) -> usize {
+        self.x.n * self.y.n
+    }
+
+    /// The parameters and speed of cell (ix, iy).
+    pub fn cell_params(&self, ix: usize, iy: usize) -> (Params, f64) {
+        let mut p = self.params.clone();
+        let mut w = self.omega.unwrap_or(f64::NAN);
+        for (axis, i) in [(&self.x, ix), (&self.y, iy)] {
+            match axis.var {
+                MapVar::Omega => w = axis.value(i),
+                MapVar::Param(k) => {
+                    p.set(k, axis.value(i))
+                        .expect("MapVar::Param holds a known key");
+                }
+                MapVar::Coord(_) => {}
+            }
+        }
+        (p, w)
+    }
+
+    /// The K start states of cell (ix, iy): the static equilibrium of the cell's
+    /// parameters, then the seeded draws of [`super::bifurcation::start_states`] with
+    /// rotor velocities scaled by the cell's own speed (so a cell's start states, like
+    /// its results, depend on the cell alone); a coordinate axis sets its coordinate in
+    /// all of them.
+    pub fn cell_starts(&self, ix: usize, iy: usize) -> Vec<State> {
+        let (p, w) = self.cell_params(ix, iy);
+        let mut starts = super::bifurcation::start_states(&p, self.ics, w, self.seed);
+        for (axis, i) in [(&self.x, ix), (&self.y, iy)] {
+            if let MapVar::Coord(c) = axis.var {
+                for s in &mut starts {
+                    s[c] = axis.value(i);
+                }
+            }
+        }
+        starts
+    }
+
+    /// Cells per work unit: `chunk`, or [`crate::run::unit_lanes`] counted in cells.
+    pub fn unit_cells(&self) -> usize {
+        let per_cell = self.ics as u64
+            * (self.transient + self.recorded) as u64
+            * self.stepper.steps_per_period as u64
+            * if self.lyapunov { 2 } else { 1 };
+        self.chunk
+            .unwrap_or_else(|| crate::run::unit_lanes(self.cells(), per_cell))
+    }
+
+    /// The specification as `run.json` records it (not the backend).
+    pub fn to_json(&self) -> serde_json::Value {
+        serde_json::json!({
+            "omega": self.omega,
+            "x": self.x.to_json(),
+            "y": self.y.to_json(),
+            "ics": self.ics,
+            "seed": self.seed,
+            "transient": self.transient,
+            "periods": self.recorded,
+            "stepper": self.stepper,
+            "precision": self.precision,
+            "catalogue": self.catalogue,
+            "lyapunov": self.lyapunov,
+            "unit_cells": self.unit_cells(),
+            "params": self.params,
+        })
+    }
+
+    /// Lane-periods of the whole map (for progress and estimates).
+    pub fn lane_periods(&self) -> u64 {
+        self.cells() as u64 * self.ics as u64 * (self.transient + self.recorded) as u64
+    }
+}
+
+/// One attractor found in one cell.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CellAttractor {
+    /// Id within the cell (in the order its start states first reached them).
+    pub id: u32,
+    /// `period-N`, `aperiodic`, `quasiperiodic`, `chaotic`, `unclassified`.
+    pub class: String,
+    /// Period, when periodic.
+    pub period: Option<usize>,
+    /// Start states of the cell that reach it.
+    pub lanes: u32,
+    /// Mean lambda_1 of those lanes [1/s] (with lambda_1).
+    pub lambda1: Option<f64>,
+    /// Rub figures on the attractor (`None` if its rub stretch diverged).
+    pub rub: Option<RubFigures>,
+}
+
+/// What a map found in one cell.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Cell {
+    /// Column and row.
+    pub ix: usize,
+    /// Row.
+    pub iy: usize,
+    /// Attractors of the cell, in the order its start states first reached them.
+    pub attractors: Vec<CellAttractor>,
+    /// Start states that diverged.
+    pub diverged: u32,
+    /// Index into `attractors` of the one reached from the static equilibrium (the
+    /// cell's first start state); `None` when that start state diverged.
+    pub equilibrium: Option<u32>,
+}
+
+/// Class codes of `class.npy`-style arrays: n > 0 period-n; these for the rest.
+pub mod code {
+    /// Aperiodic without a lambda_1 verdict.
+    pub const APERIODIC: i32 = 0;
+    /// Diverged (or non-finite).
+    pub const DIVERGED: i32 = -1;
+    /// Aperiodic with lambda_1 ~ 0.
+    pub const QUASIPERIODIC: i32 = -2;
+    /// Aperiodic with lambda_1 > 0.
+    pub const CHAOTIC: i32 = -3;
+    /// Too few points to classify.
+    pub const UNCLASSIFIED: i32 = -4;
+}
+
+fn class_code(c: Class) -> i32 {
+    match c {
+        Class::Periodic(n) => n as i32,
+        Class::Aperiodic => code::APERIODIC,
+        Class::Quasiperiodic => code::QUASIPERIODIC,
+        Class::Chaotic => code::CHAOTIC,
+        Class::Diverged => code::DIVERGED,
+        Class::Unclassified => code::UNCLASSIFIED,
+    }
+}
+
+/// A computed map, arrays [ny, nx] row-major (row iy at y.value(iy)).
+#[derive(Clone, Debug)]
+pub struct MapResult {
+    /// Class code of the attractor reached from the static equilibrium ([`code`]).
+    pub class: Vec<i32>,
+    /// Its period: n, 0 aperiodic (any kind), -1 diverged.
+    pub period: Vec<i32>,
+    /// Its mean lambda_1 [1/s] (NaN without lambda_1 or when diverged).
+    pub lambda1: Vec<f64>,
+    /// Number of coexisting attractors found from the K start states.
+    pub attractors: Vec<i32>,
+    /// Contact fraction of time on it (NaN when diverged).
+    pub contact: Vec<f64>,
+    /// Peak normal contact force on it [N] (NaN when diverged).
+    pub peak_force: Vec<f64>,
+    /// Its rub regime code ([`crate::rub::RubRegime::code`]; -1 diverged).
+    pub regime: Vec<i32>,
+    /// Every cell's attractors.
+    pub cells: Vec<Cell>,
+    /// Backend information of the last batch (`None` when every unit was committed).
+    pub info: Option<RunInfo>,
+    /// Wall time [s].
+    pub seconds: f64,
+}
+
+/// Stage name of a map's units.
+pub const STAGE: &str = "map";
+
+/// Computes a map in memory; `progress` counts lane-periods.
+pub fn map(spec: &MapSpec, progress: ProgressFn) -> Result<MapResult> {
+    crate::run::in_memory(spec.backend, spec.precision, progress, |e, store, ctl| {
+        map_with(spec, e, store, ctl)
+    })
+}
+
+/// The cells of one unit from its ensemble result: per cell, its K lanes catalogued
+/// (the cell's own catalogue at the cell's speed), the rub figures of each attractor
+/// from the final state of the first lane that reached it.
+fn reduce_cells(
+    spec: &MapSpec,
+    first_cell: usize,
+    e: &EnsembleSpec,
+    res: &EnsembleResult,
+) -> Result<Vec<Cell>> {
+    let k = spec.ics as usize;
+    let rec = res.recorded;
+    let per_lane = rec * jeffcott_core::model::STATE_DIM;
+    let n_cells = e.lanes.len() / k;
+    (0..n_cells)
+        .into_par_iter()
+        .map(|j| {
+            let c = first_cell + j;
+            let (ix, iy) = (c % spec.x.n, c / spec.x.n);
+            let lanes = j * k..(j + 1) * k;
+            let p = &e.param_sets[e.lanes[j * k].param_set as usize];
+            let w = e.lanes[j * k].omega;
+            let mut b = CatalogueBuilder::new(w, spec.catalogue);
+            let frozen: Vec<bool> = res.status[lanes.clone()]
+                .iter()
+                .map(|s| s.is_frozen())
+                .collect();
+            let labels = b.add_block(
+                &res.poincare[lanes.start * per_lane..lanes.end * per_lane],
+                rec,
+                &frozen,
+                res.lambda1.as_ref().map(|l| &l[lanes.clone()]),
+            );
+            let cat = b.finish(labels);
+            let mut attractors = Vec::with_capacity(cat.attractors.len());
+            for a in &cat.attractors {
+                let first = cat
+                    .labels
+                    .iter()
+                    .position(|&l| l == a.id as i32)
+                    .unwrap_or(0);
+                let x0 = res.final_state[lanes.start + first];
+                let rub = rub_on_attractor(p, w, &x0, rub_periods(a.period), &spec.stepper)?;
+                attractors.push(CellAttractor {
+                    id: a.id,
+                    class: a.class.clone(),
+                    period: a.period,
+                    lanes: a.lanes as u32,
+                    lambda1: a.lambda1,
+                    rub,
+                });
+            }
+            Ok(Cell {
+                ix,
+                iy,
+                attractors,
+                diverged: cat.diverged as u32,
+                equilibrium: u32::try_from(cat.labels[0]).ok(),
+            })
+        })
+        .collect()
+}
+
+/// Computes a map unit by unit into `store` (resuming from the units it holds), then
+/// assembles the arrays from the units in order.
+pub fn map_with(
+    spec: &MapSpec,
+    engine: &crate::backend::Engine,
+    store: &dyn UnitStore,
+    ctl: Control,
+) -> Result<MapResult> {
+    spec.validate()?;
+    let t0 = std::time::Instant::now();
+    let cells = spec.cells();
+    let per_unit = spec.unit_cells();
+    let count = crate::run::unit_count(cells, per_unit);
+    let k = spec.ics as usize;
+    let ensemble = |u: usize| {
+        let range = u * per_unit..((u + 1) * per_unit).min(cells);
+        let mut param_sets = Vec::with_capacity(range.len());
+        let mut lanes = Vec::with_capacity(range.len() * k);
+        for c in range {
+            let (ix, iy) = (c % spec.x.n, c / spec.x.n);
+            let (p, w) = spec.cell_params(ix, iy);
+            let set = param_sets.len() as u32;
+            for x0 in spec.cell_starts(ix, iy) {
+                lanes.push(LaneSpec {
+                    omega: w,
+                    x0,
+                    param_set: set,
+                });
+            }
+            param_sets.push(p);
+        }
+        EnsembleSpec {
+            param_sets,
+            lanes,
+            transient: spec.transient,
+            recorded: spec.recorded,
+            stepper: spec.stepper,
+            precision: spec.precision,
+        }
+    };
+    let reduce = |u: usize, e: &EnsembleSpec, res: EnsembleResult| {
+        let cells = reduce_cells(spec, u * per_unit, e, &res)?;
+        let meta = serde_json::to_value(&cells)
+            .map_err(|err| Error::invalid("map unit", u, err.to_string()))?;
+        Ok(Unit::new("")
+            .with("n", Array::U32(vec![cells.len() as u32]))
+            .with_meta(serde_json::json!({ "cells": meta })))
+    };
+    let info = crate::run::lanes::run_units(
+        store,
+        engine,
+        &LaneUnits {
+            stage: STAGE,
+            count,
+            ensemble: &ensemble,
+            lanes: &|u| per_unit.min(cells - u * per_unit) * k,
+            lambda1: spec.lyapunov,
+            reduce: &reduce,
+        },
+        ctl,
+    )?;
+    let mut out = MapResult {
+        class: Vec::with_capacity(cells),
+        period: Vec::with_capacity(cells),
+        lambda1: Vec::with_capacity(cells),
+        attractors: Vec::with_capacity(cells),
+        contact: Vec::with_capacity(cells),
+        peak_force: Vec::with_capacity(cells),
+        regime: Vec::with_capacity(cells),
+        cells: Vec::with_capacity(cells),
+        info,
+        seconds: 0.0,
+    };
+    for u in 0..count {
+        let unit = store.load(STAGE, u)?;
+        let part: Vec<Cell> =
+            serde_json::from_value(unit.meta["cells"].clone()).map_err(|e| Error::Io {
+                path: format!("unit {}", unit.key).into(),
+                source: std::io::Error::new(std::io::ErrorKind::InvalidData, e.to_string()),
+            })?;
+        for cell in part {
+            out.push(cell);
+        }
+    }
+    out.seconds = t0.elapsed().as_secs_f64();
+    Ok(out)
+}
+
+impl MapResult {
+    /// Appends one cell's figures (the cell from the static equilibrium decides class,
+    /// period, lambda_1 and rub figures).
+    fn push(&mut self, cell: Cell) {
+        let eq = cell.equilibrium.map(|i| &cell.attractors[i as usize]);
+        let (class, lambda1, rub) = match eq {
+            Some(a) => (
+                class_code(class_of(a)),
+                a.lambda1.unwrap_or(f64::NAN),
+                a.rub,
+            ),
+            None => (code::DIVERGED, f64::NAN, None),
+        };
+        self.class.push(class);
+        self.period.push(match class {
+            n if n > 0 => n,
+            code::DIVERGED => -1,
+            _ => 0,
+        });
+        self.lambda1.push(lambda1);
+        self.attractors.push(cell.attractors.len() as i32);
+        self.contact
+            .push(rub.map(|r| r.contact_fraction).unwrap_or(f64::NAN));
+        self.peak_force
+            .push(rub.map(|r| r.peak_force_n).unwrap_or(f64::NAN));
+        self.regime.push(
+            rub.map(|r| r.regime)
+                .unwrap_or(super::rub::RubRegime::Diverged)
+                .code(),
+        );
+        self.cells.push(cell);
+    }
+}
+
+fn class_of(a: &CellAttractor) -> Class {
+    match (a.period, a.class.as_str()) {
+        (Some(n), _) => Class::Periodic(n),
+        (None, "quasiperiodic") => Class::Quasiperiodic,
+        (None, "chaotic") => Class::Chaotic,
+        (None, "unclassified") => Class::Unclassified,
+        _ => Class::Aperiodic,
+    }
+}

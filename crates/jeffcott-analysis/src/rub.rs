@@ -1,0 +1,323 @@
+//! Rub figures of a trajectory on its attractor: how much and how hard the rotor touches
+//! the stator, from a dense time series on the lane stepper's grid (MODEL.md 2: contact
+//! is g = |d| - delta > 0, the normal force k_c g + c_c dg/dt).
+//!
+//! The figures are sampled on the integrator's grid (N points per forcing period): a
+//! contact shorter than one grid step can be missed by the fraction and the impact count,
+//! and the peak force is the largest sampled one, a lower bound of the true peak within
+//! one step. At the default N = 500 a grid step is 1/500 of a revolution.
+
+use super::spectrum::{Whirl, full_spectrum, orbit, whirl};
+use jeffcott_core::error::Result;
+use jeffcott_core::integrate::lane::StepperConfig;
+use jeffcott_core::model::{Params, STATE_DIM, State, VX_R, VX_S, VY_R, VY_S, X_R, X_S, Y_R, Y_S};
+use serde::{Deserialize, Serialize};
+
+/// The rub regime of a stretch of trajectory (rules in [`regime`], docs/rub.md).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RubRegime {
+    /// The rotor never touches the stator.
+    #[default]
+    NoContact,
+    /// Intermittent impacts, or contact over part of the stator only.
+    PartialRub,
+    /// Permanent contact all around the stator with forward whirl.
+    FullAnnularRub,
+    /// Sustained contact with dominant backward whirl (towards dry whip).
+    BackwardWhirl,
+    /// The trajectory left the divergence bound.
+    Diverged,
+}
+
+impl RubRegime {
+    /// The label used in files.
+    pub fn label(self) -> &'static str {
+        match self {
+            RubRegime::NoContact => "no_contact",
+            RubRegime::PartialRub => "partial_rub",
+            RubRegime::FullAnnularRub => "full_annular_rub",
+            RubRegime::BackwardWhirl => "backward_whirl",
+            RubRegime::Diverged => "diverged",
+        }
+    }
+
+    /// A small integer code for arrays: 0 no_contact, 1 partial_rub, 2 full_annular_rub,
+    /// 3 backward_whirl, -1 diverged.
+    pub fn code(self) -> i32 {
+        match self {
+            RubRegime::NoContact => 0,
+            RubRegime::PartialRub => 1,
+            RubRegime::FullAnnularRub => 2,
+            RubRegime::BackwardWhirl => 3,
+            RubRegime::Diverged => -1,
+        }
+    }
+}
+
+/// Contact at this share of grid points or more is permanent contact.
+pub const PERMANENT_CONTACT: f64 = 0.99;
+
+/// Contact at this share of grid points or more is sustained contact (backward whirl).
+pub const SUSTAINED_CONTACT: f64 = 0.5;
+
+/// Contact arc [deg] from which contact covers the whole stator.
+pub const FULL_ARC_DEG: f64 = 355.0;
+
+/// The regime rule: no contact -> `no_contact`; sustained contact (>= 50 % of grid
+/// points) with dominant backward whirl -> `backward_whirl`; permanent contact (>= 99 %)
+/// over an arc of >= 355 deg with forward whirl -> `full_annular_rub`; any other contact
+/// -> `partial_rub`. (`diverged` is decided by the caller.) Backward whirl asks for
+/// sustained rather than permanent contact: in this model permanent-contact backward
+/// whirl (dry whip) is a self-excited instability without an amplitude limit (a linear
+/// penalty contact), which diverges; the bounded backward whirl it has keeps the rotor
+/// in contact about half the time (docs/rub.md).
+pub fn regime(f: &RubFigures) -> RubRegime {
+    if f.contact_fraction == 0.0 {
+        RubRegime::NoContact
+    } else if f.contact_fraction >= SUSTAINED_CONTACT && f.whirl == Whirl::Backward {
+        RubRegime::BackwardWhirl
+    } else if f.contact_fraction >= PERMANENT_CONTACT
+        && f.contact_arc_deg >= FULL_ARC_DEG
+        && f.whirl == Whirl::Forward
+    {
+        RubRegime::FullAnnularRub
+    } else {
+        RubRegime::PartialRub
+    }
+}
+
+/// What a stretch of trajectory did at the contact.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct RubFigures {
+    /// The rub regime ([`regime`]).
+    pub regime: RubRegime,
+    /// Fraction of grid points in contact (g > 0) [-].
+    pub contact_fraction: f64,
+    /// Contact entries (a grid point in contact after one without) per forcing period.
+    pub impacts_per_rev: f64,
+    /// Largest normal contact force at the grid points [N] (0 without contact).
+    pub peak_force_n: f64,
+    /// Mean normal contact force over the grid points in contact [N] (0 without contact).
+    pub mean_force_n: f64,
+    /// Largest penetration g at the grid points [m] (0 without contact).
+    pub peak_penetration_m: f64,
+    /// Range of contact angles on the stator [deg]: 360 minus the largest gap between the
+    /// directions (rotor centre seen from the stator centre) of the contact points.
+    pub contact_arc_deg: f64,
+    /// Whirl of the rotor's orbit from its full spectrum.
+    pub whirl: Whirl,
+    /// Share of the rotor's non-static spectral power at forward frequencies.
+    pub forward_share: f64,
+}
+
+/// Normal contact force on the rotor [N] at state `x` (positive pushes the rotor back
+/// towards the centre, MODEL.md 2 with the optional dashpot), 0 out of contact.
+pub fn normal_force(p: &Params, x: &State) -> f64 {
+    let (dx, dy) = (x[X_R] - x[X_S], x[Y_R] - x[Y_S]);
+    let r = (dx * dx + dy * dy).sqrt();
+    let g = r - p.delta;
+    if g <= 0.0 {
+        return 0.0;
+    }
+    let dg = (dx * (x[VX_R] - x[VX_S]) + dy * (x[VY_R] - x[VY_S])) / r;
+    p.k_c * g + p.c_c * dg
+}
+
+/// Rub figures of a time series (rows `(t, state)` on a uniform grid covering `periods`
+/// forcing periods of speed `omega`, the first row at the start of the first).
+pub fn rub_figures(
+    p: &Params,
+    omega: f64,
+    rows: &[[f64; STATE_DIM + 1]],
+    periods: u32,
+) -> RubFigures {
+    // The first row is the start of the stretch, the others its grid points: count each
+    // grid point of the stretch once (the start belongs to the period before).
+    let mut f = RubFigures::default();
+    let (mut n, mut in_contact, mut entries, mut sum) = (0u64, 0u64, 0u64, 0.0);
+    let mut angles: Vec<f64> = Vec::new();
+    let mut prev = rows
+        .first()
+        .map(|r| jeffcott_core::model::penetration(p.delta, &state(r)) > 0.0)
+        .unwrap_or(false);
+    for r in rows.iter().skip(1) {
+        let x = state(r);
+        let g = jeffcott_core::model::penetration(p.delta, &x);
+        n += 1;
+        let now = g > 0.0;
+        if now {
+            in_contact += 1;
+            let fnorm = normal_force(p, &x);
+            sum += fnorm;
+            f.peak_force_n = f.peak_force_n.max(fnorm);
+            f.peak_penetration_m = f.peak_penetration_m.max(g);
+            entries += (!prev) as u64;
+            angles.push((x[Y_R] - x[Y_S]).atan2(x[X_R] - x[X_S]).to_degrees());
+        }
+        prev = now;
+    }
+    if n > 0 {
+        f.contact_fraction = in_contact as f64 / n as f64;
+    }
+    if in_contact > 0 {
+        f.mean_force_n = sum / in_contact as f64;
+    }
+    f.impacts_per_rev = entries as f64 / periods.max(1) as f64;
+    f.contact_arc_deg = arc(&mut angles);
+    let (w, share) = whirl(&full_spectrum(&orbit(rows, false), periods, omega));
+    f.whirl = w;
+    f.forward_share = share;
+    f.regime = regime(&f);
+    f
+}
+
+/// 360 deg minus the largest gap between sorted directions (0 for fewer than 2).
+fn arc(angles: &mut [f64]) -> f64 {
+    if angles.len() < 2 {
+        return 0.0;
+    }
+    angles.sort_by(f64::total_cmp);
+    let wrap = angles[0] + 360.0 - angles[angles.len() - 1];
+    let gap = angles.windows(2).map(|w| w[1] - w[0]).fold(wrap, f64::max);
+    360.0 - gap
+}
+
+fn state(r: &[f64; STATE_DIM + 1]) -> State {
+    let mut x = [0.0; STATE_DIM];
+    x.copy_from_slice(&r[1..]);
+    x
+}
+
+/// Rub figures over `periods` forcing periods from a state `x0` on an attractor at
+/// t = kT (a Poincare point or a lane's final state), integrated on the CPU with the
+/// lane stepper: the stretch starts at t = 0, which has the forcing phase of any t = kT.
+/// `None` when the trajectory froze (diverged or non-finite) within the stretch.
+pub fn rub_on_attractor(
+    p: &Params,
+    omega: f64,
+    x0: &State,
+    periods: u32,
+    stepper: &StepperConfig,
+) -> Result<Option<RubFigures>> {
+    let spec = crate::simulate::SimulateSpec {
+        params: p.clone(),
+        omega,
+        x0: *x0,
+        transient: 0,
+        periods,
+        timeseries_periods: periods,
+        integrator: crate::simulate::Integrator::Lane,
+        stepper: *stepper,
+        article: Default::default(),
+        classify: Default::default(),
+    };
+    let r = crate::simulate::simulate(&spec)?;
+    if r.status.is_frozen() {
+        return Ok(None);
+    }
+    Ok(Some(rub_figures(p, omega, &r.timeseries, periods)))
+}
+
+/// Rub figures of a catalogued attractor: over [`rub_periods`] from its first
+/// representative Poincare point (`None` if that stretch diverged or it has no point).
+pub fn attractor_rub(
+    p: &Params,
+    a: &super::catalogue::Attractor,
+    stepper: &StepperConfig,
+) -> Result<Option<RubFigures>> {
+    match a.points.first() {
+        Some(x0) => rub_on_attractor(p, a.omega, x0, rub_periods(a.period), stepper),
+        None => Ok(None),
+    }
+}
+
+/// The catalogue's attractors as JSON, each with its rub figures under `rub` (computed
+/// in parallel).
+pub fn attractors_with_rub(
+    p: &Params,
+    attractors: &[super::catalogue::Attractor],
+    stepper: &StepperConfig,
+) -> Result<Vec<serde_json::Value>> {
+    use rayon::prelude::*;
+    attractors
+        .par_iter()
+        .map(|a| {
+            let mut v = serde_json::to_value(a).map_err(|e| {
+                jeffcott_core::error::Error::invalid("attractor", a.id, e.to_string())
+            })?;
+            let rub = attractor_rub(p, a, stepper)?;
+            v["rub"] = match rub {
+                Some(r) => serde_json::to_value(r).unwrap_or_default(),
+                None => serde_json::json!({"regime": "diverged"}),
+            };
+            Ok(v)
+        })
+        .collect()
+}
+
+/// Forcing periods over which an attractor's rub figures are taken: whole cycles of a
+/// periodic attractor, at least [`MIN_RUB_PERIODS`] (so whirl is read off a spectrum of
+/// several cycles), [`APERIODIC_RUB_PERIODS`] for aperiodic ones.
+pub fn rub_periods(period: Option<usize>) -> u32 {
+    match period {
+        Some(n) => (n as u32) * MIN_RUB_PERIODS.div_ceil(n as u32).max(1),
+        None => APERIODIC_RUB_PERIODS,
+    }
+}
+
+/// Fewest periods of a rub stretch (a period-1 response is measured over 8 cycles).
+pub const MIN_RUB_PERIODS: u32 = 8;
+
+/// Periods of a rub stretch on an aperiodic attractor.
+pub const APERIODIC_RUB_PERIODS: u32 = 24;
+
+/// Natural frequencies [rad/s] the cascade marks: the rotor and stator alone
+/// (sqrt(k/m)), and the two modes of rotor and stator coupled through the contact
+/// stiffness k_c (permanent contact, per direction: M^-1 K with K = [[k_r + k_c, -k_c],
+/// [-k_c, k_s + k_c]]), where dry whip is expected (Childs and Bhattacharya 2007).
+pub fn natural_frequencies(p: &Params) -> Vec<(String, f64)> {
+    let (kr, ks) = (p.k_r(), p.k_s());
+    let (a, d) = ((kr + p.k_c) / p.m_r, (ks + p.k_c) / p.m_s);
+    let (b, c) = (-p.k_c / p.m_r, -p.k_c / p.m_s);
+    let (tr, det) = (a + d, a * d - b * c);
+    let disc = (0.25 * tr * tr - det).max(0.0).sqrt();
+    let (lo, hi) = ((0.5 * tr - disc).sqrt(), (0.5 * tr + disc).sqrt());
+    vec![
+        ("rotor w_r".into(), p.omega_r),
+        ("stator w_s".into(), p.omega_s),
+        ("coupled in contact, mode 1".into(), lo),
+        ("coupled in contact, mode 2".into(), hi),
+    ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_contact_arc_is_360_minus_the_largest_gap() {
+        assert_eq!(arc(&mut [10.0]), 0.0);
+        assert_eq!(arc(&mut [-170.0, 170.0]), 20.0);
+        assert_eq!(arc(&mut [0.0, 90.0, 180.0, -90.0]), 270.0);
+    }
+
+    #[test]
+    fn rub_stretches_cover_whole_cycles() {
+        assert_eq!(rub_periods(Some(1)), 8);
+        assert_eq!(rub_periods(Some(3)), 9);
+        assert_eq!(rub_periods(Some(5)), 10);
+        assert_eq!(rub_periods(Some(32)), 32);
+        assert_eq!(rub_periods(None), 24);
+    }
+
+    #[test]
+    fn normal_force_is_the_spring_law_in_contact_and_zero_outside() {
+        let p = Params::default();
+        let mut x = [0.0; STATE_DIM];
+        x[X_R] = p.delta + 1e-6;
+        assert!((normal_force(&p, &x) - p.k_c * 1e-6).abs() < 1e-6 * p.k_c * 1e-6);
+        x[X_R] = p.delta - 1e-6;
+        assert_eq!(normal_force(&p, &x), 0.0);
+    }
+}

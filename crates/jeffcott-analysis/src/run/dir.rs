@@ -1,0 +1,359 @@
+//! An output directory owned by one run: locked, checked for writability before any
+//! computing, marked `running` then `complete` in `run.json`, holding the committed
+//! units under `units/`.
+//!
+//! Rules (issue "Runs that survive"):
+//! - `run.json` is written first, with `state: "running"`, the command and the full
+//!   specification; it is rewritten last with `state: "complete"`. A directory whose
+//!   `run.json` says `running` is an unfinished run, whatever else it holds.
+//! - The same command and specification into the same directory resumes: committed units
+//!   are kept, the rest computed, and the final files are bit-identical to an
+//!   uninterrupted run (every unit is deterministic, and the assembly reads the units in
+//!   order).
+//! - A different specification (or files of a run this version cannot read) is refused
+//!   unless `overwrite`, which first removes that run's files.
+//! - An exclusive lock on `.jeffcott.lock` keeps a second run out while one is writing;
+//!   the operating system drops it when the process dies, SIGKILL included.
+
+use super::unit::Unit;
+use crate::output;
+use jeffcott_core::error::{Error, Result};
+use std::path::{Path, PathBuf};
+
+/// Name of the run's metadata file.
+pub const RUN_JSON: &str = "run.json";
+/// Folder of the committed units.
+pub const UNITS: &str = "units";
+const LOCK: &str = ".jeffcott.lock";
+
+/// What was found in the directory when the run opened it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Found {
+    /// Nothing of a run: a fresh start.
+    Fresh,
+    /// An unfinished run of the same specification: resumed.
+    Unfinished,
+    /// A complete run of the same specification: its files are assembled again from
+    /// its units (identical bits).
+    Complete,
+    /// Another run, removed because `overwrite` was given.
+    Overwritten,
+}
+
+/// An output directory held by this run (see the module docs).
+#[derive(Debug)]
+pub struct RunDir {
+    dir: PathBuf,
+    command: String,
+    spec: serde_json::Value,
+    shard: Option<super::Shard>,
+    argv: Vec<String>,
+    found: Found,
+    _lock: std::fs::File,
+}
+
+fn io(path: &Path) -> impl FnOnce(std::io::Error) -> Error + '_ {
+    move |source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+/// The top-level keys in which two specifications differ (for the refusal message).
+fn differing_keys(a: &serde_json::Value, b: &serde_json::Value) -> Vec<String> {
+    match (a.as_object(), b.as_object()) {
+        (Some(a), Some(b)) => {
+            let mut keys: Vec<String> = a
+                .keys()
+                .chain(b.keys())
+                .filter(|k| a.get(*k) != b.get(*k))
+                .cloned()
+                .collect();
+            keys.sort();
+            keys.dedup();
+            keys
+        }
+        _ => vec!["(whole specification)".into()],
+    }
+}
+
+/// A relative path inside the directory (plain components, no `.`/`..`, not absolute):
+/// what a run may remove.
+fn plain_name(name: &str) -> bool {
+    !name.is_empty()
+        && !name.contains('\\')
+        && name
+            .split('/')
+            .all(|c| !c.is_empty() && c != "." && c != "..")
+}
+
+impl RunDir {
+    /// Opens `dir` for a run of `command` with specification `spec`, whose final files
+    /// are named `outputs`; `shard` when it computes one shard of the run, `argv` the
+    /// command line (recorded, so `jeffcott merge` can assemble shards). Creates the
+    /// directory, takes its lock, checks that files can
+    /// be written there, compares with what the directory holds (module docs), removes
+    /// temporaries a killed run left, and writes `run.json` with `state: "running"`.
+    pub fn open(
+        dir: &Path,
+        command: &str,
+        spec: serde_json::Value,
+        outputs: &[&str],
+        overwrite: bool,
+        shard: Option<super::Shard>,
+        argv: Vec<String>,
+    ) -> Result<RunDir> {
+        output::ensure_dir(dir)?;
+        let lock_path = dir.join(LOCK);
+        let lock = std::fs::OpenOptions::new()
+            .create(true)
+            .truncate(false)
+            .write(true)
+            .open(&lock_path)
+            .map_err(io(&lock_path))?;
+        match lock.try_lock() {
+            Ok(()) => {}
+            Err(std::fs::TryLockError::WouldBlock) => {
+                return Err(Error::Busy {
+                    path: dir.to_path_buf(),
+                });
+            }
+            Err(std::fs::TryLockError::Error(e)) => return Err(io(&lock_path)(e)),
+        }
+        // Writability before any computing: a probe file through the same atomic path
+        // every output takes.
+        let probe = dir.join(".write-probe");
+        output::write_atomically(&probe, |_| Ok(()))?;
+        std::fs::remove_file(&probe).map_err(io(&probe))?;
+        output::remove_temporaries(dir)?;
+        output::remove_temporaries(&dir.join(UNITS))?;
+
+        let run_json = dir.join(RUN_JSON);
+        let old: Option<serde_json::Value> = match std::fs::read(&run_json) {
+            Ok(bytes) => Some(serde_json::from_slice(&bytes).unwrap_or(serde_json::Value::Null)),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
+            Err(e) => return Err(io(&run_json)(e)),
+        };
+        let units_exist = dir.join(UNITS).exists();
+        let outputs_exist: Vec<&str> = outputs
+            .iter()
+            .copied()
+            .filter(|f| dir.join(f).exists())
+            .collect();
+        let found = match &old {
+            Some(o)
+                if o.get("command").and_then(|c| c.as_str()) == Some(command)
+                    && o.get("spec") == Some(&spec)
+                    && o.get("shard").cloned().unwrap_or(serde_json::Value::Null)
+                        == serde_json::json!(shard) =>
+            {
+                match o.get("state").and_then(|s| s.as_str()) {
+                    Some("complete") => Found::Complete,
+                    _ => Found::Unfinished,
+                }
+            }
+            None if !units_exist && outputs_exist.is_empty() => Found::Fresh,
+            _ if overwrite => {
+                Self::remove_run(dir, old.as_ref(), outputs)?;
+                Found::Overwritten
+            }
+            Some(o) => {
+                let what = match (o.get("command").and_then(|c| c.as_str()), o.get("spec")) {
+                    (Some(c), Some(s)) if c == command && s == &spec => format!(
+                        "another shard of this `{c}` run ({})",
+                        o.get("shard").map_or("unsharded".into(), |s| s.to_string())
+                    ),
+                    (Some(c), Some(s)) if c == command => format!(
+                        "another `{c}` run (its specification differs in: {})",
+                        differing_keys(s, &spec).join(", ")
+                    ),
+                    (Some(c), Some(_)) => format!("a `{c}` run"),
+                    _ => "files of an earlier run this version cannot resume".into(),
+                };
+                return Err(Error::Occupied {
+                    path: dir.to_path_buf(),
+                    reason: what,
+                });
+            }
+            None => {
+                return Err(Error::Occupied {
+                    path: dir.to_path_buf(),
+                    reason: format!(
+                        "files of another run ({}) without a run.json",
+                        if outputs_exist.is_empty() {
+                            UNITS.to_string()
+                        } else {
+                            outputs_exist.join(", ")
+                        }
+                    ),
+                });
+            }
+        };
+        let rd = RunDir {
+            dir: dir.to_path_buf(),
+            command: command.to_string(),
+            spec,
+            shard,
+            argv,
+            found,
+            _lock: lock,
+        };
+        rd.write_state("running", serde_json::Map::new(), &[])?;
+        std::fs::create_dir_all(dir.join(UNITS)).map_err(io(&dir.join(UNITS)))?;
+        Ok(rd)
+    }
+
+    /// Removes the files of the run recorded in `old` (its `outputs`, and the `files` of
+    /// run.json written by earlier versions), the files named `outputs`, `units/` and
+    /// `run.json`. Nothing else in the directory is touched.
+    fn remove_run(dir: &Path, old: Option<&serde_json::Value>, outputs: &[&str]) -> Result<()> {
+        let mut names: Vec<String> = outputs.iter().map(|s| s.to_string()).collect();
+        if let Some(o) = old {
+            if let Some(list) = o.get("outputs").and_then(|v| v.as_array()) {
+                names.extend(list.iter().filter_map(|v| v.as_str().map(String::from)));
+            }
+            if let Some(map) = o.get("files").and_then(|v| v.as_object()) {
+                names.extend(map.keys().cloned());
+            }
+        }
+        for name in names.iter().filter(|n| plain_name(n)) {
+            let p = dir.join(name);
+            match std::fs::remove_file(&p) {
+                Ok(()) => {}
+                Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+                Err(e) => return Err(io(&p)(e)),
+            }
+        }
+        let units = dir.join(UNITS);
+        if units.exists() {
+            std::fs::remove_dir_all(&units).map_err(io(&units))?;
+        }
+        let rj = dir.join(RUN_JSON);
+        if rj.exists() {
+            std::fs::remove_file(&rj).map_err(io(&rj))?;
+        }
+        Ok(())
+    }
+
+    fn write_state(
+        &self,
+        state: &str,
+        mut body: serde_json::Map<String, serde_json::Value>,
+        outputs: &[String],
+    ) -> Result<()> {
+        body.insert("state".into(), state.into());
+        body.insert("command".into(), self.command.clone().into());
+        body.insert("spec".into(), self.spec.clone());
+        if let Some(s) = self.shard {
+            body.insert("shard".into(), serde_json::json!(s));
+        }
+        body.insert("argv".into(), serde_json::json!(self.argv));
+        body.insert("units_dir".into(), UNITS.into());
+        if !outputs.is_empty() {
+            body.insert("outputs".into(), serde_json::json!(outputs));
+        }
+        body.entry("jeffcott_version")
+            .or_insert(env!("CARGO_PKG_VERSION").into());
+        output::write_json(&self.dir.join(RUN_JSON), &serde_json::Value::Object(body))
+    }
+
+    /// The directory.
+    pub fn path(&self) -> &Path {
+        &self.dir
+    }
+
+    /// The shard this run computes, if any.
+    pub fn shard(&self) -> Option<super::Shard> {
+        self.shard
+    }
+
+    /// Keys of the unit files committed in the directory, sorted.
+    pub fn unit_keys(&self) -> Result<Vec<String>> {
+        let units = self.dir.join(UNITS);
+        let mut keys: Vec<String> = std::fs::read_dir(&units)
+            .map_err(io(&units))?
+            .flatten()
+            .filter_map(|e| {
+                e.file_name()
+                    .to_str()
+                    .and_then(|n| n.strip_suffix(".unit"))
+                    .map(String::from)
+            })
+            .collect();
+        keys.sort();
+        Ok(keys)
+    }
+
+    /// What the directory held when the run opened it.
+    pub fn found(&self) -> Found {
+        self.found
+    }
+
+    fn unit_path(&self, stage: &str, index: usize) -> PathBuf {
+        self.dir
+            .join(UNITS)
+            .join(format!("{stage}-{index:07}.unit"))
+    }
+
+    /// Indices of the units of `stage` committed so far and still readable. A unit file
+    /// that does not read back (torn by a crash of the machine, altered) is removed, so
+    /// its unit is computed again.
+    pub fn committed(&self, stage: &str, count: usize) -> Result<Vec<bool>> {
+        let mut done = vec![false; count];
+        for (i, d) in done.iter_mut().enumerate() {
+            let p = self.unit_path(stage, i);
+            if !p.exists() {
+                continue;
+            }
+            match Unit::read(&p) {
+                Ok(u) if u.key == unit_key(stage, i) => *d = true,
+                _ => std::fs::remove_file(&p).map_err(io(&p))?,
+            }
+        }
+        Ok(done)
+    }
+
+    /// Whether unit `index` of `stage` is committed (the file exists; see [`committed`]
+    /// for the check of its contents).
+    ///
+    /// [`committed`]: RunDir::committed
+    pub fn has(&self, stage: &str, index: usize) -> bool {
+        self.unit_path(stage, index).exists()
+    }
+
+    /// Commits a unit: written atomically under its final name.
+    pub fn commit(&self, stage: &str, index: usize, unit: &Unit) -> Result<()> {
+        unit.write(&self.unit_path(stage, index))
+    }
+
+    /// Reads a committed unit.
+    pub fn load(&self, stage: &str, index: usize) -> Result<Unit> {
+        let u = Unit::read(&self.unit_path(stage, index))?;
+        if u.key != unit_key(stage, index) {
+            return Err(Error::Io {
+                path: self.unit_path(stage, index),
+                source: std::io::Error::new(
+                    std::io::ErrorKind::InvalidData,
+                    "unit file holds another unit",
+                ),
+            });
+        }
+        Ok(u)
+    }
+
+    /// Marks the run complete: `run.json` with `state: "complete"`, the run's result
+    /// metadata `body` (an object; its keys stay at the top level) and the list of final
+    /// files. Call after every final file is written.
+    pub fn finish(&self, body: serde_json::Value, outputs: &[String]) -> Result<()> {
+        let map = match body {
+            serde_json::Value::Object(m) => m,
+            _ => serde_json::Map::new(),
+        };
+        self.write_state("complete", map, outputs)
+    }
+}
+
+/// The key of unit `index` of `stage`.
+pub fn unit_key(stage: &str, index: usize) -> String {
+    format!("{stage}-{index:07}")
+}

@@ -1,0 +1,880 @@
+//! The ensemble lane stepper (MODEL.md 4.2): one trajectory, advanced one macro step at
+//! a time on a fixed grid of N steps per forcing period, with the contact crossings
+//! located and the step split there.
+//!
+//! Why crossing location rather than error-controlled sub-stepping: the vector field is
+//! only C0 at g = 0 (MODEL.md 2), and a kink inside an RK4 step drops the method to low
+//! order. Holding the contact state fixed over each RK4 stage sequence (the contact
+//! formula is continued analytically across g = 0) and splitting the step at the located
+//! crossing restores fourth order; the convergence study (docs/convergence.md) measured
+//! the cost and error of both choices.
+//!
+//! The structure is written for the GPU: no recursion, every loop bounded by a constant
+//! or a lane constant, no allocation, no trigonometry. `integrate/lane.wgsl` mirrors this
+//! file function by function: keep in sync with it.
+//!
+//! One macro step:
+//! 1. trial RK4 step from the current sub-step start s to the macro step's end in free
+//!    flight, or over at most 1/R of the macro step in contact (contact refinement,
+//!    [`trial_extent`]: the contact stiffness's frequency makes RK4's error per step in
+//!    contact ~1000 times that of free flight; the work-precision study in
+//!    docs/performance.md chose R = 2), in the current contact mode;
+//! 2. `find_switch`: sample the penetration g along the step on the cubic Hermite
+//!    interpolant of the relative displacement (exact at both ends, O(H^4) inside) and
+//!    take the first sample on the wrong side of g = 0 for the mode; this catches
+//!    grazing contacts that enter and leave inside one step. Locate the crossing by the
+//!    Illinois method on the interpolant;
+//! 3. no crossing: accept (and go on from step 1 if the macro step is not done). Crossing
+//!    at fraction theta: re-step from s to the crossing,
+//!    flip the mode, continue from there. At most `max_segments` segments per macro
+//!    step; a lane that needs more is finished without switching and flagged.
+//!
+//! Lyapunov exponents ride on the same structure ([`macro_step_tangent`]): tangent
+//! vectors V of the variational equations dV/dt = J(x(t)) V are advanced over every
+//! accepted sub-step by RK4 on the same stages and in the same frozen contact mode as
+//! the state (so V is the derivative of the discrete sub-step map), and at every located
+//! switch Mueller's saltation matrix S = I + (f+ - f-) n^T / (n^T f-), n = grad g, is
+//! applied to them ([`saltation`]). With no tangent vectors (M = 0, what
+//! [`macro_step`] runs) all of that compiles away and the state arithmetic is untouched.
+
+/// The WGSL mirror of this module (`lane.wgsl`, beside this file): the kernel body that
+/// `jeffcott-gpu` completes with a generated header (types, constants) and compiles.
+/// It lives here so the stepper and its mirror are read, changed and reviewed together.
+pub const WGSL: &str = include_str!("lane.wgsl");
+
+use crate::integrate::forcing::phasor_turns;
+use crate::model::{
+    Coeffs, STATE_DIM, VX_R, VX_S, VY_R, VY_S, X_R, X_S, Y_R, Y_S, contact_partials, penetration,
+    rhs_frozen,
+};
+use crate::real::Real;
+use serde::Serialize;
+
+/// Number of interior samples of g per trial step (the grazing check).
+pub const GRAZE_SAMPLES: u32 = 8;
+/// Iteration cap of the crossing search.
+pub const ROOT_MAX_ITERS: u32 = 60;
+
+/// Per-lane outcome (DESIGN.md 2.5). Ordered by severity: a worse status replaces a
+/// milder one, never the reverse.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize)]
+#[serde(rename_all = "snake_case")]
+#[repr(u32)]
+pub enum Status {
+    /// Integrated as specified.
+    Ok = 0,
+    /// Some macro step needed more than `max_segments` contact switches; those steps
+    /// were finished without switching, so the result is less accurate than specified.
+    RefinementCap = 1,
+    /// The state left the divergence bound; the lane is frozen at the last good state.
+    Diverged = 2,
+    /// The state became NaN or infinite; the lane is frozen at the last finite state.
+    NonFinite = 3,
+}
+
+impl Status {
+    /// True when the lane no longer advances.
+    pub fn is_frozen(self) -> bool {
+        matches!(self, Status::Diverged | Status::NonFinite)
+    }
+
+    /// The status code stored in files (`status.npy`) and on the GPU.
+    pub fn code(self) -> u32 {
+        self as u32
+    }
+
+    /// The status for a code (`None` for an unknown code, e.g. a corrupt GPU buffer).
+    pub fn from_code(code: u32) -> Option<Status> {
+        [
+            Status::Ok,
+            Status::RefinementCap,
+            Status::Diverged,
+            Status::NonFinite,
+        ]
+        .into_iter()
+        .find(|s| s.code() == code)
+    }
+}
+
+/// Constants of one lane, in the lane's precision.
+#[derive(Clone, Copy, Debug)]
+pub struct LaneConsts<R> {
+    /// Equation coefficients for this lane's parameters and speed.
+    pub c: Coeffs<R>,
+    /// Macro step h = T/N [s].
+    pub h: R,
+    /// 1/N.
+    pub inv_n: R,
+    /// phi0 / (2 pi) [turns].
+    pub phase0: R,
+    /// Divergence bound on every position coordinate [m].
+    pub bound: R,
+    /// Width at which the crossing search stops, as a fraction of the sub-step.
+    pub root_tol: R,
+    /// Macro steps per forcing period N.
+    pub n: u32,
+    /// Cap on segments (contact switches + 1) per macro step.
+    pub max_segments: u32,
+    /// 1/R: the longest sub-step taken in contact, as a fraction of the macro step.
+    pub inv_r: R,
+}
+
+/// Settings of the lane stepper that are not model parameters.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, serde::Deserialize)]
+pub struct StepperConfig {
+    /// Macro steps per forcing period N.
+    pub steps_per_period: u32,
+    /// Cap on segments per macro step.
+    pub max_segments: u32,
+    /// Divergence bound on every position coordinate [m].
+    pub divergence_bound: f64,
+    /// Contact refinement R: a sub-step taken in contact covers at most 1/R of the macro
+    /// step (see the module docs). Runs recorded before R existed used R = 1.
+    #[serde(default = "no_contact_refinement")]
+    pub contact_substeps: u32,
+}
+
+fn no_contact_refinement() -> u32 {
+    1
+}
+
+impl Default for StepperConfig {
+    fn default() -> Self {
+        StepperConfig {
+            steps_per_period: DEFAULT_STEPS_PER_PERIOD,
+            max_segments: 16,
+            divergence_bound: 1.0,
+            contact_substeps: DEFAULT_CONTACT_SUBSTEPS,
+        }
+    }
+}
+
+/// Default N, fixed by the convergence study (docs/convergence.md).
+pub const DEFAULT_STEPS_PER_PERIOD: u32 = 500;
+
+/// Default contact refinement R, fixed by the work-precision study (docs/performance.md).
+pub const DEFAULT_CONTACT_SUBSTEPS: u32 = 2;
+
+/// The largest contact refinement R accepted.
+pub const MAX_CONTACT_SUBSTEPS: u32 = 16;
+
+impl StepperConfig {
+    /// Checks the settings; errors name the option and the allowed range.
+    pub fn validate(&self) -> crate::Result<()> {
+        use crate::Error;
+        if !(8..=1_000_000).contains(&self.steps_per_period) {
+            return Err(Error::invalid(
+                "steps_per_period",
+                self.steps_per_period,
+                "must be in 8..=1000000",
+            ));
+        }
+        // The GPU kernel runs a macro step within one invocation; Mesa's llvmpipe stops
+        // loops after 65535 iterations in total (~130 per segment), so the cap stays well
+        // inside that.
+        if !(2..=256).contains(&self.max_segments) {
+            return Err(Error::invalid(
+                "max_segments",
+                self.max_segments,
+                "must be in 2..=256",
+            ));
+        }
+        if !(self.divergence_bound.is_finite() && self.divergence_bound > 0.0) {
+            return Err(Error::invalid(
+                "divergence_bound",
+                self.divergence_bound,
+                "must be finite and > 0 m",
+            ));
+        }
+        // Powers of two only: then 1/R and every sum of it from 0 are exact in binary
+        // floating point, so R sub-steps of 1/R end exactly at the macro step's end and
+        // no sliver of a sub-step is left over from rounding.
+        if !(self.contact_substeps.is_power_of_two()
+            && self.contact_substeps <= MAX_CONTACT_SUBSTEPS)
+        {
+            return Err(Error::invalid(
+                "contact_substeps",
+                self.contact_substeps,
+                "must be one of 1, 2, 4, 8, 16",
+            ));
+        }
+        Ok(())
+    }
+}
+
+impl<R: Real> LaneConsts<R> {
+    /// Builds the constants for one lane from `f64` inputs (rounded once, here).
+    pub fn new(p: &crate::model::Params, omega: f64, cfg: &StepperConfig) -> Self {
+        let period = std::f64::consts::TAU / omega;
+        let n = cfg.steps_per_period;
+        // The search stops near the precision's resolution of a fraction in [0, 1].
+        let root_tol = if R::WGSL_NAME == "f64" { 1e-13 } else { 2e-6 };
+        LaneConsts {
+            c: Coeffs::new(p, omega),
+            h: R::lit(period / n as f64),
+            inv_n: R::lit(1.0 / n as f64),
+            phase0: R::lit(p.phi0 / std::f64::consts::TAU),
+            bound: R::lit(cfg.divergence_bound),
+            root_tol: R::lit(root_tol),
+            n,
+            max_segments: cfg.max_segments,
+            inv_r: R::lit(1.0 / cfg.contact_substeps as f64),
+        }
+    }
+}
+
+/// Counters of one lane (summed over everything it integrated).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct Counters {
+    /// Macro steps integrated.
+    pub macro_steps: u64,
+    /// Macro steps in which the rotor touched the stator.
+    pub contact_steps: u64,
+    /// Located contact switches (entries plus exits).
+    pub switches: u64,
+    /// RK4 sub-steps beyond one per macro step (the cost of refinement).
+    pub extra_substeps: u64,
+    /// Largest penetration g seen at the sampled points [m] (0 if never in contact).
+    pub max_penetration: f64,
+}
+
+/// The state of one lane between macro steps.
+#[derive(Clone, Copy, Debug)]
+pub struct Lane<R> {
+    /// The state vector.
+    pub x: [R; STATE_DIM],
+    /// The contact mode carried across steps (not recomputed from the sign of g, which
+    /// roundoff could flip at a located crossing).
+    pub contact: bool,
+    /// Index of the next macro step within the current period, 0..N.
+    pub k: u32,
+    /// Outcome so far.
+    pub status: Status,
+    /// Counters.
+    pub counters: Counters,
+}
+
+impl<R: Real> Lane<R> {
+    /// A lane starting at `x0` (f64, rounded to the lane's precision) at t = 0.
+    pub fn new(x0: &[f64; STATE_DIM], delta: f64) -> Self {
+        let x = x0.map(R::lit);
+        let finite = x.iter().all(|v| v.is_finite());
+        Lane {
+            x,
+            contact: finite && penetration(R::lit(delta), &x) > R::lit(0.0),
+            k: 0,
+            status: if finite {
+                Status::Ok
+            } else {
+                Status::NonFinite
+            },
+            counters: Counters::default(),
+        }
+    }
+
+    /// The state widened to f64.
+    pub fn state_f64(&self) -> [f64; STATE_DIM] {
+        self.x.map(|v| v.to_f64())
+    }
+}
+
+/// Unbalance phasor at fraction `sigma` of macro step `k`.
+#[inline(always)]
+fn forcing_phasor<R: Real>(lc: &LaneConsts<R>, k: u32, sigma: R) -> (R, R) {
+    phasor_turns((R::lit(k as f64) + sigma) * lc.inv_n - lc.phase0)
+}
+
+/// One classical RK4 step over the fraction [s0, s0 + ds] of macro step k, contact mode
+/// held fixed.
+#[inline(always)]
+fn rk4_substep<R: Real>(
+    lc: &LaneConsts<R>,
+    x: &[R; STATE_DIM],
+    k: u32,
+    s0: R,
+    ds: R,
+    contact: bool,
+) -> [R; STATE_DIM] {
+    let hs = ds * lc.h;
+    let half = R::lit(0.5);
+    let (c0, s0p) = forcing_phasor(lc, k, s0);
+    let (cm, sm) = forcing_phasor(lc, k, s0 + half * ds);
+    let (c1, s1) = forcing_phasor(lc, k, s0 + ds);
+    let k1 = rhs_frozen(&lc.c, x, c0, s0p, contact);
+    let mut xt = [R::lit(0.0); STATE_DIM];
+    for i in 0..STATE_DIM {
+        xt[i] = x[i] + half * hs * k1[i];
+    }
+    let k2 = rhs_frozen(&lc.c, &xt, cm, sm, contact);
+    for i in 0..STATE_DIM {
+        xt[i] = x[i] + half * hs * k2[i];
+    }
+    let k3 = rhs_frozen(&lc.c, &xt, cm, sm, contact);
+    for i in 0..STATE_DIM {
+        xt[i] = x[i] + hs * k3[i];
+    }
+    let k4 = rhs_frozen(&lc.c, &xt, c1, s1, contact);
+    let sixth = R::lit(1.0 / 6.0);
+    let mut out = [R::lit(0.0); STATE_DIM];
+    for i in 0..STATE_DIM {
+        out[i] = x[i] + hs * sixth * (k1[i] + R::lit(2.0) * (k2[i] + k3[i]) + k4[i]);
+    }
+    out
+}
+
+/// Tangent vectors carried along a lane, with what the Lyapunov spectrum needs to
+/// account for them (MODEL.md 5 and 6). `M = 0` is the plain lane.
+#[derive(Clone, Copy, Debug)]
+pub struct Tangent<R, const M: usize> {
+    /// The tangent vectors, each a state-space direction.
+    pub v: [[R; STATE_DIM]; M],
+    /// Apply the saltation matrix at switches (`false` only to show what it changes).
+    pub saltation: bool,
+    /// Integral of the Jacobian's trace along the accepted sub-steps (RK4 quadrature on
+    /// the stages) [-].
+    pub trace_integral: f64,
+    /// Sum of ln|det S| over the saltation matrices applied [-].
+    pub saltation_log_det: f64,
+    /// Saltation matrices applied (located switches).
+    pub saltations: u64,
+    /// Largest |S_ij - I_ij| among them (0 when S = I).
+    pub max_saltation_deviation: f64,
+}
+
+impl<R: Real, const M: usize> Tangent<R, M> {
+    /// Tangent vectors `v`, saltation on, accumulators zero.
+    pub fn new(v: [[R; STATE_DIM]; M]) -> Self {
+        Tangent {
+            v,
+            saltation: true,
+            trace_integral: 0.0,
+            saltation_log_det: 0.0,
+            saltations: 0,
+            max_saltation_deviation: 0.0,
+        }
+    }
+}
+
+/// The contact block of the Jacobian in mode `contact` (zero out of contact).
+#[inline(always)]
+pub(crate) fn stage_partials<R: Real>(c: &Coeffs<R>, x: &[R; STATE_DIM], contact: bool) -> [R; 8] {
+    if contact {
+        contact_partials(c, x)
+    } else {
+        [R::lit(0.0); 8]
+    }
+}
+
+/// J v: the variational right-hand side for one tangent vector, the contact block given.
+/// Keep in sync with `tangent_rhs` in `integrate/lane.wgsl`.
+#[inline(always)]
+pub fn tangent_rhs<R: Real>(c: &Coeffs<R>, pc: &[R; 8], v: &[R; STATE_DIM]) -> [R; STATE_DIM] {
+    let ddx = v[X_R] - v[X_S];
+    let ddy = v[Y_R] - v[Y_S];
+    let ddvx = v[VX_R] - v[VX_S];
+    let ddvy = v[VY_R] - v[VY_S];
+    let dfx = pc[0] * ddx + pc[1] * ddy + pc[2] * ddvx + pc[3] * ddvy;
+    let dfy = pc[4] * ddx + pc[5] * ddy + pc[6] * ddvx + pc[7] * ddvy;
+    [
+        v[VX_R],
+        -c.wr2 * v[X_R] - c.dr * v[VX_R] + c.kc_mr * dfx,
+        v[VY_R],
+        -c.wr2 * v[Y_R] - c.dr * v[VY_R] + c.kc_mr * dfy,
+        v[VX_S],
+        -c.ws2 * v[X_S] - c.ds * v[VX_S] - c.kc_ms * dfx,
+        v[VY_S],
+        -c.ws2 * v[Y_S] - c.ds * v[VY_S] - c.kc_ms * dfy,
+    ]
+}
+
+/// Trace of the Jacobian given its contact block: only the velocity diagonal counts.
+#[inline(always)]
+pub(crate) fn jacobian_trace<R: Real>(c: &Coeffs<R>, pc: &[R; 8]) -> R {
+    -R::lit(2.0) * (c.dr + c.ds) + (c.kc_mr + c.kc_ms) * (pc[2] + pc[7])
+}
+
+/// Advances the tangent vectors over the sub-step [s0, s0 + ds] of macro step k that
+/// `rk4_substep` takes from `x` in mode `contact`: the state stages are recomputed with
+/// exactly `rk4_substep`'s operations, and each vector takes the RK4 step of
+/// dV/dt = J V on them. Also adds the trace integral over the sub-step.
+#[inline(always)]
+pub(crate) fn rk4_tangent_substep<R: Real, const M: usize>(
+    lc: &LaneConsts<R>,
+    x: &[R; STATE_DIM],
+    k: u32,
+    s0: R,
+    ds: R,
+    contact: bool,
+    tan: &mut Tangent<R, M>,
+) {
+    let hs = ds * lc.h;
+    let half = R::lit(0.5);
+    let (c0, s0p) = forcing_phasor(lc, k, s0);
+    let (cm, sm) = forcing_phasor(lc, k, s0 + half * ds);
+    let k1 = rhs_frozen(&lc.c, x, c0, s0p, contact);
+    let p1 = stage_partials(&lc.c, x, contact);
+    let mut xt = [R::lit(0.0); STATE_DIM];
+    for i in 0..STATE_DIM {
+        xt[i] = x[i] + half * hs * k1[i];
+    }
+    let k2 = rhs_frozen(&lc.c, &xt, cm, sm, contact);
+    let p2 = stage_partials(&lc.c, &xt, contact);
+    for i in 0..STATE_DIM {
+        xt[i] = x[i] + half * hs * k2[i];
+    }
+    let k3 = rhs_frozen(&lc.c, &xt, cm, sm, contact);
+    let p3 = stage_partials(&lc.c, &xt, contact);
+    for i in 0..STATE_DIM {
+        xt[i] = x[i] + hs * k3[i];
+    }
+    let p4 = stage_partials(&lc.c, &xt, contact);
+    let sixth = R::lit(1.0 / 6.0);
+    let two = R::lit(2.0);
+    for v in tan.v.iter_mut() {
+        let a1 = tangent_rhs(&lc.c, &p1, v);
+        let mut vt = [R::lit(0.0); STATE_DIM];
+        for i in 0..STATE_DIM {
+            vt[i] = v[i] + half * hs * a1[i];
+        }
+        let a2 = tangent_rhs(&lc.c, &p2, &vt);
+        for i in 0..STATE_DIM {
+            vt[i] = v[i] + half * hs * a2[i];
+        }
+        let a3 = tangent_rhs(&lc.c, &p3, &vt);
+        for i in 0..STATE_DIM {
+            vt[i] = v[i] + hs * a3[i];
+        }
+        let a4 = tangent_rhs(&lc.c, &p4, &vt);
+        for i in 0..STATE_DIM {
+            v[i] += hs * sixth * (a1[i] + two * (a2[i] + a3[i]) + a4[i]);
+        }
+    }
+    let tr = |pc: &[R; 8]| jacobian_trace(&lc.c, pc).to_f64();
+    tan.trace_integral += hs.to_f64() / 6.0 * (tr(&p1) + 2.0 * (tr(&p2) + tr(&p3)) + tr(&p4));
+}
+
+/// Mueller's transition condition at a switch of the contact mode away from `from_contact`
+/// at state `x`, fraction `s` of macro step `k`: every tangent vector v becomes S v with
+/// S = I + (f+ - f-) n^T / (n^T f-), n = grad g = (d/r, 0, -d/r, 0) over
+/// (rotor position, velocity, stator position, velocity), f- and f+ the fields of the
+/// old and new modes. Both fields are evaluated at the point of the switching surface
+/// g = 0 radially nearest to `x` (the located crossing lies within the search tolerance
+/// of it), so that for the model as specified, whose force vanishes at g = 0, f+ = f-
+/// to the last bit of the continuation and S = I; with contact damping the force jumps
+/// by c_c dg/dt and S != I. Since g depends on positions only and both fields share
+/// their position rows (the velocities), n^T f+ = n^T f- and det S = n^T f+ / n^T f- = 1:
+/// a force discontinuity shears tangent space without changing its volume. A grazing
+/// switch (n^T f- = 0) leaves the vectors alone.
+#[inline(always)]
+pub fn saltation<R: Real, const M: usize>(
+    lc: &LaneConsts<R>,
+    x: &[R; STATE_DIM],
+    k: u32,
+    s: R,
+    from_contact: bool,
+    tan: &mut Tangent<R, M>,
+) {
+    let dx = x[X_R] - x[X_S];
+    let dy = x[Y_R] - x[Y_S];
+    let r = (dx * dx + dy * dy).sqrt();
+    if r <= R::lit(0.0) || !r.is_finite() {
+        return;
+    }
+    let scale = lc.c.delta / r;
+    let mut xs = *x;
+    xs[X_R] = x[X_S] + dx * scale;
+    xs[Y_R] = x[Y_S] + dy * scale;
+    let (cph, sph) = forcing_phasor(lc, k, s);
+    let fm = rhs_frozen(&lc.c, &xs, cph, sph, from_contact);
+    let fp = rhs_frozen(&lc.c, &xs, cph, sph, !from_contact);
+    let (nx, ny) = (dx / r, dy / r);
+    let nf = nx * (fm[X_R] - fm[X_S]) + ny * (fm[Y_R] - fm[Y_S]);
+    if nf == R::lit(0.0) || !nf.is_finite() {
+        return;
+    }
+    for v in tan.v.iter_mut() {
+        let w = (nx * (v[X_R] - v[X_S]) + ny * (v[Y_R] - v[Y_S])) / nf;
+        for i in 0..STATE_DIM {
+            v[i] += (fp[i] - fm[i]) * w;
+        }
+    }
+    let nfp = nx * (fp[X_R] - fp[X_S]) + ny * (fp[Y_R] - fp[Y_S]);
+    let det = (nfp / nf).to_f64();
+    tan.saltation_log_det += det.abs().ln();
+    tan.saltations += 1;
+    // |n_j| <= 1, so max |S - I| = max_i |f+_i - f-_i| / |n^T f-| * max_j |n_j|.
+    let nmax = nx.abs().max(ny.abs()).to_f64();
+    for i in 0..STATE_DIM {
+        let d = ((fp[i] - fm[i]) / nf).abs().to_f64() * nmax;
+        tan.max_saltation_deviation = tan.max_saltation_deviation.max(d);
+    }
+}
+
+/// Component of the unit tangent vector (1, ..., 1)/sqrt(8) that the ensembles start
+/// their lambda_1 tangent from.
+pub const LAMBDA1_START: f64 = 0.353_553_390_593_273_8;
+
+/// Renormalises one tangent vector to unit length and returns its length before (the
+/// growth since the last renormalisation). A zero or non-finite length leaves the vector
+/// alone. Keep in sync with `renormalise` in `integrate/lane.wgsl` (unrolled there).
+#[inline(always)]
+pub fn renormalise<R: Real>(v: &mut [R; STATE_DIM]) -> R {
+    let mut sq = R::lit(0.0);
+    for c in v.iter() {
+        sq += *c * *c;
+    }
+    let n = sq.sqrt();
+    if n > R::lit(0.0) && n.is_finite() {
+        for c in v.iter_mut() {
+            *c = *c / n;
+        }
+    }
+    n
+}
+
+/// Penetration g and its rate dg/dtheta at fraction `theta` of a sub-step of duration
+/// `hs`, on the cubic Hermite interpolant of the relative displacement between the
+/// sub-step's end states (exact at theta = 0 and 1).
+#[inline(always)]
+pub(crate) fn hermite_gap<R: Real>(
+    delta: R,
+    x0: &[R; STATE_DIM],
+    x1: &[R; STATE_DIM],
+    hs: R,
+    theta: R,
+) -> (R, R) {
+    let one = R::lit(1.0);
+    let two = R::lit(2.0);
+    let three = R::lit(3.0);
+    let six = R::lit(6.0);
+    let u = one - theta;
+    let h00 = (one + two * theta) * u * u;
+    let h10 = theta * u * u * hs;
+    let h01 = theta * theta * (three - two * theta);
+    let h11 = -theta * theta * u * hs;
+    // d/dtheta of the basis.
+    let d00 = six * theta * (theta - one);
+    let d10 = (three * theta * theta - R::lit(4.0) * theta + one) * hs;
+    let d01 = -d00;
+    let d11 = (three * theta * theta - two * theta) * hs;
+    let (px0, py0) = (x0[X_R] - x0[X_S], x0[Y_R] - x0[Y_S]);
+    let (vx0, vy0) = (x0[VX_R] - x0[VX_S], x0[VY_R] - x0[VY_S]);
+    let (px1, py1) = (x1[X_R] - x1[X_S], x1[Y_R] - x1[Y_S]);
+    let (vx1, vy1) = (x1[VX_R] - x1[VX_S], x1[VY_R] - x1[VY_S]);
+    let dx = h00 * px0 + h10 * vx0 + h01 * px1 + h11 * vx1;
+    let dy = h00 * py0 + h10 * vy0 + h01 * py1 + h11 * vy1;
+    let ddx = d00 * px0 + d10 * vx0 + d01 * px1 + d11 * vx1;
+    let ddy = d00 * py0 + d10 * vy0 + d01 * py1 + d11 * vy1;
+    let r = (dx * dx + dy * dy).sqrt();
+    // r > 0 whenever g is near 0 (r ~ delta); the rate is only used there.
+    let rate = if r > R::lit(0.0) {
+        (dx * ddx + dy * ddy) / r
+    } else {
+        R::lit(0.0)
+    };
+    (r - delta, rate)
+}
+
+/// True when penetration `g` is on the side of g = 0 that the mode does not hold.
+#[inline(always)]
+pub(crate) fn wrong_side<R: Real>(g: R, contact: bool) -> bool {
+    if contact {
+        g <= R::lit(0.0)
+    } else {
+        g > R::lit(0.0)
+    }
+}
+
+/// Result of the switch search over one trial sub-step.
+struct Switch<R> {
+    /// Fraction of the sub-step at which the mode must flip, or a value > 1 for none.
+    theta: R,
+    /// Largest g among the samples on the trajectory before the switch.
+    max_g: R,
+}
+
+/// Looks for the first crossing of g = 0 along the trial sub-step x0 -> x1 (duration hs)
+/// taken in mode `contact`; see the module docs. Between two samples on the mode's side,
+/// an extremum of g heading to the other side (rates of opposite signs) is checked at
+/// its estimated location: this catches contacts that enter and leave (or separations
+/// that leave and re-enter) between samples, which would otherwise cost order.
+#[inline(always)]
+fn find_switch<R: Real>(
+    lc: &LaneConsts<R>,
+    x0: &[R; STATE_DIM],
+    x1: &[R; STATE_DIM],
+    hs: R,
+    contact: bool,
+) -> Switch<R> {
+    let delta = lc.c.delta;
+    let zero = R::lit(0.0);
+    let mut lo = zero;
+    let (mut g_lo, mut rate_lo) = hermite_gap(delta, x0, x1, hs, zero);
+    let mut max_g = g_lo;
+    for j in 1..=GRAZE_SAMPLES {
+        let th = R::lit(j as f64 / GRAZE_SAMPLES as f64);
+        let (g_th, rate_th) = hermite_gap(delta, x0, x1, hs, th);
+        let mut hi = th;
+        let mut g_hi = g_th;
+        let mut crossing = wrong_side(g_th, contact);
+        let toward = if contact {
+            rate_lo < zero && rate_th > zero
+        } else {
+            rate_lo > zero && rate_th < zero
+        };
+        if !crossing && toward {
+            // Extremum where the linearly interpolated rate vanishes.
+            let tp = lo + (th - lo) * rate_lo / (rate_lo - rate_th);
+            let (g_p, _) = hermite_gap(delta, x0, x1, hs, tp);
+            if wrong_side(g_p, contact) {
+                hi = tp;
+                g_hi = g_p;
+                crossing = true;
+            } else {
+                max_g = max_g.max(g_p);
+            }
+        }
+        if crossing {
+            if wrong_side(g_lo, contact) {
+                // Only at the start (j = 1): the lane sits on the switching surface and
+                // its mode's flow leaves to the other side; flip now.
+                return Switch { theta: lo, max_g };
+            }
+            // Illinois (modified regula falsi) on [lo, hi]; `a` stays on the mode's side,
+            // `b` on the other. Returns `b`, so the next segment starts on its own side.
+            let (mut a, mut ga, mut b, mut gb) = (lo, g_lo, hi, g_hi);
+            let mut last_kept_a = false;
+            let mut last_kept_b = false;
+            for _ in 0..ROOT_MAX_ITERS {
+                if b - a <= lc.root_tol {
+                    break;
+                }
+                let mut m = b - gb * (b - a) / (gb - ga);
+                if !(m > a && m < b) {
+                    m = R::lit(0.5) * (a + b);
+                }
+                let (gm, _) = hermite_gap(delta, x0, x1, hs, m);
+                if wrong_side(gm, contact) {
+                    b = m;
+                    gb = gm;
+                    if last_kept_a {
+                        ga = R::lit(0.5) * ga;
+                    }
+                    last_kept_a = true;
+                    last_kept_b = false;
+                } else {
+                    a = m;
+                    ga = gm;
+                    max_g = max_g.max(gm);
+                    if last_kept_b {
+                        gb = R::lit(0.5) * gb;
+                    }
+                    last_kept_b = true;
+                    last_kept_a = false;
+                }
+            }
+            return Switch { theta: b, max_g };
+        }
+        max_g = max_g.max(g_th);
+        lo = th;
+        g_lo = g_th;
+        rate_lo = rate_th;
+    }
+    Switch {
+        theta: R::lit(2.0),
+        max_g,
+    }
+}
+
+/// Length `ds` and end of the next trial sub-step from fraction `s` of the macro step:
+/// to the macro step's end (exactly 1) in free flight; in contact at most 1/R of the
+/// macro step (contact refinement: the contact stiffness adds a frequency about 40 times
+/// the forcing's, docs/performance.md, so RK4's error there dominates at a step that
+/// suits free flight). With R a power of two a macro step begun in contact is R exact
+/// sub-steps. Keep in sync with `trial_extent` in `integrate/lane.wgsl`.
+#[inline(always)]
+pub(crate) fn trial_extent<R: Real>(lc: &LaneConsts<R>, s: R, contact: bool) -> (R, R) {
+    let one = R::lit(1.0);
+    if contact && one - s > lc.inv_r {
+        (lc.inv_r, s + lc.inv_r)
+    } else {
+        (one - s, one)
+    }
+}
+
+/// Advances the lane by one macro step (1/N of a forcing period). Frozen lanes do not
+/// move. Keep in sync with `macro_step` in `integrate/lane.wgsl`.
+pub fn macro_step<R: Real>(lc: &LaneConsts<R>, lane: &mut Lane<R>) {
+    macro_step_tangent::<R, 0>(lc, lane, &mut Tangent::new([]));
+}
+
+/// [`macro_step`] carrying `M` tangent vectors (see the module docs): advanced over
+/// every accepted sub-step, saltation applied at every located switch. The state
+/// arithmetic is that of `macro_step` whatever `M`.
+pub fn macro_step_tangent<R: Real, const M: usize>(
+    lc: &LaneConsts<R>,
+    lane: &mut Lane<R>,
+    tan: &mut Tangent<R, M>,
+) {
+    if lane.status.is_frozen() {
+        return;
+    }
+    let part = Partial::start(lane);
+    finish_macro_step(lc, lane, tan, part);
+}
+
+/// A macro step in progress: the local variables of [`finish_macro_step`]'s segment
+/// loop, so that the batch stepper can hand over a lane in the middle of a macro step
+/// (after contact sub-steps it took itself) and the scalar stepper carries on exactly
+/// where it stands.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Partial<R> {
+    /// State at the sub-step start `s`.
+    pub x: [R; STATE_DIM],
+    /// Fraction of the macro step done.
+    pub s: R,
+    /// Current contact mode.
+    pub contact: bool,
+    /// In contact at some point of the macro step so far.
+    pub touched: bool,
+    /// RK4 sub-steps taken.
+    pub substeps: u64,
+    /// Located switches (each begins a new segment).
+    pub switches: u32,
+    /// Largest g sampled so far.
+    pub max_g: R,
+}
+
+impl<R: Real> Partial<R> {
+    /// The start of `lane`'s next macro step.
+    #[inline(always)]
+    pub fn start(lane: &Lane<R>) -> Self {
+        Partial {
+            x: lane.x,
+            s: R::lit(0.0),
+            contact: lane.contact,
+            touched: lane.contact,
+            substeps: 0,
+            switches: 0,
+            max_g: R::lit(f64::NEG_INFINITY),
+        }
+    }
+}
+
+/// Runs the segment loop of `lane`'s macro step from `part`, then the refinement cap,
+/// the status checks and the counters.
+pub(crate) fn finish_macro_step<R: Real, const M: usize>(
+    lc: &LaneConsts<R>,
+    lane: &mut Lane<R>,
+    tan: &mut Tangent<R, M>,
+    mut p: Partial<R>,
+) {
+    let one = R::lit(1.0);
+    let k = lane.k;
+    // Each pass is one trial sub-step that ends the macro step, ends a contact sub-step
+    // (at most R per segment) or locates a switch (a new segment), so the loop runs at
+    // most max_segments * (R + 1) times. The macro step is done when s reaches 1 (which a
+    // Partial the batch stepper finished itself already is).
+    while p.s < one && p.switches < lc.max_segments {
+        let (ds, end) = trial_extent(lc, p.s, p.contact);
+        let x1 = rk4_substep(lc, &p.x, k, p.s, ds, p.contact);
+        p.substeps += 1;
+        let sw = find_switch(lc, &p.x, &x1, ds * lc.h, p.contact);
+        p.max_g = p.max_g.max(sw.max_g);
+        if sw.theta > one {
+            if M > 0 {
+                rk4_tangent_substep(lc, &p.x, k, p.s, ds, p.contact, tan);
+            }
+            p.x = x1;
+            p.s = end;
+            continue;
+        }
+        if sw.theta >= one {
+            if M > 0 {
+                rk4_tangent_substep(lc, &p.x, k, p.s, ds, p.contact, tan);
+            }
+            p.x = x1;
+            p.s = end;
+        } else if sw.theta > R::lit(0.0) {
+            if M > 0 {
+                rk4_tangent_substep(lc, &p.x, k, p.s, ds * sw.theta, p.contact, tan);
+            }
+            p.x = rk4_substep(lc, &p.x, k, p.s, ds * sw.theta, p.contact);
+            p.substeps += 1;
+            p.s += ds * sw.theta;
+        }
+        if M > 0 && tan.saltation {
+            saltation(lc, &p.x, k, p.s, p.contact, tan);
+        }
+        p.contact = !p.contact;
+        p.touched = true;
+        p.switches += 1;
+    }
+    if p.s < one {
+        // Refinement cap: finish the step in the current mode and say so.
+        if M > 0 {
+            rk4_tangent_substep(lc, &p.x, k, p.s, one - p.s, p.contact, tan);
+        }
+        p.x = rk4_substep(lc, &p.x, k, p.s, one - p.s, p.contact);
+        p.substeps += 1;
+        p.contact = penetration(lc.c.delta, &p.x) > R::lit(0.0);
+        if lane.status < Status::RefinementCap {
+            lane.status = Status::RefinementCap;
+        }
+    }
+    commit_macro_step(lc, lane, &p);
+}
+
+/// The end of a macro step whose segments are done (`p.s >= 1` or capped): status
+/// checks, then the new lane state and counters.
+#[inline(always)]
+pub(crate) fn commit_macro_step<R: Real>(lc: &LaneConsts<R>, lane: &mut Lane<R>, p: &Partial<R>) {
+    let (x, contact, substeps, k) = (p.x, p.contact, p.substeps, lane.k);
+    // Status checks: freeze at the last good state rather than poison anything.
+    let mut finite = true;
+    for v in x.iter() {
+        finite = finite && v.is_finite();
+    }
+    if !finite {
+        lane.status = Status::NonFinite;
+        return;
+    }
+    let reach = x[X_R]
+        .abs()
+        .max(x[Y_R].abs())
+        .max(x[X_S].abs())
+        .max(x[Y_S].abs());
+    if reach > lc.bound {
+        lane.status = Status::Diverged;
+        return;
+    }
+    lane.x = x;
+    lane.contact = contact;
+    lane.k = if k + 1 == lc.n { 0 } else { k + 1 };
+    let ct = &mut lane.counters;
+    ct.macro_steps += 1;
+    ct.contact_steps += p.touched as u64;
+    ct.switches += u64::from(p.switches);
+    ct.extra_substeps += substeps - 1;
+    if p.touched {
+        ct.max_penetration = ct.max_penetration.max(p.max_g.to_f64());
+    }
+}
+
+/// Advances the lane by one forcing period (N macro steps), from k = 0 to k = 0.
+pub fn advance_period<R: Real>(lc: &LaneConsts<R>, lane: &mut Lane<R>) {
+    for _ in 0..lc.n {
+        macro_step(lc, lane);
+    }
+}
+
+/// [`advance_period`] carrying tangent vectors.
+pub fn advance_period_tangent<R: Real, const M: usize>(
+    lc: &LaneConsts<R>,
+    lane: &mut Lane<R>,
+    tan: &mut Tangent<R, M>,
+) {
+    for _ in 0..lc.n {
+        macro_step_tangent(lc, lane, tan);
+    }
+}

@@ -1,0 +1,678 @@
+//! The GPU backend of the ensemble stepper: `integrate/lane.wgsl` through wgpu.
+//!
+//! One invocation advances one lane (`integrate::lane`, mirrored function by function
+//! in the kernel). The host splits the work in two directions:
+//!
+//! - **chunks of lanes**, so that every buffer stays inside the device's
+//!   `max_storage_buffer_binding_size` / `max_buffer_size` and every dispatch inside
+//!   `max_compute_workgroups_per_dimension` (DESIGN.md 3). Chunks run one after the
+//!   other on the same (cached) buffers.
+//! - **time slices** of at most `periods_per_slice` forcing periods per dispatch, so no
+//!   dispatch runs long enough for a watchdog (Windows TDR: 2 s) and the host can
+//!   report progress. Between slices the lane state (state, contact mode, k, status,
+//!   counters, periods completed) stays in the lane buffer on the GPU; only the Poincare
+//!   points of the slice, written by the kernel at the end of each recorded period, are
+//!   read back, plus one counter of lanes that did not finish the slice. A driver may
+//!   cut an invocation short: Mesa's llvmpipe stops every loop of an invocation after
+//!   65535 loop iterations in all (a few thousand macro steps). The kernel commits a
+//!   macro step only when it ran to completion, and the host dispatches the slice again
+//!   until no lane is left behind; each dispatch resumes every lane where it stopped.
+//!
+//! Neither split changes a result: a lane's arithmetic does not depend on where the
+//! host cut the work (tested bit for bit in `tests/gpu.rs`).
+//!
+//! The pipeline is built once per device and precision and kept, with its buffers
+//! (grown when a run needs more), in the [`GpuRunner`] (DESIGN.md 2.3).
+
+pub mod device;
+pub mod layout;
+pub mod shader;
+
+pub use device::{AdapterSummary, DeviceRequest, GpuDevice, list_adapters};
+pub use layout::GpuReal;
+
+use jeffcott_core::error::{Error, Result};
+use jeffcott_core::integrate::lane::{Lane, LaneConsts};
+use jeffcott_core::model::STATE_DIM;
+use layout::{PROBE_ITERS, Params};
+use std::mem::size_of;
+use std::sync::Mutex;
+
+/// How the host cuts a run into dispatches.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Schedule {
+    /// Forcing periods integrated before the first recorded one.
+    pub transient: u32,
+    /// Forcing periods whose end states (Poincare points) are recorded.
+    pub recorded: u32,
+    /// Forcing periods per dispatch (the time slice), >= 1.
+    pub periods_per_slice: u32,
+    /// Upper bound on lanes per chunk on top of the device limits (`None`: limits only).
+    pub max_lanes_per_chunk: Option<usize>,
+}
+
+impl Schedule {
+    /// `transient` + `recorded` periods in slices of `periods_per_slice`, chunks as large
+    /// as the device allows.
+    pub fn new(transient: u32, recorded: u32, periods_per_slice: u32) -> Self {
+        Schedule {
+            transient,
+            recorded,
+            periods_per_slice,
+            max_lanes_per_chunk: None,
+        }
+    }
+}
+
+/// Per-lane outcomes and, with the lambda_1 variant, per-lane tangent growths over the
+/// recorded periods (empty without it).
+pub type LyapunovOutcomes<R> = (Vec<LaneOutcome<R>>, Vec<Vec<f64>>);
+
+/// What one lane produced.
+#[derive(Clone, Debug)]
+pub struct LaneOutcome<R> {
+    /// The state at the end of each recorded period, in order (widened exactly to f64).
+    /// A lane frozen by its status repeats the state it was frozen at.
+    pub poincare: Vec<[f64; STATE_DIM]>,
+    /// The final lane: state, contact mode, k, status, counters.
+    pub lane: Lane<R>,
+}
+
+/// Progress of a run, reported after every time slice.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Progress {
+    /// Lane-periods integrated so far.
+    pub lane_periods_done: u64,
+    /// Lane-periods in the whole run.
+    pub lane_periods_total: u64,
+    /// Dispatches so far (one per time slice and chunk, more where the driver cut
+    /// invocations short).
+    pub dispatches: u64,
+}
+
+/// Dispatches of one time slice before the runner gives up. A dispatch in which some
+/// lane cannot commit a single macro step is an error at once; otherwise every dispatch
+/// makes progress, so only a broken driver gets here.
+const MAX_PASSES_PER_SLICE: u32 = 1_000_000;
+
+/// Largest buffer the runner allocates, whatever the device allows: keeps host staging
+/// memory sane on devices with multi-GiB limits.
+const MAX_CHUNK_BUFFER_BYTES: u64 = 256 << 20;
+
+/// Buffers for one chunk of up to `lanes_cap` lanes and `slots_cap` periods per slice.
+struct Buffers {
+    lanes_cap: usize,
+    slots_cap: u32,
+    params: wgpu::Buffer,
+    consts: wgpu::Buffer,
+    lanes: wgpu::Buffer,
+    records: wgpu::Buffer,
+    records_staging: wgpu::Buffer,
+    lanes_staging: wgpu::Buffer,
+    unfinished: wgpu::Buffer,
+    unfinished_staging: wgpu::Buffer,
+    tangents: wgpu::Buffer,
+    bind_group: wgpu::BindGroup,
+}
+
+/// The compiled kernel of one precision and its buffers.
+struct Kernel {
+    pipeline: wgpu::ComputePipeline,
+    buffers: Option<Buffers>,
+}
+
+/// Runs lanes on one device; builds each precision's pipeline (plain, or with the
+/// lambda_1 tangent vector) on first use and reuses it (and its buffers) for every
+/// later run.
+pub struct GpuRunner {
+    gpu: GpuDevice,
+    /// [f32 plain, f32 lambda_1, f64 plain, f64 lambda_1].
+    kernels: [Mutex<Option<Kernel>>; 4],
+}
+
+impl std::fmt::Debug for GpuRunner {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("GpuRunner")
+            .field("gpu", &self.gpu)
+            .finish_non_exhaustive()
+    }
+}
+
+fn gpu_err(what: &str, e: impl std::fmt::Display) -> Error {
+    Error::Gpu {
+        message: format!("{what}: {e}"),
+    }
+}
+
+impl GpuRunner {
+    /// A runner on `gpu`. Nothing is compiled until the first run of each precision.
+    pub fn new(gpu: GpuDevice) -> Self {
+        GpuRunner {
+            gpu,
+            kernels: Default::default(),
+        }
+    }
+
+    /// The device this runner uses.
+    pub fn gpu(&self) -> &GpuDevice {
+        &self.gpu
+    }
+
+    fn slot<R: GpuReal>(&self, lyapunov: bool) -> &Mutex<Option<Kernel>> {
+        let precision = if R::WGSL_NAME == "f64" { 2 } else { 0 };
+        &self.kernels[precision + lyapunov as usize]
+    }
+
+    fn build_pipeline<R: GpuReal>(&self, lyapunov: bool) -> Result<wgpu::ComputePipeline> {
+        if R::WGSL_NAME == "f64" && !self.gpu.supports_f64() {
+            return Err(Error::NoAdapter {
+                reason: format!(
+                    "adapter {} has no SHADER_F64; use f32 precision",
+                    self.gpu.adapter().name
+                ),
+            });
+        }
+        // Fail early with naga's readable report rather than wgpu's summary.
+        shader::validate_variant::<R>(lyapunov)
+            .map_err(|e| gpu_err("lane kernel does not validate", e))?;
+        let device = self.gpu.device();
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("lane.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(shader::source_with::<R>(lyapunov).into()),
+        });
+        // An explicit layout, the same for both variants: the plain kernel never touches
+        // `tangents` (binding 5), and an automatic layout might or might not list it.
+        let entry = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty,
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        };
+        let rw = wgpu::BufferBindingType::Storage { read_only: false };
+        let bgl = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("lanes"),
+            entries: &[
+                entry(0, wgpu::BufferBindingType::Uniform),
+                entry(1, wgpu::BufferBindingType::Storage { read_only: true }),
+                entry(2, rw),
+                entry(3, rw),
+                entry(4, rw),
+                entry(5, rw),
+            ],
+        });
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("lanes"),
+            bind_group_layouts: &[Some(&bgl)],
+            immediate_size: 0,
+        });
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("advance_lanes"),
+            layout: Some(&layout),
+            module: &module,
+            entry_point: Some(shader::ENTRY_POINT),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(gpu_err("cannot build the lane pipeline", e));
+        }
+        self.gpu.check()?;
+        Ok(pipeline)
+    }
+
+    /// Lanes per chunk for this precision and slice length on this device.
+    pub fn chunk_lanes<R: GpuReal>(&self, schedule: &Schedule) -> Result<usize> {
+        self.chunk_lanes_variant::<R>(schedule, false)
+    }
+
+    fn chunk_lanes_variant<R: GpuReal>(
+        &self,
+        schedule: &Schedule,
+        lyapunov: bool,
+    ) -> Result<usize> {
+        let rec_dim = shader::record_dim(lyapunov);
+        let limits = self.gpu.limits();
+        let max_bytes = limits
+            .max_storage_buffer_binding_size
+            .min(limits.max_buffer_size)
+            .min(MAX_CHUNK_BUFFER_BYTES);
+        let record_bytes = schedule.periods_per_slice as u64 * (rec_dim * size_of::<R>()) as u64;
+        let per_lane = record_bytes
+            .max(size_of::<R::Consts>() as u64)
+            .max(size_of::<R::Lane>() as u64);
+        let by_bytes = (max_bytes / per_lane) as usize;
+        if by_bytes == 0 {
+            return Err(Error::invalid(
+                "periods_per_slice",
+                schedule.periods_per_slice,
+                "one lane's records of a slice exceed the device's buffer limit",
+            ));
+        }
+        let by_dispatch =
+            limits.max_compute_workgroups_per_dimension as usize * shader::WORKGROUP_SIZE as usize;
+        let mut n = by_bytes.min(by_dispatch);
+        if let Some(cap) = schedule.max_lanes_per_chunk {
+            n = n.min(cap.max(1));
+        }
+        Ok(n)
+    }
+
+    fn buffers<R: GpuReal>(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        lanes_cap: usize,
+        slots_cap: u32,
+        rec_dim: usize,
+    ) -> Buffers {
+        let device = self.gpu.device();
+        let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
+        let staging = wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST;
+        let make = |label: &str, size: usize, usage| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: size as u64,
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        let record_bytes = lanes_cap * slots_cap as usize * rec_dim * size_of::<R>();
+        let lane_bytes = lanes_cap * size_of::<R::Lane>();
+        let params = make(
+            "params",
+            size_of::<Params>(),
+            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        );
+        let consts = make("consts", lanes_cap * size_of::<R::Consts>(), storage);
+        let lanes = make("lanes", lane_bytes, storage | wgpu::BufferUsages::COPY_SRC);
+        let records = make(
+            "records",
+            record_bytes,
+            storage | wgpu::BufferUsages::COPY_SRC,
+        );
+        let records_staging = make("records staging", record_bytes, staging);
+        let lanes_staging = make("lanes staging", lane_bytes, staging);
+        let unfinished = make(
+            "unfinished",
+            8,
+            wgpu::BufferUsages::STORAGE
+                | wgpu::BufferUsages::COPY_SRC
+                | wgpu::BufferUsages::COPY_DST,
+        );
+        let unfinished_staging = make("unfinished staging", 8, staging);
+        // One tangent per lane in the lambda_1 variant, one unused element otherwise.
+        let tangent_lanes = if rec_dim > STATE_DIM { lanes_cap } else { 1 };
+        let tangents = make(
+            "tangents",
+            tangent_lanes * STATE_DIM * size_of::<R>(),
+            storage,
+        );
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("lanes"),
+            layout: &pipeline.get_bind_group_layout(0),
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: params.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: consts.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: lanes.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: records.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 4,
+                    resource: unfinished.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 5,
+                    resource: tangents.as_entire_binding(),
+                },
+            ],
+        });
+        Buffers {
+            lanes_cap,
+            slots_cap,
+            params,
+            consts,
+            lanes,
+            records,
+            records_staging,
+            lanes_staging,
+            unfinished,
+            unfinished_staging,
+            tangents,
+            bind_group,
+        }
+    }
+
+    /// Maps `len` bytes of `buf` for reading and returns them as `T`s.
+    fn read_back<T: bytemuck::Pod>(&self, buf: &wgpu::Buffer, len: usize) -> Result<Vec<T>> {
+        let slice = buf.slice(0..len as u64);
+        let (tx, rx) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+        // The map callback runs inside whichever thread's poll claims it: with several
+        // devices in one process (parallel tests) our poll can return before the callback
+        // has been delivered. Poll again until it arrives (bounded), never assume.
+        let deadline = std::time::Instant::now() + std::time::Duration::from_secs(600);
+        loop {
+            self.gpu
+                .device()
+                .poll(wgpu::PollType::wait_indefinitely())
+                .map_err(|e| gpu_err("waiting for the GPU", e))?;
+            self.gpu.check()?;
+            match rx.recv_timeout(std::time::Duration::from_millis(50)) {
+                Ok(Ok(())) => break,
+                Ok(Err(e)) => return Err(gpu_err("mapping a readback buffer", e)),
+                Err(std::sync::mpsc::RecvTimeoutError::Timeout)
+                    if std::time::Instant::now() < deadline => {}
+                Err(_) => {
+                    return Err(Error::Gpu {
+                        message: "readback buffer was never mapped (waited 600 s)".into(),
+                    });
+                }
+            }
+        }
+        let out = {
+            let view = slice
+                .get_mapped_range()
+                .map_err(|e| gpu_err("reading a mapped buffer", e))?;
+            // Copies: the mapping need not be aligned for T.
+            bytemuck::pod_collect_to_vec::<u8, T>(&view)
+        };
+        buf.unmap();
+        Ok(out)
+    }
+
+    /// Runs `consts.len()` lanes from `init` for `schedule.transient +
+    /// schedule.recorded` forcing periods and returns, per lane, the Poincare points of
+    /// the recorded periods and the final lane.
+    pub fn run<R: GpuReal>(
+        &self,
+        consts: &[LaneConsts<R>],
+        init: &[Lane<R>],
+        schedule: &Schedule,
+    ) -> Result<Vec<LaneOutcome<R>>> {
+        self.run_with_progress(consts, init, schedule, &mut |_| {})
+    }
+
+    /// [`GpuRunner::run`], calling `progress` after every time slice.
+    pub fn run_with_progress<R: GpuReal>(
+        &self,
+        consts: &[LaneConsts<R>],
+        init: &[Lane<R>],
+        schedule: &Schedule,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<Vec<LaneOutcome<R>>> {
+        Ok(self.run_inner(consts, init, None, schedule, progress)?.0)
+    }
+
+    /// [`GpuRunner::run_with_progress`] with the lambda_1 kernel variant: every lane
+    /// carries a tangent vector from `tangents` (one per lane), advanced with the state
+    /// (saltation at switches) and renormalised at the end of every forcing period. Also
+    /// returns, per lane, the tangent's growth (its length before renormalisation) over
+    /// each recorded period, in order: the logarithms summed and divided by the recorded
+    /// time give lambda_1 ([`jeffcott_core::lyapunov::lambda1_from_norms`]).
+    pub fn run_lyapunov_with_progress<R: GpuReal>(
+        &self,
+        consts: &[LaneConsts<R>],
+        init: &[Lane<R>],
+        tangents: &[[R; STATE_DIM]],
+        schedule: &Schedule,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<LyapunovOutcomes<R>> {
+        if tangents.len() != init.len() {
+            return Err(Error::invalid(
+                "tangents",
+                tangents.len(),
+                format!(
+                    "{} initial lanes but {} tangents",
+                    init.len(),
+                    tangents.len()
+                ),
+            ));
+        }
+        self.run_inner(consts, init, Some(tangents), schedule, progress)
+    }
+
+    fn run_inner<R: GpuReal>(
+        &self,
+        consts: &[LaneConsts<R>],
+        init: &[Lane<R>],
+        tangents: Option<&[[R; STATE_DIM]]>,
+        schedule: &Schedule,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<LyapunovOutcomes<R>> {
+        let lyapunov = tangents.is_some();
+        let rec_dim = shader::record_dim(lyapunov);
+        if consts.len() != init.len() {
+            return Err(Error::invalid(
+                "lanes",
+                init.len(),
+                format!(
+                    "{} lane constants but {} initial lanes",
+                    consts.len(),
+                    init.len()
+                ),
+            ));
+        }
+        if schedule.periods_per_slice == 0 {
+            return Err(Error::invalid("periods_per_slice", 0, "must be >= 1"));
+        }
+        let total = schedule
+            .transient
+            .checked_add(schedule.recorded)
+            .ok_or_else(|| {
+                Error::invalid(
+                    "periods",
+                    schedule.recorded,
+                    "transient + recorded overflows u32",
+                )
+            })?;
+        let n_total = consts.len();
+        let mut out: Vec<LaneOutcome<R>> = init
+            .iter()
+            .map(|lane| LaneOutcome {
+                poincare: Vec::with_capacity(schedule.recorded as usize),
+                lane: *lane,
+            })
+            .collect();
+        let mut norms: Vec<Vec<f64>> = if lyapunov {
+            vec![Vec::with_capacity(schedule.recorded as usize); n_total]
+        } else {
+            Vec::new()
+        };
+        if n_total == 0 || total == 0 {
+            return Ok((out, norms));
+        }
+        let chunk = self.chunk_lanes_variant::<R>(schedule, lyapunov)?;
+        let slots = schedule.periods_per_slice.min(total);
+
+        let mut guard = self.slot::<R>(lyapunov).lock().map_err(|_| Error::Gpu {
+            message: "a previous GPU run panicked".into(),
+        })?;
+        if guard.is_none() {
+            *guard = Some(Kernel {
+                pipeline: self.build_pipeline::<R>(lyapunov)?,
+                buffers: None,
+            });
+        }
+        let kernel = guard.as_mut().ok_or_else(|| Error::Gpu {
+            message: "pipeline cache is empty".into(),
+        })?;
+        let lanes_cap = chunk.min(n_total);
+        let fits = kernel
+            .buffers
+            .as_ref()
+            .is_some_and(|b| b.lanes_cap >= lanes_cap && b.slots_cap >= slots);
+        if !fits {
+            kernel.buffers = None; // free the old ones first
+            kernel.buffers = Some(self.buffers::<R>(&kernel.pipeline, lanes_cap, slots, rec_dim));
+        }
+        let (pipeline, bufs) = match (&kernel.pipeline, &kernel.buffers) {
+            (p, Some(b)) => (p, b),
+            _ => {
+                return Err(Error::Gpu {
+                    message: "buffers missing".into(),
+                });
+            }
+        };
+
+        let device = self.gpu.device();
+        let queue = self.gpu.queue();
+        let lane_periods_total = n_total as u64 * total as u64;
+        let mut lane_periods_done = 0u64;
+        let mut dispatches = 0u64;
+        let rec = rec_dim * size_of::<R>();
+        for start in (0..n_total).step_by(chunk) {
+            let end = (start + chunk).min(n_total);
+            let n = end - start;
+            let packed_consts: Vec<R::Consts> =
+                consts[start..end].iter().map(R::pack_consts).collect();
+            let packed_lanes: Vec<R::Lane> = init[start..end].iter().map(R::pack_lane).collect();
+            if let Some(t) = tangents {
+                queue.write_buffer(&bufs.tangents, 0, bytemuck::cast_slice(&t[start..end]));
+            }
+            queue.write_buffer(&bufs.consts, 0, bytemuck::cast_slice(&packed_consts));
+            queue.write_buffer(&bufs.lanes, 0, bytemuck::cast_slice(&packed_lanes));
+            let mut begin = 0u32;
+            while begin < total {
+                let periods = slots.min(total - begin);
+                let params = Params {
+                    n_lanes: n as u32,
+                    period_begin: begin,
+                    period_end: begin + periods,
+                    record_from: schedule.transient,
+                    probe: PROBE_ITERS,
+                    pad: [0; 3],
+                };
+                queue.write_buffer(&bufs.params, 0, bytemuck::bytes_of(&params));
+                // Dispatch the slice until every lane has reached its end. Once is the
+                // rule; a driver that cuts long invocations short (llvmpipe's loop
+                // limit, see `loop_budget_left` in the kernel) needs more, and each
+                // dispatch resumes every lane at its last committed macro step.
+                for pass in 0.. {
+                    let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                        label: Some("time slice"),
+                    });
+                    enc.clear_buffer(&bufs.unfinished, 0, None);
+                    {
+                        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                            label: Some("advance_lanes"),
+                            timestamp_writes: None,
+                        });
+                        cp.set_pipeline(pipeline);
+                        cp.set_bind_group(0, &bufs.bind_group, &[]);
+                        cp.dispatch_workgroups((n as u32).div_ceil(shader::WORKGROUP_SIZE), 1, 1);
+                    }
+                    enc.copy_buffer_to_buffer(
+                        &bufs.unfinished,
+                        0,
+                        &bufs.unfinished_staging,
+                        0,
+                        None,
+                    );
+                    queue.submit(Some(enc.finish()));
+                    dispatches += 1;
+                    let left: Vec<u32> = self.read_back(&bufs.unfinished_staging, 8)?;
+                    if left.first().copied() == Some(0) {
+                        break;
+                    }
+                    if left.get(1).copied().unwrap_or(0) > 0 {
+                        return Err(Error::Gpu {
+                            message: format!(
+                                "{} lanes could not complete one macro step within the \
+                                 driver's loop limit per invocation (llvmpipe: 65535 loop \
+                                 iterations); lower max_segments",
+                                left[1]
+                            ),
+                        });
+                    }
+                    if pass >= MAX_PASSES_PER_SLICE {
+                        return Err(Error::Gpu {
+                            message: format!(
+                                "{} lanes made no progress in {MAX_PASSES_PER_SLICE} dispatches \
+                                 of one time slice",
+                                left.first().copied().unwrap_or(0)
+                            ),
+                        });
+                    }
+                }
+                // Slots [first, periods) of this slice hold recorded periods.
+                let first = schedule.transient.saturating_sub(begin).min(periods);
+                let rec_bytes = (periods - first) as usize * n * rec;
+                let last = begin + periods == total;
+                let lane_bytes = n * size_of::<R::Lane>();
+                if rec_bytes > 0 || last {
+                    let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                        label: Some("readback"),
+                    });
+                    if rec_bytes > 0 {
+                        enc.copy_buffer_to_buffer(
+                            &bufs.records,
+                            (first as usize * n * rec) as u64,
+                            &bufs.records_staging,
+                            0,
+                            Some(rec_bytes as u64),
+                        );
+                    }
+                    if last {
+                        enc.copy_buffer_to_buffer(
+                            &bufs.lanes,
+                            0,
+                            &bufs.lanes_staging,
+                            0,
+                            Some(lane_bytes as u64),
+                        );
+                    }
+                    queue.submit(Some(enc.finish()));
+                }
+                if rec_bytes > 0 {
+                    let points: Vec<R> = self.read_back(&bufs.records_staging, rec_bytes)?;
+                    for per_slot in points.chunks_exact(n * rec_dim) {
+                        for (lane, x) in per_slot.chunks_exact(rec_dim).enumerate() {
+                            let mut p = [0.0; STATE_DIM];
+                            for (d, v) in p.iter_mut().zip(x) {
+                                *d = v.to_f64();
+                            }
+                            out[start + lane].poincare.push(p);
+                            if lyapunov {
+                                norms[start + lane].push(x[STATE_DIM].to_f64());
+                            }
+                        }
+                    }
+                }
+                if last {
+                    let gpu_lanes: Vec<R::Lane> =
+                        self.read_back(&bufs.lanes_staging, lane_bytes)?;
+                    for (i, g) in gpu_lanes.iter().enumerate() {
+                        out[start + i].lane = R::unpack_lane(g).ok_or_else(|| Error::Gpu {
+                            message: format!("lane {} came back with an unknown status", start + i),
+                        })?;
+                    }
+                }
+                lane_periods_done += n as u64 * periods as u64;
+                progress(Progress {
+                    lane_periods_done,
+                    lane_periods_total,
+                    dispatches,
+                });
+                begin += periods;
+            }
+        }
+        Ok((out, norms))
+    }
+}
