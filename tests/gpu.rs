@@ -3,13 +3,17 @@
 //!
 //! These tests need a Vulkan (or other wgpu) adapter. Without one they print
 //! "skipped: no Vulkan adapter" and return, unless `JEFFCOTT_REQUIRE_GPU=1` is set (CI
-//! with Mesa's lavapipe), in which case they fail.
+//! with Mesa's lavapipe), in which case they fail. The kernel's functions one by one
+//! against their Rust functions: tests/mirror.rs.
 
 use jeffcott_core::integrate::lane::{Lane, LaneConsts, Status, StepperConfig, advance_period};
 use jeffcott_core::model::{Params, STATE_DIM, VX_R, X_R};
-use jeffcott_gpu::{DeviceRequest, GpuDevice, GpuReal, GpuRunner, LaneOutcome, Schedule};
+use jeffcott_gpu::{GpuReal, GpuRunner, LaneOutcome, Schedule};
 use rayon::prelude::*;
-use std::sync::OnceLock;
+
+mod common;
+use common::gpu::runner_for;
+use common::unit;
 
 /// Macro steps per period in these tests: small enough for lavapipe on two cores,
 /// large enough that contact steps are refined (located crossings, several segments).
@@ -17,52 +21,6 @@ const N: u32 = 200;
 /// Periods integrated before recording, and recorded periods (50 in all).
 const TRANSIENT: u32 = 40;
 const RECORDED: u32 = 10;
-
-fn require_gpu() -> bool {
-    std::env::var("JEFFCOTT_REQUIRE_GPU").as_deref() == Ok("1")
-}
-
-/// The shared runner, or `None` (after saying so) when there is no adapter and none is
-/// required. Panics when `JEFFCOTT_REQUIRE_GPU=1` and there is no adapter.
-fn runner() -> Option<&'static GpuRunner> {
-    static RUNNER: OnceLock<Result<GpuRunner, String>> = OnceLock::new();
-    let r = RUNNER.get_or_init(|| match GpuDevice::new(&DeviceRequest::default()) {
-        Ok(gpu) => {
-            eprintln!("GPU tests on {:?}", gpu.adapter());
-            Ok(GpuRunner::new(gpu))
-        }
-        Err(e) => Err(e.to_string()),
-    });
-    match r {
-        Ok(runner) => Some(runner),
-        Err(e) => {
-            assert!(
-                !require_gpu(),
-                "JEFFCOTT_REQUIRE_GPU=1 but no GPU adapter could be opened: {e}"
-            );
-            eprintln!("skipped: no Vulkan adapter ({e})");
-            None
-        }
-    }
-}
-
-/// The runner if it can run precision `R` (f64 needs SHADER_F64).
-fn runner_for<R: GpuReal>() -> Option<&'static GpuRunner> {
-    let r = runner()?;
-    if R::WGSL_NAME == "f64" && !r.gpu().supports_f64() {
-        assert!(
-            !require_gpu(),
-            "JEFFCOTT_REQUIRE_GPU=1 but adapter {} has no SHADER_F64",
-            r.gpu().adapter().name
-        );
-        eprintln!(
-            "skipped: adapter {} has no SHADER_F64",
-            r.gpu().adapter().name
-        );
-        return None;
-    }
-    Some(r)
-}
 
 /// The kinds of lanes in the parity ensemble.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -90,15 +48,6 @@ const KINDS: [Kind; 6] = [
     Kind::Scatter,
     Kind::Damped,
 ];
-
-/// A small deterministic hash in [-1, 1).
-fn unit(i: usize, salt: u64) -> f64 {
-    let mut z = (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ salt;
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^= z >> 31;
-    (z >> 11) as f64 / (1u64 << 52) as f64 - 1.0
-}
 
 /// One lane of the parity ensemble: (params, W, initial state, kind).
 fn lane_spec(i: usize, n: usize) -> (Params, f64, [f64; STATE_DIM], Kind) {
@@ -330,7 +279,7 @@ fn f64_kernel_with_contact_refinement_reproduces_cpu_to_the_bit_for_every_r() {
 /// order as the CPU f32 lane: + - * / and sqrt are correctly rounded on both sides
 /// (x86 SSE on the host; LLVM on lavapipe, which does not fuse a*b+c into an fma),
 /// the one reassociation Mesa's NIR would apply is blocked by `keep` in the kernel
-/// (checked by `rhs_and_phasor_on_the_gpu_match_the_cpu_bit_for_bit`), constants are
+/// (checked function by function in tests/mirror.rs), constants are
 /// the same f32 values (checked in `gpu::shader`), and floor and small-integer
 /// conversions are exact. Each operation therefore rounds the same exact value to the
 /// same f32, by induction over the whole run: the bound is zero, and the test demands
@@ -516,200 +465,6 @@ fn poisoned_lanes_are_flagged_and_do_not_touch_their_neighbours() {
     }
     if let Some(r) = runner_for::<f32>() {
         poisoned_lanes_are_frozen_and_isolated::<f32>(r);
-    }
-}
-
-/// A test-only entry point appended to the kernel: evaluates `rhs_frozen` and
-/// `phasor_turns` on rows of `probe_in` (8 state, 11 coefficients, cos, sin, contact,
-/// turns = 23 Reals) into rows of `probe_out` (8 + 2 Reals).
-const PROBE_ENTRY: &str = r#"
-@group(0) @binding(10) var<storage, read> probe_in: array<Real>;
-@group(0) @binding(11) var<storage, read_write> probe_out: array<Real>;
-@compute @workgroup_size(64)
-fn probe_functions(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let i = gid.x;
-    if i >= arrayLength(&probe_in) / 23u || params.n_lanes == 0u {
-        return;
-    }
-    let b = 23u * i;
-    var x: array<Real, STATE_DIM>;
-    for (var j = 0u; j < STATE_DIM; j++) {
-        x[j] = probe_in[b + j];
-    }
-    let c = Coeffs(probe_in[b + 8u], probe_in[b + 9u], probe_in[b + 10u], probe_in[b + 11u],
-        probe_in[b + 12u], probe_in[b + 13u], probe_in[b + 14u], probe_in[b + 15u],
-        probe_in[b + 16u], probe_in[b + 17u], probe_in[b + 18u]);
-    let f = rhs_frozen(c, x, probe_in[b + 19u], probe_in[b + 20u], probe_in[b + 21u] > Real(0.5));
-    let p = phasor_turns(probe_in[b + 22u]);
-    let o = 10u * i;
-    for (var j = 0u; j < STATE_DIM; j++) {
-        probe_out[o + j] = f[j];
-    }
-    probe_out[o + 8u] = p.x;
-    probe_out[o + 9u] = p.y;
-}
-"#;
-
-/// Runs `PROBE_ENTRY` on `rows` and returns its output.
-fn probe_kernel<R: GpuReal>(runner: &GpuRunner, rows: &[R]) -> Vec<R> {
-    use wgpu::util::DeviceExt;
-    let dev = runner.gpu().device();
-    let n = rows.len() / 23;
-    let out_bytes = (n * 10 * std::mem::size_of::<R>()) as u64;
-    let src = jeffcott_gpu::shader::source::<R>() + PROBE_ENTRY;
-    let scope = dev.push_error_scope(wgpu::ErrorFilter::Validation);
-    let module = dev.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some("probe"),
-        source: wgpu::ShaderSource::Wgsl(src.into()),
-    });
-    let pipeline = dev.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some("probe"),
-        layout: None,
-        module: &module,
-        entry_point: Some("probe_functions"),
-        compilation_options: Default::default(),
-        cache: None,
-    });
-    // `keep` reads params.n_lanes, which is never 0 in a real dispatch.
-    let params = jeffcott_gpu::layout::Params {
-        n_lanes: 1,
-        ..Default::default()
-    };
-    let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
-    let pbuf = dev.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: None,
-        contents: bytemuck::bytes_of(&params),
-        usage: wgpu::BufferUsages::UNIFORM,
-    });
-    let inp = dev.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: None,
-        contents: bytemuck::cast_slice(rows),
-        usage: wgpu::BufferUsages::STORAGE,
-    });
-    let make = |usage| {
-        dev.create_buffer(&wgpu::BufferDescriptor {
-            label: None,
-            size: out_bytes,
-            usage,
-            mapped_at_creation: false,
-        })
-    };
-    let out = make(usage);
-    let staging = make(wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST);
-    fn bind(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
-        wgpu::BindGroupEntry {
-            binding,
-            resource: buffer.as_entire_binding(),
-        }
-    }
-    let group = dev.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: None,
-        layout: &pipeline.get_bind_group_layout(0),
-        entries: &[bind(0, &pbuf), bind(10, &inp), bind(11, &out)],
-    });
-    if let Some(e) = pollster::block_on(scope.pop()) {
-        panic!("probe kernel: {e}");
-    }
-    let mut enc = dev.create_command_encoder(&Default::default());
-    {
-        let mut pass = enc.begin_compute_pass(&Default::default());
-        pass.set_pipeline(&pipeline);
-        pass.set_bind_group(0, &group, &[]);
-        pass.dispatch_workgroups((n as u32).div_ceil(64), 1, 1);
-    }
-    enc.copy_buffer_to_buffer(&out, 0, &staging, 0, None);
-    runner.gpu().queue().submit(Some(enc.finish()));
-    staging
-        .slice(..)
-        .map_async(wgpu::MapMode::Read, |r| r.expect("map"));
-    dev.poll(wgpu::PollType::wait_indefinitely()).expect("poll");
-    let view = staging.slice(..).get_mapped_range().expect("mapped");
-    bytemuck::pod_collect_to_vec(&view)
-}
-
-/// Function-level parity, so a compiler rewrite shows up here and not only as a drift
-/// after many periods: `rhs_frozen` (where Mesa's add-chain reassociation bit, see
-/// `keep` in the kernel) and `phasor_turns` on 50 000 random inputs around contact.
-fn functions_match_cpu_bit_for_bit<R: GpuReal>(runner: &GpuRunner) {
-    use jeffcott_core::integrate::forcing::phasor_turns;
-    use jeffcott_core::model::{Coeffs, rhs_frozen};
-    let n = 50_000;
-    let mut rows = Vec::with_capacity(n * 23);
-    let mut inputs = Vec::with_capacity(n);
-    for i in 0..n {
-        let mut x = [R::lit(0.0); STATE_DIM];
-        for (d, v) in x.iter_mut().enumerate() {
-            let scale = if d % 2 == 0 { 0.004 } else { 0.8 };
-            *v = R::lit(scale * unit(i, d as u64 + 100));
-        }
-        x[X_R] = R::lit(0.006 * (1.0 + 0.05 * unit(i, 7)));
-        let p = Params {
-            mu: if i % 3 == 0 {
-                0.0
-            } else {
-                0.3 * unit(i, 8).abs()
-            },
-            // Contact damping on half the rows (the Kelvin-Voigt term of the force).
-            c_c: if i % 2 == 0 {
-                0.0
-            } else {
-                2e4 * unit(i, 13).abs()
-            },
-            ..Params::default()
-        };
-        let c = Coeffs::<R>::new(&p, 130.0 + 11.0 * unit(i, 9).abs());
-        let cos = R::lit(unit(i, 10));
-        let sin = R::lit(unit(i, 11));
-        let contact = i % 4 != 0;
-        let turns = R::lit(3.0 * unit(i, 12));
-        rows.extend_from_slice(&x);
-        rows.extend_from_slice(&[
-            c.wr2,
-            c.dr,
-            c.ws2,
-            c.ds,
-            c.unbalance,
-            c.a_g,
-            c.kc_mr,
-            c.kc_ms,
-            c.mu,
-            c.delta,
-            c.tau_c,
-        ]);
-        rows.extend_from_slice(&[cos, sin, R::lit(contact as u8 as f64), turns]);
-        inputs.push((x, c, cos, sin, contact, turns));
-    }
-    let out = probe_kernel(runner, &rows);
-    let mut bad = 0;
-    for (i, (x, c, cos, sin, contact, turns)) in inputs.iter().enumerate() {
-        let f = rhs_frozen(c, x, *cos, *sin, *contact);
-        let (pc, ps) = phasor_turns(*turns);
-        let cpu: Vec<f64> = f.iter().chain([&pc, &ps]).map(|v| v.to_f64()).collect();
-        let gpu: Vec<f64> = out[10 * i..10 * i + 10]
-            .iter()
-            .map(|v| v.to_f64())
-            .collect();
-        if cpu
-            .iter()
-            .map(|v| v.to_bits())
-            .ne(gpu.iter().map(|v| v.to_bits()))
-        {
-            bad += 1;
-            if bad < 4 {
-                eprintln!("{}: row {i}\n CPU {cpu:?}\n GPU {gpu:?}", R::WGSL_NAME);
-            }
-        }
-    }
-    assert_eq!(bad, 0, "{}: {bad} of {n} rows differ", R::WGSL_NAME);
-}
-
-#[test]
-fn rhs_and_phasor_on_the_gpu_match_the_cpu_bit_for_bit() {
-    if let Some(r) = runner_for::<f64>() {
-        functions_match_cpu_bit_for_bit::<f64>(r);
-    }
-    if let Some(r) = runner_for::<f32>() {
-        functions_match_cpu_bit_for_bit::<f32>(r);
     }
 }
 

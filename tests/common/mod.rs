@@ -1,6 +1,9 @@
-//! Helpers shared by the integration tests that run the binary: run it, require
-//! success, read its JSON and NPY files, and the GPU-required rule of CI.
+//! Helpers shared by the integration tests: run the binary, require success, read its
+//! JSON and NPY files, the GPU-required rule of CI and the shared GPU runner
+//! ([`gpu`]), a deterministic hash for test inputs.
 #![allow(dead_code)] // each test file uses a different subset
+
+pub mod gpu;
 
 use std::path::Path;
 use std::process::{Command, Output};
@@ -55,4 +58,13 @@ pub fn gpu_f64_present() -> bool {
         eprintln!("skipped: no GPU adapter with f64");
     }
     present
+}
+
+/// A small deterministic hash of (`i`, `salt`) in [-1, 1).
+pub fn unit(i: usize, salt: u64) -> f64 {
+    let mut z = (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ salt;
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^= z >> 31;
+    (z >> 11) as f64 / (1u64 << 52) as f64 - 1.0
 }

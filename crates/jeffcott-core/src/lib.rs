@@ -19,7 +19,8 @@
 //! 2. [`integrate`]: the RK4 step, the article's variable-step scheme
 //!    ([`integrate::article`]) and the ensemble lane stepper ([`integrate::lane`]):
 //!    fixed macro steps of T/N with contact crossings located and the step split there,
-//!    generic over `f32`/`f64` and mirrored by the WGSL kernel `integrate/lane.wgsl`.
+//!    generic over `f32`/`f64` and mirrored by the WGSL kernel (`integrate/lane.wgsl`, with
+//!    its other parts beside the modules they mirror: `integrate::lane::WGSL_FILES`).
 //! 3. [`ensemble`]: many independent lanes as one specification, their result, the lane
 //!    table, and the CPU backend ([`ensemble::cpu`]: rayon over SIMD batches).
 //! 4. [`lyapunov`]: Lyapunov spectra with saltation matrices at the contact switches.

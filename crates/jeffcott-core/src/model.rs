@@ -2,10 +2,18 @@
 //! corrected equations of motion, the contact force, the analytic Jacobian and the
 //! energy. Pure functions; the `f64` entry points here are the reference that the
 //! integrators and the GPU kernel are tested against.
+//!
+//! `penetration`, `contact_force_per_kc`, `contact_partials` and `rhs_frozen` are
+//! mirrored, in that order, by `model.wgsl` beside this file (a part of the lane kernel):
+//! keep in sync with it.
 
 use crate::error::{Error, Result};
 use crate::real::Real;
 use serde::{Deserialize, Serialize};
+
+/// The WGSL mirror of the lane functions of this module (`model.wgsl`, beside this
+/// file), a part of the lane kernel (`integrate::lane::WGSL_FILES`).
+pub const WGSL: &str = include_str!("model.wgsl");
 
 /// Number of state components.
 pub const STATE_DIM: usize = 8;
@@ -357,7 +365,7 @@ pub fn contact_force_per_kc<R: Real>(
 /// `[fx_dx, fx_dy, fx_dvx, fx_dvy, fy_dx, fy_dy, fy_dvx, fy_dvy]`: the contact block of
 /// the Jacobian, shared by [`jacobian`] and the lanes' variational equations.
 ///
-/// Keep in sync with `contact_partials` in `integrate/lane.wgsl`.
+/// Keep in sync with `contact_partials` in `model.wgsl`.
 #[inline(always)]
 pub fn contact_partials<R: Real>(c: &Coeffs<R>, x: &[R; STATE_DIM]) -> [R; 8] {
     let dx = x[X_R] - x[X_S];
@@ -397,7 +405,7 @@ pub fn contact_partials<R: Real>(c: &Coeffs<R>, x: &[R; STATE_DIM]) -> [R; 8] {
 /// state given (`contact`) and the unbalance phasor (cos(Wt - phi0), sin(Wt - phi0))
 /// given, so the caller chooses how the forcing is evaluated.
 ///
-/// Keep in sync with `rhs_frozen` in `integrate/lane.wgsl`.
+/// Keep in sync with `rhs_frozen` in `model.wgsl`.
 #[inline(always)]
 pub fn rhs_frozen<R: Real>(
     c: &Coeffs<R>,

@@ -1,4 +1,5 @@
-//! The GPU backend of the ensemble stepper: `integrate/lane.wgsl` through wgpu.
+//! The GPU backend of the ensemble stepper: the lane kernel
+//! (`jeffcott_core::integrate::lane::WGSL`, assembled by [`shader`]) through wgpu.
 //!
 //! One invocation advances one lane (`integrate::lane`, mirrored function by function
 //! in the kernel). The host splits the work in two directions:
@@ -173,13 +174,13 @@ impl GpuRunner {
             });
         }
         // Fail early with naga's readable report rather than wgpu's summary.
-        shader::validate_variant::<R>(lyapunov)
+        shader::validate::<R>(lyapunov, shader::capabilities::<R>())
             .map_err(|e| gpu_err("lane kernel does not validate", e))?;
         let device = self.gpu.device();
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("lane.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(shader::source_with::<R>(lyapunov).into()),
+            label: Some("lane kernel"),
+            source: wgpu::ShaderSource::Wgsl(shader::source::<R>(lyapunov).into()),
         });
         // An explicit layout, the same for both variants: the plain kernel never touches
         // `tangents` (binding 5), and an automatic layout might or might not list it.

@@ -6,9 +6,14 @@
 //! floating point) to an angle in [-pi/4, pi/4], where Taylor polynomials of degree 17
 //! (sin) and 16 (cos) are accurate to 1e-17, then rotated by the quadrant.
 //!
-//! Keep in sync with `forcing_phasor` / `phasor_turns` in `integrate/lane.wgsl`.
+//! Keep in sync with `phasor_turns` in `integrate/forcing.wgsl` (its WGSL mirror, beside
+//! this file; `forcing_phasor` of `integrate/lane.wgsl` calls it).
 
 use crate::real::Real;
+
+/// The WGSL mirror of this module (`forcing.wgsl`, beside this file), a part of the lane
+/// kernel (`integrate::lane::WGSL_FILES`).
+pub const WGSL: &str = include_str!("forcing.wgsl");
 
 /// 1/n! for the Taylor coefficients, n = 0..=17.
 const INV_FACT: [f64; 18] = [

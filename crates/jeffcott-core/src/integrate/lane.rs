@@ -37,10 +37,31 @@
 //! applied to them ([`saltation`]). With no tangent vectors (M = 0, what
 //! [`macro_step`] runs) all of that compiles away and the state arithmetic is untouched.
 
-/// The WGSL mirror of this module (`lane.wgsl`, beside this file): the kernel body that
-/// `jeffcott-gpu` completes with a generated header (types, constants) and compiles.
-/// It lives here so the stepper and its mirror are read, changed and reviewed together.
-pub const WGSL: &str = include_str!("lane.wgsl");
+/// The kernel body that `jeffcott-gpu` completes with a generated header (types,
+/// constants) and compiles: the parts of [`WGSL_FILES`] concatenated in their order.
+/// Each part lives beside the Rust module it mirrors (this module's is `lane.wgsl`), so a
+/// function and its mirror are read, changed and reviewed together.
+pub const WGSL: &str = concat!(
+    include_str!("lane_buffers.wgsl"),
+    include_str!("forcing.wgsl"),
+    include_str!("../model.wgsl"),
+    include_str!("lane.wgsl"),
+    include_str!("lane_entry.wgsl"),
+);
+
+/// The parts of [`WGSL`] in their order, as (path under `jeffcott-core/src`, text):
+/// the buffers and helpers, the mirrors of `integrate::forcing`, `model` and this
+/// module, and the entry point (which stands in for [`advance_period`]).
+pub const WGSL_FILES: [(&str, &str); 5] = [
+    (
+        "integrate/lane_buffers.wgsl",
+        include_str!("lane_buffers.wgsl"),
+    ),
+    ("integrate/forcing.wgsl", crate::integrate::forcing::WGSL),
+    ("model.wgsl", crate::model::WGSL),
+    ("integrate/lane.wgsl", include_str!("lane.wgsl")),
+    ("integrate/lane_entry.wgsl", include_str!("lane_entry.wgsl")),
+];
 
 use crate::integrate::forcing::phasor_turns;
 use crate::model::{
@@ -280,14 +301,14 @@ impl<R: Real> Lane<R> {
 
 /// Unbalance phasor at fraction `sigma` of macro step `k`.
 #[inline(always)]
-fn forcing_phasor<R: Real>(lc: &LaneConsts<R>, k: u32, sigma: R) -> (R, R) {
+pub fn forcing_phasor<R: Real>(lc: &LaneConsts<R>, k: u32, sigma: R) -> (R, R) {
     phasor_turns((R::lit(k as f64) + sigma) * lc.inv_n - lc.phase0)
 }
 
 /// One classical RK4 step over the fraction [s0, s0 + ds] of macro step k, contact mode
 /// held fixed.
 #[inline(always)]
-fn rk4_substep<R: Real>(
+pub fn rk4_substep<R: Real>(
     lc: &LaneConsts<R>,
     x: &[R; STATE_DIM],
     k: u32,
@@ -357,7 +378,7 @@ impl<R: Real, const M: usize> Tangent<R, M> {
 
 /// The contact block of the Jacobian in mode `contact` (zero out of contact).
 #[inline(always)]
-pub(crate) fn stage_partials<R: Real>(c: &Coeffs<R>, x: &[R; STATE_DIM], contact: bool) -> [R; 8] {
+pub fn stage_partials<R: Real>(c: &Coeffs<R>, x: &[R; STATE_DIM], contact: bool) -> [R; 8] {
     if contact {
         contact_partials(c, x)
     } else {
@@ -398,7 +419,7 @@ pub(crate) fn jacobian_trace<R: Real>(c: &Coeffs<R>, pc: &[R; 8]) -> R {
 /// exactly `rk4_substep`'s operations, and each vector takes the RK4 step of
 /// dV/dt = J V on them. Also adds the trace integral over the sub-step.
 #[inline(always)]
-pub(crate) fn rk4_tangent_substep<R: Real, const M: usize>(
+pub fn rk4_tangent_substep<R: Real, const M: usize>(
     lc: &LaneConsts<R>,
     x: &[R; STATE_DIM],
     k: u32,
@@ -536,7 +557,7 @@ pub fn renormalise<R: Real>(v: &mut [R; STATE_DIM]) -> R {
 /// `hs`, on the cubic Hermite interpolant of the relative displacement between the
 /// sub-step's end states (exact at theta = 0 and 1).
 #[inline(always)]
-pub(crate) fn hermite_gap<R: Real>(
+pub fn hermite_gap<R: Real>(
     delta: R,
     x0: &[R; STATE_DIM],
     x1: &[R; STATE_DIM],
@@ -577,7 +598,7 @@ pub(crate) fn hermite_gap<R: Real>(
 
 /// True when penetration `g` is on the side of g = 0 that the mode does not hold.
 #[inline(always)]
-pub(crate) fn wrong_side<R: Real>(g: R, contact: bool) -> bool {
+pub fn wrong_side<R: Real>(g: R, contact: bool) -> bool {
     if contact {
         g <= R::lit(0.0)
     } else {
@@ -586,11 +607,12 @@ pub(crate) fn wrong_side<R: Real>(g: R, contact: bool) -> bool {
 }
 
 /// Result of the switch search over one trial sub-step.
-struct Switch<R> {
+#[derive(Clone, Copy, Debug)]
+pub struct Switch<R> {
     /// Fraction of the sub-step at which the mode must flip, or a value > 1 for none.
-    theta: R,
+    pub theta: R,
     /// Largest g among the samples on the trajectory before the switch.
-    max_g: R,
+    pub max_g: R,
 }
 
 /// Looks for the first crossing of g = 0 along the trial sub-step x0 -> x1 (duration hs)
@@ -599,7 +621,7 @@ struct Switch<R> {
 /// its estimated location: this catches contacts that enter and leave (or separations
 /// that leave and re-enter) between samples, which would otherwise cost order.
 #[inline(always)]
-fn find_switch<R: Real>(
+pub fn find_switch<R: Real>(
     lc: &LaneConsts<R>,
     x0: &[R; STATE_DIM],
     x1: &[R; STATE_DIM],
@@ -693,7 +715,7 @@ fn find_switch<R: Real>(
 /// suits free flight). With R a power of two a macro step begun in contact is R exact
 /// sub-steps. Keep in sync with `trial_extent` in `integrate/lane.wgsl`.
 #[inline(always)]
-pub(crate) fn trial_extent<R: Real>(lc: &LaneConsts<R>, s: R, contact: bool) -> (R, R) {
+pub fn trial_extent<R: Real>(lc: &LaneConsts<R>, s: R, contact: bool) -> (R, R) {
     let one = R::lit(1.0);
     if contact && one - s > lc.inv_r {
         (lc.inv_r, s + lc.inv_r)

@@ -1,0 +1,111 @@
+// The lane kernel, part 3 of 5 (see integrate/lane_buffers.wgsl for the whole): the
+// contact force and the right-hand side. Keep in sync with model.rs, beside this file:
+// the functions below are penetration, contact_force_per_kc, contact_partials and
+// rhs_frozen of model.rs, in the same order, doing the same arithmetic in the same order.
+
+fn penetration(delta: Real, x: array<Real, STATE_DIM>) -> Real {
+    let dx = x[X_R] - x[X_S];
+    let dy = x[Y_R] - x[Y_S];
+    return sqrt(dx * dx + dy * dy) - delta;
+}
+
+fn contact_force_per_kc(
+    delta: Real,
+    mu: Real,
+    tau_c: Real,
+    dx: Real,
+    dy: Real,
+    dvx: Real,
+    dvy: Real,
+) -> vec2<Real> {
+    // r2, not r * r: Mesa's NIR rewrites sqrt(a) * sqrt(a) to a, which rounds
+    // differently from the CPU's r * r.
+    let r2 = dx * dx + dy * dy;
+    let r = sqrt(r2);
+    if r <= Real(0.0) {
+        return vec2<Real>(Real(0.0), Real(0.0));
+    }
+    let s = (r - delta) / r;
+    let nrm = s + tau_c * ((dx * dvx + dy * dvy) / r2);
+    return vec2<Real>(-nrm * dx + mu * s * dy, -nrm * dy - mu * s * dx);
+}
+
+// d(fx, fy)/d(dx, dy, dvx, dvy) of contact_force_per_kc, as model::contact_partials:
+// [fx_dx, fx_dy, fx_dvx, fx_dvy] in .a and [fy_dx, fy_dy, fy_dvx, fy_dvy] in .b.
+struct Partials {
+    a: vec4<Real>,
+    b: vec4<Real>,
+}
+
+fn contact_partials(c: Coeffs, x: array<Real, STATE_DIM>) -> Partials {
+    let dx = x[X_R] - x[X_S];
+    let dy = x[Y_R] - x[Y_S];
+    let dvx = x[VX_R] - x[VX_S];
+    let dvy = x[VY_R] - x[VY_S];
+    let r2 = dx * dx + dy * dy;
+    let r = sqrt(r2);
+    let z = Real(0.0);
+    if r <= z {
+        return Partials(vec4<Real>(z, z, z, z), vec4<Real>(z, z, z, z));
+    }
+    let s = (r - c.delta) / r;
+    let q = (dx * dvx + dy * dvy) / r2;
+    let nrm = s + c.tau_c * q;
+    let r3 = r2 * r;
+    let sx = c.delta * dx / r3;
+    let sy = c.delta * dy / r3;
+    let two = Real(2.0);
+    let nx = sx + c.tau_c * (dvx - two * q * dx) / r2;
+    let ny = sy + c.tau_c * (dvy - two * q * dy) / r2;
+    let nvx = c.tau_c * dx / r2;
+    let nvy = c.tau_c * dy / r2;
+    let mu = c.mu;
+    return Partials(
+        vec4<Real>(
+            -nx * dx - nrm + mu * sx * dy,
+            -ny * dx + mu * sy * dy + mu * s,
+            -nvx * dx,
+            -nvy * dx,
+        ),
+        vec4<Real>(
+            -nx * dy - mu * sx * dx - mu * s,
+            -ny * dy - nrm - mu * sy * dx,
+            -nvx * dy,
+            -nvy * dy,
+        ),
+    );
+}
+
+fn rhs_frozen(
+    c: Coeffs,
+    x: array<Real, STATE_DIM>,
+    cos_phase: Real,
+    sin_phase: Real,
+    contact: bool,
+) -> array<Real, STATE_DIM> {
+    var fx = Real(0.0);
+    var fy = Real(0.0);
+    if contact {
+        let kf = contact_force_per_kc(
+            c.delta,
+            c.mu,
+            c.tau_c,
+            x[X_R] - x[X_S],
+            x[Y_R] - x[Y_S],
+            x[VX_R] - x[VX_S],
+            x[VY_R] - x[VY_S],
+        );
+        fx = kf.x;
+        fy = kf.y;
+    }
+    return array<Real, STATE_DIM>(
+        x[VX_R],
+        -c.wr2 * x[X_R] - c.dr * x[VX_R] + c.unbalance * cos_phase + c.kc_mr * fx,
+        x[VY_R],
+        -c.wr2 * x[Y_R] - c.dr * x[VY_R] + c.unbalance * sin_phase - c.a_g + c.kc_mr * fy,
+        x[VX_S],
+        -c.ws2 * x[X_S] - c.ds * x[VX_S] - c.kc_ms * fx,
+        x[VY_S],
+        keep(-c.ws2 * x[Y_S] - c.ds * x[VY_S]) - c.a_g - c.kc_ms * fy,
+    );
+}
