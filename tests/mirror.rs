@@ -578,12 +578,12 @@ fn in_both_precisions(check32: fn(&GpuRunner), check64: fn(&GpuRunner)) {
 /// row, W over the article's range, contact refinement R of 1, 2 or 4.
 fn lane_consts<R: Real>(i: usize) -> (Params, LaneConsts<R>) {
     let p = Params {
-        mu: if i % 3 == 0 {
+        mu: if i.is_multiple_of(3) {
             0.0
         } else {
             0.3 * unit(i, 8).abs()
         },
-        c_c: if i % 2 == 0 {
+        c_c: if i.is_multiple_of(2) {
             0.0
         } else {
             3e4 * unit(i, 13).abs()
@@ -756,7 +756,10 @@ fn tangent<R: Real>(i: usize, scale: f64) -> [R; STATE_DIM] {
 
 /// The rows of the probe that tests/gpu.rs ran before the split (50 000 random states
 /// around contact, both modes), for rhs_frozen and phasor_turns.
-fn random_rhs_inputs<R: Real>(n: usize) -> Vec<(Coeffs<R>, [R; STATE_DIM], R, R, bool, R)> {
+/// rhs_frozen's arguments (coefficients, state, cos, sin, mode) and a phasor argument.
+type RhsArgs<R> = (Coeffs<R>, [R; STATE_DIM], R, R, bool, R);
+
+fn random_rhs_inputs<R: Real>(n: usize) -> Vec<RhsArgs<R>> {
     (0..n)
         .map(|i| {
             let mut x = [R::lit(0.0); STATE_DIM];
