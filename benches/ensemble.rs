@@ -10,6 +10,7 @@
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use jeffcott_analysis::backend::run_on_gpu;
 use jeffcott_analysis::bench::bench_spec;
+use jeffcott_core::control::Control;
 use jeffcott_core::ensemble::Precision;
 use jeffcott_gpu::{DeviceRequest, GpuDevice, GpuRunner};
 use std::time::Duration;
@@ -33,14 +34,17 @@ fn ensemble(c: &mut Criterion) {
             let name =
                 |backend: &str| format!("{backend}_{precision:?}_{lanes}_lanes").to_lowercase();
             group.bench_function(name("cpu"), |b| {
-                b.iter(|| jeffcott_core::ensemble::cpu::run(&spec, &|_| {}).expect("CPU run"))
+                b.iter(|| {
+                    jeffcott_core::ensemble::cpu::run(&spec, false, Control::none())
+                        .expect("CPU run")
+                })
             });
             if let Some(r) = runner
                 .as_ref()
                 .filter(|r| precision == Precision::F32 || r.gpu().supports_f64())
             {
                 group.bench_function(name("gpu"), |b| {
-                    b.iter(|| run_on_gpu(&spec, r, &|_, _| {}).expect("GPU run"))
+                    b.iter(|| run_on_gpu(&spec, r, false, Control::none()).expect("GPU run"))
                 });
             }
         }

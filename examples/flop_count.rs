@@ -13,6 +13,7 @@
 
 use jeffcott_analysis::backend::run;
 use jeffcott_analysis::bench::bench_spec;
+use jeffcott_core::control::Control;
 use jeffcott_core::ensemble::{Backend, Precision};
 use jeffcott_core::integrate::lane::advance_period;
 use jeffcott_core::real::Real;
@@ -145,7 +146,7 @@ fn main() -> anyhow::Result<()> {
     // Time the real CPU path (batched, rayon) on the full workload.
     let spec = bench_spec(lanes, periods, Precision::F64, false);
     let t = std::time::Instant::now();
-    let (res, _) = run(&spec, Backend::Cpu, &|_, _| {})?;
+    let (res, _) = run(&spec, Backend::Cpu, false, Control::none())?;
     let wall = t.elapsed().as_secs_f64();
     let lane_steps: u64 = res.counters.iter().map(|c| c.macro_steps).sum();
     let rate = lane_steps as f64 / wall;

@@ -11,6 +11,7 @@
 
 use jeffcott_analysis::backend::run;
 use jeffcott_analysis::bench::{quantile, sorted_position_errors};
+use jeffcott_core::control::Control;
 use jeffcott_core::ensemble::{Backend, EnsembleSpec, LaneSpec, Precision};
 use jeffcott_core::integrate::lane::{DEFAULT_CONTACT_SUBSTEPS, StepperConfig};
 use jeffcott_core::model::{Params, STATE_DIM, State};
@@ -50,7 +51,7 @@ fn lane_stepper(
         precision: Precision::F64,
     };
     let t = Instant::now();
-    let (res, _) = run(&spec, Backend::Cpu, &|_, _| {})?;
+    let (res, _) = run(&spec, Backend::Cpu, false, Control::none())?;
     let wall = t.elapsed().as_secs_f64();
     let substeps: u64 = res
         .counters

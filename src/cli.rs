@@ -4,16 +4,14 @@
 use crate::plot;
 use clap::{Args, Parser, Subcommand};
 use jeffcott_analysis::classify::ClassifyConfig;
+use jeffcott_analysis::defaults;
+use jeffcott_analysis::ensemble::Totals;
 use jeffcott_analysis::output;
 use jeffcott_analysis::simulate::{Integrator, SimulateSpec, simulate};
 use jeffcott_core::error::{Error, Result};
 use jeffcott_core::integrate::article::{ArticleConfig, ErrorNorm};
-use jeffcott_core::integrate::lane::{
-    DEFAULT_CONTACT_SUBSTEPS, DEFAULT_STEPS_PER_PERIOD, StepperConfig,
-};
-use jeffcott_core::model::{
-    COORD_NAMES, Params, STATE_DIM, State, X_R, X_S, Y_R, Y_S, coord_index,
-};
+use jeffcott_core::integrate::lane::StepperConfig;
+use jeffcott_core::model::{Params, STATE_DIM, State};
 use std::path::{Path, PathBuf};
 
 mod basin;
@@ -162,10 +160,10 @@ pub struct EnsembleArgs {
     #[arg(long, value_name = "NAME=VALUE,...")]
     pub init: Vec<String>,
     /// Forcing periods integrated and discarded.
-    #[arg(long, default_value_t = 500, value_name = "Q")]
+    #[arg(long, default_value_t = defaults::ensemble::TRANSIENT, value_name = "Q")]
     pub transient: u32,
     /// Forcing periods recorded per lane.
-    #[arg(long, default_value_t = 64, value_name = "P")]
+    #[arg(long, default_value_t = defaults::ensemble::PERIODS, value_name = "P")]
     pub periods: u32,
     /// Backend: auto (a hardware GPU if present, else the CPU), cpu, or gpu (any adapter,
     /// software included; an error if none).
@@ -307,7 +305,7 @@ fn ensemble_lanes(
 /// assembled from the units (poincare.npy streamed, one unit in memory at a time).
 pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
     use jeffcott_analysis::run::{Array, Unit};
-    use jeffcott_core::ensemble::{EnsembleSpec, lane_table_columns};
+    use jeffcott_core::ensemble::EnsembleSpec;
     jeffcott_core::limits::check_periods("transient", a.transient, 0)?;
     jeffcott_core::limits::check_periods("periods", a.periods, 1)?;
     let (param_sets, lanes, lanes_json) = ensemble_lanes(a)?;
@@ -372,13 +370,7 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
                 "status",
                 Array::U32(r.status.iter().map(|s| s.code()).collect()),
             )
-            .with_meta(serde_json::json!({
-                "macro_steps": c.iter().map(|c| c.macro_steps).sum::<u64>(),
-                "contact_steps": c.iter().map(|c| c.contact_steps).sum::<u64>(),
-                "switches": c.iter().map(|c| c.switches).sum::<u64>(),
-                "extra_substeps": c.iter().map(|c| c.extra_substeps).sum::<u64>(),
-                "max_penetration_m": c.iter().map(|c| c.max_penetration).fold(0.0, f64::max),
-            }));
+            .with_meta(Totals::of(c).to_json());
         if let Some(l) = r.lambda1 {
             out = out.with("lambda1", Array::F64(l));
         }
@@ -432,30 +424,21 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
     )?;
     let mut codes: Vec<u32> = Vec::with_capacity(n);
     let mut lambda1: Vec<f64> = Vec::new();
-    let (mut steps, mut contact, mut switches, mut extra, mut max_pen) =
-        (0u64, 0u64, 0u64, 0u64, 0f64);
+    let mut totals = Totals::default();
     for u in 0..count {
         let unit = rd.load("ensemble", u)?;
         codes.extend_from_slice(unit.u32s("status")?);
         if a.lyapunov {
             lambda1.extend_from_slice(unit.f64s("lambda1")?);
         }
-        let m = &unit.meta;
-        let get = |k: &str| m[k].as_u64().unwrap_or(0);
-        steps += get("macro_steps");
-        contact += get("contact_steps");
-        switches += get("switches");
-        extra += get("extra_substeps");
-        max_pen = max_pen.max(m["max_penetration_m"].as_f64().unwrap_or(0.0));
+        totals.add(&Totals::from_json(&unit.meta));
     }
     output::write_npy(&dir.join("status.npy"), &[n], &codes)?;
-    let mut table = Vec::with_capacity(n * (2 + STATE_DIM));
-    for l in &spec.lanes {
-        table.push(l.omega);
-        table.push(l.param_set as f64);
-        table.extend_from_slice(&l.x0);
-    }
-    output::write_npy(&dir.join("lanes.npy"), &[n, 2 + STATE_DIM], &table)?;
+    output::write_npy(
+        &dir.join("lanes.npy"),
+        &[n, 2 + STATE_DIM],
+        &jeffcott_analysis::ensemble::lanes_table(&spec),
+    )?;
     output::write_npy(
         &dir.join("params.npy"),
         &[spec.param_sets.len(), Params::FIELDS.len()],
@@ -475,49 +458,21 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
         elapsed_s: elapsed,
         ..info
     };
-    let run_json = serde_json::json!({
-        "backend": info.backend,
-        "device": info.device,
-        "backend_reason": info.reason,
-        "precision": info.precision,
-        "lanes": n,
-        "transient": spec.transient,
-        "periods": spec.recorded,
-        "steps_per_period": spec.stepper.steps_per_period,
-        "wall_time_s": info.elapsed_s,
-        "lane_steps_per_s": steps as f64 / info.elapsed_s,
-        "forcing_periods_per_s": (n as f64 * (spec.transient + spec.recorded) as f64) / info.elapsed_s,
-        "counters": {
-            "macro_steps": steps,
-            "contact_steps": contact,
-            "switches": switches,
-            "extra_substeps": extra,
-            "max_penetration_m": max_pen,
-        },
-        "status_counts": {
-            "ok": count(Status::Ok),
-            "refinement_cap": count(Status::RefinementCap),
-            "diverged": count(Status::Diverged),
-            "non_finite": count(Status::NonFinite),
-        },
-        "status_codes": {"0": "ok", "1": "refinement_cap", "2": "diverged", "3": "non_finite"},
-        "lanes_columns": lane_table_columns(),
-        "params": spec.param_sets,
-        "files": {
+    let mut run_json = jeffcott_analysis::ensemble::run_record(&spec, &totals, &codes, &info);
+    run_json["files"] = serde_json::json!({
             "poincare.npy": "f64 [lanes, periods, 8], state order x_r, vx_r, y_r, vy_r, x_s, vx_s, y_s, vy_s",
             "status.npy": "u32 [lanes], codes in status_codes",
             "lanes.npy": "f64 [lanes, 10], columns in lanes_columns",
             "lambda1.npy": "f64 [lanes], largest Lyapunov exponent [1/s] over the recorded periods (NaN for frozen lanes; only with --lyapunov)",
-        },
-        "jeffcott_version": env!("CARGO_PKG_VERSION"),
     });
+    run_json["jeffcott_version"] = serde_json::json!(env!("CARGO_PKG_VERSION"));
     rd.finish(run_json, &rundir::written(&rd, ENSEMBLE_OUTPUTS))?;
     if !a.quiet {
         println!(
             "{n} lanes x {} periods in {:.2} s ({:.3e} lane-steps/s); status ok {}, refinement_cap {}, diverged {}, non_finite {}; files in {}",
             spec.transient + spec.recorded,
             info.elapsed_s,
-            steps as f64 / info.elapsed_s,
+            totals.macro_steps as f64 / info.elapsed_s,
             count(Status::Ok),
             count(Status::RefinementCap),
             count(Status::Diverged),
@@ -590,17 +545,17 @@ impl ModelArgs {
 #[derive(Args, Debug)]
 pub struct StepperArgs {
     /// Macro steps per forcing period of the lane stepper (docs/convergence.md).
-    #[arg(long, default_value_t = DEFAULT_STEPS_PER_PERIOD, value_name = "N")]
+    #[arg(long, default_value_t = StepperConfig::DEFAULT.steps_per_period, value_name = "N")]
     pub steps_per_period: u32,
     /// Cap on contact switches per macro step; steps that need more are flagged.
-    #[arg(long, default_value_t = 16)]
+    #[arg(long, default_value_t = StepperConfig::DEFAULT.max_segments)]
     pub max_segments: u32,
     /// A lane whose |position| exceeds this [m] is declared diverged.
-    #[arg(long, default_value_t = 1.0, value_name = "METRES")]
+    #[arg(long, default_value_t = StepperConfig::DEFAULT.divergence_bound, value_name = "METRES")]
     pub divergence_bound: f64,
     /// Contact refinement: a sub-step in contact covers at most 1/R of a macro step
     /// (1, 2, 4, 8 or 16; 1 turns it off; docs/performance.md).
-    #[arg(long, default_value_t = DEFAULT_CONTACT_SUBSTEPS, value_name = "R")]
+    #[arg(long, default_value_t = StepperConfig::DEFAULT.contact_substeps, value_name = "R")]
     pub contact_substeps: u32,
 }
 
@@ -623,11 +578,11 @@ pub struct SimulateArgs {
     #[arg(long, value_name = "W")]
     pub omega: f64,
     /// Forcing periods T = 2 pi / W integrated and discarded before recording.
-    #[arg(long, default_value_t = 1000, value_name = "Q")]
+    #[arg(long, default_value_t = defaults::simulate::TRANSIENT, value_name = "Q")]
     pub transient: u32,
     /// Forcing periods recorded (one Poincare point each); at least 2 n for period n to
     /// be detectable.
-    #[arg(long, default_value_t = 64, value_name = "P")]
+    #[arg(long, default_value_t = defaults::simulate::PERIODS, value_name = "P")]
     pub periods: u32,
     /// Override coordinates of the start state (default: static equilibrium without
     /// contact), e.g. `--init x_r=0.005,vx_r=-0.5`. Names: x_r, vx_r, y_r, vy_r, x_s,
@@ -648,30 +603,30 @@ pub struct SimulateArgs {
     #[command(flatten)]
     pub stepper: StepperArgs,
     /// Standard steps per period of the article's scheme.
-    #[arg(long, default_value_t = 1000, value_name = "N")]
+    #[arg(long, default_value_t = ArticleConfig::DEFAULT.steps_per_period, value_name = "N")]
     pub article_steps: u32,
     /// Components of the article scheme's step-doubling error (E_max is in metres).
     #[arg(long, value_enum, default_value_t = ErrorNorm::Positions)]
     pub article_norm: ErrorNorm,
     /// Exponent of the article scheme's step reduction dt (E_max/E)^alpha.
-    #[arg(long, default_value_t = 0.2)]
+    #[arg(long, default_value_t = ArticleConfig::DEFAULT.alpha)]
     pub article_alpha: f64,
     /// Periods at the end written to timeseries.npy and drawn [default: min(8, P)].
     #[arg(long, value_name = "M")]
     pub timeseries_periods: Option<u32>,
     /// Largest period the classifier looks for.
-    #[arg(long, default_value_t = 32)]
+    #[arg(long, default_value_t = ClassifyConfig::DEFAULT.n_max)]
     pub n_max: usize,
     /// Classifier repeat tolerance relative to the Poincare set's size.
-    #[arg(long, default_value_t = 1e-3)]
+    #[arg(long, default_value_t = ClassifyConfig::DEFAULT.rel_tol)]
     pub rel_tol: f64,
     /// Classifier repeat tolerance floor [m].
-    #[arg(long, default_value_t = 1e-7)]
+    #[arg(long, default_value_t = ClassifyConfig::DEFAULT.abs_tol)]
     pub abs_tol: f64,
     /// Forcing periods of the stretch, continued from the final state, that the rub
     /// figures, full spectra and contact histories are taken over (a multiple of 6 shows
     /// the 1/2X, 1/3X and 2/3X lines on bins).
-    #[arg(long, default_value_t = 24, value_name = "S")]
+    #[arg(long, default_value_t = defaults::simulate::SPECTRUM_PERIODS, value_name = "S")]
     pub spectrum_periods: u32,
     /// Also write timeseries.csv, full_spectrum.csv and contact.csv.
     #[arg(long)]
@@ -684,101 +639,13 @@ pub struct SimulateArgs {
     pub quiet: bool,
 }
 
-/// Parses `a=1,b=2e-3` into pairs; `option` names the CLI option in errors.
-pub fn parse_assignments(option: &str, text: &str) -> Result<Vec<(String, f64)>> {
-    let mut out = Vec::new();
-    for item in text.split(',').map(str::trim).filter(|s| !s.is_empty()) {
-        let Some((name, value)) = item.split_once('=') else {
-            return Err(Error::invalid(option, item, "expected NAME=VALUE"));
-        };
-        let name = name.trim();
-        let value: f64 = value.trim().parse().map_err(|_| {
-            Error::invalid(&format!("{option} {name}"), value.trim(), "not a number")
-        })?;
-        out.push((name.to_string(), value));
-    }
-    Ok(out)
-}
-
-/// Parses every `NAME=VALUE,...` list of a repeatable option (`--param`, `--init`,
-/// `--fix`) into pairs in order, refusing a name given twice, in one list or across
-/// repeated flags: which of the two values was meant cannot be guessed.
-pub fn parse_assignment_lists(option: &str, lists: &[String]) -> Result<Vec<(String, f64)>> {
-    let mut out: Vec<(String, f64)> = Vec::new();
-    for list in lists {
-        for (name, value) in parse_assignments(option, list)? {
-            if let Some((_, first)) = out.iter().find(|(n, _)| *n == name) {
-                return Err(Error::invalid(
-                    &format!("{option} {name}"),
-                    format!("{name}={first} and {name}={value}"),
-                    format!("`{name}` is given twice; give each name once"),
-                ));
-            }
-            out.push((name, value));
-        }
-    }
-    Ok(out)
-}
+pub use jeffcott_core::inputs::{
+    check_coord_within_bound, check_start_within_bound, parse_assignment_lists, parse_assignments,
+};
 
 /// Applies `--init` overrides to a start state.
 pub fn apply_init(x0: &mut [f64; STATE_DIM], lists: &[String]) -> Result<()> {
-    for (name, value) in parse_assignment_lists("init", lists)? {
-        let i = coord_index(&name).ok_or_else(|| {
-            Error::invalid(
-                "init",
-                &name,
-                format!(
-                    "unknown coordinate; valid names: {}",
-                    COORD_NAMES.join(", ")
-                ),
-            )
-        })?;
-        if !value.is_finite() {
-            return Err(Error::invalid(
-                &format!("init {name}"),
-                value,
-                "must be finite",
-            ));
-        }
-        x0[i] = value;
-    }
-    Ok(())
-}
-
-/// Refuses a start state with a position coordinate beyond the divergence bound: the
-/// lane stepper declares a lane diverged when |x_r|, |y_r|, |x_s| or |y_s| exceeds it,
-/// so such a start would only report "diverged" without integrating anything.
-/// `option` is the option that set the state (`init`, `fix`).
-pub fn check_start_within_bound(option: &str, x0: &[f64; STATE_DIM], bound: f64) -> Result<()> {
-    for i in [X_R, Y_R, X_S, Y_S] {
-        check_coord_within_bound(option, i, x0[i], bound)?;
-    }
-    Ok(())
-}
-
-/// [`check_start_within_bound`] for one coordinate value (velocities always pass).
-pub fn check_coord_within_bound(option: &str, coord: usize, value: f64, bound: f64) -> Result<()> {
-    let position = [X_R, Y_R, X_S, Y_S].contains(&coord);
-    // NaN passes here: non-finite values have their own checks and messages.
-    if position && value.abs() > bound {
-        return Err(Error::invalid(
-            &format!("{option} {}", COORD_NAMES[coord]),
-            value,
-            format!(
-                "start position beyond --divergence-bound {bound} m; must be in -{bound}..={bound} m \
-                 (or raise --divergence-bound)"
-            ),
-        ));
-    }
-    Ok(())
-}
-
-fn named_state(x: &[f64; STATE_DIM]) -> serde_json::Map<String, serde_json::Value> {
-    COORD_NAMES
-        .iter()
-        .zip(x.iter())
-        .map(|(n, v)| (n.to_string(), serde_json::json!(v)))
-        .collect()
+    jeffcott_core::inputs::set_coords("init", x0, &parse_assignment_lists("init", lists)?)
 }
 
 /// Runs `jeffcott simulate`.
@@ -792,7 +659,9 @@ pub fn run_simulate(a: &SimulateArgs) -> Result<()> {
         x0,
         transient: a.transient,
         periods: a.periods,
-        timeseries_periods: a.timeseries_periods.unwrap_or(a.periods.min(8)),
+        timeseries_periods: a
+            .timeseries_periods
+            .unwrap_or(a.periods.min(defaults::simulate::TIMESERIES_PERIODS)),
         integrator: a.integrator,
         stepper: a.stepper.config(),
         article: ArticleConfig {
@@ -807,22 +676,7 @@ pub fn run_simulate(a: &SimulateArgs) -> Result<()> {
             abs_tol: a.abs_tol,
         },
     };
-    if !(a.rel_tol.is_finite() && a.rel_tol > 0.0) {
-        return Err(Error::invalid(
-            "rel-tol",
-            a.rel_tol,
-            "must be finite and > 0",
-        ));
-    }
-    if !(a.abs_tol.is_finite() && a.abs_tol > 0.0) {
-        return Err(Error::invalid(
-            "abs-tol",
-            a.abs_tol,
-            "must be finite and > 0 m",
-        ));
-    }
     spec.validate()?;
-    check_start_within_bound("init", &spec.x0, spec.stepper.divergence_bound)?;
     jeffcott_core::limits::check_memory(
         "periods",
         a.periods,
@@ -913,10 +767,7 @@ fn write_simulation(
     plot_it: bool,
 ) -> Result<()> {
     output::ensure_dir(dir)?;
-    // One row per requested period, as in `ensemble`: a run that froze (diverged,
-    // non-finite) stopped recording, and the periods it never reached are NaN rows.
-    let mut flat: Vec<f64> = res.poincare.iter().flatten().copied().collect();
-    flat.resize(spec.periods as usize * STATE_DIM, f64::NAN);
+    let flat = jeffcott_analysis::simulate::poincare_rows(spec, res);
     output::write_npy(
         &dir.join("poincare.npy"),
         &[spec.periods as usize, STATE_DIM],
@@ -943,52 +794,8 @@ fn write_simulation(
             &res.poincare,
         )?;
     }
-    let c = &res.classification;
-    let steps = match spec.integrator {
-        Integrator::Lane => spec.stepper.steps_per_period,
-        Integrator::Article => spec.article.steps_per_period,
-    };
-    let summary = serde_json::json!({
-        "omega": spec.omega,
-        "forcing_period_s": std::f64::consts::TAU / spec.omega,
-        "transient": spec.transient,
-        "periods": spec.periods,
-        "recorded_poincare_points": res.poincare.len(),
-        "steps_per_period": steps,
-        "integrator": spec.integrator,
-        "class": c.class.label(),
-        "period": c.class.period(),
-        "status": res.status,
-        "classification": {
-            "size_m": finite_or_null(c.size),
-            "repeat_error_m": finite_or_null(c.repeat_error),
-            "tolerance_m": finite_or_null(c.tol),
-            "reason": classification_reason(spec, res),
-            "n_max": spec.classify.n_max,
-            "rel_tol": spec.classify.rel_tol,
-            "abs_tol": spec.classify.abs_tol,
-        },
-        "contact": {
-            "fraction_of_recorded_grid_points": res.contact_fraction,
-            "counters": res.counters,
-        },
-        "rub": match rub {
-            Some(o) => serde_json::json!({
-                "periods": o.periods,
-                "figures": o.figures,
-                "regime": o.figures.regime.label(),
-                "rotor_lines": rubout::strongest_lines(&o.rotor, 8).iter().map(|(ord, a)| serde_json::json!({"order": ord, "name": rubout::order_name(*ord), "amplitude_m": a})).collect::<Vec<_>>(),
-                "stator_lines": rubout::strongest_lines(&o.stator, 8).iter().map(|(ord, a)| serde_json::json!({"order": ord, "name": rubout::order_name(*ord), "amplitude_m": a})).collect::<Vec<_>>(),
-            }),
-            None => serde_json::json!({"regime": "diverged"}),
-        },
-        "initial_state": named_state(&spec.x0),
-        "final_state": named_state(&res.final_state),
-        "wall_time_s": res.elapsed.as_secs_f64(),
-        "stepper": spec.stepper,
-        "article": spec.article,
-        "params": spec.params,
-        "files": {
+    let mut summary = jeffcott_analysis::simulate::summary(spec, res, rub);
+    summary["files"] = serde_json::json!({
             "poincare.npy": "f64 [K, 8], state order x_r, vx_r, y_r, vy_r, x_s, vx_s, y_s, vy_s (m, m/s)",
             "timeseries.npy": "f64 [M, 9], t [s] then the state, on the integrator's grid",
             "phase.png": if plot_it { "rotor and stator phase portraits and orbits" } else { "not drawn (--no-plot)" },
@@ -997,42 +804,10 @@ fn write_simulation(
             "full_spectrum.png": "the full spectra with 1X, 2X, 3X, 1/2X, 1/3X, 2/3X marks",
             "contact.png": "the rotor orbit relative to the stator with the clearance circle and contact points; normal force and penetration against time",
             "*.csv": "with --csv: timeseries.csv, full_spectrum.csv, contact.csv (the same columns, headed)",
-        },
-        "jeffcott_version": env!("CARGO_PKG_VERSION"),
     });
+    summary["jeffcott_version"] = serde_json::json!(env!("CARGO_PKG_VERSION"));
     // Written last: its presence marks a complete run.
     output::write_json(&dir.join("summary.json"), &summary)
-}
-
-fn finite_or_null(v: f64) -> serde_json::Value {
-    if v.is_finite() {
-        serde_json::json!(v)
-    } else {
-        serde_json::Value::Null
-    }
-}
-
-/// Why a run has no class in the usual sense (`unclassified`, `diverged`), for
-/// `summary.json`; null otherwise.
-fn classification_reason(
-    spec: &SimulateSpec,
-    res: &jeffcott_analysis::simulate::SimulateResult,
-) -> serde_json::Value {
-    use jeffcott_analysis::classify::{Class, MIN_POINTS};
-    match res.classification.class {
-        Class::Unclassified => serde_json::json!(format!(
-            "{} Poincare point(s) recorded; at least {MIN_POINTS} are needed to classify \
-             (2 n to see period n): record more --periods",
-            res.poincare.len()
-        )),
-        Class::Diverged => serde_json::json!(format!(
-            "the run ended with status {:?} after {} of {} recorded periods",
-            res.status,
-            res.poincare.len(),
-            spec.periods
-        )),
-        _ => serde_json::Value::Null,
-    }
 }
 
 fn human_summary(

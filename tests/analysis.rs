@@ -208,7 +208,14 @@ fn real_run(omega: f64) -> jeffcott_core::ensemble::EnsembleResult {
         stepper: Default::default(),
         precision: Precision::F64,
     };
-    run(&spec, Backend::Cpu, &|_, _| {}).unwrap().0
+    run(
+        &spec,
+        Backend::Cpu,
+        false,
+        jeffcott_core::control::Control::none(),
+    )
+    .unwrap()
+    .0
 }
 
 #[test]
@@ -255,7 +262,7 @@ fn study(omega: &str, ics: u32) -> jeffcott_analysis::bifurcation::BifurcationSp
 fn quasistatic_up_and_down_sweeps_follow_the_same_branch_where_monostable() {
     use jeffcott_analysis::bifurcation::bifurcation;
     let spec = study("131.6:131.8:5", 3);
-    let res = bifurcation(&spec, &jeffcott_analysis::run::no_progress).unwrap();
+    let res = bifurcation(&spec, jeffcott_core::control::Control::none()).unwrap();
     assert_eq!((res.up.len(), res.down.len()), (5, 5));
     for (wi, (u, d)) in res.up.iter().zip(&res.down).enumerate() {
         assert_eq!(u.omega, d.omega);
@@ -284,7 +291,7 @@ fn brute_force_contains_every_attractor_the_quasistatic_sweeps_found() {
     // e.g. the period-4/period-5 boundary near 132.9, slow convergence leaves the
     // classification to the transient length).
     let spec = study("132.3:132.5:3", 4);
-    let res = bifurcation(&spec, &jeffcott_analysis::run::no_progress).unwrap();
+    let res = bifurcation(&spec, jeffcott_core::control::Control::none()).unwrap();
     for sw in [&res.up, &res.down] {
         for (wi, p) in sw.iter().enumerate() {
             if p.status.is_frozen() {
@@ -354,7 +361,7 @@ fn lambda1_row_is_negative_on_the_period_1_branch_and_positive_at_140() {
     spec.brute_transient = 300;
     spec.recorded = 64;
     spec.max_seeds = 2;
-    let r = bifurcation(&spec, &jeffcott_analysis::run::no_progress).unwrap();
+    let r = bifurcation(&spec, jeffcott_core::control::Control::none()).unwrap();
     for sw in [&r.up, &r.down] {
         assert_eq!(sw[0].class.class, Class::Periodic(1));
         assert!(sw[0].lambda1 < -0.5, "131.7: {}", sw[0].lambda1);
@@ -402,7 +409,7 @@ fn basin_lambda1_map_is_finite_and_the_catalogue_says_chaotic_at_140() {
         chunk: Some(4),
         lyapunov: true,
     };
-    let r = basin(&spec, &jeffcott_analysis::run::no_progress).unwrap();
+    let r = basin(&spec, jeffcott_core::control::Control::none()).unwrap();
     let l1 = r.lambda1.as_ref().unwrap();
     assert_eq!(l1.len(), 6);
     assert!(l1.iter().all(|l| l.is_finite() && *l > 2.0), "{l1:?}");

@@ -57,9 +57,9 @@ fn basin_labels_are_identical_on_cpu_and_gpu_f64() {
         chunk: Some(7),
         lyapunov: true,
     };
-    let cpu = basin(&spec, &jeffcott_analysis::run::no_progress).unwrap();
+    let cpu = basin(&spec, jeffcott_core::control::Control::none()).unwrap();
     spec.backend = Backend::Gpu;
-    let gpu = basin(&spec, &jeffcott_analysis::run::no_progress).unwrap();
+    let gpu = basin(&spec, jeffcott_core::control::Control::none()).unwrap();
     assert_eq!(gpu.info.as_ref().unwrap().backend, "gpu");
     assert_eq!(cpu.labels, gpu.labels);
     assert_eq!(cpu.labels.len(), 20);

@@ -2,6 +2,7 @@
 //! each other, and the same arithmetic as a single `simulate` run.
 
 use jeffcott_analysis::simulate::{Integrator, SimulateSpec, simulate};
+use jeffcott_core::control::Control;
 use jeffcott_core::ensemble::{EnsembleSpec, LaneSpec, Precision, cpu};
 use jeffcott_core::integrate::lane::{Counters, Status, StepperConfig, advance_period};
 use jeffcott_core::model::{Params, VX_R, X_R};
@@ -42,7 +43,7 @@ fn cpu_results_are_bit_identical_for_one_and_many_threads() {
                 .num_threads(threads)
                 .build()
                 .unwrap()
-                .install(|| cpu::run(&s, &|_| {}).unwrap())
+                .install(|| cpu::run(&s, false, Control::none()).unwrap())
         };
         let (a, b) = (run(1), run(3));
         assert_eq!(
@@ -68,8 +69,8 @@ fn poisoned_lanes_are_flagged_and_leave_their_neighbours_untouched() {
     let mut poisoned = clean.clone();
     poisoned.lanes[2].x0[X_R] = f64::NAN;
     poisoned.lanes[5].x0[VX_R] = 1e6; // thrown out of any bound
-    let a = cpu::run(&clean, &|_| {}).unwrap();
-    let b = cpu::run(&poisoned, &|_| {}).unwrap();
+    let a = cpu::run(&clean, false, Control::none()).unwrap();
+    let b = cpu::run(&poisoned, false, Control::none()).unwrap();
     assert_eq!(b.status[2], Status::NonFinite);
     assert!(
         b.status[5] == Status::Diverged || b.status[5] == Status::NonFinite,
@@ -86,7 +87,7 @@ fn poisoned_lanes_are_flagged_and_leave_their_neighbours_untouched() {
 fn ensemble_lanes_reproduce_single_simulations_exactly() {
     // 13 lanes: one SIMD batch and five lanes run one by one.
     let s = spec(Precision::F64, 13);
-    let r = cpu::run(&s, &|_| {}).unwrap();
+    let r = cpu::run(&s, false, Control::none()).unwrap();
     for i in 0..s.lanes.len() {
         let l = &s.lanes[i];
         let single = simulate(&SimulateSpec {
@@ -110,11 +111,15 @@ fn ensemble_lanes_reproduce_single_simulations_exactly() {
 fn invalid_ensembles_name_the_lane_and_field() {
     let mut s = spec(Precision::F64, 4);
     s.lanes[3].omega = -1.0;
-    let e = cpu::run(&s, &|_| {}).unwrap_err().to_string();
+    let e = cpu::run(&s, false, Control::none())
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("omega (lane 3)") && e.contains("> 0"), "{e}");
     let mut s = spec(Precision::F64, 4);
     s.lanes[1].param_set = 9;
-    let e = cpu::run(&s, &|_| {}).unwrap_err().to_string();
+    let e = cpu::run(&s, false, Control::none())
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("param_set (lane 1)"), "{e}");
 }
 
@@ -180,7 +185,7 @@ fn simd_batches_equal_the_scalar_lane_stepper_to_the_bit() {
         for l in s.lanes.iter_mut().step_by(3) {
             l.param_set = 2;
         }
-        let r = cpu::run(&s, &|_| {}).unwrap();
+        let r = cpu::run(&s, false, Control::none()).unwrap();
         let reference = match precision {
             Precision::F64 => scalar_reference::<f64>(&s),
             Precision::F32 => scalar_reference::<f32>(&s),
@@ -216,7 +221,7 @@ fn simd_batches_with_lambda1_equal_the_scalar_tangent_stepper_to_the_bit() {
     let mut s = spec(Precision::F64, 21);
     s.lanes[4].x0[X_R] = f64::NAN;
     s.lanes[6].x0[VX_R] = 1e6;
-    let r = cpu::run_with_lambda1(&s, &|_| {}).unwrap();
+    let r = cpu::run(&s, true, Control::none()).unwrap();
     let l1 = r.lambda1.as_ref().expect("lambda1");
     for (i, &got_l1) in l1.iter().enumerate() {
         let lc = s.lane_consts::<f64>(i);

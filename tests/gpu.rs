@@ -6,6 +6,7 @@
 //! with Mesa's lavapipe), in which case they fail. The kernel's functions one by one
 //! against their Rust functions: tests/mirror.rs.
 
+use jeffcott_core::control::Control;
 use jeffcott_core::integrate::lane::{Lane, LaneConsts, Status, StepperConfig, advance_period};
 use jeffcott_core::model::{Params, STATE_DIM, VX_R, X_R};
 use jeffcott_gpu::{GpuReal, GpuRunner, LaneOutcome, Schedule};
@@ -342,7 +343,8 @@ fn slicing_does_not_change_results<R: GpuReal>(runner: &GpuRunner) {
     let mut dispatches = 0;
     let big = runner
         .run_with_progress(&consts, &init, &one_dispatch, &mut |p| {
-            dispatches = p.dispatches
+            dispatches = p.dispatches;
+            true
         })
         .expect("one dispatch");
     eprintln!(
@@ -368,7 +370,10 @@ fn slicing_does_not_change_results<R: GpuReal>(runner: &GpuRunner) {
         };
         let mut reports = Vec::new();
         let small = runner
-            .run_with_progress(&consts, &init, &schedule, &mut |p| reports.push(p))
+            .run_with_progress(&consts, &init, &schedule, &mut |p| {
+                reports.push(p);
+                true
+            })
             .expect("sliced run");
         for (i, (a, b)) in big.iter().zip(&small).enumerate() {
             assert!(
@@ -507,11 +512,21 @@ fn f32_gpu_lanes_find_the_f64_cpu_period_and_points_within_1e_5_m() {
     };
     let quiet = |_: u64, _: u64| {};
     let (cpu, _) = timed("CPU f64, 10 lanes x 1064 periods", || {
-        run(&spec(Precision::F64), Backend::Cpu, &quiet)
+        run(
+            &spec(Precision::F64),
+            Backend::Cpu,
+            false,
+            Control::progress(&quiet),
+        )
     })
     .expect("CPU run");
     let (gpu, info) = timed("GPU f32, 10 lanes x 1064 periods", || {
-        run(&spec(Precision::F32), Backend::Gpu, &quiet)
+        run(
+            &spec(Precision::F32),
+            Backend::Gpu,
+            false,
+            Control::progress(&quiet),
+        )
     })
     .expect("GPU run");
     assert_eq!(info.backend, "gpu");

@@ -2,6 +2,7 @@
 //! exponents, a periodic attractor, the saltation matrix at contact switches, and the
 //! largest exponent of the ensemble lanes against the full spectrum.
 
+use jeffcott_core::control::Control;
 use jeffcott_core::integrate::lane::{
     Lane, LaneConsts, StepperConfig, Tangent, advance_period, macro_step_tangent,
 };
@@ -377,7 +378,7 @@ fn cpu_lambda1_of_a_lane_agrees_with_the_first_exponent_of_the_full_spectrum() {
             cfg.transient + cfg.tangent_transient,
             s.periods,
         );
-        let res = jeffcott_core::ensemble::cpu::run_with_lambda1(&spec, &|_| {}).unwrap();
+        let res = jeffcott_core::ensemble::cpu::run(&spec, true, Control::none()).unwrap();
         let l1 = res.lambda1.as_ref().unwrap()[0];
         eprintln!(
             "W = {omega}: lane lambda_1 {l1:.5}, spectrum {:.5} +- {:.1e}",
@@ -390,7 +391,7 @@ fn cpu_lambda1_of_a_lane_agrees_with_the_first_exponent_of_the_full_spectrum() {
             s.errors[0]
         );
         // The plain run records the same points and computes no exponent.
-        let plain = jeffcott_core::ensemble::cpu::run(&spec, &|_| {}).unwrap();
+        let plain = jeffcott_core::ensemble::cpu::run(&spec, false, Control::none()).unwrap();
         assert!(plain.lambda1.is_none());
         assert_eq!(plain.poincare, res.poincare);
     }
@@ -452,9 +453,9 @@ fn gpu_lambda1_matches_cpu_lambda1_within_1e_3_per_second() {
     let spec = ensemble_spec(&lanes, 100, 100);
     let t = std::time::Instant::now();
     let gpu =
-        jeffcott_analysis::backend::run_on_gpu_with_lambda1(&spec, &runner, &|_, _| {}).unwrap();
+        jeffcott_analysis::backend::run_on_gpu(&spec, &runner, true, Control::none()).unwrap();
     eprintln!("GPU: {:.2} s", t.elapsed().as_secs_f64());
-    let cpu = jeffcott_core::ensemble::cpu::run_with_lambda1(&spec, &|_| {}).unwrap();
+    let cpu = jeffcott_core::ensemble::cpu::run(&spec, true, Control::none()).unwrap();
     let (g, c) = (gpu.lambda1.unwrap(), cpu.lambda1.unwrap());
     let mut identical = 0;
     let mut worst: f64 = 0.0;
@@ -578,7 +579,7 @@ fn gpu_lambda1_does_not_depend_on_time_slices_or_chunks() {
     let v = [[jeffcott_core::integrate::lane::LAMBDA1_START; STATE_DIM]; 12];
     let run = |schedule: Schedule| {
         runner
-            .run_lyapunov_with_progress(&consts, &init, &v, &schedule, &mut |_| {})
+            .run_lyapunov_with_progress(&consts, &init, &v, &schedule, &mut |_| true)
             .expect("GPU run")
     };
     let (whole, norms) = run(Schedule::new(20, 30, 50));

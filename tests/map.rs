@@ -10,6 +10,7 @@ mod common;
 use common::*;
 use std::process::{Command, Output};
 
+use jeffcott_core::control::Control;
 use jeffcott_core::ensemble::{Backend, EnsembleSpec, LaneSpec, Precision};
 use jeffcott_core::integrate::lane::StepperConfig;
 use jeffcott_core::model::Params;
@@ -292,8 +293,12 @@ fn per_lane_parameters_on_the_gpu_equal_the_cpu_lanes_bit_for_bit_in_f64() {
         precision: Precision::F64,
     };
     let none = |_: u64, _: u64| {};
-    let (cpu, _) = jeffcott_analysis::backend::run(&spec, Backend::Cpu, &none).unwrap();
-    let (gpu, _) = jeffcott_analysis::backend::run(&spec, Backend::Gpu, &none).unwrap();
+    let (cpu, _) =
+        jeffcott_analysis::backend::run(&spec, Backend::Cpu, false, Control::progress(&none))
+            .unwrap();
+    let (gpu, _) =
+        jeffcott_analysis::backend::run(&spec, Backend::Gpu, false, Control::progress(&none))
+            .unwrap();
     assert!(cpu.counters.iter().all(|c| c.contact_steps > 0));
     let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
     assert_eq!(bits(&cpu.poincare), bits(&gpu.poincare));

@@ -12,6 +12,7 @@ use crate::plot::{
 use clap::Args;
 use jeffcott_analysis::basin::{Axis, BasinResult, BasinSpec, basin_with};
 use jeffcott_analysis::catalogue::Attractor;
+use jeffcott_analysis::defaults;
 use jeffcott_analysis::output;
 use jeffcott_analysis::simulate::{Integrator, SimulateSpec, simulate};
 use jeffcott_core::ensemble::{Backend, Precision};
@@ -42,10 +43,10 @@ pub struct BasinArgs {
     #[arg(long, value_name = "NAME=VALUE,...")]
     pub fix: Vec<String>,
     /// Forcing periods integrated and discarded.
-    #[arg(long, default_value_t = 500, value_name = "Q")]
+    #[arg(long, default_value_t = defaults::basin::TRANSIENT, value_name = "Q")]
     pub transient: u32,
     /// Forcing periods recorded per cell (at least 2 n to see period n).
-    #[arg(long, default_value_t = 64, value_name = "P")]
+    #[arg(long, default_value_t = defaults::basin::PERIODS, value_name = "P")]
     pub periods: u32,
     /// Lanes per work unit, the piece of the run committed to --out as it finishes
     /// [default: at most 1/20 of the grid and about 25 s of CPU work].
@@ -96,7 +97,7 @@ pub struct BasinArgs {
     /// draw is integrated as it is and displaced by +-eps along both axes for eps =
     /// 1e-1 .. 1e-7 of the box side (29 lanes a draw); 0 skips it. f(eps) cannot go below
     /// 1/M, so smooth boundaries need many draws.
-    #[arg(long, default_value_t = 100, value_name = "M")]
+    #[arg(long, default_value_t = defaults::basin::UNCERTAINTY_SAMPLES, value_name = "M")]
     pub uncertainty_samples: usize,
     /// Skip basin.png, basin_lambda1.png, attractors.png and uncertainty.png.
     #[arg(long)]

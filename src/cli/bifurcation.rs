@@ -9,6 +9,7 @@ use jeffcott_analysis::bifurcation::{
 };
 use jeffcott_analysis::catalogue::CatalogueConfig;
 use jeffcott_analysis::classify::{Class, ClassifyConfig};
+use jeffcott_analysis::defaults;
 use jeffcott_analysis::output;
 use jeffcott_core::ensemble::{Backend, Precision};
 use jeffcott_core::error::{Error, Result};
@@ -20,17 +21,17 @@ use std::path::PathBuf;
 #[derive(Args, Debug, Clone)]
 pub struct CatalogueArgs {
     /// Largest period the classifier looks for.
-    #[arg(long, default_value_t = 32)]
+    #[arg(long, default_value_t = ClassifyConfig::DEFAULT.n_max)]
     pub n_max: usize,
     /// Repeat tolerance relative to the Poincare set's diameter (velocities count as
     /// v / W, so everything is in metres).
-    #[arg(long, default_value_t = 1e-3)]
+    #[arg(long, default_value_t = ClassifyConfig::DEFAULT.rel_tol)]
     pub rel_tol: f64,
     /// Repeat tolerance floor [m] [default: 1e-7 for f64 lanes, 1e-6 for f32 lanes].
     #[arg(long)]
     pub abs_tol: Option<f64>,
     /// Two cycles are one attractor when they match within this fraction of their size.
-    #[arg(long, default_value_t = 1e-2)]
+    #[arg(long, default_value_t = CatalogueConfig::DEFAULT.match_rel)]
     pub match_rel: f64,
     /// Floor of the cycle match tolerance [m] [default: 1e-6 for f64 lanes, 1e-5 for f32].
     #[arg(long)]
@@ -100,25 +101,25 @@ pub struct BifurcationArgs {
     pub no_sweep: bool,
     /// Brute-force start states per W (the static equilibrium and a seeded random set);
     /// 0 disables brute force.
-    #[arg(long, default_value_t = 8, value_name = "K")]
+    #[arg(long, default_value_t = defaults::bifurcation::ICS, value_name = "K")]
     pub ics: u32,
     /// Seed of the random start states.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = defaults::bifurcation::SEED)]
     pub seed: u64,
     /// Transient per W of the quasistatic sweeps [forcing periods].
-    #[arg(long, default_value_t = 200, value_name = "Q")]
+    #[arg(long, default_value_t = defaults::bifurcation::TRANSIENT, value_name = "Q")]
     pub transient: u32,
     /// Transient at the first W of each sweep, from the static equilibrium.
-    #[arg(long, default_value_t = 1000, value_name = "Q")]
+    #[arg(long, default_value_t = defaults::bifurcation::TRANSIENT_FIRST, value_name = "Q")]
     pub transient_first: u32,
     /// Transient of the brute-force lanes.
-    #[arg(long, default_value_t = 500, value_name = "Q")]
+    #[arg(long, default_value_t = defaults::bifurcation::BRUTE_TRANSIENT, value_name = "Q")]
     pub brute_transient: u32,
     /// Recorded periods (Poincare points) per lane.
-    #[arg(long, default_value_t = 64, value_name = "P")]
+    #[arg(long, default_value_t = defaults::bifurcation::PERIODS, value_name = "P")]
     pub periods: u32,
     /// Neighbour seeds per W in the brute force's second pass, at most.
-    #[arg(long, default_value_t = 8)]
+    #[arg(long, default_value_t = defaults::bifurcation::MAX_SEEDS)]
     pub max_seeds: usize,
     /// Backend of the brute-force ensembles (the sweeps run on the CPU).
     #[arg(long, value_enum, default_value_t = Backend::Auto)]
@@ -424,31 +425,6 @@ pub fn run_study(
     res
 }
 
-/// The brute-force attractor id a sweep point lies on, if brute force ran.
-fn sweep_id(res: &BifurcationResult, wi: usize, p: &SweepPoint) -> Option<u32> {
-    res.brute
-        .get(wi)
-        .and_then(|b| b.catalogue.identify(&p.class))
-}
-
-fn sweep_json(res: &BifurcationResult, wi: usize, p: Option<&SweepPoint>) -> serde_json::Value {
-    match p {
-        None => serde_json::Value::Null,
-        Some(p) => serde_json::json!({
-            "class": p.class.class.label(),
-            "period": p.class.class.period(),
-            "status": p.status,
-            "attractor": sweep_id(res, wi, p),
-            "lambda1": finite(p.lambda1),
-        }),
-    }
-}
-
-/// `Some(v)` for a finite value (JSON null otherwise).
-fn finite(v: f64) -> Option<f64> {
-    v.is_finite().then_some(v)
-}
-
 /// The lambda_1 series under a diagram: brute-force lanes (grey pixels), up sweep (blue
 /// line), down sweep (red line), each included when asked for and computed.
 pub fn lambda1_series(
@@ -586,31 +562,15 @@ pub fn write_bifurcation(
 ) -> Result<()> {
     output::ensure_dir(dir)?;
     let rec = spec.recorded as usize;
-    let mut rows: Vec<f64> = Vec::new();
-    let mut pts: Vec<f64> = Vec::new();
-    let mut l1: Vec<f64> = Vec::new();
-    for (code, sw) in [(0.0, &res.up), (1.0, &res.down)] {
-        for (wi, p) in sw.iter().enumerate() {
-            let id = sweep_id(res, wi, p).map_or(-1.0, |i| i as f64);
-            rows.extend_from_slice(&[p.omega, code, 0.0, id]);
-            pts.extend(p.points.iter().flatten());
-            l1.push(p.lambda1);
-        }
-    }
-    for b in &res.brute {
-        for (li, &l) in b.catalogue.labels.iter().enumerate() {
-            rows.extend_from_slice(&[b.omega, 2.0, li as f64, l as f64]);
-            l1.push(b.lambda1.as_ref().map_or(f64::NAN, |v| v[li]));
-        }
-        pts.extend_from_slice(&b.points);
-    }
+    let arrays = jeffcott_analysis::bifurcation::arrays(res);
+    let (rows, pts, l1) = (&arrays.rows, &arrays.points, &arrays.lambda1);
     let nrows = rows.len() / 4;
     if spec.lyapunov {
-        output::write_npy(&dir.join("bifurcation_lambda1.npy"), &[nrows], &l1)?;
+        output::write_npy(&dir.join("bifurcation_lambda1.npy"), &[nrows], l1)?;
     }
     output::write_npy(&dir.join("omega.npy"), &[spec.omegas.len()], &spec.omegas)?;
-    output::write_npy(&dir.join("bifurcation.npy"), &[nrows, rec, STATE_DIM], &pts)?;
-    output::write_npy(&dir.join("bifurcation_rows.npy"), &[nrows, 4], &rows)?;
+    output::write_npy(&dir.join("bifurcation.npy"), &[nrows, rec, STATE_DIM], pts)?;
+    output::write_npy(&dir.join("bifurcation_rows.npy"), &[nrows, 4], rows)?;
     if plot_it {
         let series = diagram_series(spec, res, true, true, true);
         let w = (spec.omegas[0], spec.omegas[spec.omegas.len() - 1]);
@@ -630,98 +590,15 @@ pub fn write_bifurcation(
             &l1s,
         )?;
     }
-    // Rub figures of every brute-force attractor (docs/rub.md), all speeds in parallel.
-    let rubs: Vec<Vec<serde_json::Value>> = {
-        use rayon::prelude::*;
-        res.brute
-            .par_iter()
-            .map(|b| {
-                b.catalogue
-                    .attractors
-                    .iter()
-                    .map(|at| {
-                        Ok(
-                            match jeffcott_analysis::rub::attractor_rub(
-                                &spec.params,
-                                at,
-                                &spec.stepper,
-                            )? {
-                                Some(r) => serde_json::to_value(r).unwrap_or_default(),
-                                None => serde_json::json!({"regime": "diverged"}),
-                            },
-                        )
-                    })
-                    .collect::<Result<Vec<_>>>()
-            })
-            .collect::<Result<Vec<_>>>()?
-    };
-    let per_w: Vec<serde_json::Value> = spec
-        .omegas
-        .iter()
-        .enumerate()
-        .map(|(wi, &omega)| {
-            let brute = res.brute.get(wi).map(|b| {
-                serde_json::json!({
-                    "lanes": b.catalogue.lanes,
-                    "diverged": b.catalogue.diverged,
-                    "attractors": b.catalogue.attractors.iter().zip(&rubs[wi]).map(|(at, rub)| serde_json::json!({
-                        "id": at.id,
-                        "class": at.class,
-                        "period": at.period,
-                        "lanes": at.lanes,
-                        "basin_fraction": at.basin_fraction,
-                        "lambda1": at.lambda1,
-                        "rub": rub,
-                    })).collect::<Vec<_>>(),
-                })
-            });
-            serde_json::json!({
-                "omega": omega,
-                "up": sweep_json(res, wi, res.up.get(wi)),
-                "down": sweep_json(res, wi, res.down.get(wi)),
-                "brute_force": brute,
-            })
-        })
-        .collect();
-    let hysteresis: Vec<f64> = res
-        .up
-        .iter()
-        .zip(&res.down)
-        .enumerate()
-        .filter(|(wi, (u, d))| {
-            u.class.class.unrefined() != d.class.class.unrefined() || {
-                let (iu, id) = (sweep_id(res, *wi, u), sweep_id(res, *wi, d));
-                iu.is_some() && id.is_some() && iu != id
-            }
-        })
-        .map(|(_, (u, _))| u.omega)
-        .collect();
-    let summary = serde_json::json!({
-        "omega_range": [spec.omegas[0], spec.omegas[spec.omegas.len() - 1]],
-        "speeds": spec.omegas.len(),
-        "sweep": spec.sweep,
-        "transient_first": spec.transient_first,
-        "transient": spec.transient,
-        "ics": spec.ics,
-        "seed": spec.seed,
-        "brute_transient": spec.brute_transient,
-        "periods": spec.recorded,
-        "max_seeds": spec.max_seeds,
-        "lyapunov": spec.lyapunov,
-        "steps_per_period": spec.stepper.steps_per_period,
-        "catalogue": spec.catalogue,
-        "up_down_differ_at": hysteresis,
-        "per_omega": per_w,
-        "params": spec.params,
-        "files": {
+    let mut summary = jeffcott_analysis::bifurcation::summary(spec, res)?;
+    summary["files"] = serde_json::json!({
             "omega.npy": "f64 [W], the speeds [rad/s]",
             "bifurcation.npy": "f64 [rows, periods, 8], Poincare points of each row's lane, state order x_r, vx_r, y_r, vy_r, x_s, vx_s, y_s, vy_s (m, m/s)",
             "bifurcation_rows.npy": "f64 [rows, 4]: W [rad/s], sweep (0 quasistatic up, 1 quasistatic down, 2 brute force), lane (index among that W's brute-force lanes: < ics are the common start states, then the neighbour seeds; 0 for sweeps), attractor id in that W's brute-force catalogue (-1: diverged, or not found / no brute force)",
             "bifurcation_lambda1.npy": "f64 [rows], aligned with bifurcation_rows.npy: the largest Lyapunov exponent of each row's lane over its recorded periods [1/s] (NaN: diverged); absent with --no-lyapunov",
             "bifurcation.png": "the diagram: brute force grey, up sweep blue, down sweep red; lambda_1 against W in the panel underneath",
-        },
-        "jeffcott_version": env!("CARGO_PKG_VERSION"),
     });
+    summary["jeffcott_version"] = serde_json::json!(env!("CARGO_PKG_VERSION"));
     // Written last: its presence marks a complete run.
     output::write_json(&dir.join("summary.json"), &summary)?;
     Ok(())

@@ -9,7 +9,7 @@ use jeffcott_analysis::output;
 use jeffcott_analysis::run::{Array, Unit};
 use jeffcott_core::error::{Error, Result};
 use jeffcott_core::lyapunov::{
-    Spectrum, SpectrumConfig, StopReason, SweepStart, spectrum, sweep_starts,
+    Spectrum, SpectrumConfig, StopReason, SweepStart, nums, spectrum, sweep_starts,
 };
 use jeffcott_core::model::STATE_DIM;
 use rayon::prelude::*;
@@ -26,23 +26,23 @@ pub struct LyapunovArgs {
     #[arg(long, value_name = "NAME=VALUE,...")]
     pub init: Vec<String>,
     /// Forcing periods of the state alone before the tangent vectors start.
-    #[arg(long, default_value_t = 1000, value_name = "Q")]
+    #[arg(long, default_value_t = SpectrumConfig::DEFAULT.transient, value_name = "Q")]
     pub transient: u32,
     /// Forcing periods in which the tangent vectors align, not accumulated.
-    #[arg(long, default_value_t = 50, value_name = "P")]
+    #[arg(long, default_value_t = SpectrumConfig::DEFAULT.tangent_transient, value_name = "P")]
     pub tangent_transient: u32,
     /// Largest accumulation time [s] (the stopping rule's maximum).
-    #[arg(long, default_value_t = 100.0, value_name = "T")]
+    #[arg(long, default_value_t = SpectrumConfig::DEFAULT.max_time, value_name = "T")]
     pub time: f64,
     /// Accumulation time before the stopping rule may stop [s]; at most --time
     /// [default: 20, or --time if that is shorter].
     #[arg(long, value_name = "T")]
     pub min_time: Option<f64>,
     /// Stop when no exponent changed by more than this over the last window [1/s].
-    #[arg(long, default_value_t = 2e-3)]
+    #[arg(long, default_value_t = SpectrumConfig::DEFAULT.tol)]
     pub tol: f64,
     /// Window of the stopping rule [forcing periods].
-    #[arg(long, default_value_t = 100)]
+    #[arg(long, default_value_t = SpectrumConfig::DEFAULT.window)]
     pub window: u32,
     /// For a range of speeds: quasistatic (each speed's transient starts where the
     /// previous one ended, speeds in the order given) or given (every speed from the
@@ -66,43 +66,6 @@ pub struct LyapunovArgs {
     /// Print nothing but errors.
     #[arg(long)]
     pub quiet: bool,
-}
-
-/// Null for NaN or infinite values (JSON has neither).
-fn num(v: f64) -> serde_json::Value {
-    if v.is_finite() {
-        serde_json::json!(v)
-    } else {
-        serde_json::Value::Null
-    }
-}
-
-fn nums(v: &[f64]) -> serde_json::Value {
-    serde_json::Value::Array(v.iter().map(|&x| num(x)).collect())
-}
-
-fn spectrum_json(s: &Spectrum) -> serde_json::Value {
-    serde_json::json!({
-        "omega": s.omega,
-        "exponents": nums(&s.exponents),
-        "exponents_bits": nums(&s.exponents_bits),
-        "errors": nums(&s.errors),
-        "block_stderr": nums(&s.block_stderr),
-        "window_change": nums(&s.window_change),
-        "sum": num(s.sum),
-        "trace_average": num(s.trace_average),
-        "saltation_log_det_rate": num(s.saltation_log_det_rate),
-        "sum_rule_residual": num(s.sum - s.trace_average - s.saltation_log_det_rate),
-        "integration_time": s.integration_time,
-        "periods": s.periods,
-        "stop": s.stop,
-        "saltations": s.saltations,
-        "max_saltation_deviation": s.max_saltation_deviation,
-        "status": s.status,
-        "counters": s.counters,
-        "final_state": nums(&s.final_state),
-        "wall_time_s": s.wall_time_s,
-    })
 }
 
 /// Runs `jeffcott lyapunov`.
@@ -196,7 +159,7 @@ pub fn run_lyapunov(a: &LyapunovArgs) -> Result<()> {
             &format!("Lyapunov spectrum at W = {omega} rad/s: running estimates"),
             &s.history,
         )?;
-        let mut j = spectrum_json(&s);
+        let mut j = Spectrum::to_json(&s);
         j["run"] = settings;
         j["units"] = serde_json::json!({"exponents": "1/s", "exponents_bits": "bits/s"});
         output::write_json(&dir.join("spectrum.json"), &j)?;

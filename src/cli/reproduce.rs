@@ -611,8 +611,12 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     );
     // With lambda_1 per lane, so aperiodic attractors are told apart as quasiperiodic
     // or chaotic.
-    let (eres, _) =
-        jeffcott_analysis::backend::run_with_lambda1(&espec, a.backend, &bar.callback(0))?;
+    let (eres, _) = jeffcott_analysis::backend::run(
+        &espec,
+        a.backend,
+        true,
+        jeffcott_core::control::Control::progress(&bar.callback(0)),
+    )?;
     bar.finish();
     let k = p.survey_ics as usize;
     let mut survey: Vec<Catalogue> = Vec::new();

@@ -4,89 +4,11 @@
 //! (on the attractor) with the lane stepper (docs/rub.md); optionally as CSV.
 
 use jeffcott_analysis::output;
-use jeffcott_analysis::rub::{RubFigures, normal_force, rub_figures};
-use jeffcott_analysis::spectrum::{FullSpectrum, full_spectrum, orbit};
 use jeffcott_core::error::Result;
-use jeffcott_core::integrate::lane::StepperConfig;
-use jeffcott_core::model::{Params, STATE_DIM, State, X_R, X_S, Y_R, Y_S, penetration};
+use jeffcott_core::model::{Params, STATE_DIM};
 use std::path::Path;
 
-/// The rub outputs of a trajectory.
-pub struct RubOutputs {
-    /// Forcing periods of the stretch.
-    pub periods: u32,
-    /// Rub figures and regime.
-    pub figures: RubFigures,
-    /// Full spectrum of the rotor's x + i y.
-    pub rotor: FullSpectrum,
-    /// Full spectrum of the stator's x + i y.
-    pub stator: FullSpectrum,
-    /// (t [s], dx [m], dy [m], g [m], F_n [N]) at each grid point of the stretch.
-    pub contact: Vec<[f64; 5]>,
-}
-
-/// Integrates `periods` forcing periods from `x0` (a state at t = kT) and derives the
-/// rub outputs; `None` when the stretch froze (diverged or non-finite).
-pub fn rub_outputs(
-    p: &Params,
-    omega: f64,
-    x0: &State,
-    periods: u32,
-    stepper: &StepperConfig,
-) -> Result<Option<RubOutputs>> {
-    let spec = jeffcott_analysis::simulate::SimulateSpec {
-        params: p.clone(),
-        omega,
-        x0: *x0,
-        transient: 0,
-        periods,
-        timeseries_periods: periods,
-        integrator: jeffcott_analysis::simulate::Integrator::Lane,
-        stepper: *stepper,
-        article: Default::default(),
-        classify: Default::default(),
-    };
-    let r = jeffcott_analysis::simulate::simulate(&spec)?;
-    if r.status.is_frozen() || x0.iter().any(|v| !v.is_finite()) {
-        return Ok(None);
-    }
-    let rows = &r.timeseries;
-    let contact = rows
-        .iter()
-        .map(|row| {
-            let mut x = [0.0; STATE_DIM];
-            x.copy_from_slice(&row[1..]);
-            [
-                row[0],
-                x[X_R] - x[X_S],
-                x[Y_R] - x[Y_S],
-                penetration(p.delta, &x),
-                normal_force(p, &x),
-            ]
-        })
-        .collect();
-    Ok(Some(RubOutputs {
-        periods,
-        figures: rub_figures(p, omega, rows, periods),
-        rotor: full_spectrum(&orbit(rows, false), periods, omega),
-        stator: full_spectrum(&orbit(rows, true), periods, omega),
-        contact,
-    }))
-}
-
-/// The strongest lines of a spectrum: (order, amplitude [m]) of the `n` largest local
-/// maxima above 0.1 % of the largest, strongest first.
-pub fn strongest_lines(s: &FullSpectrum, n: usize) -> Vec<(f64, f64)> {
-    let a = &s.amplitude;
-    let top = a.iter().copied().fold(0.0, f64::max);
-    let mut peaks: Vec<(f64, f64)> = (1..a.len().saturating_sub(1))
-        .filter(|&k| a[k] >= a[k - 1] && a[k] > a[k + 1] && a[k] > 1e-3 * top)
-        .map(|k| (s.order[k], a[k]))
-        .collect();
-    peaks.sort_by(|x, y| y.1.total_cmp(&x.1));
-    peaks.truncate(n);
-    peaks
-}
+pub use jeffcott_analysis::simulate::{RubOutputs, order_name, rub_outputs, strongest_lines};
 
 /// Files `rub_outputs` writes.
 pub const FILES: &[&str] = &[
@@ -111,15 +33,8 @@ pub fn write_rub_outputs(
     csv: bool,
 ) -> Result<()> {
     let m = o.rotor.order.len();
-    let spectrum_rows = (0..m).map(|k| {
-        vec![
-            o.rotor.order[k],
-            o.rotor.hz[k],
-            o.rotor.amplitude[k],
-            o.stator.amplitude[k],
-        ]
-    });
-    let flat: Vec<f64> = spectrum_rows.clone().flatten().collect();
+    let spectrum_rows = o.spectrum_table();
+    let flat: Vec<f64> = spectrum_rows.iter().flatten().copied().collect();
     output::write_npy(&dir.join("full_spectrum.npy"), &[m, 4], &flat)?;
     let flat: Vec<f64> = o.contact.iter().flatten().copied().collect();
     output::write_npy(&dir.join("contact.npy"), &[o.contact.len(), 5], &flat)?;
@@ -150,7 +65,7 @@ pub fn write_rub_outputs(
         output::write_csv(
             &dir.join("full_spectrum.csv"),
             &["order", "hz", "rotor_amplitude_m", "stator_amplitude_m"],
-            spectrum_rows,
+            spectrum_rows.iter().map(|r| r.to_vec()),
         )?;
         output::write_csv(
             &dir.join("contact.csv"),
@@ -188,24 +103,4 @@ pub fn rub_sentence(o: &RubOutputs) -> String {
         100.0 * f.forward_share,
         lines.join(", ")
     )
-}
-
-/// "+1X", "-1/2X", "+2/3X", "+0.37X" for an order.
-pub fn order_name(o: f64) -> String {
-    let sign = if o < 0.0 { "-" } else { "+" };
-    let a = o.abs();
-    if a < 1e-9 {
-        return "0X (static)".into();
-    }
-    for d in 1..=6u32 {
-        let n = (a * d as f64).round();
-        if (a * d as f64 - n).abs() < 1e-9 && n > 0.0 {
-            return if d == 1 {
-                format!("{sign}{n}X")
-            } else {
-                format!("{sign}{n}/{d}X")
-            };
-        }
-    }
-    format!("{sign}{a:.3}X")
 }

@@ -4,6 +4,7 @@
 //! rows) keeps one, so the GPU device and pipeline are set up once.
 
 use jeffcott_core::Result;
+use jeffcott_core::control::Control;
 use jeffcott_core::ensemble::{
     Backend, EnsembleResult, EnsembleSpec, Precision, RunInfo, cpu, lane_lambda1,
     mask_frozen_records,
@@ -57,40 +58,22 @@ impl Engine {
         self.gpu.as_ref()
     }
 
-    /// Runs one ensemble on the resolved backend.
+    /// Runs one ensemble on the resolved backend, with the largest Lyapunov exponent per
+    /// lane when `lambda1` (`EnsembleResult::lambda1`; the same arithmetic on both
+    /// backends; the plain run pays nothing for it: the tangent vector lives in a
+    /// separate kernel variant and a separate monomorphisation of the CPU stepper).
+    /// `ctl.progress` counts lane-periods; `ctl.cancel` stops the run between batches of
+    /// lanes (CPU) or time slices (GPU) with [`jeffcott_core::Error::Interrupted`].
     pub fn run(
         &self,
         spec: &EnsembleSpec,
-        progress: &(dyn Fn(u64, u64) + Sync),
-    ) -> Result<(EnsembleResult, RunInfo)> {
-        self.run_maybe_lambda1(spec, false, progress)
-    }
-
-    /// Runs one ensemble on the resolved backend, with the largest Lyapunov exponent per
-    /// lane when `lambda1` (`EnsembleResult::lambda1`; the same arithmetic on both
-    /// backends).
-    pub fn run_maybe_lambda1(
-        &self,
-        spec: &EnsembleSpec,
         lambda1: bool,
-        progress: &(dyn Fn(u64, u64) + Sync),
+        ctl: Control,
     ) -> Result<(EnsembleResult, RunInfo)> {
         let start = std::time::Instant::now();
         let (res, backend) = match &self.gpu {
-            Some(runner) => (run_on_gpu_inner(spec, runner, lambda1, progress)?, "gpu"),
-            None => {
-                spec.validate()?;
-                // The CPU reports finished lanes; progress counts lane-periods.
-                let per_lane = (spec.transient + spec.recorded) as u64;
-                let total = spec.lanes.len() as u64 * per_lane;
-                let report = |lanes_done: usize| progress(lanes_done as u64 * per_lane, total);
-                let res = if lambda1 {
-                    cpu::run_with_lambda1(spec, &report)?
-                } else {
-                    cpu::run(spec, &report)?
-                };
-                (res, "cpu")
-            }
+            Some(runner) => (run_on_gpu(spec, runner, lambda1, ctl)?, "gpu"),
+            None => (cpu::run(spec, lambda1, ctl)?, "cpu"),
         };
         Ok((
             res,
@@ -113,7 +96,7 @@ fn run_gpu<R: jeffcott_gpu::GpuReal>(
     spec: &EnsembleSpec,
     runner: &jeffcott_gpu::GpuRunner,
     lambda1: bool,
-    progress: &(dyn Fn(u64, u64) + Sync),
+    ctl: Control,
 ) -> Result<EnsembleResult> {
     let n = spec.lanes.len();
     let consts: Vec<LaneConsts<R>> = (0..n).map(|i| spec.lane_consts(i)).collect();
@@ -122,8 +105,10 @@ fn run_gpu<R: jeffcott_gpu::GpuReal>(
     let slice = (LANE_STEPS_PER_SLICE / per_period.max(1))
         .clamp(1, (spec.transient + spec.recorded) as u64) as u32;
     let schedule = jeffcott_gpu::Schedule::new(spec.transient, spec.recorded, slice);
-    let mut report =
-        |p: jeffcott_gpu::Progress| progress(p.lane_periods_done, p.lane_periods_total);
+    let mut report = |p: jeffcott_gpu::Progress| {
+        (ctl.progress)(p.lane_periods_done, p.lane_periods_total);
+        !ctl.cancel.is_set()
+    };
     let (outs, norms) = if lambda1 {
         let v = [R::lit(jeffcott_core::integrate::lane::LAMBDA1_START); STATE_DIM];
         let tangents = vec![v; n];
@@ -163,35 +148,19 @@ fn run_gpu<R: jeffcott_gpu::GpuReal>(
 }
 
 /// Runs an ensemble on an existing GPU runner, so repeated runs (chunks of a basin,
-/// benchmark samples) pay the device and pipeline set-up once.
+/// benchmark samples) pay the device and pipeline set-up once; with the largest
+/// Lyapunov exponent of every lane ([`EnsembleResult::lambda1`]) by the kernel's
+/// lambda_1 variant when `lambda1`.
 pub fn run_on_gpu(
     spec: &EnsembleSpec,
     runner: &jeffcott_gpu::GpuRunner,
-    progress: &(dyn Fn(u64, u64) + Sync),
-) -> Result<EnsembleResult> {
-    run_on_gpu_inner(spec, runner, false, progress)
-}
-
-/// [`run_on_gpu`] with the largest Lyapunov exponent of every lane
-/// ([`EnsembleResult::lambda1`]), by the kernel's lambda_1 variant.
-pub fn run_on_gpu_with_lambda1(
-    spec: &EnsembleSpec,
-    runner: &jeffcott_gpu::GpuRunner,
-    progress: &(dyn Fn(u64, u64) + Sync),
-) -> Result<EnsembleResult> {
-    run_on_gpu_inner(spec, runner, true, progress)
-}
-
-fn run_on_gpu_inner(
-    spec: &EnsembleSpec,
-    runner: &jeffcott_gpu::GpuRunner,
     lambda1: bool,
-    progress: &(dyn Fn(u64, u64) + Sync),
+    ctl: Control,
 ) -> Result<EnsembleResult> {
     spec.validate()?;
     match spec.precision {
-        Precision::F32 => run_gpu::<f32>(spec, runner, lambda1, progress),
-        Precision::F64 => run_gpu::<f64>(spec, runner, lambda1, progress),
+        Precision::F32 => run_gpu::<f32>(spec, runner, lambda1, ctl),
+        Precision::F64 => run_gpu::<f64>(spec, runner, lambda1, ctl),
     }
 }
 
@@ -211,39 +180,18 @@ pub fn default_precision(backend: Backend) -> Precision {
     }
 }
 
-/// Runs an ensemble on the chosen backend. `precision: None` means f64 on the CPU and
-/// f32 on a GPU. `progress(done, total)` counts lane-periods.
+/// Runs an ensemble on the chosen backend (see [`Engine::run`]); the device is opened
+/// for this one run, and its set-up is included in the wall time.
 pub fn run(
     spec: &EnsembleSpec,
     backend: Backend,
-    progress: &(dyn Fn(u64, u64) + Sync),
-) -> Result<(EnsembleResult, RunInfo)> {
-    run_inner(spec, backend, false, progress)
-}
-
-/// [`run`], also computing the largest Lyapunov exponent of every lane
-/// ([`EnsembleResult::lambda1`]) on whichever backend runs it. The plain [`run`] pays
-/// nothing for this: the tangent vector lives in a separate kernel variant and a
-/// separate monomorphisation of the CPU stepper.
-pub fn run_with_lambda1(
-    spec: &EnsembleSpec,
-    backend: Backend,
-    progress: &(dyn Fn(u64, u64) + Sync),
-) -> Result<(EnsembleResult, RunInfo)> {
-    run_inner(spec, backend, true, progress)
-}
-
-fn run_inner(
-    spec: &EnsembleSpec,
-    backend: Backend,
     lambda1: bool,
-    progress: &(dyn Fn(u64, u64) + Sync),
+    ctl: Control,
 ) -> Result<(EnsembleResult, RunInfo)> {
     spec.validate()?;
     let start = std::time::Instant::now();
     let engine = Engine::new(backend, spec.precision)?;
-    let (res, mut info) = engine.run_maybe_lambda1(spec, lambda1, progress)?;
-    // Device set-up included: this call opened the device for this one run.
+    let (res, mut info) = engine.run(spec, lambda1, ctl)?;
     info.elapsed_s = start.elapsed().as_secs_f64();
     Ok((res, info))
 }

@@ -14,7 +14,7 @@
 
 use super::catalogue::{Catalogue, CatalogueBuilder, CatalogueConfig, part_unit, unit_parts};
 use crate::run::lanes::{Control, LaneUnits};
-use crate::run::{Array, ProgressFn, UnitStore};
+use crate::run::{Array, UnitStore};
 use jeffcott_core::ensemble::{Backend, EnsembleSpec, LaneSpec, Precision, RunInfo};
 use jeffcott_core::error::{Error, Result};
 use jeffcott_core::integrate::lane::StepperConfig;
@@ -239,9 +239,9 @@ impl BasinSpec {
     }
 }
 
-/// Computes a basin in memory; `progress` counts lane-periods.
-pub fn basin(spec: &BasinSpec, progress: ProgressFn) -> Result<BasinResult> {
-    crate::run::in_memory(spec.backend, spec.precision, progress, |e, store, ctl| {
+/// Computes a basin in memory; `ctl.progress` counts lane-periods.
+pub fn basin(spec: &BasinSpec, ctl: Control) -> Result<BasinResult> {
+    crate::run::in_memory(spec.backend, spec.precision, ctl, |e, store, ctl| {
         basin_with(spec, e, store, ctl)
     })
 }

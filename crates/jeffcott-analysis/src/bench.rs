@@ -12,6 +12,7 @@
 use jeffcott_core::ensemble::{Backend, EnsembleSpec, LaneSpec, Precision};
 
 use crate::backend::{Engine, run};
+use jeffcott_core::control::Control;
 use jeffcott_core::error::Result;
 use jeffcott_core::integrate::lane::StepperConfig;
 use jeffcott_core::model::{Params, STATE_DIM, State, VX_R, X_R};
@@ -110,9 +111,13 @@ pub fn measure(
     if engine.runner().is_some() {
         // Warm-up: the first run on a runner compiles the pipeline (seconds on
         // llvmpipe); a long run pays that once, so it is not timed.
-        engine.run(&bench_spec(1, 1, precision, false), &quiet)?;
+        engine.run(
+            &bench_spec(1, 1, precision, false),
+            false,
+            Control::progress(&quiet),
+        )?;
     }
-    let (res, info) = engine.run(&spec, &quiet)?;
+    let (res, info) = engine.run(&spec, false, Control::progress(&quiet))?;
     let (backend, device, wall) = (info.backend, info.device, info.elapsed_s);
     let steps: u64 = res.counters.iter().map(|c| c.macro_steps).sum();
     let extra: u64 = res.counters.iter().map(|c| c.extra_substeps).sum();
@@ -125,7 +130,7 @@ pub fn measure(
     }
     let contact_time_share = if twin {
         let free = bench_spec(lanes, periods, precision, true);
-        let (_, free) = engine.run(&free, &quiet)?;
+        let (_, free) = engine.run(&free, false, Control::progress(&quiet))?;
         Some(1.0 - free.elapsed_s / wall)
     } else {
         None
@@ -162,7 +167,7 @@ pub fn periods_for(lanes: usize, lane_periods: u64) -> u32 {
 pub fn reference_final_states(lanes: usize, periods: u32, n: u32) -> Result<Vec<State>> {
     let mut spec = bench_spec(lanes, periods, Precision::F64, false);
     spec.stepper.steps_per_period = n;
-    let (res, _) = run(&spec, Backend::Cpu, &|_, _| {})?;
+    let (res, _) = run(&spec, Backend::Cpu, false, Control::none())?;
     Ok(res.final_state)
 }
 

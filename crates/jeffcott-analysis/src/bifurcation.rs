@@ -19,7 +19,7 @@
 
 use super::catalogue::{Catalogue, CatalogueBuilder, CatalogueConfig, LaneClass, classify_lane};
 use crate::run::lanes::{Control, LaneUnits};
-use crate::run::{Array, Cancel, MemoryStore, ProgressFn, Unit, UnitStore};
+use crate::run::{Array, MemoryStore, Unit, UnitStore};
 use jeffcott_core::ensemble::{Backend, EnsembleSpec, LaneSpec, Precision, RunInfo};
 use jeffcott_core::error::{Error, Result};
 use jeffcott_core::integrate::lane::{
@@ -452,17 +452,9 @@ pub fn start_states(params: &Params, k: u32, w_ref: f64, seed: u64) -> Vec<State
         .collect()
 }
 
-/// Runs the study in memory; `progress` counts lane-periods (see [`work`]).
-pub fn bifurcation(spec: &BifurcationSpec, progress: ProgressFn) -> Result<BifurcationResult> {
-    let cancel = Cancel::new();
-    bifurcation_with(
-        spec,
-        &MemoryStore::new(),
-        Control {
-            progress,
-            cancel: &cancel,
-        },
-    )
+/// Runs the study in memory; `ctl.progress` counts lane-periods (see [`work`]).
+pub fn bifurcation(spec: &BifurcationSpec, ctl: Control) -> Result<BifurcationResult> {
+    bifurcation_with(spec, &MemoryStore::new(), ctl)
 }
 
 /// Runs the study unit by unit into `store`, resuming from the units it holds: the
@@ -745,4 +737,154 @@ fn brute_force(
         });
     }
     Ok((out, info2.or(info1)))
+}
+
+/// The flat arrays of a study, as `bifurcation_rows.npy`, `bifurcation.npy` and
+/// `bifurcation_lambda1.npy` hold them: rows of the up sweep, the down sweep, then every
+/// brute-force lane, each W in order.
+pub struct BifurcationArrays {
+    /// `[rows, 4]`: W, sweep (0 up, 1 down, 2 brute force), lane, attractor id (-1 none).
+    pub rows: Vec<f64>,
+    /// `[rows, recorded, 8]`: the Poincare points of each row's lane.
+    pub points: Vec<f64>,
+    /// `[rows]`: lambda_1 of each row's lane (NaN where not computed or frozen).
+    pub lambda1: Vec<f64>,
+}
+
+/// The arrays of a study (see [`BifurcationArrays`]).
+pub fn arrays(res: &BifurcationResult) -> BifurcationArrays {
+    let mut rows: Vec<f64> = Vec::new();
+    let mut pts: Vec<f64> = Vec::new();
+    let mut l1: Vec<f64> = Vec::new();
+    for (code, sw) in [(0.0, &res.up), (1.0, &res.down)] {
+        for (wi, p) in sw.iter().enumerate() {
+            let id = sweep_id(res, wi, p).map_or(-1.0, |i| i as f64);
+            rows.extend_from_slice(&[p.omega, code, 0.0, id]);
+            pts.extend(p.points.iter().flatten());
+            l1.push(p.lambda1);
+        }
+    }
+    for b in &res.brute {
+        for (li, &l) in b.catalogue.labels.iter().enumerate() {
+            rows.extend_from_slice(&[b.omega, 2.0, li as f64, l as f64]);
+            l1.push(b.lambda1.as_ref().map_or(f64::NAN, |v| v[li]));
+        }
+        pts.extend_from_slice(&b.points);
+    }
+    BifurcationArrays {
+        rows,
+        points: pts,
+        lambda1: l1,
+    }
+}
+
+/// The brute-force attractor id a sweep point lies on, if brute force ran.
+pub fn sweep_id(res: &BifurcationResult, wi: usize, p: &SweepPoint) -> Option<u32> {
+    res.brute
+        .get(wi)
+        .and_then(|b| b.catalogue.identify(&p.class))
+}
+
+fn sweep_json(res: &BifurcationResult, wi: usize, p: Option<&SweepPoint>) -> serde_json::Value {
+    match p {
+        None => serde_json::Value::Null,
+        Some(p) => serde_json::json!({
+            "class": p.class.class.label(),
+            "period": p.class.class.period(),
+            "status": p.status,
+            "attractor": sweep_id(res, wi, p),
+            "lambda1": finite(p.lambda1),
+        }),
+    }
+}
+
+/// `Some(v)` for a finite value (JSON null otherwise).
+fn finite(v: f64) -> Option<f64> {
+    v.is_finite().then_some(v)
+}
+
+/// The study as `summary.json` holds it (the command line adds the list of files and
+/// the version): settings, per W the sweeps' classes and the brute-force catalogue with
+/// each attractor's rub figures, and where the up and down sweeps differ.
+pub fn summary(spec: &BifurcationSpec, res: &BifurcationResult) -> Result<serde_json::Value> {
+    // Rub figures of every brute-force attractor (docs/rub.md), all speeds in parallel.
+    let rubs: Vec<Vec<serde_json::Value>> = {
+        use rayon::prelude::*;
+        res.brute
+            .par_iter()
+            .map(|b| {
+                b.catalogue
+                    .attractors
+                    .iter()
+                    .map(|at| {
+                        Ok(
+                            match crate::rub::attractor_rub(&spec.params, at, &spec.stepper)? {
+                                Some(r) => serde_json::to_value(r).unwrap_or_default(),
+                                None => serde_json::json!({"regime": "diverged"}),
+                            },
+                        )
+                    })
+                    .collect::<Result<Vec<_>>>()
+            })
+            .collect::<Result<Vec<_>>>()?
+    };
+    let per_w: Vec<serde_json::Value> = spec
+        .omegas
+        .iter()
+        .enumerate()
+        .map(|(wi, &omega)| {
+            let brute = res.brute.get(wi).map(|b| {
+                serde_json::json!({
+                    "lanes": b.catalogue.lanes,
+                    "diverged": b.catalogue.diverged,
+                    "attractors": b.catalogue.attractors.iter().zip(&rubs[wi]).map(|(at, rub)| serde_json::json!({
+                        "id": at.id,
+                        "class": at.class,
+                        "period": at.period,
+                        "lanes": at.lanes,
+                        "basin_fraction": at.basin_fraction,
+                        "lambda1": at.lambda1,
+                        "rub": rub,
+                    })).collect::<Vec<_>>(),
+                })
+            });
+            serde_json::json!({
+                "omega": omega,
+                "up": sweep_json(res, wi, res.up.get(wi)),
+                "down": sweep_json(res, wi, res.down.get(wi)),
+                "brute_force": brute,
+            })
+        })
+        .collect();
+    let hysteresis: Vec<f64> = res
+        .up
+        .iter()
+        .zip(&res.down)
+        .enumerate()
+        .filter(|(wi, (u, d))| {
+            u.class.class.unrefined() != d.class.class.unrefined() || {
+                let (iu, id) = (sweep_id(res, *wi, u), sweep_id(res, *wi, d));
+                iu.is_some() && id.is_some() && iu != id
+            }
+        })
+        .map(|(_, (u, _))| u.omega)
+        .collect();
+    Ok(serde_json::json!({
+        "omega_range": [spec.omegas[0], spec.omegas[spec.omegas.len() - 1]],
+        "speeds": spec.omegas.len(),
+        "sweep": spec.sweep,
+        "transient_first": spec.transient_first,
+        "transient": spec.transient,
+        "ics": spec.ics,
+        "seed": spec.seed,
+        "brute_transient": spec.brute_transient,
+        "periods": spec.recorded,
+        "max_seeds": spec.max_seeds,
+        "lyapunov": spec.lyapunov,
+        "steps_per_period": spec.stepper.steps_per_period,
+        "catalogue": spec.catalogue,
+        "up_down_differ_at": hysteresis,
+        "per_omega": per_w,
+        "params": spec.params,
+    }))
 }

@@ -45,15 +45,21 @@ pub struct CatalogueConfig {
     pub lambda_tol: f64,
 }
 
+impl CatalogueConfig {
+    /// The defaults for f64 lanes, in one place (see [`CatalogueConfig::for_precision`]
+    /// for f32 lanes).
+    pub const DEFAULT: CatalogueConfig = CatalogueConfig {
+        classify: ClassifyConfig::DEFAULT,
+        match_rel: 1e-2,
+        match_abs: 1e-6,
+        cloud_rel: 0.1,
+        lambda_tol: 0.2,
+    };
+}
+
 impl Default for CatalogueConfig {
     fn default() -> Self {
-        CatalogueConfig {
-            classify: ClassifyConfig::default(),
-            match_rel: 1e-2,
-            match_abs: 1e-6,
-            cloud_rel: 0.1,
-            lambda_tol: 0.2,
-        }
+        CatalogueConfig::DEFAULT
     }
 }
 
@@ -90,13 +96,8 @@ impl CatalogueConfig {
 
     /// Checks the tolerances; errors name the option and its allowed range.
     pub fn validate(&self) -> Result<()> {
-        let c = &self.classify;
-        if !(1..=4096).contains(&c.n_max) {
-            return Err(Error::invalid("n-max", c.n_max, "must be in 1..=4096"));
-        }
+        self.classify.validate()?;
         for (name, v) in [
-            ("rel-tol", c.rel_tol),
-            ("abs-tol", c.abs_tol),
             ("match-rel", self.match_rel),
             ("match-abs", self.match_abs),
             ("cloud-rel", self.cloud_rel),

@@ -21,17 +21,47 @@ pub struct ClassifyConfig {
     pub abs_tol: f64,
 }
 
+impl ClassifyConfig {
+    /// The defaults for f64 lanes, in one place (the command line's and the Python
+    /// package's defaults are these fields).
+    pub const DEFAULT: ClassifyConfig = ClassifyConfig {
+        n_max: 32,
+        rel_tol: 1e-3,
+        abs_tol: 1e-7,
+    };
+}
+
 impl Default for ClassifyConfig {
     fn default() -> Self {
-        ClassifyConfig {
-            n_max: 32,
-            rel_tol: 1e-3,
-            abs_tol: 1e-7,
-        }
+        ClassifyConfig::DEFAULT
     }
 }
 
 impl ClassifyConfig {
+    /// Checks the tolerances; errors name the option (`n-max`, `rel-tol`, `abs-tol`)
+    /// and the allowed range. Every front end validates here, not on its own.
+    pub fn validate(&self) -> jeffcott_core::Result<()> {
+        use jeffcott_core::Error;
+        if !(1..=4096).contains(&self.n_max) {
+            return Err(Error::invalid("n-max", self.n_max, "must be in 1..=4096"));
+        }
+        if !(self.rel_tol.is_finite() && self.rel_tol > 0.0) {
+            return Err(Error::invalid(
+                "rel-tol",
+                self.rel_tol,
+                "must be finite and > 0",
+            ));
+        }
+        if !(self.abs_tol.is_finite() && self.abs_tol > 0.0) {
+            return Err(Error::invalid(
+                "abs-tol",
+                self.abs_tol,
+                "must be finite and > 0 m",
+            ));
+        }
+        Ok(())
+    }
+
     /// The defaults for lanes integrated in `precision`. In f32 the state carries a
     /// rounding noise that a stable cycle damps but never removes: measured on
     /// period-1 lanes at W = 131.5-132.0 (tests/gpu.rs), points scatter by 3-7e-8 m,

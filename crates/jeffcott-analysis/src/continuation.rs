@@ -29,7 +29,7 @@ use super::catalogue::{CatalogueBuilder, CatalogueConfig, PartAttractor, classif
 use super::classify::distance;
 use super::map::{MapAxis, MapVar};
 use crate::run::lanes::{Control, LaneUnits};
-use crate::run::{Array, ProgressFn, Unit, UnitStore};
+use crate::run::{Array, Unit, UnitStore};
 use jeffcott_core::ensemble::{
     Backend, EnsembleResult, EnsembleSpec, LaneSpec, Precision, RunInfo,
 };
@@ -442,9 +442,9 @@ pub struct ContinuationResult {
 /// Stage of the fresh pass.
 pub const FRESH: &str = "fresh";
 
-/// Computes a continuation in memory; `progress` counts lane-periods of the fresh pass.
-pub fn continuation(spec: &ContinuationSpec, progress: ProgressFn) -> Result<ContinuationResult> {
-    crate::run::in_memory(spec.backend, spec.precision, progress, |e, store, ctl| {
+/// Computes a continuation in memory; `ctl.progress` counts lane-periods of the fresh pass.
+pub fn continuation(spec: &ContinuationSpec, ctl: Control) -> Result<ContinuationResult> {
+    crate::run::in_memory(spec.backend, spec.precision, ctl, |e, store, ctl| {
         continuation_with(spec, e, store, ctl)
     })
 }
@@ -735,7 +735,7 @@ fn seeded_step(
         .collect();
     if !seeds.is_empty() {
         let e = spec.ensemble(i, seeds);
-        let (res, _) = engine.run_maybe_lambda1(&e, spec.lyapunov, &|_, _| {})?;
+        let (res, _) = engine.run(&e, spec.lyapunov, Control::none())?;
         for lane in 0..e.lanes.len() {
             let states = res.lane_states(lane);
             let lc = classify_lane(

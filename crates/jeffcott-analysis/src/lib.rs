@@ -14,6 +14,8 @@ pub mod cascade;
 pub mod catalogue;
 pub mod classify;
 pub mod continuation;
+pub mod defaults;
+pub mod ensemble;
 pub mod map;
 pub mod measures;
 pub mod output;

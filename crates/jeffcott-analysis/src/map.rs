@@ -13,7 +13,7 @@ use super::catalogue::{CatalogueBuilder, CatalogueConfig};
 use super::classify::Class;
 use super::rub::{RubFigures, rub_on_attractor, rub_periods};
 use crate::run::lanes::{Control, LaneUnits};
-use crate::run::{Array, ProgressFn, Unit, UnitStore};
+use crate::run::{Array, Unit, UnitStore};
 use jeffcott_core::ensemble::{
     Backend, EnsembleResult, EnsembleSpec, LaneSpec, Precision, RunInfo,
 };
@@ -442,9 +442,9 @@ pub struct MapResult {
 /// Stage name of a map's units.
 pub const STAGE: &str = "map";
 
-/// Computes a map in memory; `progress` counts lane-periods.
-pub fn map(spec: &MapSpec, progress: ProgressFn) -> Result<MapResult> {
-    crate::run::in_memory(spec.backend, spec.precision, progress, |e, store, ctl| {
+/// Computes a map in memory; `ctl.progress` counts lane-periods.
+pub fn map(spec: &MapSpec, ctl: Control) -> Result<MapResult> {
+    crate::run::in_memory(spec.backend, spec.precision, ctl, |e, store, ctl| {
         map_with(spec, e, store, ctl)
     })
 }

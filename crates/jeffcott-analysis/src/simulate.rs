@@ -2,13 +2,17 @@
 //! series of the last periods, counters and the classification. The work behind
 //! `jeffcott simulate`; f64 on the CPU.
 
-use crate::classify::{Classification, ClassifyConfig, classify};
+use crate::classify::{Class, Classification, ClassifyConfig, classify};
+use crate::rub::{RubFigures, normal_force, rub_figures};
+use crate::spectrum::{FullSpectrum, full_spectrum, orbit};
 use jeffcott_core::error::Result;
 use jeffcott_core::integrate::article::{ArticleConfig, ArticleCounters, ArticleStepper};
 use jeffcott_core::integrate::lane::{
     Counters, Lane, LaneConsts, Status, StepperConfig, macro_step,
 };
-use jeffcott_core::model::{Params, STATE_DIM, State, penetration, validate_omega};
+use jeffcott_core::model::{
+    Params, STATE_DIM, State, X_R, X_S, Y_R, Y_S, penetration, validate_omega,
+};
 use serde::Serialize;
 use std::time::{Duration, Instant};
 
@@ -88,9 +92,13 @@ impl SimulateSpec {
                 "must be in (0, 4]",
             ));
         }
-        if self.classify.n_max == 0 {
-            return Err(Error::invalid("n_max", 0, "must be >= 1"));
-        }
+        self.classify.validate()?;
+        // Start positions beyond the divergence bound would only report "diverged".
+        jeffcott_core::inputs::check_start_within_bound(
+            "init",
+            &self.x0,
+            self.stepper.divergence_bound,
+        )?;
         Ok(())
     }
 }
@@ -242,4 +250,228 @@ pub fn simulate(spec: &SimulateSpec) -> Result<SimulateResult> {
         classification,
         elapsed,
     })
+}
+
+/// The rub outputs of a trajectory.
+pub struct RubOutputs {
+    /// Forcing periods of the stretch.
+    pub periods: u32,
+    /// Rub figures and regime.
+    pub figures: RubFigures,
+    /// Full spectrum of the rotor's x + i y.
+    pub rotor: FullSpectrum,
+    /// Full spectrum of the stator's x + i y.
+    pub stator: FullSpectrum,
+    /// (t [s], dx [m], dy [m], g [m], F_n [N]) at each grid point of the stretch.
+    pub contact: Vec<[f64; 5]>,
+}
+
+impl RubOutputs {
+    /// The full spectra as `full_spectrum.npy` holds them, one row per bin: order
+    /// (frequency / W, < 0 backward whirl), frequency [Hz], rotor and stator amplitude [m].
+    pub fn spectrum_table(&self) -> Vec<[f64; 4]> {
+        (0..self.rotor.order.len())
+            .map(|k| {
+                [
+                    self.rotor.order[k],
+                    self.rotor.hz[k],
+                    self.rotor.amplitude[k],
+                    self.stator.amplitude[k],
+                ]
+            })
+            .collect()
+    }
+}
+
+/// Integrates `periods` forcing periods from `x0` (a state at t = kT) and derives the
+/// rub outputs; `None` when the stretch froze (diverged or non-finite).
+pub fn rub_outputs(
+    p: &Params,
+    omega: f64,
+    x0: &State,
+    periods: u32,
+    stepper: &StepperConfig,
+) -> Result<Option<RubOutputs>> {
+    let spec = SimulateSpec {
+        params: p.clone(),
+        omega,
+        x0: *x0,
+        transient: 0,
+        periods,
+        timeseries_periods: periods,
+        integrator: Integrator::Lane,
+        stepper: *stepper,
+        article: Default::default(),
+        classify: Default::default(),
+    };
+    let r = simulate(&spec)?;
+    if r.status.is_frozen() || x0.iter().any(|v| !v.is_finite()) {
+        return Ok(None);
+    }
+    let rows = &r.timeseries;
+    let contact = rows
+        .iter()
+        .map(|row| {
+            let mut x = [0.0; STATE_DIM];
+            x.copy_from_slice(&row[1..]);
+            [
+                row[0],
+                x[X_R] - x[X_S],
+                x[Y_R] - x[Y_S],
+                penetration(p.delta, &x),
+                normal_force(p, &x),
+            ]
+        })
+        .collect();
+    Ok(Some(RubOutputs {
+        periods,
+        figures: rub_figures(p, omega, rows, periods),
+        rotor: full_spectrum(&orbit(rows, false), periods, omega),
+        stator: full_spectrum(&orbit(rows, true), periods, omega),
+        contact,
+    }))
+}
+
+/// The strongest lines of a spectrum: (order, amplitude [m]) of the `n` largest local
+/// maxima above 0.1 % of the largest, strongest first.
+pub fn strongest_lines(s: &FullSpectrum, n: usize) -> Vec<(f64, f64)> {
+    let a = &s.amplitude;
+    let top = a.iter().copied().fold(0.0, f64::max);
+    let mut peaks: Vec<(f64, f64)> = (1..a.len().saturating_sub(1))
+        .filter(|&k| a[k] >= a[k - 1] && a[k] > a[k + 1] && a[k] > 1e-3 * top)
+        .map(|k| (s.order[k], a[k]))
+        .collect();
+    peaks.sort_by(|x, y| y.1.total_cmp(&x.1));
+    peaks.truncate(n);
+    peaks
+}
+
+/// "+1X", "-1/2X", "+2/3X", "+0.37X" for an order.
+pub fn order_name(o: f64) -> String {
+    let sign = if o < 0.0 { "-" } else { "+" };
+    let a = o.abs();
+    if a < 1e-9 {
+        return "0X (static)".into();
+    }
+    for d in 1..=6u32 {
+        let n = (a * d as f64).round();
+        if (a * d as f64 - n).abs() < 1e-9 && n > 0.0 {
+            return if d == 1 {
+                format!("{sign}{n}X")
+            } else {
+                format!("{sign}{n}/{d}X")
+            };
+        }
+    }
+    format!("{sign}{a:.3}X")
+}
+
+/// One line of a full spectrum as the JSON files list it.
+fn lines_json(s: &FullSpectrum) -> Vec<serde_json::Value> {
+    strongest_lines(s, 8)
+        .iter()
+        .map(|(ord, a)| serde_json::json!({"order": ord, "name": order_name(*ord), "amplitude_m": a}))
+        .collect()
+}
+
+fn finite_or_null(v: f64) -> serde_json::Value {
+    if v.is_finite() {
+        serde_json::json!(v)
+    } else {
+        serde_json::Value::Null
+    }
+}
+
+fn named_state(x: &State) -> serde_json::Map<String, serde_json::Value> {
+    jeffcott_core::model::COORD_NAMES
+        .iter()
+        .zip(x.iter())
+        .map(|(n, v)| (n.to_string(), serde_json::json!(v)))
+        .collect()
+}
+
+/// Why a run has no class in the usual sense (`unclassified`, `diverged`); null
+/// otherwise.
+fn classification_reason(spec: &SimulateSpec, res: &SimulateResult) -> serde_json::Value {
+    use crate::classify::MIN_POINTS;
+    match res.classification.class {
+        Class::Unclassified => serde_json::json!(format!(
+            "{} Poincare point(s) recorded; at least {MIN_POINTS} are needed to classify \
+             (2 n to see period n): record more --periods",
+            res.poincare.len()
+        )),
+        Class::Diverged => serde_json::json!(format!(
+            "the run ended with status {:?} after {} of {} recorded periods",
+            res.status,
+            res.poincare.len(),
+            spec.periods
+        )),
+        _ => serde_json::Value::Null,
+    }
+}
+
+/// The summary of a simulation, as `summary.json` holds it (the command line adds the
+/// list of files and the version): class, period, status, classification, contact
+/// counters, rub figures and strongest full-spectrum lines, start and final state, wall
+/// time, settings and parameters. The Python package returns the same dictionary.
+pub fn summary(
+    spec: &SimulateSpec,
+    res: &SimulateResult,
+    rub: Option<&RubOutputs>,
+) -> serde_json::Value {
+    let c = &res.classification;
+    let steps = match spec.integrator {
+        Integrator::Lane => spec.stepper.steps_per_period,
+        Integrator::Article => spec.article.steps_per_period,
+    };
+    serde_json::json!({
+        "omega": spec.omega,
+        "forcing_period_s": std::f64::consts::TAU / spec.omega,
+        "transient": spec.transient,
+        "periods": spec.periods,
+        "recorded_poincare_points": res.poincare.len(),
+        "steps_per_period": steps,
+        "integrator": spec.integrator,
+        "class": c.class.label(),
+        "period": c.class.period(),
+        "status": res.status,
+        "classification": {
+            "size_m": finite_or_null(c.size),
+            "repeat_error_m": finite_or_null(c.repeat_error),
+            "tolerance_m": finite_or_null(c.tol),
+            "reason": classification_reason(spec, res),
+            "n_max": spec.classify.n_max,
+            "rel_tol": spec.classify.rel_tol,
+            "abs_tol": spec.classify.abs_tol,
+        },
+        "contact": {
+            "fraction_of_recorded_grid_points": res.contact_fraction,
+            "counters": res.counters,
+        },
+        "rub": match rub {
+            Some(o) => serde_json::json!({
+                "periods": o.periods,
+                "figures": o.figures,
+                "regime": o.figures.regime.label(),
+                "rotor_lines": lines_json(&o.rotor),
+                "stator_lines": lines_json(&o.stator),
+            }),
+            None => serde_json::json!({"regime": "diverged"}),
+        },
+        "initial_state": named_state(&spec.x0),
+        "final_state": named_state(&res.final_state),
+        "wall_time_s": res.elapsed.as_secs_f64(),
+        "stepper": spec.stepper,
+        "article": spec.article,
+        "params": spec.params,
+    })
+}
+
+/// The Poincare points of a run as `poincare.npy` holds them: one row per requested
+/// period, as in `ensemble`; a run that froze (diverged, non-finite) stopped recording,
+/// and the periods it never reached are NaN rows. Flat, `[periods, 8]` row-major.
+pub fn poincare_rows(spec: &SimulateSpec, res: &SimulateResult) -> Vec<f64> {
+    let mut flat: Vec<f64> = res.poincare.iter().flatten().copied().collect();
+    flat.resize(spec.periods as usize * STATE_DIM, f64::NAN);
+    flat
 }

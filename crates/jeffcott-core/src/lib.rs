@@ -24,10 +24,13 @@
 //! 3. [`ensemble`]: many independent lanes as one specification, their result, the lane
 //!    table, and the CPU backend ([`ensemble::cpu`]: rayon over SIMD batches).
 //! 4. [`lyapunov`]: Lyapunov spectra with saltation matrices at the contact switches.
-//! 5. [`limits`], [`error`]: input ranges and the one error type.
+//! 5. [`limits`], [`error`]: input ranges and the one error type; [`control`]: the one
+//!    progress callback and the cancel flag of every run.
 
+pub mod control;
 pub mod ensemble;
 pub mod error;
+pub mod inputs;
 pub mod integrate;
 pub mod limits;
 pub mod lyapunov;

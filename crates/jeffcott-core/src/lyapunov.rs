@@ -68,19 +68,24 @@ pub struct SpectrumConfig {
     pub stepper: StepperConfig,
 }
 
+impl SpectrumConfig {
+    /// The defaults, in one place (the command line's option defaults are these).
+    pub const DEFAULT: SpectrumConfig = SpectrumConfig {
+        transient: 1000,
+        tangent_transient: 50,
+        min_time: 20.0,
+        max_time: 100.0,
+        window: 100,
+        tol: 2e-3,
+        blocks: 10,
+        saltation: true,
+        stepper: StepperConfig::DEFAULT,
+    };
+}
+
 impl Default for SpectrumConfig {
     fn default() -> Self {
-        SpectrumConfig {
-            transient: 1000,
-            tangent_transient: 50,
-            min_time: 20.0,
-            max_time: 100.0,
-            window: 100,
-            tol: 2e-3,
-            blocks: 10,
-            saltation: true,
-            stepper: StepperConfig::default(),
-        }
+        SpectrumConfig::DEFAULT
     }
 }
 
@@ -200,6 +205,49 @@ pub struct Spectrum {
     pub history: Vec<(f64, [f64; STATE_DIM])>,
     /// Wall time of the computation [s].
     pub wall_time_s: f64,
+}
+
+/// Null for NaN or infinite values (JSON has neither).
+pub fn num(v: f64) -> serde_json::Value {
+    if v.is_finite() {
+        serde_json::json!(v)
+    } else {
+        serde_json::Value::Null
+    }
+}
+
+/// [`num`] of every value.
+pub fn nums(v: &[f64]) -> serde_json::Value {
+    serde_json::Value::Array(v.iter().map(|&x| num(x)).collect())
+}
+
+impl Spectrum {
+    /// The spectrum as `spectrum.json` holds it (NaN and infinities as null): the
+    /// command line writes it, the Python package returns it as a dictionary.
+    pub fn to_json(&self) -> serde_json::Value {
+        let s = self;
+        serde_json::json!({
+            "omega": s.omega,
+            "exponents": nums(&s.exponents),
+            "exponents_bits": nums(&s.exponents_bits),
+            "errors": nums(&s.errors),
+            "block_stderr": nums(&s.block_stderr),
+            "window_change": nums(&s.window_change),
+            "sum": num(s.sum),
+            "trace_average": num(s.trace_average),
+            "saltation_log_det_rate": num(s.saltation_log_det_rate),
+            "sum_rule_residual": num(s.sum - s.trace_average - s.saltation_log_det_rate),
+            "integration_time": s.integration_time,
+            "periods": s.periods,
+            "stop": s.stop,
+            "saltations": s.saltations,
+            "max_saltation_deviation": s.max_saltation_deviation,
+            "status": s.status,
+            "counters": s.counters,
+            "final_state": nums(&s.final_state),
+            "wall_time_s": s.wall_time_s,
+        })
+    }
 }
 
 /// The full Lyapunov spectrum at speed `omega` from `x0` (see the module docs).

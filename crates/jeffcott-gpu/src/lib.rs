@@ -407,16 +407,17 @@ impl GpuRunner {
         init: &[Lane<R>],
         schedule: &Schedule,
     ) -> Result<Vec<LaneOutcome<R>>> {
-        self.run_with_progress(consts, init, schedule, &mut |_| {})
+        self.run_with_progress(consts, init, schedule, &mut |_| true)
     }
 
-    /// [`GpuRunner::run`], calling `progress` after every time slice.
+    /// [`GpuRunner::run`], calling `progress` after every time slice; when it returns
+    /// false the run stops there with [`Error::Interrupted`] (a cancel flag).
     pub fn run_with_progress<R: GpuReal>(
         &self,
         consts: &[LaneConsts<R>],
         init: &[Lane<R>],
         schedule: &Schedule,
-        progress: &mut dyn FnMut(Progress),
+        progress: &mut dyn FnMut(Progress) -> bool,
     ) -> Result<Vec<LaneOutcome<R>>> {
         Ok(self.run_inner(consts, init, None, schedule, progress)?.0)
     }
@@ -433,7 +434,7 @@ impl GpuRunner {
         init: &[Lane<R>],
         tangents: &[[R; STATE_DIM]],
         schedule: &Schedule,
-        progress: &mut dyn FnMut(Progress),
+        progress: &mut dyn FnMut(Progress) -> bool,
     ) -> Result<LyapunovOutcomes<R>> {
         if tangents.len() != init.len() {
             return Err(Error::invalid(
@@ -455,7 +456,7 @@ impl GpuRunner {
         init: &[Lane<R>],
         tangents: Option<&[[R; STATE_DIM]]>,
         schedule: &Schedule,
-        progress: &mut dyn FnMut(Progress),
+        progress: &mut dyn FnMut(Progress) -> bool,
     ) -> Result<LyapunovOutcomes<R>> {
         let lyapunov = tangents.is_some();
         let rec_dim = shader::record_dim(lyapunov);
@@ -666,11 +667,17 @@ impl GpuRunner {
                     }
                 }
                 lane_periods_done += n as u64 * periods as u64;
-                progress(Progress {
+                let go_on = progress(Progress {
                     lane_periods_done,
                     lane_periods_total,
                     dispatches,
                 });
+                if !go_on {
+                    return Err(Error::Interrupted {
+                        committed: 0,
+                        total: 1,
+                    });
+                }
                 begin += periods;
             }
         }

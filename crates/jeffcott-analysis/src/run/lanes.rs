@@ -6,7 +6,7 @@
 //! most 1/20 of the run (what a SIGKILL may lose) and a memory cap. Lanes are independent, so a lane's result does not depend on its batch:
 //! the units committed are the same whatever the batching.
 
-use super::{Cancel, ProgressFn, Unit, UnitStore};
+use super::{Unit, UnitStore};
 use crate::backend::Engine;
 use jeffcott_core::ensemble::{EnsembleResult, EnsembleSpec, RunInfo};
 use jeffcott_core::error::{Error, Result};
@@ -37,14 +37,7 @@ pub struct LaneUnits<'a> {
     pub reduce: &'a (dyn Fn(usize, &EnsembleSpec, EnsembleResult) -> Result<Unit> + Sync),
 }
 
-/// How a run reports and is stopped.
-#[derive(Clone, Copy)]
-pub struct Control<'a> {
-    /// Progress in lane-periods over the whole stage (committed units count as done).
-    pub progress: ProgressFn<'a>,
-    /// Checked between batches.
-    pub cancel: &'a Cancel,
-}
+pub use jeffcott_core::control::Control;
 
 /// Concatenates unit ensembles into one batch (parameter sets re-indexed).
 fn concat(specs: &[EnsembleSpec]) -> EnsembleSpec {
@@ -147,7 +140,20 @@ pub fn run_units(
                 lambda1: units.lambda1.then(Vec::new),
             }
         } else {
-            let (res, i) = engine.run_maybe_lambda1(&spec, units.lambda1, &report)?;
+            let ctl_batch = Control {
+                progress: &report,
+                cancel: ctl.cancel,
+            };
+            let (res, i) = match engine.run(&spec, units.lambda1, ctl_batch) {
+                // A cancel inside the batch: what is committed stays, as between batches.
+                Err(Error::Interrupted { .. }) => {
+                    return Err(Error::Interrupted {
+                        committed,
+                        total: units.count,
+                    });
+                }
+                r => r?,
+            };
             info = Some(i);
             res
         };

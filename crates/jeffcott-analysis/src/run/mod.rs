@@ -24,7 +24,6 @@ pub use unit::{Array, Unit};
 use jeffcott_core::error::{Error, Result};
 use std::collections::HashMap;
 use std::sync::Mutex;
-use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Where committed units live: an output directory ([`RunDir`]) or memory
 /// ([`MemoryStore`], for library calls that want results, not files). Studies see only
@@ -224,54 +223,19 @@ impl UnitStore for MemoryStore {
     }
 }
 
-/// The one progress callback of the library: `(done, total)` lane-periods, called from
-/// any thread; `done` never decreases within a run.
-pub type ProgressFn<'a> = &'a (dyn Fn(u64, u64) + Sync);
+pub use jeffcott_core::control::{Cancel, ProgressFn, no_progress};
 
-/// A progress callback that ignores its reports.
-pub fn no_progress(_: u64, _: u64) {}
-
-/// A cancel flag checked between work batches: once set, a run stops after committing
-/// what is finished and returns [`jeffcott_core::Error::Interrupted`].
-#[derive(Debug, Default)]
-pub struct Cancel(AtomicBool);
-
-impl Cancel {
-    /// A flag not set.
-    pub const fn new() -> Cancel {
-        Cancel(AtomicBool::new(false))
-    }
-
-    /// Asks the run to stop.
-    pub fn set(&self) {
-        self.0.store(true, Ordering::SeqCst);
-    }
-
-    /// Whether a stop was asked for.
-    pub fn is_set(&self) -> bool {
-        self.0.load(Ordering::SeqCst)
-    }
-}
-
-/// Runs a study in memory (a [`MemoryStore`], nothing written, no cancel) on a freshly
-/// opened engine: the library entry points of the studies (`basin`, `map`,
-/// `continuation`) are this around their `*_with` form.
+/// Runs a study in memory (a [`MemoryStore`], nothing written) on a freshly opened
+/// engine, reporting and stopped through `ctl`: the library entry points of the studies
+/// (`basin`, `map`, `continuation`) are this around their `*_with` form.
 pub fn in_memory<T>(
     backend: jeffcott_core::ensemble::Backend,
     precision: jeffcott_core::ensemble::Precision,
-    progress: ProgressFn,
+    ctl: lanes::Control,
     study: impl FnOnce(&crate::backend::Engine, &dyn UnitStore, lanes::Control) -> Result<T>,
 ) -> Result<T> {
     let engine = crate::backend::Engine::new(backend, precision)?;
-    let cancel = Cancel::new();
-    study(
-        &engine,
-        &MemoryStore::new(),
-        lanes::Control {
-            progress,
-            cancel: &cancel,
-        },
-    )
+    study(&engine, &MemoryStore::new(), ctl)
 }
 
 /// Lane-steps per unit at most: about 25 s on the 2-core CPU the defaults were measured

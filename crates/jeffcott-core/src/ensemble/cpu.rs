@@ -6,7 +6,8 @@
 //! AVX2 the batch code is compiled a second time for it and chosen at run time.
 
 use super::{EnsembleResult, EnsembleSpec, Precision};
-use crate::error::Result;
+use crate::control::{Cancel, Control};
+use crate::error::{Error, Result};
 use crate::integrate::batch::{BATCH, BatchConsts, batch_macro_step_tangent};
 use crate::integrate::lane::{
     Counters, LAMBDA1_START, Lane, LaneConsts, Status, Tangent, advance_period,
@@ -25,34 +26,40 @@ struct Outcome {
     lambda1: f64,
 }
 
-fn run_lane<R: Real>(spec: &EnsembleSpec, i: usize) -> Outcome {
+fn run_lane<R: Real>(spec: &EnsembleSpec, i: usize, cancel: &Cancel) -> Option<Outcome> {
     let lc = spec.lane_consts::<R>(i);
     let mut lane = spec.initial_lane::<R>(i);
     for _ in 0..spec.transient {
         if lane.status.is_frozen() {
             break;
         }
+        if cancel.is_set() {
+            return None;
+        }
         advance_period(&lc, &mut lane);
     }
     let mut points = Vec::with_capacity(spec.recorded as usize * STATE_DIM);
     for _ in 0..spec.recorded {
+        if cancel.is_set() {
+            return None;
+        }
         advance_period(&lc, &mut lane);
         // A frozen lane repeats the state it froze at, as on the GPU; the host replaces
         // those rows by NaN afterwards (`mask_frozen_records`).
         points.extend(lane.x.iter().map(|v| v.to_f64()));
     }
-    Outcome {
+    Some(Outcome {
         points,
         final_state: lane.state_f64(),
         status: lane.status,
         counters: lane.counters,
         lambda1: f64::NAN,
-    }
+    })
 }
 
 /// `run_lane` with a tangent vector, as the kernel's lambda_1 variant: renormalised at
 /// the end of every period the lane completes, its growth kept over recorded periods.
-fn run_lane_lambda1<R: Real>(spec: &EnsembleSpec, i: usize) -> Outcome {
+fn run_lane_lambda1<R: Real>(spec: &EnsembleSpec, i: usize, cancel: &Cancel) -> Option<Outcome> {
     let lc = spec.lane_consts::<R>(i);
     let mut lane = spec.initial_lane::<R>(i);
     let mut tan = Tangent::<R, 1>::new([[R::lit(LAMBDA1_START); STATE_DIM]]);
@@ -61,6 +68,9 @@ fn run_lane_lambda1<R: Real>(spec: &EnsembleSpec, i: usize) -> Outcome {
     for p in 0..spec.transient + spec.recorded {
         if p < spec.transient && lane.status.is_frozen() {
             continue;
+        }
+        if cancel.is_set() {
+            return None;
         }
         advance_period_tangent(&lc, &mut lane, &mut tan);
         let norm = if lane.status.is_frozen() {
@@ -73,20 +83,24 @@ fn run_lane_lambda1<R: Real>(spec: &EnsembleSpec, i: usize) -> Outcome {
             norms.push(norm);
         }
     }
-    Outcome {
+    Some(Outcome {
         points,
         final_state: lane.state_f64(),
         status: lane.status,
         counters: lane.counters,
         lambda1: super::lane_lambda1(&norms, spec.lanes[i].omega, lane.status),
-    }
+    })
 }
 
 /// Lanes `first..first + BATCH` through the batch stepper; with `M = 1` also a tangent
 /// vector per lane for lambda_1, renormalised after every period exactly as
 /// `run_lane_lambda1` does (same bits: `tests/ensemble_cpu.rs`).
 #[inline(always)]
-fn run_batch_inner<R: Real, const M: usize>(spec: &EnsembleSpec, first: usize) -> Vec<Outcome> {
+fn run_batch_inner<R: Real, const M: usize>(
+    spec: &EnsembleSpec,
+    first: usize,
+    cancel: &Cancel,
+) -> Vec<Outcome> {
     let lc: [LaneConsts<R>; BATCH] = std::array::from_fn(|l| spec.lane_consts(first + l));
     let bc = BatchConsts::new(&lc);
     let mut lanes: [Lane<R>; BATCH] = std::array::from_fn(|l| spec.initial_lane(first + l));
@@ -101,6 +115,11 @@ fn run_batch_inner<R: Real, const M: usize>(spec: &EnsembleSpec, first: usize) -
         let recording = p >= spec.transient;
         if !recording && lanes.iter().all(|l| l.status.is_frozen()) {
             continue;
+        }
+        // Once per period (500 macro steps of 8 lanes): a cancelled batch stops within
+        // a period and returns nothing.
+        if cancel.is_set() {
+            return Vec::new();
         }
         for _ in 0..n {
             batch_macro_step_tangent(&bc, &lc, &mut lanes, &mut tan);
@@ -146,8 +165,12 @@ fn run_batch_inner<R: Real, const M: usize>(spec: &EnsembleSpec, first: usize) -
 /// The batch code compiled for AVX2 (no FMA: fusing would change the rounding).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn run_batch_avx2<R: Real, const M: usize>(spec: &EnsembleSpec, first: usize) -> Vec<Outcome> {
-    run_batch_inner::<R, M>(spec, first)
+fn run_batch_avx2<R: Real, const M: usize>(
+    spec: &EnsembleSpec,
+    first: usize,
+    cancel: &Cancel,
+) -> Vec<Outcome> {
+    run_batch_inner::<R, M>(spec, first, cancel)
 }
 
 /// The batch code compiled for AVX-512 (one 512-bit register holds the 8 f64 lanes of a
@@ -156,8 +179,12 @@ fn run_batch_avx2<R: Real, const M: usize>(spec: &EnsembleSpec, first: usize) ->
 /// sweep (docs/performance.md), so AVX2 stays the default.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512dq,avx512vl")]
-fn run_batch_avx512<R: Real, const M: usize>(spec: &EnsembleSpec, first: usize) -> Vec<Outcome> {
-    run_batch_inner::<R, M>(spec, first)
+fn run_batch_avx512<R: Real, const M: usize>(
+    spec: &EnsembleSpec,
+    first: usize,
+    cancel: &Cancel,
+) -> Vec<Outcome> {
+    run_batch_inner::<R, M>(spec, first, cancel)
 }
 
 /// Whether the AVX-512 batch code runs: asked for, and the CPU has it.
@@ -173,77 +200,94 @@ fn use_avx512() -> bool {
 }
 
 /// Lanes `first..first + BATCH`, with AVX2 where the CPU has it (AVX-512 on request).
-fn run_batch<R: Real, const M: usize>(spec: &EnsembleSpec, first: usize) -> Vec<Outcome> {
+fn run_batch<R: Real, const M: usize>(
+    spec: &EnsembleSpec,
+    first: usize,
+    cancel: &Cancel,
+) -> Vec<Outcome> {
     #[cfg(target_arch = "x86_64")]
     if use_avx512() {
         // SAFETY: the CPU has been found to support AVX-512 F, DQ and VL.
-        return unsafe { run_batch_avx512::<R, M>(spec, first) };
+        return unsafe { run_batch_avx512::<R, M>(spec, first, cancel) };
     }
     #[cfg(target_arch = "x86_64")]
     if std::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU has just been found to support AVX2.
-        return unsafe { run_batch_avx2::<R, M>(spec, first) };
+        return unsafe { run_batch_avx2::<R, M>(spec, first, cancel) };
     }
-    run_batch_inner::<R, M>(spec, first)
+    run_batch_inner::<R, M>(spec, first, cancel)
 }
 
-/// Runs the ensemble on the CPU with rayon's global pool; `progress` is called with the
-/// number of lanes finished so far (from worker threads).
-pub fn run(spec: &EnsembleSpec, progress: &(dyn Fn(usize) + Sync)) -> Result<EnsembleResult> {
-    run_inner(spec, false, progress)
-}
-
-/// [`run`], also computing each lane's largest Lyapunov exponent
-/// (`EnsembleResult::lambda1`) exactly as the GPU kernel's lambda_1 variant does.
-pub fn run_with_lambda1(
-    spec: &EnsembleSpec,
-    progress: &(dyn Fn(usize) + Sync),
-) -> Result<EnsembleResult> {
-    run_inner(spec, true, progress)
-}
-
-fn run_inner(
-    spec: &EnsembleSpec,
-    lambda1: bool,
-    progress: &(dyn Fn(usize) + Sync),
-) -> Result<EnsembleResult> {
+/// Runs the ensemble on the CPU with rayon's global pool, with each lane's largest
+/// Lyapunov exponent (`EnsembleResult::lambda1`, exactly as the GPU kernel's lambda_1
+/// variant computes it) when `lambda1`. `ctl.progress` is called with the lane-periods
+/// finished so far (from worker threads); `ctl.cancel` is checked before every batch of
+/// [`BATCH`] lanes and by every batch once per forcing period, so a cancelled run
+/// returns [`Error::Interrupted`] within about a period's time of one batch
+/// (milliseconds).
+pub fn run(spec: &EnsembleSpec, lambda1: bool, ctl: Control) -> Result<EnsembleResult> {
     spec.validate()?;
     let done = std::sync::atomic::AtomicUsize::new(0);
     let n = spec.lanes.len();
+    let per_lane = (spec.transient + spec.recorded) as u64;
+    let total = n as u64 * per_lane;
     // Whole batches through the batch stepper, the remainder lane by lane.
     let batches = n / BATCH;
     let tasks: Vec<(usize, bool)> = (0..batches)
         .map(|b| (b * BATCH, true))
         .chain((batches * BATCH..n).map(|i| (i, false)))
         .collect();
-    let outcomes: Vec<Outcome> = tasks
+    let task_count = tasks.len();
+    let outcomes: Vec<Vec<Outcome>> = tasks
         .into_par_iter()
         .with_min_len(2)
-        .flat_map_iter(|(first, batched)| {
+        .map(|(first, batched)| {
+            let c = ctl.cancel;
+            if c.is_set() {
+                return Vec::new();
+            }
             let o = match (spec.precision, batched, lambda1) {
-                (Precision::F32, true, false) => run_batch::<f32, 0>(spec, first),
-                (Precision::F64, true, false) => run_batch::<f64, 0>(spec, first),
-                (Precision::F32, true, true) => run_batch::<f32, 1>(spec, first),
-                (Precision::F64, true, true) => run_batch::<f64, 1>(spec, first),
-                (Precision::F32, _, false) => vec![run_lane::<f32>(spec, first)],
-                (Precision::F64, _, false) => vec![run_lane::<f64>(spec, first)],
-                (Precision::F32, _, true) => vec![run_lane_lambda1::<f32>(spec, first)],
-                (Precision::F64, _, true) => vec![run_lane_lambda1::<f64>(spec, first)],
+                (Precision::F32, true, false) => run_batch::<f32, 0>(spec, first, c),
+                (Precision::F64, true, false) => run_batch::<f64, 0>(spec, first, c),
+                (Precision::F32, true, true) => run_batch::<f32, 1>(spec, first, c),
+                (Precision::F64, true, true) => run_batch::<f64, 1>(spec, first, c),
+                (Precision::F32, _, false) => run_lane::<f32>(spec, first, c).into_iter().collect(),
+                (Precision::F64, _, false) => run_lane::<f64>(spec, first, c).into_iter().collect(),
+                (Precision::F32, _, true) => run_lane_lambda1::<f32>(spec, first, c)
+                    .into_iter()
+                    .collect(),
+                (Precision::F64, _, true) => run_lane_lambda1::<f64>(spec, first, c)
+                    .into_iter()
+                    .collect(),
             };
             let k = o.len();
-            progress(done.fetch_add(k, std::sync::atomic::Ordering::Relaxed) + k);
+            let lanes = done.fetch_add(k, std::sync::atomic::Ordering::Relaxed) + k;
+            (ctl.progress)(lanes as u64 * per_lane, total);
             o
         })
         .collect();
+    let finished = outcomes.iter().filter(|o| !o.is_empty()).count();
+    if finished < task_count {
+        // Some batch was skipped: the flag was set. Nothing of this ensemble is kept
+        // (its lanes are one unit of work to the run engine).
+        return Err(Error::Interrupted {
+            committed: 0,
+            total: 1,
+        });
+    }
+    let outcomes = outcomes.into_iter().flatten();
     let mut res = EnsembleResult {
         poincare: Vec::with_capacity(spec.lanes.len() * spec.recorded as usize * STATE_DIM),
         recorded: spec.recorded as usize,
         final_state: Vec::with_capacity(spec.lanes.len()),
         status: Vec::with_capacity(spec.lanes.len()),
         counters: Vec::with_capacity(spec.lanes.len()),
-        lambda1: lambda1.then(|| outcomes.iter().map(|o| o.lambda1).collect()),
+        lambda1: lambda1.then(Vec::new),
     };
     for o in outcomes {
+        if let Some(l) = res.lambda1.as_mut() {
+            l.push(o.lambda1);
+        }
         res.poincare.extend_from_slice(&o.points);
         res.final_state.push(o.final_state);
         res.status.push(o.status);

@@ -262,6 +262,34 @@ pub enum Backend {
     Gpu,
 }
 
+impl Backend {
+    /// Parses `auto`, `cpu` or `gpu` (the command line's spelling); `field` names the
+    /// argument in the error.
+    pub fn parse(field: &str, text: &str) -> crate::Result<Backend> {
+        match text {
+            "auto" => Ok(Backend::Auto),
+            "cpu" => Ok(Backend::Cpu),
+            "gpu" => Ok(Backend::Gpu),
+            _ => Err(crate::Error::invalid(
+                field,
+                text,
+                "must be auto, cpu or gpu",
+            )),
+        }
+    }
+}
+
+impl Precision {
+    /// Parses `f32` or `f64`; `field` names the argument in the error.
+    pub fn parse(field: &str, text: &str) -> crate::Result<Precision> {
+        match text {
+            "f32" => Ok(Precision::F32),
+            "f64" => Ok(Precision::F64),
+            _ => Err(crate::Error::invalid(field, text, "must be f32 or f64")),
+        }
+    }
+}
+
 /// How a run was carried out (for `run.json`).
 #[derive(Clone, Debug, Serialize)]
 pub struct RunInfo {

@@ -41,14 +41,19 @@ pub struct ArticleConfig {
     pub max_tries: u32,
 }
 
+impl ArticleConfig {
+    /// The defaults, in one place (the command line's option defaults are these).
+    pub const DEFAULT: ArticleConfig = ArticleConfig {
+        steps_per_period: 1000,
+        alpha: 0.2,
+        norm: ErrorNorm::Positions,
+        max_tries: 40,
+    };
+}
+
 impl Default for ArticleConfig {
     fn default() -> Self {
-        ArticleConfig {
-            steps_per_period: 1000,
-            alpha: 0.2,
-            norm: ErrorNorm::Positions,
-            max_tries: 40,
-        }
+        ArticleConfig::DEFAULT
     }
 }
 

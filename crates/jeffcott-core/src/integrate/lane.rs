@@ -159,14 +159,20 @@ fn no_contact_refinement() -> u32 {
     1
 }
 
+impl StepperConfig {
+    /// The defaults, in one place: the command line's option defaults and the Python
+    /// package's keyword defaults are these fields.
+    pub const DEFAULT: StepperConfig = StepperConfig {
+        steps_per_period: DEFAULT_STEPS_PER_PERIOD,
+        max_segments: 16,
+        divergence_bound: 1.0,
+        contact_substeps: DEFAULT_CONTACT_SUBSTEPS,
+    };
+}
+
 impl Default for StepperConfig {
     fn default() -> Self {
-        StepperConfig {
-            steps_per_period: DEFAULT_STEPS_PER_PERIOD,
-            max_segments: 16,
-            divergence_bound: 1.0,
-            contact_substeps: DEFAULT_CONTACT_SUBSTEPS,
-        }
+        StepperConfig::DEFAULT
     }
 }
 

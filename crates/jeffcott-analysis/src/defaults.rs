@@ -1,0 +1,55 @@
+//! The defaults of every study, in one place: the command line's option defaults
+//! (`default_value_t = defaults::...`) and the Python package's keyword defaults are
+//! these constants. Defaults of the stepper, the classifier, the catalogue, the
+//! article's scheme and the Lyapunov spectrum are the `DEFAULT` constants of their
+//! configuration types (`StepperConfig::DEFAULT`, `ClassifyConfig::DEFAULT`,
+//! `CatalogueConfig::DEFAULT`, `ArticleConfig::DEFAULT`, `SpectrumConfig::DEFAULT`).
+
+/// `simulate`: one trajectory.
+pub mod simulate {
+    /// Forcing periods integrated and discarded.
+    pub const TRANSIENT: u32 = 1000;
+    /// Forcing periods recorded (one Poincare point each).
+    pub const PERIODS: u32 = 64;
+    /// Periods at the end kept as the time series, at most (fewer when fewer are
+    /// recorded).
+    pub const TIMESERIES_PERIODS: u32 = 8;
+    /// Forcing periods of the stretch the rub figures and full spectra are taken over.
+    pub const SPECTRUM_PERIODS: u32 = 24;
+}
+
+/// `ensemble`: many independent lanes.
+pub mod ensemble {
+    /// Forcing periods integrated and discarded.
+    pub const TRANSIENT: u32 = 500;
+    /// Forcing periods recorded per lane.
+    pub const PERIODS: u32 = 64;
+}
+
+/// `basin`: a basin of attraction over two start coordinates.
+pub mod basin {
+    /// Forcing periods integrated and discarded.
+    pub const TRANSIENT: u32 = 500;
+    /// Forcing periods recorded per cell.
+    pub const PERIODS: u32 = 64;
+    /// Draws of the uncertainty exponent by re-integration.
+    pub const UNCERTAINTY_SAMPLES: usize = 100;
+}
+
+/// `bifurcation`: quasistatic sweeps and brute force over W.
+pub mod bifurcation {
+    /// Brute-force start states per W.
+    pub const ICS: u32 = 8;
+    /// Seed of the random start states.
+    pub const SEED: u64 = 1;
+    /// Transient per W of the quasistatic sweeps.
+    pub const TRANSIENT: u32 = 200;
+    /// Transient at the first W of each sweep.
+    pub const TRANSIENT_FIRST: u32 = 1000;
+    /// Transient of the brute-force lanes.
+    pub const BRUTE_TRANSIENT: u32 = 500;
+    /// Recorded periods per lane.
+    pub const PERIODS: u32 = 64;
+    /// Neighbour seeds per W in the brute force's second pass, at most.
+    pub const MAX_SEEDS: usize = 8;
+}
