@@ -1179,19 +1179,62 @@ fn hermite_gap_samples_and_wrong_side_on_the_gpu_equal_the_rust_functions_bit_fo
 
 fn check_hermite_gap_between_samples<R: GpuReal>(runner: &GpuRunner) {
     let (gap, _) = hermite_rows::<R>(false);
-    assert_mirrors(runner, "hermite_gap", &gap);
+    let p = probe("hermite_gap");
+    let flat: Vec<R> = gap.iter().flat_map(|r| r.args.iter().copied()).collect();
+    let out = run_probe(runner, "hermite_gap", &flat);
+    let eps = if R::WGSL_NAME == "f64" {
+        f64::EPSILON
+    } else {
+        f32::EPSILON as f64
+    };
+    let (mut exact, mut worst_ulps) = (0, 0.0f64);
+    for (i, (r, gpu)) in gap.iter().zip(out.chunks_exact(p.outputs)).enumerate() {
+        let (g_cpu, g_gpu) = (r.expect[0].to_f64(), gpu[0].to_f64());
+        assert_eq!(
+            g_cpu.to_bits(),
+            g_gpu.to_bits(),
+            "hermite_gap ({}): row {i}: g differs: {g_cpu:e} against {g_gpu:e}",
+            R::WGSL_NAME
+        );
+        let (a, b) = (r.expect[1].to_f64(), gpu[1].to_f64());
+        if a.to_bits() == b.to_bits() {
+            exact += 1;
+        } else {
+            // The rate's scale: |relative velocity| x hs (args: delta, x0, x1, hs, theta);
+            // the rate itself may be near 0 (an extremum of g), where it is all
+            // cancellation.
+            let v = |x: &[R], d: usize| x[1 + d].to_f64();
+            let rel = |o: usize| {
+                (v(&r.args, o + VX_R) - v(&r.args, o + VX_S))
+                    .hypot(v(&r.args, o + VY_R) - v(&r.args, o + VY_S))
+            };
+            let scale = rel(0).max(rel(STATE_DIM)) * r.args[1 + 2 * STATE_DIM].to_f64();
+            worst_ulps = worst_ulps.max((a - b).abs() / (eps * scale));
+        }
+    }
+    eprintln!(
+        "hermite_gap between samples ({}): g bit-identical on all {} rows; rate bit-identical on {exact}, the rest within {worst_ulps:.1} ulp of |relative velocity| x hs",
+        R::WGSL_NAME,
+        gap.len()
+    );
+    assert!(
+        worst_ulps <= 256.0,
+        "hermite_gap ({}): the rate between samples is {worst_ulps:.0} ulp off",
+        R::WGSL_NAME
+    );
 }
 
-/// hermite_gap between the samples, both outputs. Fails on lavapipe (Mesa 22.3.6, f64):
-/// the rate differs from lane.rs by a few ulp on about 1 % of these rows (g is
-/// identical); `keep` on the rate's division, on its numerator, on every product of
-/// d(dx)/dtheta and on the derivative basis did not change a bit, so the rewrite is
-/// elsewhere (probably in the displacement dx, dy, whose last bits g cannot show).
-/// The stepper never uses the rate there (find_switch takes only g between samples),
-/// which is why the lanes stay bit-identical (tests/gpu.rs).
+/// hermite_gap between the samples (random theta and the located switch), where
+/// find_switch uses g only (extremum checks, Illinois iterates): g bit for bit on every
+/// row, the rate within 256 ulp of its scale (|relative velocity| x hs). On lavapipe
+/// (Mesa 22.3.6, f64) the rate differs by about 1 ulp of that scale on ~1.5 % of these
+/// rows and is bit-identical at the samples j/8, where
+/// the stepper uses it (`hermite_gap_samples_...` above). Not found: `keep` on the
+/// division, its numerator, each product and partial sum of the derivative, and the
+/// derivative basis changed not a bit; the rate is a sum with cancellation, so one bit
+/// of dx or dy anywhere upstream shows as several ulp. docs/mirror.md lists it.
 #[test]
-#[ignore = "known lavapipe deviation: hermite_gap's rate between samples differs by a few ulp on ~1 % of rows"]
-fn hermite_gap_between_samples_on_the_gpu_equals_the_rust_function_bit_for_bit() {
+fn hermite_gap_between_samples_has_the_rust_g_to_the_bit_and_the_rate_within_256_ulp() {
     in_both_precisions(
         check_hermite_gap_between_samples::<f32>,
         check_hermite_gap_between_samples::<f64>,
