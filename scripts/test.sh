@@ -1,6 +1,9 @@
 #!/usr/bin/env bash
 # Runs jeffcott's test suite in release mode (the physics tests integrate many periods),
-# then the real-Slurm test of the cluster recipe (scripts/slurm-test.sh: a single-node
+# then the Python package's (scripts/python-test.sh: builds the wheel with maturin in a
+# virtual environment python/.venv, installing maturin, numpy, pytest and matplotlib
+# there when absent, and runs pytest and the example), then the real-Slurm test of the
+# cluster recipe (scripts/slurm-test.sh: a single-node
 # Slurm started by hand, a 4-task array job and its merge; it needs root and installs
 # slurm-wlm when absent; JEFFCOTT_REQUIRE_SLURM=1 makes a Slurm that cannot start fail
 # instead of skip, as in CI).
@@ -24,4 +27,5 @@ if ! has_icd /usr/share/vulkan/icd.d && ! has_icd /etc/vulkan/icd.d; then
 fi
 
 cargo test --release "$@"
+bash scripts/python-test.sh target/release/jeffcott
 bash scripts/slurm-test.sh target/release/jeffcott

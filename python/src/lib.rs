@@ -1,5 +1,660 @@
+//! The `jeffcott` Python package (PyO3 + numpy): the library's studies as functions that
+//! return numpy arrays and plain dictionaries with the keys of the command line's JSON
+//! files. Nothing numerical lives here: every function builds a library specification
+//! (the defaults are the library's, `jeffcott_analysis::defaults` and the `DEFAULT`
+//! constants of the configuration types), validates it in the library, and runs it with
+//! the GIL released (`run::detached`), so a notebook stays responsive, an optional
+//! Python callable sees the progress and Ctrl-C stops the run cleanly.
+
+mod convert;
+mod run;
+
+use convert::{array1, array2, array3, json_to_py, lane_specs, model_params, start_state};
+use jeffcott_analysis::basin::{Axis, BasinSpec};
+use jeffcott_analysis::bifurcation::{BifurcationSpec, Sweep};
+use jeffcott_analysis::catalogue::CatalogueConfig;
+use jeffcott_analysis::classify::ClassifyConfig;
+use jeffcott_analysis::defaults;
+use jeffcott_analysis::simulate::{Integrator, SimulateSpec};
+use jeffcott_core::Error;
+use jeffcott_core::ensemble::{Backend, EnsembleSpec, Precision, RangeSpec};
+use jeffcott_core::integrate::article::ArticleConfig;
+use jeffcott_core::integrate::lane::StepperConfig;
+use jeffcott_core::lyapunov::SpectrumConfig;
+use jeffcott_core::model::{STATE_DIM, coord_index};
+use numpy::PyReadonlyArray2;
 use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use std::collections::HashMap;
+
+/// Lane stepper settings from the keyword arguments every integrating function takes.
+fn stepper(
+    steps_per_period: u32,
+    max_segments: u32,
+    divergence_bound: f64,
+    contact_substeps: u32,
+) -> StepperConfig {
+    StepperConfig {
+        steps_per_period,
+        max_segments,
+        divergence_bound,
+        contact_substeps,
+    }
+}
+
+/// The backend and precision as the command line resolves them: `precision=None` is
+/// f64 on the CPU and f32 on a GPU.
+fn backend_precision(backend: &str, precision: Option<&str>) -> PyResult<(Backend, Precision)> {
+    let b = Backend::parse("backend", backend).map_err(run::to_py_err)?;
+    let p = match precision {
+        Some(p) => Precision::parse("precision", p).map_err(run::to_py_err)?,
+        None => jeffcott_analysis::backend::default_precision(b),
+    };
+    Ok((b, p))
+}
+
+/// Speeds from a number, a sequence of numbers or the command line's `"a:b:n"`.
+fn speeds(field: &str, omega: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
+    if let Ok(text) = omega.extract::<String>() {
+        let r = RangeSpec::parse(field, &text).map_err(run::to_py_err)?;
+        return Ok(r.values());
+    }
+    if let Ok(w) = omega.extract::<f64>() {
+        return Ok(vec![w]);
+    }
+    omega.extract::<Vec<f64>>().map_err(|_| {
+        pyo3::exceptions::PyValueError::new_err(format!(
+            "invalid value for `{field}`: expected a number, a sequence of numbers or \"a:b:n\""
+        ))
+    })
+}
+
+/// One trajectory at speed `omega` [rad/s]: the command line's `simulate`.
+///
+/// Returns the dictionary of `summary.json` (class, period, status, classification,
+/// contact, rub figures, start and final state, settings, parameters) with the arrays
+/// `poincare` `[periods, 8]`, `timeseries` `[M, 9]` (t, then the state), and, unless the
+/// run diverged, `full_spectrum` `[bins, 4]` and `contact_history` `[M, 5]` (the files
+/// `full_spectrum.npy` and `contact.npy`) of the stretch of
+/// `spectrum_periods` periods continued from the final state.
+#[pyfunction]
+#[pyo3(signature = (
+    omega, *, params=None, init=None,
+    transient=defaults::simulate::TRANSIENT, periods=defaults::simulate::PERIODS,
+    timeseries_periods=None, integrator="lane",
+    spectrum_periods=defaults::simulate::SPECTRUM_PERIODS,
+    steps_per_period=StepperConfig::DEFAULT.steps_per_period,
+    max_segments=StepperConfig::DEFAULT.max_segments,
+    divergence_bound=StepperConfig::DEFAULT.divergence_bound,
+    contact_substeps=StepperConfig::DEFAULT.contact_substeps,
+    n_max=ClassifyConfig::DEFAULT.n_max, rel_tol=ClassifyConfig::DEFAULT.rel_tol,
+    abs_tol=ClassifyConfig::DEFAULT.abs_tol,
+    article_steps=ArticleConfig::DEFAULT.steps_per_period,
+    article_alpha=ArticleConfig::DEFAULT.alpha,
+))]
+#[allow(clippy::too_many_arguments)]
+fn simulate<'py>(
+    py: Python<'py>,
+    omega: f64,
+    params: Option<HashMap<String, f64>>,
+    init: Option<HashMap<String, f64>>,
+    transient: u32,
+    periods: u32,
+    timeseries_periods: Option<u32>,
+    integrator: &str,
+    spectrum_periods: u32,
+    steps_per_period: u32,
+    max_segments: u32,
+    divergence_bound: f64,
+    contact_substeps: u32,
+    n_max: usize,
+    rel_tol: f64,
+    abs_tol: f64,
+    article_steps: u32,
+    article_alpha: f64,
+) -> PyResult<Bound<'py, PyDict>> {
+    let params = model_params(params)?;
+    let x0 = start_state(&params, init)?;
+    let integrator = match integrator {
+        "lane" => Integrator::Lane,
+        "article" => Integrator::Article,
+        other => {
+            return Err(run::to_py_err(Error::invalid(
+                "integrator",
+                other,
+                "must be lane or article",
+            )));
+        }
+    };
+    if !(1..=10_000).contains(&spectrum_periods) {
+        return Err(run::to_py_err(Error::invalid(
+            "spectrum_periods",
+            spectrum_periods,
+            "must be in 1..=10000",
+        )));
+    }
+    let spec = SimulateSpec {
+        params,
+        omega,
+        x0,
+        transient,
+        periods,
+        timeseries_periods: timeseries_periods
+            .unwrap_or(periods.min(defaults::simulate::TIMESERIES_PERIODS)),
+        integrator,
+        stepper: stepper(
+            steps_per_period,
+            max_segments,
+            divergence_bound,
+            contact_substeps,
+        ),
+        article: ArticleConfig {
+            steps_per_period: article_steps,
+            alpha: article_alpha,
+            ..ArticleConfig::DEFAULT
+        },
+        classify: ClassifyConfig {
+            n_max,
+            rel_tol,
+            abs_tol,
+        },
+    };
+    spec.validate().map_err(run::to_py_err)?;
+    let (res, rub) = run::detached(py, None, |_ctl| {
+        let res = jeffcott_analysis::simulate::simulate(&spec)?;
+        let rub = if res.status.is_frozen() {
+            None
+        } else {
+            jeffcott_analysis::simulate::rub_outputs(
+                &spec.params,
+                spec.omega,
+                &res.final_state,
+                spectrum_periods,
+                &spec.stepper,
+            )?
+        };
+        Ok((res, rub))
+    })?;
+    let summary = jeffcott_analysis::simulate::summary(&spec, &res, rub.as_ref());
+    let d = json_to_py(py, &summary)?.cast_into::<PyDict>()?;
+    d.set_item(
+        "poincare",
+        array2(
+            py,
+            jeffcott_analysis::simulate::poincare_rows(&spec, &res),
+            STATE_DIM,
+        )?,
+    )?;
+    d.set_item(
+        "timeseries",
+        array2(
+            py,
+            res.timeseries.iter().flatten().copied().collect(),
+            STATE_DIM + 1,
+        )?,
+    )?;
+    if let Some(o) = &rub {
+        d.set_item(
+            "full_spectrum",
+            array2(py, o.spectrum_table().into_iter().flatten().collect(), 4)?,
+        )?;
+        // `contact.npy`; the key `contact` is summary.json's contact counters.
+        d.set_item(
+            "contact_history",
+            array2(py, o.contact.iter().flatten().copied().collect(), 5)?,
+        )?;
+    }
+    Ok(d)
+}
+
+/// Many independent lanes: the command line's `ensemble`.
+///
+/// `omega` is a speed, a sequence of speeds or `"a:b:n"`; or give `lanes`, a 2-D array
+/// with one lane per row and `columns` naming its columns (omega, parameter keys, start
+/// coordinates, param_set), as `--lanes` with `--columns`. Returns `poincare`
+/// `[lanes, periods, 8]` (NaN from the period a lane froze in), `status` (uint32: 0 ok,
+/// 1 refinement_cap, 2 diverged, 3 non_finite), `lanes` `[lanes, 10]`, `params`
+/// `[sets, 14]`, with `lyapunov=True` `lambda1` `[lanes]`, and `run`, the dictionary of
+/// `run.json` (backend, device, precision, counters, status counts, speed).
+#[pyfunction]
+#[pyo3(signature = (
+    omega=None, *, lanes=None, columns=None, params=None, init=None,
+    transient=defaults::ensemble::TRANSIENT, periods=defaults::ensemble::PERIODS,
+    backend="auto", precision=None, lyapunov=false,
+    steps_per_period=StepperConfig::DEFAULT.steps_per_period,
+    max_segments=StepperConfig::DEFAULT.max_segments,
+    divergence_bound=StepperConfig::DEFAULT.divergence_bound,
+    contact_substeps=StepperConfig::DEFAULT.contact_substeps,
+    progress=None,
+))]
+#[allow(clippy::too_many_arguments)]
+fn ensemble<'py>(
+    py: Python<'py>,
+    omega: Option<Bound<'py, PyAny>>,
+    lanes: Option<PyReadonlyArray2<'py, f64>>,
+    columns: Option<Vec<String>>,
+    params: Option<HashMap<String, f64>>,
+    init: Option<HashMap<String, f64>>,
+    transient: u32,
+    periods: u32,
+    backend: &str,
+    precision: Option<&str>,
+    lyapunov: bool,
+    steps_per_period: u32,
+    max_segments: u32,
+    divergence_bound: f64,
+    contact_substeps: u32,
+    progress: Option<Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    jeffcott_core::limits::check_periods("transient", transient, 0).map_err(run::to_py_err)?;
+    jeffcott_core::limits::check_periods("periods", periods, 1).map_err(run::to_py_err)?;
+    let (backend, precision) = backend_precision(backend, precision)?;
+    let stepper = stepper(
+        steps_per_period,
+        max_segments,
+        divergence_bound,
+        contact_substeps,
+    );
+    let model = model_params(params)?;
+    let omegas = match &omega {
+        Some(w) => Some(speeds("omega", w)?),
+        None => None,
+    };
+    let (param_sets, lane_list) =
+        lane_specs(&model, omegas, lanes, columns, init, divergence_bound)?;
+    let spec = EnsembleSpec {
+        lanes: lane_list,
+        param_sets,
+        transient,
+        recorded: periods,
+        stepper,
+        precision,
+    };
+    spec.validate().map_err(run::to_py_err)?;
+    jeffcott_core::limits::check_memory(
+        "lanes",
+        spec.lanes.len(),
+        spec.memory_estimate(),
+        &format!("{} lanes x {} recorded periods", spec.lanes.len(), periods),
+        "ask for fewer lanes or fewer periods",
+    )
+    .map_err(run::to_py_err)?;
+    let (res, info) = run::detached(py, progress.as_ref(), |ctl| {
+        jeffcott_analysis::backend::run(&spec, backend, lyapunov, ctl)
+    })?;
+    let n = spec.lanes.len();
+    let codes: Vec<u32> = res.status.iter().map(|s| s.code()).collect();
+    let totals = jeffcott_analysis::ensemble::Totals::of(&res.counters);
+    let record = jeffcott_analysis::ensemble::run_record(&spec, &totals, &codes, &info);
+    let d = PyDict::new(py);
+    d.set_item("poincare", array3(py, res.poincare, n, periods as usize)?)?;
+    d.set_item("status", array1(py, codes))?;
+    d.set_item(
+        "lanes",
+        array2(
+            py,
+            jeffcott_analysis::ensemble::lanes_table(&spec),
+            2 + STATE_DIM,
+        )?,
+    )?;
+    d.set_item(
+        "params",
+        array2(
+            py,
+            jeffcott_core::ensemble::table::params_table(&spec.param_sets),
+            jeffcott_core::model::Params::FIELDS.len(),
+        )?,
+    )?;
+    if let Some(l) = res.lambda1 {
+        d.set_item("lambda1", array1(py, l))?;
+    }
+    d.set_item("run", json_to_py(py, &record)?)?;
+    Ok(d)
+}
+
+/// A basin of attraction over two start coordinates at one speed: the command line's
+/// `basin`.
+///
+/// `x` and `y` are `(name, lo, hi, n)` tuples or `"name:lo:hi:n"` strings (e.g.
+/// `("x_r", -0.006, 0.006, 80)`); `fix` sets other start coordinates (default: the
+/// static equilibrium). Returns `labels` (int32 `[ny, nx]`, attractor ids, -1
+/// diverged), `x`, `y` (the axis values), `attractors` (the list of `attractors.json`),
+/// `diverged`, with `lyapunov=True` `lambda1` `[ny, nx]`, and `run` (backend, wall time).
+#[pyfunction]
+#[pyo3(signature = (
+    omega, x, y, *, fix=None, params=None,
+    transient=defaults::basin::TRANSIENT, periods=defaults::basin::PERIODS,
+    backend="auto", precision=None, lyapunov=false,
+    steps_per_period=StepperConfig::DEFAULT.steps_per_period,
+    max_segments=StepperConfig::DEFAULT.max_segments,
+    divergence_bound=StepperConfig::DEFAULT.divergence_bound,
+    contact_substeps=StepperConfig::DEFAULT.contact_substeps,
+    progress=None,
+))]
+#[allow(clippy::too_many_arguments)]
+fn basin<'py>(
+    py: Python<'py>,
+    omega: f64,
+    x: Bound<'py, PyAny>,
+    y: Bound<'py, PyAny>,
+    fix: Option<HashMap<String, f64>>,
+    params: Option<HashMap<String, f64>>,
+    transient: u32,
+    periods: u32,
+    backend: &str,
+    precision: Option<&str>,
+    lyapunov: bool,
+    steps_per_period: u32,
+    max_segments: u32,
+    divergence_bound: f64,
+    contact_substeps: u32,
+    progress: Option<Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let (backend, precision) = backend_precision(backend, precision)?;
+    let params = model_params(params)?;
+    let x = convert::axis("x", &x)?;
+    let y = convert::axis("y", &y)?;
+    let mut base = params.static_equilibrium();
+    if let Some(fix) = fix {
+        let pairs = convert::sorted_pairs(fix);
+        for (name, _) in &pairs {
+            if coord_index(name).is_some_and(|i| i == x.coord || i == y.coord) {
+                return Err(run::to_py_err(Error::invalid(
+                    "fix",
+                    name,
+                    "is an axis of the grid; fix only the other coordinates",
+                )));
+            }
+        }
+        jeffcott_core::inputs::set_coords("fix", &mut base, &pairs).map_err(run::to_py_err)?;
+    }
+    jeffcott_core::inputs::check_start_within_bound("fix", &base, divergence_bound)
+        .map_err(run::to_py_err)?;
+    for (option, axis) in [("x", &x), ("y", &y)] {
+        for v in [axis.lo, axis.hi] {
+            jeffcott_core::inputs::check_coord_within_bound(
+                option,
+                axis.coord,
+                v,
+                divergence_bound,
+            )
+            .map_err(run::to_py_err)?;
+        }
+    }
+    jeffcott_core::limits::check_periods("transient", transient, 0).map_err(run::to_py_err)?;
+    jeffcott_core::limits::check_periods("periods", periods, 2).map_err(run::to_py_err)?;
+    let spec = BasinSpec {
+        params,
+        omega,
+        x,
+        y,
+        base,
+        transient,
+        recorded: periods,
+        stepper: stepper(
+            steps_per_period,
+            max_segments,
+            divergence_bound,
+            contact_substeps,
+        ),
+        precision,
+        backend,
+        catalogue: CatalogueConfig::for_precision(precision),
+        chunk: None,
+        lyapunov,
+    };
+    spec.validate().map_err(run::to_py_err)?;
+    let res = run::detached(py, progress.as_ref(), |ctl| {
+        jeffcott_analysis::basin::basin(&spec, ctl)
+    })?;
+    let (nx, ny) = (spec.x.n, spec.y.n);
+    let d = PyDict::new(py);
+    d.set_item("labels", array2(py, res.labels.clone(), nx)?)?;
+    d.set_item(
+        "x",
+        array1(py, (0..nx).map(|i| spec.x.value(i)).collect::<Vec<_>>()),
+    )?;
+    d.set_item(
+        "y",
+        array1(py, (0..ny).map(|i| spec.y.value(i)).collect::<Vec<_>>()),
+    )?;
+    let attractors = serde_json::to_value(&res.catalogue.attractors).unwrap_or_default();
+    d.set_item("attractors", json_to_py(py, &attractors)?)?;
+    d.set_item("diverged", res.catalogue.diverged)?;
+    if let Some(l) = res.lambda1 {
+        d.set_item("lambda1", array2(py, l, nx)?)?;
+    }
+    let run = serde_json::json!({
+        "backend": res.info.as_ref().map(|i| i.backend),
+        "device": res.info.as_ref().map(|i| i.device.clone()),
+        "precision": spec.precision,
+        "wall_time_s": res.seconds,
+        "spec": spec.to_json(),
+    });
+    d.set_item("run", json_to_py(py, &run)?)?;
+    Ok(d)
+}
+
+/// Quasistatic sweeps up and down in W and a brute-force ensemble per W: the command
+/// line's `bifurcation`.
+///
+/// Returns `omega` `[W]`, `rows` `[rows, 4]` (W, sweep 0 up / 1 down / 2 brute force,
+/// lane, attractor id), `points` `[rows, periods, 8]` (each row's Poincare points),
+/// `lambda1` `[rows]` and `summary`, the dictionary of `summary.json`.
+#[pyfunction]
+#[pyo3(signature = (
+    omega, *, sweep="both", ics=defaults::bifurcation::ICS, seed=defaults::bifurcation::SEED,
+    transient=defaults::bifurcation::TRANSIENT,
+    transient_first=defaults::bifurcation::TRANSIENT_FIRST,
+    brute_transient=defaults::bifurcation::BRUTE_TRANSIENT,
+    periods=defaults::bifurcation::PERIODS, max_seeds=defaults::bifurcation::MAX_SEEDS,
+    params=None, backend="auto", precision=None, lyapunov=true,
+    steps_per_period=StepperConfig::DEFAULT.steps_per_period,
+    max_segments=StepperConfig::DEFAULT.max_segments,
+    divergence_bound=StepperConfig::DEFAULT.divergence_bound,
+    contact_substeps=StepperConfig::DEFAULT.contact_substeps,
+    progress=None,
+))]
+#[allow(clippy::too_many_arguments)]
+fn bifurcation<'py>(
+    py: Python<'py>,
+    omega: Bound<'py, PyAny>,
+    sweep: &str,
+    ics: u32,
+    seed: u64,
+    transient: u32,
+    transient_first: u32,
+    brute_transient: u32,
+    periods: u32,
+    max_seeds: usize,
+    params: Option<HashMap<String, f64>>,
+    backend: &str,
+    precision: Option<&str>,
+    lyapunov: bool,
+    steps_per_period: u32,
+    max_segments: u32,
+    divergence_bound: f64,
+    contact_substeps: u32,
+    progress: Option<Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let (backend, precision) = backend_precision(backend, precision)?;
+    let sweep = match sweep {
+        "up" => Some(Sweep::Up),
+        "down" => Some(Sweep::Down),
+        "both" => Some(Sweep::Both),
+        "none" => None,
+        other => {
+            return Err(run::to_py_err(Error::invalid(
+                "sweep",
+                other,
+                "must be up, down, both or none",
+            )));
+        }
+    };
+    for (name, v, min) in [
+        ("transient_first", transient_first, 0),
+        ("transient", transient, 0),
+        ("brute_transient", brute_transient, 0),
+        ("periods", periods, 2),
+    ] {
+        jeffcott_core::limits::check_periods(name, v, min).map_err(run::to_py_err)?;
+    }
+    let spec = BifurcationSpec {
+        params: model_params(params)?,
+        omegas: speeds("omega", &omega)?,
+        sweep,
+        transient_first,
+        transient,
+        ics,
+        brute_transient,
+        recorded: periods,
+        seed,
+        stepper: stepper(
+            steps_per_period,
+            max_segments,
+            divergence_bound,
+            contact_substeps,
+        ),
+        precision,
+        backend,
+        catalogue: CatalogueConfig::for_precision(precision),
+        max_seeds,
+        lyapunov,
+    };
+    spec.validate().map_err(run::to_py_err)?;
+    let (res, summary) = run::detached(py, progress.as_ref(), |ctl| {
+        let res = jeffcott_analysis::bifurcation::bifurcation(&spec, ctl)?;
+        let summary = jeffcott_analysis::bifurcation::summary(&spec, &res)?;
+        Ok((res, summary))
+    })?;
+    let a = jeffcott_analysis::bifurcation::arrays(&res);
+    let rows = a.rows.len() / 4;
+    let d = PyDict::new(py);
+    d.set_item("omega", array1(py, spec.omegas.clone()))?;
+    d.set_item("rows", array2(py, a.rows, 4)?)?;
+    d.set_item("points", array3(py, a.points, rows, periods as usize)?)?;
+    d.set_item("lambda1", array1(py, a.lambda1))?;
+    d.set_item("summary", json_to_py(py, &summary)?)?;
+    Ok(d)
+}
+
+/// The full Lyapunov spectrum (all 8 exponents, saltation matrices at the contact
+/// switches) at one speed: the command line's `lyapunov --omega W`.
+///
+/// Returns the dictionary of `spectrum.json` (`exponents` [1/s], `errors`, `sum`,
+/// `trace_average`, `stop`, ...) and `history` `[periods, 9]` (accumulation time, then
+/// the eight running estimates).
+#[pyfunction]
+#[pyo3(signature = (
+    omega, *, params=None, init=None,
+    time=SpectrumConfig::DEFAULT.max_time, min_time=None,
+    transient=SpectrumConfig::DEFAULT.transient,
+    tangent_transient=SpectrumConfig::DEFAULT.tangent_transient,
+    tol=SpectrumConfig::DEFAULT.tol, window=SpectrumConfig::DEFAULT.window,
+    steps_per_period=StepperConfig::DEFAULT.steps_per_period,
+    max_segments=StepperConfig::DEFAULT.max_segments,
+    divergence_bound=StepperConfig::DEFAULT.divergence_bound,
+    contact_substeps=StepperConfig::DEFAULT.contact_substeps,
+))]
+#[allow(clippy::too_many_arguments)]
+fn lyapunov<'py>(
+    py: Python<'py>,
+    omega: f64,
+    params: Option<HashMap<String, f64>>,
+    init: Option<HashMap<String, f64>>,
+    time: f64,
+    min_time: Option<f64>,
+    transient: u32,
+    tangent_transient: u32,
+    tol: f64,
+    window: u32,
+    steps_per_period: u32,
+    max_segments: u32,
+    divergence_bound: f64,
+    contact_substeps: u32,
+) -> PyResult<Bound<'py, PyDict>> {
+    let params = model_params(params)?;
+    let x0 = start_state(&params, init)?;
+    jeffcott_core::inputs::check_start_within_bound("init", &x0, divergence_bound)
+        .map_err(run::to_py_err)?;
+    jeffcott_core::model::validate_omega(omega).map_err(run::to_py_err)?;
+    let min_time = min_time.unwrap_or(SpectrumConfig::DEFAULT.min_time.min(time));
+    if min_time.is_finite() && time.is_finite() && min_time > time {
+        return Err(run::to_py_err(Error::invalid(
+            "min_time",
+            min_time,
+            format!("must be at most time ({time} s)"),
+        )));
+    }
+    let cfg = SpectrumConfig {
+        transient,
+        tangent_transient,
+        min_time,
+        max_time: time,
+        window,
+        tol,
+        stepper: stepper(
+            steps_per_period,
+            max_segments,
+            divergence_bound,
+            contact_substeps,
+        ),
+        ..SpectrumConfig::DEFAULT
+    };
+    cfg.validate().map_err(run::to_py_err)?;
+    let s = run::detached(py, None, |_ctl| {
+        jeffcott_core::lyapunov::spectrum(&params, omega, &x0, &cfg)
+    })?;
+    let d = json_to_py(py, &s.to_json())?.cast_into::<PyDict>()?;
+    let history: Vec<f64> = s
+        .history
+        .iter()
+        .flat_map(|(t, e)| std::iter::once(*t).chain(e.iter().copied()))
+        .collect();
+    d.set_item("history", array2(py, history, STATE_DIM + 1)?)?;
+    Ok(d)
+}
+
+/// The model's parameters (Table 1 of the article, SI units) with `params` applied, as
+/// a dictionary keyed like the TOML file; raises ValueError naming a bad key or value.
+#[pyfunction]
+#[pyo3(signature = (params=None))]
+fn parameters<'py>(
+    py: Python<'py>,
+    params: Option<HashMap<String, f64>>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let p = model_params(params)?;
+    json_to_py(py, &serde_json::to_value(&p).unwrap_or_default())
+}
+
+/// The GPU adapters wgpu finds (name, backend, device type, software, f64 support,
+/// limits), as `jeffcott info` lists them.
+#[pyfunction]
+fn adapters<'py>(py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+    let list = py.detach(jeffcott_gpu::list_adapters);
+    json_to_py(py, &serde_json::to_value(&list).unwrap_or_default())
+}
+
 #[pymodule]
-fn _jeffcott(_m: &Bound<'_, PyModule>) -> PyResult<()> {
+fn _jeffcott(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add("COORD_NAMES", jeffcott_core::model::COORD_NAMES.to_vec())?;
+    m.add("PARAM_KEYS", jeffcott_core::model::Params::FIELDS.to_vec())?;
+    m.add(
+        "LANES_COLUMNS",
+        jeffcott_core::ensemble::lane_table_columns(),
+    )?;
+    m.add_function(wrap_pyfunction!(simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(ensemble, m)?)?;
+    m.add_function(wrap_pyfunction!(basin, m)?)?;
+    m.add_function(wrap_pyfunction!(bifurcation, m)?)?;
+    m.add_function(wrap_pyfunction!(lyapunov, m)?)?;
+    m.add_function(wrap_pyfunction!(parameters, m)?)?;
+    m.add_function(wrap_pyfunction!(adapters, m)?)?;
     Ok(())
+}
+
+/// Parses an axis given as `"name:lo:hi:n"` (the command line's syntax).
+fn parse_axis(field: &str, text: &str) -> PyResult<Axis> {
+    Axis::parse(field, text).map_err(run::to_py_err)
 }

@@ -1,0 +1,58 @@
+"""jeffcott: nonsmooth dynamics of a rubbing Jeffcott rotor-stator system.
+
+The functions run the Rust library (``jeffcott-core``, ``jeffcott-gpu``,
+``jeffcott-analysis``) with the GIL released and return numpy arrays and plain
+dictionaries whose keys are those of the command line's JSON files:
+
+- :func:`simulate` one trajectory (``jeffcott simulate``),
+- :func:`ensemble` many lanes on the CPU or a GPU (``jeffcott ensemble``),
+- :func:`bifurcation` sweeps up/down and brute force over W (``jeffcott bifurcation``),
+- :func:`basin` a basin of attraction over two start coordinates (``jeffcott basin``),
+- :func:`lyapunov` the full Lyapunov spectrum at one speed (``jeffcott lyapunov``),
+- :func:`parameters` and :func:`adapters` the model's parameters and the GPU adapters.
+
+``backend`` is ``"auto"`` (a hardware GPU if present, else all CPU cores), ``"cpu"`` or
+``"gpu"`` (any adapter, Mesa's lavapipe included); ``precision=None`` is f64 on the CPU
+and f32 on a GPU. ``progress`` takes a callable ``f(done, total)`` (lane-periods).
+Ctrl-C stops a run cleanly (KeyboardInterrupt); bad input raises ``ValueError`` naming
+the field and its allowed range; GPU problems raise ``RuntimeError``.
+"""
+
+import os as _os
+
+# As the command line does (src/main.rs): Mesa's Vulkan device-select layer probes the
+# Wayland and X displays while wgpu lists adapters and, without a desktop session,
+# prints "XDG_RUNTIME_DIR is invalid" on stderr; jeffcott picks its adapter itself. A
+# user who configures the layer keeps it.
+if not any(
+    v in _os.environ for v in ("NODEVICE_SELECT", "MESA_VK_DEVICE_SELECT", "DRI_PRIME")
+):
+    _os.environ["NODEVICE_SELECT"] = "1"
+
+from ._jeffcott import (  # noqa: E402
+    COORD_NAMES,
+    LANES_COLUMNS,
+    PARAM_KEYS,
+    __version__,
+    adapters,
+    basin,
+    bifurcation,
+    ensemble,
+    lyapunov,
+    parameters,
+    simulate,
+)
+
+__all__ = [
+    "COORD_NAMES",
+    "LANES_COLUMNS",
+    "PARAM_KEYS",
+    "__version__",
+    "adapters",
+    "basin",
+    "bifurcation",
+    "ensemble",
+    "lyapunov",
+    "parameters",
+    "simulate",
+]

@@ -1,0 +1,128 @@
+"""Type stubs of the Rust extension (python/src/lib.rs)."""
+
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+COORD_NAMES: List[str]
+PARAM_KEYS: List[str]
+LANES_COLUMNS: List[str]
+
+Progress = Callable[[int, int], Any]
+Speeds = Union[float, Sequence[float], str]
+AxisSpec = Union[Tuple[str, float, float, int], str]
+
+def simulate(
+    omega: float,
+    *,
+    params: Optional[Mapping[str, float]] = None,
+    init: Optional[Mapping[str, float]] = None,
+    transient: int = 1000,
+    periods: int = 64,
+    timeseries_periods: Optional[int] = None,
+    integrator: str = "lane",
+    spectrum_periods: int = 24,
+    steps_per_period: int = 500,
+    max_segments: int = 16,
+    divergence_bound: float = 1.0,
+    contact_substeps: int = 2,
+    n_max: int = 32,
+    rel_tol: float = 1e-3,
+    abs_tol: float = 1e-7,
+    article_steps: int = 1000,
+    article_alpha: float = 0.2,
+) -> Dict[str, Any]:
+    """One trajectory: summary.json's keys plus poincare [periods, 8], timeseries [M, 9],
+    full_spectrum [bins, 4] and contact_history [M, 5] (the last two unless it diverged)."""
+
+def ensemble(
+    omega: Optional[Speeds] = None,
+    *,
+    lanes: Optional[npt.NDArray[np.float64]] = None,
+    columns: Optional[Sequence[str]] = None,
+    params: Optional[Mapping[str, float]] = None,
+    init: Optional[Mapping[str, float]] = None,
+    transient: int = 500,
+    periods: int = 64,
+    backend: str = "auto",
+    precision: Optional[str] = None,
+    lyapunov: bool = False,
+    steps_per_period: int = 500,
+    max_segments: int = 16,
+    divergence_bound: float = 1.0,
+    contact_substeps: int = 2,
+    progress: Optional[Progress] = None,
+) -> Dict[str, Any]:
+    """Many lanes: poincare [lanes, periods, 8], status [lanes] (uint32), lanes [lanes, 10],
+    params [sets, 14], lambda1 [lanes] (with lyapunov=True) and run (run.json's keys)."""
+
+def basin(
+    omega: float,
+    x: AxisSpec,
+    y: AxisSpec,
+    *,
+    fix: Optional[Mapping[str, float]] = None,
+    params: Optional[Mapping[str, float]] = None,
+    transient: int = 500,
+    periods: int = 64,
+    backend: str = "auto",
+    precision: Optional[str] = None,
+    lyapunov: bool = False,
+    steps_per_period: int = 500,
+    max_segments: int = 16,
+    divergence_bound: float = 1.0,
+    contact_substeps: int = 2,
+    progress: Optional[Progress] = None,
+) -> Dict[str, Any]:
+    """A basin: labels [ny, nx] (int32, -1 diverged), x [nx], y [ny], attractors (as
+    attractors.json), diverged, lambda1 [ny, nx] (with lyapunov=True), run."""
+
+def bifurcation(
+    omega: Speeds,
+    *,
+    sweep: str = "both",
+    ics: int = 8,
+    seed: int = 1,
+    transient: int = 200,
+    transient_first: int = 1000,
+    brute_transient: int = 500,
+    periods: int = 64,
+    max_seeds: int = 8,
+    params: Optional[Mapping[str, float]] = None,
+    backend: str = "auto",
+    precision: Optional[str] = None,
+    lyapunov: bool = True,
+    steps_per_period: int = 500,
+    max_segments: int = 16,
+    divergence_bound: float = 1.0,
+    contact_substeps: int = 2,
+    progress: Optional[Progress] = None,
+) -> Dict[str, Any]:
+    """Sweeps and brute force: omega [W], rows [rows, 4] (W, sweep 0 up / 1 down / 2 brute
+    force, lane, attractor id), points [rows, periods, 8], lambda1 [rows], summary."""
+
+def lyapunov(
+    omega: float,
+    *,
+    params: Optional[Mapping[str, float]] = None,
+    init: Optional[Mapping[str, float]] = None,
+    time: float = 100.0,
+    min_time: Optional[float] = None,
+    transient: int = 1000,
+    tangent_transient: int = 50,
+    tol: float = 2e-3,
+    window: int = 100,
+    steps_per_period: int = 500,
+    max_segments: int = 16,
+    divergence_bound: float = 1.0,
+    contact_substeps: int = 2,
+) -> Dict[str, Any]:
+    """The full spectrum: spectrum.json's keys plus history [periods, 9]."""
+
+def parameters(params: Optional[Mapping[str, float]] = None) -> Dict[str, float]:
+    """Table 1 with the given overrides, validated."""
+
+def adapters() -> List[Dict[str, Any]]:
+    """The GPU adapters wgpu finds, as `jeffcott info` lists them."""

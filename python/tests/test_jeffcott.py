@@ -1,0 +1,223 @@
+"""The Python package against the physics, the command line and the rules of the
+library: each test names what it proves. The command line's binary is
+``$JEFFCOTT_BIN`` or ``target/release/jeffcott`` of this checkout (scripts/test.sh
+builds it first). With ``JEFFCOTT_REQUIRE_GPU=1`` (CI) a missing GPU adapter fails the
+GPU test instead of skipping it."""
+
+import json
+import os
+import subprocess
+import sys
+import threading
+import time
+import _thread
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import jeffcott
+
+ROOT = Path(__file__).resolve().parents[2]
+BIN = Path(os.environ.get("JEFFCOTT_BIN", ROOT / "target" / "release" / "jeffcott"))
+
+
+def cli(*args):
+    """Runs the command line; returns its output directory's files."""
+    assert BIN.exists(), f"{BIN} is missing: build it with `cargo build --release`"
+    out = subprocess.run([str(BIN), *args, "--quiet"], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+
+
+def test_simulate_131_7_is_period_1_and_132_2_is_period_2():
+    a = jeffcott.simulate(131.7)
+    assert a["class"] == "period-1" and a["period"] == 1
+    assert a["status"] == "ok"
+    assert a["poincare"].shape == (64, 8)
+    # Period 1: every recorded Poincare point is the same point (to the classifier's
+    # tolerance, 1e-7 m), and the run is in the article's rubbing regime's neighbourhood.
+    p = a["poincare"]
+    assert np.max(np.abs(p[:, [0, 2, 4, 6]] - p[0, [0, 2, 4, 6]])) < 1e-7
+    b = jeffcott.simulate(132.2)
+    assert b["class"] == "period-2" and b["period"] == 2
+    q = b["poincare"]
+    # Period 2: points repeat every 2 periods but not every period.
+    assert np.max(np.abs(q[2:, [0, 2]] - q[:-2, [0, 2]])) < 1e-7
+    assert np.max(np.abs(q[1:, [0, 2]] - q[:-1, [0, 2]])) > 1e-6
+    # The arrays that go with it: the time series (t, state), the full spectrum and the
+    # contact history of the rub stretch.
+    assert b["timeseries"].shape[1] == 9
+    assert b["full_spectrum"].shape[1] == 4 and b["contact_history"].shape[1] == 5
+    assert b["rub"]["regime"] in ("partial_rub", "full_annular_rub")
+
+
+def test_simulate_returns_the_keys_and_values_of_the_cli_summary_json(tmp_path):
+    out = tmp_path / "sim"
+    cli("simulate", "--omega", "132.2", "--transient", "300", "--periods", "16",
+        "--no-plot", "--out", str(out))
+    s = json.loads((out / "summary.json").read_text())
+    r = jeffcott.simulate(132.2, transient=300, periods=16)
+    for k in ("files", "jeffcott_version", "wall_time_s"):
+        s.pop(k)
+    for k in ("wall_time_s", "poincare", "timeseries", "full_spectrum", "contact_history"):
+        r.pop(k)
+    assert r == s
+    p = np.load(out / "poincare.npy")
+    assert jeffcott.simulate(132.2, transient=300, periods=16)["poincare"].tobytes() == p.tobytes()
+
+
+def test_ensemble_arrays_equal_the_cli_poincare_npy_bit_for_bit(tmp_path):
+    out = tmp_path / "ens"
+    cli("ensemble", "--omega", "130:141:37", "--transient", "40", "--periods", "8",
+        "--init", "x_r=0.004,vx_r=-0.3", "--param", "mu=0.05", "--backend", "cpu",
+        "--lyapunov", "--out", str(out))
+    r = jeffcott.ensemble("130:141:37", transient=40, periods=8,
+                          init={"x_r": 0.004, "vx_r": -0.3}, params={"mu": 0.05},
+                          backend="cpu", lyapunov=True)
+    for name in ("poincare", "status", "lanes", "params", "lambda1"):
+        want = np.load(out / f"{name}.npy")
+        got = r[name]
+        assert got.dtype == want.dtype and got.shape == want.shape, name
+        assert got.tobytes() == want.tobytes(), name
+    run = json.loads((out / "run.json").read_text())
+    assert r["run"]["counters"] == run["counters"]
+    assert r["run"]["status_counts"] == run["status_counts"]
+
+
+def test_an_ensemble_from_a_lane_table_equals_the_cli_lanes_csv_run(tmp_path):
+    table = np.array([[131.0, 0.003, 0.0], [133.0, -0.002, 0.1], [139.5, 0.0, 0.3]])
+    csv = tmp_path / "lanes.csv"
+    csv.write_text("omega,x_r,mu\n" + "\n".join(",".join(repr(float(v)) for v in row) for row in table))
+    out = tmp_path / "ens"
+    cli("ensemble", "--lanes", str(csv), "--transient", "30", "--periods", "4",
+        "--backend", "cpu", "--out", str(out))
+    r = jeffcott.ensemble(lanes=table, columns=["omega", "x_r", "mu"], transient=30,
+                          periods=4, backend="cpu")
+    assert r["poincare"].tobytes() == np.load(out / "poincare.npy").tobytes()
+    assert r["params"].tobytes() == np.load(out / "params.npy").tobytes()
+
+
+def test_basin_labels_equal_the_cli_labels(tmp_path):
+    out = tmp_path / "basin"
+    cli("basin", "--omega", "133", "--x", "x_r:-0.006:0.006:12", "--y", "vx_r:-1:1:10",
+        "--transient", "250", "--periods", "32", "--backend", "cpu",
+        "--uncertainty-samples", "0", "--no-plot", "--out", str(out))
+    r = jeffcott.basin(133, ("x_r", -0.006, 0.006, 12), "vx_r:-1:1:10", transient=250,
+                       periods=32, backend="cpu")
+    want = np.load(out / "labels.npy")
+    assert r["labels"].dtype == np.int32 and r["labels"].shape == (10, 12)
+    assert np.array_equal(r["labels"], want)
+    assert r["x"].tobytes() == np.load(out / "x.npy").tobytes()
+    attractors = json.loads((out / "attractors.json").read_text())["attractors"]
+    assert [a["period"] for a in r["attractors"]] == [a["period"] for a in attractors]
+    # Coexisting attractors at 133 rad/s (the article's Fig. 7): period 4 and 5.
+    assert sorted(a["period"] for a in r["attractors"]) == [4, 5]
+
+
+@pytest.mark.parametrize(
+    "call, field",
+    [
+        (lambda: jeffcott.simulate(132.2, params={"k_c": -1.0}), "k_c"),
+        (lambda: jeffcott.simulate(132.2, params={"no_such_key": 1.0}), "no_such_key"),
+        (lambda: jeffcott.simulate(-5.0), "omega"),
+        (lambda: jeffcott.simulate(132.2, init={"x_r": 2.0}), "init x_r"),
+        (lambda: jeffcott.simulate(132.2, rel_tol=0.0), "rel-tol"),
+        (lambda: jeffcott.ensemble("130:141:0"), "omega"),
+        (lambda: jeffcott.ensemble(133.0, backend="tpu"), "backend"),
+        (lambda: jeffcott.ensemble(133.0, precision="f16"), "precision"),
+        (lambda: jeffcott.ensemble(133.0, contact_substeps=3), "contact"),
+        (lambda: jeffcott.basin(133, ("x_r", 0.0, 1.0, 4), ("x_r", 0.0, 1.0, 4)), "y"),
+        (lambda: jeffcott.bifurcation("130:141:4", sweep="sideways"), "sweep"),
+        (lambda: jeffcott.lyapunov(140, time=-1.0), "max_time"),
+    ],
+)
+def test_bad_input_raises_value_error_naming_the_field(call, field):
+    with pytest.raises(ValueError) as e:
+        call()
+    assert f"`{field}" in str(e.value), str(e.value)
+
+
+def test_lyapunov_spectrum_sums_to_the_damping_trace():
+    # MODEL.md 6: the exponents sum to <tr J> = -2 (2 xi_r w_r + 2 xi_s w_s) = -119.2 1/s.
+    s = jeffcott.lyapunov(131.7, time=30.0, transient=300)
+    assert len(s["exponents"]) == 8
+    assert abs(s["sum"] + 119.2) < 0.5
+    assert s["history"].shape[1] == 9
+    assert max(s["exponents"]) < 0  # period-1: a stable cycle
+
+
+def test_bifurcation_sweeps_find_period_1_then_period_2():
+    r = jeffcott.bifurcation([131.7, 132.2], ics=2, transient_first=600, transient=300,
+                             brute_transient=300, periods=16, backend="cpu")
+    per_w = r["summary"]["per_omega"]
+    assert [w["up"]["period"] for w in per_w] == [1, 2]
+    rows = r["rows"]
+    assert rows.shape[1] == 4 and r["points"].shape == (rows.shape[0], 16, 8)
+
+
+def require_gpu():
+    return os.environ.get("JEFFCOTT_REQUIRE_GPU") == "1"
+
+
+def test_gpu_backend_on_lavapipe_reproduces_the_cpu_f64_lanes_to_the_bit():
+    if not jeffcott.adapters():
+        if require_gpu():
+            pytest.fail("JEFFCOTT_REQUIRE_GPU=1 but wgpu finds no adapter")
+        pytest.skip("no GPU adapter (install mesa-vulkan-drivers for lavapipe)")
+    spec = dict(transient=30, periods=6, init={"x_r": 0.005, "vx_r": -0.4}, precision="f64")
+    gpu = jeffcott.ensemble("130:141:24", backend="gpu", **spec)
+    cpu = jeffcott.ensemble("130:141:24", backend="cpu", **spec)
+    assert gpu["run"]["backend"] == "gpu"
+    assert gpu["poincare"].tobytes() == cpu["poincare"].tobytes()
+    assert np.array_equal(gpu["status"], cpu["status"])
+
+
+def test_no_usable_gpu_raises_runtime_error_with_the_cli_message(tmp_path):
+    # wgpu honours WGPU_BACKEND: Metal has no adapter on Linux, so the GPU backend must
+    # fail, from Python with the message the command line prints after "error: ".
+    env = {**os.environ, "WGPU_BACKEND": "metal"}
+    py = subprocess.run(
+        [sys.executable, "-c",
+         "import jeffcott\n"
+         "try:\n jeffcott.ensemble(133.0, backend='gpu', transient=1, periods=1)\n"
+         "except RuntimeError as e:\n print(e)\n"],
+        capture_output=True, text=True, cwd=tmp_path, env=env,
+    )
+    cl = subprocess.run(
+        [str(BIN), "ensemble", "--omega", "133", "--backend", "gpu", "--transient", "1",
+         "--periods", "1", "--out", str(tmp_path / "e")],
+        capture_output=True, text=True, env=env,
+    )
+    assert cl.returncode == 2
+    assert py.stdout.strip().startswith("no usable GPU adapter"), py.stdout + py.stderr
+    assert cl.stderr.strip() == "error: " + py.stdout.strip()
+
+
+def test_progress_callable_sees_lane_periods_up_to_the_total():
+    seen = []
+    jeffcott.ensemble("130:141:64", transient=100, periods=4, backend="cpu",
+                      progress=lambda d, t: seen.append((d, t)))
+    assert seen and seen[-1] == (64 * 104, 64 * 104)
+    assert all(a[0] <= b[0] for a, b in zip(seen, seen[1:]))
+
+
+def test_keyboard_interrupt_during_a_long_ensemble_returns_within_a_second():
+    # ~100 s of CPU work; Ctrl-C (as a notebook's interrupt sends it) after 1.5 s.
+    fired = []
+
+    def interrupt():
+        fired.append(time.monotonic())
+        _thread.interrupt_main()
+
+    timer = threading.Timer(1.5, interrupt)
+    timer.start()
+    t0 = time.monotonic()
+    with pytest.raises(KeyboardInterrupt):
+        jeffcott.ensemble("130:141:20000", transient=300, periods=10, backend="cpu")
+    back = time.monotonic()
+    timer.join()
+    assert fired, "the interrupt never fired: the run ended first"
+    assert back - fired[0] < 1.0, f"control came back {back - fired[0]:.2f} s after Ctrl-C"
+    assert back - t0 < 10.0
+    # The library is usable right after: the next run works.
+    assert jeffcott.simulate(131.7, transient=200, periods=4)["status"] == "ok"
