@@ -290,15 +290,7 @@ fn ensemble_lanes(
     let omegas = range.values();
     let n = omegas.len();
     let j = serde_json::json!({"first": omegas[0], "last": omegas[n - 1], "count": n, "x0": x0});
-    let lanes = omegas
-        .iter()
-        .map(|&omega| LaneSpec {
-            omega,
-            x0,
-            param_set: 0,
-        })
-        .collect();
-    Ok((vec![params], lanes, j))
+    Ok((vec![params], LaneSpec::at_speeds(&omegas, x0), j))
 }
 
 /// Runs `jeffcott ensemble`: lanes in work units committed to --out, then the files
@@ -355,7 +347,7 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
         a.quiet,
     )?;
     let store = rundir::store(&rd);
-    let bar = crate::progress::Progress::new("ensemble", n as u64 * per_lane, per_lane, a.quiet);
+    let bar = crate::progress::Bar::new("ensemble", n as u64 * per_lane, per_lane, a.quiet);
     let start = std::time::Instant::now();
     let engine = jeffcott_analysis::backend::Engine::new(a.backend, spec.precision)?;
     let ensemble = |u: usize| EnsembleSpec {

@@ -5,14 +5,14 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressState, ProgressStyle};
 use std::fmt::Write;
 use std::time::Duration;
 
-/// A progress bar counting lane-periods of a run whose lanes each integrate
+/// A terminal progress bar counting lane-periods of a run whose lanes each integrate
 /// `periods_per_lane` forcing periods.
 #[derive(Clone, Debug)]
-pub struct Progress {
+pub struct Bar {
     bar: ProgressBar,
 }
 
-impl Progress {
+impl Bar {
     /// A bar labelled `what` over `total` lane-periods; `quiet` hides it.
     pub fn new(what: &str, total: u64, periods_per_lane: u64, quiet: bool) -> Self {
         let bar = if quiet {
@@ -46,7 +46,7 @@ impl Progress {
         bar.set_style(style);
         bar.set_prefix(what.to_string());
         bar.enable_steady_tick(Duration::from_millis(250));
-        Progress { bar }
+        Bar { bar }
     }
 
     /// Sets the lane-periods done so far (monotone; callable from any thread).

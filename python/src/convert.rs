@@ -7,7 +7,7 @@ use jeffcott_analysis::basin::Axis;
 use jeffcott_core::Error;
 use jeffcott_core::ensemble::LaneSpec;
 use jeffcott_core::ensemble::table::{LaneTable, TableDefaults, lanes_from_table};
-use jeffcott_core::model::{COORD_NAMES, Params, State, coord_index};
+use jeffcott_core::model::{Params, State};
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray2};
 use pyo3::prelude::*;
 use std::collections::HashMap;
@@ -42,16 +42,7 @@ pub fn axis(field: &str, v: &Bound<'_, PyAny>) -> PyResult<Axis> {
             "invalid value for `{field}`: expected (name, lo, hi, n) or \"name:lo:hi:n\", e.g. (\"x_r\", -0.006, 0.006, 80)"
         ))
     })?;
-    let coord = coord_index(&name).ok_or_else(|| {
-        to_py_err(Error::invalid(
-            field,
-            &name,
-            format!(
-                "unknown coordinate; valid names: {}",
-                COORD_NAMES.join(", ")
-            ),
-        ))
-    })?;
+    let coord = jeffcott_core::inputs::coord(field, &name).map_err(to_py_err)?;
     let a = Axis { coord, lo, hi, n };
     a.validate(field).map_err(to_py_err)?;
     Ok(a)
@@ -124,15 +115,7 @@ pub fn lane_specs(
     jeffcott_core::inputs::set_coords("init", &mut x0, &init).map_err(to_py_err)?;
     jeffcott_core::inputs::check_start_within_bound("init", &x0, divergence_bound)
         .map_err(to_py_err)?;
-    let lanes = omegas
-        .iter()
-        .map(|&omega| LaneSpec {
-            omega,
-            x0,
-            param_set: 0,
-        })
-        .collect();
-    Ok((vec![params.clone()], lanes))
+    Ok((vec![params.clone()], LaneSpec::at_speeds(&omegas, x0)))
 }
 
 /// A JSON value as Python objects (dict, list, float, int, str, bool, None), through

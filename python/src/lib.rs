@@ -21,7 +21,7 @@ use jeffcott_core::ensemble::{Backend, EnsembleSpec, Precision, RangeSpec};
 use jeffcott_core::integrate::article::ArticleConfig;
 use jeffcott_core::integrate::lane::StepperConfig;
 use jeffcott_core::lyapunov::SpectrumConfig;
-use jeffcott_core::model::{STATE_DIM, coord_index};
+use jeffcott_core::model::STATE_DIM;
 use numpy::PyReadonlyArray2;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -354,33 +354,14 @@ fn basin<'py>(
     let params = model_params(params)?;
     let x = convert::axis("x", &x)?;
     let y = convert::axis("y", &y)?;
-    let mut base = params.static_equilibrium();
-    if let Some(fix) = fix {
-        let pairs = convert::sorted_pairs(fix);
-        for (name, _) in &pairs {
-            if coord_index(name).is_some_and(|i| i == x.coord || i == y.coord) {
-                return Err(run::to_py_err(Error::invalid(
-                    "fix",
-                    name,
-                    "is an axis of the grid; fix only the other coordinates",
-                )));
-            }
-        }
-        jeffcott_core::inputs::set_coords("fix", &mut base, &pairs).map_err(run::to_py_err)?;
-    }
-    jeffcott_core::inputs::check_start_within_bound("fix", &base, divergence_bound)
-        .map_err(run::to_py_err)?;
-    for (option, axis) in [("x", &x), ("y", &y)] {
-        for v in [axis.lo, axis.hi] {
-            jeffcott_core::inputs::check_coord_within_bound(
-                option,
-                axis.coord,
-                v,
-                divergence_bound,
-            )
-            .map_err(run::to_py_err)?;
-        }
-    }
+    let base = jeffcott_analysis::basin::base_state(
+        &params,
+        &x,
+        &y,
+        &convert::sorted_pairs(fix.unwrap_or_default()),
+        divergence_bound,
+    )
+    .map_err(run::to_py_err)?;
     jeffcott_core::limits::check_periods("transient", transient, 0).map_err(run::to_py_err)?;
     jeffcott_core::limits::check_periods("periods", periods, 2).map_err(run::to_py_err)?;
     let spec = BasinSpec {

@@ -2,10 +2,7 @@
 //! in work units committed to --out (resumable); `labels.npy`, `attractors.json`, `basin.png` and `attractors.png`.
 
 use super::rundir::{self, RunArgs};
-use super::{
-    CatalogueArgs, ModelArgs, StepperArgs, check_coord_within_bound, check_start_within_bound,
-    parse_assignment_lists,
-};
+use super::{CatalogueArgs, ModelArgs, StepperArgs, parse_assignment_lists};
 use crate::plot::{
     AttractorTrace, attractor_color, basin_map, coexisting_attractors, coord_axis, lambda1_map,
 };
@@ -17,7 +14,7 @@ use jeffcott_analysis::output;
 use jeffcott_analysis::simulate::{Integrator, SimulateSpec, simulate};
 use jeffcott_core::ensemble::{Backend, Precision};
 use jeffcott_core::error::{Error, Result};
-use jeffcott_core::model::{COORD_NAMES, Params, coord_index};
+use jeffcott_core::model::{COORD_NAMES, Params};
 use std::path::{Path, PathBuf};
 
 /// Arguments of `jeffcott basin`.
@@ -113,35 +110,13 @@ impl BasinArgs {
         let params = self.model.params()?;
         let x = Axis::parse("x", &self.x)?;
         let y = Axis::parse("y", &self.y)?;
-        let mut base = params.static_equilibrium();
-        for (name, value) in parse_assignment_lists("fix", &self.fix)? {
-            let i = coord_index(&name).ok_or_else(|| {
-                Error::invalid(
-                    "fix",
-                    &name,
-                    format!(
-                        "unknown coordinate; valid names: {}",
-                        COORD_NAMES.join(", ")
-                    ),
-                )
-            })?;
-            if i == x.coord || i == y.coord {
-                return Err(Error::invalid(
-                    "fix",
-                    &name,
-                    "is an axis of the grid; fix only the other coordinates",
-                ));
-            }
-            base[i] = value;
-        }
-        // Start states beyond the divergence bound would be "diverged" at once.
-        let bound = self.stepper.divergence_bound;
-        check_start_within_bound("fix", &base, bound)?;
-        for (option, axis) in [("x", &x), ("y", &y)] {
-            for v in [axis.lo, axis.hi] {
-                check_coord_within_bound(option, axis.coord, v, bound)?;
-            }
-        }
+        let base = jeffcott_analysis::basin::base_state(
+            &params,
+            &x,
+            &y,
+            &parse_assignment_lists("fix", &self.fix)?,
+            self.stepper.divergence_bound,
+        )?;
         jeffcott_core::limits::check_periods("transient", self.transient, 0)?;
         jeffcott_core::limits::check_periods("periods", self.periods, 2)?;
         check_basin_size(x.n as u64, y.n as u64, self)?;

@@ -413,7 +413,7 @@ pub fn run_study(
     quiet: bool,
 ) -> Result<BifurcationResult> {
     let per_lane = (spec.brute_transient + spec.recorded) as u64;
-    let bar = crate::progress::Progress::new("bifurcation", work(spec), per_lane, quiet);
+    let bar = crate::progress::Bar::new("bifurcation", work(spec), per_lane, quiet);
     let cancel = super::rundir::cancel();
     let cb = super::rundir::bar_callback(&bar);
     let ctl = jeffcott_analysis::run::lanes::Control {

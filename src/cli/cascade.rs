@@ -99,7 +99,7 @@ pub fn run_cascade(a: &CascadeArgs) -> Result<()> {
     let spec = a.spec()?;
     let rd = rundir::open(&a.out, "cascade", spec.to_json(), OUTPUTS, a.run, a.quiet)?;
     let n = spec.omegas.len() as u64 * (spec.up as u64 + spec.down as u64);
-    let bar = crate::progress::Progress::new("cascade", n, 1, a.quiet);
+    let bar = crate::progress::Bar::new("cascade", n, 1, a.quiet);
     let t = std::time::Instant::now();
     let cb = rundir::bar_callback(&bar);
     let res = cascade_with(&spec, rundir::store(&rd).as_ref(), &rundir::cancel(), &cb);

@@ -603,7 +603,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         precision,
     };
     let per_lane = (p.survey_transient + p.survey_periods) as u64;
-    let bar = crate::progress::Progress::new(
+    let bar = crate::progress::Bar::new(
         "survey",
         espec.lanes.len() as u64 * per_lane,
         per_lane,

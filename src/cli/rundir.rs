@@ -69,7 +69,7 @@ pub fn with_bar<T>(
         jeffcott_analysis::run::lanes::Control,
     ) -> Result<T>,
 ) -> Result<T> {
-    let bar = crate::progress::Progress::new(name, total, per_lane, quiet);
+    let bar = crate::progress::Bar::new(name, total, per_lane, quiet);
     let engine = jeffcott_analysis::backend::Engine::new(backend, precision)?;
     let cancel = cancel();
     let cb = bar_callback(&bar);
@@ -287,7 +287,7 @@ pub fn written(rd: &RunDir, candidates: &[&str]) -> Vec<String> {
 }
 
 /// A progress bar as the engine's callback.
-pub fn bar_callback(bar: &crate::progress::Progress) -> impl Fn(u64, u64) + Sync + '_ {
+pub fn bar_callback(bar: &crate::progress::Bar) -> impl Fn(u64, u64) + Sync + '_ {
     move |done, _total| bar.set(done)
 }
 

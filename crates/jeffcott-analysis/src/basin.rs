@@ -18,7 +18,7 @@ use crate::run::{Array, UnitStore};
 use jeffcott_core::ensemble::{Backend, EnsembleSpec, LaneSpec, Precision, RunInfo};
 use jeffcott_core::error::{Error, Result};
 use jeffcott_core::integrate::lane::StepperConfig;
-use jeffcott_core::model::{COORD_NAMES, Params, State, coord_index};
+use jeffcott_core::model::{COORD_NAMES, Params, State};
 
 /// Splits `NAME:lo:hi:n` into its name, finite bounds and count (the name unchecked);
 /// `option` names the CLI option and `example` shows the form in errors.
@@ -87,16 +87,7 @@ impl Axis {
     /// Parses `name:lo:hi:n`; `option` names the CLI option in errors.
     pub fn parse(option: &str, text: &str) -> Result<Axis> {
         let (name, lo, hi, n) = parse_named_range(option, text, "x_r:-0.006:0.006:200")?;
-        let coord = coord_index(name).ok_or_else(|| {
-            Error::invalid(
-                option,
-                name,
-                format!(
-                    "unknown coordinate; valid names: {}",
-                    COORD_NAMES.join(", ")
-                ),
-            )
-        })?;
+        let coord = jeffcott_core::inputs::coord(option, name)?;
         let axis = Axis { coord, lo, hi, n };
         axis.validate(option)?;
         Ok(axis)
@@ -111,6 +102,41 @@ impl Axis {
     pub fn value(&self, i: usize) -> f64 {
         jeffcott_core::ensemble::range_value(self.lo, self.hi, self.n as u64, i as u64)
     }
+}
+
+/// The start state of every cell before the axes set their coordinates: the static
+/// equilibrium of `params` with `fix` (`--fix`: names and values of other start
+/// coordinates) applied. Refuses a fixed axis coordinate, unknown names, non-finite
+/// values and start positions (fixed or on an axis) beyond `bound`, the divergence
+/// bound; errors name `fix`, `x` or `y`.
+pub fn base_state(
+    params: &Params,
+    x: &Axis,
+    y: &Axis,
+    fix: &[(String, f64)],
+    bound: f64,
+) -> Result<State> {
+    use jeffcott_core::inputs::{check_coord_within_bound, check_start_within_bound, coord};
+    for (name, _) in fix {
+        let i = coord("fix", name)?;
+        if i == x.coord || i == y.coord {
+            return Err(Error::invalid(
+                "fix",
+                name,
+                "is an axis of the grid; fix only the other coordinates",
+            ));
+        }
+    }
+    let mut base = params.static_equilibrium();
+    jeffcott_core::inputs::set_coords("fix", &mut base, fix)?;
+    // Start states beyond the divergence bound would be "diverged" at once.
+    check_start_within_bound("fix", &base, bound)?;
+    for (option, axis) in [("x", x), ("y", y)] {
+        for v in [axis.lo, axis.hi] {
+            check_coord_within_bound(option, axis.coord, v, bound)?;
+        }
+    }
+    Ok(base)
 }
 
 /// What a basin computes.

@@ -200,18 +200,7 @@ pub fn rub_on_attractor(
     periods: u32,
     stepper: &StepperConfig,
 ) -> Result<Option<RubFigures>> {
-    let spec = crate::simulate::SimulateSpec {
-        params: p.clone(),
-        omega,
-        x0: *x0,
-        transient: 0,
-        periods,
-        timeseries_periods: periods,
-        integrator: crate::simulate::Integrator::Lane,
-        stepper: *stepper,
-        article: Default::default(),
-        classify: Default::default(),
-    };
+    let spec = crate::simulate::SimulateSpec::stretch(p, omega, x0, periods, stepper);
     let r = crate::simulate::simulate(&spec)?;
     if r.status.is_frozen() {
         return Ok(None);

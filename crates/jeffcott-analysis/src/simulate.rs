@@ -104,6 +104,32 @@ impl SimulateSpec {
 }
 
 impl SimulateSpec {
+    /// A stretch of `periods` forcing periods from `x0` (a state at t = kT), no
+    /// transient, every period in the time series: what the rub figures and full
+    /// spectra are taken over.
+    pub fn stretch(
+        params: &Params,
+        omega: f64,
+        x0: &State,
+        periods: u32,
+        stepper: &StepperConfig,
+    ) -> SimulateSpec {
+        SimulateSpec {
+            params: params.clone(),
+            omega,
+            x0: *x0,
+            transient: 0,
+            periods,
+            timeseries_periods: periods,
+            integrator: Integrator::Lane,
+            stepper: *stepper,
+            article: ArticleConfig::DEFAULT,
+            classify: ClassifyConfig::DEFAULT,
+        }
+    }
+}
+
+impl SimulateSpec {
     /// Bytes the run holds at its peak, an upper estimate: the Poincare points and the
     /// time series (one row per grid step of the last `timeseries_periods` periods),
     /// each twice (flattened for writing).
@@ -292,19 +318,7 @@ pub fn rub_outputs(
     periods: u32,
     stepper: &StepperConfig,
 ) -> Result<Option<RubOutputs>> {
-    let spec = SimulateSpec {
-        params: p.clone(),
-        omega,
-        x0: *x0,
-        transient: 0,
-        periods,
-        timeseries_periods: periods,
-        integrator: Integrator::Lane,
-        stepper: *stepper,
-        article: Default::default(),
-        classify: Default::default(),
-    };
-    let r = simulate(&spec)?;
+    let r = simulate(&SimulateSpec::stretch(p, omega, x0, periods, stepper))?;
     if r.status.is_frozen() || x0.iter().any(|v| !v.is_finite()) {
         return Ok(None);
     }

@@ -47,16 +47,7 @@ pub fn parse_assignment_lists(option: &str, lists: &[String]) -> Result<Vec<(Str
 /// Unknown names and non-finite values are refused.
 pub fn set_coords(option: &str, x0: &mut State, pairs: &[(String, f64)]) -> Result<()> {
     for (name, value) in pairs {
-        let i = coord_index(name).ok_or_else(|| {
-            Error::invalid(
-                option,
-                name,
-                format!(
-                    "unknown coordinate; valid names: {}",
-                    COORD_NAMES.join(", ")
-                ),
-            )
-        })?;
+        let i = coord(option, name)?;
         if !value.is_finite() {
             return Err(Error::invalid(
                 &format!("{option} {name}"),
@@ -67,6 +58,21 @@ pub fn set_coords(option: &str, x0: &mut State, pairs: &[(String, f64)]) -> Resu
         x0[i] = *value;
     }
     Ok(())
+}
+
+/// The index of start coordinate `name` (`x_r`, `vx_r`, ... in [`COORD_NAMES`]); an
+/// unknown name is an error naming `option` and the valid names.
+pub fn coord(option: &str, name: &str) -> Result<usize> {
+    coord_index(name).ok_or_else(|| {
+        Error::invalid(
+            option,
+            name,
+            format!(
+                "unknown coordinate; valid names: {}",
+                COORD_NAMES.join(", ")
+            ),
+        )
+    })
 }
 
 /// Model parameters from Table 1 with `pairs` (TOML keys) applied, validated: errors

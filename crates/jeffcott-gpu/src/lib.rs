@@ -81,7 +81,7 @@ pub struct LaneOutcome<R> {
 
 /// Progress of a run, reported after every time slice.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Progress {
+pub struct SliceReport {
     /// Lane-periods integrated so far.
     pub lane_periods_done: u64,
     /// Lane-periods in the whole run.
@@ -417,7 +417,7 @@ impl GpuRunner {
         consts: &[LaneConsts<R>],
         init: &[Lane<R>],
         schedule: &Schedule,
-        progress: &mut dyn FnMut(Progress) -> bool,
+        progress: &mut dyn FnMut(SliceReport) -> bool,
     ) -> Result<Vec<LaneOutcome<R>>> {
         Ok(self.run_inner(consts, init, None, schedule, progress)?.0)
     }
@@ -434,7 +434,7 @@ impl GpuRunner {
         init: &[Lane<R>],
         tangents: &[[R; STATE_DIM]],
         schedule: &Schedule,
-        progress: &mut dyn FnMut(Progress) -> bool,
+        progress: &mut dyn FnMut(SliceReport) -> bool,
     ) -> Result<LyapunovOutcomes<R>> {
         if tangents.len() != init.len() {
             return Err(Error::invalid(
@@ -450,13 +450,144 @@ impl GpuRunner {
         self.run_inner(consts, init, Some(tangents), schedule, progress)
     }
 
+    /// Dispatches one time slice of `n` lanes until every lane has reached the slice's
+    /// end (the parameters are written); returns the number of dispatches.
+    fn dispatch_slice(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        bufs: &Buffers,
+        n: usize,
+    ) -> Result<u64> {
+        let device = self.gpu.device();
+        let queue = self.gpu.queue();
+        let mut dispatches = 0u64;
+        // Dispatch the slice until every lane has reached its end. Once is the
+        // rule; a driver that cuts long invocations short (llvmpipe's loop
+        // limit, see `loop_budget_left` in the kernel) needs more, and each
+        // dispatch resumes every lane at its last committed macro step.
+        for pass in 0.. {
+            let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("time slice"),
+            });
+            enc.clear_buffer(&bufs.unfinished, 0, None);
+            {
+                let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("advance_lanes"),
+                    timestamp_writes: None,
+                });
+                cp.set_pipeline(pipeline);
+                cp.set_bind_group(0, &bufs.bind_group, &[]);
+                cp.dispatch_workgroups((n as u32).div_ceil(shader::WORKGROUP_SIZE), 1, 1);
+            }
+            enc.copy_buffer_to_buffer(&bufs.unfinished, 0, &bufs.unfinished_staging, 0, None);
+            queue.submit(Some(enc.finish()));
+            dispatches += 1;
+            let left: Vec<u32> = self.read_back(&bufs.unfinished_staging, 8)?;
+            if left.first().copied() == Some(0) {
+                break;
+            }
+            if left.get(1).copied().unwrap_or(0) > 0 {
+                return Err(Error::Gpu {
+                    message: format!(
+                        "{} lanes could not complete one macro step within the \
+                         driver's loop limit per invocation (llvmpipe: 65535 loop \
+                         iterations); lower max_segments",
+                        left[1]
+                    ),
+                });
+            }
+            if pass >= MAX_PASSES_PER_SLICE {
+                return Err(Error::Gpu {
+                    message: format!(
+                        "{} lanes made no progress in {MAX_PASSES_PER_SLICE} dispatches \
+                         of one time slice",
+                        left.first().copied().unwrap_or(0)
+                    ),
+                });
+            }
+        }
+        Ok(dispatches)
+    }
+
+    /// Reads back what a time slice of a chunk produced: the records of slots `slots`
+    /// (recorded periods) into the chunk's outcomes (and, for the lambda_1 variant, the
+    /// tangent's growth into `norms`), and with `last` the final lanes. `start` is the
+    /// chunk's first lane (for error messages).
+    fn read_slice<R: GpuReal>(
+        &self,
+        bufs: &Buffers,
+        slots: std::ops::Range<u32>,
+        last: bool,
+        out: &mut [LaneOutcome<R>],
+        norms: Option<&mut [Vec<f64>]>,
+        start: usize,
+    ) -> Result<()> {
+        let n = out.len();
+        let rec_dim = shader::record_dim(norms.is_some());
+        let rec = rec_dim * size_of::<R>();
+        let rec_bytes = slots.len() * n * rec;
+        let lane_bytes = n * size_of::<R::Lane>();
+        if rec_bytes > 0 || last {
+            let mut enc =
+                self.gpu
+                    .device()
+                    .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                        label: Some("readback"),
+                    });
+            if rec_bytes > 0 {
+                enc.copy_buffer_to_buffer(
+                    &bufs.records,
+                    (slots.start as usize * n * rec) as u64,
+                    &bufs.records_staging,
+                    0,
+                    Some(rec_bytes as u64),
+                );
+            }
+            if last {
+                enc.copy_buffer_to_buffer(
+                    &bufs.lanes,
+                    0,
+                    &bufs.lanes_staging,
+                    0,
+                    Some(lane_bytes as u64),
+                );
+            }
+            self.gpu.queue().submit(Some(enc.finish()));
+        }
+        if rec_bytes > 0 {
+            let points: Vec<R> = self.read_back(&bufs.records_staging, rec_bytes)?;
+            let mut norms = norms;
+            for per_slot in points.chunks_exact(n * rec_dim) {
+                for (lane, x) in per_slot.chunks_exact(rec_dim).enumerate() {
+                    let mut p = [0.0; STATE_DIM];
+                    for (d, v) in p.iter_mut().zip(x) {
+                        *d = v.to_f64();
+                    }
+                    out[lane].poincare.push(p);
+                    if let Some(nm) = norms.as_deref_mut() {
+                        nm[lane].push(x[STATE_DIM].to_f64());
+                    }
+                }
+            }
+        }
+        if last {
+            let gpu_lanes: Vec<R::Lane> = self.read_back(&bufs.lanes_staging, lane_bytes)?;
+            for (i, g) in gpu_lanes.iter().enumerate() {
+                out[i].lane = R::unpack_lane(g).ok_or_else(|| Error::Gpu {
+                    message: format!("lane {} came back with an unknown status", start + i),
+                })?;
+            }
+        }
+        Ok(())
+    }
+
     fn run_inner<R: GpuReal>(
         &self,
         consts: &[LaneConsts<R>],
         init: &[Lane<R>],
         tangents: Option<&[[R; STATE_DIM]]>,
         schedule: &Schedule,
-        progress: &mut dyn FnMut(Progress) -> bool,
+        progress: &mut dyn FnMut(SliceReport) -> bool,
     ) -> Result<LyapunovOutcomes<R>> {
         let lyapunov = tangents.is_some();
         let rec_dim = shader::record_dim(lyapunov);
@@ -533,12 +664,10 @@ impl GpuRunner {
             }
         };
 
-        let device = self.gpu.device();
         let queue = self.gpu.queue();
         let lane_periods_total = n_total as u64 * total as u64;
         let mut lane_periods_done = 0u64;
         let mut dispatches = 0u64;
-        let rec = rec_dim * size_of::<R>();
         for start in (0..n_total).step_by(chunk) {
             let end = (start + chunk).min(n_total);
             let n = end - start;
@@ -562,112 +691,18 @@ impl GpuRunner {
                     pad: [0; 3],
                 };
                 queue.write_buffer(&bufs.params, 0, bytemuck::bytes_of(&params));
-                // Dispatch the slice until every lane has reached its end. Once is the
-                // rule; a driver that cuts long invocations short (llvmpipe's loop
-                // limit, see `loop_budget_left` in the kernel) needs more, and each
-                // dispatch resumes every lane at its last committed macro step.
-                for pass in 0.. {
-                    let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                        label: Some("time slice"),
-                    });
-                    enc.clear_buffer(&bufs.unfinished, 0, None);
-                    {
-                        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                            label: Some("advance_lanes"),
-                            timestamp_writes: None,
-                        });
-                        cp.set_pipeline(pipeline);
-                        cp.set_bind_group(0, &bufs.bind_group, &[]);
-                        cp.dispatch_workgroups((n as u32).div_ceil(shader::WORKGROUP_SIZE), 1, 1);
-                    }
-                    enc.copy_buffer_to_buffer(
-                        &bufs.unfinished,
-                        0,
-                        &bufs.unfinished_staging,
-                        0,
-                        None,
-                    );
-                    queue.submit(Some(enc.finish()));
-                    dispatches += 1;
-                    let left: Vec<u32> = self.read_back(&bufs.unfinished_staging, 8)?;
-                    if left.first().copied() == Some(0) {
-                        break;
-                    }
-                    if left.get(1).copied().unwrap_or(0) > 0 {
-                        return Err(Error::Gpu {
-                            message: format!(
-                                "{} lanes could not complete one macro step within the \
-                                 driver's loop limit per invocation (llvmpipe: 65535 loop \
-                                 iterations); lower max_segments",
-                                left[1]
-                            ),
-                        });
-                    }
-                    if pass >= MAX_PASSES_PER_SLICE {
-                        return Err(Error::Gpu {
-                            message: format!(
-                                "{} lanes made no progress in {MAX_PASSES_PER_SLICE} dispatches \
-                                 of one time slice",
-                                left.first().copied().unwrap_or(0)
-                            ),
-                        });
-                    }
-                }
+                dispatches += self.dispatch_slice(pipeline, bufs, n)?;
                 // Slots [first, periods) of this slice hold recorded periods.
                 let first = schedule.transient.saturating_sub(begin).min(periods);
-                let rec_bytes = (periods - first) as usize * n * rec;
                 let last = begin + periods == total;
-                let lane_bytes = n * size_of::<R::Lane>();
-                if rec_bytes > 0 || last {
-                    let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                        label: Some("readback"),
-                    });
-                    if rec_bytes > 0 {
-                        enc.copy_buffer_to_buffer(
-                            &bufs.records,
-                            (first as usize * n * rec) as u64,
-                            &bufs.records_staging,
-                            0,
-                            Some(rec_bytes as u64),
-                        );
-                    }
-                    if last {
-                        enc.copy_buffer_to_buffer(
-                            &bufs.lanes,
-                            0,
-                            &bufs.lanes_staging,
-                            0,
-                            Some(lane_bytes as u64),
-                        );
-                    }
-                    queue.submit(Some(enc.finish()));
-                }
-                if rec_bytes > 0 {
-                    let points: Vec<R> = self.read_back(&bufs.records_staging, rec_bytes)?;
-                    for per_slot in points.chunks_exact(n * rec_dim) {
-                        for (lane, x) in per_slot.chunks_exact(rec_dim).enumerate() {
-                            let mut p = [0.0; STATE_DIM];
-                            for (d, v) in p.iter_mut().zip(x) {
-                                *d = v.to_f64();
-                            }
-                            out[start + lane].poincare.push(p);
-                            if lyapunov {
-                                norms[start + lane].push(x[STATE_DIM].to_f64());
-                            }
-                        }
-                    }
-                }
-                if last {
-                    let gpu_lanes: Vec<R::Lane> =
-                        self.read_back(&bufs.lanes_staging, lane_bytes)?;
-                    for (i, g) in gpu_lanes.iter().enumerate() {
-                        out[start + i].lane = R::unpack_lane(g).ok_or_else(|| Error::Gpu {
-                            message: format!("lane {} came back with an unknown status", start + i),
-                        })?;
-                    }
-                }
+                let (out_chunk, norms_chunk) = if lyapunov {
+                    (&mut out[start..end], Some(&mut norms[start..end]))
+                } else {
+                    (&mut out[start..end], None)
+                };
+                self.read_slice(bufs, first..periods, last, out_chunk, norms_chunk, start)?;
                 lane_periods_done += n as u64 * periods as u64;
-                let go_on = progress(Progress {
+                let go_on = progress(SliceReport {
                     lane_periods_done,
                     lane_periods_total,
                     dispatches,

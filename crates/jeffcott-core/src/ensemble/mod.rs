@@ -262,6 +262,20 @@ pub enum Backend {
     Gpu,
 }
 
+impl LaneSpec {
+    /// One lane per speed, all from `x0` with parameter set 0.
+    pub fn at_speeds(omegas: &[f64], x0: State) -> Vec<LaneSpec> {
+        omegas
+            .iter()
+            .map(|&omega| LaneSpec {
+                omega,
+                x0,
+                param_set: 0,
+            })
+            .collect()
+    }
+}
+
 impl Backend {
     /// Parses `auto`, `cpu` or `gpu` (the command line's spelling); `field` names the
     /// argument in the error.
