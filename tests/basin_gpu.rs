@@ -10,9 +10,8 @@ use jeffcott_core::integrate::lane::StepperConfig;
 use jeffcott_core::model::{Params, VX_R, X_R};
 use jeffcott_gpu::{DeviceRequest, GpuDevice};
 
-fn require_gpu() -> bool {
-    std::env::var("JEFFCOTT_REQUIRE_GPU").as_deref() == Ok("1")
-}
+mod common;
+use common::require_gpu;
 
 #[test]
 fn basin_labels_are_identical_on_cpu_and_gpu_f64() {

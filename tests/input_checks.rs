@@ -12,6 +12,9 @@
 use std::path::Path;
 use std::process::{Command, Output};
 
+mod common;
+use common::require_gpu;
+
 fn jeffcott(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_jeffcott"))
         .args(args)
@@ -32,10 +35,6 @@ fn assert_refused(o: &Output, needles: &[&str]) -> String {
         assert!(e.contains(n), "`{n}` missing from: {e}");
     }
     e
-}
-
-fn require_gpu() -> bool {
-    std::env::var("JEFFCOTT_REQUIRE_GPU").as_deref() == Ok("1")
 }
 
 /// True when `jeffcott info` sees an adapter; panics without one when

@@ -9,6 +9,9 @@ use jeffcott_core::integrate::lane::{
 use jeffcott_core::lyapunov::{Spectrum, SpectrumConfig, spectrum};
 use jeffcott_core::model::{Params, STATE_DIM, State};
 
+mod common;
+use common::require_gpu;
+
 /// -2 (2 xi_r w_r + 2 xi_s w_s) for Table 1 (MODEL.md 6) [1/s].
 const TABLE1_TRACE: f64 = -2.0 * (2.0 * 0.02 * 140.0 + 2.0 * 0.05 * 540.0);
 
@@ -395,10 +398,6 @@ fn cpu_lambda1_of_a_lane_agrees_with_the_first_exponent_of_the_full_spectrum() {
         assert!(plain.lambda1.is_none());
         assert_eq!(plain.poincare, res.poincare);
     }
-}
-
-fn require_gpu() -> bool {
-    std::env::var("JEFFCOTT_REQUIRE_GPU").as_deref() == Ok("1")
 }
 
 /// A runner with f64 support, or `None` (after saying so) when there is none and none is
