@@ -9,6 +9,7 @@ dictionaries whose keys are those of the command line's JSON files:
 - :func:`bifurcation` sweeps up/down and brute force over W (``jeffcott bifurcation``),
 - :func:`basin` a basin of attraction over two start coordinates (``jeffcott basin``),
 - :func:`lyapunov` the full Lyapunov spectrum at one speed (``jeffcott lyapunov``),
+- :func:`map` a two-parameter design chart (``jeffcott map``),
 - :func:`parameters` and :func:`adapters` the model's parameters and the GPU adapters.
 
 ``backend`` is ``"auto"`` (a hardware GPU if present, else all CPU cores), ``"cpu"`` or
@@ -39,10 +40,12 @@ from ._jeffcott import (  # noqa: E402
     bifurcation,
     ensemble,
     lyapunov,
+    map,
     parameters,
     simulate,
 )
 
+# `map` is not in __all__: a star import would shadow the builtin map.
 __all__ = [
     "COORD_NAMES",
     "LANES_COLUMNS",

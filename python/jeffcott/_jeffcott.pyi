@@ -121,6 +121,30 @@ def lyapunov(
 ) -> Dict[str, Any]:
     """The full spectrum: spectrum.json's keys plus history [periods, 9]."""
 
+def map(
+    x: AxisSpec,
+    y: AxisSpec,
+    *,
+    omega: Optional[float] = None,
+    ics: int = 1,
+    seed: int = 1,
+    transient: int = 500,
+    periods: int = 64,
+    log_x: bool = False,
+    log_y: bool = False,
+    params: Optional[Mapping[str, float]] = None,
+    backend: str = "auto",
+    precision: Optional[str] = None,
+    lyapunov: bool = True,
+    steps_per_period: int = 500,
+    max_segments: int = 16,
+    divergence_bound: float = 1.0,
+    contact_substeps: int = 2,
+    progress: Optional[Progress] = None,
+) -> Dict[str, Any]:
+    """A two-parameter map: period, class, attractors, regime (int32 [ny, nx]), lambda1,
+    contact, peak_force (f64 [ny, nx]), x, y and summary (map.json's keys)."""
+
 def parameters(params: Optional[Mapping[str, float]] = None) -> Dict[str, float]:
     """Table 1 with the given overrides, validated."""
 

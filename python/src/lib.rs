@@ -596,6 +596,107 @@ fn lyapunov<'py>(
     Ok(d)
 }
 
+/// A two-parameter map (design chart): the command line's `map`.
+///
+/// `x` and `y` are `(name, lo, hi, n)` tuples or `"name:lo:hi:n"` strings over `omega`,
+/// any model parameter or start coordinate (geometric spacing with `log_x`/`log_y`);
+/// `omega` is the speed of every cell unless an axis is `omega`. Returns `period`,
+/// `class`, `attractors`, `regime` (int32 `[ny, nx]`), `lambda1`, `contact`,
+/// `peak_force` (f64 `[ny, nx]`), `x`, `y` (the axis values) and `summary`, the
+/// dictionary of `map.json` (every cell's attractors under `cell_attractors`).
+#[pyfunction]
+#[pyo3(signature = (
+    x, y, *, omega=None, ics=defaults::map::ICS, seed=defaults::map::SEED,
+    transient=defaults::map::TRANSIENT, periods=defaults::map::PERIODS,
+    log_x=false, log_y=false, params=None, backend="auto", precision=None, lyapunov=true,
+    steps_per_period=StepperConfig::DEFAULT.steps_per_period,
+    max_segments=StepperConfig::DEFAULT.max_segments,
+    divergence_bound=StepperConfig::DEFAULT.divergence_bound,
+    contact_substeps=StepperConfig::DEFAULT.contact_substeps,
+    progress=None,
+))]
+#[allow(clippy::too_many_arguments)]
+fn map<'py>(
+    py: Python<'py>,
+    x: Bound<'py, PyAny>,
+    y: Bound<'py, PyAny>,
+    omega: Option<f64>,
+    ics: u32,
+    seed: u64,
+    transient: u32,
+    periods: u32,
+    log_x: bool,
+    log_y: bool,
+    params: Option<HashMap<String, f64>>,
+    backend: &str,
+    precision: Option<&str>,
+    lyapunov: bool,
+    steps_per_period: u32,
+    max_segments: u32,
+    divergence_bound: f64,
+    contact_substeps: u32,
+    progress: Option<Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    use jeffcott_analysis::map::{MapAxis, MapSpec};
+    let (backend, precision) = backend_precision(backend, precision)?;
+    let axis = |field: &str, v: &Bound<'py, PyAny>, log: bool| -> PyResult<MapAxis> {
+        let text = match v.extract::<String>() {
+            Ok(t) => t,
+            Err(_) => {
+                let (name, lo, hi, n): (String, f64, f64, usize) = v.extract().map_err(|_| {
+                    pyo3::exceptions::PyValueError::new_err(format!(
+                        "invalid value for `{field}`: expected (name, lo, hi, n) or \"name:lo:hi:n\", e.g. (\"omega\", 120, 150, 60)"
+                    ))
+                })?;
+                format!("{name}:{lo:e}:{hi:e}:{n}")
+            }
+        };
+        MapAxis::parse(field, &text, log).map_err(run::to_py_err)
+    };
+    let x = axis("x", &x, log_x)?;
+    let y = axis("y", &y, log_y)?;
+    jeffcott_analysis::map::check_size(&x, &y, ics).map_err(run::to_py_err)?;
+    let spec = MapSpec {
+        params: model_params(params)?,
+        omega,
+        x,
+        y,
+        ics,
+        seed,
+        transient,
+        recorded: periods,
+        stepper: stepper(
+            steps_per_period,
+            max_segments,
+            divergence_bound,
+            contact_substeps,
+        ),
+        precision,
+        backend,
+        catalogue: CatalogueConfig::for_precision(precision),
+        lyapunov,
+        chunk: None,
+    };
+    spec.validate().map_err(run::to_py_err)?;
+    let res = run::detached(py, progress.as_ref(), |ctl| {
+        jeffcott_analysis::map::map(&spec, ctl)
+    })?;
+    let summary = jeffcott_analysis::map::summary(&spec, &res);
+    let nx = spec.x.n;
+    let d = PyDict::new(py);
+    d.set_item("period", array2(py, res.period, nx)?)?;
+    d.set_item("class", array2(py, res.class, nx)?)?;
+    d.set_item("lambda1", array2(py, res.lambda1, nx)?)?;
+    d.set_item("attractors", array2(py, res.attractors, nx)?)?;
+    d.set_item("contact", array2(py, res.contact, nx)?)?;
+    d.set_item("peak_force", array2(py, res.peak_force, nx)?)?;
+    d.set_item("regime", array2(py, res.regime, nx)?)?;
+    d.set_item("x", array1(py, spec.x.values()))?;
+    d.set_item("y", array1(py, spec.y.values()))?;
+    d.set_item("summary", json_to_py(py, &summary)?)?;
+    Ok(d)
+}
+
 /// The model's parameters (Table 1 of the article, SI units) with `params` applied, as
 /// a dictionary keyed like the TOML file; raises ValueError naming a bad key or value.
 #[pyfunction]
@@ -630,6 +731,7 @@ fn _jeffcott(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(basin, m)?)?;
     m.add_function(wrap_pyfunction!(bifurcation, m)?)?;
     m.add_function(wrap_pyfunction!(lyapunov, m)?)?;
+    m.add_function(wrap_pyfunction!(map, m)?)?;
     m.add_function(wrap_pyfunction!(parameters, m)?)?;
     m.add_function(wrap_pyfunction!(adapters, m)?)?;
     Ok(())

@@ -114,6 +114,22 @@ def test_basin_labels_equal_the_cli_labels(tmp_path):
     assert sorted(a["period"] for a in r["attractors"]) == [4, 5]
 
 
+def test_map_arrays_and_summary_equal_the_cli_map(tmp_path):
+    out = tmp_path / "map"
+    cli("map", "--x", "omega:131:134:4", "--y", "e:0.0005:0.001:3", "--transient", "200",
+        "--periods", "16", "--ics", "2", "--backend", "cpu", "--no-plot", "--out", str(out))
+    r = jeffcott.map(("omega", 131, 134, 4), "e:0.0005:0.001:3", transient=200, periods=16,
+                     ics=2, backend="cpu")
+    for name in ("period", "class", "attractors", "regime", "lambda1", "contact",
+                 "peak_force", "x", "y"):
+        want = np.load(out / f"{name}.npy")
+        assert r[name].dtype == want.dtype and r[name].tobytes() == want.tobytes(), name
+    m = json.loads((out / "map.json").read_text())
+    for k in ("files", "jeffcott_version"):
+        m.pop(k)
+    assert r["summary"] == m
+
+
 @pytest.mark.parametrize(
     "call, field",
     [
@@ -129,6 +145,7 @@ def test_basin_labels_equal_the_cli_labels(tmp_path):
         (lambda: jeffcott.basin(133, ("x_r", 0.0, 1.0, 4), ("x_r", 0.0, 1.0, 4)), "y"),
         (lambda: jeffcott.bifurcation("130:141:4", sweep="sideways"), "sweep"),
         (lambda: jeffcott.lyapunov(140, time=-1.0), "max_time"),
+        (lambda: jeffcott.map(("omega", 131, 134, 4), ("nope", 0, 1, 3)), "y"),
     ],
 )
 def test_bad_input_raises_value_error_naming_the_field(call, field):

@@ -7,6 +7,7 @@ use super::rundir::{self, RunArgs};
 use super::{CatalogueArgs, ModelArgs, StepperArgs};
 use crate::plot::{basin_map, category_map, lambda1_map};
 use clap::Args;
+use jeffcott_analysis::defaults;
 use jeffcott_analysis::map::{MapAxis, MapResult, MapSpec, MapVar, code, map_with};
 use jeffcott_analysis::output;
 use jeffcott_core::ensemble::{Backend, Precision};
@@ -38,16 +39,16 @@ pub struct MapArgs {
     /// cell's W, drawn as the brute-force bifurcation draws them; the same draws in every
     /// cell). K = 1 is the
     /// classical diagram from the static equilibrium.
-    #[arg(long, default_value_t = 1, value_name = "K")]
+    #[arg(long, default_value_t = defaults::map::ICS, value_name = "K")]
     pub ics: u32,
     /// Seed of the start states.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = defaults::map::SEED)]
     pub seed: u64,
     /// Forcing periods integrated and discarded.
-    #[arg(long, default_value_t = 500, value_name = "Q")]
+    #[arg(long, default_value_t = defaults::map::TRANSIENT, value_name = "Q")]
     pub transient: u32,
     /// Forcing periods recorded per lane (at least 2 n to see period n).
-    #[arg(long, default_value_t = 64, value_name = "P")]
+    #[arg(long, default_value_t = defaults::map::PERIODS, value_name = "P")]
     pub periods: u32,
     /// Skip lambda_1 (then lambda1.npy is NaN and aperiodic cells are not told apart as
     /// quasiperiodic or chaotic); lambda_1 costs about 1.8x the run time on the CPU.
@@ -84,32 +85,13 @@ pub struct MapArgs {
     pub quiet: bool,
 }
 
-/// Most cells a map may have (its per-cell attractor lists are held in memory).
-pub const MAX_MAP_CELLS: u64 = 100_000_000;
-
 impl MapArgs {
     /// The map these arguments describe, validated.
     pub fn spec(&self) -> Result<MapSpec> {
         let params = self.model.params()?;
         let x = MapAxis::parse("x", &self.x, self.log_x)?;
         let y = MapAxis::parse("y", &self.y, self.log_y)?;
-        let cells = x.n as u64 * y.n as u64;
-        if cells > MAX_MAP_CELLS {
-            return Err(Error::invalid(
-                "x, y",
-                format!("{} x {} = {cells} cells", x.n, y.n),
-                format!("a map may have at most {MAX_MAP_CELLS} cells; use fewer per axis"),
-            ));
-        }
-        jeffcott_core::limits::check_memory(
-            "x, y",
-            format!("{} x {} cells", x.n, y.n),
-            // Per cell: the arrays (36 bytes) and its attractor list (~200 bytes per
-            // attractor), plus one unit of lanes.
-            cells.saturating_mul(36 + 200 * self.ics.min(8) as u64),
-            "the per-cell arrays and attractor lists",
-            "use fewer cells or fewer --ics",
-        )?;
+        jeffcott_analysis::map::check_size(&x, &y, self.ics)?;
         let precision = self
             .precision
             .unwrap_or_else(|| jeffcott_analysis::backend::default_precision(self.backend));
@@ -213,17 +195,7 @@ fn axis_label(axis: &MapAxis) -> (String, (f64, f64)) {
     }
 }
 
-/// Name of a class code, for legends and map.json.
-pub fn class_name(c: i32) -> String {
-    match c {
-        n if n > 0 => format!("period-{n}"),
-        code::APERIODIC => "aperiodic".into(),
-        code::QUASIPERIODIC => "quasiperiodic".into(),
-        code::CHAOTIC => "chaotic".into(),
-        code::UNCLASSIFIED => "unclassified".into(),
-        _ => "diverged".into(),
-    }
-}
+pub use jeffcott_analysis::map::class_name;
 
 /// Periods drawn in colours of their own on the isoperiodic map; longer ones share one.
 const OWN_COLOUR_PERIODS: i32 = 8;
@@ -379,28 +351,8 @@ pub fn write_map(dir: &Path, spec: &MapSpec, res: &MapResult, plot_it: bool) -> 
             &legend,
         )?;
     }
-    let mut tally: std::collections::BTreeMap<String, usize> = Default::default();
-    for &c in &res.class {
-        *tally.entry(class_name(c)).or_default() += 1;
-    }
-    let json = serde_json::json!({
-        "x": {"var": spec.x.var.name(), "unit": spec.x.var.unit(), "lo": spec.x.lo, "hi": spec.x.hi, "n": nx, "log": spec.x.log},
-        "y": {"var": spec.y.var.name(), "unit": spec.y.var.unit(), "lo": spec.y.lo, "hi": spec.y.hi, "n": ny, "log": spec.y.log},
-        "omega": spec.omega,
-        "ics": spec.ics,
-        "seed": spec.seed,
-        "transient": spec.transient,
-        "periods": spec.recorded,
-        "steps_per_period": spec.stepper.steps_per_period,
-        "lyapunov": spec.lyapunov,
-        "cells": nx * ny,
-        "classes_from_static_equilibrium": tally,
-        "multistable_cells": res.attractors.iter().filter(|&&n| n > 1).count(),
-        "rubbing_cells": res.contact.iter().filter(|&&c| c > 0.0).count(),
-        "max_attractors": res.attractors.iter().copied().max().unwrap_or(0),
-        "cell_attractors": res.cells,
-        "params": spec.params,
-        "files": {
+    let mut json = jeffcott_analysis::map::summary(spec, res);
+    json["files"] = serde_json::json!({
             "period.npy": "int32 [ny, nx]: period of the attractor reached from the static equilibrium; 0 aperiodic (quasiperiodic, chaotic or undecided), -1 diverged",
             "class.npy": "int32 [ny, nx]: its class code: n > 0 period-n, 0 aperiodic, -1 diverged, -2 quasiperiodic, -3 chaotic, -4 unclassified",
             "lambda1.npy": "f64 [ny, nx]: its mean largest Lyapunov exponent [1/s] (NaN when diverged or with --no-lyapunov)",
@@ -416,9 +368,8 @@ pub fn write_map(dir: &Path, spec: &MapSpec, res: &MapResult, plot_it: bool) -> 
             "map_lambda1.png": "lambda1.npy (blue negative, white 0, red positive)",
             "map_multistability.png": "attractors.npy",
             "run.json": "the run: state, command, specification, backend and wall time",
-        },
-        "jeffcott_version": env!("CARGO_PKG_VERSION"),
     });
+    json["jeffcott_version"] = serde_json::json!(env!("CARGO_PKG_VERSION"));
     output::write_json(&dir.join("map.json"), &json)
 }
 

@@ -36,6 +36,18 @@ pub mod basin {
     pub const UNCERTAINTY_SAMPLES: usize = 100;
 }
 
+/// `map`: two-parameter maps.
+pub mod map {
+    /// Start states per cell.
+    pub const ICS: u32 = 1;
+    /// Seed of the start states.
+    pub const SEED: u64 = 1;
+    /// Forcing periods integrated and discarded.
+    pub const TRANSIENT: u32 = 500;
+    /// Forcing periods recorded per lane.
+    pub const PERIODS: u32 = 64;
+}
+
 /// `bifurcation`: quasistatic sweeps and brute force over W.
 pub mod bifurcation {
     /// Brute-force start states per W.

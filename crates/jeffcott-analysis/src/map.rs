@@ -642,3 +642,70 @@ fn class_of(a: &CellAttractor) -> Class {
         _ => Class::Aperiodic,
     }
 }
+
+/// Name of a class code, for legends and map.json.
+pub fn class_name(c: i32) -> String {
+    match c {
+        n if n > 0 => format!("period-{n}"),
+        code::APERIODIC => "aperiodic".into(),
+        code::QUASIPERIODIC => "quasiperiodic".into(),
+        code::CHAOTIC => "chaotic".into(),
+        code::UNCLASSIFIED => "unclassified".into(),
+        _ => "diverged".into(),
+    }
+}
+
+/// The map as `map.json` holds it (the command line adds the list of files and the
+/// version): the axes, the settings, the tally of classes from the static equilibrium,
+/// multistable and rubbing cells, and every cell's attractors.
+pub fn summary(spec: &MapSpec, res: &MapResult) -> serde_json::Value {
+    let (nx, ny) = (spec.x.n, spec.y.n);
+    let mut tally: std::collections::BTreeMap<String, usize> = Default::default();
+    for &c in &res.class {
+        *tally.entry(class_name(c)).or_default() += 1;
+    }
+    serde_json::json!({
+        "x": {"var": spec.x.var.name(), "unit": spec.x.var.unit(), "lo": spec.x.lo, "hi": spec.x.hi, "n": nx, "log": spec.x.log},
+        "y": {"var": spec.y.var.name(), "unit": spec.y.var.unit(), "lo": spec.y.lo, "hi": spec.y.hi, "n": ny, "log": spec.y.log},
+        "omega": spec.omega,
+        "ics": spec.ics,
+        "seed": spec.seed,
+        "transient": spec.transient,
+        "periods": spec.recorded,
+        "steps_per_period": spec.stepper.steps_per_period,
+        "lyapunov": spec.lyapunov,
+        "cells": nx * ny,
+        "classes_from_static_equilibrium": tally,
+        "multistable_cells": res.attractors.iter().filter(|&&n| n > 1).count(),
+        "rubbing_cells": res.contact.iter().filter(|&&c| c > 0.0).count(),
+        "max_attractors": res.attractors.iter().copied().max().unwrap_or(0),
+        "cell_attractors": res.cells,
+        "params": spec.params,
+    })
+}
+
+/// Most cells a map may have (its per-cell attractor lists are held in memory).
+pub const MAX_MAP_CELLS: u64 = 100_000_000;
+
+/// Refuses a map of more than [`MAX_MAP_CELLS`] cells, or one whose per-cell arrays and
+/// attractor lists (with `ics` start states a cell) do not fit in memory.
+pub fn check_size(x: &MapAxis, y: &MapAxis, ics: u32) -> Result<()> {
+    let cells = x.n as u64 * y.n as u64;
+    if cells > MAX_MAP_CELLS {
+        return Err(Error::invalid(
+            "x, y",
+            format!("{} x {} = {cells} cells", x.n, y.n),
+            format!("a map may have at most {MAX_MAP_CELLS} cells; use fewer per axis"),
+        ));
+    }
+    jeffcott_core::limits::check_memory(
+        "x, y",
+        format!("{} x {} cells", x.n, y.n),
+        // Per cell: the arrays (36 bytes) and its attractor list (~200 bytes per
+        // attractor), plus one unit of lanes.
+        cells.saturating_mul(36 + 200 * ics.min(8) as u64),
+        "the per-cell arrays and attractor lists",
+        "use fewer cells or fewer --ics",
+    )?;
+    Ok(())
+}
