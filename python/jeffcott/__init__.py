@@ -10,6 +10,7 @@ dictionaries whose keys are those of the command line's JSON files:
 - :func:`basin` a basin of attraction over two start coordinates (``jeffcott basin``),
 - :func:`lyapunov` the full Lyapunov spectrum at one speed (``jeffcott lyapunov``),
 - :func:`map` a two-parameter design chart (``jeffcott map``),
+- :func:`continuation` attractors followed over a parameter (``jeffcott continuation``),
 - :func:`parameters` and :func:`adapters` the model's parameters and the GPU adapters.
 
 ``backend`` is ``"auto"`` (a hardware GPU if present, else all CPU cores), ``"cpu"`` or
@@ -38,6 +39,7 @@ from ._jeffcott import (  # noqa: E402
     adapters,
     basin,
     bifurcation,
+    continuation,
     ensemble,
     lyapunov,
     map,
@@ -54,6 +56,7 @@ __all__ = [
     "adapters",
     "basin",
     "bifurcation",
+    "continuation",
     "ensemble",
     "lyapunov",
     "parameters",

@@ -145,6 +145,30 @@ def map(
     """A two-parameter map: period, class, attractors, regime (int32 [ny, nx]), lambda1,
     contact, peak_force (f64 [ny, nx]), x, y and summary (map.json's keys)."""
 
+def continuation(
+    param: AxisSpec,
+    *,
+    omega: Optional[float] = None,
+    ics: int = 32,
+    start_box: Optional[str] = None,
+    seed: int = 1,
+    direction: str = "both",
+    match_threshold: Optional[float] = None,
+    transient: int = 500,
+    periods: int = 64,
+    params: Optional[Mapping[str, float]] = None,
+    backend: str = "auto",
+    precision: Optional[str] = None,
+    lyapunov: bool = True,
+    steps_per_period: int = 500,
+    max_segments: int = 16,
+    divergence_bound: float = 1.0,
+    contact_substeps: int = 2,
+    progress: Optional[Progress] = None,
+) -> Dict[str, Any]:
+    """Attractors followed over a parameter: values [n], fractions_<dir> [n, ids + 1],
+    fraction_errors_<dir>, tipping_<dir> [n - 1, ids + 1, ids + 1], summary."""
+
 def parameters(params: Optional[Mapping[str, float]] = None) -> Dict[str, float]:
     """Table 1 with the given overrides, validated."""
 

@@ -4,6 +4,7 @@
 
 use crate::run::to_py_err;
 use jeffcott_analysis::basin::Axis;
+use jeffcott_analysis::map::MapAxis;
 use jeffcott_core::Error;
 use jeffcott_core::ensemble::LaneSpec;
 use jeffcott_core::ensemble::table::{LaneTable, TableDefaults, lanes_from_table};
@@ -46,6 +47,24 @@ pub fn axis(field: &str, v: &Bound<'_, PyAny>) -> PyResult<Axis> {
     let a = Axis { coord, lo, hi, n };
     a.validate(field).map_err(to_py_err)?;
     Ok(a)
+}
+
+/// A map or continuation axis from `(name, lo, hi, n)` or `"name:lo:hi:n"` (omega, a
+/// model parameter or a start coordinate), geometric with `log`.
+pub fn map_axis(field: &str, v: &Bound<'_, PyAny>, log: bool) -> PyResult<MapAxis> {
+    let text = match v.extract::<String>() {
+        Ok(t) => t,
+        Err(_) => {
+            let (name, lo, hi, n): (String, f64, f64, usize) = v.extract().map_err(|_| {
+                pyo3::exceptions::PyValueError::new_err(format!(
+                    "invalid value for `{field}`: expected (name, lo, hi, n) or \"name:lo:hi:n\", e.g. (\"omega\", 120, 150, 60)"
+                ))
+            })?;
+            // `{:e}` is the shortest text that parses back to the same f64.
+            format!("{name}:{lo:e}:{hi:e}:{n}")
+        }
+    };
+    MapAxis::parse(field, &text, log).map_err(to_py_err)
 }
 
 /// The lanes of an ensemble: one per speed from the start state, or one per row of a
@@ -150,4 +169,11 @@ pub fn array3<'py>(
 ) -> PyResult<Bound<'py, PyAny>> {
     let c = jeffcott_core::model::STATE_DIM;
     Ok(PyArray1::from_vec(py, v).reshape([a, b, c])?.into_any())
+}
+
+/// An array of any `shape` from row-major data.
+pub fn array_nd<'py>(py: Python<'py>, v: Vec<f64>, shape: &[usize]) -> PyResult<Bound<'py, PyAny>> {
+    Ok(PyArray1::from_vec(py, v)
+        .reshape(shape.to_vec())?
+        .into_any())
 }

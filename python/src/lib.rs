@@ -637,24 +637,10 @@ fn map<'py>(
     contact_substeps: u32,
     progress: Option<Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    use jeffcott_analysis::map::{MapAxis, MapSpec};
+    use jeffcott_analysis::map::MapSpec;
     let (backend, precision) = backend_precision(backend, precision)?;
-    let axis = |field: &str, v: &Bound<'py, PyAny>, log: bool| -> PyResult<MapAxis> {
-        let text = match v.extract::<String>() {
-            Ok(t) => t,
-            Err(_) => {
-                let (name, lo, hi, n): (String, f64, f64, usize) = v.extract().map_err(|_| {
-                    pyo3::exceptions::PyValueError::new_err(format!(
-                        "invalid value for `{field}`: expected (name, lo, hi, n) or \"name:lo:hi:n\", e.g. (\"omega\", 120, 150, 60)"
-                    ))
-                })?;
-                format!("{name}:{lo:e}:{hi:e}:{n}")
-            }
-        };
-        MapAxis::parse(field, &text, log).map_err(run::to_py_err)
-    };
-    let x = axis("x", &x, log_x)?;
-    let y = axis("y", &y, log_y)?;
+    let x = convert::map_axis("x", &x, log_x)?;
+    let y = convert::map_axis("y", &y, log_y)?;
     jeffcott_analysis::map::check_size(&x, &y, ics).map_err(run::to_py_err)?;
     let spec = MapSpec {
         params: model_params(params)?,
@@ -697,6 +683,117 @@ fn map<'py>(
     Ok(d)
 }
 
+/// Attractors followed over a parameter, run-up and run-down: the command line's
+/// `continuation` (Attractors.jl's seeded find-and-match).
+///
+/// `param` is `(name, lo, hi, n)` or `"name:lo:hi:n"` over `omega` or a model parameter;
+/// `start_box` (the CLI's `--box`), e.g. `"x_r:-0.006:0.006,vx_r:-1:1"`, draws the fresh
+/// start states uniformly in a box. Returns `values` `[n]` and per ramp (`up`, `down`)
+/// `fractions_<dir>` `[n, ids + 1]` (last column diverged), `fraction_errors_<dir>` and
+/// `tipping_<dir>` `[n - 1, ids + 1, ids + 1]`, and `summary`, the dictionary of
+/// `continuation.json`.
+#[pyfunction]
+#[pyo3(signature = (
+    param, *, omega=None, ics=defaults::continuation::ICS, start_box=None,
+    seed=defaults::continuation::SEED, direction="both", match_threshold=None,
+    transient=defaults::continuation::TRANSIENT, periods=defaults::continuation::PERIODS,
+    params=None, backend="auto", precision=None, lyapunov=true,
+    steps_per_period=StepperConfig::DEFAULT.steps_per_period,
+    max_segments=StepperConfig::DEFAULT.max_segments,
+    divergence_bound=StepperConfig::DEFAULT.divergence_bound,
+    contact_substeps=StepperConfig::DEFAULT.contact_substeps,
+    progress=None,
+))]
+#[allow(clippy::too_many_arguments)]
+fn continuation<'py>(
+    py: Python<'py>,
+    param: Bound<'py, PyAny>,
+    omega: Option<f64>,
+    ics: u32,
+    start_box: Option<&str>,
+    seed: u64,
+    direction: &str,
+    match_threshold: Option<f64>,
+    transient: u32,
+    periods: u32,
+    params: Option<HashMap<String, f64>>,
+    backend: &str,
+    precision: Option<&str>,
+    lyapunov: bool,
+    steps_per_period: u32,
+    max_segments: u32,
+    divergence_bound: f64,
+    contact_substeps: u32,
+    progress: Option<Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    use jeffcott_analysis::continuation::{ContinuationSpec, Direction};
+    let (backend, precision) = backend_precision(backend, precision)?;
+    let directions = match direction {
+        "up" => vec![Direction::Up],
+        "down" => vec![Direction::Down],
+        "both" => vec![Direction::Up, Direction::Down],
+        other => {
+            return Err(run::to_py_err(Error::invalid(
+                "direction",
+                other,
+                "must be up, down or both",
+            )));
+        }
+    };
+    let param = convert::map_axis("param", &param, false)?;
+    if param.n < 2 {
+        return Err(run::to_py_err(Error::invalid(
+            "param",
+            param.n,
+            "a continuation needs at least 2 values",
+        )));
+    }
+    let spec = ContinuationSpec {
+        params: model_params(params)?,
+        omega,
+        param,
+        ics,
+        start_box: start_box
+            .map(|b| jeffcott_analysis::continuation::parse_box("start_box", b))
+            .transpose()
+            .map_err(run::to_py_err)?,
+        seed,
+        transient,
+        recorded: periods,
+        stepper: stepper(
+            steps_per_period,
+            max_segments,
+            divergence_bound,
+            contact_substeps,
+        ),
+        precision,
+        backend,
+        catalogue: CatalogueConfig::for_precision(precision),
+        lyapunov,
+        directions,
+        match_threshold: match_threshold.unwrap_or(f64::INFINITY),
+    };
+    spec.validate().map_err(run::to_py_err)?;
+    let res = run::detached(py, progress.as_ref(), |ctl| {
+        jeffcott_analysis::continuation::continuation(&spec, ctl)
+    })?;
+    let summary = jeffcott_analysis::continuation::summary(&spec, &res);
+    let n = res.values.len();
+    let d = PyDict::new(py);
+    d.set_item("values", array1(py, res.values.clone()))?;
+    for r in &res.ramps {
+        let name = r.direction.name();
+        let g = r.ids + 1;
+        let (f, e) = r.fractions();
+        d.set_item(format!("fractions_{name}"), array2(py, f, g)?)?;
+        d.set_item(format!("fraction_errors_{name}"), array2(py, e, g)?)?;
+        let t = convert::array_nd(py, r.tipping(), &[n - 1, g, g])?;
+        d.set_item(format!("tipping_{name}"), t)?;
+    }
+    d.set_item("summary", json_to_py(py, &summary)?)?;
+    Ok(d)
+}
+
 /// The model's parameters (Table 1 of the article, SI units) with `params` applied, as
 /// a dictionary keyed like the TOML file; raises ValueError naming a bad key or value.
 #[pyfunction]
@@ -732,6 +829,7 @@ fn _jeffcott(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(bifurcation, m)?)?;
     m.add_function(wrap_pyfunction!(lyapunov, m)?)?;
     m.add_function(wrap_pyfunction!(map, m)?)?;
+    m.add_function(wrap_pyfunction!(continuation, m)?)?;
     m.add_function(wrap_pyfunction!(parameters, m)?)?;
     m.add_function(wrap_pyfunction!(adapters, m)?)?;
     Ok(())

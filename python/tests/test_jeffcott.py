@@ -130,6 +130,26 @@ def test_map_arrays_and_summary_equal_the_cli_map(tmp_path):
     assert r["summary"] == m
 
 
+def test_continuation_arrays_and_summary_equal_the_cli_continuation(tmp_path):
+    out = tmp_path / "cont"
+    cli("continuation", "--param", "omega:131.5:132.5:3", "--ics", "6", "--transient", "200",
+        "--periods", "16", "--backend", "cpu", "--no-plot", "--out", str(out))
+    r = jeffcott.continuation(("omega", 131.5, 132.5, 3), ics=6, transient=200, periods=16,
+                              backend="cpu")
+    for name in ("values", "fractions_up", "fraction_errors_up", "tipping_up",
+                 "fractions_down", "fraction_errors_down", "tipping_down"):
+        want = np.load(out / f"{name}.npy")
+        assert r[name].shape == want.shape and r[name].tobytes() == want.tobytes(), name
+    c = json.loads((out / "continuation.json").read_text())
+    for k in ("files", "jeffcott_version"):
+        c.pop(k)
+    assert r["summary"] == c
+    # Every row of a tipping matrix with a basin sums to one (Kaszas et al. 2019).
+    t = r["tipping_up"]
+    rows = t[~np.isnan(t[:, :, 0])]
+    assert np.allclose(rows.sum(axis=-1), 1.0)
+
+
 @pytest.mark.parametrize(
     "call, field",
     [
@@ -146,6 +166,8 @@ def test_map_arrays_and_summary_equal_the_cli_map(tmp_path):
         (lambda: jeffcott.bifurcation("130:141:4", sweep="sideways"), "sweep"),
         (lambda: jeffcott.lyapunov(140, time=-1.0), "max_time"),
         (lambda: jeffcott.map(("omega", 131, 134, 4), ("nope", 0, 1, 3)), "y"),
+        (lambda: jeffcott.continuation("omega:130:141:1"), "param"),
+        (lambda: jeffcott.continuation("omega:130:141:3", direction="sideways"), "direction"),
     ],
 )
 def test_bad_input_raises_value_error_naming_the_field(call, field):

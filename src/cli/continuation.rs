@@ -7,8 +7,9 @@ use super::{CatalogueArgs, ModelArgs, StepperArgs};
 use crate::plot::{PALETTE, StackedPanel, stacked_fractions};
 use clap::{Args, ValueEnum};
 use jeffcott_analysis::continuation::{
-    ContinuationResult, ContinuationSpec, Direction, Ramp, continuation_with,
+    ContinuationResult, ContinuationSpec, Direction, continuation_with, id_name,
 };
+use jeffcott_analysis::defaults;
 use jeffcott_analysis::map::MapAxis;
 use jeffcott_analysis::output;
 use jeffcott_core::ensemble::{Backend, Precision};
@@ -39,7 +40,7 @@ pub struct ContinuationArgs {
     pub omega: Option<f64>,
     /// Fresh start states per value (the static equilibrium plus seeded draws, the same at
     /// every value): they give the basin fractions and tipping probabilities.
-    #[arg(long, default_value_t = 32, value_name = "K")]
+    #[arg(long, default_value_t = defaults::continuation::ICS, value_name = "K")]
     pub ics: u32,
     /// Draw the fresh start states uniformly in a box of start coordinates instead,
     /// e.g. `--box x_r:-0.006:0.006,vx_r:-1:1` (the others at the static equilibrium):
@@ -51,7 +52,7 @@ pub struct ContinuationArgs {
     )]
     pub start_box: Option<String>,
     /// Seed of the start states.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = defaults::continuation::SEED)]
     pub seed: u64,
     /// Ramp direction: up (run-up), down (run-down) or both.
     #[arg(long, value_enum, default_value_t = DirectionArg::Both)]
@@ -61,10 +62,10 @@ pub struct ContinuationArgs {
     #[arg(long, value_name = "M")]
     pub match_threshold: Option<f64>,
     /// Forcing periods integrated and discarded per lane.
-    #[arg(long, default_value_t = 500, value_name = "Q")]
+    #[arg(long, default_value_t = defaults::continuation::TRANSIENT, value_name = "Q")]
     pub transient: u32,
     /// Forcing periods recorded per lane.
-    #[arg(long, default_value_t = 64, value_name = "P")]
+    #[arg(long, default_value_t = defaults::continuation::PERIODS, value_name = "P")]
     pub periods: u32,
     /// Skip lambda_1 (aperiodic attractors are then not told apart as quasiperiodic or
     /// chaotic).
@@ -200,21 +201,6 @@ pub fn run_continuation(a: &ContinuationArgs) -> Result<()> {
     Ok(())
 }
 
-/// Legend name of continuation id `id` in a ramp: its class where it has the largest
-/// basin, e.g. "#1 period-4".
-fn id_name(r: &Ramp, id: u32) -> String {
-    let best = r
-        .steps
-        .iter()
-        .flat_map(|s| s.attractors.iter())
-        .filter(|a| a.id == id)
-        .max_by(|a, b| a.fraction.total_cmp(&b.fraction));
-    match best {
-        Some(a) => format!("#{id} {}", a.class),
-        None => format!("#{id}"),
-    }
-}
-
 /// Writes the arrays, continuation.json and continuation.png.
 pub fn write_continuation(
     dir: &Path,
@@ -225,7 +211,6 @@ pub fn write_continuation(
     output::ensure_dir(dir)?;
     let n = res.values.len();
     output::write_npy(&dir.join("values.npy"), &[n], &res.values)?;
-    let mut ramps_json = serde_json::Map::new();
     for r in &res.ramps {
         let d = r.direction.name();
         let g = r.ids + 1;
@@ -237,22 +222,6 @@ pub fn write_continuation(
             &[n - 1, g, g],
             &r.tipping(),
         )?;
-        let lifetimes: Vec<serde_json::Value> = r
-            .lifetimes()
-            .into_iter()
-            .map(|(id, first, last)| {
-                serde_json::json!({"id": id, "name": id_name(r, id), "first_value": first, "last_value": last,
-                    "born_inside": first != r.steps[0].value, "dies_inside": last != r.steps[n - 1].value})
-            })
-            .collect();
-        ramps_json.insert(
-            d.to_string(),
-            serde_json::json!({
-                "order": "steps in ramp order (up: ascending values, down: descending)",
-                "attractors": lifetimes,
-                "steps": r.steps,
-            }),
-        );
     }
     if plot_it {
         let panels: Vec<StackedPanel> = res
@@ -303,28 +272,16 @@ pub fn write_continuation(
             &panels,
         )?;
     }
-    let json = serde_json::json!({
-        "param": {"var": spec.param.var.name(), "unit": spec.param.var.unit(), "lo": spec.param.lo, "hi": spec.param.hi, "n": n},
-        "omega": spec.omega,
-        "ics": spec.ics,
-        "box": spec.start_box.as_ref().map(|b| b.iter().map(|&(c, lo, hi)| serde_json::json!({"coord": jeffcott_core::model::COORD_NAMES[c], "lo": lo, "hi": hi})).collect::<Vec<_>>()),
-        "seed": spec.seed,
-        "transient": spec.transient,
-        "periods": spec.recorded,
-        "lyapunov": spec.lyapunov,
-        "match_threshold": if spec.match_threshold.is_finite() { serde_json::json!(spec.match_threshold) } else { serde_json::json!("inf") },
-        "ramps": ramps_json,
-        "params": spec.params,
-        "files": {
+    let mut json = jeffcott_analysis::continuation::summary(spec, res);
+    json["files"] = serde_json::json!({
             "values.npy": "f64 [n]: the parameter values, ascending",
             "fractions_<dir>.npy": "f64 [n, ids + 1]: basin fraction of each continued attractor among the fresh start states at each step in ramp order (up ascending, down descending); last column diverged",
             "fraction_errors_<dir>.npy": "f64 [n, ids + 1]: binomial standard errors sqrt(f (1 - f) / K)",
             "tipping_<dir>.npy": "f64 [n - 1, ids + 1, ids + 1]: P(i -> j) from step k to step k + 1: the fraction of attractor i's basin at step k lying in attractor j's basin at step k + 1 (index ids: diverged); NaN rows: i has no basin at step k",
             "continuation.json": "this file: per ramp, every attractor's first and last value and every step's attractors (id, class, period, fraction, error, lambda_1, seeded_only)",
             "continuation.png": "stacked basin fractions against the parameter, one panel per ramp",
-        },
-        "jeffcott_version": env!("CARGO_PKG_VERSION"),
     });
+    json["jeffcott_version"] = serde_json::json!(env!("CARGO_PKG_VERSION"));
     output::write_json(&dir.join("continuation.json"), &json)
 }
 

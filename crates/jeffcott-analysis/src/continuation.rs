@@ -796,6 +796,61 @@ fn seeded_step(
     })
 }
 
+/// Legend name of continuation id `id` in a ramp: its class where it has the largest
+/// basin, e.g. "#1 period-4".
+pub fn id_name(r: &Ramp, id: u32) -> String {
+    let best = r
+        .steps
+        .iter()
+        .flat_map(|s| s.attractors.iter())
+        .filter(|a| a.id == id)
+        .max_by(|a, b| a.fraction.total_cmp(&b.fraction));
+    match best {
+        Some(a) => format!("#{id} {}", a.class),
+        None => format!("#{id}"),
+    }
+}
+
+/// The continuation as `continuation.json` holds it (the command line adds the list of
+/// files and the version): the continued parameter, the settings, and per ramp every
+/// attractor's first and last value and every step's attractors.
+pub fn summary(spec: &ContinuationSpec, res: &ContinuationResult) -> serde_json::Value {
+    let n = res.values.len();
+    let mut ramps_json = serde_json::Map::new();
+    for r in &res.ramps {
+        let d = r.direction.name();
+        let lifetimes: Vec<serde_json::Value> = r
+            .lifetimes()
+            .into_iter()
+            .map(|(id, first, last)| {
+                serde_json::json!({"id": id, "name": id_name(r, id), "first_value": first, "last_value": last,
+                    "born_inside": first != r.steps[0].value, "dies_inside": last != r.steps[n - 1].value})
+            })
+            .collect();
+        ramps_json.insert(
+            d.to_string(),
+            serde_json::json!({
+                "order": "steps in ramp order (up: ascending values, down: descending)",
+                "attractors": lifetimes,
+                "steps": r.steps,
+            }),
+        );
+    }
+    serde_json::json!({
+        "param": {"var": spec.param.var.name(), "unit": spec.param.var.unit(), "lo": spec.param.lo, "hi": spec.param.hi, "n": n},
+        "omega": spec.omega,
+        "ics": spec.ics,
+        "box": spec.start_box.as_ref().map(|b| b.iter().map(|&(c, lo, hi)| serde_json::json!({"coord": jeffcott_core::model::COORD_NAMES[c], "lo": lo, "hi": hi})).collect::<Vec<_>>()),
+        "seed": spec.seed,
+        "transient": spec.transient,
+        "periods": spec.recorded,
+        "lyapunov": spec.lyapunov,
+        "match_threshold": if spec.match_threshold.is_finite() { serde_json::json!(spec.match_threshold) } else { serde_json::json!("inf") },
+        "ramps": ramps_json,
+        "params": spec.params,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

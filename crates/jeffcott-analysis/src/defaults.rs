@@ -48,6 +48,18 @@ pub mod map {
     pub const PERIODS: u32 = 64;
 }
 
+/// `continuation`: attractors followed over a parameter.
+pub mod continuation {
+    /// Fresh start states per value.
+    pub const ICS: u32 = 32;
+    /// Seed of the start states.
+    pub const SEED: u64 = 1;
+    /// Forcing periods integrated and discarded per lane.
+    pub const TRANSIENT: u32 = 500;
+    /// Forcing periods recorded per lane.
+    pub const PERIODS: u32 = 64;
+}
+
 /// `bifurcation`: quasistatic sweeps and brute force over W.
 pub mod bifurcation {
     /// Brute-force start states per W.
