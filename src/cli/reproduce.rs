@@ -300,7 +300,8 @@ fn json_regimes(dir: &Path) -> Result<String> {
     Ok(j["regimes"].as_str().unwrap_or_default().to_string())
 }
 
-/// Runs `jeffcott reproduce`.
+/// Runs `jeffcott reproduce`: the sections below in order, each adding its figures to
+/// the report, then REPORT.md with the summary table at the top.
 pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     let p = if a.full {
         FULL
@@ -312,7 +313,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     let params = Params::default();
     let precision = a.precision.unwrap_or_else(|| default_precision(a.backend));
     let cfg = CatalogueConfig::for_precision(precision);
-    let dir = &a.out;
+    let dir = a.out.as_path();
     // One run directory for the whole figure set; each study keeps its units under its
     // own prefix, so an interrupted reproduce resumes where it stopped.
     let rd = super::rundir::open(
@@ -323,19 +324,216 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         a.run,
         a.quiet,
     )?;
-    let store = |prefix: &'static str| jeffcott_analysis::run::Prefixed { inner: &rd, prefix };
-    let mode = format!("--{}", p.name);
-    let backend = format!("{:?}", a.backend).to_lowercase();
-    let mut rep = Report {
-        text: String::new(),
-        started: Instant::now(),
+    let mut c = Ctx {
+        a,
+        p,
+        params,
+        precision,
+        cfg,
+        dir,
+        rd: &rd,
+        mode: format!("--{}", p.name),
+        backend: format!("{:?}", a.backend).to_lowercase(),
+        rep: Report {
+            text: String::new(),
+            started: Instant::now(),
+        },
+        static_class: Vec::new(),
     };
+    let spec = bifurcation_figures(&mut c)?;
+    enlargements(&mut c, &spec)?;
+    let sv = survey_and_spectra(&mut c)?;
+    portraits(&mut c, &sv)?;
+    basin_section(&mut c, &sv)?;
+    sections_135_140(&mut c, &sv)?;
+    design_chart(&mut c)?;
+    continuation_section(&mut c)?;
+    rub_section(&mut c)?;
+    let Ctx {
+        ref params,
+        ref mode,
+        ref backend,
+        ref rep,
+        ref static_class,
+        ..
+    } = c;
     let say = |s: &str| {
         if !a.quiet {
             eprintln!("{s}");
         }
     };
 
+    // REPORT.md.
+    say("[11/11] REPORT.md");
+    let mut head = String::new();
+    let _ = write!(
+        head,
+        "# jeffcott reproduce {mode}\n\nThe figure set of \"Nonlinear Dynamics and Chaos of a Nonsmooth Rotor-Stator System\" (Mathematical Problems in Engineering, 2017), regenerated with `jeffcott` {} (Table 1 parameters, the corrected model of MODEL.md). Ensembles on backend `{backend}`, {:?}; {} CPU threads. Total time {:.1} s.\n\n",
+        env!("CARGO_PKG_VERSION"),
+        precision,
+        rayon::current_num_threads(),
+        rep.started.elapsed().as_secs_f64()
+    );
+    head += "## Summary at the article's speeds\n\n| W [rad/s] | article | from the static equilibrium | lambda_1 [1/s] (full spectrum) | survey of seeded start states |\n|---|---|---|---|---|\n";
+    for (i, &(omega, article)) in ARTICLE_SPEEDS.iter().enumerate() {
+        let st = static_class
+            .iter()
+            .find(|(w, _)| *w == omega)
+            .map_or("-".to_string(), |(_, c)| c.clone());
+        let _ = writeln!(
+            head,
+            "| {omega} | {article} | {st} | {} | {} |",
+            sv.l1_text(omega),
+            describe(&sv.catalogues[i])
+        );
+    }
+    head += &spectra_table(&sv.spectra, params, sv.spectra_s, &sv.spectrum_cmd);
+    let _ = write!(
+        head,
+        "\nSurvey: {} start states per speed (static equilibrium + seeded random rotor states within the gap), {} transient and {} recorded periods ({}; {:.1} s). Classification: period-n up to n = 32 with tolerances relative to the attractor size; otherwise quasiperiodic (|lambda_1| < {} 1/s) or chaotic (lambda_1 above), lambda_1 per lane from one tangent vector over the recorded periods (attractor entries show the mean over their lanes).\n\n",
+        p.survey_ics,
+        p.survey_transient,
+        p.survey_periods,
+        survey_cmd(&p, 0.0).replace("--omega 0 ", "--omega W "),
+        sv.seconds,
+        cfg.lambda_tol
+    );
+    let text = head + &rep.text;
+    jeffcott_analysis::output::write_atomically(&dir.join("REPORT.md"), |w| {
+        std::io::Write::write_all(w, text.as_bytes())
+    })?;
+    rd.finish(
+        serde_json::json!({"wall_time_s": rep.started.elapsed().as_secs_f64()}),
+        &super::rundir::files_under(dir)?,
+    )?;
+    if !a.quiet {
+        println!(
+            "reproduce {mode}: figures and REPORT.md in {} ({:.1} s)",
+            dir.display(),
+            rep.started.elapsed().as_secs_f64()
+        );
+    }
+    Ok(())
+}
+
+/// What every section of `reproduce` shares: the arguments, the preset, the model,
+/// the output directory and its run, the report being written, and the class found
+/// from the static equilibrium at each speed simulated (for the summary table).
+struct Ctx<'a> {
+    a: &'a ReproduceArgs,
+    p: Preset,
+    params: Params,
+    precision: Precision,
+    cfg: CatalogueConfig,
+    dir: &'a Path,
+    rd: &'a jeffcott_analysis::run::RunDir,
+    mode: String,
+    backend: String,
+    rep: Report,
+    static_class: Vec<(f64, String)>,
+}
+
+/// The survey at the article's speeds and their full spectra, which later sections and
+/// the summary table quote.
+struct Survey {
+    catalogues: Vec<Catalogue>,
+    seconds: f64,
+    spectra: Vec<Spectrum>,
+    spectra_s: f64,
+    spectrum_cmd: String,
+}
+
+impl Survey {
+    /// The class from the static equilibrium, refined by the spectrum's lambda_1.
+    fn refine(&self, class: Class, omega: f64, cfg: &CatalogueConfig) -> String {
+        let l1 = self
+            .spectra
+            .iter()
+            .find(|s| s.omega == omega)
+            .map(|s| s.exponents[0]);
+        match (class, l1) {
+            (Class::Aperiodic, Some(l)) if l.abs() < cfg.lambda_tol => Class::Quasiperiodic.label(),
+            (Class::Aperiodic, Some(l)) if l > cfg.lambda_tol => Class::Chaotic.label(),
+            (c, _) => c.label(),
+        }
+    }
+
+    /// lambda_1 of the full spectrum at `omega`, with its error.
+    fn l1_text(&self, omega: f64) -> String {
+        self.spectra
+            .iter()
+            .find(|s| s.omega == omega)
+            .map_or("-".into(), |s| {
+                format!("{:.3} +- {:.3} 1/s", s.exponents[0], s.errors[0])
+            })
+    }
+}
+
+/// The command behind the survey at speed `w`.
+fn survey_cmd(p: &Preset, w: f64) -> String {
+    format!(
+        "jeffcott ensemble --omega {w} --lyapunov --transient {} --periods {} (x {} seeded start states)",
+        p.survey_transient, p.survey_periods, p.survey_ics
+    )
+}
+
+/// Copies a study's picture `from` to `to` in the report's folder `dir` (atomically).
+fn copy(dir: &Path, from: &Path, to: &str) -> Result<()> {
+    let bytes = std::fs::read(from).map_err(|source| Error::Io {
+        path: from.to_path_buf(),
+        source,
+    })?;
+    jeffcott_analysis::output::write_atomically(&dir.join(to), |w| {
+        std::io::Write::write_all(w, &bytes)
+    })
+}
+
+/// What a sweep found: how many speeds are period-1, periodic, aperiodic (quasiperiodic,
+/// chaotic) and diverged.
+fn sweep_found(sw: &[jeffcott_analysis::bifurcation::SweepPoint]) -> String {
+    let count = |sw: &[jeffcott_analysis::bifurcation::SweepPoint],
+                 f: &dyn Fn(Option<usize>) -> bool| {
+        sw.iter()
+            .filter(|q| !q.status.is_frozen() && f(q.class.class.period()))
+            .count()
+    };
+    format!(
+        "{} of {} speeds period-1, {} periodic with period > 1, {} aperiodic (no period up to 32: {} quasiperiodic, {} chaotic by lambda_1), {} diverged",
+        count(sw, &|n| n == Some(1)),
+        sw.len(),
+        count(sw, &|n| n.is_some_and(|n| n > 1)),
+        count(sw, &|n| n.is_none()),
+        sw.iter()
+            .filter(|q| q.class.class == Class::Quasiperiodic)
+            .count(),
+        sw.iter()
+            .filter(|q| q.class.class == Class::Chaotic)
+            .count(),
+        sw.iter().filter(|q| q.status.is_frozen()).count()
+    )
+}
+
+/// Figs. 3 and 4, the down sweep and the brute-force diagram: one bifurcation study over
+/// [130, 141]; returns its specification (the enlargements reuse it).
+fn bifurcation_figures(c: &mut Ctx) -> Result<BifurcationSpec> {
+    let Ctx {
+        a,
+        p,
+        ref params,
+        precision,
+        cfg,
+        dir,
+        rd,
+        ref backend,
+        ref mut rep,
+        ..
+    } = *c;
+    let store = |prefix: &'static str| jeffcott_analysis::run::Prefixed { inner: rd, prefix };
+    let say = |s: &str| {
+        if !a.quiet {
+            eprintln!("{s}");
+        }
+    };
     // Figs. 3-4, the down sweep and the brute force: one study over [130, 141].
     say("[1/11] bifurcation diagram over 130..141 rad/s");
     let spec = BifurcationSpec {
@@ -369,28 +567,6 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         dir.display()
     );
     let w = (130.0, 141.0);
-    let count = |sw: &[jeffcott_analysis::bifurcation::SweepPoint],
-                 f: &dyn Fn(Option<usize>) -> bool| {
-        sw.iter()
-            .filter(|q| !q.status.is_frozen() && f(q.class.class.period()))
-            .count()
-    };
-    let sweep_found = |sw: &[jeffcott_analysis::bifurcation::SweepPoint]| {
-        format!(
-            "{} of {} speeds period-1, {} periodic with period > 1, {} aperiodic (no period up to 32: {} quasiperiodic, {} chaotic by lambda_1), {} diverged",
-            count(sw, &|n| n == Some(1)),
-            sw.len(),
-            count(sw, &|n| n.is_some_and(|n| n > 1)),
-            count(sw, &|n| n.is_none()),
-            sw.iter()
-                .filter(|q| q.class.class == Class::Quasiperiodic)
-                .count(),
-            sw.iter()
-                .filter(|q| q.class.class == Class::Chaotic)
-                .count(),
-            sw.iter().filter(|q| q.status.is_frozen()).count()
-        )
-    };
     // What the lambda_1 row under a sweep shows.
     let l1_row = |sw: &[jeffcott_analysis::bifurcation::SweepPoint]| -> String {
         let f: Vec<f64> = sw
@@ -532,7 +708,25 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         &bif_cmd,
         res.brute_seconds,
     );
+    Ok(spec)
+}
 
+/// The enlargements of Fig. 3 (up sweeps over the article's zoom ranges).
+fn enlargements(c: &mut Ctx, spec: &BifurcationSpec) -> Result<()> {
+    let Ctx {
+        a,
+        p,
+        dir,
+        rd,
+        ref mut rep,
+        ..
+    } = *c;
+    let store = |prefix: &'static str| jeffcott_analysis::run::Prefixed { inner: rd, prefix };
+    let say = |s: &str| {
+        if !a.quiet {
+            eprintln!("{s}");
+        }
+    };
     // Enlargements of Fig. 3.
     say("[2/11] enlargements of Fig. 3");
     for (k, &(lo, hi)) in ZOOMS.iter().enumerate() {
@@ -581,11 +775,29 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
             t.elapsed().as_secs_f64(),
         );
     }
+    Ok(())
+}
 
+/// The article's speeds: a survey of seeded start states at each (lambda_1 per lane) and
+/// the full Lyapunov spectrum from the static equilibrium.
+fn survey_and_spectra(c: &mut Ctx) -> Result<Survey> {
+    let Ctx {
+        a,
+        p,
+        ref params,
+        precision,
+        cfg,
+        ..
+    } = *c;
+    let say = |s: &str| {
+        if !a.quiet {
+            eprintln!("{s}");
+        }
+    };
     // The article's speeds: a survey of start states at each.
     say("[3/11] attractor survey at the article's speeds");
     let t = Instant::now();
-    let starts = start_states(&params, p.survey_ics, 135.0, 7);
+    let starts = start_states(params, p.survey_ics, 135.0, 7);
     let mut lanes = Vec::new();
     for &(omega, _) in &ARTICLE_SPEEDS {
         lanes.extend(starts.iter().map(|&x0| LaneSpec {
@@ -636,12 +848,6 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         survey.push(catalogue_result(omega, &sub, sub.lambda1.as_deref(), &cfg));
     }
     let survey_s = t.elapsed().as_secs_f64();
-    let survey_cmd = |w: f64| {
-        format!(
-            "jeffcott ensemble --omega {w} --lyapunov --transient {} --periods {} (x {} seeded start states)",
-            p.survey_transient, p.survey_periods, p.survey_ics
-        )
-    };
 
     // The full Lyapunov spectrum at each article speed, from the static equilibrium
     // (independent, in parallel).
@@ -657,7 +863,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         use rayon::prelude::*;
         ARTICLE_SPEEDS
             .par_iter()
-            .map(|&(omega, _)| spectrum(&params, omega, &params.static_equilibrium(), &scfg))
+            .map(|&(omega, _)| spectrum(params, omega, &params.static_equilibrium(), &scfg))
             .collect::<Result<_>>()?
     };
     let spectra_s = t.elapsed().as_secs_f64();
@@ -665,30 +871,34 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         "jeffcott lyapunov --omega W --transient {} --min-time {} --time {}",
         scfg.transient, scfg.min_time, scfg.max_time
     );
-    // The class from the static equilibrium, refined by the spectrum's lambda_1.
-    let refine = |class: Class, omega: f64| -> String {
-        let l1 = spectra
-            .iter()
-            .find(|s| s.omega == omega)
-            .map(|s| s.exponents[0]);
-        match (class, l1) {
-            (Class::Aperiodic, Some(l)) if l.abs() < cfg.lambda_tol => Class::Quasiperiodic.label(),
-            (Class::Aperiodic, Some(l)) if l > cfg.lambda_tol => Class::Chaotic.label(),
-            (c, _) => c.label(),
+    Ok(Survey {
+        catalogues: survey,
+        seconds: survey_s,
+        spectra,
+        spectra_s,
+        spectrum_cmd,
+    })
+}
+
+/// Figs. 5 and 6: phase portraits at 131.7 and 132.2 rad/s from the static equilibrium.
+fn portraits(c: &mut Ctx, sv: &Survey) -> Result<()> {
+    let Ctx {
+        a,
+        p,
+        ref params,
+        dir,
+        ref mut rep,
+        ref mut static_class,
+        cfg,
+        ..
+    } = *c;
+    let say = |s: &str| {
+        if !a.quiet {
+            eprintln!("{s}");
         }
     };
-    let l1_text = |omega: f64| -> String {
-        spectra
-            .iter()
-            .find(|s| s.omega == omega)
-            .map_or("-".into(), |s| {
-                format!("{:.3} +- {:.3} 1/s", s.exponents[0], s.errors[0])
-            })
-    };
-
     // Figs. 5-6: phase portraits at 131.7 and 132.2 from the static equilibrium.
     say("[5/11] phase portraits at 131.7 and 132.2 rad/s");
-    let mut static_class: Vec<(f64, String)> = Vec::new();
     for (i, (fig, omega)) in [
         ("fig05_phase_131.7.png", 131.7),
         ("fig06_phase_132.2.png", 132.2),
@@ -697,8 +907,8 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     .enumerate()
     {
         let t = Instant::now();
-        let r = sim(&params, omega, 1000, 64, 4)?;
-        let class = refine(r.classification.class, omega);
+        let r = sim(params, omega, 1000, 64, 4)?;
+        let class = sv.refine(r.classification.class, omega, &cfg);
         plot::phase_portraits(
             &dir.join(fig),
             &format!(
@@ -714,16 +924,40 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
             fig,
             &format!(
                 "From the static equilibrium after 1000 periods: **{class}**, lambda_1 = {} (full spectrum in the table at the top) (the article: {}). Survey of {} start states: {}.",
-                l1_text(omega),
+                sv.l1_text(omega),
                 ARTICLE_SPEEDS[i].1,
                 p.survey_ics,
-                describe(&survey[i])
+                describe(&sv.catalogues[i])
             ),
             &format!("jeffcott simulate --omega {omega} --transient 1000 --periods 64 --timeseries-periods 4"),
             t.elapsed().as_secs_f64(),
         );
     }
+    Ok(())
+}
 
+/// Figs. 7 and 8: the basin at 133 rad/s (refined at its boundary), its coexisting
+/// attractors and its measures.
+fn basin_section(c: &mut Ctx, sv: &Survey) -> Result<()> {
+    let Ctx {
+        a,
+        p,
+        ref params,
+        precision,
+        cfg,
+        dir,
+        rd,
+        ref backend,
+        ref mut rep,
+        ref mut static_class,
+        ..
+    } = *c;
+    let store = |prefix: &'static str| jeffcott_analysis::run::Prefixed { inner: rd, prefix };
+    let say = |s: &str| {
+        if !a.quiet {
+            eprintln!("{s}");
+        }
+    };
     // Figs. 7-8: basin at 133 and its coexisting attractors.
     say("[6/11] basin of attraction at 133 rad/s");
     let t = Instant::now();
@@ -801,19 +1035,10 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         reint.as_ref(),
         true,
     )?;
-    let copy = |from: &Path, to: &str| -> Result<()> {
-        let bytes = std::fs::read(from).map_err(|source| Error::Io {
-            path: from.to_path_buf(),
-            source,
-        })?;
-        jeffcott_analysis::output::write_atomically(&dir.join(to), |w| {
-            std::io::Write::write_all(w, &bytes)
-        })
-    };
-    copy(&bdir.join("basin.png"), "fig07_basin_133.png")?;
+    copy(dir, &bdir.join("basin.png"), "fig07_basin_133.png")?;
     let basin_s = t.elapsed().as_secs_f64();
-    let r133 = sim(&params, 133.0, 1000, 64, 4)?;
-    static_class.push((133.0, refine(r133.classification.class, 133.0)));
+    let r133 = sim(params, 133.0, 1000, 64, 4)?;
+    static_class.push((133.0, sv.refine(r133.classification.class, 133.0, &cfg)));
     let basin_cmd = format!(
         "jeffcott basin --omega 133 --x x_r:-0.006:0.006:{n} --y vx_r:-1:1:{n} --transient {} --periods {} --refine {} --uncertainty-samples {} --backend {backend} --out {}/basin_133",
         p.basin_transient,
@@ -828,8 +1053,8 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         &format!(
             "{n} x {n} start states (other coordinates at the static equilibrium): {}. From the static equilibrium itself: **{}**, lambda_1 = {}. Rub on the attractors: {basin_rub}.{refine_text} Basin measures (`basin_133/basin_metrics.json`, docs/basin-measures.md; f(eps) of both methods in `basin_133/uncertainty.png`): {}{}.",
             describe(&bres.catalogue),
-            refine(r133.classification.class, 133.0),
-            l1_text(133.0),
+            sv.refine(r133.classification.class, 133.0, &cfg),
+            sv.l1_text(133.0),
             bmetrics.summary(),
             reint.as_ref().map(|r| format!("; {}", r.summary())).unwrap_or_default()
         ),
@@ -837,7 +1062,11 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         basin_s,
     );
     if bdir.join("attractors.png").exists() {
-        copy(&bdir.join("attractors.png"), "fig08_attractors_133.png")?;
+        copy(
+            dir,
+            &bdir.join("attractors.png"),
+            "fig08_attractors_133.png",
+        )?;
         rep.figure(
             "Fig. 8: the coexisting attractors at W = 133 rad/s",
             "fig08_attractors_133.png",
@@ -845,29 +1074,48 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
                 "{} attractor(s) coexist; each drawn over one pass from a point of its Poincare set (same run as Fig. 7). Survey of {} seeded start states: {}.",
                 bres.catalogue.attractors.len(),
                 p.survey_ics,
-                describe(&survey[2])
+                describe(&sv.catalogues[2])
             ),
             &basin_cmd,
             basin_s,
         );
     }
+    Ok(())
+}
 
+/// Figs. 9 to 12: phase portraits and Poincare sections at 135 and 140 rad/s.
+fn sections_135_140(c: &mut Ctx, sv: &Survey) -> Result<()> {
+    let Ctx {
+        a,
+        p,
+        ref params,
+        cfg,
+        dir,
+        ref mut rep,
+        ref mut static_class,
+        ..
+    } = *c;
+    let say = |s: &str| {
+        if !a.quiet {
+            eprintln!("{s}");
+        }
+    };
     // Figs. 9-12: sections at 135 and 140.
     say("[7/11] phase portraits and Poincare sections at 135 and 140 rad/s");
     for (i, omega) in [(3usize, 135.0), (4, 140.0)] {
         let t = Instant::now();
-        let r = sim(&params, omega, p.section_transient, p.section_points, 8)?;
-        let class = refine(r.classification.class, omega);
+        let r = sim(params, omega, p.section_transient, p.section_points, 8)?;
+        let class = sv.refine(r.classification.class, omega, &cfg);
         static_class.push((omega, class.clone()));
         let found = format!(
             "From the static equilibrium, {} Poincare points after {} periods: **{class}** (no period up to 32; lambda_1 = {} from the full spectrum, quasiperiodic when |lambda_1| < {} 1/s, chaotic above) (the article: {}). Survey of {} start states (lambda_1 per lane): {}.",
             p.section_points,
             p.section_transient,
-            l1_text(omega),
+            sv.l1_text(omega),
             cfg.lambda_tol,
             ARTICLE_SPEEDS[i].1,
             p.survey_ics,
-            describe(&survey[i])
+            describe(&sv.catalogues[i])
         );
         let cmd = format!(
             "jeffcott simulate --omega {omega} --transient {} --periods {} --timeseries-periods 8",
@@ -948,7 +1196,29 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
             );
         }
     }
+    Ok(())
+}
 
+/// Beyond the article: a design chart over (W, e).
+fn design_chart(c: &mut Ctx) -> Result<()> {
+    let Ctx {
+        a,
+        p,
+        ref params,
+        precision,
+        cfg,
+        dir,
+        rd,
+        ref backend,
+        ref mut rep,
+        ..
+    } = *c;
+    let store = |prefix: &'static str| jeffcott_analysis::run::Prefixed { inner: rd, prefix };
+    let say = |s: &str| {
+        if !a.quiet {
+            eprintln!("{s}");
+        }
+    };
     // Beyond the article: a design chart over (W, e) and the continuation over W.
     say("[8/11] design chart: speed against unbalance");
     let t = Instant::now();
@@ -984,8 +1254,9 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     let mres = super::map::run_map_study(&mspec, &store("map_w_e"), a.quiet)?;
     let mdir = dir.join("map_w_e");
     super::map::write_map(&mdir, &mspec, &mres, true)?;
-    copy(&mdir.join("map_period.png"), "map_w_e_period.png")?;
+    copy(dir, &mdir.join("map_period.png"), "map_w_e_period.png")?;
     copy(
+        dir,
         &mdir.join("map_multistability.png"),
         "map_w_e_multistability.png",
     )?;
@@ -1043,7 +1314,29 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         &map_cmd,
         t.elapsed().as_secs_f64(),
     );
+    Ok(())
+}
 
+/// Beyond the article: the attractor continuation over 130..141 rad/s, run-up and run-down.
+fn continuation_section(c: &mut Ctx) -> Result<()> {
+    let Ctx {
+        a,
+        p,
+        ref params,
+        precision,
+        cfg,
+        dir,
+        rd,
+        ref backend,
+        ref mut rep,
+        ..
+    } = *c;
+    let store = |prefix: &'static str| jeffcott_analysis::run::Prefixed { inner: rd, prefix };
+    let say = |s: &str| {
+        if !a.quiet {
+            eprintln!("{s}");
+        }
+    };
     say("[9/11] attractor continuation over 130..141 rad/s");
     let t = Instant::now();
     let cspec = jeffcott_analysis::continuation::ContinuationSpec {
@@ -1076,7 +1369,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         super::continuation::run_continuation_study(&cspec, &store("continuation"), a.quiet)?;
     let cdir = dir.join("continuation");
     super::continuation::write_continuation(&cdir, &cspec, &cres, true)?;
-    copy(&cdir.join("continuation.png"), "continuation.png")?;
+    copy(dir, &cdir.join("continuation.png"), "continuation.png")?;
     let ramp_text: Vec<String> = cres
         .ramps
         .iter()
@@ -1138,7 +1431,30 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         ),
         t.elapsed().as_secs_f64(),
     );
+    Ok(())
+}
 
+/// Rub regimes beyond the article's range: a (W, mu) map, backward whirl, a full-spectrum
+/// cascade, the full spectrum at 132.2.
+fn rub_section(c: &mut Ctx) -> Result<()> {
+    let Ctx {
+        a,
+        p,
+        ref params,
+        precision,
+        cfg,
+        dir,
+        rd,
+        ref backend,
+        ref mut rep,
+        ..
+    } = *c;
+    let store = |prefix: &'static str| jeffcott_analysis::run::Prefixed { inner: rd, prefix };
+    let say = |s: &str| {
+        if !a.quiet {
+            eprintln!("{s}");
+        }
+    };
     // Rub regimes beyond the article's range: a (W, mu) map, a cascade, a full spectrum.
     say("[10/11] rub regimes: (W, mu) map, full-spectrum cascade, full spectrum at 132.2");
     let t = Instant::now();
@@ -1174,7 +1490,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     let rres = super::map::run_map_study(&rspec, &store("map_w_mu"), a.quiet)?;
     let rdir = dir.join("map_w_mu");
     super::map::write_map(&rdir, &rspec, &rres, true)?;
-    copy(&rdir.join("map_regime.png"), "rub_regimes_w_mu.png")?;
+    copy(dir, &rdir.join("map_regime.png"), "rub_regimes_w_mu.png")?;
     let mut found: Vec<String> = Vec::new();
     for r in [
         jeffcott_analysis::rub::RubRegime::NoContact,
@@ -1296,8 +1612,8 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     )?;
     let kdir = dir.join("cascade");
     super::cascade::write_cascade(&kdir, &cspec2, &cres2, true, false)?;
-    copy(&kdir.join("cascade_up.png"), "cascade_up.png")?;
-    copy(&kdir.join("cascade_down.png"), "cascade_down.png")?;
+    copy(dir, &kdir.join("cascade_up.png"), "cascade_up.png")?;
+    copy(dir, &kdir.join("cascade_down.png"), "cascade_down.png")?;
     let regimes = json_regimes(&kdir)?;
     rep.figure(
         "Full-spectrum cascade over 100..200 rad/s, run-up (run-down: cascade_down.png)",
@@ -1313,23 +1629,27 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         t.elapsed().as_secs_f64(),
     );
     let t = Instant::now();
-    let r = sim(&params, 132.2, 1000, 64, 4)?;
+    let r = sim(params, 132.2, 1000, 64, 4)?;
     if let Some(o) =
-        super::rubout::rub_outputs(&params, 132.2, &r.final_state, 24, &Default::default())?
+        super::rubout::rub_outputs(params, 132.2, &r.final_state, 24, &Default::default())?
     {
         let fdir = dir.join("spectrum_132.2");
         jeffcott_analysis::output::ensure_dir(&fdir)?;
         super::rubout::write_rub_outputs(
             &fdir,
             "W = 132.2 rad/s",
-            &params,
+            params,
             &o,
             &r.timeseries,
             true,
             false,
         )?;
-        copy(&fdir.join("full_spectrum.png"), "full_spectrum_132.2.png")?;
-        copy(&fdir.join("contact.png"), "contact_132.2.png")?;
+        copy(
+            dir,
+            &fdir.join("full_spectrum.png"),
+            "full_spectrum_132.2.png",
+        )?;
+        copy(dir, &fdir.join("contact.png"), "contact_132.2.png")?;
         rep.figure(
             "Full spectrum and contact loads at W = 132.2 rad/s (period-2)",
             "full_spectrum_132.2.png",
@@ -1339,57 +1659,6 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
             ),
             "jeffcott simulate --omega 132.2",
             t.elapsed().as_secs_f64(),
-        );
-    }
-
-    // REPORT.md.
-    say("[11/11] REPORT.md");
-    let mut head = String::new();
-    let _ = write!(
-        head,
-        "# jeffcott reproduce {mode}\n\nThe figure set of \"Nonlinear Dynamics and Chaos of a Nonsmooth Rotor-Stator System\" (Mathematical Problems in Engineering, 2017), regenerated with `jeffcott` {} (Table 1 parameters, the corrected model of MODEL.md). Ensembles on backend `{backend}`, {:?}; {} CPU threads. Total time {:.1} s.\n\n",
-        env!("CARGO_PKG_VERSION"),
-        precision,
-        rayon::current_num_threads(),
-        rep.started.elapsed().as_secs_f64()
-    );
-    head += "## Summary at the article's speeds\n\n| W [rad/s] | article | from the static equilibrium | lambda_1 [1/s] (full spectrum) | survey of seeded start states |\n|---|---|---|---|---|\n";
-    for (i, &(omega, article)) in ARTICLE_SPEEDS.iter().enumerate() {
-        let st = static_class
-            .iter()
-            .find(|(w, _)| *w == omega)
-            .map_or("-".to_string(), |(_, c)| c.clone());
-        let _ = writeln!(
-            head,
-            "| {omega} | {article} | {st} | {} | {} |",
-            l1_text(omega),
-            describe(&survey[i])
-        );
-    }
-    head += &spectra_table(&spectra, &params, spectra_s, &spectrum_cmd);
-    let _ = write!(
-        head,
-        "\nSurvey: {} start states per speed (static equilibrium + seeded random rotor states within the gap), {} transient and {} recorded periods ({}; {:.1} s). Classification: period-n up to n = 32 with tolerances relative to the attractor size; otherwise quasiperiodic (|lambda_1| < {} 1/s) or chaotic (lambda_1 above), lambda_1 per lane from one tangent vector over the recorded periods (attractor entries show the mean over their lanes).\n\n",
-        p.survey_ics,
-        p.survey_transient,
-        p.survey_periods,
-        survey_cmd(0.0).replace("--omega 0 ", "--omega W "),
-        survey_s,
-        cfg.lambda_tol
-    );
-    let text = head + &rep.text;
-    jeffcott_analysis::output::write_atomically(&dir.join("REPORT.md"), |w| {
-        std::io::Write::write_all(w, text.as_bytes())
-    })?;
-    rd.finish(
-        serde_json::json!({"wall_time_s": rep.started.elapsed().as_secs_f64()}),
-        &super::rundir::files_under(dir)?,
-    )?;
-    if !a.quiet {
-        println!(
-            "reproduce {mode}: figures and REPORT.md in {} ({:.1} s)",
-            dir.display(),
-            rep.started.elapsed().as_secs_f64()
         );
     }
     Ok(())
