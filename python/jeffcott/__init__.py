@@ -11,6 +11,7 @@ dictionaries whose keys are those of the command line's JSON files:
 - :func:`lyapunov` the full Lyapunov spectrum at one speed (``jeffcott lyapunov``),
 - :func:`map` a two-parameter design chart (``jeffcott map``),
 - :func:`continuation` attractors followed over a parameter (``jeffcott continuation``),
+- :func:`basin_stability` fractions of a box of start states (``jeffcott basin-stability``),
 - :func:`parameters` and :func:`adapters` the model's parameters and the GPU adapters.
 
 ``backend`` is ``"auto"`` (a hardware GPU if present, else all CPU cores), ``"cpu"`` or
@@ -38,6 +39,7 @@ from ._jeffcott import (  # noqa: E402
     __version__,
     adapters,
     basin,
+    basin_stability,
     bifurcation,
     continuation,
     ensemble,
@@ -55,6 +57,7 @@ __all__ = [
     "__version__",
     "adapters",
     "basin",
+    "basin_stability",
     "bifurcation",
     "continuation",
     "ensemble",

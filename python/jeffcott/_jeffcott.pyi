@@ -169,6 +169,27 @@ def continuation(
     """Attractors followed over a parameter: values [n], fractions_<dir> [n, ids + 1],
     fraction_errors_<dir>, tipping_<dir> [n - 1, ids + 1, ids + 1], summary."""
 
+def basin_stability(
+    omega: Union[float, str],
+    start_box: str,
+    *,
+    sample: int = 1000,
+    seed: int = 1,
+    transient: int = 500,
+    periods: int = 64,
+    params: Optional[Mapping[str, float]] = None,
+    backend: str = "auto",
+    precision: Optional[str] = None,
+    lyapunov: bool = True,
+    steps_per_period: int = 500,
+    max_segments: int = 16,
+    divergence_bound: float = 1.0,
+    contact_substeps: int = 2,
+    progress: Optional[Progress] = None,
+) -> Dict[str, Any]:
+    """Basin stability: omega [n], fractions [n, ids + 1], ci_low, ci_high (95 % Wilson),
+    summary (basin_stability.json's keys)."""
+
 def parameters(params: Optional[Mapping[str, float]] = None) -> Dict[str, float]:
     """Table 1 with the given overrides, validated."""
 

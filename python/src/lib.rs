@@ -794,6 +794,88 @@ fn continuation<'py>(
     Ok(d)
 }
 
+/// Basin stability (Menck et al. 2013): the command line's `basin-stability`.
+///
+/// `omega` is a speed or `"a:b:n"`; `start_box` the box of start coordinates drawn
+/// from uniformly, e.g. `"x_r:-0.006:0.006,vx_r:-1:1"`. Returns `omega` `[n]`,
+/// `fractions` `[n, ids + 1]` (last column diverged), `ci_low` and `ci_high` (95 %
+/// Wilson intervals) and `summary`, the dictionary of `basin_stability.json`.
+#[pyfunction]
+#[pyo3(signature = (
+    omega, start_box, *, sample=defaults::stability::SAMPLE, seed=defaults::stability::SEED,
+    transient=defaults::stability::TRANSIENT, periods=defaults::stability::PERIODS,
+    params=None, backend="auto", precision=None, lyapunov=true,
+    steps_per_period=StepperConfig::DEFAULT.steps_per_period,
+    max_segments=StepperConfig::DEFAULT.max_segments,
+    divergence_bound=StepperConfig::DEFAULT.divergence_bound,
+    contact_substeps=StepperConfig::DEFAULT.contact_substeps,
+    progress=None,
+))]
+#[allow(clippy::too_many_arguments)]
+fn basin_stability<'py>(
+    py: Python<'py>,
+    omega: Bound<'py, PyAny>,
+    start_box: &str,
+    sample: u32,
+    seed: u64,
+    transient: u32,
+    periods: u32,
+    params: Option<HashMap<String, f64>>,
+    backend: &str,
+    precision: Option<&str>,
+    lyapunov: bool,
+    steps_per_period: u32,
+    max_segments: u32,
+    divergence_bound: f64,
+    contact_substeps: u32,
+    progress: Option<Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    use jeffcott_analysis::stability::{StabilityRequest, fractions_with_intervals};
+    let (backend, precision) = backend_precision(backend, precision)?;
+    let omega = match omega.extract::<f64>() {
+        Ok(w) => format!("{w:e}"),
+        Err(_) => omega.extract::<String>().map_err(|_| {
+            pyo3::exceptions::PyValueError::new_err(
+                "invalid value for `omega`: expected a number or \"a:b:n\"",
+            )
+        })?,
+    };
+    let spec = jeffcott_analysis::stability::spec(&StabilityRequest {
+        params: model_params(params)?,
+        omega: &omega,
+        sample,
+        start_box,
+        seed,
+        transient,
+        recorded: periods,
+        stepper: stepper(
+            steps_per_period,
+            max_segments,
+            divergence_bound,
+            contact_substeps,
+        ),
+        precision,
+        backend,
+        catalogue: CatalogueConfig::for_precision(precision),
+        lyapunov,
+    })
+    .map_err(run::to_py_err)?;
+    let res = run::detached(py, progress.as_ref(), |ctl| {
+        jeffcott_analysis::continuation::continuation(&spec, ctl)
+    })?;
+    let ramp = &res.ramps[0];
+    let g = ramp.ids + 1;
+    let (f, lo, hi) = fractions_with_intervals(&spec, ramp);
+    let d = PyDict::new(py);
+    d.set_item("omega", array1(py, res.values.clone()))?;
+    d.set_item("fractions", array2(py, f, g)?)?;
+    d.set_item("ci_low", array2(py, lo, g)?)?;
+    d.set_item("ci_high", array2(py, hi, g)?)?;
+    let summary = jeffcott_analysis::stability::summary(&spec, &res);
+    d.set_item("summary", json_to_py(py, &summary)?)?;
+    Ok(d)
+}
+
 /// The model's parameters (Table 1 of the article, SI units) with `params` applied, as
 /// a dictionary keyed like the TOML file; raises ValueError naming a bad key or value.
 #[pyfunction]
@@ -830,6 +912,7 @@ fn _jeffcott(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(lyapunov, m)?)?;
     m.add_function(wrap_pyfunction!(map, m)?)?;
     m.add_function(wrap_pyfunction!(continuation, m)?)?;
+    m.add_function(wrap_pyfunction!(basin_stability, m)?)?;
     m.add_function(wrap_pyfunction!(parameters, m)?)?;
     m.add_function(wrap_pyfunction!(adapters, m)?)?;
     Ok(())

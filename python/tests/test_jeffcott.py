@@ -150,6 +150,25 @@ def test_continuation_arrays_and_summary_equal_the_cli_continuation(tmp_path):
     assert np.allclose(rows.sum(axis=-1), 1.0)
 
 
+def test_basin_stability_equals_the_cli_and_its_intervals_cover_the_fractions(tmp_path):
+    out = tmp_path / "bs"
+    cli("basin-stability", "--omega", "133", "--sample", "40", "--box",
+        "x_r:-0.006:0.006,vx_r:-1:1", "--transient", "250", "--periods", "32",
+        "--backend", "cpu", "--no-plot", "--out", str(out))
+    r = jeffcott.basin_stability(133, "x_r:-0.006:0.006,vx_r:-1:1", sample=40,
+                                 transient=250, periods=32, backend="cpu")
+    for name in ("omega", "fractions", "ci_low", "ci_high"):
+        want = np.load(out / f"{name}.npy")
+        assert r[name].shape == want.shape and r[name].tobytes() == want.tobytes(), name
+    b = json.loads((out / "basin_stability.json").read_text())
+    for k in ("files", "jeffcott_version"):
+        b.pop(k)
+    assert r["summary"] == b
+    f = r["fractions"]
+    assert np.allclose(f.sum(axis=1), 1.0)
+    assert np.all(r["ci_low"] <= f) and np.all(f <= r["ci_high"])
+
+
 @pytest.mark.parametrize(
     "call, field",
     [
@@ -168,6 +187,8 @@ def test_continuation_arrays_and_summary_equal_the_cli_continuation(tmp_path):
         (lambda: jeffcott.map(("omega", 131, 134, 4), ("nope", 0, 1, 3)), "y"),
         (lambda: jeffcott.continuation("omega:130:141:1"), "param"),
         (lambda: jeffcott.continuation("omega:130:141:3", direction="sideways"), "direction"),
+        (lambda: jeffcott.basin_stability(133, "x_r:-0.006:0.006", sample=1), "sample"),
+        (lambda: jeffcott.basin_stability(133, "q_r:0:1"), "box"),
     ],
 )
 def test_bad_input_raises_value_error_naming_the_field(call, field):

@@ -10,8 +10,8 @@ use super::rundir::{self, RunArgs};
 use super::{CatalogueArgs, ModelArgs, StepperArgs};
 use crate::plot::{PALETTE, StackedPanel, stacked_fractions};
 use clap::Args;
-use jeffcott_analysis::continuation::{ContinuationResult, ContinuationSpec, Direction, parse_box};
-use jeffcott_analysis::map::{MapAxis, MapVar};
+use jeffcott_analysis::continuation::{ContinuationResult, ContinuationSpec};
+use jeffcott_analysis::defaults;
 use jeffcott_analysis::output;
 use jeffcott_core::ensemble::{Backend, Precision};
 use jeffcott_core::error::{Error, Result};
@@ -24,7 +24,7 @@ pub struct StabilityArgs {
     #[arg(long, value_name = "W|a:b:n", allow_hyphen_values = true)]
     pub omega: String,
     /// Start states drawn per speed.
-    #[arg(long, default_value_t = 1000, value_name = "N")]
+    #[arg(long, default_value_t = defaults::stability::SAMPLE, value_name = "N")]
     pub sample: u32,
     /// The box of start coordinates drawn from, uniformly: NAME:lo:hi,... over any of
     /// x_r, vx_r, y_r, vy_r, x_s, vx_s, y_s, vy_s (the others at the static equilibrium),
@@ -36,13 +36,13 @@ pub struct StabilityArgs {
     )]
     pub start_box: String,
     /// Seed of the draws (the same draws at every speed).
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = defaults::stability::SEED)]
     pub seed: u64,
     /// Forcing periods integrated and discarded per lane.
-    #[arg(long, default_value_t = 500, value_name = "Q")]
+    #[arg(long, default_value_t = defaults::stability::TRANSIENT, value_name = "Q")]
     pub transient: u32,
     /// Forcing periods recorded per lane.
-    #[arg(long, default_value_t = 64, value_name = "P")]
+    #[arg(long, default_value_t = defaults::stability::PERIODS, value_name = "P")]
     pub periods: u32,
     /// Skip lambda_1 (aperiodic attractors are then not told apart as quasiperiodic or
     /// chaotic).
@@ -90,53 +90,17 @@ pub const OUTPUTS: &[&str] = &[
     "basin_stability.png",
 ];
 
-/// The 95 % Wilson score interval of a binomial fraction k/n (Wilson 1927), which keeps
-/// its coverage near 0 and 1 where the normal interval does not.
-pub fn wilson95(k: u64, n: u64) -> (f64, f64) {
-    if n == 0 {
-        return (0.0, 1.0);
-    }
-    let z = 1.959_963_984_540_054;
-    let (n, p) = (n as f64, k as f64 / n as f64);
-    let d = 1.0 + z * z / n;
-    let c = (p + z * z / (2.0 * n)) / d;
-    let h = z * (p * (1.0 - p) / n + z * z / (4.0 * n * n)).sqrt() / d;
-    ((c - h).max(0.0), (c + h).min(1.0))
-}
-
 impl StabilityArgs {
     /// The study as a continuation over W of uniform draws in the box.
     pub fn spec(&self) -> Result<ContinuationSpec> {
-        let r = jeffcott_core::ensemble::RangeSpec::parse("omega", &self.omega)?;
-        if r.n > 100_000 {
-            return Err(Error::invalid(
-                "omega",
-                &self.omega,
-                "at most 100000 speeds",
-            ));
-        }
         let precision = self
             .precision
             .unwrap_or_else(|| jeffcott_analysis::backend::default_precision(self.backend));
-        if !(2..=100_000_000).contains(&self.sample) {
-            return Err(Error::invalid(
-                "sample",
-                self.sample,
-                "must be in 2..=100000000",
-            ));
-        }
-        let spec = ContinuationSpec {
+        jeffcott_analysis::stability::spec(&jeffcott_analysis::stability::StabilityRequest {
             params: self.model.params()?,
-            omega: None,
-            param: MapAxis {
-                var: MapVar::Omega,
-                lo: r.a,
-                hi: r.b,
-                n: r.n as usize,
-                log: false,
-            },
-            ics: self.sample,
-            start_box: Some(parse_box("box", &self.start_box)?),
+            omega: &self.omega,
+            sample: self.sample,
+            start_box: &self.start_box,
             seed: self.seed,
             transient: self.transient,
             recorded: self.periods,
@@ -145,11 +109,7 @@ impl StabilityArgs {
             backend: self.backend,
             catalogue: self.catalogue.config(precision)?,
             lyapunov: !self.no_lyapunov,
-            directions: vec![Direction::Up],
-            match_threshold: f64::INFINITY,
-        };
-        spec.validate()?;
-        Ok(spec)
+        })
     }
 }
 
@@ -192,63 +152,20 @@ pub fn write_stability(
     let ramp = &res.ramps[0];
     let n = res.values.len();
     let g = ramp.ids + 1;
-    let k = spec.ics as u64;
-    let (f, _) = ramp.fractions();
-    let count = |x: f64| (x * k as f64).round() as u64;
-    let (lo, hi): (Vec<f64>, Vec<f64>) = f.iter().map(|&x| wilson95(count(x), k)).unzip();
+    let (f, lo, hi) = jeffcott_analysis::stability::fractions_with_intervals(spec, ramp);
     output::write_npy(&dir.join("omega.npy"), &[n], &res.values)?;
     output::write_npy(&dir.join("fractions.npy"), &[n, g], &f)?;
     output::write_npy(&dir.join("ci_low.npy"), &[n, g], &lo)?;
     output::write_npy(&dir.join("ci_high.npy"), &[n, g], &hi)?;
-    let steps: Vec<serde_json::Value> = ramp
-        .steps
-        .iter()
-        .enumerate()
-        .map(|(s, st)| {
-            let list: Vec<serde_json::Value> = st
-                .attractors
-                .iter()
-                .map(|a| {
-                    let i = s * g + a.id as usize;
-                    serde_json::json!({
-                        "id": a.id, "class": a.class, "period": a.period, "lambda1": a.lambda1,
-                        "fraction": a.fraction, "standard_error": a.error,
-                        "ci95": [lo[i], hi[i]], "found_only_from_a_seed": a.seeded_only,
-                    })
-                })
-                .collect();
-            serde_json::json!({
-                "omega": st.value, "attractors": list,
-                "diverged_fraction": st.diverged_fraction,
-                "diverged_ci95": [lo[s * g + ramp.ids], hi[s * g + ramp.ids]],
-            })
-        })
-        .collect();
-    let boxed: Vec<serde_json::Value> = spec
-        .start_box
-        .iter()
-        .flatten()
-        .map(|&(c, lo, hi)| serde_json::json!({"coord": jeffcott_core::model::COORD_NAMES[c], "lo": lo, "hi": hi}))
-        .collect();
-    let json = serde_json::json!({
-        "box": boxed,
-        "sample": spec.ics,
-        "seed": spec.seed,
-        "transient": spec.transient,
-        "periods": spec.recorded,
-        "lyapunov": spec.lyapunov,
-        "per_omega": steps,
-        "params": spec.params,
-        "definition": "basin stability (Menck et al. 2013): the fraction of start states drawn uniformly in the box that end on each attractor; standard error sqrt(f (1 - f) / N), 95 % Wilson score interval; attractor ids follow attractors from speed to speed (docs/maps.md, continuation)",
-        "files": {
+    let mut json = jeffcott_analysis::stability::summary(spec, res);
+    json["files"] = serde_json::json!({
             "omega.npy": "f64 [n]: the speeds",
             "fractions.npy": "f64 [n, ids + 1]: basin stability of each attractor id per speed (last column: diverged)",
             "ci_low.npy": "f64 [n, ids + 1]: lower end of the 95 % Wilson interval",
             "ci_high.npy": "f64 [n, ids + 1]: upper end",
             "basin_stability.png": "the fractions stacked against W (a range of speeds only)",
-        },
-        "jeffcott_version": env!("CARGO_PKG_VERSION"),
     });
+    json["jeffcott_version"] = serde_json::json!(env!("CARGO_PKG_VERSION"));
     output::write_json(&dir.join("basin_stability.json"), &json)?;
     if plot_it && n >= 2 {
         let bands: Vec<(String, plotters::style::RGBColor, Vec<f64>)> = (0..ramp.ids)
@@ -323,23 +240,4 @@ pub fn write_stability(
             String::new()
         }
     ))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::wilson95;
-
-    #[test]
-    fn wilson_intervals_match_published_values() {
-        // Newcombe (1998), Table I: 81/263 -> 0.2553..0.3662.
-        let (lo, hi) = wilson95(81, 263);
-        assert!(
-            (lo - 0.2553).abs() < 5e-5 && (hi - 0.3662).abs() < 5e-5,
-            "{lo} {hi}"
-        );
-        // 0/10 -> 0..0.2775 (Wilson), never below 0.
-        let (lo, hi) = wilson95(0, 10);
-        assert_eq!(lo, 0.0);
-        assert!((hi - 0.2775).abs() < 5e-5, "{hi}");
-    }
 }

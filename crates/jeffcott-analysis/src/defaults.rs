@@ -60,6 +60,18 @@ pub mod continuation {
     pub const PERIODS: u32 = 64;
 }
 
+/// `basin-stability`: uniform draws in a box of start states.
+pub mod stability {
+    /// Start states drawn per speed.
+    pub const SAMPLE: u32 = 1000;
+    /// Seed of the draws.
+    pub const SEED: u64 = 1;
+    /// Forcing periods integrated and discarded per lane.
+    pub const TRANSIENT: u32 = 500;
+    /// Forcing periods recorded per lane.
+    pub const PERIODS: u32 = 64;
+}
+
 /// `bifurcation`: quasistatic sweeps and brute force over W.
 pub mod bifurcation {
     /// Brute-force start states per W.

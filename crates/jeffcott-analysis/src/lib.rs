@@ -24,6 +24,7 @@ pub mod rub;
 pub mod run;
 pub mod simulate;
 pub mod spectrum;
+pub mod stability;
 pub mod uncertainty;
 
 pub use jeffcott_core::{Error, Result};
