@@ -357,14 +357,9 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         ref static_class,
         ..
     } = c;
-    let say = |s: &str| {
-        if !a.quiet {
-            eprintln!("{s}");
-        }
-    };
 
     // REPORT.md.
-    say("[11/11] REPORT.md");
+    say(a, "[11/11] REPORT.md");
     let mut head = String::new();
     let _ = write!(
         head,
@@ -488,6 +483,21 @@ fn copy(dir: &Path, from: &Path, to: &str) -> Result<()> {
     })
 }
 
+/// The units of one study of the figure set, kept apart under `prefix` in the run.
+fn store<'a>(
+    rd: &'a jeffcott_analysis::run::RunDir,
+    prefix: &'static str,
+) -> jeffcott_analysis::run::Prefixed<'a> {
+    jeffcott_analysis::run::Prefixed { inner: rd, prefix }
+}
+
+/// A progress line on stderr (not with --quiet).
+fn say(a: &ReproduceArgs, s: &str) {
+    if !a.quiet {
+        eprintln!("{s}");
+    }
+}
+
 /// What a sweep found: how many speeds are period-1, periodic, aperiodic (quasiperiodic,
 /// chaotic) and diverged.
 fn sweep_found(sw: &[jeffcott_analysis::bifurcation::SweepPoint]) -> String {
@@ -528,14 +538,8 @@ fn bifurcation_figures(c: &mut Ctx) -> Result<BifurcationSpec> {
         ref mut rep,
         ..
     } = *c;
-    let store = |prefix: &'static str| jeffcott_analysis::run::Prefixed { inner: rd, prefix };
-    let say = |s: &str| {
-        if !a.quiet {
-            eprintln!("{s}");
-        }
-    };
     // Figs. 3-4, the down sweep and the brute force: one study over [130, 141].
-    say("[1/11] bifurcation diagram over 130..141 rad/s");
+    say(a, "[1/11] bifurcation diagram over 130..141 rad/s");
     let spec = BifurcationSpec {
         params: params.clone(),
         omegas: jeffcott_core::ensemble::parse_range("omega", &format!("130:141:{}", p.speeds))?,
@@ -553,7 +557,7 @@ fn bifurcation_figures(c: &mut Ctx) -> Result<BifurcationSpec> {
         max_seeds: p.max_seeds,
         lyapunov: true,
     };
-    let res = run_study(&spec, &store("bifurcation"), a.quiet)?;
+    let res = run_study(&spec, &store(rd, "bifurcation"), a.quiet)?;
     write_bifurcation(&dir.join("bifurcation"), &spec, &res, &[VX_S, VX_R], true)?;
     let bif_cmd = format!(
         "jeffcott bifurcation --omega 130:141:{} --coord vx_s,vx_r --sweep both --ics {} --transient {} --transient-first {} --brute-transient {} --periods {} --max-seeds {} --backend {backend} --out {}/bifurcation",
@@ -721,14 +725,8 @@ fn enlargements(c: &mut Ctx, spec: &BifurcationSpec) -> Result<()> {
         ref mut rep,
         ..
     } = *c;
-    let store = |prefix: &'static str| jeffcott_analysis::run::Prefixed { inner: rd, prefix };
-    let say = |s: &str| {
-        if !a.quiet {
-            eprintln!("{s}");
-        }
-    };
     // Enlargements of Fig. 3.
-    say("[2/11] enlargements of Fig. 3");
+    say(a, "[2/11] enlargements of Fig. 3");
     for (k, &(lo, hi)) in ZOOMS.iter().enumerate() {
         let t = Instant::now();
         let zspec = BifurcationSpec {
@@ -740,7 +738,7 @@ fn enlargements(c: &mut Ctx, spec: &BifurcationSpec) -> Result<()> {
             ics: 0,
             ..spec.clone()
         };
-        let zres = run_study(&zspec, &store(["zoom0", "zoom1"][k]), a.quiet)?;
+        let zres = run_study(&zspec, &store(rd, ["zoom0", "zoom1"][k]), a.quiet)?;
         let fig = format!("fig03{}_zoom_{lo}-{hi}.png", ["b", "c"][k]);
         plot::bifurcation_diagram(
             &dir.join(&fig),
@@ -789,13 +787,8 @@ fn survey_and_spectra(c: &mut Ctx) -> Result<Survey> {
         cfg,
         ..
     } = *c;
-    let say = |s: &str| {
-        if !a.quiet {
-            eprintln!("{s}");
-        }
-    };
     // The article's speeds: a survey of start states at each.
-    say("[3/11] attractor survey at the article's speeds");
+    say(a, "[3/11] attractor survey at the article's speeds");
     let t = Instant::now();
     let starts = start_states(params, p.survey_ics, 135.0, 7);
     let mut lanes = Vec::new();
@@ -851,7 +844,7 @@ fn survey_and_spectra(c: &mut Ctx) -> Result<Survey> {
 
     // The full Lyapunov spectrum at each article speed, from the static equilibrium
     // (independent, in parallel).
-    say("[4/11] Lyapunov spectra at the article's speeds");
+    say(a, "[4/11] Lyapunov spectra at the article's speeds");
     let t = Instant::now();
     let scfg = SpectrumConfig {
         transient: p.spectrum_transient,
@@ -892,13 +885,8 @@ fn portraits(c: &mut Ctx, sv: &Survey) -> Result<()> {
         cfg,
         ..
     } = *c;
-    let say = |s: &str| {
-        if !a.quiet {
-            eprintln!("{s}");
-        }
-    };
     // Figs. 5-6: phase portraits at 131.7 and 132.2 from the static equilibrium.
-    say("[5/11] phase portraits at 131.7 and 132.2 rad/s");
+    say(a, "[5/11] phase portraits at 131.7 and 132.2 rad/s");
     for (i, (fig, omega)) in [
         ("fig05_phase_131.7.png", 131.7),
         ("fig06_phase_132.2.png", 132.2),
@@ -952,14 +940,8 @@ fn basin_section(c: &mut Ctx, sv: &Survey) -> Result<()> {
         ref mut static_class,
         ..
     } = *c;
-    let store = |prefix: &'static str| jeffcott_analysis::run::Prefixed { inner: rd, prefix };
-    let say = |s: &str| {
-        if !a.quiet {
-            eprintln!("{s}");
-        }
-    };
     // Figs. 7-8: basin at 133 and its coexisting attractors.
-    say("[6/11] basin of attraction at 133 rad/s");
+    say(a, "[6/11] basin of attraction at 133 rad/s");
     let t = Instant::now();
     let n = p.basin_n;
     let bspec = BasinSpec {
@@ -987,12 +969,17 @@ fn basin_section(c: &mut Ctx, sv: &Survey) -> Result<()> {
         chunk: None,
         lyapunov: false,
     };
-    let bres = run_basin_study(&bspec, &store("basin_133"), a.quiet)?;
+    let bres = run_basin_study(&bspec, &store(rd, "basin_133"), a.quiet)?;
     let bdir = dir.join("basin_133");
     // Boundary refinement: the basin at ((n - 1) 2^K + 1)^2, the measures on it.
     let (bspec, bres, refined) = if p.basin_refine > 0 {
-        let (s, r, f) =
-            super::basin::refine_basin(&bspec, bres, &store("basin_133"), p.basin_refine, a.quiet)?;
+        let (s, r, f) = super::basin::refine_basin(
+            &bspec,
+            bres,
+            &store(rd, "basin_133"),
+            p.basin_refine,
+            a.quiet,
+        )?;
         jeffcott_analysis::output::ensure_dir(&bdir)?;
         jeffcott_analysis::output::write_npy(
             &bdir.join("refined.npy"),
@@ -1023,7 +1010,7 @@ fn basin_section(c: &mut Ctx, sv: &Survey) -> Result<()> {
     let reint = super::basin::reintegrate(
         &bspec,
         &bres,
-        &store("basin_133"),
+        &store(rd, "basin_133"),
         p.uncertainty_samples,
         a.quiet,
     )?;
@@ -1095,13 +1082,11 @@ fn sections_135_140(c: &mut Ctx, sv: &Survey) -> Result<()> {
         ref mut static_class,
         ..
     } = *c;
-    let say = |s: &str| {
-        if !a.quiet {
-            eprintln!("{s}");
-        }
-    };
     // Figs. 9-12: sections at 135 and 140.
-    say("[7/11] phase portraits and Poincare sections at 135 and 140 rad/s");
+    say(
+        a,
+        "[7/11] phase portraits and Poincare sections at 135 and 140 rad/s",
+    );
     for (i, omega) in [(3usize, 135.0), (4, 140.0)] {
         let t = Instant::now();
         let r = sim(params, omega, p.section_transient, p.section_points, 8)?;
@@ -1213,14 +1198,8 @@ fn design_chart(c: &mut Ctx) -> Result<()> {
         ref mut rep,
         ..
     } = *c;
-    let store = |prefix: &'static str| jeffcott_analysis::run::Prefixed { inner: rd, prefix };
-    let say = |s: &str| {
-        if !a.quiet {
-            eprintln!("{s}");
-        }
-    };
     // Beyond the article: a design chart over (W, e) and the continuation over W.
-    say("[8/11] design chart: speed against unbalance");
+    say(a, "[8/11] design chart: speed against unbalance");
     let t = Instant::now();
     let mspec = jeffcott_analysis::map::MapSpec {
         params: params.clone(),
@@ -1251,7 +1230,7 @@ fn design_chart(c: &mut Ctx) -> Result<()> {
         chunk: None,
     };
     mspec.validate()?;
-    let mres = super::map::run_map_study(&mspec, &store("map_w_e"), a.quiet)?;
+    let mres = super::map::run_map_study(&mspec, &store(rd, "map_w_e"), a.quiet)?;
     let mdir = dir.join("map_w_e");
     super::map::write_map(&mdir, &mspec, &mres, true)?;
     copy(dir, &mdir.join("map_period.png"), "map_w_e_period.png")?;
@@ -1331,13 +1310,7 @@ fn continuation_section(c: &mut Ctx) -> Result<()> {
         ref mut rep,
         ..
     } = *c;
-    let store = |prefix: &'static str| jeffcott_analysis::run::Prefixed { inner: rd, prefix };
-    let say = |s: &str| {
-        if !a.quiet {
-            eprintln!("{s}");
-        }
-    };
-    say("[9/11] attractor continuation over 130..141 rad/s");
+    say(a, "[9/11] attractor continuation over 130..141 rad/s");
     let t = Instant::now();
     let cspec = jeffcott_analysis::continuation::ContinuationSpec {
         params: params.clone(),
@@ -1366,7 +1339,7 @@ fn continuation_section(c: &mut Ctx) -> Result<()> {
         match_threshold: f64::INFINITY,
     };
     let cres =
-        super::continuation::run_continuation_study(&cspec, &store("continuation"), a.quiet)?;
+        super::continuation::run_continuation_study(&cspec, &store(rd, "continuation"), a.quiet)?;
     let cdir = dir.join("continuation");
     super::continuation::write_continuation(&cdir, &cspec, &cres, true)?;
     copy(dir, &cdir.join("continuation.png"), "continuation.png")?;
@@ -1449,14 +1422,11 @@ fn rub_section(c: &mut Ctx) -> Result<()> {
         ref mut rep,
         ..
     } = *c;
-    let store = |prefix: &'static str| jeffcott_analysis::run::Prefixed { inner: rd, prefix };
-    let say = |s: &str| {
-        if !a.quiet {
-            eprintln!("{s}");
-        }
-    };
     // Rub regimes beyond the article's range: a (W, mu) map, a cascade, a full spectrum.
-    say("[10/11] rub regimes: (W, mu) map, full-spectrum cascade, full spectrum at 132.2");
+    say(
+        a,
+        "[10/11] rub regimes: (W, mu) map, full-spectrum cascade, full spectrum at 132.2",
+    );
     let t = Instant::now();
     let rspec = jeffcott_analysis::map::MapSpec {
         params: params.clone(),
@@ -1487,7 +1457,7 @@ fn rub_section(c: &mut Ctx) -> Result<()> {
         chunk: None,
     };
     rspec.validate()?;
-    let rres = super::map::run_map_study(&rspec, &store("map_w_mu"), a.quiet)?;
+    let rres = super::map::run_map_study(&rspec, &store(rd, "map_w_mu"), a.quiet)?;
     let rdir = dir.join("map_w_mu");
     super::map::write_map(&rdir, &rspec, &rres, true)?;
     copy(dir, &rdir.join("map_regime.png"), "rub_regimes_w_mu.png")?;
@@ -1606,7 +1576,7 @@ fn rub_section(c: &mut Ctx) -> Result<()> {
     };
     let cres2 = jeffcott_analysis::cascade::cascade_with(
         &cspec2,
-        &store("cascade"),
+        &store(rd, "cascade"),
         &super::rundir::cancel(),
         &|_, _| {},
     )?;
