@@ -261,6 +261,30 @@ def test_progress_callable_sees_lane_periods_up_to_the_total():
     assert all(a[0] <= b[0] for a, b in zip(seen, seen[1:]))
 
 
+def test_the_gil_is_released_during_a_run():
+    # Another Python thread keeps running while an ensemble integrates (~1 s of work):
+    # with the GIL held it would not advance at all until the run returned.
+    ticks = []
+    stop = threading.Event()
+
+    def ticker():
+        while not stop.is_set():
+            ticks.append(time.monotonic())
+            time.sleep(0.002)
+
+    t = threading.Thread(target=ticker)
+    t.start()
+    time.sleep(0.05)
+    t0 = time.monotonic()
+    jeffcott.ensemble("130:141:256", transient=300, periods=8, backend="cpu")
+    t1 = time.monotonic()
+    stop.set()
+    t.join()
+    during = [x for x in ticks if t0 < x < t1]
+    assert t1 - t0 > 0.2, "the run was too short to tell"
+    assert len(during) >= 20, f"{len(during)} ticks in {t1 - t0:.2f} s: the GIL was held"
+
+
 def test_keyboard_interrupt_during_a_long_ensemble_returns_within_a_second():
     # ~100 s of CPU work; Ctrl-C (as a notebook's interrupt sends it) after 1.5 s.
     fired = []
