@@ -362,8 +362,6 @@ fn basin<'py>(
         divergence_bound,
     )
     .map_err(run::to_py_err)?;
-    jeffcott_core::limits::check_periods("transient", transient, 0).map_err(run::to_py_err)?;
-    jeffcott_core::limits::check_periods("periods", periods, 2).map_err(run::to_py_err)?;
     let spec = BasinSpec {
         params,
         omega,

@@ -193,6 +193,8 @@ impl BasinSpec {
                 "at least 2 periods must be recorded",
             ));
         }
+        jeffcott_core::limits::check_periods("transient", self.transient, 0)?;
+        jeffcott_core::limits::check_periods("periods", self.recorded, 2)?;
         if let Some((i, v)) = self.base.iter().enumerate().find(|(_, v)| !v.is_finite()) {
             return Err(Error::invalid(
                 COORD_NAMES[i],
