@@ -3,11 +3,14 @@
 
 use crate::plot;
 use clap::{Args, Parser, Subcommand};
+use files::Documented;
 use jeffcott_analysis::classify::ClassifyConfig;
 use jeffcott_analysis::defaults;
 use jeffcott_analysis::ensemble::Totals;
 use jeffcott_analysis::output;
+use jeffcott_analysis::record::Span;
 use jeffcott_analysis::simulate::{Integrator, SimulateSpec, simulate};
+use jeffcott_core::ensemble::Precision;
 use jeffcott_core::error::{Error, Result};
 use jeffcott_core::integrate::article::{ArticleConfig, ErrorNorm};
 use jeffcott_core::integrate::lane::StepperConfig;
@@ -19,6 +22,7 @@ mod bench;
 mod bifurcation;
 mod cascade;
 mod continuation;
+pub mod files;
 mod map;
 mod merge;
 mod reproduce;
@@ -203,6 +207,53 @@ pub(crate) const ENSEMBLE_OUTPUTS: &[&str] = &[
     "lambda1.npy",
 ];
 
+/// How `run.json` records an ensemble's lanes: the table they were read from, or a
+/// speed range from one start state (the keys of earlier versions, `omega` and `x0`, so
+/// their runs resume).
+#[derive(serde::Serialize)]
+#[serde(untagged)]
+enum LanesRecord {
+    /// Lanes from a table.
+    Table {
+        /// The table, its columns, its rows and a checksum of the lanes read.
+        lanes: TableRecord,
+    },
+    /// A speed range.
+    Range {
+        /// The speeds.
+        omega: Span,
+        /// The start state of every lane.
+        x0: State,
+    },
+}
+
+/// A lane table as `run.json` records it.
+#[derive(serde::Serialize)]
+struct TableRecord {
+    /// Its path as given.
+    table: String,
+    /// Its columns.
+    columns: Vec<String>,
+    /// Its rows.
+    count: usize,
+    /// [`lanes_checksum`] of the lanes and parameter sets read.
+    checksum: String,
+}
+
+/// An ensemble's specification as `run.json` records it.
+#[derive(serde::Serialize)]
+struct EnsembleRecord<'a> {
+    transient: u32,
+    periods: u32,
+    stepper: StepperConfig,
+    precision: Precision,
+    lyapunov: bool,
+    unit_lanes: usize,
+    params: &'a [Params],
+    #[serde(flatten)]
+    lanes: LanesRecord,
+}
+
 /// The lanes of `jeffcott ensemble`: a speed range from one start state, or a table.
 /// Returns the parameter sets, the lanes and what run.json records of them.
 fn ensemble_lanes(
@@ -210,7 +261,7 @@ fn ensemble_lanes(
 ) -> Result<(
     Vec<Params>,
     Vec<jeffcott_core::ensemble::LaneSpec>,
-    serde_json::Value,
+    LanesRecord,
 )> {
     use jeffcott_core::ensemble::LaneSpec;
     use jeffcott_core::ensemble::table::{
@@ -267,12 +318,14 @@ fn ensemble_lanes(
                 divergence_bound: bound,
             },
         )?;
-        let j = serde_json::json!({
-            "table": path.display().to_string(),
-            "columns": table.columns,
-            "count": lanes.len(),
-            "checksum": lanes_checksum(&sets, &lanes),
-        });
+        let j = LanesRecord::Table {
+            lanes: TableRecord {
+                table: path.display().to_string(),
+                columns: table.columns,
+                count: lanes.len(),
+                checksum: lanes_checksum(&sets, &lanes),
+            },
+        };
         return Ok((sets, lanes, j));
     }
     let omega = a.omega.as_deref().unwrap_or_default();
@@ -288,8 +341,10 @@ fn ensemble_lanes(
         "ask for fewer speeds (a smaller n in --omega a:b:n) or fewer --periods",
     )?;
     let omegas = range.values();
-    let n = omegas.len();
-    let j = serde_json::json!({"first": omegas[0], "last": omegas[n - 1], "count": n, "x0": x0});
+    let j = LanesRecord::Range {
+        omega: Span::of(&omegas),
+        x0,
+    };
     Ok((vec![params], LaneSpec::at_speeds(&omegas, x0), j))
 }
 
@@ -300,7 +355,7 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
     use jeffcott_core::ensemble::EnsembleSpec;
     jeffcott_core::limits::check_periods("transient", a.transient, 0)?;
     jeffcott_core::limits::check_periods("periods", a.periods, 1)?;
-    let (param_sets, lanes, lanes_json) = ensemble_lanes(a)?;
+    let (param_sets, lanes, lanes_record) = ensemble_lanes(a)?;
     let precision = a
         .precision
         .unwrap_or_else(|| jeffcott_analysis::backend::default_precision(a.backend));
@@ -320,27 +375,21 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
         per_lane * spec.stepper.steps_per_period as u64 * if a.lyapunov { 2 } else { 1 },
     );
     let count = jeffcott_analysis::run::unit_count(n, unit);
-    // A speed range keeps the keys of earlier versions (omega, x0), so their runs resume.
-    let mut run_spec = serde_json::json!({
-        "transient": spec.transient,
-        "periods": spec.recorded,
-        "stepper": spec.stepper,
-        "precision": spec.precision,
-        "lyapunov": a.lyapunov,
-        "unit_lanes": unit,
-        "params": spec.param_sets,
-    });
-    if a.lanes.is_some() {
-        run_spec["lanes"] = lanes_json;
-    } else {
-        run_spec["omega"] = serde_json::json!({"first": lanes_json["first"], "last": lanes_json["last"], "count": n});
-        run_spec["x0"] = lanes_json["x0"].clone();
-    }
+    let run_spec = EnsembleRecord {
+        transient: spec.transient,
+        periods: spec.recorded,
+        stepper: spec.stepper,
+        precision: spec.precision,
+        lyapunov: a.lyapunov,
+        unit_lanes: unit,
+        params: &spec.param_sets,
+        lanes: lanes_record,
+    };
     let shard = a.shard.shard()?;
     let rd = rundir::open_shard(
         &a.out,
         "ensemble",
-        run_spec,
+        &run_spec,
         ENSEMBLE_OUTPUTS,
         a.run,
         shard,
@@ -450,15 +499,22 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
         elapsed_s: elapsed,
         ..info
     };
-    let mut run_json = jeffcott_analysis::ensemble::run_record(&spec, &totals, &codes, &info);
-    run_json["files"] = serde_json::json!({
-            "poincare.npy": "f64 [lanes, periods, 8], state order x_r, vx_r, y_r, vy_r, x_s, vx_s, y_s, vy_s",
-            "status.npy": "u32 [lanes], codes in status_codes",
-            "lanes.npy": "f64 [lanes, 10], columns in lanes_columns",
-            "lambda1.npy": "f64 [lanes], largest Lyapunov exponent [1/s] over the recorded periods (NaN for frozen lanes; only with --lyapunov)",
-    });
-    run_json["jeffcott_version"] = serde_json::json!(env!("CARGO_PKG_VERSION"));
-    rd.finish(run_json, &rundir::written(&rd, ENSEMBLE_OUTPUTS))?;
+    let run_json = Documented::new(
+        jeffcott_analysis::ensemble::run_record(&spec, &totals, &codes, &info),
+        &[
+            (
+                "poincare.npy",
+                "f64 [lanes, periods, 8], state order x_r, vx_r, y_r, vy_r, x_s, vx_s, y_s, vy_s",
+            ),
+            ("status.npy", "u32 [lanes], codes in status_codes"),
+            ("lanes.npy", "f64 [lanes, 10], columns in lanes_columns"),
+            (
+                "lambda1.npy",
+                "f64 [lanes], largest Lyapunov exponent [1/s] over the recorded periods (NaN for frozen lanes; only with --lyapunov)",
+            ),
+        ],
+    );
+    rd.finish(&run_json, &rundir::written(&rd, ENSEMBLE_OUTPUTS))?;
     if !a.quiet {
         println!(
             "{n} lanes x {} periods in {:.2} s ({:.3e} lane-steps/s); status ok {}, refinement_cap {}, diverged {}, non_finite {}; files in {}",
@@ -696,19 +752,10 @@ pub fn run_simulate(a: &SimulateArgs) -> Result<()> {
     let rd = rundir::open(
         &a.out,
         "simulate",
-        serde_json::json!({
-            "omega": spec.omega,
-            "x0": spec.x0,
-            "transient": spec.transient,
-            "periods": spec.periods,
-            "timeseries_periods": spec.timeseries_periods,
-            "integrator": spec.integrator,
-            "stepper": spec.stepper,
-            "article": spec.article,
-            "classify": spec.classify,
-            "spectrum_periods": a.spectrum_periods,
-            "params": spec.params,
-        }),
+        &SimulateRecord {
+            spec: &spec,
+            spectrum_periods: a.spectrum_periods,
+        },
         &outputs,
         a.run,
         a.quiet,
@@ -738,7 +785,9 @@ pub fn run_simulate(a: &SimulateArgs) -> Result<()> {
     }
     write_simulation(&a.out, &spec, &res, rub.as_ref(), !a.no_plot)?;
     rd.finish(
-        serde_json::json!({"wall_time_s": res.elapsed.as_secs_f64()}),
+        &rundir::WallTime {
+            wall_time_s: res.elapsed.as_secs_f64(),
+        },
         &rundir::written(&rd, &outputs),
     )?;
     if !a.quiet {
@@ -749,6 +798,14 @@ pub fn run_simulate(a: &SimulateArgs) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// A simulation's specification as `run.json` records it.
+#[derive(serde::Serialize)]
+struct SimulateRecord<'a> {
+    #[serde(flatten)]
+    spec: &'a SimulateSpec,
+    spectrum_periods: u32,
 }
 
 fn write_simulation(
@@ -786,18 +843,47 @@ fn write_simulation(
             &res.poincare,
         )?;
     }
-    let mut summary = jeffcott_analysis::simulate::summary(spec, res, rub);
-    summary["files"] = serde_json::json!({
-            "poincare.npy": "f64 [K, 8], state order x_r, vx_r, y_r, vy_r, x_s, vx_s, y_s, vy_s (m, m/s)",
-            "timeseries.npy": "f64 [M, 9], t [s] then the state, on the integrator's grid",
-            "phase.png": if plot_it { "rotor and stator phase portraits and orbits" } else { "not drawn (--no-plot)" },
-            "full_spectrum.npy": "f64 [bins, 4]: order (frequency / W, < 0 backward whirl), frequency [Hz], rotor and stator amplitude [m] of the full spectrum of x + i y over rub.periods periods continued from the final state (Hann window, line-calibrated)",
-            "contact.npy": "f64 [M, 5]: t [s], x_r - x_s, y_r - y_s [m], penetration g [m] (> 0 in contact), normal contact force [N], at each grid point of that stretch",
-            "full_spectrum.png": "the full spectra with 1X, 2X, 3X, 1/2X, 1/3X, 2/3X marks",
-            "contact.png": "the rotor orbit relative to the stator with the clearance circle and contact points; normal force and penetration against time",
-            "*.csv": "with --csv: timeseries.csv, full_spectrum.csv, contact.csv (the same columns, headed)",
-    });
-    summary["jeffcott_version"] = serde_json::json!(env!("CARGO_PKG_VERSION"));
+    let summary = Documented::new(
+        jeffcott_analysis::simulate::summary(spec, res, rub),
+        &[
+            (
+                "poincare.npy",
+                "f64 [K, 8], state order x_r, vx_r, y_r, vy_r, x_s, vx_s, y_s, vy_s (m, m/s)",
+            ),
+            (
+                "timeseries.npy",
+                "f64 [M, 9], t [s] then the state, on the integrator's grid",
+            ),
+            (
+                "phase.png",
+                if plot_it {
+                    "rotor and stator phase portraits and orbits"
+                } else {
+                    "not drawn (--no-plot)"
+                },
+            ),
+            (
+                "full_spectrum.npy",
+                "f64 [bins, 4]: order (frequency / W, < 0 backward whirl), frequency [Hz], rotor and stator amplitude [m] of the full spectrum of x + i y over rub.periods periods continued from the final state (Hann window, line-calibrated)",
+            ),
+            (
+                "contact.npy",
+                "f64 [M, 5]: t [s], x_r - x_s, y_r - y_s [m], penetration g [m] (> 0 in contact), normal contact force [N], at each grid point of that stretch",
+            ),
+            (
+                "full_spectrum.png",
+                "the full spectra with 1X, 2X, 3X, 1/2X, 1/3X, 2/3X marks",
+            ),
+            (
+                "contact.png",
+                "the rotor orbit relative to the stator with the clearance circle and contact points; normal force and penetration against time",
+            ),
+            (
+                "*.csv",
+                "with --csv: timeseries.csv, full_spectrum.csv, contact.csv (the same columns, headed)",
+            ),
+        ],
+    );
     // Written last: its presence marks a complete run.
     output::write_json(&dir.join("summary.json"), &summary)
 }

@@ -137,11 +137,13 @@ pub fn lane_specs(
     Ok((vec![params.clone()], LaneSpec::at_speeds(&omegas, x0)))
 }
 
-/// A JSON value as Python objects (dict, list, float, int, str, bool, None), through
-/// Python's own `json` module so numbers and key order are exactly the file's.
-pub fn json_to_py<'py>(py: Python<'py>, v: &serde_json::Value) -> PyResult<Bound<'py, PyAny>> {
-    let text = serde_json::to_string(v)
-        .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?;
+/// A record (any `Serialize` value: the library's typed records, parameters) as Python
+/// objects (dict, list, float, int, str, bool, None), through [`serde_json::Value`] (keys
+/// sorted, as the files write them) and Python's own `json` module, so numbers and key
+/// order are exactly the file's.
+pub fn json_to_py<'py, T: serde::Serialize>(py: Python<'py>, v: &T) -> PyResult<Bound<'py, PyAny>> {
+    let err = |e: serde_json::Error| pyo3::exceptions::PyRuntimeError::new_err(e.to_string());
+    let text = serde_json::to_string(&serde_json::to_value(v).map_err(err)?).map_err(err)?;
     py.import("json")?.call_method1("loads", (text,))
 }
 

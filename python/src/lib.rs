@@ -312,6 +312,17 @@ fn ensemble<'py>(
     Ok(d)
 }
 
+/// The `run` dictionary of `basin`: backend, device, precision, wall time and the
+/// specification `run.json` records.
+#[derive(serde::Serialize)]
+struct BasinRun<'a> {
+    backend: Option<&'static str>,
+    device: Option<&'a str>,
+    precision: Precision,
+    wall_time_s: f64,
+    spec: jeffcott_analysis::basin::SpecRecord<'a>,
+}
+
 /// A basin of attraction over two start coordinates at one speed: the command line's
 /// `basin`.
 ///
@@ -397,19 +408,18 @@ fn basin<'py>(
         "y",
         array1(py, (0..ny).map(|i| spec.y.value(i)).collect::<Vec<_>>()),
     )?;
-    let attractors = serde_json::to_value(&res.catalogue.attractors).unwrap_or_default();
-    d.set_item("attractors", json_to_py(py, &attractors)?)?;
+    d.set_item("attractors", json_to_py(py, &res.catalogue.attractors)?)?;
     d.set_item("diverged", res.catalogue.diverged)?;
     if let Some(l) = res.lambda1 {
         d.set_item("lambda1", array2(py, l, nx)?)?;
     }
-    let run = serde_json::json!({
-        "backend": res.info.as_ref().map(|i| i.backend),
-        "device": res.info.as_ref().map(|i| i.device.clone()),
-        "precision": spec.precision,
-        "wall_time_s": res.seconds,
-        "spec": spec.to_json(),
-    });
+    let run = BasinRun {
+        backend: res.info.as_ref().map(|i| i.backend),
+        device: res.info.as_ref().map(|i| i.device.as_str()),
+        precision: spec.precision,
+        wall_time_s: res.seconds,
+        spec: spec.record(),
+    };
     d.set_item("run", json_to_py(py, &run)?)?;
     Ok(d)
 }
@@ -503,7 +513,10 @@ fn bifurcation<'py>(
     spec.validate().map_err(run::to_py_err)?;
     let (res, summary) = run::detached(py, progress.as_ref(), |ctl| {
         let res = jeffcott_analysis::bifurcation::bifurcation(&spec, ctl)?;
+        // The summary borrows the result: held as the file's JSON value.
         let summary = jeffcott_analysis::bifurcation::summary(&spec, &res)?;
+        let summary = serde_json::to_value(summary)
+            .map_err(|e| jeffcott_core::Error::invalid("summary", "", e.to_string()))?;
         Ok((res, summary))
     })?;
     let a = jeffcott_analysis::bifurcation::arrays(&res);
@@ -584,7 +597,7 @@ fn lyapunov<'py>(
     let s = run::detached(py, None, |_ctl| {
         jeffcott_core::lyapunov::spectrum(&params, omega, &x0, &cfg)
     })?;
-    let d = json_to_py(py, &s.to_json())?.cast_into::<PyDict>()?;
+    let d = json_to_py(py, &s.record())?.cast_into::<PyDict>()?;
     let history: Vec<f64> = s
         .history
         .iter()
@@ -665,7 +678,7 @@ fn map<'py>(
     let res = run::detached(py, progress.as_ref(), |ctl| {
         jeffcott_analysis::map::map(&spec, ctl)
     })?;
-    let summary = jeffcott_analysis::map::summary(&spec, &res);
+    let summary = json_to_py(py, &jeffcott_analysis::map::summary(&spec, &res))?;
     let nx = spec.x.n;
     let d = PyDict::new(py);
     d.set_item("period", array2(py, res.period, nx)?)?;
@@ -677,7 +690,7 @@ fn map<'py>(
     d.set_item("regime", array2(py, res.regime, nx)?)?;
     d.set_item("x", array1(py, spec.x.values()))?;
     d.set_item("y", array1(py, spec.y.values()))?;
-    d.set_item("summary", json_to_py(py, &summary)?)?;
+    d.set_item("summary", summary)?;
     Ok(d)
 }
 
@@ -883,7 +896,7 @@ fn parameters<'py>(
     params: Option<HashMap<String, f64>>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let p = model_params(params)?;
-    json_to_py(py, &serde_json::to_value(&p).unwrap_or_default())
+    json_to_py(py, &p)
 }
 
 /// The GPU adapters wgpu finds (name, backend, device type, software, f64 support,
@@ -891,7 +904,7 @@ fn parameters<'py>(
 #[pyfunction]
 fn adapters<'py>(py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
     let list = py.detach(jeffcott_gpu::list_adapters);
-    json_to_py(py, &serde_json::to_value(&list).unwrap_or_default())
+    json_to_py(py, &list)
 }
 
 #[pymodule]

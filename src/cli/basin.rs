@@ -1,6 +1,7 @@
 //! `jeffcott basin`: basin of attraction over two initial coordinates at one W, streamed
 //! in work units committed to --out (resumable); `labels.npy`, `attractors.json`, `basin.png` and `attractors.png`.
 
+use super::files::Documented;
 use super::rundir::{self, RunArgs};
 use super::{CatalogueArgs, ModelArgs, StepperArgs, parse_assignment_lists};
 use crate::plot::{
@@ -11,10 +12,12 @@ use jeffcott_analysis::basin::{Axis, BasinResult, BasinSpec, basin_with};
 use jeffcott_analysis::catalogue::Attractor;
 use jeffcott_analysis::defaults;
 use jeffcott_analysis::output;
+use jeffcott_analysis::rub::RubEntry;
 use jeffcott_analysis::simulate::{Integrator, SimulateSpec, simulate};
 use jeffcott_core::ensemble::{Backend, Precision};
 use jeffcott_core::error::{Error, Result};
 use jeffcott_core::model::{COORD_NAMES, Params};
+use serde::Serialize;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `jeffcott basin`.
@@ -233,11 +236,14 @@ pub fn run_basin_study(
 }
 
 /// What run.json records of a finished basin besides its specification.
-pub fn run_json(res: &BasinResult) -> serde_json::Value {
-    serde_json::json!({
-        "backend": res.info,
-        "wall_time_s": res.seconds,
-    })
+/// What a basin's `run.json` adds once complete: backend and wall time, and with
+/// `--refine` what the refinement computed.
+#[derive(Serialize)]
+struct RunResult<'a> {
+    #[serde(flatten)]
+    run: rundir::BackendTime<'a>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    refinement: Option<RefinementRecord<'a>>,
 }
 
 /// Runs `jeffcott basin`.
@@ -278,10 +284,12 @@ pub fn run_basin(a: &BasinArgs) -> Result<()> {
         ));
     }
     let shard = a.shard.shard()?;
-    let mut run_spec = spec.to_json();
-    run_spec["refine"] = a.refine.into();
-    run_spec["uncertainty_samples"] = a.uncertainty_samples.into();
-    let rd = rundir::open_shard(&a.out, "basin", run_spec, OUTPUTS, a.run, shard, a.quiet)?;
+    let run_spec = RunSpec {
+        spec: spec.record(),
+        refine: a.refine,
+        uncertainty_samples: a.uncertainty_samples,
+    };
+    let rd = rundir::open_shard(&a.out, "basin", &run_spec, OUTPUTS, a.run, shard, a.quiet)?;
     let res = match run_basin_study(&spec, rundir::store(&rd).as_ref(), a.quiet) {
         Err(Error::NotInShard) => return rundir::finish_shard(&rd, a.quiet),
         r => r?,
@@ -305,11 +313,14 @@ pub fn run_basin(a: &BasinArgs) -> Result<()> {
         a.quiet,
     )?;
     let metrics = write_metrics(&a.out, &spec, &res, entropy_box, reint.as_ref(), !a.no_plot)?;
-    let mut rj = run_json(&res);
-    if let Some(f) = &refined {
-        rj["refinement"] = refinement_json(f, &spec);
-    }
-    rd.finish(rj, &rundir::written(&rd, OUTPUTS))?;
+    let rj = RunResult {
+        run: rundir::BackendTime {
+            backend: res.info.as_ref(),
+            wall_time_s: res.seconds,
+        },
+        refinement: refined.as_ref().map(|f| refinement_record(f, &spec)),
+    };
+    rd.finish(&rj, &rundir::written(&rd, OUTPUTS))?;
     if !a.quiet {
         println!("{}", human_summary(&spec, &res, &a.out));
         if !rub_line.is_empty() {
@@ -442,18 +453,44 @@ pub fn refine_basin(
 }
 
 /// What run.json records of a refinement.
-fn refinement_json(f: &jeffcott_analysis::refine::Refined, spec: &BasinSpec) -> serde_json::Value {
-    let lanes: usize = f.levels.iter().map(|l| l.lanes).sum();
-    serde_json::json!({
-        "levels": f.levels,
-        "finest": [f.nx, f.ny],
-        "lanes": lanes,
-        "full_fine_grid_lanes": f.nx * f.ny,
-        "computed_points": f.computed.iter().filter(|&&c| c == 1).count(),
-        "not_in_the_coarse_catalogue": f.labels.iter().filter(|&&l| l == -2).count(),
-        "x_n": spec.x.n,
-        "y_n": spec.y.n,
-    })
+/// A basin's specification as `run.json` records it: the study's, and the refinement
+/// and re-integration asked for.
+#[derive(Serialize)]
+struct RunSpec<'a> {
+    #[serde(flatten)]
+    spec: jeffcott_analysis::basin::SpecRecord<'a>,
+    refine: u32,
+    uncertainty_samples: usize,
+}
+
+/// What `run.json` records of a refinement: its levels, the finest grid, the lanes it
+/// integrated against the full fine grid's, and the labels the coarse catalogue lacked.
+#[derive(Serialize)]
+struct RefinementRecord<'a> {
+    levels: &'a [jeffcott_analysis::refine::Level],
+    finest: [usize; 2],
+    lanes: usize,
+    full_fine_grid_lanes: usize,
+    computed_points: usize,
+    not_in_the_coarse_catalogue: usize,
+    x_n: usize,
+    y_n: usize,
+}
+
+fn refinement_record<'a>(
+    f: &'a jeffcott_analysis::refine::Refined,
+    spec: &BasinSpec,
+) -> RefinementRecord<'a> {
+    RefinementRecord {
+        levels: &f.levels,
+        finest: [f.nx, f.ny],
+        lanes: f.levels.iter().map(|l| l.lanes).sum(),
+        full_fine_grid_lanes: f.nx * f.ny,
+        computed_points: f.computed.iter().filter(|&&c| c == 1).count(),
+        not_in_the_coarse_catalogue: f.labels.iter().filter(|&&l| l == -2).count(),
+        x_n: spec.x.n,
+        y_n: spec.y.n,
+    }
 }
 
 /// The uncertainty exponent by re-integration ([`jeffcott_analysis::uncertainty`]) of a
@@ -493,6 +530,16 @@ pub fn reintegrate(
     .map(Some)
 }
 
+/// `basin_metrics.json`: the measures, the re-integration estimate of the uncertainty
+/// exponent (null without `--uncertainty-samples`), and where the definitions are.
+#[derive(Serialize)]
+struct MetricsFile<'a> {
+    #[serde(flatten)]
+    metrics: &'a jeffcott_analysis::measures::BasinMetrics,
+    uncertainty_reintegration: Option<&'a jeffcott_analysis::uncertainty::Reintegration>,
+    definitions: &'static str,
+}
+
 /// Computes the basin measures of the labels and writes `basin_metrics.json` (with the
 /// re-integration estimate when given) and, with `plot_it`, `uncertainty.png`.
 pub fn write_metrics(
@@ -516,12 +563,6 @@ pub fn write_metrics(
         (&res.labels[..]).into()
     };
     let m = jeffcott_analysis::measures::basin_metrics(&labels, spec.x.n, spec.y.n, entropy_box)?;
-    let mut j =
-        serde_json::to_value(&m).map_err(|e| Error::invalid("basin_metrics", "", e.to_string()))?;
-    j["uncertainty_reintegration"] = match reint {
-        Some(r) => serde_json::to_value(r).unwrap_or_default(),
-        None => serde_json::Value::Null,
-    };
     if plot_it {
         // The grid estimate's eps in cells, as a fraction of the box side (nx - 1 cells).
         let side = (spec.x.n.max(2) - 1) as f64;
@@ -543,9 +584,11 @@ pub fn write_metrics(
             reint.and_then(|r| r.alpha),
         )?;
     }
-    j["definitions"] = serde_json::json!(
-        "docs/basin-measures.md: fractions with the binomial (random sampling) error and the grid's boundary-cell bound; S_b, S_bb in nats, boxes of entropy.eps cells (Daza et al. 2016), S_bb > ln 2 sufficient for a fractal boundary; alpha from the uncertain fraction f(eps) ~ eps^alpha on the grid, D = 2 - alpha; box-counting dimension of the boundary; Wada merge test (Daza et al. 2018) with 3 or more basins"
-    );
+    let j = MetricsFile {
+        metrics: &m,
+        uncertainty_reintegration: reint,
+        definitions: "docs/basin-measures.md: fractions with the binomial (random sampling) error and the grid's boundary-cell bound; S_b, S_bb in nats, boxes of entropy.eps cells (Daza et al. 2016), S_bb > ln 2 sufficient for a fractal boundary; alpha from the uncertain fraction f(eps) ~ eps^alpha on the grid, D = 2 - alpha; box-counting dimension of the boundary; Wada merge test (Daza et al. 2018) with 3 or more basins",
+    };
     output::write_json(&dir.join("basin_metrics.json"), &j)?;
     Ok(m)
 }
@@ -681,58 +724,101 @@ pub fn write_basin(
         jeffcott_analysis::rub::attractors_with_rub(&spec.params, &cat.attractors, &spec.stepper)?;
     let rub_line = with_rub
         .iter()
-        .map(|a| {
-            let r = &a["rub"];
-            match r["contact_fraction"].as_f64() {
-                Some(c) => format!(
-                    "#{} {} (contact {:.1} % of the time, peak normal force {:.0} N)",
-                    a["id"],
-                    r["regime"].as_str().unwrap_or("?"),
-                    100.0 * c,
-                    r["peak_force_n"].as_f64().unwrap_or(f64::NAN)
-                ),
-                None => format!("#{} {}", a["id"], r["regime"].as_str().unwrap_or("?")),
-            }
+        .map(|a| match &a.rub {
+            RubEntry::Figures(r) => format!(
+                "#{} {} (contact {:.1} % of the time, peak normal force {:.0} N)",
+                a.attractor.id,
+                r.regime.label(),
+                100.0 * r.contact_fraction,
+                r.peak_force_n
+            ),
+            RubEntry::Diverged { regime } => format!("#{} {regime}", a.attractor.id),
         })
         .collect::<Vec<_>>()
         .join(", ");
-    let fixed: serde_json::Map<String, serde_json::Value> = COORD_NAMES
+    let fixed: std::collections::BTreeMap<&str, f64> = COORD_NAMES
         .iter()
         .enumerate()
         .filter(|(i, _)| *i != spec.x.coord && *i != spec.y.coord)
-        .map(|(i, n)| (n.to_string(), serde_json::json!(spec.base[i])))
+        .map(|(i, &n)| (n, spec.base[i]))
         .collect();
-    let json = serde_json::json!({
-        "omega": spec.omega,
-        "x": {"coord": COORD_NAMES[spec.x.coord], "lo": spec.x.lo, "hi": spec.x.hi, "n": nx},
-        "y": {"coord": COORD_NAMES[spec.y.coord], "lo": spec.y.lo, "hi": spec.y.hi, "n": ny},
-        "fixed": fixed,
-        "transient": spec.transient,
-        "periods": spec.recorded,
-        "steps_per_period": spec.stepper.steps_per_period,
-        "lyapunov": spec.lyapunov,
-        "cells": nx * ny,
-        "diverged": cat.diverged,
-        "diverged_fraction": cat.diverged_fraction,
-        "attractors": with_rub,
-        "catalogue_config": cat.config,
-        "params": spec.params,
-        "files": {
-            "labels.npy": "int32 [ny, nx]: attractor id per start state (row iy has y = y.npy[iy], column ix has x = x.npy[ix]); -1 diverged; -2 (with --refine) an attractor the coarse grid did not find",
-            "refined.npy": "uint8 [ny, nx] (with --refine): 1 where the label was integrated, 0 where it was filled from the parent point; labels.npy is at the finest resolution",
-            "x.npy": "f64 [nx], the x-axis start values",
-            "y.npy": "f64 [ny], the y-axis start values",
-            "lambda1.npy": "f64 [ny, nx]: largest Lyapunov exponent per start state over the recorded periods [1/s], NaN diverged (only with --lyapunov)",
-            "attractors.json": "this file: the catalogue (id, class, period, basin fraction, mean lambda_1 and its range over the attractor's cells with --lyapunov, representative Poincare points in state order, rub figures and regime on the attractor: docs/rub.md)",
-            "basin.png": "the labels as a picture, legend by class and period",
-            "basin_lambda1.png": "lambda1.npy as a picture (blue negative, white 0, red positive; only with --lyapunov)",
-            "attractors.png": "phase portraits of the attractors, overlaid",
-            "run.json": "the run: state (running or complete), command, specification, backend and wall time",
+    let json = Documented::new(
+        AttractorsFile {
+            omega: spec.omega,
+            x: spec.x.record(),
+            y: spec.y.record(),
+            fixed,
+            transient: spec.transient,
+            periods: spec.recorded,
+            steps_per_period: spec.stepper.steps_per_period,
+            lyapunov: spec.lyapunov,
+            cells: nx * ny,
+            diverged: cat.diverged,
+            diverged_fraction: cat.diverged_fraction,
+            attractors: with_rub,
+            catalogue_config: &cat.config,
+            params: &spec.params,
         },
-        "jeffcott_version": env!("CARGO_PKG_VERSION"),
-    });
+        &[
+            (
+                "labels.npy",
+                "int32 [ny, nx]: attractor id per start state (row iy has y = y.npy[iy], column ix has x = x.npy[ix]); -1 diverged; -2 (with --refine) an attractor the coarse grid did not find",
+            ),
+            (
+                "refined.npy",
+                "uint8 [ny, nx] (with --refine): 1 where the label was integrated, 0 where it was filled from the parent point; labels.npy is at the finest resolution",
+            ),
+            ("x.npy", "f64 [nx], the x-axis start values"),
+            ("y.npy", "f64 [ny], the y-axis start values"),
+            (
+                "lambda1.npy",
+                "f64 [ny, nx]: largest Lyapunov exponent per start state over the recorded periods [1/s], NaN diverged (only with --lyapunov)",
+            ),
+            (
+                "attractors.json",
+                "this file: the catalogue (id, class, period, basin fraction, mean lambda_1 and its range over the attractor's cells with --lyapunov, representative Poincare points in state order, rub figures and regime on the attractor: docs/rub.md)",
+            ),
+            (
+                "basin.png",
+                "the labels as a picture, legend by class and period",
+            ),
+            (
+                "basin_lambda1.png",
+                "lambda1.npy as a picture (blue negative, white 0, red positive; only with --lyapunov)",
+            ),
+            (
+                "attractors.png",
+                "phase portraits of the attractors, overlaid",
+            ),
+            (
+                "run.json",
+                "the run: state (running or complete), command, specification, backend and wall time",
+            ),
+        ],
+    );
     output::write_json(&dir.join("attractors.json"), &json)?;
     Ok(rub_line)
+}
+
+/// `attractors.json`: the grid, the settings, and the catalogue with each attractor's
+/// rub figures (the command line adds the files and the version).
+#[derive(Serialize)]
+struct AttractorsFile<'a> {
+    omega: f64,
+    x: jeffcott_analysis::basin::AxisRecord,
+    y: jeffcott_analysis::basin::AxisRecord,
+    /// The start coordinates the grid does not vary, by name.
+    fixed: std::collections::BTreeMap<&'static str, f64>,
+    transient: u32,
+    periods: u32,
+    steps_per_period: u32,
+    lyapunov: bool,
+    cells: usize,
+    diverged: u64,
+    diverged_fraction: f64,
+    attractors: Vec<jeffcott_analysis::rub::AttractorWithRub<'a>>,
+    catalogue_config: &'a jeffcott_analysis::catalogue::CatalogueConfig,
+    params: &'a jeffcott_core::model::Params,
 }
 
 fn human_summary(spec: &BasinSpec, res: &BasinResult, dir: &Path) -> String {

@@ -270,7 +270,7 @@ pub fn run_bifurcation(a: &BifurcationArgs) -> Result<()> {
     let rd = super::rundir::open_shard(
         &a.out,
         "bifurcation",
-        spec.to_json(),
+        &spec.record(),
         OUTPUTS,
         a.run,
         shard,
@@ -287,7 +287,7 @@ pub fn run_bifurcation(a: &BifurcationArgs) -> Result<()> {
             outputs.push(f);
         }
     }
-    rd.finish(run_json(&res), &outputs)?;
+    rd.finish(&RunResult::of(&res), &outputs)?;
     if !a.quiet {
         println!("{}", human_summary(&spec, &res, &a.out));
     }
@@ -305,12 +305,21 @@ pub const OUTPUTS: &[&str] = &[
 ];
 
 /// What run.json records of a finished study besides its specification.
-pub fn run_json(res: &BifurcationResult) -> serde_json::Value {
-    serde_json::json!({
-        "brute_force_backend": res.brute_info,
-        "sweep_wall_time_s": res.sweep_seconds,
-        "brute_force_wall_time_s": res.brute_seconds,
-    })
+#[derive(serde::Serialize)]
+struct RunResult<'a> {
+    brute_force_backend: Option<&'a jeffcott_core::ensemble::RunInfo>,
+    sweep_wall_time_s: f64,
+    brute_force_wall_time_s: f64,
+}
+
+impl<'a> RunResult<'a> {
+    fn of(res: &'a BifurcationResult) -> Self {
+        RunResult {
+            brute_force_backend: res.brute_info.as_ref(),
+            sweep_wall_time_s: res.sweep_seconds,
+            brute_force_wall_time_s: res.brute_seconds,
+        }
+    }
 }
 
 /// Refuses a `--portraits` speed outside the `--omega` range (up to half a grid step
@@ -590,15 +599,28 @@ pub fn write_bifurcation(
             &l1s,
         )?;
     }
-    let mut summary = jeffcott_analysis::bifurcation::summary(spec, res)?;
-    summary["files"] = serde_json::json!({
-            "omega.npy": "f64 [W], the speeds [rad/s]",
-            "bifurcation.npy": "f64 [rows, periods, 8], Poincare points of each row's lane, state order x_r, vx_r, y_r, vy_r, x_s, vx_s, y_s, vy_s (m, m/s)",
-            "bifurcation_rows.npy": "f64 [rows, 4]: W [rad/s], sweep (0 quasistatic up, 1 quasistatic down, 2 brute force), lane (index among that W's brute-force lanes: < ics are the common start states, then the neighbour seeds; 0 for sweeps), attractor id in that W's brute-force catalogue (-1: diverged, or not found / no brute force)",
-            "bifurcation_lambda1.npy": "f64 [rows], aligned with bifurcation_rows.npy: the largest Lyapunov exponent of each row's lane over its recorded periods [1/s] (NaN: diverged); absent with --no-lyapunov",
-            "bifurcation.png": "the diagram: brute force grey, up sweep blue, down sweep red; lambda_1 against W in the panel underneath",
-    });
-    summary["jeffcott_version"] = serde_json::json!(env!("CARGO_PKG_VERSION"));
+    let summary = super::files::Documented::new(
+        jeffcott_analysis::bifurcation::summary(spec, res)?,
+        &[
+            ("omega.npy", "f64 [W], the speeds [rad/s]"),
+            (
+                "bifurcation.npy",
+                "f64 [rows, periods, 8], Poincare points of each row's lane, state order x_r, vx_r, y_r, vy_r, x_s, vx_s, y_s, vy_s (m, m/s)",
+            ),
+            (
+                "bifurcation_rows.npy",
+                "f64 [rows, 4]: W [rad/s], sweep (0 quasistatic up, 1 quasistatic down, 2 brute force), lane (index among that W's brute-force lanes: < ics are the common start states, then the neighbour seeds; 0 for sweeps), attractor id in that W's brute-force catalogue (-1: diverged, or not found / no brute force)",
+            ),
+            (
+                "bifurcation_lambda1.npy",
+                "f64 [rows], aligned with bifurcation_rows.npy: the largest Lyapunov exponent of each row's lane over its recorded periods [1/s] (NaN: diverged); absent with --no-lyapunov",
+            ),
+            (
+                "bifurcation.png",
+                "the diagram: brute force grey, up sweep blue, down sweep red; lambda_1 against W in the panel underneath",
+            ),
+        ],
+    );
     // Written last: its presence marks a complete run.
     output::write_json(&dir.join("summary.json"), &summary)?;
     Ok(())

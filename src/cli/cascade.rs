@@ -1,13 +1,16 @@
 //! `jeffcott cascade`: full-spectrum cascades of a quasistatic run-up and run-down,
 //! resumable (docs/rub.md).
 
+use super::files::Documented;
 use super::rundir::{self, RunArgs};
 use super::{ModelArgs, StepperArgs};
 use clap::Args;
 use jeffcott_analysis::cascade::{CascadeResult, CascadeSpec, Sweep, cascade_with};
 use jeffcott_analysis::output;
+use jeffcott_analysis::record::Span;
 use jeffcott_analysis::rub::natural_frequencies;
 use jeffcott_core::error::{Error, Result};
+use serde::Serialize;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `jeffcott cascade`.
@@ -97,7 +100,7 @@ impl CascadeArgs {
 /// Runs `jeffcott cascade`.
 pub fn run_cascade(a: &CascadeArgs) -> Result<()> {
     let spec = a.spec()?;
-    let rd = rundir::open(&a.out, "cascade", spec.to_json(), OUTPUTS, a.run, a.quiet)?;
+    let rd = rundir::open(&a.out, "cascade", &spec.record(), OUTPUTS, a.run, a.quiet)?;
     let n = spec.omegas.len() as u64 * (spec.up as u64 + spec.down as u64);
     let bar = crate::progress::Bar::new("cascade", n, 1, a.quiet);
     let t = std::time::Instant::now();
@@ -108,7 +111,7 @@ pub fn run_cascade(a: &CascadeArgs) -> Result<()> {
     write_cascade(&a.out, &spec, &res, !a.no_plot, a.csv)?;
     let secs = t.elapsed().as_secs_f64();
     rd.finish(
-        serde_json::json!({"wall_time_s": secs}),
+        &rundir::WallTime { wall_time_s: secs },
         &rundir::written(&rd, OUTPUTS),
     )?;
     if !a.quiet {
@@ -139,6 +142,29 @@ fn ascending(s: &Sweep, values: &[f64], per: usize) -> Vec<f64> {
 }
 
 /// Where each regime was found, per sweep: "run-up: partial_rub at 131.0..140.2 rad/s".
+/// `cascade.json`: the speeds, the sweeps, the settings, the natural frequencies drawn
+/// on the pictures and the regimes met (the command line adds the files and version).
+#[derive(Serialize)]
+struct CascadeFile<'a> {
+    omega: Span,
+    sweeps: Vec<&'static str>,
+    transient_first: u32,
+    transient: u32,
+    periods: u32,
+    max_order: f64,
+    natural_frequencies_rad_s: Vec<NaturalFrequency>,
+    regimes: String,
+    params: &'a jeffcott_core::model::Params,
+}
+
+/// A natural frequency of the linearised system.
+#[derive(Serialize)]
+struct NaturalFrequency {
+    name: String,
+    rad_s: f64,
+    hz: f64,
+}
+
 fn regime_summary(spec: &CascadeSpec, res: &CascadeResult) -> String {
     let mut parts = Vec::new();
     for (name, s) in [("run-up", &res.up), ("run-down", &res.down)] {
@@ -266,26 +292,52 @@ pub fn write_cascade(
             )?;
         }
     }
-    let json = serde_json::json!({
-        "omega": {"first": spec.omegas[0], "last": spec.omegas[n - 1], "count": n},
-        "sweeps": sweeps.iter().map(|(d, _)| *d).collect::<Vec<_>>(),
-        "transient_first": spec.transient_first,
-        "transient": spec.transient,
-        "periods": spec.periods,
-        "max_order": spec.max_order,
-        "natural_frequencies_rad_s": natural_frequencies(&spec.params).into_iter().map(|(n, w)| serde_json::json!({"name": n, "rad_s": w, "hz": w / tau})).collect::<Vec<_>>(),
-        "regimes": regime_summary(spec, res),
-        "params": spec.params,
-        "files": {
-            "omega.npy": "f64 [n]: the speeds, ascending [rad/s]",
-            "orders.npy": "f64 [bins]: frequency / W of each bin (< 0 backward whirl)",
-            "cascade.npy": "f64 [sweeps, n, bins]: rotor full-spectrum amplitude [m] per sweep (in the order of `sweeps`), speed (ascending) and order; NaN after a divergence",
-            "cascade_stator.npy": "f64 [sweeps, n, bins]: the same for the stator",
-            "regime.npy": "int32 [sweeps, n]: rub regime per speed: 0 no_contact, 1 partial_rub, 2 full_annular_rub, 3 backward_whirl, -1 diverged",
-            "cascade_<sweep>.png": "frequency [Hz] against speed, colour = log amplitude, 1X line and natural frequencies",
-            "cascade_<sweep>.csv": "with --csv: one row per speed and bin",
+    let json = Documented::new(
+        CascadeFile {
+            omega: Span::of(&spec.omegas),
+            sweeps: sweeps.iter().map(|(d, _)| *d).collect(),
+            transient_first: spec.transient_first,
+            transient: spec.transient,
+            periods: spec.periods,
+            max_order: spec.max_order,
+            natural_frequencies_rad_s: natural_frequencies(&spec.params)
+                .into_iter()
+                .map(|(name, w)| NaturalFrequency {
+                    name,
+                    rad_s: w,
+                    hz: w / tau,
+                })
+                .collect(),
+            regimes: regime_summary(spec, res),
+            params: &spec.params,
         },
-        "jeffcott_version": env!("CARGO_PKG_VERSION"),
-    });
+        &[
+            ("omega.npy", "f64 [n]: the speeds, ascending [rad/s]"),
+            (
+                "orders.npy",
+                "f64 [bins]: frequency / W of each bin (< 0 backward whirl)",
+            ),
+            (
+                "cascade.npy",
+                "f64 [sweeps, n, bins]: rotor full-spectrum amplitude [m] per sweep (in the order of `sweeps`), speed (ascending) and order; NaN after a divergence",
+            ),
+            (
+                "cascade_stator.npy",
+                "f64 [sweeps, n, bins]: the same for the stator",
+            ),
+            (
+                "regime.npy",
+                "int32 [sweeps, n]: rub regime per speed: 0 no_contact, 1 partial_rub, 2 full_annular_rub, 3 backward_whirl, -1 diverged",
+            ),
+            (
+                "cascade_<sweep>.png",
+                "frequency [Hz] against speed, colour = log amplitude, 1X line and natural frequencies",
+            ),
+            (
+                "cascade_<sweep>.csv",
+                "with --csv: one row per speed and bin",
+            ),
+        ],
+    );
     output::write_json(&dir.join("cascade.json"), &json)
 }

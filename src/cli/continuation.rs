@@ -180,7 +180,7 @@ pub fn run_continuation(a: &ContinuationArgs) -> Result<()> {
     let rd = rundir::open_shard(
         &a.out,
         "continuation",
-        spec.to_json(),
+        &spec.record(),
         OUTPUTS,
         a.run,
         shard,
@@ -192,7 +192,10 @@ pub fn run_continuation(a: &ContinuationArgs) -> Result<()> {
     };
     write_continuation(&a.out, &spec, &res, !a.no_plot)?;
     rd.finish(
-        serde_json::json!({"backend": res.info, "wall_time_s": res.seconds}),
+        &rundir::BackendTime {
+            backend: res.info.as_ref(),
+            wall_time_s: res.seconds,
+        },
         &rundir::written(&rd, OUTPUTS),
     )?;
     if !a.quiet {
@@ -272,16 +275,32 @@ pub fn write_continuation(
             &panels,
         )?;
     }
-    let mut json = jeffcott_analysis::continuation::summary(spec, res);
-    json["files"] = serde_json::json!({
-            "values.npy": "f64 [n]: the parameter values, ascending",
-            "fractions_<dir>.npy": "f64 [n, ids + 1]: basin fraction of each continued attractor among the fresh start states at each step in ramp order (up ascending, down descending); last column diverged",
-            "fraction_errors_<dir>.npy": "f64 [n, ids + 1]: binomial standard errors sqrt(f (1 - f) / K)",
-            "tipping_<dir>.npy": "f64 [n - 1, ids + 1, ids + 1]: P(i -> j) from step k to step k + 1: the fraction of attractor i's basin at step k lying in attractor j's basin at step k + 1 (index ids: diverged); NaN rows: i has no basin at step k",
-            "continuation.json": "this file: per ramp, every attractor's first and last value and every step's attractors (id, class, period, fraction, error, lambda_1, seeded_only)",
-            "continuation.png": "stacked basin fractions against the parameter, one panel per ramp",
-    });
-    json["jeffcott_version"] = serde_json::json!(env!("CARGO_PKG_VERSION"));
+    let json = super::files::Documented::new(
+        jeffcott_analysis::continuation::summary(spec, res),
+        &[
+            ("values.npy", "f64 [n]: the parameter values, ascending"),
+            (
+                "fractions_<dir>.npy",
+                "f64 [n, ids + 1]: basin fraction of each continued attractor among the fresh start states at each step in ramp order (up ascending, down descending); last column diverged",
+            ),
+            (
+                "fraction_errors_<dir>.npy",
+                "f64 [n, ids + 1]: binomial standard errors sqrt(f (1 - f) / K)",
+            ),
+            (
+                "tipping_<dir>.npy",
+                "f64 [n - 1, ids + 1, ids + 1]: P(i -> j) from step k to step k + 1: the fraction of attractor i's basin at step k lying in attractor j's basin at step k + 1 (index ids: diverged); NaN rows: i has no basin at step k",
+            ),
+            (
+                "continuation.json",
+                "this file: per ramp, every attractor's first and last value and every step's attractors (id, class, period, fraction, error, lambda_1, seeded_only)",
+            ),
+            (
+                "continuation.png",
+                "stacked basin fractions against the parameter, one panel per ramp",
+            ),
+        ],
+    );
     output::write_json(&dir.join("continuation.json"), &json)
 }
 

@@ -6,14 +6,69 @@ use super::{ModelArgs, StepperArgs, apply_init, check_start_within_bound};
 use crate::plot;
 use clap::Args;
 use jeffcott_analysis::output;
+use jeffcott_analysis::record::Span;
 use jeffcott_analysis::run::{Array, Unit};
 use jeffcott_core::error::{Error, Result};
 use jeffcott_core::lyapunov::{
-    Spectrum, SpectrumConfig, StopReason, SweepStart, nums, spectrum, sweep_starts,
+    Spectrum, SpectrumConfig, SpectrumRecord, StopReason, SweepStart, spectrum, sweep_starts,
 };
-use jeffcott_core::model::STATE_DIM;
+use jeffcott_core::model::{Params, STATE_DIM, State};
 use rayon::prelude::*;
+use serde::Serialize;
 use std::path::PathBuf;
+
+/// The settings both files record under `run`.
+#[derive(Serialize)]
+struct Settings<'a> {
+    config: &'a SpectrumConfig,
+    start: SweepStart,
+    initial_state: State,
+    params: &'a Params,
+    /// How the error of each exponent is estimated.
+    error_estimate: &'static str,
+    jeffcott_version: &'static str,
+}
+
+/// The specification `run.json` records.
+#[derive(Serialize)]
+struct RunSpec<'a> {
+    omegas: Span,
+    config: &'a SpectrumConfig,
+    start: SweepStart,
+    initial_state: State,
+    params: &'a Params,
+}
+
+/// `spectrum.json`: the spectrum, the settings and the units.
+#[derive(Serialize)]
+struct SpectrumFile<'a> {
+    #[serde(flatten)]
+    spectrum: SpectrumRecord<'a>,
+    run: &'a Settings<'a>,
+    units: Units,
+}
+
+/// The units of the exponents.
+#[derive(Serialize)]
+struct Units {
+    exponents: &'static str,
+    exponents_bits: &'static str,
+}
+
+/// `lyapunov.json`: per speed the sum rule's terms, the accumulation time, why each
+/// stopped and the lane status, with the settings and the list of files.
+#[derive(Serialize)]
+struct RangeFile<'a> {
+    omega: &'a [f64],
+    sum: Vec<f64>,
+    trace_average: Vec<f64>,
+    saltation_log_det_rate: Vec<f64>,
+    integration_time: Vec<f64>,
+    stop: Vec<StopReason>,
+    status: Vec<jeffcott_core::integrate::lane::Status>,
+    run: &'a Settings<'a>,
+    files: super::files::Files,
+}
 
 /// Arguments of `jeffcott lyapunov`.
 #[derive(Args, Debug)]
@@ -128,27 +183,27 @@ pub fn run_lyapunov(a: &LyapunovArgs) -> Result<()> {
     )?;
     let omegas = range.values();
     let dir = &a.out;
-    let settings = serde_json::json!({
-        "config": cfg,
-        "start": a.start,
-        "initial_state": nums(&x0),
-        "params": params,
-        "error_estimate": "per exponent, max of the batch-means standard error (10 blocks) \
-                           and the change of the running estimate over the last window",
-        "jeffcott_version": env!("CARGO_PKG_VERSION"),
-    });
-    let run_spec = serde_json::json!({
-        "omegas": {"first": omegas[0], "last": omegas[omegas.len() - 1], "count": omegas.len()},
-        "config": cfg,
-        "start": a.start,
-        "initial_state": nums(&x0),
-        "params": params,
-    });
+    let settings = Settings {
+        config: &cfg,
+        start: a.start,
+        initial_state: x0,
+        params: &params,
+        error_estimate: "per exponent, max of the batch-means standard error (10 blocks) \
+                         and the change of the running estimate over the last window",
+        jeffcott_version: env!("CARGO_PKG_VERSION"),
+    };
+    let run_spec = RunSpec {
+        omegas: Span::of(&omegas),
+        config: &cfg,
+        start: a.start,
+        initial_state: x0,
+        params: &params,
+    };
     if let [omega] = omegas[..] {
         let rd = super::rundir::open(
             dir,
             "lyapunov",
-            run_spec,
+            &run_spec,
             &["spectrum.json", "convergence.png"],
             a.run,
             a.quiet,
@@ -159,12 +214,19 @@ pub fn run_lyapunov(a: &LyapunovArgs) -> Result<()> {
             &format!("Lyapunov spectrum at W = {omega} rad/s: running estimates"),
             &s.history,
         )?;
-        let mut j = Spectrum::to_json(&s);
-        j["run"] = settings;
-        j["units"] = serde_json::json!({"exponents": "1/s", "exponents_bits": "bits/s"});
+        let j = SpectrumFile {
+            spectrum: s.record(),
+            run: &settings,
+            units: Units {
+                exponents: "1/s",
+                exponents_bits: "bits/s",
+            },
+        };
         output::write_json(&dir.join("spectrum.json"), &j)?;
         rd.finish(
-            serde_json::json!({"wall_time_s": s.wall_time_s}),
+            &super::rundir::WallTime {
+                wall_time_s: s.wall_time_s,
+            },
             &["spectrum.json".into(), "convergence.png".into()],
         )?;
         if !a.quiet {
@@ -197,7 +259,7 @@ pub fn run_lyapunov(a: &LyapunovArgs) -> Result<()> {
         "lyapunov.json",
         "lyapunov.png",
     ];
-    let rd = super::rundir::open(dir, "lyapunov", run_spec, &outputs, a.run, a.quiet)?;
+    let rd = super::rundir::open(dir, "lyapunov", &run_spec, &outputs, a.run, a.quiet)?;
     let start = std::time::Instant::now();
     let all = range_units(&rd, &params, &omegas, &x0, a.start, &cfg)?;
     let wall = start.elapsed().as_secs_f64();
@@ -218,24 +280,27 @@ pub fn run_lyapunov(a: &LyapunovArgs) -> Result<()> {
         &omegas,
         &exps,
     )?;
-    let j = serde_json::json!({
-        "omega": omegas,
-        "sum": nums(&all.iter().map(|s| s.sum).collect::<Vec<_>>()),
-        "trace_average": nums(&all.iter().map(|s| s.trace_average).collect::<Vec<_>>()),
-        "saltation_log_det_rate": nums(&all.iter().map(|s| s.saltation_log_det_rate).collect::<Vec<_>>()),
-        "integration_time": all.iter().map(|s| s.integration_time).collect::<Vec<_>>(),
-        "stop": all.iter().map(|s| s.stop).collect::<Vec<_>>(),
-        "status": all.iter().map(|s| s.status).collect::<Vec<_>>(),
-        "run": settings,
-        "files": {
-            "lyapunov.npy": "f64 [n_omega, 8], exponents [1/s] in QR order (descending), rows in the order of omega",
-            "lyapunov_errors.npy": "f64 [n_omega, 8], error estimates [1/s]",
-            "lyapunov.png": "the 8 exponents against W, zero line marked",
-        },
-    });
+    let of = |f: fn(&Row) -> f64| all.iter().map(f).collect::<Vec<_>>();
+    let j = RangeFile {
+        omega: &omegas,
+        sum: of(|s| s.sum),
+        trace_average: of(|s| s.trace_average),
+        saltation_log_det_rate: of(|s| s.saltation_log_det_rate),
+        integration_time: of(|s| s.integration_time),
+        stop: all.iter().map(|s| s.stop).collect(),
+        status: all.iter().map(|s| s.status).collect(),
+        run: &settings,
+        files: [
+            ("lyapunov.npy", "f64 [n_omega, 8], exponents [1/s] in QR order (descending), rows in the order of omega"),
+            ("lyapunov_errors.npy", "f64 [n_omega, 8], error estimates [1/s]"),
+            ("lyapunov.png", "the 8 exponents against W, zero line marked"),
+        ]
+        .into_iter()
+        .collect(),
+    };
     output::write_json(&dir.join("lyapunov.json"), &j)?;
     rd.finish(
-        serde_json::json!({"wall_time_s": wall}),
+        &super::rundir::WallTime { wall_time_s: wall },
         &outputs.map(String::from),
     )?;
     if !a.quiet {

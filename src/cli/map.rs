@@ -159,7 +159,7 @@ pub fn run_map(a: &MapArgs) -> Result<()> {
     let rd = rundir::open_shard(
         &a.out,
         "map",
-        spec.to_json(),
+        &spec.record(),
         OUTPUTS,
         a.run,
         shard,
@@ -171,7 +171,10 @@ pub fn run_map(a: &MapArgs) -> Result<()> {
     };
     write_map(&a.out, &spec, &res, !a.no_plot)?;
     rd.finish(
-        serde_json::json!({"backend": res.info, "wall_time_s": res.seconds}),
+        &rundir::BackendTime {
+            backend: res.info.as_ref(),
+            wall_time_s: res.seconds,
+        },
         &rundir::written(&rd, OUTPUTS),
     )?;
     if !a.quiet {
@@ -351,25 +354,59 @@ pub fn write_map(dir: &Path, spec: &MapSpec, res: &MapResult, plot_it: bool) -> 
             &legend,
         )?;
     }
-    let mut json = jeffcott_analysis::map::summary(spec, res);
-    json["files"] = serde_json::json!({
-            "period.npy": "int32 [ny, nx]: period of the attractor reached from the static equilibrium; 0 aperiodic (quasiperiodic, chaotic or undecided), -1 diverged",
-            "class.npy": "int32 [ny, nx]: its class code: n > 0 period-n, 0 aperiodic, -1 diverged, -2 quasiperiodic, -3 chaotic, -4 unclassified",
-            "lambda1.npy": "f64 [ny, nx]: its mean largest Lyapunov exponent [1/s] (NaN when diverged or with --no-lyapunov)",
-            "attractors.npy": "int32 [ny, nx]: number of coexisting attractors found from the cell's start states",
-            "contact.npy": "f64 [ny, nx]: fraction of time in contact on the attractor from the static equilibrium (NaN when diverged)",
-            "peak_force.npy": "f64 [ny, nx]: peak normal contact force on it [N] (NaN when diverged)",
-            "regime.npy": "int32 [ny, nx]: its rub regime: 0 no_contact, 1 partial_rub, 2 full_annular_rub, 3 backward_whirl, -1 diverged (docs/rub.md)",
-            "map_regime.png": "regime.npy as a picture",
-            "x.npy": "f64 [nx]: the x-axis values",
-            "y.npy": "f64 [ny]: the y-axis values",
-            "map.json": "this file; cell_attractors lists every cell's attractors (class, period, start states reaching it, lambda_1, rub figures: contact fraction, impacts per revolution, peak and mean normal force [N], peak penetration [m])",
-            "map_period.png": "isoperiodic map: class of the response from the static equilibrium",
-            "map_lambda1.png": "lambda1.npy (blue negative, white 0, red positive)",
-            "map_multistability.png": "attractors.npy",
-            "run.json": "the run: state, command, specification, backend and wall time",
-    });
-    json["jeffcott_version"] = serde_json::json!(env!("CARGO_PKG_VERSION"));
+    let json = super::files::Documented::new(
+        jeffcott_analysis::map::summary(spec, res),
+        &[
+            (
+                "period.npy",
+                "int32 [ny, nx]: period of the attractor reached from the static equilibrium; 0 aperiodic (quasiperiodic, chaotic or undecided), -1 diverged",
+            ),
+            (
+                "class.npy",
+                "int32 [ny, nx]: its class code: n > 0 period-n, 0 aperiodic, -1 diverged, -2 quasiperiodic, -3 chaotic, -4 unclassified",
+            ),
+            (
+                "lambda1.npy",
+                "f64 [ny, nx]: its mean largest Lyapunov exponent [1/s] (NaN when diverged or with --no-lyapunov)",
+            ),
+            (
+                "attractors.npy",
+                "int32 [ny, nx]: number of coexisting attractors found from the cell's start states",
+            ),
+            (
+                "contact.npy",
+                "f64 [ny, nx]: fraction of time in contact on the attractor from the static equilibrium (NaN when diverged)",
+            ),
+            (
+                "peak_force.npy",
+                "f64 [ny, nx]: peak normal contact force on it [N] (NaN when diverged)",
+            ),
+            (
+                "regime.npy",
+                "int32 [ny, nx]: its rub regime: 0 no_contact, 1 partial_rub, 2 full_annular_rub, 3 backward_whirl, -1 diverged (docs/rub.md)",
+            ),
+            ("map_regime.png", "regime.npy as a picture"),
+            ("x.npy", "f64 [nx]: the x-axis values"),
+            ("y.npy", "f64 [ny]: the y-axis values"),
+            (
+                "map.json",
+                "this file; cell_attractors lists every cell's attractors (class, period, start states reaching it, lambda_1, rub figures: contact fraction, impacts per revolution, peak and mean normal force [N], peak penetration [m])",
+            ),
+            (
+                "map_period.png",
+                "isoperiodic map: class of the response from the static equilibrium",
+            ),
+            (
+                "map_lambda1.png",
+                "lambda1.npy (blue negative, white 0, red positive)",
+            ),
+            ("map_multistability.png", "attractors.npy"),
+            (
+                "run.json",
+                "the run: state, command, specification, backend and wall time",
+            ),
+        ],
+    );
     output::write_json(&dir.join("map.json"), &json)
 }
 

@@ -219,14 +219,7 @@ pub fn run_merge(a: &MergeArgs) -> Result<()> {
         }
     };
     {
-        let rd = rundir::open(
-            &a.out,
-            &first.command,
-            first.spec.clone(),
-            outputs,
-            a.run,
-            a.quiet,
-        )?;
+        let rd = rundir::open(&a.out, &first.command, &first.spec, outputs, a.run, a.quiet)?;
         for s in &shards {
             for key in &s.units {
                 place(

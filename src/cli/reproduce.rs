@@ -319,7 +319,10 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     let rd = super::rundir::open(
         dir,
         "reproduce",
-        serde_json::json!({"mode": p.name, "precision": precision}),
+        &RunSpec {
+            mode: p.name,
+            precision,
+        },
         &["REPORT.md"],
         a.run,
         a.quiet,
@@ -398,7 +401,9 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         std::io::Write::write_all(w, text.as_bytes())
     })?;
     rd.finish(
-        serde_json::json!({"wall_time_s": rep.started.elapsed().as_secs_f64()}),
+        &super::rundir::WallTime {
+            wall_time_s: rep.started.elapsed().as_secs_f64(),
+        },
         &super::rundir::files_under(dir)?,
     )?;
     if !a.quiet {
@@ -409,6 +414,14 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// A figure set's specification as `run.json` records it: the preset and the lanes'
+/// precision.
+#[derive(serde::Serialize)]
+struct RunSpec {
+    mode: &'static str,
+    precision: Precision,
 }
 
 /// What every section of `reproduce` shares: the arguments, the preset, the model,

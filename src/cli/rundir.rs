@@ -165,13 +165,43 @@ impl UnitStore for Merged<'_> {
     }
 }
 
+/// What most commands' `run.json` adds once complete: the wall time of the run.
+#[derive(serde::Serialize)]
+pub struct WallTime {
+    /// Wall time [s].
+    pub wall_time_s: f64,
+}
+
+/// What a study's `run.json` adds once complete: the backend that ran its lanes (null
+/// when every unit was already committed) and the wall time.
+#[derive(serde::Serialize)]
+pub struct BackendTime<'a> {
+    /// Backend, device and precision.
+    pub backend: Option<&'a jeffcott_core::ensemble::RunInfo>,
+    /// Wall time [s].
+    pub wall_time_s: f64,
+}
+
+/// What a shard's `run.json` adds once its units are committed: their keys, and the
+/// stages the shard computed (so `jeffcott merge` knows what to expect).
+#[derive(serde::Serialize)]
+struct ShardResult<'a> {
+    /// Keys of the committed units.
+    shard_units: &'a [String],
+    /// Stages the shard computed.
+    shard_stages: &'a [String],
+}
+
 /// Ends a shard's run: its units are committed; `run.json` says complete and lists them.
 pub fn finish_shard(rd: &RunDir, quiet: bool) -> Result<()> {
     let keys = rd.unit_keys()?;
     let shard = rd.shard().unwrap_or(Shard { index: 0, count: 1 });
     let stages = SHARD_STAGES.lock().map(|s| s.clone()).unwrap_or_default();
     rd.finish(
-        serde_json::json!({"shard_units": keys, "shard_stages": stages}),
+        &ShardResult {
+            shard_units: &keys,
+            shard_stages: &stages,
+        },
         &[],
     )?;
     if !quiet {
@@ -232,7 +262,7 @@ fn install_signal_handler() {
 pub fn open(
     dir: &Path,
     command: &str,
-    spec: serde_json::Value,
+    spec: &impl serde::Serialize,
     outputs: &[&str],
     args: RunArgs,
     quiet: bool,
@@ -244,7 +274,7 @@ pub fn open(
 pub fn open_shard(
     dir: &Path,
     command: &str,
-    spec: serde_json::Value,
+    spec: &impl serde::Serialize,
     outputs: &[&str],
     args: RunArgs,
     shard: Option<Shard>,

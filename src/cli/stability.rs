@@ -120,7 +120,7 @@ pub fn run_stability(a: &StabilityArgs) -> Result<()> {
     let rd = rundir::open_shard(
         &a.out,
         "basin-stability",
-        spec.to_json(),
+        &spec.record(),
         OUTPUTS,
         a.run,
         shard,
@@ -132,7 +132,10 @@ pub fn run_stability(a: &StabilityArgs) -> Result<()> {
     };
     let text = write_stability(&a.out, &spec, &res, !a.no_plot)?;
     rd.finish(
-        serde_json::json!({"backend": res.info, "wall_time_s": res.seconds}),
+        &rundir::BackendTime {
+            backend: res.info.as_ref(),
+            wall_time_s: res.seconds,
+        },
         &rundir::written(&rd, OUTPUTS),
     )?;
     if !a.quiet {
@@ -157,15 +160,25 @@ pub fn write_stability(
     output::write_npy(&dir.join("fractions.npy"), &[n, g], &f)?;
     output::write_npy(&dir.join("ci_low.npy"), &[n, g], &lo)?;
     output::write_npy(&dir.join("ci_high.npy"), &[n, g], &hi)?;
-    let mut json = jeffcott_analysis::stability::summary(spec, res);
-    json["files"] = serde_json::json!({
-            "omega.npy": "f64 [n]: the speeds",
-            "fractions.npy": "f64 [n, ids + 1]: basin stability of each attractor id per speed (last column: diverged)",
-            "ci_low.npy": "f64 [n, ids + 1]: lower end of the 95 % Wilson interval",
-            "ci_high.npy": "f64 [n, ids + 1]: upper end",
-            "basin_stability.png": "the fractions stacked against W (a range of speeds only)",
-    });
-    json["jeffcott_version"] = serde_json::json!(env!("CARGO_PKG_VERSION"));
+    let json = super::files::Documented::new(
+        jeffcott_analysis::stability::summary(spec, res),
+        &[
+            ("omega.npy", "f64 [n]: the speeds"),
+            (
+                "fractions.npy",
+                "f64 [n, ids + 1]: basin stability of each attractor id per speed (last column: diverged)",
+            ),
+            (
+                "ci_low.npy",
+                "f64 [n, ids + 1]: lower end of the 95 % Wilson interval",
+            ),
+            ("ci_high.npy", "f64 [n, ids + 1]: upper end"),
+            (
+                "basin_stability.png",
+                "the fractions stacked against W (a range of speeds only)",
+            ),
+        ],
+    );
     output::write_json(&dir.join("basin_stability.json"), &json)?;
     if plot_it && n >= 2 {
         let bands: Vec<(String, plotters::style::RGBColor, Vec<f64>)> = (0..ramp.ids)

@@ -19,6 +19,7 @@ use jeffcott_core::ensemble::{Backend, EnsembleSpec, LaneSpec, Precision, RunInf
 use jeffcott_core::error::{Error, Result};
 use jeffcott_core::integrate::lane::StepperConfig;
 use jeffcott_core::model::{COORD_NAMES, Params, State};
+use serde::Serialize;
 
 /// Splits `NAME:lo:hi:n` into its name, finite bounds and count (the name unchecked);
 /// `option` names the CLI option and `example` shows the form in errors.
@@ -249,22 +250,76 @@ impl BasinSpec {
 
     /// The specification as `run.json` records it: everything the labels depend on
     /// (not the backend: units computed on any backend may be combined).
-    pub fn to_json(&self) -> serde_json::Value {
-        serde_json::json!({
-            "omega": self.omega,
-            "x": {"coord": COORD_NAMES[self.x.coord], "lo": self.x.lo, "hi": self.x.hi, "n": self.x.n},
-            "y": {"coord": COORD_NAMES[self.y.coord], "lo": self.y.lo, "hi": self.y.hi, "n": self.y.n},
-            "base": self.base,
-            "transient": self.transient,
-            "periods": self.recorded,
-            "stepper": self.stepper,
-            "precision": self.precision,
-            "catalogue": self.catalogue,
-            "lyapunov": self.lyapunov,
-            "unit_lanes": self.unit_lanes(),
-            "params": self.params,
-        })
+    pub fn record(&self) -> SpecRecord<'_> {
+        SpecRecord {
+            omega: self.omega,
+            x: self.x.record(),
+            y: self.y.record(),
+            base: self.base,
+            transient: self.transient,
+            periods: self.recorded,
+            stepper: self.stepper,
+            precision: self.precision,
+            catalogue: &self.catalogue,
+            lyapunov: self.lyapunov,
+            unit_lanes: self.unit_lanes(),
+            params: &self.params,
+        }
     }
+}
+
+impl Axis {
+    /// The axis as the files record it.
+    pub fn record(&self) -> AxisRecord {
+        AxisRecord {
+            coord: COORD_NAMES[self.coord],
+            lo: self.lo,
+            hi: self.hi,
+            n: self.n,
+        }
+    }
+}
+
+/// A basin axis as the files record it.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct AxisRecord {
+    /// The start coordinate's name.
+    pub coord: &'static str,
+    /// First value.
+    pub lo: f64,
+    /// Last value.
+    pub hi: f64,
+    /// Cells.
+    pub n: usize,
+}
+
+/// A basin's specification as `run.json` records it.
+#[derive(Clone, Debug, Serialize)]
+pub struct SpecRecord<'a> {
+    /// Rotor speed [rad/s].
+    pub omega: f64,
+    /// Horizontal axis.
+    pub x: AxisRecord,
+    /// Vertical axis.
+    pub y: AxisRecord,
+    /// The start state's other coordinates.
+    pub base: State,
+    /// Transient periods.
+    pub transient: u32,
+    /// Recorded periods.
+    pub periods: u32,
+    /// Lane stepper settings.
+    pub stepper: StepperConfig,
+    /// Lane precision.
+    pub precision: Precision,
+    /// Catalogue settings.
+    pub catalogue: &'a CatalogueConfig,
+    /// Whether lambda_1 is computed.
+    pub lyapunov: bool,
+    /// Lanes per work unit.
+    pub unit_lanes: usize,
+    /// Model parameters.
+    pub params: &'a Params,
 }
 
 /// Computes a basin in memory; `ctl.progress` counts lane-periods.

@@ -9,11 +9,13 @@
 
 use super::rub::rub_figures;
 use super::spectrum::{full_spectrum, orbit};
+use crate::record::Span;
 use crate::run::{Array, Cancel, MemoryStore, Unit, UnitStore};
 use crate::simulate::{Integrator, SimulateSpec, simulate};
 use jeffcott_core::error::{Error, Result};
 use jeffcott_core::integrate::lane::StepperConfig;
 use jeffcott_core::model::{Params, STATE_DIM, State};
+use serde::Serialize;
 
 /// What a cascade computes.
 #[derive(Clone, Debug)]
@@ -90,19 +92,42 @@ impl CascadeSpec {
     }
 
     /// The specification as `run.json` records it.
-    pub fn to_json(&self) -> serde_json::Value {
-        serde_json::json!({
-            "omega": {"first": self.omegas[0], "last": self.omegas[self.omegas.len() - 1], "count": self.omegas.len()},
-            "transient_first": self.transient_first,
-            "transient": self.transient,
-            "periods": self.periods,
-            "max_order": self.max_order,
-            "stepper": self.stepper,
-            "up": self.up,
-            "down": self.down,
-            "params": self.params,
-        })
+    pub fn record(&self) -> SpecRecord<'_> {
+        SpecRecord {
+            omega: Span::of(&self.omegas),
+            transient_first: self.transient_first,
+            transient: self.transient,
+            periods: self.periods,
+            max_order: self.max_order,
+            stepper: self.stepper,
+            up: self.up,
+            down: self.down,
+            params: &self.params,
+        }
     }
+}
+
+/// A cascade's specification as `run.json` records it.
+#[derive(Clone, Debug, Serialize)]
+pub struct SpecRecord<'a> {
+    /// The speeds.
+    pub omega: Span,
+    /// Transient at the first speed.
+    pub transient_first: u32,
+    /// Transient at every later speed.
+    pub transient: u32,
+    /// Periods of each spectrum.
+    pub periods: u32,
+    /// Largest order kept.
+    pub max_order: f64,
+    /// Lane stepper settings.
+    pub stepper: StepperConfig,
+    /// Whether the run-up is computed.
+    pub up: bool,
+    /// Whether the run-down is computed.
+    pub down: bool,
+    /// Model parameters.
+    pub params: &'a Params,
 }
 
 /// One sweep's cascade, speeds in sweep order.

@@ -27,7 +27,8 @@
 
 use super::catalogue::{CatalogueBuilder, CatalogueConfig, PartAttractor, classify_lane};
 use super::classify::distance;
-use super::map::{MapAxis, MapVar};
+use super::map::{AxisRecord, MapAxis, MapVar};
+use crate::record::{CoordRange, coord_box};
 use crate::run::lanes::{Control, LaneUnits};
 use crate::run::{Array, Unit, UnitStore};
 use jeffcott_core::ensemble::{
@@ -202,24 +203,28 @@ impl ContinuationSpec {
     }
 
     /// The specification as `run.json` records it (not the backend).
-    pub fn to_json(&self) -> serde_json::Value {
-        serde_json::json!({
-            "param": {"var": self.param.var.name(), "lo": self.param.lo, "hi": self.param.hi, "n": self.param.n},
-            "omega": self.omega,
-            "ics": self.ics,
-            "box": self.start_box,
-            "seed": self.seed,
-            "transient": self.transient,
-            "periods": self.recorded,
-            "stepper": self.stepper,
-            "precision": self.precision,
-            "catalogue": self.catalogue,
-            "lyapunov": self.lyapunov,
-            "directions": self.directions,
-            "match_threshold": if self.match_threshold.is_finite() { serde_json::json!(self.match_threshold) } else { serde_json::json!("inf") },
-            "unit_values": self.unit_values(),
-            "params": self.params,
-        })
+    pub fn record(&self) -> SpecRecord<'_> {
+        SpecRecord {
+            param: AxisRecord {
+                unit: None,
+                log: None,
+                ..self.param.spec_record()
+            },
+            omega: self.omega,
+            ics: self.ics,
+            start_box: self.start_box.as_deref(),
+            seed: self.seed,
+            transient: self.transient,
+            periods: self.recorded,
+            stepper: self.stepper,
+            precision: self.precision,
+            catalogue: &self.catalogue,
+            lyapunov: self.lyapunov,
+            directions: &self.directions,
+            match_threshold: Threshold::of(self.match_threshold),
+            unit_values: self.unit_values(),
+            params: &self.params,
+        }
     }
 
     /// Values per unit of the fresh pass: [`crate::run::unit_lanes`] counted in values.
@@ -811,44 +816,165 @@ pub fn id_name(r: &Ramp, id: u32) -> String {
     }
 }
 
+/// A continuation's specification as `run.json` records it.
+#[derive(Clone, Debug, Serialize)]
+pub struct SpecRecord<'a> {
+    /// The continued parameter (var, lo, hi, n).
+    pub param: AxisRecord,
+    /// Rotor speed when the parameter is not `omega` [rad/s].
+    pub omega: Option<f64>,
+    /// Fresh start states per value.
+    pub ics: u32,
+    /// The box of the fresh start states as (coordinate index, lo, hi).
+    #[serde(rename = "box")]
+    pub start_box: Option<&'a [(usize, f64, f64)]>,
+    /// Seed of the start states.
+    pub seed: u64,
+    /// Transient periods.
+    pub transient: u32,
+    /// Recorded periods.
+    pub periods: u32,
+    /// Lane stepper settings.
+    pub stepper: StepperConfig,
+    /// Lane precision.
+    pub precision: Precision,
+    /// Catalogue settings.
+    pub catalogue: &'a CatalogueConfig,
+    /// Whether lambda_1 is computed.
+    pub lyapunov: bool,
+    /// The ramps.
+    pub directions: &'a [Direction],
+    /// Largest matching distance.
+    pub match_threshold: Threshold,
+    /// Values per unit of the fresh pass.
+    pub unit_values: usize,
+    /// Model parameters.
+    pub params: &'a Params,
+}
+
+/// The matching threshold as the files hold it: a number, or `"inf"` (JSON has no
+/// infinity) for matching without one.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[serde(untagged)]
+pub enum Threshold {
+    /// A finite threshold [m].
+    Value(f64),
+    /// No threshold.
+    Inf(&'static str),
+}
+
+impl Threshold {
+    /// The record of `m`.
+    pub fn of(m: f64) -> Self {
+        if m.is_finite() {
+            Threshold::Value(m)
+        } else {
+            Threshold::Inf("inf")
+        }
+    }
+}
+
+/// An attractor's life along a ramp, as `continuation.json` lists it.
+#[derive(Clone, Debug, Serialize)]
+pub struct Lifetime {
+    /// Continuation id.
+    pub id: u32,
+    /// Legend name ([`id_name`]).
+    pub name: String,
+    /// First value where it was found.
+    pub first_value: f64,
+    /// Last value where it was found.
+    pub last_value: f64,
+    /// Whether it appears after the ramp's first value.
+    pub born_inside: bool,
+    /// Whether it disappears before the ramp's last value.
+    pub dies_inside: bool,
+}
+
+/// One ramp of `continuation.json`.
+#[derive(Clone, Debug, Serialize)]
+pub struct RampRecord<'a> {
+    /// How `steps` are ordered.
+    pub order: &'static str,
+    /// Every attractor's life along the ramp.
+    pub attractors: Vec<Lifetime>,
+    /// Every step's attractors.
+    pub steps: &'a [Step],
+}
+
 /// The continuation as `continuation.json` holds it (the command line adds the list of
 /// files and the version): the continued parameter, the settings, and per ramp every
 /// attractor's first and last value and every step's attractors.
-pub fn summary(spec: &ContinuationSpec, res: &ContinuationResult) -> serde_json::Value {
+#[derive(Clone, Debug, Serialize)]
+pub struct Summary<'a> {
+    /// The continued parameter (var, unit, lo, hi, n).
+    pub param: AxisRecord,
+    /// Rotor speed when the parameter is not `omega` [rad/s].
+    pub omega: Option<f64>,
+    /// Fresh start states per value.
+    pub ics: u32,
+    /// The box of the fresh start states, if one was given.
+    #[serde(rename = "box")]
+    pub start_box: Option<Vec<CoordRange>>,
+    /// Seed of the start states.
+    pub seed: u64,
+    /// Transient periods.
+    pub transient: u32,
+    /// Recorded periods.
+    pub periods: u32,
+    /// Whether lambda_1 was computed.
+    pub lyapunov: bool,
+    /// Largest matching distance.
+    pub match_threshold: Threshold,
+    /// The ramps by direction (`up`, `down`).
+    pub ramps: std::collections::BTreeMap<&'static str, RampRecord<'a>>,
+    /// Model parameters.
+    pub params: &'a Params,
+}
+
+/// The summary `continuation.json` holds.
+pub fn summary<'a>(spec: &'a ContinuationSpec, res: &'a ContinuationResult) -> Summary<'a> {
     let n = res.values.len();
-    let mut ramps_json = serde_json::Map::new();
-    for r in &res.ramps {
-        let d = r.direction.name();
-        let lifetimes: Vec<serde_json::Value> = r
-            .lifetimes()
-            .into_iter()
-            .map(|(id, first, last)| {
-                serde_json::json!({"id": id, "name": id_name(r, id), "first_value": first, "last_value": last,
-                    "born_inside": first != r.steps[0].value, "dies_inside": last != r.steps[n - 1].value})
-            })
-            .collect();
-        ramps_json.insert(
-            d.to_string(),
-            serde_json::json!({
-                "order": "steps in ramp order (up: ascending values, down: descending)",
-                "attractors": lifetimes,
-                "steps": r.steps,
-            }),
-        );
+    let ramps = res
+        .ramps
+        .iter()
+        .map(|r| {
+            let attractors = r
+                .lifetimes()
+                .into_iter()
+                .map(|(id, first, last)| Lifetime {
+                    id,
+                    name: id_name(r, id),
+                    first_value: first,
+                    last_value: last,
+                    born_inside: first != r.steps[0].value,
+                    dies_inside: last != r.steps[n - 1].value,
+                })
+                .collect();
+            let record = RampRecord {
+                order: "steps in ramp order (up: ascending values, down: descending)",
+                attractors,
+                steps: &r.steps,
+            };
+            (r.direction.name(), record)
+        })
+        .collect();
+    Summary {
+        param: AxisRecord {
+            log: None,
+            ..spec.param.record()
+        },
+        omega: spec.omega,
+        ics: spec.ics,
+        start_box: spec.start_box.as_deref().map(coord_box),
+        seed: spec.seed,
+        transient: spec.transient,
+        periods: spec.recorded,
+        lyapunov: spec.lyapunov,
+        match_threshold: Threshold::of(spec.match_threshold),
+        ramps,
+        params: &spec.params,
     }
-    serde_json::json!({
-        "param": {"var": spec.param.var.name(), "unit": spec.param.var.unit(), "lo": spec.param.lo, "hi": spec.param.hi, "n": n},
-        "omega": spec.omega,
-        "ics": spec.ics,
-        "box": spec.start_box.as_ref().map(|b| b.iter().map(|&(c, lo, hi)| serde_json::json!({"coord": jeffcott_core::model::COORD_NAMES[c], "lo": lo, "hi": hi})).collect::<Vec<_>>()),
-        "seed": spec.seed,
-        "transient": spec.transient,
-        "periods": spec.recorded,
-        "lyapunov": spec.lyapunov,
-        "match_threshold": if spec.match_threshold.is_finite() { serde_json::json!(spec.match_threshold) } else { serde_json::json!("inf") },
-        "ramps": ramps_json,
-        "params": spec.params,
-    })
 }
 
 #[cfg(test)]

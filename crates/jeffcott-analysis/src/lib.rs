@@ -19,6 +19,7 @@ pub mod ensemble;
 pub mod map;
 pub mod measures;
 pub mod output;
+pub mod record;
 pub mod refine;
 pub mod rub;
 pub mod run;

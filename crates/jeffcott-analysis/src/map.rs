@@ -154,11 +154,45 @@ impl MapAxis {
         (0..self.n).map(|i| self.value(i)).collect()
     }
 
-    fn to_json(self) -> serde_json::Value {
-        serde_json::json!({
-            "var": self.var.name(), "lo": self.lo, "hi": self.hi, "n": self.n, "log": self.log,
-        })
+    /// The axis as `run.json` records it (no unit: it follows from the variable).
+    pub fn spec_record(&self) -> AxisRecord {
+        AxisRecord {
+            var: self.var.name(),
+            unit: None,
+            lo: self.lo,
+            hi: self.hi,
+            n: self.n,
+            log: Some(self.log),
+        }
     }
+
+    /// The axis as `map.json` records it, with its unit.
+    pub fn record(&self) -> AxisRecord {
+        AxisRecord {
+            unit: Some(self.var.unit()),
+            ..self.spec_record()
+        }
+    }
+}
+
+/// An axis of a map or a continuation as the files record it: the variable by name,
+/// its unit (in the summaries), the range, and the spacing (for a map).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct AxisRecord {
+    /// The variable's name (`omega`, `mu`, `x_r`, ...).
+    pub var: &'static str,
+    /// Its unit.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub unit: Option<&'static str>,
+    /// First value.
+    pub lo: f64,
+    /// Last value.
+    pub hi: f64,
+    /// Number of values.
+    pub n: usize,
+    /// Geometric spacing.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub log: Option<bool>,
 }
 
 /// What a map computes.
@@ -332,22 +366,22 @@ impl MapSpec {
     }
 
     /// The specification as `run.json` records it (not the backend).
-    pub fn to_json(&self) -> serde_json::Value {
-        serde_json::json!({
-            "omega": self.omega,
-            "x": self.x.to_json(),
-            "y": self.y.to_json(),
-            "ics": self.ics,
-            "seed": self.seed,
-            "transient": self.transient,
-            "periods": self.recorded,
-            "stepper": self.stepper,
-            "precision": self.precision,
-            "catalogue": self.catalogue,
-            "lyapunov": self.lyapunov,
-            "unit_cells": self.unit_cells(),
-            "params": self.params,
-        })
+    pub fn record(&self) -> SpecRecord<'_> {
+        SpecRecord {
+            omega: self.omega,
+            x: self.x.spec_record(),
+            y: self.y.spec_record(),
+            ics: self.ics,
+            seed: self.seed,
+            transient: self.transient,
+            periods: self.recorded,
+            stepper: self.stepper,
+            precision: self.precision,
+            catalogue: &self.catalogue,
+            lyapunov: self.lyapunov,
+            unit_cells: self.unit_cells(),
+            params: &self.params,
+        }
     }
 
     /// Lane-periods of the whole map (for progress and estimates).
@@ -655,33 +689,101 @@ pub fn class_name(c: i32) -> String {
     }
 }
 
+/// A map's specification as `run.json` records it: everything the cells depend on, and
+/// the unit size (units of another size do not combine).
+#[derive(Clone, Debug, Serialize)]
+pub struct SpecRecord<'a> {
+    /// Rotor speed when no axis is `omega` [rad/s].
+    pub omega: Option<f64>,
+    /// Horizontal axis.
+    pub x: AxisRecord,
+    /// Vertical axis.
+    pub y: AxisRecord,
+    /// Start states per cell.
+    pub ics: u32,
+    /// Seed of the start states.
+    pub seed: u64,
+    /// Transient periods.
+    pub transient: u32,
+    /// Recorded periods.
+    pub periods: u32,
+    /// Lane stepper settings.
+    pub stepper: StepperConfig,
+    /// Lane precision.
+    pub precision: Precision,
+    /// Catalogue settings.
+    pub catalogue: &'a CatalogueConfig,
+    /// Whether lambda_1 is computed.
+    pub lyapunov: bool,
+    /// Cells per work unit.
+    pub unit_cells: usize,
+    /// Model parameters.
+    pub params: &'a Params,
+}
+
 /// The map as `map.json` holds it (the command line adds the list of files and the
 /// version): the axes, the settings, the tally of classes from the static equilibrium,
 /// multistable and rubbing cells, and every cell's attractors.
-pub fn summary(spec: &MapSpec, res: &MapResult) -> serde_json::Value {
-    let (nx, ny) = (spec.x.n, spec.y.n);
+#[derive(Clone, Debug, Serialize)]
+pub struct Summary<'a> {
+    /// Horizontal axis.
+    pub x: AxisRecord,
+    /// Vertical axis.
+    pub y: AxisRecord,
+    /// Rotor speed when no axis is `omega` [rad/s].
+    pub omega: Option<f64>,
+    /// Start states per cell.
+    pub ics: u32,
+    /// Seed of the start states.
+    pub seed: u64,
+    /// Transient periods.
+    pub transient: u32,
+    /// Recorded periods.
+    pub periods: u32,
+    /// Macro steps per forcing period.
+    pub steps_per_period: u32,
+    /// Whether lambda_1 was computed.
+    pub lyapunov: bool,
+    /// Number of cells.
+    pub cells: usize,
+    /// Cells per class of the response from the static equilibrium.
+    pub classes_from_static_equilibrium: std::collections::BTreeMap<String, usize>,
+    /// Cells with more than one attractor.
+    pub multistable_cells: usize,
+    /// Cells whose response from the static equilibrium touches the stator.
+    pub rubbing_cells: usize,
+    /// Most attractors in one cell.
+    pub max_attractors: i32,
+    /// Every cell's attractors.
+    pub cell_attractors: &'a [Cell],
+    /// Model parameters.
+    pub params: &'a Params,
+}
+
+/// The summary `map.json` holds.
+pub fn summary<'a>(spec: &'a MapSpec, res: &'a MapResult) -> Summary<'a> {
     let mut tally: std::collections::BTreeMap<String, usize> = Default::default();
     for &c in &res.class {
         *tally.entry(class_name(c)).or_default() += 1;
     }
-    serde_json::json!({
-        "x": {"var": spec.x.var.name(), "unit": spec.x.var.unit(), "lo": spec.x.lo, "hi": spec.x.hi, "n": nx, "log": spec.x.log},
-        "y": {"var": spec.y.var.name(), "unit": spec.y.var.unit(), "lo": spec.y.lo, "hi": spec.y.hi, "n": ny, "log": spec.y.log},
-        "omega": spec.omega,
-        "ics": spec.ics,
-        "seed": spec.seed,
-        "transient": spec.transient,
-        "periods": spec.recorded,
-        "steps_per_period": spec.stepper.steps_per_period,
-        "lyapunov": spec.lyapunov,
-        "cells": nx * ny,
-        "classes_from_static_equilibrium": tally,
-        "multistable_cells": res.attractors.iter().filter(|&&n| n > 1).count(),
-        "rubbing_cells": res.contact.iter().filter(|&&c| c > 0.0).count(),
-        "max_attractors": res.attractors.iter().copied().max().unwrap_or(0),
-        "cell_attractors": res.cells,
-        "params": spec.params,
-    })
+    Summary {
+        x: spec.x.record(),
+        y: spec.y.record(),
+        omega: spec.omega,
+        ics: spec.ics,
+        seed: spec.seed,
+        transient: spec.transient,
+        periods: spec.recorded,
+        steps_per_period: spec.stepper.steps_per_period,
+        lyapunov: spec.lyapunov,
+        cells: spec.x.n * spec.y.n,
+        classes_from_static_equilibrium: tally,
+        multistable_cells: res.attractors.iter().filter(|&&n| n > 1).count(),
+        rubbing_cells: res.contact.iter().filter(|&&c| c > 0.0).count(),
+        max_attractors: res.attractors.iter().copied().max().unwrap_or(0),
+        cell_attractors: &res.cells,
+        params: &spec.params,
+    }
 }
 
 /// Most cells a map may have (its per-cell attractor lists are held in memory).

@@ -172,10 +172,17 @@ where
     })
 }
 
-/// Writes a value as pretty-printed JSON.
+/// Writes a value as pretty-printed JSON with the keys of every object sorted: the value
+/// goes through [`serde_json::Value`], whose map is ordered by key, so a file is the
+/// same whatever order a record's struct declares its fields in (and equal to what the
+/// earlier `json!`-built files held).
 pub fn write_json<T: serde::Serialize>(path: &Path, value: &T) -> Result<()> {
+    let value = serde_json::to_value(value).map_err(|e| Error::Io {
+        path: path.to_path_buf(),
+        source: std::io::Error::other(e),
+    })?;
     write_atomically(path, |w| {
-        serde_json::to_writer_pretty(&mut *w, value).map_err(std::io::Error::other)?;
+        serde_json::to_writer_pretty(&mut *w, &value).map_err(std::io::Error::other)?;
         w.write_all(b"\n")
     })
 }

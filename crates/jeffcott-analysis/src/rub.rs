@@ -221,26 +221,53 @@ pub fn attractor_rub(
     }
 }
 
-/// The catalogue's attractors as JSON, each with its rub figures under `rub` (computed
-/// in parallel).
-pub fn attractors_with_rub(
+/// An attractor's rub figures as the JSON files hold them: the figures, or only the
+/// regime `diverged` when the stretch on the attractor left the divergence bound.
+#[derive(Clone, Copy, Debug, Serialize)]
+#[serde(untagged)]
+pub enum RubEntry {
+    /// The figures, their regime among them.
+    Figures(RubFigures),
+    /// No figures.
+    Diverged {
+        /// Always `diverged`.
+        regime: &'static str,
+    },
+}
+
+impl From<Option<RubFigures>> for RubEntry {
+    fn from(r: Option<RubFigures>) -> Self {
+        match r {
+            Some(f) => RubEntry::Figures(f),
+            None => RubEntry::Diverged { regime: "diverged" },
+        }
+    }
+}
+
+/// A catalogued attractor with its rub figures, as `attractors.json` lists it.
+#[derive(Clone, Debug, Serialize)]
+pub struct AttractorWithRub<'a> {
+    /// The attractor, its fields at the top level.
+    #[serde(flatten)]
+    pub attractor: &'a super::catalogue::Attractor,
+    /// Its rub figures.
+    pub rub: RubEntry,
+}
+
+/// The catalogue's attractors, each with its rub figures (computed in parallel).
+pub fn attractors_with_rub<'a>(
     p: &Params,
-    attractors: &[super::catalogue::Attractor],
+    attractors: &'a [super::catalogue::Attractor],
     stepper: &StepperConfig,
-) -> Result<Vec<serde_json::Value>> {
+) -> Result<Vec<AttractorWithRub<'a>>> {
     use rayon::prelude::*;
     attractors
         .par_iter()
         .map(|a| {
-            let mut v = serde_json::to_value(a).map_err(|e| {
-                jeffcott_core::error::Error::invalid("attractor", a.id, e.to_string())
-            })?;
-            let rub = attractor_rub(p, a, stepper)?;
-            v["rub"] = match rub {
-                Some(r) => serde_json::to_value(r).unwrap_or_default(),
-                None => serde_json::json!({"regime": "diverged"}),
-            };
-            Ok(v)
+            Ok(AttractorWithRub {
+                attractor: a,
+                rub: attractor_rub(p, a, stepper)?.into(),
+            })
         })
         .collect()
 }

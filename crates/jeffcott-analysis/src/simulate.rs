@@ -3,6 +3,7 @@
 //! `jeffcott simulate`; f64 on the CPU.
 
 use crate::classify::{Class, Classification, ClassifyConfig, classify};
+use crate::record::NamedState;
 use crate::rub::{RubFigures, normal_force, rub_figures};
 use crate::spectrum::{FullSpectrum, full_spectrum, orbit};
 use jeffcott_core::error::Result;
@@ -279,6 +280,7 @@ pub fn simulate(spec: &SimulateSpec) -> Result<SimulateResult> {
 }
 
 /// The rub outputs of a trajectory.
+#[derive(Clone, Debug)]
 pub struct RubOutputs {
     /// Forcing periods of the stretch.
     pub periods: u32,
@@ -381,104 +383,198 @@ pub fn order_name(o: f64) -> String {
 }
 
 /// One line of a full spectrum as the JSON files list it.
-fn lines_json(s: &FullSpectrum) -> Vec<serde_json::Value> {
+#[derive(Clone, Debug, Serialize)]
+pub struct Line {
+    /// Frequency / W (< 0: backward whirl).
+    pub order: f64,
+    /// The order as a name (`+1X`, `-1/2X`, ...).
+    pub name: String,
+    /// Amplitude [m].
+    pub amplitude_m: f64,
+}
+
+/// The eight strongest lines of a full spectrum.
+pub fn lines(s: &FullSpectrum) -> Vec<Line> {
     strongest_lines(s, 8)
-        .iter()
-        .map(|(ord, a)| serde_json::json!({"order": ord, "name": order_name(*ord), "amplitude_m": a}))
+        .into_iter()
+        .map(|(order, amplitude_m)| Line {
+            order,
+            name: order_name(order),
+            amplitude_m,
+        })
         .collect()
 }
 
-fn finite_or_null(v: f64) -> serde_json::Value {
-    if v.is_finite() {
-        serde_json::json!(v)
-    } else {
-        serde_json::Value::Null
-    }
-}
-
-fn named_state(x: &State) -> serde_json::Map<String, serde_json::Value> {
-    jeffcott_core::model::COORD_NAMES
-        .iter()
-        .zip(x.iter())
-        .map(|(n, v)| (n.to_string(), serde_json::json!(v)))
-        .collect()
-}
-
-/// Why a run has no class in the usual sense (`unclassified`, `diverged`); null
+/// Why a run has no class in the usual sense (`unclassified`, `diverged`); none
 /// otherwise.
-fn classification_reason(spec: &SimulateSpec, res: &SimulateResult) -> serde_json::Value {
+fn classification_reason(spec: &SimulateSpec, res: &SimulateResult) -> Option<String> {
     use crate::classify::MIN_POINTS;
     match res.classification.class {
-        Class::Unclassified => serde_json::json!(format!(
+        Class::Unclassified => Some(format!(
             "{} Poincare point(s) recorded; at least {MIN_POINTS} are needed to classify \
              (2 n to see period n): record more --periods",
             res.poincare.len()
         )),
-        Class::Diverged => serde_json::json!(format!(
+        Class::Diverged => Some(format!(
             "the run ended with status {:?} after {} of {} recorded periods",
             res.status,
             res.poincare.len(),
             spec.periods
         )),
-        _ => serde_json::Value::Null,
+        _ => None,
     }
 }
 
 /// The summary of a simulation, as `summary.json` holds it (the command line adds the
-/// list of files and the version): class, period, status, classification, contact
-/// counters, rub figures and strongest full-spectrum lines, start and final state, wall
-/// time, settings and parameters. The Python package returns the same dictionary.
-pub fn summary(
-    spec: &SimulateSpec,
+/// list of files and the version). The Python package returns the same dictionary.
+#[derive(Clone, Debug, Serialize)]
+pub struct Summary<'a> {
+    /// Rotor speed W [rad/s].
+    pub omega: f64,
+    /// 2 pi / W [s].
+    pub forcing_period_s: f64,
+    /// Forcing periods discarded.
+    pub transient: u32,
+    /// Forcing periods recorded.
+    pub periods: u32,
+    /// Poincare points recorded (fewer than `periods` when the run froze).
+    pub recorded_poincare_points: usize,
+    /// Macro steps per forcing period of the integrator used.
+    pub steps_per_period: u32,
+    /// The integrator used.
+    pub integrator: Integrator,
+    /// Class label (`period-2`, `aperiodic`, ...).
+    pub class: String,
+    /// The period, for a periodic class.
+    pub period: Option<usize>,
+    /// Lane status at the end.
+    pub status: Status,
+    /// How the class was decided.
+    pub classification: ClassificationRecord,
+    /// How much of the recorded stretch is in contact, and the lane's counters.
+    pub contact: ContactRecord,
+    /// Rub figures and strongest spectral lines (regime `diverged` only, for a frozen run).
+    pub rub: RubRecord<'a>,
+    /// Start state by coordinate.
+    pub initial_state: NamedState,
+    /// Final state by coordinate.
+    pub final_state: NamedState,
+    /// Wall time of the run [s].
+    pub wall_time_s: f64,
+    /// Lane stepper settings.
+    pub stepper: StepperConfig,
+    /// Article integrator settings.
+    pub article: ArticleConfig,
+    /// Model parameters.
+    pub params: &'a Params,
+}
+
+/// `summary.json`'s `classification`: the classifier's measures (null when not finite),
+/// its tolerances, and why there is no class in the usual sense.
+#[derive(Clone, Debug, Serialize)]
+pub struct ClassificationRecord {
+    /// Size of the Poincare set [m].
+    pub size_m: f64,
+    /// Repeat error at the period found [m].
+    pub repeat_error_m: f64,
+    /// Tolerance the repeat error was held to [m].
+    pub tolerance_m: f64,
+    /// Why the run is `unclassified` or `diverged`, otherwise null.
+    pub reason: Option<String>,
+    /// Largest period looked for.
+    pub n_max: usize,
+    /// Relative tolerance.
+    pub rel_tol: f64,
+    /// Absolute tolerance [m].
+    pub abs_tol: f64,
+}
+
+/// `summary.json`'s `contact`.
+#[derive(Clone, Debug, Serialize)]
+pub struct ContactRecord {
+    /// Fraction of the recorded grid points in contact.
+    pub fraction_of_recorded_grid_points: f64,
+    /// The lane's counters.
+    pub counters: RunCounters,
+}
+
+/// `summary.json`'s `rub`: the figures over a stretch continued from the final state, or
+/// only the regime `diverged`.
+#[derive(Clone, Debug, Serialize)]
+#[serde(untagged)]
+pub enum RubRecord<'a> {
+    /// The rub figures.
+    Figures {
+        /// Forcing periods of the stretch.
+        periods: u32,
+        /// The figures.
+        figures: &'a RubFigures,
+        /// The regime's label.
+        regime: &'static str,
+        /// The rotor's strongest full-spectrum lines.
+        rotor_lines: Vec<Line>,
+        /// The stator's strongest full-spectrum lines.
+        stator_lines: Vec<Line>,
+    },
+    /// A frozen run has no figures.
+    Diverged {
+        /// Always `diverged`.
+        regime: &'static str,
+    },
+}
+
+/// The summary `summary.json` holds.
+pub fn summary<'a>(
+    spec: &'a SimulateSpec,
     res: &SimulateResult,
-    rub: Option<&RubOutputs>,
-) -> serde_json::Value {
+    rub: Option<&'a RubOutputs>,
+) -> Summary<'a> {
     let c = &res.classification;
     let steps = match spec.integrator {
         Integrator::Lane => spec.stepper.steps_per_period,
         Integrator::Article => spec.article.steps_per_period,
     };
-    serde_json::json!({
-        "omega": spec.omega,
-        "forcing_period_s": std::f64::consts::TAU / spec.omega,
-        "transient": spec.transient,
-        "periods": spec.periods,
-        "recorded_poincare_points": res.poincare.len(),
-        "steps_per_period": steps,
-        "integrator": spec.integrator,
-        "class": c.class.label(),
-        "period": c.class.period(),
-        "status": res.status,
-        "classification": {
-            "size_m": finite_or_null(c.size),
-            "repeat_error_m": finite_or_null(c.repeat_error),
-            "tolerance_m": finite_or_null(c.tol),
-            "reason": classification_reason(spec, res),
-            "n_max": spec.classify.n_max,
-            "rel_tol": spec.classify.rel_tol,
-            "abs_tol": spec.classify.abs_tol,
+    Summary {
+        omega: spec.omega,
+        forcing_period_s: std::f64::consts::TAU / spec.omega,
+        transient: spec.transient,
+        periods: spec.periods,
+        recorded_poincare_points: res.poincare.len(),
+        steps_per_period: steps,
+        integrator: spec.integrator,
+        class: c.class.label(),
+        period: c.class.period(),
+        status: res.status,
+        classification: ClassificationRecord {
+            size_m: c.size,
+            repeat_error_m: c.repeat_error,
+            tolerance_m: c.tol,
+            reason: classification_reason(spec, res),
+            n_max: spec.classify.n_max,
+            rel_tol: spec.classify.rel_tol,
+            abs_tol: spec.classify.abs_tol,
         },
-        "contact": {
-            "fraction_of_recorded_grid_points": res.contact_fraction,
-            "counters": res.counters,
+        contact: ContactRecord {
+            fraction_of_recorded_grid_points: res.contact_fraction,
+            counters: res.counters,
         },
-        "rub": match rub {
-            Some(o) => serde_json::json!({
-                "periods": o.periods,
-                "figures": o.figures,
-                "regime": o.figures.regime.label(),
-                "rotor_lines": lines_json(&o.rotor),
-                "stator_lines": lines_json(&o.stator),
-            }),
-            None => serde_json::json!({"regime": "diverged"}),
+        rub: match rub {
+            Some(o) => RubRecord::Figures {
+                periods: o.periods,
+                figures: &o.figures,
+                regime: o.figures.regime.label(),
+                rotor_lines: lines(&o.rotor),
+                stator_lines: lines(&o.stator),
+            },
+            None => RubRecord::Diverged { regime: "diverged" },
         },
-        "initial_state": named_state(&spec.x0),
-        "final_state": named_state(&res.final_state),
-        "wall_time_s": res.elapsed.as_secs_f64(),
-        "stepper": spec.stepper,
-        "article": spec.article,
-        "params": spec.params,
-    })
+        initial_state: NamedState(spec.x0),
+        final_state: NamedState(res.final_state),
+        wall_time_s: res.elapsed.as_secs_f64(),
+        stepper: spec.stepper,
+        article: spec.article,
+        params: &spec.params,
+    }
 }
 
 /// The Poincare points of a run as `poincare.npy` holds them: one row per requested

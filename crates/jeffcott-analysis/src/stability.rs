@@ -6,10 +6,12 @@
 use crate::catalogue::CatalogueConfig;
 use crate::continuation::{ContinuationResult, ContinuationSpec, Direction, Ramp, parse_box};
 use crate::map::{MapAxis, MapVar};
+use crate::record::{CoordRange, coord_box};
 use jeffcott_core::ensemble::{Backend, Precision};
 use jeffcott_core::error::{Error, Result};
 use jeffcott_core::integrate::lane::StepperConfig;
 use jeffcott_core::model::Params;
+use serde::Serialize;
 
 /// The 95 % Wilson score interval of a binomial fraction k/n (Wilson 1927), which keeps
 /// its coverage near 0 and 1 where the normal interval does not.
@@ -107,53 +109,108 @@ pub fn fractions_with_intervals(
     (f, lo, hi)
 }
 
+/// An attractor at one speed as `basin_stability.json` lists it.
+#[derive(Clone, Debug, Serialize)]
+pub struct AttractorRecord<'a> {
+    /// Attractor id (followed from speed to speed).
+    pub id: u32,
+    /// Class label.
+    pub class: &'a str,
+    /// The period, for a periodic class.
+    pub period: Option<usize>,
+    /// Largest Lyapunov exponent [1/s], if computed.
+    pub lambda1: Option<f64>,
+    /// Basin stability: the fraction of the draws that end on it.
+    pub fraction: f64,
+    /// Its standard error sqrt(f (1 - f) / N).
+    pub standard_error: f64,
+    /// 95 % Wilson score interval.
+    pub ci95: [f64; 2],
+    /// Whether only a seeded lane (none of the draws) found it.
+    pub found_only_from_a_seed: bool,
+}
+
+/// One speed of `basin_stability.json`.
+#[derive(Clone, Debug, Serialize)]
+pub struct SpeedRecord<'a> {
+    /// Rotor speed [rad/s].
+    pub omega: f64,
+    /// The attractors found.
+    pub attractors: Vec<AttractorRecord<'a>>,
+    /// Fraction of the draws that diverged.
+    pub diverged_fraction: f64,
+    /// Its 95 % Wilson score interval.
+    pub diverged_ci95: [f64; 2],
+}
+
 /// The study as `basin_stability.json` holds it (the command line adds the list of
 /// files and the version).
-pub fn summary(spec: &ContinuationSpec, res: &ContinuationResult) -> serde_json::Value {
+#[derive(Clone, Debug, Serialize)]
+pub struct Summary<'a> {
+    /// The box the start states are drawn in.
+    #[serde(rename = "box")]
+    pub start_box: Vec<CoordRange>,
+    /// Draws per speed.
+    pub sample: u32,
+    /// Seed of the draws.
+    pub seed: u64,
+    /// Transient periods.
+    pub transient: u32,
+    /// Recorded periods.
+    pub periods: u32,
+    /// Whether lambda_1 was computed.
+    pub lyapunov: bool,
+    /// Per speed.
+    pub per_omega: Vec<SpeedRecord<'a>>,
+    /// Model parameters.
+    pub params: &'a Params,
+    /// What the fractions and intervals are.
+    pub definition: &'static str,
+}
+
+/// The summary `basin_stability.json` holds.
+pub fn summary<'a>(spec: &'a ContinuationSpec, res: &'a ContinuationResult) -> Summary<'a> {
     let ramp = &res.ramps[0];
     let g = ramp.ids + 1;
     let (_, lo, hi) = fractions_with_intervals(spec, ramp);
-    let steps: Vec<serde_json::Value> = ramp
+    let per_omega = ramp
         .steps
         .iter()
         .enumerate()
-        .map(|(s, st)| {
-            let list: Vec<serde_json::Value> = st
+        .map(|(s, st)| SpeedRecord {
+            omega: st.value,
+            attractors: st
                 .attractors
                 .iter()
                 .map(|a| {
                     let i = s * g + a.id as usize;
-                    serde_json::json!({
-                        "id": a.id, "class": a.class, "period": a.period, "lambda1": a.lambda1,
-                        "fraction": a.fraction, "standard_error": a.error,
-                        "ci95": [lo[i], hi[i]], "found_only_from_a_seed": a.seeded_only,
-                    })
+                    AttractorRecord {
+                        id: a.id,
+                        class: &a.class,
+                        period: a.period,
+                        lambda1: a.lambda1,
+                        fraction: a.fraction,
+                        standard_error: a.error,
+                        ci95: [lo[i], hi[i]],
+                        found_only_from_a_seed: a.seeded_only,
+                    }
                 })
-                .collect();
-            serde_json::json!({
-                "omega": st.value, "attractors": list,
-                "diverged_fraction": st.diverged_fraction,
-                "diverged_ci95": [lo[s * g + ramp.ids], hi[s * g + ramp.ids]],
-            })
+                .collect(),
+            diverged_fraction: st.diverged_fraction,
+            diverged_ci95: [lo[s * g + ramp.ids], hi[s * g + ramp.ids]],
         })
         .collect();
-    let boxed: Vec<serde_json::Value> = spec
-        .start_box
-        .iter()
-        .flatten()
-        .map(|&(c, lo, hi)| serde_json::json!({"coord": jeffcott_core::model::COORD_NAMES[c], "lo": lo, "hi": hi}))
-        .collect();
-    serde_json::json!({
-        "box": boxed,
-        "sample": spec.ics,
-        "seed": spec.seed,
-        "transient": spec.transient,
-        "periods": spec.recorded,
-        "lyapunov": spec.lyapunov,
-        "per_omega": steps,
-        "params": spec.params,
-        "definition": "basin stability (Menck et al. 2013): the fraction of start states drawn uniformly in the box that end on each attractor; standard error sqrt(f (1 - f) / N), 95 % Wilson score interval; attractor ids follow attractors from speed to speed (docs/maps.md, continuation)",
-    })
+    Summary {
+        start_box: coord_box(spec.start_box.as_deref().unwrap_or_default()),
+        sample: spec.ics,
+        seed: spec.seed,
+        transient: spec.transient,
+        periods: spec.recorded,
+        lyapunov: spec.lyapunov,
+        per_omega,
+        params: &spec.params,
+        definition: "basin stability (Menck et al. 2013): the fraction of start states drawn uniformly in the box that end on each attractor; standard error sqrt(f (1 - f) / N), 95 % Wilson score interval; attractor ids follow attractors from speed to speed (docs/maps.md, continuation)",
+    }
 }
 
 #[cfg(test)]

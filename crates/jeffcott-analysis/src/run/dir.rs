@@ -97,12 +97,14 @@ impl RunDir {
     pub fn open(
         dir: &Path,
         command: &str,
-        spec: serde_json::Value,
+        spec: &impl serde::Serialize,
         outputs: &[&str],
         overwrite: bool,
         shard: Option<super::Shard>,
         argv: Vec<String>,
     ) -> Result<RunDir> {
+        let spec = serde_json::to_value(spec)
+            .map_err(|e| Error::invalid("run specification", command, e.to_string()))?;
         output::ensure_dir(dir)?;
         let lock_path = dir.join(LOCK);
         let lock = std::fs::OpenOptions::new()
@@ -145,7 +147,7 @@ impl RunDir {
                 if o.get("command").and_then(|c| c.as_str()) == Some(command)
                     && o.get("spec") == Some(&spec)
                     && o.get("shard").cloned().unwrap_or(serde_json::Value::Null)
-                        == serde_json::json!(shard) =>
+                        == serde_json::to_value(shard).unwrap_or_default() =>
             {
                 match o.get("state").and_then(|s| s.as_str()) {
                     Some("complete") => Found::Complete,
@@ -198,7 +200,7 @@ impl RunDir {
             found,
             _lock: lock,
         };
-        rd.write_state("running", serde_json::Map::new(), &[])?;
+        rd.write_state("running", &serde_json::Map::new(), &[])?;
         std::fs::create_dir_all(dir.join(UNITS)).map_err(io(&dir.join(UNITS)))?;
         Ok(rd)
     }
@@ -238,23 +240,21 @@ impl RunDir {
     fn write_state(
         &self,
         state: &str,
-        mut body: serde_json::Map<String, serde_json::Value>,
+        result: &serde_json::Map<String, serde_json::Value>,
         outputs: &[String],
     ) -> Result<()> {
-        body.insert("state".into(), state.into());
-        body.insert("command".into(), self.command.clone().into());
-        body.insert("spec".into(), self.spec.clone());
-        if let Some(s) = self.shard {
-            body.insert("shard".into(), serde_json::json!(s));
-        }
-        body.insert("argv".into(), serde_json::json!(self.argv));
-        body.insert("units_dir".into(), UNITS.into());
-        if !outputs.is_empty() {
-            body.insert("outputs".into(), serde_json::json!(outputs));
-        }
-        body.entry("jeffcott_version")
-            .or_insert(env!("CARGO_PKG_VERSION").into());
-        output::write_json(&self.dir.join(RUN_JSON), &serde_json::Value::Object(body))
+        let run = RunJson {
+            state,
+            command: &self.command,
+            spec: &self.spec,
+            shard: self.shard,
+            argv: &self.argv,
+            units_dir: UNITS,
+            outputs,
+            jeffcott_version: env!("CARGO_PKG_VERSION"),
+            result,
+        };
+        output::write_json(&self.dir.join(RUN_JSON), &run)
     }
 
     /// The directory.
@@ -342,15 +342,62 @@ impl RunDir {
     }
 
     /// Marks the run complete: `run.json` with `state: "complete"`, the run's result
-    /// metadata `body` (an object; its keys stay at the top level) and the list of final
-    /// files. Call after every final file is written.
-    pub fn finish(&self, body: serde_json::Value, outputs: &[String]) -> Result<()> {
-        let map = match body {
+    /// record `result` (a struct or map; its keys stay at the top level, and may not be
+    /// the run's own keys, [`RUN_KEYS`]) and the list of final files. Call after every
+    /// final file is written.
+    pub fn finish<T: serde::Serialize>(&self, result: &T, outputs: &[String]) -> Result<()> {
+        let bad = |what: String| Error::invalid("run result", self.command.as_str(), what);
+        let map = match serde_json::to_value(result).map_err(|e| bad(e.to_string()))? {
             serde_json::Value::Object(m) => m,
-            _ => serde_json::Map::new(),
+            v => return Err(bad(format!("{v} is not an object"))),
         };
-        self.write_state("complete", map, outputs)
+        if let Some(k) = RUN_KEYS.iter().find(|k| map.contains_key(**k)) {
+            return Err(bad(format!(
+                "the result may not set run.json's own key `{k}`"
+            )));
+        }
+        self.write_state("complete", &map, outputs)
     }
+}
+
+/// The keys of `run.json` the run itself writes (a result's `jeffcott_version`, where it
+/// has one, is its own).
+pub const RUN_KEYS: [&str; 7] = [
+    "state",
+    "command",
+    "spec",
+    "shard",
+    "argv",
+    "units_dir",
+    "outputs",
+];
+
+/// `run.json`: how far the run got, what it computes (command, specification, shard,
+/// command line), where its units are, and once complete its final files and the
+/// command's result record.
+#[derive(serde::Serialize)]
+struct RunJson<'a> {
+    /// `running` or `complete`.
+    state: &'a str,
+    /// The subcommand.
+    command: &'a str,
+    /// Its specification (the resume identity).
+    spec: &'a serde_json::Value,
+    /// The shard this directory computes, if any.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    shard: Option<super::Shard>,
+    /// The command line.
+    argv: &'a [String],
+    /// Folder of the committed units.
+    units_dir: &'static str,
+    /// The final files, once complete.
+    #[serde(skip_serializing_if = "<[String]>::is_empty")]
+    outputs: &'a [String],
+    /// The version that wrote the file.
+    jeffcott_version: &'static str,
+    /// The command's result record, at the top level (its own `jeffcott_version` wins).
+    #[serde(flatten)]
+    result: &'a serde_json::Map<String, serde_json::Value>,
 }
 
 /// The key of unit `index` of `stage`.
