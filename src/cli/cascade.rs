@@ -165,7 +165,8 @@ struct NaturalFrequency {
     hz: f64,
 }
 
-fn regime_summary(spec: &CascadeSpec, res: &CascadeResult) -> String {
+/// Where each rub regime lies along the sweeps, as cascade.json's `regimes` says it.
+pub fn regime_summary(spec: &CascadeSpec, res: &CascadeResult) -> String {
     let mut parts = Vec::new();
     for (name, s) in [("run-up", &res.up), ("run-down", &res.down)] {
         let Some(s) = s else { continue };

@@ -7,14 +7,17 @@ use super::bifurcation::{diagram_series, lambda1_series, run_study, write_bifurc
 use crate::plot;
 use clap::Args;
 use jeffcott_analysis::backend::default_precision;
-use jeffcott_analysis::basin::{Axis, BasinSpec};
-use jeffcott_analysis::bifurcation::{BifurcationSpec, Sweep, start_states};
-use jeffcott_analysis::catalogue::{Catalogue, CatalogueConfig, catalogue_result};
+use jeffcott_analysis::catalogue::Catalogue;
 use jeffcott_analysis::classify::Class;
-use jeffcott_analysis::simulate::{Integrator, SimulateResult, SimulateSpec, simulate};
-use jeffcott_core::ensemble::{Backend, EnsembleSpec, LaneSpec, Precision};
+use jeffcott_analysis::reproduce::{
+    ARTICLE_SPEEDS, BruteCounts, FULL, Lambda1Row, MapFindings, Preset, QUICK, RampFindings,
+    ReproduceSpec, SMOKE, Survey, SweepCounts, THROW, ThrowOutcome, ZOOMS, leaves_period1,
+    periods_seen, regime_cells, sum_rule, summary_rows, throw, up_down_differ,
+};
+use jeffcott_analysis::simulate::simulate;
+use jeffcott_core::ensemble::{Backend, Precision};
 use jeffcott_core::error::{Error, Result};
-use jeffcott_core::lyapunov::{Spectrum, SpectrumConfig, spectrum};
+use jeffcott_core::lyapunov::Spectrum;
 use jeffcott_core::model::{Params, VX_R, VX_S, X_R, X_S, Y_R, Y_S};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -49,168 +52,6 @@ pub struct ReproduceArgs {
     pub quiet: bool,
 }
 
-/// Resolutions of one mode.
-#[derive(Clone, Copy, Debug)]
-struct Preset {
-    name: &'static str,
-    speeds: usize,
-    sweep_first: u32,
-    sweep_transient: u32,
-    ics: u32,
-    brute_transient: u32,
-    periods: u32,
-    max_seeds: usize,
-    zoom_speeds: usize,
-    basin_n: usize,
-    basin_transient: u32,
-    basin_periods: u32,
-    section_transient: u32,
-    section_points: u32,
-    survey_ics: u32,
-    survey_transient: u32,
-    survey_periods: u32,
-    spectrum_transient: u32,
-    spectrum_min_time: f64,
-    spectrum_max_time: f64,
-    map_nx: usize,
-    map_ny: usize,
-    map_ics: u32,
-    map_transient: u32,
-    map_periods: u32,
-    cont_values: usize,
-    cont_ics: u32,
-    cont_transient: u32,
-    cont_periods: u32,
-    rub_nx: usize,
-    rub_ny: usize,
-    cascade_speeds: usize,
-    uncertainty_samples: usize,
-    basin_refine: u32,
-}
-
-const QUICK: Preset = Preset {
-    name: "quick",
-    speeds: 400,
-    sweep_first: 1000,
-    sweep_transient: 150,
-    ics: 4,
-    brute_transient: 400,
-    periods: 48,
-    max_seeds: 6,
-    zoom_speeds: 200,
-    basin_n: 80,
-    basin_transient: 250,
-    basin_periods: 32,
-    section_transient: 500,
-    section_points: 1500,
-    survey_ics: 24,
-    survey_transient: 400,
-    survey_periods: 64,
-    spectrum_transient: 1000,
-    spectrum_min_time: 20.0,
-    spectrum_max_time: 100.0,
-    map_nx: 56,
-    map_ny: 20,
-    map_ics: 1,
-    map_transient: 300,
-    map_periods: 32,
-    cont_values: 45,
-    cont_ics: 16,
-    cont_transient: 400,
-    cont_periods: 48,
-    rub_nx: 49,
-    rub_ny: 7,
-    cascade_speeds: 101,
-    uncertainty_samples: 100,
-    basin_refine: 1,
-};
-
-const FULL: Preset = Preset {
-    name: "full",
-    speeds: 2000,
-    sweep_first: 2000,
-    sweep_transient: 300,
-    ics: 16,
-    brute_transient: 500,
-    periods: 64,
-    max_seeds: 8,
-    zoom_speeds: 1000,
-    basin_n: 1000,
-    basin_transient: 500,
-    basin_periods: 64,
-    section_transient: 1000,
-    section_points: 20000,
-    survey_ics: 256,
-    survey_transient: 1000,
-    survey_periods: 128,
-    spectrum_transient: 2000,
-    spectrum_min_time: 100.0,
-    spectrum_max_time: 1000.0,
-    map_nx: 400,
-    map_ny: 200,
-    map_ics: 4,
-    map_transient: 500,
-    map_periods: 64,
-    cont_values: 221,
-    cont_ics: 64,
-    cont_transient: 500,
-    cont_periods: 64,
-    rub_nx: 241,
-    rub_ny: 31,
-    cascade_speeds: 1001,
-    uncertainty_samples: 4000,
-    basin_refine: 2,
-};
-
-const SMOKE: Preset = Preset {
-    name: "smoke",
-    speeds: 6,
-    sweep_first: 100,
-    sweep_transient: 20,
-    ics: 2,
-    brute_transient: 30,
-    periods: 8,
-    max_seeds: 2,
-    zoom_speeds: 4,
-    basin_n: 3,
-    basin_transient: 30,
-    basin_periods: 8,
-    section_transient: 30,
-    section_points: 40,
-    survey_ics: 2,
-    survey_transient: 30,
-    survey_periods: 8,
-    spectrum_transient: 30,
-    spectrum_min_time: 0.5,
-    spectrum_max_time: 1.0,
-    map_nx: 3,
-    map_ny: 2,
-    map_ics: 1,
-    map_transient: 30,
-    map_periods: 8,
-    cont_values: 3,
-    cont_ics: 2,
-    cont_transient: 30,
-    cont_periods: 8,
-    rub_nx: 3,
-    rub_ny: 2,
-    cascade_speeds: 3,
-    uncertainty_samples: 2,
-    basin_refine: 1,
-};
-
-/// The article's speeds and what it reports there (MODEL.md 6 and the issue).
-const ARTICLE_SPEEDS: [(f64, &str); 5] = [
-    (131.7, "period-1 (Fig. 5)"),
-    (132.2, "period-2 (Fig. 6)"),
-    (133.0, "coexisting attractors (Figs. 7-8)"),
-    (135.0, "aperiodic (Figs. 9-10)"),
-    (140.0, "aperiodic (Figs. 11-12)"),
-];
-
-/// Windows enlarged from Fig. 3 (where the diagram is most complex).
-const ZOOMS: [(f64, f64); 2] = [(132.6, 133.8), (138.4, 141.0)];
-
 struct Report {
     text: String,
     started: Instant,
@@ -243,8 +84,7 @@ fn describe(cat: &Catalogue) -> String {
 /// The "Lyapunov spectra" section of REPORT.md: all eight exponents with their error
 /// estimates, the sum against the sum rule, the accumulation time.
 fn spectra_table(spectra: &[Spectrum], params: &Params, seconds: f64, cmd: &str) -> String {
-    // MODEL.md 6: sum = -2 (2 xi_r w_r + 2 xi_s w_s) for viscous damping and S = I.
-    let rule = -2.0 * (2.0 * params.xi_r * params.omega_r + 2.0 * params.xi_s * params.omega_s);
+    let rule = sum_rule(params);
     let mut t = format!(
         "\n## Lyapunov spectra at the article's speeds\n\nAll eight exponents [1/s] from the static equilibrium (`lyapunov::spectrum`: eight tangent vectors with the state, saltation at every contact switch, QR every period), each +- its error estimate (the larger of the batch-means standard error and the change over the last window). Sum rule (MODEL.md 6): the exponents sum to {rule:.2} 1/s. Command: `{cmd}`; the five spectra took {seconds:.1} s in all (in parallel).\n\n| W [rad/s] | lambda_1 | lambda_2 | lambda_3 | lambda_4 | lambda_5 | lambda_6 | lambda_7 | lambda_8 | sum (rule {rule:.1}) | accumulated [s] | stop | wall [s] |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
     );
@@ -267,52 +107,18 @@ fn spectra_table(spectra: &[Spectrum], params: &Params, seconds: f64, cmd: &str)
     t + "\n"
 }
 
-fn sim(
-    params: &Params,
-    omega: f64,
-    transient: u32,
-    periods: u32,
-    ts: u32,
-) -> Result<SimulateResult> {
-    simulate(&SimulateSpec {
-        params: params.clone(),
-        omega,
-        x0: params.static_equilibrium(),
-        transient,
-        periods,
-        timeseries_periods: ts.min(periods),
-        integrator: Integrator::Lane,
-        stepper: Default::default(),
-        article: Default::default(),
-        classify: Default::default(),
-    })
-}
-
-/// The regime summary a cascade wrote into its cascade.json.
-fn json_regimes(dir: &Path) -> Result<String> {
-    let path = dir.join("cascade.json");
-    let bytes = std::fs::read(&path).map_err(|source| Error::Io {
-        path: path.clone(),
-        source,
-    })?;
-    let j: serde_json::Value = serde_json::from_slice(&bytes)
-        .map_err(|e| Error::invalid("cascade.json", path.display(), e.to_string()))?;
-    Ok(j["regimes"].as_str().unwrap_or_default().to_string())
-}
-
 /// Runs `jeffcott reproduce`: the sections below in order, each adding its figures to
 /// the report, then REPORT.md with the summary table at the top.
 pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
-    let p = if a.full {
+    let preset = if a.full {
         FULL
     } else if a.smoke {
         SMOKE
     } else {
         QUICK
     };
-    let params = Params::default();
     let precision = a.precision.unwrap_or_else(|| default_precision(a.backend));
-    let cfg = CatalogueConfig::for_precision(precision);
+    let spec = ReproduceSpec::new(preset, a.backend, precision);
     let dir = a.out.as_path();
     // One run directory for the whole figure set; each study keeps its units under its
     // own prefix, so an interrupted reproduce resumes where it stopped.
@@ -320,7 +126,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         dir,
         "reproduce",
         &RunSpec {
-            mode: p.name,
+            mode: preset.name,
             precision,
         },
         &["REPORT.md"],
@@ -329,13 +135,10 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     )?;
     let mut c = Ctx {
         a,
-        p,
-        params,
-        precision,
-        cfg,
+        spec,
         dir,
         rd: &rd,
-        mode: format!("--{}", p.name),
+        mode: format!("--{}", preset.name),
         backend: format!("{:?}", a.backend).to_lowercase(),
         rep: Report {
             text: String::new(),
@@ -343,8 +146,8 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         },
         static_class: Vec::new(),
     };
-    let spec = bifurcation_figures(&mut c)?;
-    enlargements(&mut c, &spec)?;
+    bifurcation_figures(&mut c)?;
+    enlargements(&mut c)?;
     let sv = survey_and_spectra(&mut c)?;
     portraits(&mut c, &sv)?;
     basin_section(&mut c, &sv)?;
@@ -353,13 +156,14 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     continuation_section(&mut c)?;
     rub_section(&mut c)?;
     let Ctx {
-        ref params,
+        ref spec,
         ref mode,
         ref backend,
         ref rep,
         ref static_class,
         ..
     } = c;
+    let (p, cfg) = (&spec.preset, &spec.catalogue);
 
     // REPORT.md.
     say(a, "[11/11] REPORT.md");
@@ -368,32 +172,36 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         head,
         "# jeffcott reproduce {mode}\n\nThe figure set of \"Nonlinear Dynamics and Chaos of a Nonsmooth Rotor-Stator System\" (Mathematical Problems in Engineering, 2017), regenerated with `jeffcott` {} (Table 1 parameters, the corrected model of MODEL.md). Ensembles on backend `{backend}`, {:?}; {} CPU threads. Total time {:.1} s.\n\n",
         env!("CARGO_PKG_VERSION"),
-        precision,
+        spec.precision,
         rayon::current_num_threads(),
         rep.started.elapsed().as_secs_f64()
     );
     head += "## Summary at the article's speeds\n\n| W [rad/s] | article | from the static equilibrium | lambda_1 [1/s] (full spectrum) | survey of seeded start states |\n|---|---|---|---|---|\n";
-    for (i, &(omega, article)) in ARTICLE_SPEEDS.iter().enumerate() {
-        let st = static_class
-            .iter()
-            .find(|(w, _)| *w == omega)
-            .map_or("-".to_string(), |(_, c)| c.clone());
+    for row in summary_rows(&sv.survey, static_class) {
         let _ = writeln!(
             head,
-            "| {omega} | {article} | {st} | {} | {} |",
-            sv.l1_text(omega),
-            describe(&sv.catalogues[i])
+            "| {} | {} | {} | {} | {} |",
+            row.omega,
+            row.article,
+            row.static_class.map_or("-".to_string(), |c| c.label()),
+            l1_text(row.spectrum),
+            describe(row.survey)
         );
     }
-    head += &spectra_table(&sv.spectra, params, sv.spectra_s, &sv.spectrum_cmd);
+    head += &spectra_table(
+        &sv.survey.spectra,
+        &spec.params,
+        sv.survey.spectra_seconds,
+        &sv.spectrum_cmd,
+    );
     let _ = write!(
         head,
         "\nSurvey: {} start states per speed (static equilibrium + seeded random rotor states within the gap), {} transient and {} recorded periods ({}; {:.1} s). Classification: period-n up to n = 32 with tolerances relative to the attractor size; otherwise quasiperiodic (|lambda_1| < {} 1/s) or chaotic (lambda_1 above), lambda_1 per lane from one tangent vector over the recorded periods (attractor entries show the mean over their lanes).\n\n",
         p.survey_ics,
         p.survey_transient,
         p.survey_periods,
-        survey_cmd(&p, 0.0).replace("--omega 0 ", "--omega W "),
-        sv.seconds,
+        survey_cmd(p, 0.0).replace("--omega 0 ", "--omega W "),
+        sv.survey.seconds,
         cfg.lambda_tol
     );
     let text = head + &rep.text;
@@ -424,57 +232,33 @@ struct RunSpec {
     precision: Precision,
 }
 
-/// What every section of `reproduce` shares: the arguments, the preset, the model,
-/// the output directory and its run, the report being written, and the class found
-/// from the static equilibrium at each speed simulated (for the summary table).
+/// What every section of `reproduce` shares: the arguments, the figure set's
+/// specification, the output directory and its run, the report being written, and the
+/// class found from the static equilibrium at each speed simulated (for the summary
+/// table).
 struct Ctx<'a> {
     a: &'a ReproduceArgs,
-    p: Preset,
-    params: Params,
-    precision: Precision,
-    cfg: CatalogueConfig,
+    spec: ReproduceSpec,
     dir: &'a Path,
     rd: &'a jeffcott_analysis::run::RunDir,
     mode: String,
     backend: String,
     rep: Report,
-    static_class: Vec<(f64, String)>,
+    static_class: Vec<(f64, Class)>,
 }
 
-/// The survey at the article's speeds and their full spectra, which later sections and
-/// the summary table quote.
-struct Survey {
-    catalogues: Vec<Catalogue>,
-    seconds: f64,
-    spectra: Vec<Spectrum>,
-    spectra_s: f64,
+/// The survey at the article's speeds and their full spectra, with the command behind
+/// the spectra.
+struct SurveyText {
+    survey: Survey,
     spectrum_cmd: String,
 }
 
-impl Survey {
-    /// The class from the static equilibrium, refined by the spectrum's lambda_1.
-    fn refine(&self, class: Class, omega: f64, cfg: &CatalogueConfig) -> String {
-        let l1 = self
-            .spectra
-            .iter()
-            .find(|s| s.omega == omega)
-            .map(|s| s.exponents[0]);
-        match (class, l1) {
-            (Class::Aperiodic, Some(l)) if l.abs() < cfg.lambda_tol => Class::Quasiperiodic.label(),
-            (Class::Aperiodic, Some(l)) if l > cfg.lambda_tol => Class::Chaotic.label(),
-            (c, _) => c.label(),
-        }
-    }
-
-    /// lambda_1 of the full spectrum at `omega`, with its error.
-    fn l1_text(&self, omega: f64) -> String {
-        self.spectra
-            .iter()
-            .find(|s| s.omega == omega)
-            .map_or("-".into(), |s| {
-                format!("{:.3} +- {:.3} 1/s", s.exponents[0], s.errors[0])
-            })
-    }
+/// lambda_1 of a full spectrum with its error ("-" without one).
+fn l1_text(s: Option<&Spectrum>) -> String {
+    s.map_or("-".into(), |s| {
+        format!("{:.3} +- {:.3} 1/s", s.exponents[0], s.errors[0])
+    })
 }
 
 /// The command behind the survey at speed `w`.
@@ -514,62 +298,29 @@ fn say(a: &ReproduceArgs, s: &str) {
 /// What a sweep found: how many speeds are period-1, periodic, aperiodic (quasiperiodic,
 /// chaotic) and diverged.
 fn sweep_found(sw: &[jeffcott_analysis::bifurcation::SweepPoint]) -> String {
-    let count = |sw: &[jeffcott_analysis::bifurcation::SweepPoint],
-                 f: &dyn Fn(Option<usize>) -> bool| {
-        sw.iter()
-            .filter(|q| !q.status.is_frozen() && f(q.class.class.period()))
-            .count()
-    };
+    let n = SweepCounts::of(sw);
     format!(
         "{} of {} speeds period-1, {} periodic with period > 1, {} aperiodic (no period up to 32: {} quasiperiodic, {} chaotic by lambda_1), {} diverged",
-        count(sw, &|n| n == Some(1)),
-        sw.len(),
-        count(sw, &|n| n.is_some_and(|n| n > 1)),
-        count(sw, &|n| n.is_none()),
-        sw.iter()
-            .filter(|q| q.class.class == Class::Quasiperiodic)
-            .count(),
-        sw.iter()
-            .filter(|q| q.class.class == Class::Chaotic)
-            .count(),
-        sw.iter().filter(|q| q.status.is_frozen()).count()
+        n.period1, n.speeds, n.higher_period, n.aperiodic, n.quasiperiodic, n.chaotic, n.diverged
     )
 }
 
 /// Figs. 3 and 4, the down sweep and the brute-force diagram: one bifurcation study over
 /// [130, 141]; returns its specification (the enlargements reuse it).
-fn bifurcation_figures(c: &mut Ctx) -> Result<BifurcationSpec> {
+fn bifurcation_figures(c: &mut Ctx) -> Result<()> {
     let Ctx {
         a,
-        p,
-        ref params,
-        precision,
-        cfg,
+        ref spec,
         dir,
         rd,
         ref backend,
         ref mut rep,
         ..
     } = *c;
+    let (p, cfg) = (spec.preset, spec.catalogue);
     // Figs. 3-4, the down sweep and the brute force: one study over [130, 141].
     say(a, "[1/11] bifurcation diagram over 130..141 rad/s");
-    let spec = BifurcationSpec {
-        params: params.clone(),
-        omegas: jeffcott_core::ensemble::parse_range("omega", &format!("130:141:{}", p.speeds))?,
-        sweep: Some(Sweep::Both),
-        transient_first: p.sweep_first,
-        transient: p.sweep_transient,
-        ics: p.ics,
-        brute_transient: p.brute_transient,
-        recorded: p.periods,
-        seed: 1,
-        stepper: Default::default(),
-        precision,
-        backend: a.backend,
-        catalogue: cfg,
-        max_seeds: p.max_seeds,
-        lyapunov: true,
-    };
+    let spec = spec.bifurcation()?;
     let res = run_study(&spec, &store(rd, "bifurcation"), a.quiet)?;
     write_bifurcation(&dir.join("bifurcation"), &spec, &res, &[VX_S, VX_R], true)?;
     let bif_cmd = format!(
@@ -586,34 +337,20 @@ fn bifurcation_figures(c: &mut Ctx) -> Result<BifurcationSpec> {
     let w = (130.0, 141.0);
     // What the lambda_1 row under a sweep shows.
     let l1_row = |sw: &[jeffcott_analysis::bifurcation::SweepPoint]| -> String {
-        let f: Vec<f64> = sw
-            .iter()
-            .map(|q| q.lambda1)
-            .filter(|l| l.is_finite())
-            .collect();
-        let pos = f.iter().filter(|&&l| l > cfg.lambda_tol).count();
-        let max = f.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        let at = |w: f64| {
-            sw.iter()
-                .min_by(|a, b| (a.omega - w).abs().total_cmp(&(b.omega - w).abs()))
-                .map_or("-".into(), |q| {
-                    format!("{:.2} 1/s at {:.3}", q.lambda1, q.omega)
-                })
-        };
+        let r = Lambda1Row::of(sw, cfg.lambda_tol, &[131.7, 140.0]);
+        let at =
+            |a: Option<(f64, f64)>| a.map_or("-".into(), |(l, w)| format!("{l:.2} 1/s at {w:.3}"));
         format!(
-            "positive (> {} 1/s) at {pos} of {} speeds, largest {max:.1} 1/s; {} and {}",
-            cfg.lambda_tol,
-            f.len(),
-            at(131.7),
-            at(140.0)
+            "positive (> {} 1/s) at {} of {} speeds, largest {:.1} 1/s; {} and {}",
+            r.tol,
+            r.positive,
+            r.finite,
+            r.largest,
+            at(r.at[0]),
+            at(r.at[1])
         )
     };
-    let first_non_p1 = res
-        .up
-        .iter()
-        .skip_while(|q| q.class.class.period() != Some(1))
-        .find(|q| q.class.class.period() != Some(1))
-        .map(|q| q.omega);
+    let first_non_p1 = leaves_period1(&res.up);
     for (fig, coord, name) in [
         (
             "fig03_bifurcation_vx_s.png",
@@ -648,13 +385,7 @@ fn bifurcation_figures(c: &mut Ctx) -> Result<BifurcationSpec> {
             res.sweep_seconds,
         );
     }
-    let differ: Vec<f64> = res
-        .up
-        .iter()
-        .zip(&res.down)
-        .filter(|(u, d)| u.class.class.unrefined() != d.class.class.unrefined())
-        .map(|(u, _)| u.omega)
-        .collect();
+    let differ = up_down_differ(&res);
     plot::bifurcation_diagram(
         &dir.join("fig_down_sweep.png"),
         "Up and down quasistatic sweeps (hysteresis shows where they differ)",
@@ -699,25 +430,16 @@ fn bifurcation_figures(c: &mut Ctx) -> Result<BifurcationSpec> {
         &diagram_series(&spec, &res, false, false, true),
         &lambda1_series(&spec, &res, false, false, true),
     )?;
-    let multi = res
-        .brute
-        .iter()
-        .filter(|b| b.catalogue.attractors.len() > 1)
-        .count();
-    let max_att = res
-        .brute
-        .iter()
-        .map(|b| (b.catalogue.attractors.len(), b.omega))
-        .max_by_key(|x| x.0)
-        .unwrap_or((0, 0.0));
+    let brute = BruteCounts::of(&res);
     rep.figure(
         "Brute-force diagram (not in the article)",
         "fig_brute_force.png",
         &format!(
-            "Coexisting attractors at {multi} of {} speeds; at most {} (at W = {:.3} rad/s). Aperiodic clouds from different lanes count as one attractor when they cover each other (see `analysis::catalogue`). Backend: {}.",
-            res.brute.len(),
-            max_att.0,
-            max_att.1,
+            "Coexisting attractors at {} of {} speeds; at most {} (at W = {:.3} rad/s). Aperiodic clouds from different lanes count as one attractor when they cover each other (see `analysis::catalogue`). Backend: {}.",
+            brute.multistable,
+            brute.speeds,
+            brute.most,
+            brute.most_at,
             res.brute_info
                 .as_ref()
                 .map_or("-".to_string(), |i| format!("{} ({}), {:?}", i.backend, i.device, i.precision))
@@ -725,32 +447,25 @@ fn bifurcation_figures(c: &mut Ctx) -> Result<BifurcationSpec> {
         &bif_cmd,
         res.brute_seconds,
     );
-    Ok(spec)
+    Ok(())
 }
 
 /// The enlargements of Fig. 3 (up sweeps over the article's zoom ranges).
-fn enlargements(c: &mut Ctx, spec: &BifurcationSpec) -> Result<()> {
+fn enlargements(c: &mut Ctx) -> Result<()> {
     let Ctx {
         a,
-        p,
+        ref spec,
         dir,
         rd,
         ref mut rep,
         ..
     } = *c;
+    let p = spec.preset;
     // Enlargements of Fig. 3.
     say(a, "[2/11] enlargements of Fig. 3");
     for (k, &(lo, hi)) in ZOOMS.iter().enumerate() {
         let t = Instant::now();
-        let zspec = BifurcationSpec {
-            omegas: jeffcott_core::ensemble::parse_range(
-                "omega",
-                &format!("{lo}:{hi}:{}", p.zoom_speeds),
-            )?,
-            sweep: Some(Sweep::Up),
-            ics: 0,
-            ..spec.clone()
-        };
+        let zspec = spec.zoom(k)?;
         let zres = run_study(&zspec, &store(rd, ["zoom0", "zoom1"][k]), a.quiet)?;
         let fig = format!("fig03{}_zoom_{lo}-{hi}.png", ["b", "c"][k]);
         plot::bifurcation_diagram(
@@ -764,13 +479,7 @@ fn enlargements(c: &mut Ctx, spec: &BifurcationSpec) -> Result<()> {
             &diagram_series(&zspec, &zres, true, false, false),
             &lambda1_series(&zspec, &zres, true, false, false),
         )?;
-        let mut periods: Vec<usize> = zres
-            .up
-            .iter()
-            .filter_map(|q| q.class.class.period())
-            .collect();
-        periods.sort();
-        periods.dedup();
+        let periods = periods_seen(&zres.up);
         rep.figure(
             &format!("Fig. 3 enlarged over {lo}..{hi} rad/s"),
             &fig,
@@ -791,113 +500,53 @@ fn enlargements(c: &mut Ctx, spec: &BifurcationSpec) -> Result<()> {
 
 /// The article's speeds: a survey of seeded start states at each (lambda_1 per lane) and
 /// the full Lyapunov spectrum from the static equilibrium.
-fn survey_and_spectra(c: &mut Ctx) -> Result<Survey> {
-    let Ctx {
-        a,
-        p,
-        ref params,
-        precision,
-        cfg,
-        ..
-    } = *c;
+fn survey_and_spectra(c: &mut Ctx) -> Result<SurveyText> {
+    let Ctx { a, ref spec, .. } = *c;
+    let p = spec.preset;
     // The article's speeds: a survey of start states at each.
     say(a, "[3/11] attractor survey at the article's speeds");
-    let t = Instant::now();
-    let starts = start_states(params, p.survey_ics, 135.0, 7);
-    let mut lanes = Vec::new();
-    for &(omega, _) in &ARTICLE_SPEEDS {
-        lanes.extend(starts.iter().map(|&x0| LaneSpec {
-            omega,
-            x0,
-            param_set: 0,
-        }));
-    }
-    let espec = EnsembleSpec {
-        param_sets: vec![params.clone()],
-        lanes,
-        transient: p.survey_transient,
-        recorded: p.survey_periods,
-        stepper: Default::default(),
-        precision,
-    };
     let per_lane = (p.survey_transient + p.survey_periods) as u64;
-    let bar = crate::progress::Bar::new(
-        "survey",
-        espec.lanes.len() as u64 * per_lane,
-        per_lane,
-        a.quiet,
-    );
-    // With lambda_1 per lane, so aperiodic attractors are told apart as quasiperiodic
-    // or chaotic.
-    let (eres, _) = jeffcott_analysis::backend::run(
-        &espec,
-        a.backend,
-        true,
+    let lanes = (ARTICLE_SPEEDS.len() as u64) * p.survey_ics as u64;
+    let bar = crate::progress::Bar::new("survey", lanes * per_lane, per_lane, a.quiet);
+    let survey = Survey::run_survey(
+        spec,
         jeffcott_core::control::Control::progress(&bar.callback(0)),
-    )?;
+    );
     bar.finish();
-    let k = p.survey_ics as usize;
-    let mut survey: Vec<Catalogue> = Vec::new();
-    for (i, &(omega, _)) in ARTICLE_SPEEDS.iter().enumerate() {
-        let sub = jeffcott_core::ensemble::EnsembleResult {
-            poincare: eres.poincare[i * k * eres.recorded * 8..(i + 1) * k * eres.recorded * 8]
-                .to_vec(),
-            recorded: eres.recorded,
-            final_state: eres.final_state[i * k..(i + 1) * k].to_vec(),
-            status: eres.status[i * k..(i + 1) * k].to_vec(),
-            counters: eres.counters[i * k..(i + 1) * k].to_vec(),
-            lambda1: eres
-                .lambda1
-                .as_ref()
-                .map(|l| l[i * k..(i + 1) * k].to_vec()),
-        };
-        survey.push(catalogue_result(omega, &sub, sub.lambda1.as_deref(), &cfg));
-    }
-    let survey_s = t.elapsed().as_secs_f64();
+    let (catalogues, seconds) = survey?;
 
     // The full Lyapunov spectrum at each article speed, from the static equilibrium
     // (independent, in parallel).
     say(a, "[4/11] Lyapunov spectra at the article's speeds");
-    let t = Instant::now();
-    let scfg = SpectrumConfig {
-        transient: p.spectrum_transient,
-        min_time: p.spectrum_min_time,
-        max_time: p.spectrum_max_time,
-        ..SpectrumConfig::default()
-    };
-    let spectra: Vec<Spectrum> = {
-        use rayon::prelude::*;
-        ARTICLE_SPEEDS
-            .par_iter()
-            .map(|&(omega, _)| spectrum(params, omega, &params.static_equilibrium(), &scfg))
-            .collect::<Result<_>>()?
-    };
-    let spectra_s = t.elapsed().as_secs_f64();
+    let (spectra, spectra_seconds) = Survey::run_spectra(spec)?;
+    let scfg = spec.spectrum_config();
     let spectrum_cmd = format!(
         "jeffcott lyapunov --omega W --transient {} --min-time {} --time {}",
         scfg.transient, scfg.min_time, scfg.max_time
     );
-    Ok(Survey {
-        catalogues: survey,
-        seconds: survey_s,
-        spectra,
-        spectra_s,
+    Ok(SurveyText {
+        survey: Survey {
+            catalogues,
+            seconds,
+            spectra,
+            spectra_seconds,
+        },
         spectrum_cmd,
     })
 }
 
 /// Figs. 5 and 6: phase portraits at 131.7 and 132.2 rad/s from the static equilibrium.
-fn portraits(c: &mut Ctx, sv: &Survey) -> Result<()> {
+fn portraits(c: &mut Ctx, sv: &SurveyText) -> Result<()> {
     let Ctx {
         a,
-        p,
-        ref params,
         dir,
         ref mut rep,
         ref mut static_class,
-        cfg,
+        ref spec,
         ..
     } = *c;
+    let p = spec.preset;
+    let cfg = spec.catalogue;
     // Figs. 5-6: phase portraits at 131.7 and 132.2 from the static equilibrium.
     say(a, "[5/11] phase portraits at 131.7 and 132.2 rad/s");
     for (i, (fig, omega)) in [
@@ -908,8 +557,11 @@ fn portraits(c: &mut Ctx, sv: &Survey) -> Result<()> {
     .enumerate()
     {
         let t = Instant::now();
-        let r = sim(params, omega, 1000, 64, 4)?;
-        let class = sv.refine(r.classification.class, omega, &cfg);
+        let r = simulate(&spec.portrait(omega))?;
+        let refined = sv
+            .survey
+            .refine(r.classification.class, omega, cfg.lambda_tol);
+        let class = refined.label();
         plot::phase_portraits(
             &dir.join(fig),
             &format!(
@@ -919,16 +571,16 @@ fn portraits(c: &mut Ctx, sv: &Survey) -> Result<()> {
             &r.timeseries,
             &r.poincare,
         )?;
-        static_class.push((omega, class.clone()));
+        static_class.push((omega, refined));
         rep.figure(
             &format!("Fig. {}: phase spaces and Poincare section at W = {omega} rad/s", 5 + i),
             fig,
             &format!(
                 "From the static equilibrium after 1000 periods: **{class}**, lambda_1 = {} (full spectrum in the table at the top) (the article: {}). Survey of {} start states: {}.",
-                sv.l1_text(omega),
+                l1_text(sv.survey.spectrum(omega)),
                 ARTICLE_SPEEDS[i].1,
                 p.survey_ics,
-                describe(&sv.catalogues[i])
+                describe(&sv.survey.catalogues[i])
             ),
             &format!("jeffcott simulate --omega {omega} --transient 1000 --periods 64 --timeseries-periods 4"),
             t.elapsed().as_secs_f64(),
@@ -939,49 +591,24 @@ fn portraits(c: &mut Ctx, sv: &Survey) -> Result<()> {
 
 /// Figs. 7 and 8: the basin at 133 rad/s (refined at its boundary), its coexisting
 /// attractors and its measures.
-fn basin_section(c: &mut Ctx, sv: &Survey) -> Result<()> {
+fn basin_section(c: &mut Ctx, sv: &SurveyText) -> Result<()> {
     let Ctx {
         a,
-        p,
-        ref params,
-        precision,
-        cfg,
         dir,
         rd,
         ref backend,
         ref mut rep,
         ref mut static_class,
+        ref spec,
         ..
     } = *c;
+    let p = spec.preset;
+    let cfg = spec.catalogue;
     // Figs. 7-8: basin at 133 and its coexisting attractors.
     say(a, "[6/11] basin of attraction at 133 rad/s");
     let t = Instant::now();
     let n = p.basin_n;
-    let bspec = BasinSpec {
-        params: params.clone(),
-        omega: 133.0,
-        x: Axis {
-            coord: X_R,
-            lo: -0.006,
-            hi: 0.006,
-            n,
-        },
-        y: Axis {
-            coord: VX_R,
-            lo: -1.0,
-            hi: 1.0,
-            n,
-        },
-        base: params.static_equilibrium(),
-        transient: p.basin_transient,
-        recorded: p.basin_periods,
-        stepper: Default::default(),
-        precision,
-        backend: a.backend,
-        catalogue: cfg,
-        chunk: None,
-        lyapunov: false,
-    };
+    let bspec = spec.basin();
     let bres = run_basin_study(&bspec, &store(rd, "basin_133"), a.quiet)?;
     let bdir = dir.join("basin_133");
     // Boundary refinement: the basin at ((n - 1) 2^K + 1)^2, the measures on it.
@@ -1037,8 +664,11 @@ fn basin_section(c: &mut Ctx, sv: &Survey) -> Result<()> {
     )?;
     copy(dir, &bdir.join("basin.png"), "fig07_basin_133.png")?;
     let basin_s = t.elapsed().as_secs_f64();
-    let r133 = sim(params, 133.0, 1000, 64, 4)?;
-    static_class.push((133.0, sv.refine(r133.classification.class, 133.0, &cfg)));
+    let r133 = simulate(&spec.portrait(133.0))?;
+    let class133 = sv
+        .survey
+        .refine(r133.classification.class, 133.0, cfg.lambda_tol);
+    static_class.push((133.0, class133));
     let basin_cmd = format!(
         "jeffcott basin --omega 133 --x x_r:-0.006:0.006:{n} --y vx_r:-1:1:{n} --transient {} --periods {} --refine {} --uncertainty-samples {} --backend {backend} --out {}/basin_133",
         p.basin_transient,
@@ -1053,8 +683,8 @@ fn basin_section(c: &mut Ctx, sv: &Survey) -> Result<()> {
         &format!(
             "{n} x {n} start states (other coordinates at the static equilibrium): {}. From the static equilibrium itself: **{}**, lambda_1 = {}. Rub on the attractors: {basin_rub}.{refine_text} Basin measures (`basin_133/basin_metrics.json`, docs/basin-measures.md; f(eps) of both methods in `basin_133/uncertainty.png`): {}{}.",
             describe(&bres.catalogue),
-            sv.refine(r133.classification.class, 133.0, &cfg),
-            sv.l1_text(133.0),
+            class133.label(),
+            l1_text(sv.survey.spectrum(133.0)),
             bmetrics.summary(),
             reint.as_ref().map(|r| format!("; {}", r.summary())).unwrap_or_default()
         ),
@@ -1074,7 +704,7 @@ fn basin_section(c: &mut Ctx, sv: &Survey) -> Result<()> {
                 "{} attractor(s) coexist; each drawn over one pass from a point of its Poincare set (same run as Fig. 7). Survey of {} seeded start states: {}.",
                 bres.catalogue.attractors.len(),
                 p.survey_ics,
-                describe(&sv.catalogues[2])
+                describe(&sv.survey.catalogues[2])
             ),
             &basin_cmd,
             basin_s,
@@ -1084,17 +714,17 @@ fn basin_section(c: &mut Ctx, sv: &Survey) -> Result<()> {
 }
 
 /// Figs. 9 to 12: phase portraits and Poincare sections at 135 and 140 rad/s.
-fn sections_135_140(c: &mut Ctx, sv: &Survey) -> Result<()> {
+fn sections_135_140(c: &mut Ctx, sv: &SurveyText) -> Result<()> {
     let Ctx {
         a,
-        p,
-        ref params,
-        cfg,
         dir,
         ref mut rep,
         ref mut static_class,
+        ref spec,
         ..
     } = *c;
+    let p = spec.preset;
+    let cfg = spec.catalogue;
     // Figs. 9-12: sections at 135 and 140.
     say(
         a,
@@ -1102,18 +732,21 @@ fn sections_135_140(c: &mut Ctx, sv: &Survey) -> Result<()> {
     );
     for (i, omega) in [(3usize, 135.0), (4, 140.0)] {
         let t = Instant::now();
-        let r = sim(params, omega, p.section_transient, p.section_points, 8)?;
-        let class = sv.refine(r.classification.class, omega, &cfg);
-        static_class.push((omega, class.clone()));
+        let r = simulate(&spec.section(omega))?;
+        let refined = sv
+            .survey
+            .refine(r.classification.class, omega, cfg.lambda_tol);
+        let class = refined.label();
+        static_class.push((omega, refined));
         let found = format!(
             "From the static equilibrium, {} Poincare points after {} periods: **{class}** (no period up to 32; lambda_1 = {} from the full spectrum, quasiperiodic when |lambda_1| < {} 1/s, chaotic above) (the article: {}). Survey of {} start states (lambda_1 per lane): {}.",
             p.section_points,
             p.section_transient,
-            sv.l1_text(omega),
+            l1_text(sv.survey.spectrum(omega)),
             cfg.lambda_tol,
             ARTICLE_SPEEDS[i].1,
             p.survey_ics,
-            describe(&sv.catalogues[i])
+            describe(&sv.survey.catalogues[i])
         );
         let cmd = format!(
             "jeffcott simulate --omega {omega} --transient {} --periods {} --timeseries-periods 8",
@@ -1201,47 +834,18 @@ fn sections_135_140(c: &mut Ctx, sv: &Survey) -> Result<()> {
 fn design_chart(c: &mut Ctx) -> Result<()> {
     let Ctx {
         a,
-        p,
-        ref params,
-        precision,
-        cfg,
         dir,
         rd,
         ref backend,
         ref mut rep,
+        ref spec,
         ..
     } = *c;
+    let p = spec.preset;
     // Beyond the article: a design chart over (W, e) and the continuation over W.
     say(a, "[8/11] design chart: speed against unbalance");
     let t = Instant::now();
-    let mspec = jeffcott_analysis::map::MapSpec {
-        params: params.clone(),
-        omega: None,
-        x: jeffcott_analysis::map::MapAxis {
-            var: jeffcott_analysis::map::MapVar::Omega,
-            lo: 128.0,
-            hi: 142.0,
-            n: p.map_nx,
-            log: false,
-        },
-        y: jeffcott_analysis::map::MapAxis {
-            var: jeffcott_analysis::map::MapVar::Param("e"),
-            lo: 0.0002,
-            hi: 0.002,
-            n: p.map_ny,
-            log: false,
-        },
-        ics: p.map_ics,
-        seed: 1,
-        transient: p.map_transient,
-        recorded: p.map_periods,
-        stepper: Default::default(),
-        precision,
-        backend: a.backend,
-        catalogue: cfg,
-        lyapunov: true,
-        chunk: None,
-    };
+    let mspec = spec.design_map();
     mspec.validate()?;
     let mres = super::map::run_map_study(&mspec, &store(rd, "map_w_e"), a.quiet)?;
     let mdir = dir.join("map_w_e");
@@ -1252,31 +856,7 @@ fn design_chart(c: &mut Ctx) -> Result<()> {
         &mdir.join("map_multistability.png"),
         "map_w_e_multistability.png",
     )?;
-    let cells = mres.class.len();
-    let count = |f: &dyn Fn(usize) -> bool| (0..cells).filter(|&i| f(i)).count();
-    let rubbing = count(&|i| mres.contact[i] > 0.0);
-    let periodic1 = count(&|i| mres.period[i] == 1);
-    let chaotic = count(&|i| mres.class[i] == jeffcott_analysis::map::code::CHAOTIC);
-    let quasi = count(&|i| mres.class[i] == jeffcott_analysis::map::code::QUASIPERIODIC);
-    let multistable = count(&|i| mres.attractors[i] > 1);
-    // Where along the article's e = 1 mm the rotor first and last rubs.
-    let e_row = (0..p.map_ny)
-        .min_by(|&a, &b| {
-            (mspec.y.value(a) - 0.001)
-                .abs()
-                .total_cmp(&(mspec.y.value(b) - 0.001).abs())
-        })
-        .unwrap_or(0);
-    let rub_w: Vec<f64> = (0..p.map_nx)
-        .filter(|&ix| mres.contact[e_row * p.map_nx + ix] > 0.0)
-        .map(|ix| mspec.x.value(ix))
-        .collect();
-    let peak = mres
-        .peak_force
-        .iter()
-        .copied()
-        .filter(|v| v.is_finite())
-        .fold(0.0, f64::max);
+    let f = MapFindings::of(&mspec, &mres, 0.001);
     let map_cmd = format!(
         "jeffcott map --x omega:128:142:{} --y e:0.0002:0.002:{} --ics {} --transient {} --periods {} --backend {backend} --out {}/map_w_e",
         p.map_nx,
@@ -1290,15 +870,20 @@ fn design_chart(c: &mut Ctx) -> Result<()> {
         "Design chart (beyond the article): response over rotor speed W and unbalance e",
         "map_w_e_period.png",
         &format!(
-            "{} x {} cells (W 128..142 rad/s, e 0.2..2 mm), {} start state(s) per cell. From the static equilibrium: period-1 in {periodic1} cells, chaotic in {chaotic}, quasiperiodic in {quasi}, the rest periodic of higher period or undecided; the rotor rubs in {rubbing} cells (peak normal contact force up to {:.0} N), {multistable} cells hold coexisting attractors. At e = {:.2} mm (the row nearest the article's 1 mm) it rubs at {} of {} speeds{}. Contact fraction, peak force and every cell's attractors are in `map_w_e/` (docs/maps.md); the multistability map is `map_w_e_multistability.png`.",
+            "{} x {} cells (W 128..142 rad/s, e 0.2..2 mm), {} start state(s) per cell. From the static equilibrium: period-1 in {} cells, chaotic in {}, quasiperiodic in {}, the rest periodic of higher period or undecided; the rotor rubs in {} cells (peak normal contact force up to {:.0} N), {} cells hold coexisting attractors. At e = {:.2} mm (the row nearest the article's 1 mm) it rubs at {} of {} speeds{}. Contact fraction, peak force and every cell's attractors are in `map_w_e/` (docs/maps.md); the multistability map is `map_w_e_multistability.png`.",
             p.map_nx,
             p.map_ny,
             p.map_ics,
-            peak,
-            mspec.y.value(e_row) * 1e3,
-            rub_w.len(),
+            f.period1,
+            f.chaotic,
+            f.quasiperiodic,
+            f.rubbing,
+            f.peak_force,
+            f.multistable,
+            f.row_value * 1e3,
+            f.rub_speeds.len(),
             p.map_nx,
-            match (rub_w.first(), rub_w.last()) {
+            match (f.rub_speeds.first(), f.rub_speeds.last()) {
                 (Some(a), Some(b)) => format!(", between {a:.2} and {b:.2} rad/s"),
                 _ => String::new(),
             }
@@ -1313,44 +898,17 @@ fn design_chart(c: &mut Ctx) -> Result<()> {
 fn continuation_section(c: &mut Ctx) -> Result<()> {
     let Ctx {
         a,
-        p,
-        ref params,
-        precision,
-        cfg,
         dir,
         rd,
         ref backend,
         ref mut rep,
+        ref spec,
         ..
     } = *c;
+    let p = spec.preset;
     say(a, "[9/11] attractor continuation over 130..141 rad/s");
     let t = Instant::now();
-    let cspec = jeffcott_analysis::continuation::ContinuationSpec {
-        params: params.clone(),
-        omega: None,
-        param: jeffcott_analysis::map::MapAxis {
-            var: jeffcott_analysis::map::MapVar::Omega,
-            lo: 130.0,
-            hi: 141.0,
-            n: p.cont_values,
-            log: false,
-        },
-        ics: p.cont_ics,
-        start_box: None,
-        seed: 1,
-        transient: p.cont_transient,
-        recorded: p.cont_periods,
-        stepper: Default::default(),
-        precision,
-        backend: a.backend,
-        catalogue: cfg,
-        lyapunov: true,
-        directions: vec![
-            jeffcott_analysis::continuation::Direction::Up,
-            jeffcott_analysis::continuation::Direction::Down,
-        ],
-        match_threshold: f64::INFINITY,
-    };
+    let cspec = spec.continuation();
     let cres =
         super::continuation::run_continuation_study(&cspec, &store(rd, "continuation"), a.quiet)?;
     let cdir = dir.join("continuation");
@@ -1360,41 +918,23 @@ fn continuation_section(c: &mut Ctx) -> Result<()> {
         .ramps
         .iter()
         .map(|r| {
-            let most = r.steps.iter().map(|s| s.attractors.len()).max().unwrap_or(0);
-            let coexist: Vec<f64> = r
-                .steps
-                .iter()
-                .filter(|s| s.attractors.iter().filter(|a| a.fraction > 0.0).count() > 1)
-                .map(|s| s.value)
-                .collect();
-            // The largest one-step tipping probability away from an attractor.
-            let g = r.ids + 1;
-            let tip = r.tipping();
-            let mut worst = (0.0, 0.0, 0, 0);
-            for k in 0..r.steps.len().saturating_sub(1) {
-                for i in 0..r.ids {
-                    for j in 0..g {
-                        let v = tip[(k * g + i) * g + j];
-                        if j != i && v.is_finite() && v > worst.0 {
-                            worst = (v, r.steps[k].value, i, j);
-                        }
-                    }
-                }
-            }
+            let f = RampFindings::of(r);
+            let w = f.worst;
             format!(
-                "run-{}: {} attractors followed, at most {most} at one speed; basins shared by two or more at {} of {} speeds{}; largest one-step tipping probability {:.2} (attractor #{} at {:.2} rad/s to {} at the next speed)",
-                r.direction.name(),
-                r.ids,
-                coexist.len(),
-                r.steps.len(),
-                match (coexist.first(), coexist.last()) {
+                "run-{}: {} attractors followed, at most {} at one speed; basins shared by two or more at {} of {} speeds{}; largest one-step tipping probability {:.2} (attractor #{} at {:.2} rad/s to {} at the next speed)",
+                f.direction.name(),
+                f.ids,
+                f.most,
+                f.coexist.len(),
+                f.steps,
+                match (f.coexist.first(), f.coexist.last()) {
                     (Some(a), Some(b)) => format!(" (from {a:.2} to {b:.2} rad/s)"),
                     _ => String::new(),
                 },
-                worst.0,
-                worst.2,
-                worst.1,
-                if worst.3 == r.ids { "divergence".to_string() } else { format!("#{}", worst.3) },
+                w.probability,
+                w.from,
+                w.value,
+                if w.to == f.ids { "divergence".to_string() } else { format!("#{}", w.to) },
             )
         })
         .collect();
@@ -1425,122 +965,55 @@ fn continuation_section(c: &mut Ctx) -> Result<()> {
 fn rub_section(c: &mut Ctx) -> Result<()> {
     let Ctx {
         a,
-        p,
-        ref params,
-        precision,
-        cfg,
         dir,
         rd,
         ref backend,
         ref mut rep,
+        ref spec,
         ..
     } = *c;
+    let p = spec.preset;
+    let params = &spec.params;
     // Rub regimes beyond the article's range: a (W, mu) map, a cascade, a full spectrum.
     say(
         a,
         "[10/11] rub regimes: (W, mu) map, full-spectrum cascade, full spectrum at 132.2",
     );
     let t = Instant::now();
-    let rspec = jeffcott_analysis::map::MapSpec {
-        params: params.clone(),
-        omega: None,
-        x: jeffcott_analysis::map::MapAxis {
-            var: jeffcott_analysis::map::MapVar::Omega,
-            lo: 60.0,
-            hi: 300.0,
-            n: p.rub_nx,
-            log: false,
-        },
-        y: jeffcott_analysis::map::MapAxis {
-            var: jeffcott_analysis::map::MapVar::Param("mu"),
-            lo: 0.0,
-            hi: 0.3,
-            n: p.rub_ny,
-            log: false,
-        },
-        ics: 1,
-        seed: 1,
-        transient: p.map_transient,
-        recorded: p.map_periods,
-        stepper: Default::default(),
-        precision,
-        backend: a.backend,
-        catalogue: cfg,
-        lyapunov: false,
-        chunk: None,
-    };
+    let rspec = spec.rub_map();
     rspec.validate()?;
     let rres = super::map::run_map_study(&rspec, &store(rd, "map_w_mu"), a.quiet)?;
     let rdir = dir.join("map_w_mu");
     super::map::write_map(&rdir, &rspec, &rres, true)?;
     copy(dir, &rdir.join("map_regime.png"), "rub_regimes_w_mu.png")?;
-    let mut found: Vec<String> = Vec::new();
-    for r in [
-        jeffcott_analysis::rub::RubRegime::NoContact,
-        jeffcott_analysis::rub::RubRegime::PartialRub,
-        jeffcott_analysis::rub::RubRegime::FullAnnularRub,
-        jeffcott_analysis::rub::RubRegime::BackwardWhirl,
-        jeffcott_analysis::rub::RubRegime::Diverged,
-    ] {
-        let cells: Vec<usize> = (0..rres.regime.len())
-            .filter(|&i| rres.regime[i] == r.code())
-            .collect();
-        if cells.is_empty() {
-            found.push(format!("{}: nowhere", r.label()));
-            continue;
-        }
-        let ws: Vec<f64> = cells.iter().map(|&i| rspec.x.value(i % p.rub_nx)).collect();
-        let mus: Vec<f64> = cells.iter().map(|&i| rspec.y.value(i / p.rub_nx)).collect();
-        let (lo, hi) = (
-            ws.iter().copied().fold(f64::INFINITY, f64::min),
-            ws.iter().copied().fold(f64::NEG_INFINITY, f64::max),
-        );
-        let (mlo, mhi) = (
-            mus.iter().copied().fold(f64::INFINITY, f64::min),
-            mus.iter().copied().fold(f64::NEG_INFINITY, f64::max),
-        );
-        found.push(format!(
-            "{}: {} cells, W {lo:.0}..{hi:.0} rad/s, mu {mlo:.2}..{mhi:.2}",
-            r.label(),
-            cells.len()
-        ));
-    }
+    let found: Vec<String> = regime_cells(&rspec, &rres)
+        .iter()
+        .map(|r| match (r.x, r.y) {
+            (Some((lo, hi)), Some((mlo, mhi))) => format!(
+                "{}: {} cells, W {lo:.0}..{hi:.0} rad/s, mu {mlo:.2}..{mhi:.2}",
+                r.regime.label(),
+                r.cells
+            ),
+            _ => format!("{}: nowhere", r.regime.label()),
+        })
+        .collect();
     // Backward whirl from a backward throw, stiff and soft contact (docs/rub.md).
     let thrown = |mu: f64, k_c: f64| -> Result<String> {
-        let mut q = params.clone();
-        q.mu = mu;
-        q.k_c = k_c;
-        let mut x0 = q.static_equilibrium();
-        x0[X_R] = 0.0065;
-        x0[jeffcott_core::model::VY_R] = -1.0;
-        let r = simulate(&SimulateSpec {
-            params: q.clone(),
-            omega: 140.0,
-            x0,
-            transient: 1000,
-            periods: 8,
-            timeseries_periods: 1,
-            integrator: Integrator::Lane,
-            stepper: Default::default(),
-            article: Default::default(),
-            classify: Default::default(),
-        })?;
-        if r.status.is_frozen() {
-            return Ok(format!(
-                "diverged ({:?}) within the {} periods integrated (`jeffcott simulate --omega 140 --param mu={mu},k_c={k_c:e} --init x_r=0.0065,vy_r=-1`)",
-                r.status, 1008
-            ));
-        }
-        Ok(
-            match super::rubout::rub_outputs(&q, 140.0, &r.final_state, 24, &Default::default())? {
-                Some(o) => format!(
-                    "settles on {} (`jeffcott simulate --omega 140 --param mu={mu},k_c={k_c:e} --init x_r=0.0065,vy_r=-1`): {}",
-                    o.figures.regime.label(),
-                    super::rubout::rub_sentence(&o)
-                ),
-                None => "diverges".to_string(),
-            },
-        )
+        let cmd = format!(
+            "`jeffcott simulate --omega 140 --param mu={mu},k_c={k_c:e} --init x_r={},vy_r={}`",
+            THROW.0, THROW.1
+        );
+        Ok(match throw(spec, mu, k_c)? {
+            ThrowOutcome::Diverged { status, periods } => {
+                format!("diverged ({status:?}) within the {periods} periods integrated ({cmd})")
+            }
+            ThrowOutcome::Settled(o) => format!(
+                "settles on {} ({cmd}): {}",
+                o.figures.regime.label(),
+                super::rubout::rub_sentence(&o)
+            ),
+            ThrowOutcome::StretchDiverged => "diverges".to_string(),
+        })
     };
     let whip_stiff = thrown(0.3, 1e8)?;
     let whip_soft = thrown(0.25, 1e6)?;
@@ -1573,20 +1046,7 @@ fn rub_section(c: &mut Ctx) -> Result<()> {
         t.elapsed().as_secs_f64(),
     );
     let t = Instant::now();
-    let cspec2 = jeffcott_analysis::cascade::CascadeSpec {
-        params: params.clone(),
-        omegas: jeffcott_core::ensemble::parse_range(
-            "omega",
-            &format!("100:200:{}", p.cascade_speeds),
-        )?,
-        transient_first: 1000,
-        transient: 100,
-        periods: 24,
-        max_order: 4.0,
-        stepper: Default::default(),
-        up: true,
-        down: true,
-    };
+    let cspec2 = spec.cascade()?;
     let cres2 = jeffcott_analysis::cascade::cascade_with(
         &cspec2,
         &store(rd, "cascade"),
@@ -1597,7 +1057,7 @@ fn rub_section(c: &mut Ctx) -> Result<()> {
     super::cascade::write_cascade(&kdir, &cspec2, &cres2, true, false)?;
     copy(dir, &kdir.join("cascade_up.png"), "cascade_up.png")?;
     copy(dir, &kdir.join("cascade_down.png"), "cascade_down.png")?;
-    let regimes = json_regimes(&kdir)?;
+    let regimes = super::cascade::regime_summary(&cspec2, &cres2);
     rep.figure(
         "Full-spectrum cascade over 100..200 rad/s, run-up (run-down: cascade_down.png)",
         "cascade_up.png",
@@ -1612,7 +1072,7 @@ fn rub_section(c: &mut Ctx) -> Result<()> {
         t.elapsed().as_secs_f64(),
     );
     let t = Instant::now();
-    let r = sim(params, 132.2, 1000, 64, 4)?;
+    let r = simulate(&spec.portrait(132.2))?;
     if let Some(o) =
         super::rubout::rub_outputs(params, 132.2, &r.final_state, 24, &Default::default())?
     {

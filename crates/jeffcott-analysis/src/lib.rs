@@ -21,6 +21,7 @@ pub mod measures;
 pub mod output;
 pub mod record;
 pub mod refine;
+pub mod reproduce;
 pub mod rub;
 pub mod run;
 pub mod simulate;
