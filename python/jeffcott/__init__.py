@@ -7,11 +7,14 @@ dictionaries whose keys are those of the command line's JSON files:
 - :func:`simulate` one trajectory (``jeffcott simulate``),
 - :func:`ensemble` many lanes on the CPU or a GPU (``jeffcott ensemble``),
 - :func:`bifurcation` sweeps up/down and brute force over W (``jeffcott bifurcation``),
-- :func:`basin` a basin of attraction over two start coordinates (``jeffcott basin``),
+- :func:`basin` a basin of attraction over two start coordinates, refined at its
+  boundary, with its measures (``jeffcott basin``),
+- :func:`basin_metrics` the basin measures of any 2-D label array,
 - :func:`lyapunov` the full Lyapunov spectrum at one speed (``jeffcott lyapunov``),
 - :func:`map` a two-parameter design chart (``jeffcott map``),
 - :func:`continuation` attractors followed over a parameter (``jeffcott continuation``),
 - :func:`basin_stability` fractions of a box of start states (``jeffcott basin-stability``),
+- :func:`cascade` full spectra along a run-up and run-down (``jeffcott cascade``),
 - :func:`parameters` and :func:`adapters` the model's parameters and the GPU adapters.
 
 ``backend`` is ``"auto"`` (a hardware GPU if present, else all CPU cores), ``"cpu"`` or
@@ -39,8 +42,10 @@ from ._jeffcott import (  # noqa: E402
     __version__,
     adapters,
     basin,
+    basin_metrics,
     basin_stability,
     bifurcation,
+    cascade,
     continuation,
     ensemble,
     lyapunov,
@@ -57,8 +62,10 @@ __all__ = [
     "__version__",
     "adapters",
     "basin",
+    "basin_metrics",
     "basin_stability",
     "bifurcation",
+    "cascade",
     "continuation",
     "ensemble",
     "lyapunov",

@@ -70,14 +70,21 @@ def basin(
     backend: str = "auto",
     precision: Optional[str] = None,
     lyapunov: bool = False,
+    refine: int = 0,
+    uncertainty_samples: int = 0,
+    entropy_box: Optional[int] = None,
     steps_per_period: int = 500,
     max_segments: int = 16,
     divergence_bound: float = 1.0,
     contact_substeps: int = 2,
     progress: Optional[Progress] = None,
 ) -> Dict[str, Any]:
-    """A basin: labels [ny, nx] (int32, -1 diverged), x [nx], y [ny], attractors (as
-    attractors.json), diverged, lambda1 [ny, nx] (with lyapunov=True), run."""
+    """A basin: labels [ny, nx] (int32, -1 diverged, -2 an attractor a refinement found
+    that the coarse grid did not), x [nx], y [ny], attractors (as attractors.json),
+    diverged, metrics (basin_metrics.json's keys: fractions, entropies, uncertainty
+    exponent, box-counting dimension, Wada test; with uncertainty_samples > 0 the
+    re-integration estimate), refined [ny, nx] (uint8, with refine > 0: 1 where the
+    label was integrated), lambda1 [ny, nx] (with lyapunov=True), run."""
 
 def bifurcation(
     omega: Speeds,
@@ -189,6 +196,30 @@ def basin_stability(
 ) -> Dict[str, Any]:
     """Basin stability: omega [n], fractions [n, ids + 1], ci_low, ci_high (95 % Wilson),
     summary (basin_stability.json's keys)."""
+
+def cascade(
+    omega: str,
+    *,
+    params: Optional[Mapping[str, float]] = None,
+    transient_first: int = 1000,
+    transient: int = 100,
+    periods: int = 24,
+    max_order: float = 4.0,
+    direction: str = "both",
+    steps_per_period: int = 500,
+    max_segments: int = 16,
+    divergence_bound: float = 1.0,
+    contact_substeps: int = 2,
+    progress: Optional[Progress] = None,
+) -> Dict[str, Any]:
+    """Full-spectrum cascade over "a:b:n": omega [n], orders [bins], cascade and
+    cascade_stator [sweeps, n, bins] (amplitudes [m]), regime [sweeps, n] (int32),
+    summary (cascade.json's keys; summary["sweeps"] names the blocks)."""
+
+def basin_metrics(
+    labels: npt.NDArray[np.int32], *, entropy_box: Optional[int] = None
+) -> Dict[str, Any]:
+    """The basin measures of any 2-D int32 label array (basin_metrics.json's keys)."""
 
 def parameters(params: Optional[Mapping[str, float]] = None) -> Dict[str, float]:
     """Table 1 with the given overrides, validated."""

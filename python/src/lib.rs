@@ -336,6 +336,7 @@ struct BasinRun<'a> {
     omega, x, y, *, fix=None, params=None,
     transient=defaults::basin::TRANSIENT, periods=defaults::basin::PERIODS,
     backend="auto", precision=None, lyapunov=false,
+    refine=0, uncertainty_samples=0, entropy_box=None,
     steps_per_period=StepperConfig::DEFAULT.steps_per_period,
     max_segments=StepperConfig::DEFAULT.max_segments,
     divergence_bound=StepperConfig::DEFAULT.divergence_bound,
@@ -355,6 +356,9 @@ fn basin<'py>(
     backend: &str,
     precision: Option<&str>,
     lyapunov: bool,
+    refine: u32,
+    uncertainty_samples: usize,
+    entropy_box: Option<usize>,
     steps_per_period: u32,
     max_segments: u32,
     divergence_bound: f64,
@@ -393,10 +397,30 @@ fn basin<'py>(
         chunk: None,
         lyapunov,
     };
+    spec.check_size().map_err(run::to_py_err)?;
     spec.validate().map_err(run::to_py_err)?;
-    let res = run::detached(py, progress.as_ref(), |ctl| {
-        jeffcott_analysis::basin::basin(&spec, ctl)
+    jeffcott_analysis::refine::check_levels(refine, spec.lyapunov, spec.x.n, spec.y.n)
+        .map_err(run::to_py_err)?;
+    let eps = jeffcott_analysis::measures::entropy_box(entropy_box, spec.x.n, spec.y.n)
+        .map_err(run::to_py_err)?;
+    let coarse = spec.clone();
+    let (spec, res, refined, reint) = run::detached(py, progress.as_ref(), |ctl| {
+        jeffcott_analysis::run::in_memory(backend, precision, ctl, |engine, store, ctl| {
+            jeffcott_analysis::basin::refined_study(
+                &coarse,
+                refine,
+                uncertainty_samples,
+                engine,
+                store,
+                ctl,
+            )
+        })
     })?;
+    let metrics = py
+        .detach(|| {
+            jeffcott_analysis::measures::basin_labels_metrics(&res.labels, spec.x.n, spec.y.n, eps)
+        })
+        .map_err(run::to_py_err)?;
     let (nx, ny) = (spec.x.n, spec.y.n);
     let d = PyDict::new(py);
     d.set_item("labels", array2(py, res.labels.clone(), nx)?)?;
@@ -410,15 +434,26 @@ fn basin<'py>(
     )?;
     d.set_item("attractors", json_to_py(py, &res.catalogue.attractors)?)?;
     d.set_item("diverged", res.catalogue.diverged)?;
+    d.set_item(
+        "metrics",
+        json_to_py(
+            py,
+            &jeffcott_analysis::measures::MetricsRecord::new(&metrics, reint.as_ref()),
+        )?,
+    )?;
+    if let Some(f) = refined {
+        d.set_item("refined", array2(py, f.computed, nx)?)?;
+    }
     if let Some(l) = res.lambda1 {
         d.set_item("lambda1", array2(py, l, nx)?)?;
     }
+    // The specification asked for (the coarse grid), as run.json records it.
     let run = BasinRun {
         backend: res.info.as_ref().map(|i| i.backend),
         device: res.info.as_ref().map(|i| i.device.as_str()),
         precision: spec.precision,
         wall_time_s: res.seconds,
-        spec: spec.record(),
+        spec: coarse.record(),
     };
     d.set_item("run", json_to_py(py, &run)?)?;
     Ok(d)
@@ -737,20 +772,10 @@ fn continuation<'py>(
     contact_substeps: u32,
     progress: Option<Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    use jeffcott_analysis::continuation::{ContinuationSpec, Direction};
+    use jeffcott_analysis::continuation::ContinuationSpec;
     let (backend, precision) = backend_precision(backend, precision)?;
-    let directions = match direction {
-        "up" => vec![Direction::Up],
-        "down" => vec![Direction::Down],
-        "both" => vec![Direction::Up, Direction::Down],
-        other => {
-            return Err(run::to_py_err(Error::invalid(
-                "direction",
-                other,
-                "must be up, down or both",
-            )));
-        }
-    };
+    let directions =
+        jeffcott_analysis::continuation::directions(direction).map_err(run::to_py_err)?;
     let param = convert::map_axis("param", &param, false)?;
     if param.n < 2 {
         return Err(run::to_py_err(Error::invalid(
@@ -887,6 +912,113 @@ fn basin_stability<'py>(
     Ok(d)
 }
 
+/// Full-spectrum cascade of a quasistatic run-up and run-down: the command line's
+/// `cascade` (docs/rub.md).
+///
+/// `omega` is `"a:b:n"` (n >= 2 speeds); `direction` is `"up"`, `"down"` or `"both"`.
+/// Returns `omega` `[n]` (ascending), `orders` `[bins]` (frequency / W, < 0 backward
+/// whirl), `cascade` and `cascade_stator` (f64 `[sweeps, n, bins]`, full-spectrum
+/// amplitudes [m], NaN after a divergence), `regime` (int32 `[sweeps, n]`: 0 no_contact,
+/// 1 partial_rub, 2 full_annular_rub, 3 backward_whirl, -1 diverged) and `summary`, the
+/// dictionary of `cascade.json` (its `sweeps` name the blocks). Progress counts speeds.
+#[pyfunction]
+#[pyo3(signature = (
+    omega, *, params=None,
+    transient_first=defaults::cascade::TRANSIENT_FIRST,
+    transient=defaults::cascade::TRANSIENT,
+    periods=defaults::cascade::PERIODS,
+    max_order=defaults::cascade::MAX_ORDER,
+    direction="both",
+    steps_per_period=StepperConfig::DEFAULT.steps_per_period,
+    max_segments=StepperConfig::DEFAULT.max_segments,
+    divergence_bound=StepperConfig::DEFAULT.divergence_bound,
+    contact_substeps=StepperConfig::DEFAULT.contact_substeps,
+    progress=None,
+))]
+#[allow(clippy::too_many_arguments)]
+fn cascade<'py>(
+    py: Python<'py>,
+    omega: &str,
+    params: Option<HashMap<String, f64>>,
+    transient_first: u32,
+    transient: u32,
+    periods: u32,
+    max_order: f64,
+    direction: &str,
+    steps_per_period: u32,
+    max_segments: u32,
+    divergence_bound: f64,
+    contact_substeps: u32,
+    progress: Option<Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    use jeffcott_analysis::cascade::CascadeSpec;
+    use jeffcott_analysis::continuation::Direction;
+    let ramps = jeffcott_analysis::continuation::directions(direction).map_err(run::to_py_err)?;
+    let spec = CascadeSpec {
+        params: model_params(params)?,
+        omegas: CascadeSpec::speeds(omega).map_err(run::to_py_err)?,
+        transient_first,
+        transient,
+        periods,
+        max_order,
+        stepper: stepper(
+            steps_per_period,
+            max_segments,
+            divergence_bound,
+            contact_substeps,
+        ),
+        up: ramps.contains(&Direction::Up),
+        down: ramps.contains(&Direction::Down),
+    };
+    spec.validate().map_err(run::to_py_err)?;
+    let res = run::detached(py, progress.as_ref(), |ctl| {
+        jeffcott_analysis::cascade::cascade(&spec, ctl)
+    })?;
+    let a = jeffcott_analysis::cascade::arrays(&res);
+    let (ns, n, nb) = (a.sweeps.len(), spec.omegas.len(), res.orders.len());
+    let d = PyDict::new(py);
+    d.set_item("omega", array1(py, spec.omegas.clone()))?;
+    d.set_item("orders", array1(py, res.orders.clone()))?;
+    d.set_item("cascade", convert::array_nd(py, a.rotor, &[ns, n, nb])?)?;
+    d.set_item(
+        "cascade_stator",
+        convert::array_nd(py, a.stator, &[ns, n, nb])?,
+    )?;
+    d.set_item("regime", array2(py, a.regime, n)?)?;
+    d.set_item(
+        "summary",
+        json_to_py(py, &jeffcott_analysis::cascade::summary(&spec, &res))?,
+    )?;
+    Ok(d)
+}
+
+/// The basin measures of any 2-D integer label array (`basin_metrics.json` of the
+/// command line's `basin`, docs/basin-measures.md): fractions with their errors, basin
+/// entropy S_b and boundary basin entropy S_bb (boxes of `entropy_box` cells, default
+/// min(5, shorter side)), the uncertainty exponent and boundary dimension on the grid,
+/// the box-counting dimension and the Wada test. Labels are ids >= 0, -1 for diverged
+/// (a basin of its own), -2 for a refinement's attractor the coarse catalogue lacks.
+#[pyfunction]
+#[pyo3(signature = (labels, *, entropy_box=None))]
+fn basin_metrics<'py>(
+    py: Python<'py>,
+    labels: numpy::PyReadonlyArray2<'py, i32>,
+    entropy_box: Option<usize>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let grid = labels.as_array();
+    let (ny, nx) = grid.dim();
+    let flat: Vec<i32> = grid.iter().copied().collect();
+    let eps =
+        jeffcott_analysis::measures::entropy_box(entropy_box, nx, ny).map_err(run::to_py_err)?;
+    let m = py
+        .detach(|| jeffcott_analysis::measures::basin_labels_metrics(&flat, nx, ny, eps))
+        .map_err(run::to_py_err)?;
+    json_to_py(
+        py,
+        &jeffcott_analysis::measures::MetricsRecord::new(&m, None),
+    )
+}
+
 /// The model's parameters (Table 1 of the article, SI units) with `params` applied, as
 /// a dictionary keyed like the TOML file; raises ValueError naming a bad key or value.
 #[pyfunction]
@@ -924,6 +1056,8 @@ fn _jeffcott(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(map, m)?)?;
     m.add_function(wrap_pyfunction!(continuation, m)?)?;
     m.add_function(wrap_pyfunction!(basin_stability, m)?)?;
+    m.add_function(wrap_pyfunction!(cascade, m)?)?;
+    m.add_function(wrap_pyfunction!(basin_metrics, m)?)?;
     m.add_function(wrap_pyfunction!(parameters, m)?)?;
     m.add_function(wrap_pyfunction!(adapters, m)?)?;
     Ok(())

@@ -23,9 +23,21 @@ const POLL: Duration = Duration::from_millis(50);
 /// message.
 pub fn to_py_err(e: Error) -> PyErr {
     match e {
-        Error::InvalidParameter { .. } | Error::Config { .. } => {
-            PyValueError::new_err(e.to_string())
-        }
+        // The field as a Python keyword spells it (the library names options as the
+        // command line does: `rel-tol` is the keyword `rel_tol`).
+        Error::InvalidParameter {
+            name,
+            value,
+            reason,
+        } => PyValueError::new_err(
+            Error::InvalidParameter {
+                name: name.replace('-', "_"),
+                value,
+                reason,
+            }
+            .to_string(),
+        ),
+        Error::Config { .. } => PyValueError::new_err(e.to_string()),
         Error::Interrupted { .. } => PyKeyboardInterrupt::new_err("the run was interrupted"),
         _ => PyRuntimeError::new_err(e.to_string()),
     }

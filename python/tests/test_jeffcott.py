@@ -114,6 +114,80 @@ def test_basin_labels_equal_the_cli_labels(tmp_path):
     assert sorted(a["period"] for a in r["attractors"]) == [4, 5]
 
 
+def test_a_refined_basin_and_its_measures_equal_the_cli_basin_metrics_json(tmp_path):
+    out = tmp_path / "basin"
+    cli("basin", "--omega", "133", "--x", "x_r:-0.006:0.006:9", "--y", "vx_r:-1:1:9",
+        "--transient", "150", "--periods", "24", "--backend", "cpu", "--refine", "1",
+        "--uncertainty-samples", "12", "--no-plot", "--out", str(out))
+    r = jeffcott.basin(133, "x_r:-0.006:0.006:9", "vx_r:-1:1:9", transient=150,
+                       periods=24, backend="cpu", refine=1, uncertainty_samples=12)
+    # One level of refinement: (9 - 1) 2 + 1 = 17 points per side.
+    assert r["labels"].shape == (17, 17) and r["refined"].shape == (17, 17)
+    assert np.array_equal(r["labels"], np.load(out / "labels.npy"))
+    assert np.array_equal(r["refined"], np.load(out / "refined.npy"))
+    want = json.loads((out / "basin_metrics.json").read_text())
+    assert r["metrics"] == want
+    f = [b["fraction"] for b in r["metrics"]["fractions"]["basins"]]
+    assert abs(sum(f) - 1.0) < 1e-12
+    assert r["metrics"]["uncertainty_reintegration"] is not None
+
+
+def newton_labels(n):
+    """Newton's method for z^3 = 1 from an n x n grid over [-2, 2]^2: the index of the
+    root reached within 1e-6 after at most 100 steps, -1 otherwise."""
+    v = np.linspace(-2.0, 2.0, n)
+    z = v[None, :] + 1j * v[:, None]
+    roots = np.exp(2j * np.pi * np.arange(3) / 3)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for _ in range(100):
+            z = z - (z**3 - 1) / (3 * z**2)
+    d = np.abs(z[..., None] - roots)
+    labels = np.where(d.min(axis=-1) < 1e-6, d.argmin(axis=-1), -1)
+    return labels.astype(np.int32)
+
+
+def test_basin_metrics_of_newtons_cubic_find_three_wada_basins_with_a_fractal_boundary():
+    # A known answer independent of the rotor: the three basins of Newton's method for
+    # z^3 = 1 share one fractal (Wada) boundary; the grid is symmetric under z -> conj z,
+    # which swaps the basins of the two complex roots.
+    m = jeffcott.basin_metrics(newton_labels(301))
+    basins = [b for b in m["fractions"]["basins"] if b["label"] >= 0]
+    assert len(basins) == 3
+    assert abs(basins[1]["fraction"] - basins[2]["fraction"]) < 1e-3
+    assert all(b["fraction"] > 0.3 for b in basins)
+    assert m["entropy"]["s_bb"] > np.log(2)
+    assert m["wada"]["applicable"] and m["wada"]["wada"]
+    assert m["boundary"]["kind"] == "fractal"
+    # Two half planes (the line between them inside a column of entropy boxes): a smooth
+    # boundary, S_bb below ln 2, the uncertainty exponent near 1.
+    halves = np.zeros((60, 60), dtype=np.int32)
+    halves[:, 32:] = 1
+    h = jeffcott.basin_metrics(halves)
+    assert [b["fraction"] for b in h["fractions"]["basins"]] == [32 / 60, 28 / 60]
+    assert h["entropy"]["s_bb"] < np.log(2)
+    assert abs(h["uncertainty"]["fit"]["slope"] - 1.0) < 0.1
+    assert h["boundary"]["kind"] == "smooth"
+
+
+def test_cascade_arrays_and_summary_equal_the_cli_cascade(tmp_path):
+    out = tmp_path / "cascade"
+    cli("cascade", "--omega", "131:134:5", "--transient-first", "100", "--transient", "40",
+        "--periods", "16", "--no-plot", "--out", str(out))
+    r = jeffcott.cascade("131:134:5", transient_first=100, transient=40, periods=16)
+    for name in ("omega", "orders", "cascade", "cascade_stator", "regime"):
+        want = np.load(out / f"{name}.npy")
+        assert r[name].shape == want.shape and r[name].tobytes() == want.tobytes(), name
+    c = json.loads((out / "cascade.json").read_text())
+    for k in ("files", "jeffcott_version"):
+        c.pop(k)
+    assert r["summary"] == c
+    assert r["summary"]["sweeps"] == ["up", "down"]
+    # The 1X line: every spectrum of a rubbing or free rotor has its largest line at
+    # order +1 somewhere along the sweep.
+    k1 = int(np.argmin(np.abs(r["orders"] - 1.0)))
+    assert np.all(np.nanargmax(r["cascade"][0], axis=1) == k1)
+
+
 def test_map_arrays_and_summary_equal_the_cli_map(tmp_path):
     out = tmp_path / "map"
     cli("map", "--x", "omega:131:134:4", "--y", "e:0.0005:0.001:3", "--transient", "200",
@@ -176,7 +250,7 @@ def test_basin_stability_equals_the_cli_and_its_intervals_cover_the_fractions(tm
         (lambda: jeffcott.simulate(132.2, params={"no_such_key": 1.0}), "no_such_key"),
         (lambda: jeffcott.simulate(-5.0), "omega"),
         (lambda: jeffcott.simulate(132.2, init={"x_r": 2.0}), "init x_r"),
-        (lambda: jeffcott.simulate(132.2, rel_tol=0.0), "rel-tol"),
+        (lambda: jeffcott.simulate(132.2, rel_tol=0.0), "rel_tol"),
         (lambda: jeffcott.ensemble("130:141:0"), "omega"),
         (lambda: jeffcott.ensemble(133.0, backend="tpu"), "backend"),
         (lambda: jeffcott.ensemble(133.0, precision="f16"), "precision"),
@@ -189,6 +263,15 @@ def test_basin_stability_equals_the_cli_and_its_intervals_cover_the_fractions(tm
         (lambda: jeffcott.continuation("omega:130:141:3", direction="sideways"), "direction"),
         (lambda: jeffcott.basin_stability(133, "x_r:-0.006:0.006", sample=1), "sample"),
         (lambda: jeffcott.basin_stability(133, "q_r:0:1"), "box"),
+        (lambda: jeffcott.cascade("131:134:1"), "omega"),
+        (lambda: jeffcott.cascade("131:134:5", direction="sideways"), "direction"),
+        (lambda: jeffcott.cascade("131:134:5", periods=20000), "periods"),
+        (lambda: jeffcott.basin(133, "x_r:-0.006:0.006:9", "vx_r:-1:1:9", refine=9), "refine"),
+        (lambda: jeffcott.basin(133, "x_r:-0.006:0.006:9", "vx_r:-1:1:9", entropy_box=10),
+         "entropy_box"),
+        (lambda: jeffcott.basin(133, "x_r:-0.006:0.006:100000", "vx_r:-1:1:100000"), "x, y"),
+        (lambda: jeffcott.basin_metrics(np.zeros((4, 4), dtype=np.int32), entropy_box=0),
+         "entropy_box"),
     ],
 )
 def test_bad_input_raises_value_error_naming_the_field(call, field):

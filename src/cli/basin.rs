@@ -122,7 +122,6 @@ impl BasinArgs {
         )?;
         jeffcott_core::limits::check_periods("transient", self.transient, 0)?;
         jeffcott_core::limits::check_periods("periods", self.periods, 2)?;
-        check_basin_size(x.n as u64, y.n as u64, self)?;
         let precision = self
             .precision
             .unwrap_or_else(|| jeffcott_analysis::backend::default_precision(self.backend));
@@ -141,63 +140,10 @@ impl BasinArgs {
             chunk: self.chunk,
             lyapunov: self.lyapunov,
         };
+        spec.check_size()?;
         spec.validate()?;
         Ok(spec)
     }
-}
-
-/// Most cells a basin may have: 1e9 (4 GB of labels, 12 GB with --lyapunov; at the
-/// default 564 periods per cell about 16 hours at 1e7 lane-periods/s, a large GPU).
-/// Beyond it a grid is refused whatever the memory: 1e10 cells would take a week
-/// on such a GPU and 40 GB of labels.
-pub const MAX_BASIN_CELLS: u64 = 1_000_000_000;
-
-/// Bytes a basin of `cells` cells holds at its peak, an upper estimate: 4 bytes of
-/// labels per cell (+ 8 of lambda_1 with `lyapunov`), plus one chunk of `chunk` lanes
-/// as an ensemble recording `recorded` periods.
-pub fn basin_memory_estimate(cells: u64, lyapunov: bool, chunk: u64, recorded: u64) -> u64 {
-    let per_cell = if lyapunov { 12 } else { 4 };
-    jeffcott_core::limits::product(&[cells, per_cell]).saturating_add(
-        jeffcott_core::ensemble::EnsembleSpec::memory_estimate_for(chunk, recorded),
-    )
-}
-
-/// Refuses a grid of more than [`MAX_BASIN_CELLS`] cells, or one whose labels and
-/// chunk do not fit in the memory available, before anything is allocated.
-fn check_basin_size(nx: u64, ny: u64, a: &BasinArgs) -> Result<()> {
-    let cells = nx.saturating_mul(ny);
-    let grid = format!("{nx} x {ny}");
-    if cells > MAX_BASIN_CELLS {
-        return Err(Error::invalid(
-            "x, y",
-            format!("{grid} = {cells} cells"),
-            format!(
-                "a basin may have at most {MAX_BASIN_CELLS} cells (labels alone: {}); use a smaller grid",
-                jeffcott_core::limits::gb(basin_memory_estimate(cells, a.lyapunov, 0, 0))
-            ),
-        ));
-    }
-    // The default work unit as `BasinSpec::unit_lanes` sizes it.
-    let recorded = a.periods.max(1) as u64;
-    let steps = (a.transient as u64 + recorded)
-        * a.stepper.steps_per_period as u64
-        * if a.lyapunov { 2 } else { 1 };
-    let chunk = a
-        .chunk
-        .map(|c| c as u64)
-        .unwrap_or_else(|| jeffcott_analysis::run::unit_lanes(cells as usize, steps) as u64)
-        .min(cells);
-    jeffcott_core::limits::check_memory(
-        "x, y",
-        format!("{grid} = {cells} cells"),
-        basin_memory_estimate(cells, a.lyapunov, chunk, recorded),
-        &format!(
-            "{} bytes of labels per cell{} plus a work unit of {chunk} lanes x {recorded} recorded periods",
-            if a.lyapunov { 12 } else { 4 },
-            if a.lyapunov { " with lambda_1" } else { "" }
-        ),
-        "use a smaller grid (fewer cells per axis) or a smaller --chunk",
-    )
 }
 
 /// Final files of a basin (run.json aside).
@@ -249,40 +195,8 @@ struct RunResult<'a> {
 /// Runs `jeffcott basin`.
 pub fn run_basin(a: &BasinArgs) -> Result<()> {
     let spec = a.spec()?;
-    let short = spec.x.n.min(spec.y.n);
-    let entropy_box = a
-        .entropy_box
-        .unwrap_or(jeffcott_analysis::measures::DEFAULT_ENTROPY_BOX.min(short));
-    if entropy_box == 0 || entropy_box > short {
-        return Err(Error::invalid(
-            "entropy-box",
-            entropy_box,
-            format!("must be in 1..={short} (the shorter side of the grid)"),
-        ));
-    }
-    if a.refine > jeffcott_analysis::refine::MAX_LEVELS {
-        return Err(Error::invalid(
-            "refine",
-            a.refine,
-            format!("must be in 0..={}", jeffcott_analysis::refine::MAX_LEVELS),
-        ));
-    }
-    if a.refine > 0 && a.lyapunov {
-        return Err(Error::invalid(
-            "refine",
-            a.refine,
-            "--refine computes labels only; run --lyapunov without it",
-        ));
-    }
-    let fine_cells = ((spec.x.n as u64 - 1) << a.refine) + 1;
-    let fine_cells = fine_cells.saturating_mul(((spec.y.n as u64 - 1) << a.refine) + 1);
-    if fine_cells > MAX_BASIN_CELLS {
-        return Err(Error::invalid(
-            "refine",
-            a.refine,
-            format!("the finest grid would have {fine_cells} points; at most {MAX_BASIN_CELLS}"),
-        ));
-    }
+    let entropy_box = jeffcott_analysis::measures::entropy_box(a.entropy_box, spec.x.n, spec.y.n)?;
+    jeffcott_analysis::refine::check_levels(a.refine, a.lyapunov, spec.x.n, spec.y.n)?;
     let shard = a.shard.shard()?;
     let run_spec = RunSpec {
         spec: spec.record(),
@@ -412,7 +326,7 @@ fn boundary_picture(path: &Path, spec: &BasinSpec, res: &BasinResult) -> Result<
 /// grid) and the refinement.
 pub fn refine_basin(
     spec: &BasinSpec,
-    mut res: BasinResult,
+    res: BasinResult,
     store: &dyn jeffcott_analysis::run::UnitStore,
     levels: u32,
     quiet: bool,
@@ -440,19 +354,10 @@ pub fn refine_basin(
         },
     );
     let f = f?;
-    let mut fine = spec.clone();
-    fine.x.n = f.nx;
-    fine.y.n = f.ny;
-    let total = f.labels.len() as f64;
-    for a in &mut res.catalogue.attractors {
-        a.basin_fraction = f.labels.iter().filter(|&&l| l == a.id as i32).count() as f64 / total;
-    }
-    res.catalogue.diverged_fraction = f.labels.iter().filter(|&&l| l == -1).count() as f64 / total;
-    res.labels = f.labels.clone();
+    let (fine, res) = jeffcott_analysis::refine::refined_basin(spec, res, &f);
     Ok((fine, res, f))
 }
 
-/// What run.json records of a refinement.
 /// A basin's specification as `run.json` records it: the study's, and the refinement
 /// and re-integration asked for.
 #[derive(Serialize)]
@@ -530,16 +435,6 @@ pub fn reintegrate(
     .map(Some)
 }
 
-/// `basin_metrics.json`: the measures, the re-integration estimate of the uncertainty
-/// exponent (null without `--uncertainty-samples`), and where the definitions are.
-#[derive(Serialize)]
-struct MetricsFile<'a> {
-    #[serde(flatten)]
-    metrics: &'a jeffcott_analysis::measures::BasinMetrics,
-    uncertainty_reintegration: Option<&'a jeffcott_analysis::uncertainty::Reintegration>,
-    definitions: &'static str,
-}
-
 /// Computes the basin measures of the labels and writes `basin_metrics.json` (with the
 /// re-integration estimate when given) and, with `plot_it`, `uncertainty.png`.
 pub fn write_metrics(
@@ -550,19 +445,12 @@ pub fn write_metrics(
     reint: Option<&jeffcott_analysis::uncertainty::Reintegration>,
     plot_it: bool,
 ) -> Result<jeffcott_analysis::measures::BasinMetrics> {
-    // A refinement's -2 (an attractor the coarse catalogue lacks) is one more basin for the
-    // measures: the next free id.
-    let other = res.labels.iter().copied().max().unwrap_or(0).max(-1) + 1;
-    let labels: std::borrow::Cow<[i32]> = if res.labels.contains(&-2) {
-        res.labels
-            .iter()
-            .map(|&l| if l == -2 { other } else { l })
-            .collect::<Vec<i32>>()
-            .into()
-    } else {
-        (&res.labels[..]).into()
-    };
-    let m = jeffcott_analysis::measures::basin_metrics(&labels, spec.x.n, spec.y.n, entropy_box)?;
+    let m = jeffcott_analysis::measures::basin_labels_metrics(
+        &res.labels,
+        spec.x.n,
+        spec.y.n,
+        entropy_box,
+    )?;
     if plot_it {
         // The grid estimate's eps in cells, as a fraction of the box side (nx - 1 cells).
         let side = (spec.x.n.max(2) - 1) as f64;
@@ -584,11 +472,7 @@ pub fn write_metrics(
             reint.and_then(|r| r.alpha),
         )?;
     }
-    let j = MetricsFile {
-        metrics: &m,
-        uncertainty_reintegration: reint,
-        definitions: "docs/basin-measures.md: fractions with the binomial (random sampling) error and the grid's boundary-cell bound; S_b, S_bb in nats, boxes of entropy.eps cells (Daza et al. 2016), S_bb > ln 2 sufficient for a fractal boundary; alpha from the uncertain fraction f(eps) ~ eps^alpha on the grid, D = 2 - alpha; box-counting dimension of the boundary; Wada merge test (Daza et al. 2018) with 3 or more basins",
-    };
+    let j = jeffcott_analysis::measures::MetricsRecord::new(&m, reint);
     output::write_json(&dir.join("basin_metrics.json"), &j)?;
     Ok(m)
 }

@@ -1050,14 +1050,16 @@ fn rub_section(c: &mut Ctx) -> Result<()> {
     let cres2 = jeffcott_analysis::cascade::cascade_with(
         &cspec2,
         &store(rd, "cascade"),
-        &super::rundir::cancel(),
-        &|_, _| {},
+        jeffcott_core::control::Control {
+            progress: &jeffcott_core::control::no_progress,
+            cancel: &super::rundir::cancel(),
+        },
     )?;
     let kdir = dir.join("cascade");
     super::cascade::write_cascade(&kdir, &cspec2, &cres2, true, false)?;
     copy(dir, &kdir.join("cascade_up.png"), "cascade_up.png")?;
     copy(dir, &kdir.join("cascade_down.png"), "cascade_down.png")?;
-    let regimes = super::cascade::regime_summary(&cspec2, &cres2);
+    let regimes = jeffcott_analysis::cascade::regime_summary(&cres2);
     rep.figure(
         "Full-spectrum cascade over 100..200 rad/s, run-up (run-down: cascade_down.png)",
         "cascade_up.png",

@@ -322,6 +322,107 @@ pub struct SpecRecord<'a> {
     pub params: &'a Params,
 }
 
+/// Most cells a basin may have: 1e9 (4 GB of labels, 12 GB with lambda_1; at the
+/// default 564 periods per cell about 16 hours at 1e7 lane-periods/s, a large GPU).
+/// Beyond it a grid is refused whatever the memory: 1e10 cells would take a week
+/// on such a GPU and 40 GB of labels.
+pub const MAX_BASIN_CELLS: u64 = 1_000_000_000;
+
+/// Bytes a basin of `cells` cells holds at its peak, an upper estimate: 4 bytes of
+/// labels per cell (+ 8 of lambda_1 with `lyapunov`), plus one chunk of `chunk` lanes
+/// as an ensemble recording `recorded` periods.
+pub fn memory_estimate(cells: u64, lyapunov: bool, chunk: u64, recorded: u64) -> u64 {
+    let per_cell = if lyapunov { 12 } else { 4 };
+    jeffcott_core::limits::product(&[cells, per_cell])
+        .saturating_add(EnsembleSpec::memory_estimate_for(chunk, recorded))
+}
+
+impl BasinSpec {
+    /// Refuses a grid of more than [`MAX_BASIN_CELLS`] cells, or one whose labels and
+    /// work unit do not fit in the memory available (field `x, y`), before anything is
+    /// allocated.
+    pub fn check_size(&self) -> Result<()> {
+        let (nx, ny) = (self.x.n as u64, self.y.n as u64);
+        let cells = nx.saturating_mul(ny);
+        let grid = format!("{nx} x {ny}");
+        if cells > MAX_BASIN_CELLS {
+            return Err(Error::invalid(
+                "x, y",
+                format!("{grid} = {cells} cells"),
+                format!(
+                    "a basin may have at most {MAX_BASIN_CELLS} cells (labels alone: {}); use a smaller grid",
+                    jeffcott_core::limits::gb(memory_estimate(cells, self.lyapunov, 0, 0))
+                ),
+            ));
+        }
+        let recorded = self.recorded.max(1) as u64;
+        let chunk = (self.unit_lanes() as u64).min(cells);
+        jeffcott_core::limits::check_memory(
+            "x, y",
+            format!("{grid} = {cells} cells"),
+            memory_estimate(cells, self.lyapunov, chunk, recorded),
+            &format!(
+                "{} bytes of labels per cell{} plus a work unit of {chunk} lanes x {recorded} recorded periods",
+                if self.lyapunov { 12 } else { 4 },
+                if self.lyapunov { " with lambda_1" } else { "" }
+            ),
+            "use a smaller grid (fewer cells per axis) or a smaller --chunk",
+        )
+    }
+}
+
+/// A basin with its boundary refined `levels` times ([`crate::refine`], none for 0) and
+/// the uncertainty exponent re-integrated from `samples` draws
+/// ([`crate::uncertainty`], none for 0), as the command line's `basin --refine K
+/// --uncertainty-samples M` computes it: the basin's spec and result at the finest
+/// resolution, the refinement, the re-integration. Every stage commits its units to
+/// `store`.
+#[allow(clippy::type_complexity)]
+pub fn refined_study(
+    spec: &BasinSpec,
+    levels: u32,
+    samples: usize,
+    engine: &crate::backend::Engine,
+    store: &dyn UnitStore,
+    ctl: Control,
+) -> Result<(
+    BasinSpec,
+    BasinResult,
+    Option<crate::refine::Refined>,
+    Option<crate::uncertainty::Reintegration>,
+)> {
+    let res = basin_with(spec, engine, store, ctl)?;
+    let (spec, res, refined) = if levels > 0 {
+        let f = crate::refine::refine(
+            spec,
+            &res.catalogue,
+            &res.labels,
+            levels,
+            engine,
+            store,
+            ctl,
+        )?;
+        let (s, r) = crate::refine::refined_basin(spec, res, &f);
+        (s, r, Some(f))
+    } else {
+        (spec.clone(), res, None)
+    };
+    let reint = if samples > 0 {
+        Some(crate::uncertainty::reintegration(
+            &spec,
+            &res.catalogue,
+            samples,
+            1,
+            engine,
+            store,
+            ctl,
+        )?)
+    } else {
+        None
+    };
+    Ok((spec, res, refined, reint))
+}
+
 /// Computes a basin in memory; `ctl.progress` counts lane-periods.
 pub fn basin(spec: &BasinSpec, ctl: Control) -> Result<BasinResult> {
     crate::run::in_memory(spec.backend, spec.precision, ctl, |e, store, ctl| {

@@ -7,11 +7,12 @@
 //! with its spectra, rub regimes and the state the next unit starts from: an interrupted
 //! cascade resumes where it stopped, bit for bit.
 
-use super::rub::rub_figures;
+use super::rub::{RubRegime, rub_figures};
 use super::spectrum::{full_spectrum, orbit};
 use crate::record::Span;
 use crate::run::{Array, Cancel, MemoryStore, Unit, UnitStore};
 use crate::simulate::{Integrator, SimulateSpec, simulate};
+use jeffcott_core::control::Control;
 use jeffcott_core::error::{Error, Result};
 use jeffcott_core::integrate::lane::StepperConfig;
 use jeffcott_core::model::{Params, STATE_DIM, State};
@@ -43,7 +44,24 @@ pub struct CascadeSpec {
 /// Speeds per unit at most.
 const UNIT_SPEEDS: usize = 25;
 
+/// Speeds of a cascade at most.
+pub const MAX_SPEEDS: u64 = 100_000;
+
 impl CascadeSpec {
+    /// The speeds of `a:b:n` (field `omega`), refused before they are allocated when
+    /// there are more than [`MAX_SPEEDS`].
+    pub fn speeds(text: &str) -> Result<Vec<f64>> {
+        let r = jeffcott_core::ensemble::RangeSpec::parse("omega", text)?;
+        if r.n > MAX_SPEEDS {
+            return Err(Error::invalid(
+                "omega",
+                text,
+                format!("at most {MAX_SPEEDS} speeds"),
+            ));
+        }
+        Ok(r.values())
+    }
+
     /// Checks the inputs.
     pub fn validate(&self) -> Result<()> {
         self.params.validate()?;
@@ -154,19 +172,154 @@ pub struct CascadeResult {
     pub down: Option<Sweep>,
 }
 
-/// Computes a cascade in memory.
-pub fn cascade(spec: &CascadeSpec) -> Result<CascadeResult> {
-    cascade_with(spec, &MemoryStore::new(), &Cancel::new(), &|_, _| {})
+/// A cascade's arrays as `cascade.npy`, `cascade_stator.npy` and `regime.npy` hold them:
+/// one block per computed sweep (up, then down), its rows in ascending speed.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Arrays {
+    /// The sweeps, in block order (`up`, `down`).
+    pub sweeps: Vec<&'static str>,
+    /// Rotor amplitudes [sweeps, speeds, orders] [m].
+    pub rotor: Vec<f64>,
+    /// Stator amplitudes [sweeps, speeds, orders] [m].
+    pub stator: Vec<f64>,
+    /// Rub regime codes [sweeps, speeds].
+    pub regime: Vec<i32>,
+}
+
+/// The computed sweeps with their names.
+fn sweeps(res: &CascadeResult) -> Vec<(&'static str, &Sweep)> {
+    [("up", &res.up), ("down", &res.down)]
+        .into_iter()
+        .filter_map(|(d, s)| s.as_ref().map(|s| (d, s)))
+        .collect()
+}
+
+/// The arrays of a cascade.
+pub fn arrays(res: &CascadeResult) -> Arrays {
+    let nb = res.orders.len();
+    let sw = sweeps(res);
+    // A sweep's rows in ascending speed order (a run-down is computed descending).
+    let order = |s: &Sweep| {
+        let mut idx: Vec<usize> = (0..s.omegas.len()).collect();
+        idx.sort_by(|&a, &b| s.omegas[a].total_cmp(&s.omegas[b]));
+        idx
+    };
+    let rows = |s: &Sweep, v: &[f64]| -> Vec<f64> {
+        order(s)
+            .into_iter()
+            .flat_map(|i| v[i * nb..(i + 1) * nb].iter().copied())
+            .collect()
+    };
+    Arrays {
+        sweeps: sw.iter().map(|(d, _)| *d).collect(),
+        rotor: sw.iter().flat_map(|(_, s)| rows(s, &s.rotor)).collect(),
+        stator: sw.iter().flat_map(|(_, s)| rows(s, &s.stator)).collect(),
+        regime: sw
+            .iter()
+            .flat_map(|(_, s)| order(s).into_iter().map(|i| s.regime[i]))
+            .collect(),
+    }
+}
+
+/// Where each regime was found, per sweep: "run-up: partial_rub at 131.0..140.2 rad/s"
+/// (cascade.json's `regimes`).
+pub fn regime_summary(res: &CascadeResult) -> String {
+    let mut parts = Vec::new();
+    for (name, s) in [("run-up", &res.up), ("run-down", &res.down)] {
+        let Some(s) = s else { continue };
+        let mut by: std::collections::BTreeMap<i32, Vec<f64>> = Default::default();
+        for (w, r) in s.omegas.iter().zip(&s.regime) {
+            by.entry(*r).or_default().push(*w);
+        }
+        let text: Vec<String> = by
+            .iter()
+            .map(|(r, ws)| {
+                let lo = ws.iter().copied().fold(f64::INFINITY, f64::min);
+                let hi = ws.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+                format!(
+                    "{} at {} speed(s) in {lo:.2}..{hi:.2} rad/s",
+                    RubRegime::from_code(*r).map_or("unknown", |r| r.label()),
+                    ws.len()
+                )
+            })
+            .collect();
+        parts.push(format!("{name}: {}", text.join(", ")));
+    }
+    parts.join("; ")
+}
+
+/// A natural frequency of the linearised system, as cascade.json lists it.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct NaturalFrequency {
+    /// What vibrates (rotor, stator, a coupled contact mode).
+    pub name: String,
+    /// [rad/s].
+    pub rad_s: f64,
+    /// [Hz].
+    pub hz: f64,
+}
+
+/// The cascade as `cascade.json` holds it (the command line adds the list of files and
+/// the version): the speeds, the sweeps, the settings, the natural frequencies drawn on
+/// the pictures and the regimes met. The Python package returns the same dictionary.
+#[derive(Clone, Debug, Serialize)]
+pub struct Summary<'a> {
+    /// The speeds.
+    pub omega: Span,
+    /// The sweeps computed, in the arrays' block order.
+    pub sweeps: Vec<&'static str>,
+    /// Transient at the first speed.
+    pub transient_first: u32,
+    /// Transient at every later speed.
+    pub transient: u32,
+    /// Periods of each spectrum.
+    pub periods: u32,
+    /// Largest order kept.
+    pub max_order: f64,
+    /// The natural frequencies.
+    pub natural_frequencies_rad_s: Vec<NaturalFrequency>,
+    /// [`regime_summary`].
+    pub regimes: String,
+    /// Model parameters.
+    pub params: &'a Params,
+}
+
+/// The summary `cascade.json` holds.
+pub fn summary<'a>(spec: &'a CascadeSpec, res: &CascadeResult) -> Summary<'a> {
+    let tau = std::f64::consts::TAU;
+    Summary {
+        omega: Span::of(&spec.omegas),
+        sweeps: sweeps(res).iter().map(|(d, _)| *d).collect(),
+        transient_first: spec.transient_first,
+        transient: spec.transient,
+        periods: spec.periods,
+        max_order: spec.max_order,
+        natural_frequencies_rad_s: crate::rub::natural_frequencies(&spec.params)
+            .into_iter()
+            .map(|(name, w)| NaturalFrequency {
+                name,
+                rad_s: w,
+                hz: w / tau,
+            })
+            .collect(),
+        regimes: regime_summary(res),
+        params: &spec.params,
+    }
+}
+
+/// Computes a cascade in memory; `ctl.progress` counts speeds.
+pub fn cascade(spec: &CascadeSpec, ctl: Control) -> Result<CascadeResult> {
+    cascade_with(spec, &MemoryStore::new(), ctl)
 }
 
 /// Computes a cascade unit by unit into `store`, resuming from the units it holds;
-/// `progress(done, total)` counts speeds.
+/// `ctl.progress(done, total)` counts speeds; `ctl.cancel` is checked between speeds.
 pub fn cascade_with(
     spec: &CascadeSpec,
     store: &dyn UnitStore,
-    cancel: &Cancel,
-    progress: &(dyn Fn(u64, u64) + Sync),
+    ctl: Control,
 ) -> Result<CascadeResult> {
+    let (cancel, progress) = (ctl.cancel, ctl.progress);
     spec.validate()?;
     let orders = spec.orders();
     let total = spec.omegas.len() as u64 * (spec.up as u64 + spec.down as u64);

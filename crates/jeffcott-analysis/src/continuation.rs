@@ -59,6 +59,20 @@ impl Direction {
     }
 }
 
+/// The ramps named by `text` (field `direction`): `up`, `down` or `both` (up first).
+pub fn directions(text: &str) -> Result<Vec<Direction>> {
+    match text {
+        "up" => Ok(vec![Direction::Up]),
+        "down" => Ok(vec![Direction::Down]),
+        "both" => Ok(vec![Direction::Up, Direction::Down]),
+        other => Err(Error::invalid(
+            "direction",
+            other,
+            "must be up, down or both",
+        )),
+    }
+}
+
 /// What a continuation computes.
 #[derive(Clone, Debug)]
 pub struct ContinuationSpec {

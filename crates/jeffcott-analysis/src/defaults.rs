@@ -36,6 +36,18 @@ pub mod basin {
     pub const UNCERTAINTY_SAMPLES: usize = 100;
 }
 
+/// `cascade`: full spectra along quasistatic sweeps.
+pub mod cascade {
+    /// Forcing periods at the first speed before its spectrum.
+    pub const TRANSIENT_FIRST: u32 = 1000;
+    /// Forcing periods at every later speed before its spectrum.
+    pub const TRANSIENT: u32 = 100;
+    /// Forcing periods per spectrum (the bins are 1 / periods of W apart).
+    pub const PERIODS: u32 = 24;
+    /// Largest order |frequency / W| kept.
+    pub const MAX_ORDER: f64 = 4.0;
+}
+
 /// `map`: two-parameter maps.
 pub mod map {
     /// Start states per cell.

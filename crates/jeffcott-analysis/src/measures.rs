@@ -1101,6 +1101,72 @@ pub struct BasinMetrics {
     pub notes: Vec<String>,
 }
 
+/// The side of the entropy boxes (field `entropy-box`): `given`, or
+/// [`DEFAULT_ENTROPY_BOX`] capped by the grid's shorter side; it must fit the grid.
+pub fn entropy_box(given: Option<usize>, nx: usize, ny: usize) -> Result<usize> {
+    let short = nx.min(ny);
+    let eps = given.unwrap_or(DEFAULT_ENTROPY_BOX.min(short));
+    if eps == 0 || eps > short {
+        return Err(Error::invalid(
+            "entropy-box",
+            eps,
+            format!("must be in 1..={short} (the shorter side of the grid)"),
+        ));
+    }
+    Ok(eps)
+}
+
+/// [`basin_metrics`] of a computed basin's labels: a refinement's -2 (an attractor the
+/// coarse catalogue lacks, [`crate::refine`]) counts as one more basin, the next free id.
+pub fn basin_labels_metrics(
+    labels: &[i32],
+    nx: usize,
+    ny: usize,
+    eps: usize,
+) -> Result<BasinMetrics> {
+    let other = labels.iter().copied().max().unwrap_or(0).max(-1) + 1;
+    if labels.contains(&-2) {
+        let relabelled: Vec<i32> = labels
+            .iter()
+            .map(|&l| if l == -2 { other } else { l })
+            .collect();
+        basin_metrics(&relabelled, nx, ny, eps)
+    } else {
+        basin_metrics(labels, nx, ny, eps)
+    }
+}
+
+/// Where `basin_metrics.json` says its measures are defined.
+pub const DEFINITIONS: &str = "docs/basin-measures.md: fractions with the binomial (random sampling) error and the grid's boundary-cell bound; S_b, S_bb in nats, boxes of entropy.eps cells (Daza et al. 2016), S_bb > ln 2 sufficient for a fractal boundary; alpha from the uncertain fraction f(eps) ~ eps^alpha on the grid, D = 2 - alpha; box-counting dimension of the boundary; Wada merge test (Daza et al. 2018) with 3 or more basins";
+
+/// `basin_metrics.json`: the measures, the re-integration estimate of the uncertainty
+/// exponent (null without one), and where the definitions are. The Python package
+/// returns the same dictionary.
+#[derive(Clone, Debug, Serialize)]
+pub struct MetricsRecord<'a> {
+    /// The measures, at the top level.
+    #[serde(flatten)]
+    pub metrics: &'a BasinMetrics,
+    /// The uncertainty exponent by re-integration.
+    pub uncertainty_reintegration: Option<&'a crate::uncertainty::Reintegration>,
+    /// [`DEFINITIONS`].
+    pub definitions: &'static str,
+}
+
+impl<'a> MetricsRecord<'a> {
+    /// The record of `metrics` and `reintegration`.
+    pub fn new(
+        metrics: &'a BasinMetrics,
+        reintegration: Option<&'a crate::uncertainty::Reintegration>,
+    ) -> Self {
+        MetricsRecord {
+            metrics,
+            uncertainty_reintegration: reintegration,
+            definitions: DEFINITIONS,
+        }
+    }
+}
+
 /// Computes [`BasinMetrics`] of an `[ny, nx]` label grid with entropy boxes of `eps`.
 pub fn basin_metrics(labels: &[i32], nx: usize, ny: usize, eps: usize) -> Result<BasinMetrics> {
     let grid = LabelGrid::new(labels, nx, ny)?;

@@ -61,6 +61,57 @@ pub fn on_boundary(labels: &[i32], nx: usize, ny: usize, i: usize, j: usize) -> 
         || (j + 1 < ny && labels[(j + 1) * nx + i] != l)
 }
 
+/// Checks a refinement of `levels` of a basin of `nx` x `ny` cells (field `refine`):
+/// at most [`MAX_LEVELS`], labels only (no lambda_1), and a finest grid of at most
+/// [`super::basin::MAX_BASIN_CELLS`] points.
+pub fn check_levels(levels: u32, lyapunov: bool, nx: usize, ny: usize) -> Result<()> {
+    if levels > MAX_LEVELS {
+        return Err(Error::invalid(
+            "refine",
+            levels,
+            format!("must be in 0..={MAX_LEVELS}"),
+        ));
+    }
+    if levels > 0 && lyapunov {
+        return Err(Error::invalid(
+            "refine",
+            levels,
+            "a refinement computes labels only; compute lambda_1 (--lyapunov) without it",
+        ));
+    }
+    let side = |n: usize| ((n as u64).saturating_sub(1) << levels) + 1;
+    let fine = side(nx).saturating_mul(side(ny));
+    let max = super::basin::MAX_BASIN_CELLS;
+    if fine > max {
+        return Err(Error::invalid(
+            "refine",
+            levels,
+            format!("the finest grid would have {fine} points; at most {max}"),
+        ));
+    }
+    Ok(())
+}
+
+/// The basin at the refined resolution: the grid of `f`, its labels, and the
+/// catalogue's basin and diverged fractions recounted over it.
+pub fn refined_basin(
+    spec: &BasinSpec,
+    mut res: super::basin::BasinResult,
+    f: &Refined,
+) -> (BasinSpec, super::basin::BasinResult) {
+    let mut fine = spec.clone();
+    fine.x.n = f.nx;
+    fine.y.n = f.ny;
+    let total = f.labels.len() as f64;
+    let share = |l: i32| f.labels.iter().filter(|&&x| x == l).count() as f64 / total;
+    for a in &mut res.catalogue.attractors {
+        a.basin_fraction = share(a.id as i32);
+    }
+    res.catalogue.diverged_fraction = share(-1);
+    res.labels = f.labels.clone();
+    (fine, res)
+}
+
 /// Refines `labels` ([ny, nx], the basin of `spec`) `levels` times.
 #[allow(clippy::too_many_arguments)]
 pub fn refine(

@@ -917,26 +917,20 @@ pub fn regime_cells(spec: &MapSpec, res: &MapResult) -> Vec<RegimeCells> {
             )
         })
     };
-    [
-        RubRegime::NoContact,
-        RubRegime::PartialRub,
-        RubRegime::FullAnnularRub,
-        RubRegime::BackwardWhirl,
-        RubRegime::Diverged,
-    ]
-    .into_iter()
-    .map(|regime| {
-        let cells: Vec<usize> = (0..res.regime.len())
-            .filter(|&i| res.regime[i] == regime.code())
-            .collect();
-        RegimeCells {
-            regime,
-            cells: cells.len(),
-            x: span(cells.iter().map(|&i| spec.x.value(i % nx)).collect()),
-            y: span(cells.iter().map(|&i| spec.y.value(i / nx)).collect()),
-        }
-    })
-    .collect()
+    RubRegime::ALL
+        .into_iter()
+        .map(|regime| {
+            let cells: Vec<usize> = (0..res.regime.len())
+                .filter(|&i| res.regime[i] == regime.code())
+                .collect();
+            RegimeCells {
+                regime,
+                cells: cells.len(),
+                x: span(cells.iter().map(|&i| spec.x.value(i % nx)).collect()),
+                y: span(cells.iter().map(|&i| spec.y.value(i / nx)).collect()),
+            }
+        })
+        .collect()
 }
 
 /// Where a backward throw ends.

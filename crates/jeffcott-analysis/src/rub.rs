@@ -53,6 +53,20 @@ impl RubRegime {
             RubRegime::Diverged => -1,
         }
     }
+
+    /// Every regime, in the order of their codes (diverged last).
+    pub const ALL: [RubRegime; 5] = [
+        RubRegime::NoContact,
+        RubRegime::PartialRub,
+        RubRegime::FullAnnularRub,
+        RubRegime::BackwardWhirl,
+        RubRegime::Diverged,
+    ];
+
+    /// The regime of a [`RubRegime::code`].
+    pub fn from_code(code: i32) -> Option<RubRegime> {
+        Self::ALL.into_iter().find(|r| r.code() == code)
+    }
 }
 
 /// Contact at this share of grid points or more is permanent contact.
