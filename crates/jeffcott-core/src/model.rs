@@ -318,6 +318,46 @@ impl<R: Real> Coeffs<R> {
     }
 }
 
+impl<R: Copy, const B: usize> Coeffs<[R; B]> {
+    /// The coefficients of `B` lanes, structure-of-arrays (each field one value per
+    /// lane), so a loop over the lanes vectorises (`integrate::batch`).
+    #[inline(always)]
+    pub fn transpose(lanes: &[Coeffs<R>; B]) -> Self {
+        let f = |get: fn(&Coeffs<R>) -> R| std::array::from_fn(|l| get(&lanes[l]));
+        Coeffs {
+            wr2: f(|c| c.wr2),
+            dr: f(|c| c.dr),
+            ws2: f(|c| c.ws2),
+            ds: f(|c| c.ds),
+            unbalance: f(|c| c.unbalance),
+            a_g: f(|c| c.a_g),
+            kc_mr: f(|c| c.kc_mr),
+            kc_ms: f(|c| c.kc_ms),
+            mu: f(|c| c.mu),
+            delta: f(|c| c.delta),
+            tau_c: f(|c| c.tau_c),
+        }
+    }
+
+    /// Lane `l`'s coefficients.
+    #[inline(always)]
+    pub fn lane(&self, l: usize) -> Coeffs<R> {
+        Coeffs {
+            wr2: self.wr2[l],
+            dr: self.dr[l],
+            ws2: self.ws2[l],
+            ds: self.ds[l],
+            unbalance: self.unbalance[l],
+            a_g: self.a_g[l],
+            kc_mr: self.kc_mr[l],
+            kc_ms: self.kc_ms[l],
+            mu: self.mu[l],
+            delta: self.delta[l],
+            tau_c: self.tau_c[l],
+        }
+    }
+}
+
 /// Penetration g = |d| - delta with d the rotor centre relative to the stator centre
 /// (MODEL.md 2). Contact is `g > 0`.
 #[inline(always)]
@@ -416,7 +456,7 @@ pub fn rhs_frozen<R: Real>(
 ) -> [R; STATE_DIM] {
     let (mut fx, mut fy) = (R::lit(0.0), R::lit(0.0));
     if contact {
-        let (kx, ky) = contact_force_per_kc(
+        (fx, fy) = contact_force_per_kc(
             c.delta,
             c.mu,
             c.tau_c,
@@ -425,9 +465,23 @@ pub fn rhs_frozen<R: Real>(
             x[VX_R] - x[VX_S],
             x[VY_R] - x[VY_S],
         );
-        fx = kx;
-        fy = ky;
     }
+    rhs_with_force(c, x, cos_phase, sin_phase, fx, fy)
+}
+
+/// The right-hand side given the contact force per unit contact stiffness on the rotor
+/// (`fx`, `fy`; zero out of contact): the one definition of the equations of motion on
+/// the CPU, used by [`rhs_frozen`] and, lane by lane, by the batched stepper (which
+/// computes the force branch-free and selects it per lane).
+#[inline(always)]
+pub fn rhs_with_force<R: Real>(
+    c: &Coeffs<R>,
+    x: &[R; STATE_DIM],
+    cos_phase: R,
+    sin_phase: R,
+    fx: R,
+    fy: R,
+) -> [R; STATE_DIM] {
     [
         x[VX_R],
         -c.wr2 * x[X_R] - c.dr * x[VX_R] + c.unbalance * cos_phase + c.kc_mr * fx,

@@ -21,7 +21,10 @@ use crate::integrate::lane::{
     GRAZE_SAMPLES, Lane, LaneConsts, Partial, Tangent, commit_macro_step, finish_macro_step,
     hermite_gap, jacobian_trace, macro_step_tangent, stage_partials, trial_extent, wrong_side,
 };
-use crate::model::{STATE_DIM, VX_R, VX_S, VY_R, VY_S, X_R, X_S, Y_R, Y_S, contact_force_per_kc};
+use crate::model::{
+    Coeffs, STATE_DIM, VX_R, VX_S, VY_R, VY_S, X_R, X_S, Y_R, Y_S, contact_force_per_kc,
+    rhs_with_force,
+};
 use crate::real::Real;
 
 /// Lanes per batch: 8 fills a 256-bit register with f32 and two with f64.
@@ -39,17 +42,8 @@ fn lanes<R: Copy>(f: impl FnMut(usize) -> R) -> [R; BATCH] {
 /// The lane constants of a batch, structure-of-arrays.
 #[derive(Clone, Copy, Debug)]
 pub struct BatchConsts<R> {
-    wr2: V<R>,
-    dr: V<R>,
-    ws2: V<R>,
-    ds: V<R>,
-    unbalance: V<R>,
-    a_g: V<R>,
-    kc_mr: V<R>,
-    kc_ms: V<R>,
-    mu: V<R>,
-    delta: V<R>,
-    tau_c: V<R>,
+    /// The equation coefficients, one value per lane in each field.
+    c: Coeffs<V<R>>,
     h: V<R>,
     inv_n: V<R>,
     phase0: V<R>,
@@ -59,22 +53,26 @@ impl<R: Real> BatchConsts<R> {
     /// Transposes the constants of `BATCH` lanes.
     pub fn new(lc: &[LaneConsts<R>; BATCH]) -> Self {
         BatchConsts {
-            wr2: lanes(|l| lc[l].c.wr2),
-            dr: lanes(|l| lc[l].c.dr),
-            ws2: lanes(|l| lc[l].c.ws2),
-            ds: lanes(|l| lc[l].c.ds),
-            unbalance: lanes(|l| lc[l].c.unbalance),
-            a_g: lanes(|l| lc[l].c.a_g),
-            kc_mr: lanes(|l| lc[l].c.kc_mr),
-            kc_ms: lanes(|l| lc[l].c.kc_ms),
-            mu: lanes(|l| lc[l].c.mu),
-            delta: lanes(|l| lc[l].c.delta),
-            tau_c: lanes(|l| lc[l].c.tau_c),
+            c: Coeffs::transpose(&std::array::from_fn(|l| lc[l].c)),
             h: lanes(|l| lc[l].h),
             inv_n: lanes(|l| lc[l].inv_n),
             phase0: lanes(|l| lc[l].phase0),
         }
     }
+}
+
+/// Sets lane `l` of a structure-of-arrays state.
+#[inline(always)]
+fn set_lane<R: Copy>(x: &mut [V<R>; STATE_DIM], l: usize, v: [R; STATE_DIM]) {
+    for (xi, vi) in x.iter_mut().zip(v) {
+        xi[l] = vi;
+    }
+}
+
+/// Lane `l` of a structure-of-arrays state.
+#[inline(always)]
+fn lane_of<R: Copy>(x: &[V<R>; STATE_DIM], l: usize) -> [R; STATE_DIM] {
+    std::array::from_fn(|i| x[i][l])
 }
 
 /// `lane::forcing_phasor` for every lane at its fraction `sigma` of macro step `k`.
@@ -99,10 +97,13 @@ fn rhs<R: Real>(
 ) -> [V<R>; STATE_DIM] {
     let mut f = [[R::lit(0.0); BATCH]; STATE_DIM];
     for l in 0..BATCH {
+        let c = bc.c.lane(l);
+        // The force of every lane, kept where the lane is in contact (branch-free, so
+        // the loop vectorises); then `model::rhs_with_force`, the scalar definition.
         let (kx, ky) = contact_force_per_kc(
-            bc.delta[l],
-            bc.mu[l],
-            bc.tau_c[l],
+            c.delta,
+            c.mu,
+            c.tau_c,
             x[X_R][l] - x[X_S][l],
             x[Y_R][l] - x[Y_S][l],
             x[VX_R][l] - x[VX_S][l],
@@ -113,19 +114,8 @@ fn rhs<R: Real>(
         } else {
             (R::lit(0.0), R::lit(0.0))
         };
-        f[X_R][l] = x[VX_R][l];
-        f[VX_R][l] = -bc.wr2[l] * x[X_R][l] - bc.dr[l] * x[VX_R][l]
-            + bc.unbalance[l] * cos_phase[l]
-            + bc.kc_mr[l] * fx;
-        f[Y_R][l] = x[VY_R][l];
-        f[VY_R][l] = -bc.wr2[l] * x[Y_R][l] - bc.dr[l] * x[VY_R][l]
-            + bc.unbalance[l] * sin_phase[l]
-            - bc.a_g[l]
-            + bc.kc_mr[l] * fy;
-        f[X_S][l] = x[VX_S][l];
-        f[VX_S][l] = -bc.ws2[l] * x[X_S][l] - bc.ds[l] * x[VX_S][l] - bc.kc_ms[l] * fx;
-        f[Y_S][l] = x[VY_S][l];
-        f[VY_S][l] = -bc.ws2[l] * x[Y_S][l] - bc.ds[l] * x[VY_S][l] - bc.a_g[l] - bc.kc_ms[l] * fy;
+        let fl = rhs_with_force(&c, &lane_of(x, l), cos_phase[l], sin_phase[l], fx, fy);
+        set_lane(&mut f, l, fl);
     }
     f
 }
@@ -196,20 +186,9 @@ fn tangent_rhs<R: Real>(
 ) -> [V<R>; STATE_DIM] {
     let mut a = [[R::lit(0.0); BATCH]; STATE_DIM];
     for l in 0..BATCH {
-        let ddx = v[X_R][l] - v[X_S][l];
-        let ddy = v[Y_R][l] - v[Y_S][l];
-        let ddvx = v[VX_R][l] - v[VX_S][l];
-        let ddvy = v[VY_R][l] - v[VY_S][l];
-        let dfx = pc[0][l] * ddx + pc[1][l] * ddy + pc[2][l] * ddvx + pc[3][l] * ddvy;
-        let dfy = pc[4][l] * ddx + pc[5][l] * ddy + pc[6][l] * ddvx + pc[7][l] * ddvy;
-        a[X_R][l] = v[VX_R][l];
-        a[VX_R][l] = -bc.wr2[l] * v[X_R][l] - bc.dr[l] * v[VX_R][l] + bc.kc_mr[l] * dfx;
-        a[Y_R][l] = v[VY_R][l];
-        a[VY_R][l] = -bc.wr2[l] * v[Y_R][l] - bc.dr[l] * v[VY_R][l] + bc.kc_mr[l] * dfy;
-        a[X_S][l] = v[VX_S][l];
-        a[VX_S][l] = -bc.ws2[l] * v[X_S][l] - bc.ds[l] * v[VX_S][l] - bc.kc_ms[l] * dfx;
-        a[Y_S][l] = v[VY_S][l];
-        a[VY_S][l] = -bc.ws2[l] * v[Y_S][l] - bc.ds[l] * v[VY_S][l] - bc.kc_ms[l] * dfy;
+        let al =
+            crate::integrate::lane::tangent_rhs(&bc.c.lane(l), &lane_of(pc, l), &lane_of(v, l));
+        set_lane(&mut a, l, al);
     }
     a
 }
@@ -284,9 +263,13 @@ fn gaps<R: Real>(
     let mut g = [R::lit(0.0); BATCH];
     let mut rate = [R::lit(0.0); BATCH];
     for l in 0..BATCH {
-        let a: [R; STATE_DIM] = std::array::from_fn(|i| x0[i][l]);
-        let b: [R; STATE_DIM] = std::array::from_fn(|i| x1[i][l]);
-        (g[l], rate[l]) = hermite_gap(bc.delta[l], &a, &b, ds[l] * bc.h[l], theta);
+        (g[l], rate[l]) = hermite_gap(
+            bc.c.delta[l],
+            &lane_of(x0, l),
+            &lane_of(x1, l),
+            ds[l] * bc.h[l],
+            theta,
+        );
     }
     (g, rate)
 }
