@@ -411,7 +411,7 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
                 "status",
                 Array::U32(r.status.iter().map(|s| s.code()).collect()),
             )
-            .with_meta(Totals::of(c).to_json());
+            .with_meta(&Totals::of(c));
         if let Some(l) = r.lambda1 {
             out = out.with("lambda1", Array::F64(l));
         }
@@ -472,7 +472,7 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
         if a.lyapunov {
             lambda1.extend_from_slice(unit.f64s("lambda1")?);
         }
-        totals.add(&Totals::from_json(&unit.meta));
+        totals.add(&unit.meta_as::<Totals>()?);
     }
     output::write_npy(&dir.join("status.npy"), &[n], &codes)?;
     output::write_npy(

@@ -615,9 +615,20 @@ pub fn part_unit(labels: Vec<i32>, parts: &[PartAttractor], diverged: u64) -> cr
                     .collect(),
             ),
         )
-        .with_meta(serde_json::json!({
-            "parts": parts, "part_points": counts, "diverged": diverged,
-        }))
+        .with_meta(&PartsMeta {
+            parts,
+            part_points: counts,
+            diverged,
+        })
+}
+
+/// The metadata of a [`part_unit`]: the attractors (their points in the unit's `points`
+/// array), how many points each has there, and the diverged count.
+#[derive(Serialize, serde::Deserialize)]
+struct PartsMeta<P> {
+    parts: P,
+    part_points: Vec<usize>,
+    diverged: u64,
 }
 
 /// The partial catalogue a [`part_unit`] stores, with its points, and its diverged count.
@@ -628,13 +639,11 @@ pub fn unit_parts(
         path: format!("unit {}", unit.key).into(),
         source: std::io::Error::new(std::io::ErrorKind::InvalidData, what.to_string()),
     };
-    let mut parts: Vec<PartAttractor> = serde_json::from_value(unit.meta["parts"].clone())
-        .map_err(|e| bad(&format!("partial catalogue: {e}")))?;
-    let counts: Vec<usize> = serde_json::from_value(unit.meta["part_points"].clone())
-        .map_err(|e| bad(&format!("partial catalogue: {e}")))?;
-    let diverged = unit.meta["diverged"]
-        .as_u64()
-        .ok_or_else(|| bad("diverged count"))?;
+    let PartsMeta {
+        mut parts,
+        part_points: counts,
+        diverged,
+    } = unit.meta_as::<PartsMeta<Vec<PartAttractor>>>()?;
     let flat = unit.f64s("points")?;
     if counts.len() != parts.len() || counts.iter().sum::<usize>() * STATE_DIM != flat.len() {
         return Err(bad("partial catalogue points do not match"));

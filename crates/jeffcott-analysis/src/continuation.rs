@@ -521,7 +521,7 @@ pub fn continuation_with(
             }
             metas.push(part.meta);
         }
-        Ok(unit.with_meta(serde_json::json!({ "values": metas })))
+        Ok(unit.with_meta(&FreshMeta { values: metas }))
     };
     let info = crate::run::lanes::run_units(
         store,
@@ -604,7 +604,12 @@ fn fresh_value(spec: &ContinuationSpec, store: &dyn UnitStore, i: usize) -> Resu
     let per_unit = spec.unit_values();
     let (u, j) = (i / per_unit, i % per_unit);
     let unit = store.load(FRESH, u)?;
-    let mut one = Unit::new(unit.key.clone()).with_meta(unit.meta["values"][j].clone());
+    let values = unit.meta_as::<FreshMeta>()?.values;
+    let meta = values.get(j).ok_or_else(|| Error::Io {
+        path: format!("unit {}", unit.key).into(),
+        source: std::io::Error::new(std::io::ErrorKind::InvalidData, format!("no value {j}")),
+    })?;
+    let mut one = Unit::new(unit.key.clone()).with_meta(meta);
     for name in ["labels", "points"] {
         let key = format!("{name}.{j}");
         let a = unit
@@ -635,9 +640,28 @@ fn step_unit(step: &Step, next_id: u32) -> Unit {
                     .collect(),
             ),
         )
-        .with_meta(serde_json::json!({
-            "step": step, "point_counts": counts, "next_id": next_id,
-        }))
+        .with_meta(&StepMeta {
+            step,
+            point_counts: counts,
+            next_id,
+        })
+}
+
+/// The metadata of a fresh-pass unit: per value, its partial catalogue's metadata
+/// (`catalogue::part_unit`), the arrays of value j named `labels.j`, `points.j`.
+#[derive(Serialize, Deserialize)]
+struct FreshMeta {
+    values: Vec<serde_json::Value>,
+}
+
+/// The metadata of a ramp step's unit: the step (its attractors' points in the unit's
+/// `points` array, its labels in `labels`), how many points each attractor has, and the
+/// next free continuation id.
+#[derive(Serialize, Deserialize)]
+struct StepMeta<S> {
+    step: S,
+    point_counts: Vec<usize>,
+    next_id: u32,
 }
 
 fn unit_step(unit: &Unit) -> Result<(Step, u32)> {
@@ -645,13 +669,11 @@ fn unit_step(unit: &Unit) -> Result<(Step, u32)> {
         path: format!("unit {}", unit.key).into(),
         source: std::io::Error::new(std::io::ErrorKind::InvalidData, what),
     };
-    let mut step: Step =
-        serde_json::from_value(unit.meta["step"].clone()).map_err(|e| bad(e.to_string()))?;
-    let counts: Vec<usize> = serde_json::from_value(unit.meta["point_counts"].clone())
-        .map_err(|e| bad(e.to_string()))?;
-    let next = unit.meta["next_id"]
-        .as_u64()
-        .ok_or_else(|| bad("next id".into()))? as u32;
+    let StepMeta {
+        mut step,
+        point_counts: counts,
+        next_id: next,
+    } = unit.meta_as::<StepMeta<Step>>()?;
     step.labels = unit.i32s("labels")?.to_vec();
     let flat = unit.f64s("points")?;
     if counts.len() != step.attractors.len()

@@ -7,8 +7,10 @@ use jeffcott_core::integrate::lane::{Counters, Status};
 use jeffcott_core::model::Params;
 use serde::Serialize;
 
-/// Lane counters summed over an ensemble (the largest penetration is the maximum).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+/// Lane counters summed over an ensemble (the largest penetration is the maximum); a
+/// work unit's metadata (absent keys, from units of earlier versions, count 0).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, serde::Deserialize)]
+#[serde(default)]
 pub struct Totals {
     /// Macro steps integrated.
     pub macro_steps: u64,
@@ -45,23 +47,6 @@ impl Totals {
         self.switches += o.switches;
         self.extra_substeps += o.extra_substeps;
         self.max_penetration_m = self.max_penetration_m.max(o.max_penetration_m);
-    }
-
-    /// The totals as a work unit's metadata holds them.
-    pub fn to_json(&self) -> serde_json::Value {
-        serde_json::to_value(self).unwrap_or_default()
-    }
-
-    /// Reads the totals back from a unit's metadata (absent keys count 0).
-    pub fn from_json(m: &serde_json::Value) -> Totals {
-        let get = |k: &str| m[k].as_u64().unwrap_or(0);
-        Totals {
-            macro_steps: get("macro_steps"),
-            contact_steps: get("contact_steps"),
-            switches: get("switches"),
-            extra_substeps: get("extra_substeps"),
-            max_penetration_m: m["max_penetration_m"].as_f64().unwrap_or(0.0),
-        }
     }
 }
 

@@ -587,11 +587,9 @@ pub fn map_with(
     };
     let reduce = |u: usize, e: &EnsembleSpec, res: EnsembleResult| {
         let cells = reduce_cells(spec, u * per_unit, e, &res)?;
-        let meta = serde_json::to_value(&cells)
-            .map_err(|err| Error::invalid("map unit", u, err.to_string()))?;
         Ok(Unit::new("")
             .with("n", Array::U32(vec![cells.len() as u32]))
-            .with_meta(serde_json::json!({ "cells": meta })))
+            .with_meta(&CellsMeta { cells }))
     };
     let info = crate::run::lanes::run_units(
         store,
@@ -620,12 +618,7 @@ pub fn map_with(
     };
     for u in 0..count {
         let unit = store.load(STAGE, u)?;
-        let part: Vec<Cell> =
-            serde_json::from_value(unit.meta["cells"].clone()).map_err(|e| Error::Io {
-                path: format!("unit {}", unit.key).into(),
-                source: std::io::Error::new(std::io::ErrorKind::InvalidData, e.to_string()),
-            })?;
-        for cell in part {
+        for cell in unit.meta_as::<CellsMeta>()?.cells {
             out.push(cell);
         }
     }
@@ -719,6 +712,12 @@ pub struct SpecRecord<'a> {
     pub unit_cells: usize,
     /// Model parameters.
     pub params: &'a Params,
+}
+
+/// The metadata of a map unit: its cells' attractors.
+#[derive(Serialize, Deserialize)]
+struct CellsMeta {
+    cells: Vec<Cell>,
 }
 
 /// The map as `map.json` holds it (the command line adds the list of files and the

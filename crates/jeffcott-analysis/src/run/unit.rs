@@ -110,10 +110,21 @@ impl Unit {
         self
     }
 
-    /// Sets the metadata (builder style).
-    pub fn with_meta(mut self, meta: serde_json::Value) -> Unit {
-        self.meta = meta;
+    /// Sets the metadata to a typed record (builder style). The studies' records (no
+    /// maps with non-string keys) always serialize; one that did not would be stored as
+    /// null and read back by [`Unit::meta_as`] as a corrupt unit, never silently.
+    pub fn with_meta<T: Serialize + ?Sized>(mut self, meta: &T) -> Unit {
+        self.meta = serde_json::to_value(meta).unwrap_or(serde_json::Value::Null);
         self
+    }
+
+    /// The metadata as the typed record `T`; metadata of another shape is a corrupt
+    /// unit (an I/O error naming the unit).
+    pub fn meta_as<T: serde::de::DeserializeOwned>(&self) -> Result<T> {
+        serde_json::from_value(self.meta.clone()).map_err(|e| Error::Io {
+            path: format!("unit {}", self.key).into(),
+            source: std::io::Error::new(std::io::ErrorKind::InvalidData, format!("metadata: {e}")),
+        })
     }
 
     fn get(&self, name: &str) -> Option<&Array> {
@@ -269,7 +280,7 @@ mod tests {
             .with("p", Array::F64(vec![0.1, -0.0, f64::NAN, 1e-300]))
             .with("l", Array::I32(vec![-1, 0, 7]))
             .with("s", Array::U32(vec![3]))
-            .with_meta(serde_json::json!({"x": 0.1 + 0.2, "n": 3}));
+            .with_meta(&serde_json::json!({"x": 0.1 + 0.2, "n": 3}));
         let bytes = u.encode();
         let back = Unit::decode(Path::new("u"), &bytes).unwrap();
         assert_eq!(back.key, u.key);
