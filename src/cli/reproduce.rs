@@ -2,19 +2,27 @@
 //! down-sweep and brute-force diagrams it does not have, and writes `REPORT.md` with
 //! every figure, what this tool found there, the equivalent command and its time.
 
-use super::basin::{legend_name, run_basin_study, write_basin};
-use super::bifurcation::{diagram_series, lambda1_series, run_study, write_bifurcation};
+use super::basin::{legend_name, write_basin};
+use super::bifurcation::{diagram_series, lambda1_series, write_bifurcation};
 use crate::plot;
 use clap::Args;
 use jeffcott_analysis::backend::default_precision;
+use jeffcott_analysis::basin::{BasinResult, BasinSpec};
+use jeffcott_analysis::bifurcation::{BifurcationResult, BifurcationSpec};
+use jeffcott_analysis::cascade::{CascadeResult, CascadeSpec};
 use jeffcott_analysis::catalogue::Catalogue;
 use jeffcott_analysis::classify::Class;
+use jeffcott_analysis::continuation::{ContinuationResult, ContinuationSpec};
+use jeffcott_analysis::map::{MapResult, MapSpec};
+use jeffcott_analysis::refine::Refined;
 use jeffcott_analysis::reproduce::{
-    ARTICLE_SPEEDS, BruteCounts, FULL, Lambda1Row, MapFindings, Preset, QUICK, RampFindings,
-    ReproduceSpec, SMOKE, Survey, SweepCounts, THROW, ThrowOutcome, ZOOMS, leaves_period1,
-    periods_seen, regime_cells, sum_rule, summary_rows, throw, up_down_differ,
+    ARTICLE_SPEEDS, BruteCounts, FULL, Host, Lambda1Row, MapFindings, Preset, QUICK, RampFindings,
+    RegimeCells, ReproduceResult, ReproduceSpec, SMOKE, STEPS, Section, Survey, SweepCounts, THROW,
+    Throw, ThrowOutcome, ZOOMS, leaves_period1, periods_seen, reproduce, sum_rule, summary_rows,
+    up_down_differ,
 };
-use jeffcott_analysis::simulate::simulate;
+use jeffcott_analysis::simulate::{RubOutputs, SimulateResult};
+use jeffcott_analysis::uncertainty::Reintegration;
 use jeffcott_core::ensemble::{Backend, Precision};
 use jeffcott_core::error::{Error, Result};
 use jeffcott_core::lyapunov::Spectrum;
@@ -135,7 +143,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     )?;
     let mut c = Ctx {
         a,
-        spec,
+        spec: &spec,
         dir,
         rd: &rd,
         mode: format!("--{}", preset.name),
@@ -144,29 +152,21 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
             text: String::new(),
             started: Instant::now(),
         },
-        static_class: Vec::new(),
     };
-    bifurcation_figures(&mut c)?;
-    enlargements(&mut c)?;
-    let sv = survey_and_spectra(&mut c)?;
-    portraits(&mut c, &sv)?;
-    basin_section(&mut c, &sv)?;
-    sections_135_140(&mut c, &sv)?;
-    design_chart(&mut c)?;
-    continuation_section(&mut c)?;
-    rub_section(&mut c)?;
+    let ReproduceResult {
+        survey,
+        static_class,
+    } = reproduce(&spec, &mut c)?;
     let Ctx {
-        ref spec,
         ref mode,
         ref backend,
         ref rep,
-        ref static_class,
         ..
     } = c;
     let (p, cfg) = (&spec.preset, &spec.catalogue);
 
     // REPORT.md.
-    say(a, "[11/11] REPORT.md");
+    say(a, &format!("[{STEPS}/{STEPS}] REPORT.md"));
     let mut head = String::new();
     let _ = write!(
         head,
@@ -177,7 +177,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         rep.started.elapsed().as_secs_f64()
     );
     head += "## Summary at the article's speeds\n\n| W [rad/s] | article | from the static equilibrium | lambda_1 [1/s] (full spectrum) | survey of seeded start states |\n|---|---|---|---|---|\n";
-    for row in summary_rows(&sv.survey, static_class) {
+    for row in summary_rows(&survey, &static_class) {
         let _ = writeln!(
             head,
             "| {} | {} | {} | {} | {} |",
@@ -189,10 +189,10 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         );
     }
     head += &spectra_table(
-        &sv.survey.spectra,
+        &survey.spectra,
         &spec.params,
-        sv.survey.spectra_seconds,
-        &sv.spectrum_cmd,
+        survey.spectra_seconds,
+        &spectrum_cmd(&spec),
     );
     let _ = write!(
         head,
@@ -201,7 +201,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         p.survey_transient,
         p.survey_periods,
         survey_cmd(p, 0.0).replace("--omega 0 ", "--omega W "),
-        sv.survey.seconds,
+        survey.seconds,
         cfg.lambda_tol
     );
     let text = head + &rep.text;
@@ -232,26 +232,132 @@ struct RunSpec {
     precision: Precision,
 }
 
-/// What every section of `reproduce` shares: the arguments, the figure set's
-/// specification, the output directory and its run, the report being written, and the
-/// class found from the static equilibrium at each speed simulated (for the summary
-/// table).
+/// The command line as the figure set's host: the arguments, the set's specification,
+/// the output directory and its run (every study's units under its own prefix), and the
+/// report being written. Each section draws its figures, writes its studies' files into
+/// a sub-folder as the study's own command would, and adds its text.
 struct Ctx<'a> {
     a: &'a ReproduceArgs,
-    spec: ReproduceSpec,
+    spec: &'a ReproduceSpec,
     dir: &'a Path,
     rd: &'a jeffcott_analysis::run::RunDir,
     mode: String,
     backend: String,
     rep: Report,
-    static_class: Vec<(f64, Class)>,
 }
 
-/// The survey at the article's speeds and their full spectra, with the command behind
-/// the spectra.
-struct SurveyText {
-    survey: Survey,
-    spectrum_cmd: String,
+impl Host for Ctx<'_> {
+    fn begin(&mut self, step: usize, what: &str) {
+        say(self.a, &format!("[{step}/{STEPS}] {what}"));
+    }
+
+    fn store(&self) -> &dyn jeffcott_analysis::run::UnitStore {
+        self.rd
+    }
+
+    fn progress<T>(
+        &self,
+        label: &str,
+        total: u64,
+        per_lane: u64,
+        work: impl FnOnce(jeffcott_core::control::Control) -> Result<T>,
+    ) -> Result<T> {
+        let bar = crate::progress::Bar::new(label, total, per_lane, self.a.quiet);
+        let cancel = super::rundir::cancel();
+        let cb = super::rundir::bar_callback(&bar);
+        let r = work(jeffcott_core::control::Control {
+            progress: &cb,
+            cancel: &cancel,
+        });
+        bar.finish();
+        r
+    }
+
+    fn section(&mut self, section: Section<'_>) -> Result<()> {
+        match section {
+            Section::Bifurcation { spec, res } => bifurcation_figures(self, spec, res),
+            Section::Zoom {
+                k,
+                spec,
+                res,
+                seconds,
+            } => enlargement(self, k, spec, res, seconds),
+            Section::Portrait {
+                figure,
+                omega,
+                res,
+                class,
+                survey,
+                seconds,
+            } => portrait(self, figure, omega, res, class, survey, seconds),
+            Section::Basin {
+                coarse,
+                spec,
+                res,
+                refined,
+                reintegration,
+                class,
+                survey,
+                seconds,
+            } => basin_section(
+                self,
+                &BasinFigures {
+                    coarse,
+                    spec,
+                    res,
+                    refined,
+                    reintegration,
+                    class,
+                    survey,
+                    seconds,
+                },
+            ),
+            Section::Section {
+                index,
+                omega,
+                res,
+                class,
+                survey,
+                seconds,
+            } => section_figures(self, index, omega, res, class, survey, seconds),
+            Section::DesignChart {
+                spec,
+                res,
+                findings,
+                seconds,
+            } => design_chart(self, spec, res, findings, seconds),
+            Section::Continuation {
+                spec,
+                res,
+                ramps,
+                seconds,
+            } => continuation_section(self, spec, res, ramps, seconds),
+            Section::RubMap {
+                spec,
+                res,
+                regimes,
+                throws,
+                soft_modes,
+                seconds,
+            } => rub_map(self, spec, res, regimes, throws, soft_modes, seconds),
+            Section::Cascade { spec, res, seconds } => cascade_section(self, spec, res, seconds),
+            Section::Spectrum {
+                omega,
+                res,
+                rub,
+                seconds,
+            } => spectrum_section(self, omega, res, rub, seconds),
+        }
+    }
+}
+
+/// The command behind the full spectra.
+fn spectrum_cmd(spec: &ReproduceSpec) -> String {
+    let scfg = spec.spectrum_config();
+    format!(
+        "jeffcott lyapunov --omega W --transient {} --min-time {} --time {}",
+        scfg.transient, scfg.min_time, scfg.max_time
+    )
 }
 
 /// lambda_1 of a full spectrum with its error ("-" without one).
@@ -280,14 +386,6 @@ fn copy(dir: &Path, from: &Path, to: &str) -> Result<()> {
     })
 }
 
-/// The units of one study of the figure set, kept apart under `prefix` in the run.
-fn store<'a>(
-    rd: &'a jeffcott_analysis::run::RunDir,
-    prefix: &'static str,
-) -> jeffcott_analysis::run::Prefixed<'a> {
-    jeffcott_analysis::run::Prefixed { inner: rd, prefix }
-}
-
 /// A progress line on stderr (not with --quiet).
 fn say(a: &ReproduceArgs, s: &str) {
     if !a.quiet {
@@ -306,23 +404,16 @@ fn sweep_found(sw: &[jeffcott_analysis::bifurcation::SweepPoint]) -> String {
 }
 
 /// Figs. 3 and 4, the down sweep and the brute-force diagram: one bifurcation study over
-/// [130, 141]; returns its specification (the enlargements reuse it).
-fn bifurcation_figures(c: &mut Ctx) -> Result<()> {
+/// [130, 141].
+fn bifurcation_figures(c: &mut Ctx, spec: &BifurcationSpec, res: &BifurcationResult) -> Result<()> {
     let Ctx {
-        a,
-        ref spec,
         dir,
-        rd,
         ref backend,
         ref mut rep,
         ..
     } = *c;
-    let (p, cfg) = (spec.preset, spec.catalogue);
-    // Figs. 3-4, the down sweep and the brute force: one study over [130, 141].
-    say(a, "[1/11] bifurcation diagram over 130..141 rad/s");
-    let spec = spec.bifurcation()?;
-    let res = run_study(&spec, &store(rd, "bifurcation"), a.quiet)?;
-    write_bifurcation(&dir.join("bifurcation"), &spec, &res, &[VX_S, VX_R], true)?;
+    let (p, cfg) = (c.spec.preset, c.spec.catalogue);
+    write_bifurcation(&dir.join("bifurcation"), spec, res, &[VX_S, VX_R], true)?;
     let bif_cmd = format!(
         "jeffcott bifurcation --omega 130:141:{} --coord vx_s,vx_r --sweep both --ics {} --transient {} --transient-first {} --brute-transient {} --periods {} --max-seeds {} --backend {backend} --out {}/bifurcation",
         p.speeds,
@@ -368,8 +459,8 @@ fn bifurcation_figures(c: &mut Ctx) -> Result<()> {
             &format!("{name} (quasistatic sweep, {} speeds)", p.speeds),
             &[coord],
             w,
-            &diagram_series(&spec, &res, true, false, false),
-            &lambda1_series(&spec, &res, true, false, false),
+            &diagram_series(spec, res, true, false, false),
+            &lambda1_series(spec, res, true, false, false),
         )?;
         rep.figure(
             name,
@@ -385,14 +476,14 @@ fn bifurcation_figures(c: &mut Ctx) -> Result<()> {
             res.sweep_seconds,
         );
     }
-    let differ = up_down_differ(&res);
+    let differ = up_down_differ(res);
     plot::bifurcation_diagram(
         &dir.join("fig_down_sweep.png"),
         "Up and down quasistatic sweeps (hysteresis shows where they differ)",
         &[VX_S, VX_R],
         w,
-        &diagram_series(&spec, &res, true, true, false),
-        &lambda1_series(&spec, &res, true, true, false),
+        &diagram_series(spec, res, true, true, false),
+        &lambda1_series(spec, res, true, true, false),
     )?;
     rep.figure(
         "Down sweep (not in the article): W decreasing, over the up sweep",
@@ -427,10 +518,10 @@ fn bifurcation_figures(c: &mut Ctx) -> Result<()> {
         ),
         &[VX_S, VX_R],
         w,
-        &diagram_series(&spec, &res, false, false, true),
-        &lambda1_series(&spec, &res, false, false, true),
+        &diagram_series(spec, res, false, false, true),
+        &lambda1_series(spec, res, false, false, true),
     )?;
-    let brute = BruteCounts::of(&res);
+    let brute = BruteCounts::of(res);
     rep.figure(
         "Brute-force diagram (not in the article)",
         "fig_brute_force.png",
@@ -450,23 +541,20 @@ fn bifurcation_figures(c: &mut Ctx) -> Result<()> {
     Ok(())
 }
 
-/// The enlargements of Fig. 3 (up sweeps over the article's zoom ranges).
-fn enlargements(c: &mut Ctx) -> Result<()> {
+/// Enlargement `k` of Fig. 3 (an up sweep over one of the article's zoom ranges).
+fn enlargement(
+    c: &mut Ctx,
+    k: usize,
+    zspec: &BifurcationSpec,
+    zres: &BifurcationResult,
+    seconds: f64,
+) -> Result<()> {
     let Ctx {
-        a,
-        ref spec,
-        dir,
-        rd,
-        ref mut rep,
-        ..
+        dir, ref mut rep, ..
     } = *c;
-    let p = spec.preset;
-    // Enlargements of Fig. 3.
-    say(a, "[2/11] enlargements of Fig. 3");
-    for (k, &(lo, hi)) in ZOOMS.iter().enumerate() {
-        let t = Instant::now();
-        let zspec = spec.zoom(k)?;
-        let zres = run_study(&zspec, &store(rd, ["zoom0", "zoom1"][k]), a.quiet)?;
+    let p = c.spec.preset;
+    let (lo, hi) = ZOOMS[k];
+    {
         let fig = format!("fig03{}_zoom_{lo}-{hi}.png", ["b", "c"][k]);
         plot::bifurcation_diagram(
             &dir.join(&fig),
@@ -476,8 +564,8 @@ fn enlargements(c: &mut Ctx) -> Result<()> {
             ),
             &[VX_S],
             (lo, hi),
-            &diagram_series(&zspec, &zres, true, false, false),
-            &lambda1_series(&zspec, &zres, true, false, false),
+            &diagram_series(zspec, zres, true, false, false),
+            &lambda1_series(zspec, zres, true, false, false),
         )?;
         let periods = periods_seen(&zres.up);
         rep.figure(
@@ -492,145 +580,85 @@ fn enlargements(c: &mut Ctx) -> Result<()> {
                 "jeffcott bifurcation --omega {lo}:{hi}:{} --coord vx_s --sweep up --ics 0 --transient {} --transient-first {} --periods {} --out {}/zoom{k}",
                 p.zoom_speeds, p.sweep_transient, p.sweep_first, p.periods, dir.display()
             ),
-            t.elapsed().as_secs_f64(),
-        );
-    }
-    Ok(())
-}
-
-/// The article's speeds: a survey of seeded start states at each (lambda_1 per lane) and
-/// the full Lyapunov spectrum from the static equilibrium.
-fn survey_and_spectra(c: &mut Ctx) -> Result<SurveyText> {
-    let Ctx { a, ref spec, .. } = *c;
-    let p = spec.preset;
-    // The article's speeds: a survey of start states at each.
-    say(a, "[3/11] attractor survey at the article's speeds");
-    let per_lane = (p.survey_transient + p.survey_periods) as u64;
-    let lanes = (ARTICLE_SPEEDS.len() as u64) * p.survey_ics as u64;
-    let bar = crate::progress::Bar::new("survey", lanes * per_lane, per_lane, a.quiet);
-    let survey = Survey::run_survey(
-        spec,
-        jeffcott_core::control::Control::progress(&bar.callback(0)),
-    );
-    bar.finish();
-    let (catalogues, seconds) = survey?;
-
-    // The full Lyapunov spectrum at each article speed, from the static equilibrium
-    // (independent, in parallel).
-    say(a, "[4/11] Lyapunov spectra at the article's speeds");
-    let (spectra, spectra_seconds) = Survey::run_spectra(spec)?;
-    let scfg = spec.spectrum_config();
-    let spectrum_cmd = format!(
-        "jeffcott lyapunov --omega W --transient {} --min-time {} --time {}",
-        scfg.transient, scfg.min_time, scfg.max_time
-    );
-    Ok(SurveyText {
-        survey: Survey {
-            catalogues,
             seconds,
-            spectra,
-            spectra_seconds,
-        },
-        spectrum_cmd,
-    })
-}
-
-/// Figs. 5 and 6: phase portraits at 131.7 and 132.2 rad/s from the static equilibrium.
-fn portraits(c: &mut Ctx, sv: &SurveyText) -> Result<()> {
-    let Ctx {
-        a,
-        dir,
-        ref mut rep,
-        ref mut static_class,
-        ref spec,
-        ..
-    } = *c;
-    let p = spec.preset;
-    let cfg = spec.catalogue;
-    // Figs. 5-6: phase portraits at 131.7 and 132.2 from the static equilibrium.
-    say(a, "[5/11] phase portraits at 131.7 and 132.2 rad/s");
-    for (i, (fig, omega)) in [
-        ("fig05_phase_131.7.png", 131.7),
-        ("fig06_phase_132.2.png", 132.2),
-    ]
-    .into_iter()
-    .enumerate()
-    {
-        let t = Instant::now();
-        let r = simulate(&spec.portrait(omega))?;
-        let refined = sv
-            .survey
-            .refine(r.classification.class, omega, cfg.lambda_tol);
-        let class = refined.label();
-        plot::phase_portraits(
-            &dir.join(fig),
-            &format!(
-                "Fig. {}: W = {omega} rad/s from the static equilibrium: {class}",
-                5 + i
-            ),
-            &r.timeseries,
-            &r.poincare,
-        )?;
-        static_class.push((omega, refined));
-        rep.figure(
-            &format!("Fig. {}: phase spaces and Poincare section at W = {omega} rad/s", 5 + i),
-            fig,
-            &format!(
-                "From the static equilibrium after 1000 periods: **{class}**, lambda_1 = {} (full spectrum in the table at the top) (the article: {}). Survey of {} start states: {}.",
-                l1_text(sv.survey.spectrum(omega)),
-                ARTICLE_SPEEDS[i].1,
-                p.survey_ics,
-                describe(&sv.survey.catalogues[i])
-            ),
-            &format!("jeffcott simulate --omega {omega} --transient 1000 --periods 64 --timeseries-periods 4"),
-            t.elapsed().as_secs_f64(),
         );
     }
     Ok(())
+}
+
+/// Fig. 5 or 6: the phase portrait at 131.7 or 132.2 rad/s from the static equilibrium.
+fn portrait(
+    c: &mut Ctx,
+    figure: usize,
+    omega: f64,
+    r: &SimulateResult,
+    class: Class,
+    survey: &Survey,
+    seconds: f64,
+) -> Result<()> {
+    let Ctx {
+        dir, ref mut rep, ..
+    } = *c;
+    let p = c.spec.preset;
+    let i = figure - 5;
+    let fig = ["fig05_phase_131.7.png", "fig06_phase_132.2.png"][i];
+    let class = class.label();
+    plot::phase_portraits(
+        &dir.join(fig),
+        &format!("Fig. {figure}: W = {omega} rad/s from the static equilibrium: {class}"),
+        &r.timeseries,
+        &r.poincare,
+    )?;
+    rep.figure(
+        &format!("Fig. {figure}: phase spaces and Poincare section at W = {omega} rad/s"),
+        fig,
+        &format!(
+            "From the static equilibrium after 1000 periods: **{class}**, lambda_1 = {} (full spectrum in the table at the top) (the article: {}). Survey of {} start states: {}.",
+            l1_text(survey.spectrum(omega)),
+            ARTICLE_SPEEDS[i].1,
+            p.survey_ics,
+            describe(&survey.catalogues[i])
+        ),
+        &format!("jeffcott simulate --omega {omega} --transient 1000 --periods 64 --timeseries-periods 4"),
+        seconds,
+    );
+    Ok(())
+}
+
+/// The basin section's results ([`Section::Basin`]).
+struct BasinFigures<'a> {
+    coarse: &'a BasinSpec,
+    spec: &'a BasinSpec,
+    res: &'a BasinResult,
+    refined: Option<&'a Refined>,
+    reintegration: Option<&'a Reintegration>,
+    class: Class,
+    survey: &'a Survey,
+    seconds: f64,
 }
 
 /// Figs. 7 and 8: the basin at 133 rad/s (refined at its boundary), its coexisting
 /// attractors and its measures.
-fn basin_section(c: &mut Ctx, sv: &SurveyText) -> Result<()> {
+fn basin_section(c: &mut Ctx, f: &BasinFigures) -> Result<()> {
     let Ctx {
-        a,
         dir,
-        rd,
         ref backend,
         ref mut rep,
-        ref mut static_class,
-        ref spec,
         ..
     } = *c;
-    let p = spec.preset;
-    let cfg = spec.catalogue;
-    // Figs. 7-8: basin at 133 and its coexisting attractors.
-    say(a, "[6/11] basin of attraction at 133 rad/s");
-    let t = Instant::now();
-    let n = p.basin_n;
-    let bspec = spec.basin();
-    let bres = run_basin_study(&bspec, &store(rd, "basin_133"), a.quiet)?;
+    let p = c.spec.preset;
+    let (bspec, bres, refined, reint) = (f.spec, f.res, f.refined, f.reintegration);
+    let n = f.coarse.x.n;
     let bdir = dir.join("basin_133");
-    // Boundary refinement: the basin at ((n - 1) 2^K + 1)^2, the measures on it.
-    let (bspec, bres, refined) = if p.basin_refine > 0 {
-        let (s, r, f) = super::basin::refine_basin(
-            &bspec,
-            bres,
-            &store(rd, "basin_133"),
-            p.basin_refine,
-            a.quiet,
-        )?;
-        jeffcott_analysis::output::ensure_dir(&bdir)?;
+    jeffcott_analysis::output::ensure_dir(&bdir)?;
+    if let Some(r) = refined {
         jeffcott_analysis::output::write_npy(
             &bdir.join("refined.npy"),
-            &[f.ny, f.nx],
-            &f.computed,
+            &[r.ny, r.nx],
+            &r.computed,
         )?;
-        (s, r, Some(f))
-    } else {
-        (bspec, bres, None)
-    };
-    let refine_text = match &refined {
+    }
+    let refine_text = match refined {
         Some(f) => {
             let lanes: usize = f.levels.iter().map(|l| l.lanes).sum();
             format!(
@@ -646,29 +674,17 @@ fn basin_section(c: &mut Ctx, sv: &SurveyText) -> Result<()> {
         }
         None => String::new(),
     };
-    let basin_rub = write_basin(&bdir, &bspec, &bres, true)?;
-    let reint = super::basin::reintegrate(
-        &bspec,
-        &bres,
-        &store(rd, "basin_133"),
-        p.uncertainty_samples,
-        a.quiet,
-    )?;
+    let basin_rub = write_basin(&bdir, bspec, bres, true)?;
     let bmetrics = super::basin::write_metrics(
         &bdir,
-        &bspec,
-        &bres,
+        bspec,
+        bres,
         jeffcott_analysis::measures::DEFAULT_ENTROPY_BOX.min(bspec.x.n.min(bspec.y.n)),
-        reint.as_ref(),
+        reint,
         true,
     )?;
     copy(dir, &bdir.join("basin.png"), "fig07_basin_133.png")?;
-    let basin_s = t.elapsed().as_secs_f64();
-    let r133 = simulate(&spec.portrait(133.0))?;
-    let class133 = sv
-        .survey
-        .refine(r133.classification.class, 133.0, cfg.lambda_tol);
-    static_class.push((133.0, class133));
+    let basin_s = f.seconds;
     let basin_cmd = format!(
         "jeffcott basin --omega 133 --x x_r:-0.006:0.006:{n} --y vx_r:-1:1:{n} --transient {} --periods {} --refine {} --uncertainty-samples {} --backend {backend} --out {}/basin_133",
         p.basin_transient,
@@ -683,10 +699,10 @@ fn basin_section(c: &mut Ctx, sv: &SurveyText) -> Result<()> {
         &format!(
             "{n} x {n} start states (other coordinates at the static equilibrium): {}. From the static equilibrium itself: **{}**, lambda_1 = {}. Rub on the attractors: {basin_rub}.{refine_text} Basin measures (`basin_133/basin_metrics.json`, docs/basin-measures.md; f(eps) of both methods in `basin_133/uncertainty.png`): {}{}.",
             describe(&bres.catalogue),
-            class133.label(),
-            l1_text(sv.survey.spectrum(133.0)),
+            f.class.label(),
+            l1_text(f.survey.spectrum(133.0)),
             bmetrics.summary(),
-            reint.as_ref().map(|r| format!("; {}", r.summary())).unwrap_or_default()
+            reint.map(|r| format!("; {}", r.summary())).unwrap_or_default()
         ),
         &basin_cmd,
         basin_s,
@@ -704,7 +720,7 @@ fn basin_section(c: &mut Ctx, sv: &SurveyText) -> Result<()> {
                 "{} attractor(s) coexist; each drawn over one pass from a point of its Poincare set (same run as Fig. 7). Survey of {} seeded start states: {}.",
                 bres.catalogue.attractors.len(),
                 p.survey_ics,
-                describe(&sv.survey.catalogues[2])
+                describe(&f.survey.catalogues[2])
             ),
             &basin_cmd,
             basin_s,
@@ -713,40 +729,31 @@ fn basin_section(c: &mut Ctx, sv: &SurveyText) -> Result<()> {
     Ok(())
 }
 
-/// Figs. 9 to 12: phase portraits and Poincare sections at 135 and 140 rad/s.
-fn sections_135_140(c: &mut Ctx, sv: &SurveyText) -> Result<()> {
+/// Figs. 9 to 12: the phase portrait and Poincare sections at 135 or 140 rad/s.
+fn section_figures(
+    c: &mut Ctx,
+    i: usize,
+    omega: f64,
+    r: &SimulateResult,
+    class: Class,
+    sv: &Survey,
+    seconds: f64,
+) -> Result<()> {
     let Ctx {
-        a,
-        dir,
-        ref mut rep,
-        ref mut static_class,
-        ref spec,
-        ..
+        dir, ref mut rep, ..
     } = *c;
-    let p = spec.preset;
-    let cfg = spec.catalogue;
-    // Figs. 9-12: sections at 135 and 140.
-    say(
-        a,
-        "[7/11] phase portraits and Poincare sections at 135 and 140 rad/s",
-    );
-    for (i, omega) in [(3usize, 135.0), (4, 140.0)] {
-        let t = Instant::now();
-        let r = simulate(&spec.section(omega))?;
-        let refined = sv
-            .survey
-            .refine(r.classification.class, omega, cfg.lambda_tol);
-        let class = refined.label();
-        static_class.push((omega, refined));
+    let (p, cfg) = (c.spec.preset, c.spec.catalogue);
+    {
+        let class = class.label();
         let found = format!(
             "From the static equilibrium, {} Poincare points after {} periods: **{class}** (no period up to 32; lambda_1 = {} from the full spectrum, quasiperiodic when |lambda_1| < {} 1/s, chaotic above) (the article: {}). Survey of {} start states (lambda_1 per lane): {}.",
             p.section_points,
             p.section_transient,
-            l1_text(sv.survey.spectrum(omega)),
+            l1_text(sv.spectrum(omega)),
             cfg.lambda_tol,
             ARTICLE_SPEEDS[i].1,
             p.survey_ics,
-            describe(&sv.survey.catalogues[i])
+            describe(&sv.catalogues[i])
         );
         let cmd = format!(
             "jeffcott simulate --omega {omega} --transient {} --periods {} --timeseries-periods 8",
@@ -773,7 +780,7 @@ fn sections_135_140(c: &mut Ctx, sv: &SurveyText) -> Result<()> {
                 &[(X_S, VX_S), (X_R, VX_R)],
                 Some(0.3),
             )?;
-            let s = t.elapsed().as_secs_f64();
+            let s = seconds;
             rep.figure(
                 "Fig. 9: phase spaces at W = 135 rad/s",
                 "fig09_phase_135.png",
@@ -810,7 +817,7 @@ fn sections_135_140(c: &mut Ctx, sv: &SurveyText) -> Result<()> {
                 &[(X_R, VX_R), (X_R, Y_R)],
                 None,
             )?;
-            let s = t.elapsed().as_secs_f64();
+            let s = seconds;
             rep.figure(
                 "Fig. 11: stator section at W = 140 rad/s",
                 "fig11_section_stator_140.png",
@@ -831,32 +838,28 @@ fn sections_135_140(c: &mut Ctx, sv: &SurveyText) -> Result<()> {
 }
 
 /// Beyond the article: a design chart over (W, e).
-fn design_chart(c: &mut Ctx) -> Result<()> {
+fn design_chart(
+    c: &mut Ctx,
+    mspec: &MapSpec,
+    mres: &MapResult,
+    f: &MapFindings,
+    seconds: f64,
+) -> Result<()> {
     let Ctx {
-        a,
         dir,
-        rd,
         ref backend,
         ref mut rep,
-        ref spec,
         ..
     } = *c;
-    let p = spec.preset;
-    // Beyond the article: a design chart over (W, e) and the continuation over W.
-    say(a, "[8/11] design chart: speed against unbalance");
-    let t = Instant::now();
-    let mspec = spec.design_map();
-    mspec.validate()?;
-    let mres = super::map::run_map_study(&mspec, &store(rd, "map_w_e"), a.quiet)?;
+    let p = c.spec.preset;
     let mdir = dir.join("map_w_e");
-    super::map::write_map(&mdir, &mspec, &mres, true)?;
+    super::map::write_map(&mdir, mspec, mres, true)?;
     copy(dir, &mdir.join("map_period.png"), "map_w_e_period.png")?;
     copy(
         dir,
         &mdir.join("map_multistability.png"),
         "map_w_e_multistability.png",
     )?;
-    let f = MapFindings::of(&mspec, &mres, 0.001);
     let map_cmd = format!(
         "jeffcott map --x omega:128:142:{} --y e:0.0002:0.002:{} --ics {} --transient {} --periods {} --backend {backend} --out {}/map_w_e",
         p.map_nx,
@@ -889,36 +892,32 @@ fn design_chart(c: &mut Ctx) -> Result<()> {
             }
         ),
         &map_cmd,
-        t.elapsed().as_secs_f64(),
+        seconds,
     );
     Ok(())
 }
 
 /// Beyond the article: the attractor continuation over 130..141 rad/s, run-up and run-down.
-fn continuation_section(c: &mut Ctx) -> Result<()> {
+fn continuation_section(
+    c: &mut Ctx,
+    cspec: &ContinuationSpec,
+    cres: &ContinuationResult,
+    ramps: &[RampFindings],
+    seconds: f64,
+) -> Result<()> {
     let Ctx {
-        a,
         dir,
-        rd,
         ref backend,
         ref mut rep,
-        ref spec,
         ..
     } = *c;
-    let p = spec.preset;
-    say(a, "[9/11] attractor continuation over 130..141 rad/s");
-    let t = Instant::now();
-    let cspec = spec.continuation();
-    let cres =
-        super::continuation::run_continuation_study(&cspec, &store(rd, "continuation"), a.quiet)?;
+    let p = c.spec.preset;
     let cdir = dir.join("continuation");
-    super::continuation::write_continuation(&cdir, &cspec, &cres, true)?;
+    super::continuation::write_continuation(&cdir, cspec, cres, true)?;
     copy(dir, &cdir.join("continuation.png"), "continuation.png")?;
-    let ramp_text: Vec<String> = cres
-        .ramps
+    let ramp_text: Vec<String> = ramps
         .iter()
-        .map(|r| {
-            let f = RampFindings::of(r);
+        .map(|f| {
             let w = f.worst;
             format!(
                 "run-{}: {} attractors followed, at most {} at one speed; basins shared by two or more at {} of {} speeds{}; largest one-step tipping probability {:.2} (attractor #{} at {:.2} rad/s to {} at the next speed)",
@@ -955,38 +954,33 @@ fn continuation_section(c: &mut Ctx) -> Result<()> {
             p.cont_periods,
             dir.display()
         ),
-        t.elapsed().as_secs_f64(),
+        seconds,
     );
     Ok(())
 }
 
-/// Rub regimes beyond the article's range: a (W, mu) map, backward whirl, a full-spectrum
-/// cascade, the full spectrum at 132.2.
-fn rub_section(c: &mut Ctx) -> Result<()> {
+/// Rub regimes beyond the article's range: the (W, mu) map and the backward throws.
+#[allow(clippy::too_many_arguments)]
+fn rub_map(
+    c: &mut Ctx,
+    rspec: &MapSpec,
+    rres: &MapResult,
+    regimes: &[RegimeCells],
+    throws: &[Throw],
+    soft_modes: &[(String, f64)],
+    seconds: f64,
+) -> Result<()> {
     let Ctx {
-        a,
         dir,
-        rd,
         ref backend,
         ref mut rep,
-        ref spec,
         ..
     } = *c;
-    let p = spec.preset;
-    let params = &spec.params;
-    // Rub regimes beyond the article's range: a (W, mu) map, a cascade, a full spectrum.
-    say(
-        a,
-        "[10/11] rub regimes: (W, mu) map, full-spectrum cascade, full spectrum at 132.2",
-    );
-    let t = Instant::now();
-    let rspec = spec.rub_map();
-    rspec.validate()?;
-    let rres = super::map::run_map_study(&rspec, &store(rd, "map_w_mu"), a.quiet)?;
+    let p = c.spec.preset;
     let rdir = dir.join("map_w_mu");
-    super::map::write_map(&rdir, &rspec, &rres, true)?;
+    super::map::write_map(&rdir, rspec, rres, true)?;
     copy(dir, &rdir.join("map_regime.png"), "rub_regimes_w_mu.png")?;
-    let found: Vec<String> = regime_cells(&rspec, &rres)
+    let found: Vec<String> = regimes
         .iter()
         .map(|r| match (r.x, r.y) {
             (Some((lo, hi)), Some((mlo, mhi))) => format!(
@@ -998,29 +992,27 @@ fn rub_section(c: &mut Ctx) -> Result<()> {
         })
         .collect();
     // Backward whirl from a backward throw, stiff and soft contact (docs/rub.md).
-    let thrown = |mu: f64, k_c: f64| -> Result<String> {
-        let cmd = format!(
-            "`jeffcott simulate --omega 140 --param mu={mu},k_c={k_c:e} --init x_r={},vy_r={}`",
-            THROW.0, THROW.1
-        );
-        Ok(match throw(spec, mu, k_c)? {
-            ThrowOutcome::Diverged { status, periods } => {
-                format!("diverged ({status:?}) within the {periods} periods integrated ({cmd})")
+    let thrown: Vec<String> = throws
+        .iter()
+        .map(|t| {
+            let (mu, k_c) = (t.mu, t.k_c);
+            let cmd = format!(
+                "`jeffcott simulate --omega 140 --param mu={mu},k_c={k_c:e} --init x_r={},vy_r={}`",
+                THROW.0, THROW.1
+            );
+            match &t.outcome {
+                ThrowOutcome::Diverged { status, periods } => {
+                    format!("diverged ({status:?}) within the {periods} periods integrated ({cmd})")
+                }
+                ThrowOutcome::Settled(o) => format!(
+                    "settles on {} ({cmd}): {}",
+                    o.figures.regime.label(),
+                    super::rubout::rub_sentence(o)
+                ),
+                ThrowOutcome::StretchDiverged => "diverges".to_string(),
             }
-            ThrowOutcome::Settled(o) => format!(
-                "settles on {} ({cmd}): {}",
-                o.figures.regime.label(),
-                super::rubout::rub_sentence(&o)
-            ),
-            ThrowOutcome::StretchDiverged => "diverges".to_string(),
         })
-    };
-    let whip_stiff = thrown(0.3, 1e8)?;
-    let whip_soft = thrown(0.25, 1e6)?;
-    let soft_modes = jeffcott_analysis::rub::natural_frequencies(&Params {
-        k_c: 1e6,
-        ..params.clone()
-    });
+        .collect();
     rep.figure(
         "Rub regimes over speed and friction (beyond the article)",
         "rub_regimes_w_mu.png",
@@ -1029,8 +1021,8 @@ fn rub_section(c: &mut Ctx) -> Result<()> {
             p.rub_nx,
             p.rub_ny,
             found.join("; "),
-            whip_stiff,
-            whip_soft,
+            thrown[0],
+            thrown[1],
             soft_modes[2].1,
             soft_modes[3].1,
             soft_modes[0].1,
@@ -1043,23 +1035,27 @@ fn rub_section(c: &mut Ctx) -> Result<()> {
             p.map_periods,
             dir.display()
         ),
-        t.elapsed().as_secs_f64(),
+        seconds,
     );
-    let t = Instant::now();
-    let cspec2 = spec.cascade()?;
-    let cres2 = jeffcott_analysis::cascade::cascade_with(
-        &cspec2,
-        &store(rd, "cascade"),
-        jeffcott_core::control::Control {
-            progress: &jeffcott_core::control::no_progress,
-            cancel: &super::rundir::cancel(),
-        },
-    )?;
+    Ok(())
+}
+
+/// The full-spectrum cascade over 100..200 rad/s.
+fn cascade_section(
+    c: &mut Ctx,
+    cspec: &CascadeSpec,
+    cres: &CascadeResult,
+    seconds: f64,
+) -> Result<()> {
+    let Ctx {
+        dir, ref mut rep, ..
+    } = *c;
+    let p = c.spec.preset;
     let kdir = dir.join("cascade");
-    super::cascade::write_cascade(&kdir, &cspec2, &cres2, true, false)?;
+    super::cascade::write_cascade(&kdir, cspec, cres, true, false)?;
     copy(dir, &kdir.join("cascade_up.png"), "cascade_up.png")?;
     copy(dir, &kdir.join("cascade_down.png"), "cascade_down.png")?;
-    let regimes = jeffcott_analysis::cascade::regime_summary(&cres2);
+    let regimes = jeffcott_analysis::cascade::regime_summary(cres);
     rep.figure(
         "Full-spectrum cascade over 100..200 rad/s, run-up (run-down: cascade_down.png)",
         "cascade_up.png",
@@ -1071,40 +1067,54 @@ fn rub_section(c: &mut Ctx) -> Result<()> {
             p.cascade_speeds,
             dir.display()
         ),
-        t.elapsed().as_secs_f64(),
+        seconds,
     );
-    let t = Instant::now();
-    let r = simulate(&spec.portrait(132.2))?;
-    if let Some(o) =
-        super::rubout::rub_outputs(params, 132.2, &r.final_state, 24, &Default::default())?
-    {
-        let fdir = dir.join("spectrum_132.2");
-        jeffcott_analysis::output::ensure_dir(&fdir)?;
-        super::rubout::write_rub_outputs(
-            &fdir,
-            "W = 132.2 rad/s",
-            params,
-            &o,
-            &r.timeseries,
-            true,
-            false,
-        )?;
-        copy(
-            dir,
-            &fdir.join("full_spectrum.png"),
-            "full_spectrum_132.2.png",
-        )?;
-        copy(dir, &fdir.join("contact.png"), "contact_132.2.png")?;
-        rep.figure(
-            "Full spectrum and contact loads at W = 132.2 rad/s (period-2)",
-            "full_spectrum_132.2.png",
-            &format!(
-                "{} The orbit relative to the stator with the clearance circle and the contact force history: contact_132.2.png.",
-                super::rubout::rub_sentence(&o)
-            ),
-            "jeffcott simulate --omega 132.2",
-            t.elapsed().as_secs_f64(),
-        );
-    }
+    Ok(())
+}
+
+/// The full spectrum and contact loads at 132.2 rad/s (nothing when its stretch
+/// diverged).
+fn spectrum_section(
+    c: &mut Ctx,
+    omega: f64,
+    r: &SimulateResult,
+    rub: Option<&RubOutputs>,
+    seconds: f64,
+) -> Result<()> {
+    let Ctx {
+        dir, ref mut rep, ..
+    } = *c;
+    let Some(o) = rub else { return Ok(()) };
+    let fdir = dir.join(format!("spectrum_{omega}"));
+    jeffcott_analysis::output::ensure_dir(&fdir)?;
+    super::rubout::write_rub_outputs(
+        &fdir,
+        &format!("W = {omega} rad/s"),
+        &c.spec.params,
+        o,
+        &r.timeseries,
+        true,
+        false,
+    )?;
+    copy(
+        dir,
+        &fdir.join("full_spectrum.png"),
+        &format!("full_spectrum_{omega}.png"),
+    )?;
+    copy(
+        dir,
+        &fdir.join("contact.png"),
+        &format!("contact_{omega}.png"),
+    )?;
+    rep.figure(
+        &format!("Full spectrum and contact loads at W = {omega} rad/s (period-2)"),
+        &format!("full_spectrum_{omega}.png"),
+        &format!(
+            "{} The orbit relative to the stator with the clearance circle and the contact force history: contact_{omega}.png.",
+            super::rubout::rub_sentence(o)
+        ),
+        &format!("jeffcott simulate --omega {omega}"),
+        seconds,
+    );
     Ok(())
 }

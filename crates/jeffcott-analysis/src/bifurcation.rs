@@ -269,8 +269,8 @@ pub struct BifurcationResult {
     pub brute_info: Option<RunInfo>,
 }
 
-/// Lane-periods a study integrates (for progress bars), counting both brute-force passes
-/// at their largest.
+/// Lane-periods a study integrates (for progress bars): each sweep exactly (its first
+/// speed with `transient_first`), both brute-force passes at their largest.
 pub fn work(spec: &BifurcationSpec) -> u64 {
     let n = spec.omegas.len() as u64;
     let sweeps = match spec.sweep {
@@ -279,7 +279,8 @@ pub fn work(spec: &BifurcationSpec) -> u64 {
         Some(_) => 1,
     };
     let per_w = (spec.transient + spec.recorded) as u64;
-    sweeps * n * per_w
+    let sweep = (spec.transient_first + spec.recorded) as u64 + n.saturating_sub(1) * per_w;
+    sweeps * sweep
         + n * spec.ics as u64 * (spec.brute_transient + spec.recorded) as u64
         + n * spec.max_seeds as u64 * (spec.brute_transient + spec.recorded) as u64
 }

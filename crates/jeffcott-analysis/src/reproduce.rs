@@ -19,15 +19,20 @@
 //! prefix of one run directory, and its own output writer into a sub-folder), draws the
 //! figures and words REPORT.md from these values.
 
-use crate::basin::{Axis, BasinSpec};
+use crate::basin::{Axis, BasinResult, BasinSpec};
 use crate::bifurcation::{BifurcationResult, BifurcationSpec, Sweep, SweepPoint, start_states};
-use crate::cascade::CascadeSpec;
+use crate::cascade::{CascadeResult, CascadeSpec};
 use crate::catalogue::{Catalogue, CatalogueConfig, catalogue_result};
 use crate::classify::Class;
-use crate::continuation::{ContinuationSpec, Direction, Ramp};
+use crate::continuation::{ContinuationResult, ContinuationSpec, Direction, Ramp};
 use crate::map::{MapAxis, MapResult, MapSpec, MapVar, code};
+use crate::refine::Refined;
 use crate::rub::RubRegime;
-use crate::simulate::{Integrator, RubOutputs, SimulateSpec, rub_outputs, simulate};
+use crate::run::{Prefixed, UnitStore};
+use crate::simulate::{
+    Integrator, RubOutputs, SimulateResult, SimulateSpec, rub_outputs, simulate,
+};
+use crate::uncertainty::Reintegration;
 use jeffcott_core::control::Control;
 use jeffcott_core::ensemble::{Backend, EnsembleResult, EnsembleSpec, LaneSpec, Precision};
 use jeffcott_core::error::Result;
@@ -571,12 +576,16 @@ impl Survey {
             .collect()
     }
 
-    /// Runs the survey ensemble on `spec.backend` (with lambda_1 per lane, so aperiodic
+    /// Runs the survey ensemble on `engine` (with lambda_1 per lane, so aperiodic
     /// attractors are told apart as quasiperiodic or chaotic) and catalogues it;
     /// `ctl.progress` counts lane-periods. Returns the catalogues and the wall time.
-    pub fn run_survey(spec: &ReproduceSpec, ctl: Control) -> Result<(Vec<Catalogue>, f64)> {
+    pub fn run_survey(
+        spec: &ReproduceSpec,
+        engine: &crate::backend::Engine,
+        ctl: Control,
+    ) -> Result<(Vec<Catalogue>, f64)> {
         let t = std::time::Instant::now();
-        let (res, _) = crate::backend::run(&spec.survey(), spec.backend, true, ctl)?;
+        let (res, _) = engine.run(&spec.survey(), true, ctl)?;
         Ok((Self::catalogues(spec, &res), t.elapsed().as_secs_f64()))
     }
 
@@ -1002,6 +1011,489 @@ pub fn summary_rows<'a>(survey: &'a Survey, static_class: &[(f64, Class)]) -> Ve
         .collect()
 }
 
+// ---------------------------------------------------------------------------------------
+// The figure set as one study
+// ---------------------------------------------------------------------------------------
+
+/// Steps of the figure set; the last, the report, is the host's.
+pub const STEPS: usize = 11;
+
+/// What the figure set needs from the program that runs it. The command line shows a
+/// progress bar per study, keeps every study's units in one run directory (so an
+/// interrupted set resumes where it stopped), then draws each section's figures, writes
+/// its studies' files and words REPORT.md.
+pub trait Host {
+    /// Step `step` of [`STEPS`] begins; `what` it computes.
+    fn begin(&mut self, step: usize, what: &str);
+    /// The store the studies keep their units in, each under its own prefix.
+    fn store(&self) -> &dyn UnitStore;
+    /// Runs `work` under a progress display named `label` (`total` lane-periods,
+    /// `per_lane` of them per lane) and the host's cancel flag.
+    fn progress<T>(
+        &self,
+        label: &str,
+        total: u64,
+        per_lane: u64,
+        work: impl FnOnce(Control) -> Result<T>,
+    ) -> Result<T>;
+    /// One section's results, in the order of the set, as soon as they are computed
+    /// (they are dropped after).
+    fn section(&mut self, section: Section<'_>) -> Result<()>;
+}
+
+/// A backward throw and where it ended.
+#[derive(Clone, Debug)]
+pub struct Throw {
+    /// Friction coefficient.
+    pub mu: f64,
+    /// Contact stiffness [N/m].
+    pub k_c: f64,
+    /// Where it ended.
+    pub outcome: ThrowOutcome,
+}
+
+/// The results of one section of the figure set.
+pub enum Section<'a> {
+    /// Figs. 3-4, the down sweep and the brute force: one study over 130..141 rad/s.
+    Bifurcation {
+        /// The study.
+        spec: &'a BifurcationSpec,
+        /// Its result.
+        res: &'a BifurcationResult,
+    },
+    /// Enlargement `k` of Fig. 3, over [`ZOOMS`]`[k]`.
+    Zoom {
+        /// Which enlargement.
+        k: usize,
+        /// The study (an up sweep).
+        spec: &'a BifurcationSpec,
+        /// Its result.
+        res: &'a BifurcationResult,
+        /// Wall time [s].
+        seconds: f64,
+    },
+    /// Fig. 5 or 6: the response from the static equilibrium at `omega`.
+    Portrait {
+        /// 5 or 6.
+        figure: usize,
+        /// Rotor speed [rad/s].
+        omega: f64,
+        /// The trajectory ([`ReproduceSpec::portrait`]).
+        res: &'a SimulateResult,
+        /// Its class, refined by the full spectrum's lambda_1.
+        class: Class,
+        /// The survey, for the text.
+        survey: &'a Survey,
+        /// Wall time [s].
+        seconds: f64,
+    },
+    /// Figs. 7-8: the basin at 133 rad/s at its finest resolution, with the refinement
+    /// and the re-integration, and the class from the static equilibrium there.
+    Basin {
+        /// The basin as computed (the coarse grid).
+        coarse: &'a BasinSpec,
+        /// The basin at its finest resolution.
+        spec: &'a BasinSpec,
+        /// Its labels and catalogue.
+        res: &'a BasinResult,
+        /// The boundary refinement, if any.
+        refined: Option<&'a Refined>,
+        /// The uncertainty exponent by re-integration, if any.
+        reintegration: Option<&'a Reintegration>,
+        /// The class from the static equilibrium, refined by lambda_1.
+        class: Class,
+        /// The survey, for the text.
+        survey: &'a Survey,
+        /// Wall time of the basin, its refinement and re-integration [s].
+        seconds: f64,
+    },
+    /// Figs. 9-12: the section from the static equilibrium at 135 or 140 rad/s.
+    Section {
+        /// Index in [`ARTICLE_SPEEDS`].
+        index: usize,
+        /// Rotor speed [rad/s].
+        omega: f64,
+        /// The trajectory ([`ReproduceSpec::section`]).
+        res: &'a SimulateResult,
+        /// Its class, refined by lambda_1.
+        class: Class,
+        /// The survey, for the text.
+        survey: &'a Survey,
+        /// Wall time [s].
+        seconds: f64,
+    },
+    /// The design chart over rotor speed and unbalance.
+    DesignChart {
+        /// The map.
+        spec: &'a MapSpec,
+        /// Its cells.
+        res: &'a MapResult,
+        /// What it shows.
+        findings: &'a MapFindings,
+        /// Wall time [s].
+        seconds: f64,
+    },
+    /// The attractor continuation over rotor speed.
+    Continuation {
+        /// The continuation.
+        spec: &'a ContinuationSpec,
+        /// Its ramps.
+        res: &'a ContinuationResult,
+        /// What each ramp found.
+        ramps: &'a [RampFindings],
+        /// Wall time [s].
+        seconds: f64,
+    },
+    /// The rub map over rotor speed and friction, and the backward throws.
+    RubMap {
+        /// The map.
+        spec: &'a MapSpec,
+        /// Its cells.
+        res: &'a MapResult,
+        /// Where each regime lies.
+        regimes: &'a [RegimeCells],
+        /// The throws with stiff and soft contact.
+        throws: &'a [Throw],
+        /// The natural frequencies with the soft contact [rad/s].
+        soft_modes: &'a [(String, f64)],
+        /// Wall time [s].
+        seconds: f64,
+    },
+    /// The full-spectrum cascade.
+    Cascade {
+        /// The cascade.
+        spec: &'a CascadeSpec,
+        /// Its spectra.
+        res: &'a CascadeResult,
+        /// Wall time [s].
+        seconds: f64,
+    },
+    /// The full spectrum and contact loads at `omega` (none when the stretch diverged).
+    Spectrum {
+        /// Rotor speed [rad/s].
+        omega: f64,
+        /// The trajectory ([`ReproduceSpec::portrait`]).
+        res: &'a SimulateResult,
+        /// Its rub figures, spectra and contact history.
+        rub: Option<&'a RubOutputs>,
+        /// Wall time [s].
+        seconds: f64,
+    },
+}
+
+/// What the report's head quotes once every section is done.
+#[derive(Clone, Debug)]
+pub struct ReproduceResult {
+    /// The survey and the full spectra at the article's speeds.
+    pub survey: Survey,
+    /// The class from the static equilibrium at each article speed simulated.
+    pub static_class: Vec<(f64, Class)>,
+}
+
+/// Computes the figure set, section by section, handing each section's results to
+/// `host` as they come. Every lane study keeps its units in `host.store()` under its own
+/// prefix, so a set interrupted and started again resumes where it stopped.
+pub fn reproduce<H: Host>(spec: &ReproduceSpec, host: &mut H) -> Result<ReproduceResult> {
+    use std::time::Instant;
+    let engine = crate::backend::Engine::new(spec.backend, spec.precision)?;
+    let p = spec.preset;
+    let lambda_tol = spec.catalogue.lambda_tol;
+
+    host.begin(1, "bifurcation diagram over 130..141 rad/s");
+    let b = spec.bifurcation()?;
+    let res = run_bifurcation(host, &b, "bifurcation")?;
+    host.section(Section::Bifurcation {
+        spec: &b,
+        res: &res,
+    })?;
+    drop(res);
+
+    host.begin(2, "enlargements of Fig. 3");
+    for k in 0..ZOOMS.len() {
+        let t = Instant::now();
+        let z = spec.zoom(k)?;
+        let res = run_bifurcation(host, &z, ["zoom0", "zoom1"][k])?;
+        host.section(Section::Zoom {
+            k,
+            spec: &z,
+            res: &res,
+            seconds: t.elapsed().as_secs_f64(),
+        })?;
+    }
+
+    host.begin(3, "attractor survey at the article's speeds");
+    let per_lane = (p.survey_transient + p.survey_periods) as u64;
+    let lanes = ARTICLE_SPEEDS.len() as u64 * p.survey_ics as u64;
+    let (catalogues, seconds) = host.progress("survey", lanes * per_lane, per_lane, |ctl| {
+        Survey::run_survey(spec, &engine, ctl)
+    })?;
+    host.begin(4, "Lyapunov spectra at the article's speeds");
+    let (spectra, spectra_seconds) = Survey::run_spectra(spec)?;
+    let survey = Survey {
+        catalogues,
+        seconds,
+        spectra,
+        spectra_seconds,
+    };
+    let mut static_class = Vec::new();
+
+    host.begin(5, "phase portraits at 131.7 and 132.2 rad/s");
+    for (figure, omega) in [(5, 131.7), (6, 132.2)] {
+        let t = Instant::now();
+        let res = simulate(&spec.portrait(omega))?;
+        let class = survey.refine(res.classification.class, omega, lambda_tol);
+        static_class.push((omega, class));
+        host.section(Section::Portrait {
+            figure,
+            omega,
+            res: &res,
+            class,
+            survey: &survey,
+            seconds: t.elapsed().as_secs_f64(),
+        })?;
+    }
+
+    host.begin(6, "basin of attraction at 133 rad/s");
+    let t = Instant::now();
+    let coarse = spec.basin();
+    let (fine, res, refined, reintegration) = run_basin(host, spec, &engine, &coarse)?;
+    let r133 = simulate(&spec.portrait(133.0))?;
+    let class = survey.refine(r133.classification.class, 133.0, lambda_tol);
+    static_class.push((133.0, class));
+    host.section(Section::Basin {
+        coarse: &coarse,
+        spec: &fine,
+        res: &res,
+        refined: refined.as_ref(),
+        reintegration: reintegration.as_ref(),
+        class,
+        survey: &survey,
+        seconds: t.elapsed().as_secs_f64(),
+    })?;
+    drop((res, refined));
+
+    host.begin(
+        7,
+        "phase portraits and Poincare sections at 135 and 140 rad/s",
+    );
+    for (index, omega) in [(3, 135.0), (4, 140.0)] {
+        let t = Instant::now();
+        let res = simulate(&spec.section(omega))?;
+        let class = survey.refine(res.classification.class, omega, lambda_tol);
+        static_class.push((omega, class));
+        host.section(Section::Section {
+            index,
+            omega,
+            res: &res,
+            class,
+            survey: &survey,
+            seconds: t.elapsed().as_secs_f64(),
+        })?;
+    }
+
+    host.begin(8, "design chart: speed against unbalance");
+    let t = Instant::now();
+    let m = spec.design_map();
+    let res = run_map(host, &engine, &m, "map_w_e")?;
+    host.section(Section::DesignChart {
+        spec: &m,
+        res: &res,
+        findings: &MapFindings::of(&m, &res, 0.001),
+        seconds: t.elapsed().as_secs_f64(),
+    })?;
+    drop(res);
+
+    host.begin(9, "attractor continuation over 130..141 rad/s");
+    let t = Instant::now();
+    let c = spec.continuation();
+    let per_lane = (c.transient + c.recorded) as u64;
+    let store = Prefixed {
+        inner: host.store(),
+        prefix: "continuation",
+    };
+    let res = host.progress("continuation", c.lane_periods(), per_lane, |ctl| {
+        crate::continuation::continuation_with(&c, &engine, &store, ctl)
+    })?;
+    let ramps: Vec<RampFindings> = res.ramps.iter().map(RampFindings::of).collect();
+    host.section(Section::Continuation {
+        spec: &c,
+        res: &res,
+        ramps: &ramps,
+        seconds: t.elapsed().as_secs_f64(),
+    })?;
+    drop(res);
+
+    host.begin(
+        10,
+        "rub regimes: (W, mu) map, full-spectrum cascade, full spectrum at 132.2",
+    );
+    let t = Instant::now();
+    let r = spec.rub_map();
+    let res = run_map(host, &engine, &r, "map_w_mu")?;
+    // Backward whirl from a backward throw, stiff and soft contact (docs/rub.md).
+    let throws = [(0.3, 1e8), (0.25, 1e6)]
+        .into_iter()
+        .map(|(mu, k_c)| {
+            Ok(Throw {
+                mu,
+                k_c,
+                outcome: throw(spec, mu, k_c)?,
+            })
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let soft_modes = crate::rub::natural_frequencies(&Params {
+        k_c: 1e6,
+        ..spec.params.clone()
+    });
+    host.section(Section::RubMap {
+        spec: &r,
+        res: &res,
+        regimes: &regime_cells(&r, &res),
+        throws: &throws,
+        soft_modes: &soft_modes,
+        seconds: t.elapsed().as_secs_f64(),
+    })?;
+    drop(res);
+    let t = Instant::now();
+    let k = spec.cascade()?;
+    let speeds = k.omegas.len() as u64 * 2;
+    let store = Prefixed {
+        inner: host.store(),
+        prefix: "cascade",
+    };
+    let res = host.progress("cascade", speeds, 1, |ctl| {
+        crate::cascade::cascade_with(&k, &store, ctl)
+    })?;
+    host.section(Section::Cascade {
+        spec: &k,
+        res: &res,
+        seconds: t.elapsed().as_secs_f64(),
+    })?;
+    drop(res);
+    let t = Instant::now();
+    let s = spec.portrait(132.2);
+    let res = simulate(&s)?;
+    let rub = rub_outputs(
+        &s.params,
+        s.omega,
+        &res.final_state,
+        24,
+        &Default::default(),
+    )?;
+    host.section(Section::Spectrum {
+        omega: s.omega,
+        res: &res,
+        rub: rub.as_ref(),
+        seconds: t.elapsed().as_secs_f64(),
+    })?;
+    Ok(ReproduceResult {
+        survey,
+        static_class,
+    })
+}
+
+/// A bifurcation study of the set, its units under `prefix`.
+fn run_bifurcation<H: Host>(
+    host: &H,
+    b: &BifurcationSpec,
+    prefix: &'static str,
+) -> Result<BifurcationResult> {
+    let store = Prefixed {
+        inner: host.store(),
+        prefix,
+    };
+    let per_lane = (b.brute_transient + b.recorded) as u64;
+    host.progress(
+        "bifurcation",
+        crate::bifurcation::work(b),
+        per_lane,
+        |ctl| crate::bifurcation::bifurcation_with(b, &store, ctl),
+    )
+}
+
+/// A map of the set, its units under `prefix`.
+fn run_map<H: Host>(
+    host: &H,
+    engine: &crate::backend::Engine,
+    m: &MapSpec,
+    prefix: &'static str,
+) -> Result<MapResult> {
+    let store = Prefixed {
+        inner: host.store(),
+        prefix,
+    };
+    let per_lane = (m.transient + m.recorded) as u64;
+    host.progress("map", m.lane_periods(), per_lane, |ctl| {
+        crate::map::map_with(m, engine, &store, ctl)
+    })
+}
+
+/// The basin at 133 rad/s, refined and re-integrated as the preset asks, its units
+/// under `basin_133`: the finest grid's spec and result, the refinement, the
+/// re-integration.
+#[allow(clippy::type_complexity)]
+fn run_basin<H: Host>(
+    host: &H,
+    spec: &ReproduceSpec,
+    engine: &crate::backend::Engine,
+    coarse: &BasinSpec,
+) -> Result<(
+    BasinSpec,
+    BasinResult,
+    Option<Refined>,
+    Option<Reintegration>,
+)> {
+    let p = spec.preset;
+    let store = Prefixed {
+        inner: host.store(),
+        prefix: "basin_133",
+    };
+    let per_lane = (coarse.transient + coarse.recorded) as u64;
+    let cells = (coarse.x.n * coarse.y.n) as u64;
+    let res = host.progress("basin", cells * per_lane, per_lane, |ctl| {
+        crate::basin::basin_with(coarse, engine, &store, ctl)
+    })?;
+    let (fine, res, refined) = if p.basin_refine > 0 {
+        // The boundary's lanes are not known in advance: the display counts the coarse
+        // grid's size per level as a scale.
+        let total = cells * per_lane * p.basin_refine as u64;
+        let f = host.progress("refine", total, per_lane, |ctl| {
+            crate::refine::refine(
+                coarse,
+                &res.catalogue,
+                &res.labels,
+                p.basin_refine,
+                engine,
+                &store,
+                ctl,
+            )
+        })?;
+        let (s, r) = crate::refine::refined_basin(coarse, res, &f);
+        (s, r, Some(f))
+    } else {
+        (coarse.clone(), res, None)
+    };
+    let reintegration = if p.uncertainty_samples > 0 {
+        let lanes = (p.uncertainty_samples * (1 + 4 * crate::uncertainty::EPS.len())) as u64;
+        Some(
+            host.progress("uncertainty", lanes * per_lane, per_lane, |ctl| {
+                crate::uncertainty::reintegration(
+                    &fine,
+                    &res.catalogue,
+                    p.uncertainty_samples,
+                    1,
+                    engine,
+                    &store,
+                    ctl,
+                )
+            })?,
+        )
+    } else {
+        None
+    };
+    Ok((fine, res, refined, reintegration))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1114,5 +1606,138 @@ mod tests {
         let b = BruteCounts::of(&res);
         assert_eq!(b.speeds, SMOKE.speeds);
         assert!(b.multistable <= b.speeds && b.most >= 1);
+    }
+
+    /// A host that keeps the units in memory, counts the lane-periods its progress
+    /// displays report, and records what each section received.
+    struct Recorder {
+        store: crate::run::MemoryStore,
+        sections: Vec<String>,
+        steps: Vec<usize>,
+        committed_by: std::sync::Mutex<Vec<(String, u64, u64)>>,
+    }
+
+    impl Host for Recorder {
+        fn begin(&mut self, step: usize, _: &str) {
+            self.steps.push(step);
+        }
+        fn store(&self) -> &dyn UnitStore {
+            &self.store
+        }
+        fn progress<T>(
+            &self,
+            label: &str,
+            total: u64,
+            _per_lane: u64,
+            work: impl FnOnce(Control) -> Result<T>,
+        ) -> Result<T> {
+            let done = std::sync::atomic::AtomicU64::new(0);
+            let report = |d: u64, _| {
+                done.fetch_max(d, std::sync::atomic::Ordering::Relaxed);
+            };
+            let r = work(Control::progress(&report));
+            self.committed_by
+                .lock()
+                .unwrap()
+                .push((label.to_string(), done.into_inner(), total));
+            r
+        }
+        fn section(&mut self, s: Section<'_>) -> Result<()> {
+            self.sections.push(match s {
+                Section::Bifurcation { spec, res } => {
+                    assert_eq!(res.up.len(), spec.omegas.len());
+                    format!("bifurcation {:?}", SweepCounts::of(&res.up))
+                }
+                Section::Zoom { k, res, .. } => format!("zoom {k} {:?}", periods_seen(&res.up)),
+                Section::Portrait { figure, class, .. } => format!("fig{figure} {class:?}"),
+                Section::Basin {
+                    coarse,
+                    spec,
+                    res,
+                    refined,
+                    class,
+                    ..
+                } => {
+                    // One refinement level: (n - 1) 2 + 1 points per side.
+                    assert_eq!(spec.x.n, (coarse.x.n - 1) * 2 + 1);
+                    assert_eq!(res.labels.len(), spec.x.n * spec.y.n);
+                    assert!(refined.is_some());
+                    format!("basin {:?} {class:?}", res.labels)
+                }
+                Section::Section { omega, class, .. } => format!("section {omega} {class:?}"),
+                Section::DesignChart { res, findings, .. } => {
+                    assert!(findings.rubbing <= res.class.len());
+                    format!("design {:?}", res.class)
+                }
+                Section::Continuation { ramps, .. } => format!("continuation {}", ramps.len()),
+                Section::RubMap {
+                    regimes, throws, ..
+                } => {
+                    let cells: usize = regimes.iter().map(|r| r.cells).sum();
+                    format!("rub {cells} cells, {} throws", throws.len())
+                }
+                Section::Cascade { res, .. } => format!("cascade {}", res.orders.len()),
+                Section::Spectrum { rub, .. } => format!("spectrum {}", rub.is_some()),
+            });
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn the_smoke_set_hands_every_section_in_order_and_a_second_run_on_its_units_repeats_it() {
+        let spec = ReproduceSpec::new(SMOKE, Backend::Cpu, Precision::F64);
+        let mut host = Recorder {
+            store: crate::run::MemoryStore::new(),
+            sections: Vec::new(),
+            steps: Vec::new(),
+            committed_by: Default::default(),
+        };
+        let first = reproduce(&spec, &mut host).unwrap();
+        assert_eq!(host.steps, (1..STEPS).collect::<Vec<_>>());
+        let kinds: Vec<&str> = host
+            .sections
+            .iter()
+            .map(|s| s.split(' ').next().unwrap())
+            .collect();
+        assert_eq!(
+            kinds,
+            [
+                "bifurcation",
+                "zoom",
+                "zoom",
+                "fig5",
+                "fig6",
+                "basin",
+                "section",
+                "section",
+                "design",
+                "continuation",
+                "rub",
+                "cascade",
+                "spectrum"
+            ]
+        );
+        // The summary table: a class at every article speed, in the survey's order.
+        let rows = summary_rows(&first.survey, &first.static_class);
+        assert!(
+            rows.iter()
+                .all(|r| r.static_class.is_some() && r.spectrum.is_some())
+        );
+        // Every lane study's progress reached its total (the brute force's is an upper
+        // bound: its neighbour seeds are known only as they come; the refinement's is a
+        // scale, its boundary lanes unknown in advance).
+        for (label, done, total) in host.committed_by.lock().unwrap().iter() {
+            match label.as_str() {
+                "refine" => {}
+                "bifurcation" => assert!(done <= total, "{label}"),
+                _ => assert_eq!(done, total, "{label}"),
+            }
+        }
+        // Again on the same units: nothing is computed twice, every section is the same.
+        let sections = std::mem::take(&mut host.sections);
+        host.committed_by.lock().unwrap().clear();
+        let again = reproduce(&spec, &mut host).unwrap();
+        assert_eq!(host.sections, sections);
+        assert_eq!(again.static_class, first.static_class);
     }
 }
