@@ -273,7 +273,13 @@ pub fn short_number(v: f64) -> String {
 /// The coefficients of the equations of motion per unit mass (MODEL.md 2) for one rotor
 /// speed, in the lane's precision. Computed once in `f64` on the host and rounded, so
 /// the CPU and GPU lanes see identical constants.
-#[derive(Clone, Copy, Debug)]
+///
+/// `#[repr(C)]` with every field of one type, so the struct has no padding and is the
+/// GPU's `Coeffs` as it stands (`integrate/lane_buffers.wgsl`; jeffcott-gpu's layout
+/// test checks every offset against naga's): the lane constants are uploaded without a
+/// second struct of the same fields.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Coeffs<R> {
     /// w_r^2 [1/s^2].
     pub wr2: R,
@@ -298,6 +304,13 @@ pub struct Coeffs<R> {
     /// Contact damping over contact stiffness c_c / k_c [s] (0 without damping).
     pub tau_c: R,
 }
+
+// SAFETY: `Coeffs<R>` is `#[repr(C)]` and all its fields are `R`, so it has the size of
+// `[R; 11]`, no padding, and every bit pattern of it is valid when every bit pattern of
+// `R` is (`R: Pod`); zeroed it is all-zero `R`s (`R: Zeroable`).
+unsafe impl<R: bytemuck::Zeroable> bytemuck::Zeroable for Coeffs<R> {}
+// SAFETY: as above; `R: Pod` also gives `Copy + 'static`.
+unsafe impl<R: bytemuck::Pod> bytemuck::Pod for Coeffs<R> {}
 
 impl<R: Real> Coeffs<R> {
     /// Derives the coefficients from the parameters and the rotor speed.

@@ -8,7 +8,10 @@
 //! `Real` lands on a multiple of its size, and the GPU-only `Lane::period` counter fills
 //! the half word on which the f64 `Lane` would otherwise end), and the test at the
 //! bottom checks every size, offset and array stride against what naga computes from
-//! the WGSL declarations.
+//! the WGSL declarations. The equation coefficients are the exception: every field of
+//! `model::Coeffs<R>` has the one type `R`, so the core's generic struct is `Pod` for a
+//! `Pod` `R` by construction and is uploaded as it stands (no second struct of its
+//! fields; the same test checks its offsets).
 //!
 //! Counters are u32 on the GPU (WGSL has no u64 without an extension); the kernel adds
 //! them with saturation at `u32::MAX` (about 8.6 million forcing periods of one lane at
@@ -47,40 +50,13 @@ macro_rules! gpu_layout {
         pub mod $module {
             use bytemuck::{Pod, Zeroable};
 
-            /// WGSL `Coeffs` (model::Coeffs).
-            #[repr(C)]
-            #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-            pub struct GpuCoeffs {
-                /// w_r^2.
-                pub wr2: $r,
-                /// 2 xi_r w_r.
-                pub dr: $r,
-                /// w_s^2.
-                pub ws2: $r,
-                /// 2 xi_s w_s.
-                pub ds: $r,
-                /// e W^2.
-                pub unbalance: $r,
-                /// a_g.
-                pub a_g: $r,
-                /// k_c / m_r.
-                pub kc_mr: $r,
-                /// k_c / m_s.
-                pub kc_ms: $r,
-                /// mu.
-                pub mu: $r,
-                /// delta.
-                pub delta: $r,
-                /// c_c / k_c.
-                pub tau_c: $r,
-            }
-
             /// WGSL `LaneConsts` (integrate::lane::LaneConsts).
             #[repr(C)]
             #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
             pub struct GpuLaneConsts {
-                /// Equation coefficients.
-                pub c: GpuCoeffs,
+                /// Equation coefficients (the CPU's struct: `#[repr(C)]`, one field
+                /// type, `Pod`).
+                pub c: super::Coeffs<$r>,
                 /// Macro step h = T/N.
                 pub h: $r,
                 /// 1/N.
@@ -164,21 +140,8 @@ macro_rules! impl_gpu_real {
             type Lane = $module::GpuLane;
 
             fn pack_consts(lc: &LaneConsts<$r>) -> Self::Consts {
-                let c: &Coeffs<$r> = &lc.c;
                 $module::GpuLaneConsts {
-                    c: $module::GpuCoeffs {
-                        wr2: c.wr2,
-                        dr: c.dr,
-                        ws2: c.ws2,
-                        ds: c.ds,
-                        unbalance: c.unbalance,
-                        a_g: c.a_g,
-                        kc_mr: c.kc_mr,
-                        kc_ms: c.kc_ms,
-                        mu: c.mu,
-                        delta: c.delta,
-                        tau_c: c.tau_c,
-                    },
+                    c: lc.c,
                     h: lc.h,
                     inv_n: lc.inv_n,
                     phase0: lc.phase0,
@@ -289,19 +252,19 @@ mod tests {
             use $m::*;
             check(
                 "Coeffs",
-                size_of::<GpuCoeffs>(),
+                size_of::<Coeffs<$r>>(),
                 &[
-                    ("wr2", offset_of!(GpuCoeffs, wr2)),
-                    ("dr", offset_of!(GpuCoeffs, dr)),
-                    ("ws2", offset_of!(GpuCoeffs, ws2)),
-                    ("ds", offset_of!(GpuCoeffs, ds)),
-                    ("unbalance", offset_of!(GpuCoeffs, unbalance)),
-                    ("a_g", offset_of!(GpuCoeffs, a_g)),
-                    ("kc_mr", offset_of!(GpuCoeffs, kc_mr)),
-                    ("kc_ms", offset_of!(GpuCoeffs, kc_ms)),
-                    ("mu", offset_of!(GpuCoeffs, mu)),
-                    ("delta", offset_of!(GpuCoeffs, delta)),
-                    ("tau_c", offset_of!(GpuCoeffs, tau_c)),
+                    ("wr2", offset_of!(Coeffs<$r>, wr2)),
+                    ("dr", offset_of!(Coeffs<$r>, dr)),
+                    ("ws2", offset_of!(Coeffs<$r>, ws2)),
+                    ("ds", offset_of!(Coeffs<$r>, ds)),
+                    ("unbalance", offset_of!(Coeffs<$r>, unbalance)),
+                    ("a_g", offset_of!(Coeffs<$r>, a_g)),
+                    ("kc_mr", offset_of!(Coeffs<$r>, kc_mr)),
+                    ("kc_ms", offset_of!(Coeffs<$r>, kc_ms)),
+                    ("mu", offset_of!(Coeffs<$r>, mu)),
+                    ("delta", offset_of!(Coeffs<$r>, delta)),
+                    ("tau_c", offset_of!(Coeffs<$r>, tau_c)),
                 ],
             );
             check(
