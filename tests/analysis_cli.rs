@@ -1,62 +1,8 @@
 //! `jeffcott bifurcation` and `jeffcott basin` from the command line: every promised
 //! file, `.npy` files that follow the NPY format spec, clear errors for bad input.
 
-use std::path::Path;
-use std::process::{Command, Output};
-
-fn jeffcott(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_jeffcott"))
-        .args(args)
-        .output()
-        .expect("binary runs")
-}
-
-/// Checks a file against the NPY v1/v2 format spec (magic, version, little-endian header
-/// length, a Python dict literal with descr / fortran_order / shape, the data start
-/// aligned to 64 bytes, data length = product of the shape x item size) and returns its
-/// descr and shape.
-fn npy_header(path: &Path) -> (String, Vec<usize>) {
-    let bytes = std::fs::read(path).unwrap();
-    assert_eq!(&bytes[..6], b"\x93NUMPY", "{}: magic", path.display());
-    let (major, minor) = (bytes[6], bytes[7]);
-    assert!(
-        matches!((major, minor), (1, 0) | (2, 0) | (3, 0)),
-        "version"
-    );
-    let (hlen, start) = if major == 1 {
-        (u16::from_le_bytes([bytes[8], bytes[9]]) as usize, 10)
-    } else {
-        (
-            u32::from_le_bytes(bytes[8..12].try_into().unwrap()) as usize,
-            12,
-        )
-    };
-    assert_eq!((start + hlen) % 64, 0, "data aligned to 64 bytes");
-    let header = std::str::from_utf8(&bytes[start..start + hlen]).unwrap();
-    assert!(header.ends_with('\n'), "header ends with a newline");
-    let h = header.trim_end();
-    assert!(h.starts_with('{') && h.ends_with('}'), "{header}");
-    assert!(h.contains("'fortran_order': False"), "{header}");
-    let descr = &h[h.find("'descr': '").unwrap() + 10..];
-    let descr = descr[..descr.find('\'').unwrap()].to_string();
-    let shape = &h[h.find("'shape': (").unwrap() + 10..];
-    let shape = &shape[..shape.find(')').unwrap()];
-    let dims: Vec<usize> = shape
-        .split(',')
-        .filter_map(|s| s.trim().parse().ok())
-        .collect();
-    let item: usize = descr[2..].parse().unwrap();
-    assert_eq!(
-        bytes.len() - start - hlen,
-        dims.iter().product::<usize>() * item,
-        "data length"
-    );
-    (descr, dims)
-}
-
-fn json(path: &Path) -> serde_json::Value {
-    serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
-}
+mod common;
+use common::{jeffcott, json, npy_header};
 
 #[test]
 fn bifurcation_writes_arrays_summary_and_diagram() {

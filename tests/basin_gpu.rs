@@ -8,23 +8,12 @@ use jeffcott_analysis::basin::{Axis, BasinSpec, basin};
 use jeffcott_core::ensemble::{Backend, Precision};
 use jeffcott_core::integrate::lane::StepperConfig;
 use jeffcott_core::model::{Params, VX_R, X_R};
-use jeffcott_gpu::{DeviceRequest, GpuDevice};
 
 mod common;
-use common::require_gpu;
 
 #[test]
 fn basin_labels_are_identical_on_cpu_and_gpu_f64() {
-    let req = DeviceRequest {
-        need_f64: true,
-        allow_software: true,
-    };
-    if let Err(e) = GpuDevice::new(&req) {
-        assert!(
-            !require_gpu(),
-            "JEFFCOTT_REQUIRE_GPU=1 but no f64 GPU adapter: {e}"
-        );
-        eprintln!("skipped: no Vulkan adapter with f64 ({e})");
+    if !common::gpu_f64_present() {
         return;
     }
     let p = Params::default();

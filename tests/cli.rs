@@ -3,32 +3,14 @@
 //! (the file that marks a complete result).
 
 use std::path::Path;
-use std::process::{Command, Output};
 
-fn jeffcott(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_jeffcott"))
-        .args(args)
-        .output()
-        .expect("binary runs")
-}
+mod common;
+use common::{jeffcott, npy_header};
 
+/// The shape of an f64 NPY file that follows the format spec (`common::npy_header`).
 fn npy_shape(path: &Path) -> Vec<usize> {
-    let bytes = std::fs::read(path).unwrap();
-    assert_eq!(&bytes[..6], b"\x93NUMPY");
-    let hlen = u16::from_le_bytes([bytes[8], bytes[9]]) as usize;
-    let header = std::str::from_utf8(&bytes[10..10 + hlen]).unwrap();
-    assert!(header.contains("'descr': '<f8'"));
-    let shape = &header[header.find("'shape': (").unwrap() + 10..];
-    let shape = &shape[..shape.find(')').unwrap()];
-    let dims: Vec<usize> = shape
-        .split(',')
-        .filter_map(|s| s.trim().parse().ok())
-        .collect();
-    assert_eq!(
-        bytes.len() - 10 - hlen,
-        dims.iter().product::<usize>() * 8,
-        "data length"
-    );
+    let (descr, dims) = npy_header(path);
+    assert_eq!(descr, "<f8", "{}", path.display());
     dims
 }
 

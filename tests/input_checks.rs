@@ -13,14 +13,7 @@ use std::path::Path;
 use std::process::{Command, Output};
 
 mod common;
-use common::require_gpu;
-
-fn jeffcott(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_jeffcott"))
-        .args(args)
-        .output()
-        .expect("binary runs")
-}
+use common::{jeffcott, npy, require_gpu};
 
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
@@ -53,35 +46,6 @@ fn gpu_present() -> bool {
         eprintln!("skipped: no GPU adapter");
     }
     present
-}
-
-/// An NPY file's shape and f64 data.
-fn npy_f64(path: &Path) -> (Vec<usize>, Vec<f64>) {
-    let bytes = std::fs::read(path).unwrap();
-    assert_eq!(&bytes[..6], b"\x93NUMPY");
-    let hlen = u16::from_le_bytes([bytes[8], bytes[9]]) as usize;
-    let header = std::str::from_utf8(&bytes[10..10 + hlen]).unwrap();
-    assert!(header.contains("'descr': '<f8'"), "{header}");
-    let shape = &header[header.find("'shape': (").unwrap() + 10..];
-    let shape = &shape[..shape.find(')').unwrap()];
-    let dims = shape
-        .split(',')
-        .filter_map(|s| s.trim().parse().ok())
-        .collect();
-    let data = bytes[10 + hlen..]
-        .chunks_exact(8)
-        .map(|c| f64::from_le_bytes(c.try_into().unwrap()))
-        .collect();
-    (dims, data)
-}
-
-fn npy_u32(path: &Path) -> Vec<u32> {
-    let bytes = std::fs::read(path).unwrap();
-    let hlen = u16::from_le_bytes([bytes[8], bytes[9]]) as usize;
-    bytes[10 + hlen..]
-        .chunks_exact(4)
-        .map(|c| u32::from_le_bytes(c.try_into().unwrap()))
-        .collect()
 }
 
 // 1. Memory.
@@ -328,7 +292,7 @@ fn bifurcation_sweep_none_is_offered_and_runs_the_brute_force_only() {
         out,
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let (shape, _) = npy_f64(&Path::new(out).join("bifurcation_rows.npy"));
+    let (shape, _) = npy::<f64>(&Path::new(out).join("bifurcation_rows.npy"));
     assert_eq!(shape[0], 3 * 2, "brute-force rows only: {shape:?}");
     let o = jeffcott(&[
         "bifurcation",
@@ -566,8 +530,8 @@ fn gpu_runs_leave_stderr_free_of_xdg_runtime_dir_noise() {
 /// Rows of `poincare` [lanes, periods, 8] per lane: the index of the first NaN row
 /// (`periods` if none), after checking that every row from there on is all NaN and
 /// every row before it finite.
-fn first_nan_rows(shape: &[usize], p: &[f64]) -> Vec<usize> {
-    let (lanes, periods) = (shape[0], shape[1]);
+fn first_nan_rows(shape: &[u64], p: &[f64]) -> Vec<usize> {
+    let (lanes, periods) = (shape[0] as usize, shape[1] as usize);
     (0..lanes)
         .map(|l| {
             let row = |j: usize| &p[(l * periods + j) * 8..(l * periods + j + 1) * 8];
@@ -621,9 +585,9 @@ fn frozen_lanes_record_nan_from_the_period_they_froze_in_identically_on_both_bac
         }
         let o = jeffcott(&args);
         assert!(o.status.success(), "{}", stderr(&o));
-        let (shape, p) = npy_f64(&out.join("poincare.npy"));
+        let (shape, p) = npy::<f64>(&out.join("poincare.npy"));
         assert_eq!(shape, vec![10, 32, 8]);
-        let status = npy_u32(&out.join("status.npy"));
+        let (_, status) = npy::<u32>(&out.join("status.npy"));
         let first = first_nan_rows(&shape, &p);
         assert!(status.contains(&0) && status.contains(&2), "{status:?}");
         for (l, (&s, &f)) in status.iter().zip(&first).enumerate() {
@@ -670,7 +634,7 @@ fn a_simulation_that_diverges_writes_nan_rows_and_no_infinite_distances() {
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(stdout.contains("no recorded points"), "{stdout}");
     assert!(!stdout.contains("inf"), "{stdout}");
-    let (shape, p) = npy_f64(&out.join("poincare.npy"));
+    let (shape, p) = npy::<f64>(&out.join("poincare.npy"));
     assert_eq!(shape, vec![4, 8]);
     assert!(p.iter().all(|v| v.is_nan()));
     let s: serde_json::Value =
@@ -696,7 +660,7 @@ fn a_simulation_that_diverges_writes_nan_rows_and_no_infinite_distances() {
         out.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let (shape, p) = npy_f64(&out.join("poincare.npy"));
+    let (shape, p) = npy::<f64>(&out.join("poincare.npy"));
     assert_eq!(shape, vec![32, 8]);
     let s: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();

@@ -10,7 +10,7 @@ use jeffcott_core::lyapunov::{Spectrum, SpectrumConfig, spectrum};
 use jeffcott_core::model::{Params, STATE_DIM, State};
 
 mod common;
-use common::require_gpu;
+use common::{jeffcott, json};
 
 /// -2 (2 xi_r w_r + 2 xi_s w_s) for Table 1 (MODEL.md 6) [1/s].
 const TABLE1_TRACE: f64 = -2.0 * (2.0 * 0.02 * 140.0 + 2.0 * 0.05 * 540.0);
@@ -260,17 +260,6 @@ fn with_contact_damping_the_sum_rule_needs_the_damped_trace_and_holds_with_or_wi
     assert!((with.sum - without.sum).abs() < 1e-6 * with.sum.abs());
 }
 
-fn jeffcott(args: &[&str]) -> std::process::Output {
-    std::process::Command::new(env!("CARGO_BIN_EXE_jeffcott"))
-        .args(args)
-        .output()
-        .expect("binary runs")
-}
-
-fn json(path: &std::path::Path) -> serde_json::Value {
-    serde_json::from_slice(&std::fs::read(path).expect("file exists")).expect("valid JSON")
-}
-
 fn is_png(path: &std::path::Path) -> bool {
     std::fs::read(path).is_ok_and(|b| b.starts_with(b"\x89PNG\r\n\x1a\n"))
 }
@@ -400,30 +389,9 @@ fn cpu_lambda1_of_a_lane_agrees_with_the_first_exponent_of_the_full_spectrum() {
     }
 }
 
-/// A runner with f64 support, or `None` (after saying so) when there is none and none is
-/// required; panics when `JEFFCOTT_REQUIRE_GPU=1` and there is none.
-fn gpu_runner_f64() -> Option<jeffcott_gpu::GpuRunner> {
-    use jeffcott_gpu::{DeviceRequest, GpuDevice, GpuRunner};
-    let req = DeviceRequest {
-        need_f64: true,
-        allow_software: true,
-    };
-    match GpuDevice::new(&req) {
-        Ok(gpu) => Some(GpuRunner::new(gpu)),
-        Err(e) => {
-            assert!(
-                !require_gpu(),
-                "JEFFCOTT_REQUIRE_GPU=1 but no GPU adapter with f64 could be opened: {e}"
-            );
-            eprintln!("skipped: no Vulkan adapter with f64 ({e})");
-            None
-        }
-    }
-}
-
 #[test]
 fn gpu_lambda1_matches_cpu_lambda1_within_1e_3_per_second() {
-    let Some(runner) = gpu_runner_f64() else {
+    let Some(runner) = common::gpu_f64_device().map(jeffcott_gpu::GpuRunner::new) else {
         return;
     };
     let damped = Params {
@@ -552,7 +520,7 @@ fn damped_contact_force_is_kelvin_voigt_along_the_normal_and_its_jacobian_is_exa
 #[test]
 fn gpu_lambda1_does_not_depend_on_time_slices_or_chunks() {
     use jeffcott_gpu::Schedule;
-    let Some(runner) = gpu_runner_f64() else {
+    let Some(runner) = common::gpu_f64_device().map(jeffcott_gpu::GpuRunner::new) else {
         return;
     };
     let cfg = StepperConfig {

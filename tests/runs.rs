@@ -7,15 +7,14 @@
 //! units are committed (it polls `units/`), and runs the same command again.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
+
+mod common;
+use common::{jeffcott, ok};
 
 fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_jeffcott"))
-}
-
-fn jeffcott(args: &[String]) -> Output {
-    bin().args(args).output().expect("binary runs")
 }
 
 fn args(list: &[&str], out: &Path) -> Vec<String> {
@@ -23,16 +22,6 @@ fn args(list: &[&str], out: &Path) -> Vec<String> {
     v.push("--out".into());
     v.push(out.to_str().unwrap().into());
     v
-}
-
-fn ok(o: &Output) {
-    assert!(
-        o.status.success(),
-        "exit {:?}\nstdout: {}\nstderr: {}",
-        o.status.code(),
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    );
 }
 
 fn units(dir: &Path) -> usize {
@@ -298,16 +287,7 @@ fn reproduce_killed_and_resumed_redraws_the_same_figures() {
 
 #[test]
 fn gpu_basin_killed_and_resumed_equals_an_uninterrupted_cpu_run_bit_for_bit() {
-    let req = jeffcott_gpu::DeviceRequest {
-        need_f64: true,
-        allow_software: true,
-    };
-    if let Err(e) = jeffcott_gpu::GpuDevice::new(&req) {
-        assert!(
-            std::env::var("JEFFCOTT_REQUIRE_GPU").as_deref() != Ok("1"),
-            "JEFFCOTT_REQUIRE_GPU=1 but no f64 GPU adapter: {e}"
-        );
-        eprintln!("skipped: no Vulkan adapter with f64 ({e})");
+    if !common::gpu_f64_present() {
         return;
     }
     let dir = tempfile::tempdir().unwrap();

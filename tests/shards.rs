@@ -7,23 +7,9 @@ use jeffcott_analysis::catalogue::{CatalogueBuilder, CatalogueConfig, PartAttrac
 use jeffcott_analysis::classify::Class;
 use jeffcott_core::model::{STATE_DIM, State};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
-fn jeffcott(args: &[String]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_jeffcott"))
-        .args(args)
-        .output()
-        .expect("binary runs")
-}
-
-fn ok(o: &Output) {
-    assert!(
-        o.status.success(),
-        "exit {:?}\nstderr: {}",
-        o.status.code(),
-        String::from_utf8_lossy(&o.stderr)
-    );
-}
+mod common;
+use common::{jeffcott, ok};
 
 fn with(list: &[&str], extra: &[&str]) -> Vec<String> {
     list.iter().chain(extra).map(|s| s.to_string()).collect()
@@ -116,16 +102,7 @@ fn a_basin_sharded_in_1_2_3_and_7_and_merged_in_any_order_equals_the_unsharded_r
 
 #[test]
 fn a_basin_sharded_on_the_gpu_in_f64_merges_to_the_cpu_run() {
-    let req = jeffcott_gpu::DeviceRequest {
-        need_f64: true,
-        allow_software: true,
-    };
-    if let Err(e) = jeffcott_gpu::GpuDevice::new(&req) {
-        assert!(
-            std::env::var("JEFFCOTT_REQUIRE_GPU").as_deref() != Ok("1"),
-            "JEFFCOTT_REQUIRE_GPU=1 but no f64 GPU adapter: {e}"
-        );
-        eprintln!("skipped: no Vulkan adapter with f64 ({e})");
+    if !common::gpu_f64_present() {
         return;
     }
     let dir = tempfile::tempdir().unwrap();

@@ -8,8 +8,8 @@ pub mod gpu;
 use std::path::Path;
 use std::process::{Command, Output};
 
-/// Runs the jeffcott binary with `args`.
-pub fn jeffcott(args: &[&str]) -> Output {
+/// Runs the jeffcott binary with `args` (`&str`s or `String`s).
+pub fn jeffcott<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_jeffcott"))
         .args(args)
         .output()
@@ -32,6 +32,49 @@ pub fn json(path: &Path) -> serde_json::Value {
     serde_json::from_slice(&std::fs::read(path).expect("read json")).expect("parse json")
 }
 
+/// Checks a file against the NPY v1/v2 format spec (magic, version, little-endian header
+/// length, a Python dict literal with descr / fortran_order / shape, the data start
+/// aligned to 64 bytes, data length = product of the shape x item size) and returns its
+/// descr and shape.
+pub fn npy_header(path: &Path) -> (String, Vec<usize>) {
+    let bytes = std::fs::read(path).unwrap();
+    assert_eq!(&bytes[..6], b"\x93NUMPY", "{}: magic", path.display());
+    let (major, minor) = (bytes[6], bytes[7]);
+    assert!(
+        matches!((major, minor), (1, 0) | (2, 0) | (3, 0)),
+        "version"
+    );
+    let (hlen, start) = if major == 1 {
+        (u16::from_le_bytes([bytes[8], bytes[9]]) as usize, 10)
+    } else {
+        (
+            u32::from_le_bytes(bytes[8..12].try_into().unwrap()) as usize,
+            12,
+        )
+    };
+    assert_eq!((start + hlen) % 64, 0, "data aligned to 64 bytes");
+    let header = std::str::from_utf8(&bytes[start..start + hlen]).unwrap();
+    assert!(header.ends_with('\n'), "header ends with a newline");
+    let h = header.trim_end();
+    assert!(h.starts_with('{') && h.ends_with('}'), "{header}");
+    assert!(h.contains("'fortran_order': False"), "{header}");
+    let descr = &h[h.find("'descr': '").unwrap() + 10..];
+    let descr = descr[..descr.find('\'').unwrap()].to_string();
+    let shape = &h[h.find("'shape': (").unwrap() + 10..];
+    let shape = &shape[..shape.find(')').unwrap()];
+    let dims: Vec<usize> = shape
+        .split(',')
+        .filter_map(|s| s.trim().parse().ok())
+        .collect();
+    let item: usize = descr[2..].parse().unwrap();
+    assert_eq!(
+        bytes.len() - start - hlen,
+        dims.iter().product::<usize>() * item,
+        "data length"
+    );
+    (descr, dims)
+}
+
 /// An NPY file's shape and data.
 pub fn npy<T: npyz::Deserialize>(path: &Path) -> (Vec<u64>, Vec<T>) {
     let bytes = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
@@ -45,19 +88,31 @@ pub fn require_gpu() -> bool {
     std::env::var("JEFFCOTT_REQUIRE_GPU").as_deref() == Ok("1")
 }
 
-/// True when an f64-capable adapter exists; panics without one when required.
-pub fn gpu_f64_present() -> bool {
-    let present = jeffcott_gpu::list_adapters()
-        .iter()
-        .any(|a| a.compute && a.f64);
-    assert!(
-        present || !require_gpu(),
-        "JEFFCOTT_REQUIRE_GPU=1 but no adapter with SHADER_F64 was found"
-    );
-    if !present {
-        eprintln!("skipped: no GPU adapter with f64");
+/// A device on an adapter with SHADER_F64 (software adapters such as lavapipe allowed, as
+/// the CLI's `--backend gpu` allows them), or `None` after saying so; panics without one
+/// when `JEFFCOTT_REQUIRE_GPU=1`.
+pub fn gpu_f64_device() -> Option<jeffcott_gpu::GpuDevice> {
+    let req = jeffcott_gpu::DeviceRequest {
+        need_f64: true,
+        allow_software: true,
+    };
+    match jeffcott_gpu::GpuDevice::new(&req) {
+        Ok(gpu) => Some(gpu),
+        Err(e) => {
+            assert!(
+                !require_gpu(),
+                "JEFFCOTT_REQUIRE_GPU=1 but no GPU adapter with f64 could be opened: {e}"
+            );
+            eprintln!("skipped: no Vulkan adapter with f64 ({e})");
+            None
+        }
     }
-    present
+}
+
+/// True when an f64-capable device opens ([`gpu_f64_device`]); panics without one when
+/// required.
+pub fn gpu_f64_present() -> bool {
+    gpu_f64_device().is_some()
 }
 
 /// A small deterministic hash of (`i`, `salt`) in [-1, 1).
