@@ -1,6 +1,8 @@
-//! Helpers shared by the integration tests: run the binary, require success, read its
-//! JSON and NPY files, the GPU-required rule of CI and the shared GPU runner
-//! ([`gpu`]), a deterministic hash for test inputs.
+//! Helpers shared by the integration tests (one copy each; a test file declares
+//! `mod common;` and imports what it uses): run the binary, require success, read its
+//! JSON and NPY files (and check an NPY file against the format spec), the GPU-required
+//! rule of CI (an f64 device or a skip, a failure under `JEFFCOTT_REQUIRE_GPU=1`) and the
+//! shared GPU runner ([`gpu`]), a deterministic hash for test inputs.
 #![allow(dead_code)] // each test file uses a different subset
 
 pub mod gpu;
