@@ -81,6 +81,13 @@ pub fn npy_header(path: &Path) -> (String, Vec<usize>) {
 pub fn npy<T: npyz::Deserialize>(path: &Path) -> (Vec<u64>, Vec<T>) {
     let bytes = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let f = npyz::NpyFile::new(&bytes[..]).expect("npy header");
+    // npyz reads either byte order into T; the project writes little-endian only.
+    let descr = f.dtype().descr();
+    assert!(
+        descr.starts_with("'<") || descr.starts_with("'|"),
+        "{}: descr {descr} is not little-endian",
+        path.display()
+    );
     let shape = f.shape().to_vec();
     (shape, f.into_vec().expect("npy data"))
 }
