@@ -31,12 +31,24 @@ fn quiet_vulkan_device_select() {
 
 fn main() -> std::process::ExitCode {
     quiet_vulkan_device_select();
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) => match jeffcott::cli::one_line_usage_error(&e) {
+            Some(line) => {
+                eprintln!("{line}");
+                return std::process::ExitCode::from(2);
+            }
+            // --help and --version print as clap writes them.
+            None => e.exit(),
+        },
+    };
     let result = dispatch(&cli.command);
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {:#}", anyhow::Error::from(e));
+            // The error's own text: an I/O error already says the operating system's
+            // reason once (a `{:#}` chain would repeat it).
+            eprintln!("error: {e}");
             std::process::ExitCode::from(2)
         }
     }

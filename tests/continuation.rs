@@ -33,7 +33,7 @@ fn over_a_monostable_range_one_attractor_keeps_its_id_with_fraction_one() {
     let out = tmp.path().join("c");
     ok(&continuation(
         &out,
-        &["--param", "omega:131.3:131.7:5", "--ics", "16"],
+        &["--vary", "omega:131.3:131.7:5", "--ics", "16"],
     ));
     let j = json(&out.join("continuation.json"));
     for d in ["up", "down"] {
@@ -60,7 +60,7 @@ fn at_133_the_period_4_and_period_5_attractors_are_tracked_with_the_fractions_of
     ok(&continuation(
         &c,
         &[
-            "--param",
+            "--vary",
             "omega:132.9:133.1:3",
             "--box",
             "x_r:-0.006:0.006,vx_r:-1:1",
@@ -129,7 +129,7 @@ fn every_tipping_row_with_a_basin_sums_to_one() {
     let out = tmp.path().join("c");
     ok(&continuation(
         &out,
-        &["--param", "omega:132.6:133.4:5", "--ics", "24"],
+        &["--vary", "omega:132.6:133.4:5", "--ics", "24"],
     ));
     for d in ["up", "down"] {
         let (shape, t) = npy::<f64>(&out.join(format!("tipping_{d}.npy")));
@@ -157,27 +157,36 @@ fn bad_continuations_are_refused_naming_the_option() {
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("c");
     let cases: &[(&[&str], &[&str])] = &[
-        (&["--param", "omega:130:131:1"], &["param", "at least 2"]),
-        (&["--param", "mu:0:0.3:4"], &["omega", "--omega"]),
+        (&["--vary", "omega:130:130:1"], &["vary", "at least 2"]),
+        (&["--vary", "mu:0:0.3:4"], &["omega", "--omega"]),
         (
-            &["--param", "x_r:0:0.001:4", "--omega", "133"],
-            &["param", "start coordinate"],
+            &["--vary", "x_r:0:0.001:4", "--omega", "133"],
+            &["vary", "start coordinate"],
         ),
         (
-            &["--param", "delta:-0.001:0.006:4", "--omega", "133"],
-            &["param", "delta"],
+            &["--vary", "delta:-0.001:0.006:4", "--omega", "133"],
+            &["vary", "delta"],
         ),
         (
-            &["--param", "omega:130:131:3", "--box", "x_r:-2:2"],
+            &["--vary", "omega:130:131:3", "--box", "x_r:-2:2"],
             &["box", "divergence-bound"],
         ),
         (
-            &["--param", "omega:130:131:3", "--box", "spin:0:1"],
+            &["--vary", "omega:130:131:3", "--box", "spin:0:1"],
             &["box", "unknown coordinate"],
         ),
         (
-            &["--param", "omega:130:131:3", "--match-threshold", "0"],
+            &["--vary", "omega:130:131:3", "--match-threshold", "0"],
             &["match-threshold"],
+        ),
+        // The continued range given where a model-parameter override goes.
+        (
+            &["--vary", "omega:130:131:3", "--param", "mu:0:0.3:4"],
+            &["param", "--vary"],
+        ),
+        (
+            &["--vary", "omega:130:131:3", "--param", ""],
+            &["param", "empty"],
         ),
     ];
     for (args, needles) in cases {
@@ -188,4 +197,40 @@ fn bad_continuations_are_refused_naming_the_option() {
             assert!(e.contains(n), "{args:?}: `{n}` not in {e}");
         }
     }
+}
+
+#[test]
+fn model_parameter_overrides_reach_a_continuation_beside_the_continued_parameter() {
+    // `--param NAME=VALUE` (every command's override) and `--vary NAME:lo:hi:n` (the
+    // continued parameter) are two spellings; both reach the specification.
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("c");
+    let mut a = vec![
+        "continuation",
+        "--out",
+        out.to_str().unwrap(),
+        "--transient",
+        "20",
+        "--periods",
+        "4",
+        "--backend",
+        "cpu",
+        "--quiet",
+        "--no-plot",
+        "--no-lyapunov",
+    ];
+    a.extend_from_slice(&[
+        "--vary",
+        "e:0.0005:0.001:2",
+        "--omega",
+        "131",
+        "--ics",
+        "2",
+        "--param",
+        "mu=0.15",
+    ]);
+    ok(&jeffcott(&a));
+    let run = json(&out.join("run.json"));
+    assert_eq!(run["spec"]["params"]["mu"], 0.15, "{}", run["spec"]);
+    assert_eq!(run["spec"]["param"]["var"], "e", "{}", run["spec"]);
 }

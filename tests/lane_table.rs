@@ -172,3 +172,58 @@ fn bad_tables_are_refused_naming_row_and_column() {
         &["--lanes", p(&npy), "--columns", "omega,mu,x_r"],
     ));
 }
+
+/// Writes a [rows, cols] f64 table given row by row, in C or Fortran (column-major) order,
+/// as `np.save` writes a C array or a transposed one.
+fn write_table(path: &Path, rows: &[&[f64]], fortran: bool) {
+    let (nr, nc) = (rows.len(), rows[0].len());
+    let order = if fortran {
+        npyz::Order::Fortran
+    } else {
+        npyz::Order::C
+    };
+    let mut w = npyz::WriteOptions::new()
+        .default_dtype()
+        .shape(&[nr as u64, nc as u64])
+        .order(order)
+        .writer(std::fs::File::create(path).unwrap())
+        .begin_nd()
+        .unwrap();
+    if fortran {
+        w.extend((0..nc).flat_map(|c| rows.iter().map(move |r| r[c])))
+            .unwrap();
+    } else {
+        w.extend(rows.iter().flat_map(|r| r.iter().copied()))
+            .unwrap();
+    }
+    w.finish().unwrap();
+}
+
+#[test]
+fn a_fortran_ordered_npy_table_is_read_by_rows_as_numpy_means_it() {
+    // np.save(f, np.asfortranarray([[131., 0.1], [132., 0.2]])) once ran lanes with
+    // omega = [131, 0.1] and mu = [132, 0.2].
+    let tmp = tempfile::tempdir().unwrap();
+    let rows: &[&[f64]] = &[&[131.0, 0.1], &[132.0, 0.2], &[133.0, 0.15]];
+    let (c, f) = (tmp.path().join("c.npy"), tmp.path().join("f.npy"));
+    write_table(&c, rows, false);
+    write_table(&f, rows, true);
+    assert!(String::from_utf8_lossy(&read(&f)).contains("'fortran_order': True"));
+    let (oc, of) = (tmp.path().join("oc"), tmp.path().join("of"));
+    ok(&ensemble(&oc, &["--lanes", p(&c), "--columns", "omega,mu"]));
+    ok(&ensemble(&of, &["--lanes", p(&f), "--columns", "omega,mu"]));
+    for name in ["lanes.npy", "params.npy", "poincare.npy"] {
+        assert_eq!(read(&oc.join(name)), read(&of.join(name)), "{name}");
+    }
+    let (shape, lanes) = npy::<f64>(&of.join("lanes.npy"));
+    assert_eq!(shape[0], 3);
+    let w: Vec<f64> = lanes.chunks(shape[1] as usize).map(|r| r[0]).collect();
+    assert_eq!(w, [131.0, 132.0, 133.0]);
+    let (pshape, params) = npy::<f64>(&of.join("params.npy"));
+    let mu_col = 5; // Params::FIELDS: omega_r, omega_s, xi_r, xi_s, delta, mu, ...
+    let mus: Vec<f64> = params
+        .chunks(pshape[1] as usize)
+        .map(|r| r[mu_col])
+        .collect();
+    assert_eq!(mus, [0.1, 0.2, 0.15]);
+}

@@ -325,7 +325,7 @@ fn lyapunov_command_writes_the_spectrum_for_one_speed_and_a_range() {
     // Bad input: a clear error naming the option, exit code 2.
     let o = jeffcott(&["lyapunov", "--omega", "131.7", "--time", "-1"]);
     assert_eq!(o.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&o.stderr).contains("max_time"));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("`time`"));
     let o = jeffcott(&["lyapunov", "--omega", "131.7", "--param", "c_c=-1"]);
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("c_c"));

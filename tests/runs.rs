@@ -280,6 +280,52 @@ fn lyapunov_range_killed_and_resumed_equals_an_uninterrupted_run() {
 }
 
 #[test]
+fn cascade_killed_and_resumed_keeps_its_committed_units_and_equals_an_uninterrupted_run() {
+    // Its units were once committed under an empty key and thrown away on resume, so a
+    // resumed cascade computed everything again (issue 27, item 1): the harness fails
+    // when a unit committed before the kill is computed again.
+    killed_and_resumed_equals_uninterrupted(
+        &[
+            "cascade",
+            "--omega",
+            "120:150:100",
+            "--transient",
+            "200",
+            "--transient-first",
+            "200",
+            "--periods",
+            "48",
+            "--no-plot",
+            "--quiet",
+        ],
+        &[2, 5],
+    );
+}
+
+#[test]
+fn continuation_killed_and_resumed_keeps_its_ramp_units_and_equals_an_uninterrupted_run() {
+    // Its ramp steps were committed under an empty key like cascade's.
+    killed_and_resumed_equals_uninterrupted(
+        &[
+            "continuation",
+            "--vary",
+            "omega:131:134:16",
+            "--ics",
+            "6",
+            "--transient",
+            "150",
+            "--periods",
+            "16",
+            "--backend",
+            "cpu",
+            "--no-plot",
+            "--quiet",
+        ],
+        &[3, 22],
+    );
+}
+
+#[test]
 fn reproduce_killed_and_resumed_redraws_the_same_figures() {
     // REPORT.md states the wall times of this session's studies; everything else
     // (every figure, every array and JSON file of the studies) is bit-identical.
@@ -457,6 +503,74 @@ fn two_concurrent_runs_into_one_directory_never_mix_their_files() {
     let run: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out.join("run.json")).unwrap()).unwrap();
     assert_eq!(j["omega"], run["spec"]["omega"], "files of one run only");
+    no_temporaries(&out);
+}
+
+/// Starts `a`, waits for `k` committed units, deletes the lock file under it.
+fn delete_lock_after_units(a: &[String], out: &Path, k: usize) -> std::process::Child {
+    let mut child = bin()
+        .args(a)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let t = Instant::now();
+    while units(out) < k {
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "finished before {k} units"
+        );
+        assert!(t.elapsed() < Duration::from_secs(120));
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    std::fs::remove_file(out.join(".jeffcott.lock")).unwrap();
+    child
+}
+
+#[test]
+fn a_run_whose_lock_file_is_deleted_stops_and_is_never_marked_complete() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("b");
+    let a = args(BASIN, &out);
+    let o = delete_lock_after_units(&a, &out, 2)
+        .wait_with_output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains(".jeffcott.lock") && err.contains("not marked complete"),
+        "{err}"
+    );
+    assert_eq!(state(&out), "running");
+    // The same command then resumes under a new lock and ends as an uninterrupted run.
+    let reference = dir.path().join("reference");
+    ok(&jeffcott(&args(BASIN, &reference)));
+    ok(&jeffcott(&a));
+    assert_same_files(&reference, &out);
+}
+
+#[test]
+fn a_second_run_let_in_by_a_deleted_lock_file_never_mixes_its_files_with_the_first() {
+    // Run A loses its lock file mid-run; run B (another specification, --overwrite)
+    // takes the directory. A stops at its next commit; B's files are B's alone.
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("b");
+    let a = args(BASIN, &out);
+    let mut other: Vec<&str> = BASIN.to_vec();
+    other[2] = "134";
+    let mut b = args(&other, &out);
+    b.push("--overwrite".into());
+    let ca = delete_lock_after_units(&a, &out, 2);
+    let ob = jeffcott(&b);
+    let oa = ca.wait_with_output().unwrap();
+    ok(&ob);
+    let err = String::from_utf8_lossy(&oa.stderr);
+    assert_eq!(oa.status.code(), Some(2), "the first run stopped: {err}");
+    assert!(err.contains(".jeffcott.lock"), "{err}");
+    assert_eq!(state(&out), "complete");
+    let reference = dir.path().join("reference");
+    ok(&jeffcott(&args(&other, &reference)));
+    assert_same_files(&reference, &out);
     no_temporaries(&out);
 }
 

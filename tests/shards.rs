@@ -193,6 +193,75 @@ fn merge_refuses_a_missing_a_duplicated_and_a_foreign_shard() {
     assert!(e.contains("unfinished shard"), "{e}");
 }
 
+#[test]
+fn merge_names_a_corrupt_truncated_or_swapped_unit_with_its_shard_and_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let small: Vec<String> = with(BASIN, &["--backend", "cpu"])
+        .into_iter()
+        .map(|a| match a.as_str() {
+            "x_r:-0.006:0.006:24" => "x_r:-0.006:0.006:6".into(),
+            "vx_r:-1:1:20" => "vx_r:-1:1:5".into(),
+            _ => a,
+        })
+        .collect();
+    let small: Vec<&str> = small.iter().map(|s| s.as_str()).collect();
+    let shards: Vec<PathBuf> = (0..2)
+        .map(|i| {
+            let d = dir.path().join(format!("s{i}"));
+            ok(&jeffcott(&with(
+                &small,
+                &["--shard", &format!("{i}/2"), "--out", p(&d)],
+            )));
+            d
+        })
+        .collect();
+    let unit_files = |d: &Path| -> Vec<PathBuf> {
+        let mut v: Vec<PathBuf> = std::fs::read_dir(d.join("units"))
+            .unwrap()
+            .flatten()
+            .map(|e| e.path())
+            .filter(|p| p.extension().is_some_and(|e| e == "unit"))
+            .collect();
+        v.sort();
+        v
+    };
+    let (u0, u1) = (unit_files(&shards[0]), unit_files(&shards[1]));
+    let victim = u1[0].clone();
+    let good = std::fs::read(&victim).unwrap();
+    let damage: [(&str, Vec<u8>); 3] = [
+        ("corrupt", {
+            let mut b = good.clone();
+            let mid = b.len() / 2;
+            b[mid] ^= 0x40;
+            b
+        }),
+        ("truncated", good[..good.len() - 9].to_vec()),
+        // Another unit's file under this unit's name.
+        ("swapped", std::fs::read(&u1[1]).unwrap()),
+    ];
+    for (what, bytes) in damage {
+        std::fs::write(&victim, &bytes).unwrap();
+        let out = dir.path().join("m");
+        let mut a: Vec<String> = vec!["merge".into(), "--out".into(), p(&out).into()];
+        a.extend(shards.iter().map(|d| p(d).to_string()));
+        let o = jeffcott(&a);
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{what}: {e}");
+        assert!(e.contains("is corrupt"), "{what}: {e}");
+        assert!(e.contains(p(&shards[1])), "{what}: names the shard: {e}");
+        assert!(e.contains(p(&victim)), "{what}: names the file: {e}");
+        assert!(e.contains("nothing was written"), "{what}: {e}");
+        assert!(!out.exists(), "{what}: --out was made");
+    }
+    // Mended, the shards merge.
+    std::fs::write(&victim, &good).unwrap();
+    assert!(!u0.is_empty());
+    let out = dir.path().join("m");
+    let mut a: Vec<String> = vec!["merge".into(), "--out".into(), p(&out).into()];
+    a.extend(shards.iter().map(|d| p(d).to_string()));
+    ok(&jeffcott(&a));
+}
+
 fn cycle(n: usize, scale: f64) -> Vec<State> {
     (0..n)
         .map(|k| {
@@ -374,7 +443,7 @@ fn a_continuation_sharded_in_3_and_merged_equals_the_unsharded_run() {
     let dir = tempfile::tempdir().unwrap();
     let cmd = [
         "continuation",
-        "--param",
+        "--vary",
         "omega:132.6:133.4:9",
         "--ics",
         "8",

@@ -206,7 +206,7 @@ def test_map_arrays_and_summary_equal_the_cli_map(tmp_path):
 
 def test_continuation_arrays_and_summary_equal_the_cli_continuation(tmp_path):
     out = tmp_path / "cont"
-    cli("continuation", "--param", "omega:131.5:132.5:3", "--ics", "6", "--transient", "200",
+    cli("continuation", "--vary", "omega:131.5:132.5:3", "--ics", "6", "--transient", "200",
         "--periods", "16", "--backend", "cpu", "--no-plot", "--out", str(out))
     r = jeffcott.continuation(("omega", 131.5, 132.5, 3), ics=6, transient=200, periods=16,
                               backend="cpu")
@@ -257,7 +257,7 @@ def test_basin_stability_equals_the_cli_and_its_intervals_cover_the_fractions(tm
         (lambda: jeffcott.ensemble(133.0, contact_substeps=3), "contact"),
         (lambda: jeffcott.basin(133, ("x_r", 0.0, 1.0, 4), ("x_r", 0.0, 1.0, 4)), "y"),
         (lambda: jeffcott.bifurcation("130:141:4", sweep="sideways"), "sweep"),
-        (lambda: jeffcott.lyapunov(140, time=-1.0), "max_time"),
+        (lambda: jeffcott.lyapunov(140, time=-1.0), "`time`"),
         (lambda: jeffcott.map(("omega", 131, 134, 4), ("nope", 0, 1, 3)), "y"),
         (lambda: jeffcott.continuation("omega:130:141:1"), "param"),
         (lambda: jeffcott.continuation("omega:130:141:3", direction="sideways"), "direction"),

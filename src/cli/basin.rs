@@ -195,6 +195,7 @@ struct RunResult<'a> {
 /// Runs `jeffcott basin`.
 pub fn run_basin(a: &BasinArgs) -> Result<()> {
     let spec = a.spec()?;
+    jeffcott_analysis::uncertainty::check_samples(a.uncertainty_samples)?;
     let entropy_box = jeffcott_analysis::measures::entropy_box(a.entropy_box, spec.x.n, spec.y.n)?;
     jeffcott_analysis::refine::check_levels(a.refine, a.lyapunov, spec.x.n, spec.y.n)?;
     let shard = a.shard.shard()?;

@@ -98,6 +98,11 @@ pub fn run_bench(a: &BenchArgs) -> Result<()> {
     } else {
         a.backend.clone()
     };
+    if let Some(path) = &a.out {
+        // Checked before any timing work: a --out that cannot be written (a directory,
+        // a read-only place) is refused at once. It holds the rows measured so far.
+        jeffcott_analysis::output::write_json(path, &Vec::<BenchRow>::new())?;
+    }
     println!(
         "workload: W = {} rad/s, start states spread over x_r in [-4, 4] mm, vx_r in [-0.5, 0.5] m/s, {} steps/period, {} lane-periods per row; CPU: {} threads",
         jeffcott_analysis::bench::BENCH_OMEGA,

@@ -186,6 +186,16 @@ pub fn parse_coords(option: &str, text: &str) -> Result<Vec<usize>> {
     if v.is_empty() {
         return Err(Error::invalid(option, text, "name at least one coordinate"));
     }
+    if let Some((_, c)) = v.iter().enumerate().find(|(i, c)| v[..*i].contains(c)) {
+        return Err(Error::invalid(
+            option,
+            text,
+            format!(
+                "`{}` is named twice; name each coordinate once",
+                COORD_NAMES[*c]
+            ),
+        ));
+    }
     Ok(v)
 }
 

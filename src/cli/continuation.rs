@@ -7,7 +7,7 @@ use super::{CatalogueArgs, ModelArgs, StepperArgs};
 use crate::plot::{PALETTE, StackedPanel, stacked_fractions};
 use clap::{Args, ValueEnum};
 use jeffcott_analysis::continuation::{
-    ContinuationResult, ContinuationSpec, Direction, continuation_with, id_name,
+    ContinuationResult, ContinuationSpec, Direction, Fields, continuation_with, id_name,
 };
 use jeffcott_analysis::defaults;
 use jeffcott_analysis::map::MapAxis;
@@ -32,9 +32,10 @@ pub enum DirectionArg {
 pub struct ContinuationArgs {
     /// The continued parameter, NAME:lo:hi:n: omega or a model parameter (omega_r,
     /// omega_s, xi_r, xi_s, delta, mu, m_r, m_s, e, k_c, c_c, e_max, a_g, phi0), n >= 2
-    /// values from lo to hi inclusive, e.g. omega:130:141:111.
+    /// values from lo to hi inclusive, e.g. omega:130:141:111. (`--param NAME=VALUE`
+    /// sets the other model parameters, as in every command.)
     #[arg(long, value_name = "NAME:lo:hi:n", allow_hyphen_values = true)]
-    pub param: String,
+    pub vary: String,
     /// Rotor speed when the parameter is not omega [rad/s].
     #[arg(long, value_name = "W")]
     pub omega: Option<f64>,
@@ -108,7 +109,7 @@ impl ContinuationArgs {
         let spec = ContinuationSpec {
             params: self.model.params()?,
             omega: self.omega,
-            param: MapAxis::parse("param", &self.param, false)?,
+            param: MapAxis::parse("vary", &self.vary, false)?,
             ics: self.ics,
             start_box: self
                 .start_box
@@ -132,15 +133,22 @@ impl ContinuationArgs {
         };
         if spec.param.n < 2 {
             return Err(Error::invalid(
-                "param",
+                "vary",
                 spec.param.n,
                 "a continuation needs at least 2 values",
             ));
         }
-        spec.validate()?;
+        spec.validate_as(&FIELDS)?;
         Ok(spec)
     }
 }
+
+/// The continuation's fields as this command spells them: the continued parameter is
+/// `--vary` (`--param NAME=VALUE` is the model-parameter override of every command).
+const FIELDS: Fields = Fields {
+    param: "vary",
+    ..Fields::CONTINUATION
+};
 
 /// Final files (run.json aside).
 pub const OUTPUTS: &[&str] = &[

@@ -201,6 +201,28 @@ pub fn run_merge(a: &MergeArgs) -> Result<()> {
                     format!("lacks unit file {} that its run.json lists", f.display()),
                 ));
             }
+            // Each unit is read back whole before anything is written to --out: a
+            // corrupt, truncated or swapped file is named here, with its shard.
+            let why = match jeffcott_analysis::run::Unit::read(&f) {
+                Ok(u) if u.key == *key => None,
+                Ok(u) => Some(format!("holds unit {} instead", u.key)),
+                Err(e) => Some(match e {
+                    Error::Io { source, .. } => source.to_string(),
+                    e => e.to_string(),
+                }),
+            };
+            if let Some(why) = why {
+                return Err(Error::invalid(
+                    "SHARD_DIR",
+                    s.dir.display(),
+                    format!(
+                        "unit file {} of shard {}/{n} is corrupt ({why}); run that shard's command again (it recomputes the unit) and merge again; nothing was written to {}",
+                        f.display(),
+                        s.index,
+                        a.out.display()
+                    ),
+                ));
+            }
         }
     }
     let outputs: &[&str] = match first.command.as_str() {
@@ -244,6 +266,12 @@ pub fn run_merge(a: &MergeArgs) -> Result<()> {
     rundir::merging(Some(stages));
     let r = super::dispatch(&cli.command);
     rundir::merging(None);
+    if r.is_err() {
+        eprintln!(
+            "note: {} is left as an unfinished merge (its run.json says running); the same merge command resumes it once the cause below is mended",
+            a.out.display()
+        );
+    }
     r?;
     if !a.quiet {
         println!(

@@ -947,7 +947,7 @@ fn continuation_section(
             ramp_text.join("; ")
         ),
         &format!(
-            "jeffcott continuation --param omega:130:141:{} --ics {} --transient {} --periods {} --backend {backend} --out {}/continuation",
+            "jeffcott continuation --vary omega:130:141:{} --ics {} --transient {} --periods {} --backend {backend} --out {}/continuation",
             p.cont_values,
             p.cont_ics,
             p.cont_transient,

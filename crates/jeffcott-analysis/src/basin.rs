@@ -65,6 +65,13 @@ pub fn check_axis(option: &str, lo: f64, hi: f64, n: usize) -> Result<()> {
             "need finite lo < hi (lo == hi only with n = 1)",
         ));
     }
+    if n == 1 && lo != hi {
+        return Err(Error::invalid(
+            option,
+            format!("{lo}..{hi} with n = 1"),
+            "one value needs lo == hi (NAME:v:v:1); give n >= 2 for a range",
+        ));
+    }
     Ok(())
 }
 

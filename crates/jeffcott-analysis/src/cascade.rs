@@ -52,6 +52,13 @@ impl CascadeSpec {
     /// there are more than [`MAX_SPEEDS`].
     pub fn speeds(text: &str) -> Result<Vec<f64>> {
         let r = jeffcott_core::ensemble::RangeSpec::parse("omega", text)?;
+        if r.a > r.b {
+            return Err(Error::invalid(
+                "omega",
+                text,
+                "a cascade's range runs upward, a < b (the run-down is --direction down or both)",
+            ));
+        }
         if r.n > MAX_SPEEDS {
             return Err(Error::invalid(
                 "omega",

@@ -111,16 +111,46 @@ pub struct ContinuationSpec {
     pub match_threshold: f64,
 }
 
+/// The names a study gives the fields of a [`ContinuationSpec`] in its errors.
+#[derive(Clone, Copy, Debug)]
+pub struct Fields {
+    /// The continued parameter's range.
+    pub param: &'static str,
+    /// The fresh start states per value.
+    pub ics: &'static str,
+    /// The fewest fresh start states allowed.
+    pub ics_min: u32,
+    /// The box of start coordinates.
+    pub start_box: &'static str,
+}
+
+impl Fields {
+    /// `jeffcott continuation`'s names (`--param`, `--ics`, `--box`).
+    pub const CONTINUATION: Fields = Fields {
+        param: "param",
+        ics: "ics",
+        ics_min: 1,
+        start_box: "box",
+    };
+}
+
 impl ContinuationSpec {
     /// Checks the inputs; errors name the option and the allowed range.
     pub fn validate(&self) -> Result<()> {
+        self.validate_as(&Fields::CONTINUATION)
+    }
+
+    /// [`ContinuationSpec::validate`] with errors naming the fields as the study that
+    /// built this specification spells them (`basin-stability` continues over `omega`
+    /// with `sample` draws in a `box`).
+    pub fn validate_as(&self, f: &Fields) -> Result<()> {
         self.params.validate()?;
         self.stepper.validate()?;
         self.catalogue.validate()?;
-        self.param.validate("param")?;
+        self.param.validate(f.param)?;
         if let MapVar::Coord(_) = self.param.var {
             return Err(Error::invalid(
-                "param",
+                f.param,
                 self.param.var.name(),
                 "a continuation follows attractors over omega or a model parameter, not a start coordinate",
             ));
@@ -143,17 +173,17 @@ impl ContinuationSpec {
                 .and_then(|_| p.validate())
                 .map_err(|e| {
                     Error::invalid(
-                        "param",
+                        f.param,
                         format!("{} = {}", self.param.var.name(), self.param.value(i)),
                         format!("an end of the range is invalid: {e}"),
                     )
                 })?;
         }
-        if !(1..=super::map::MAX_ICS).contains(&self.ics) {
+        if !(f.ics_min..=super::map::MAX_ICS).contains(&self.ics) {
             return Err(Error::invalid(
-                "ics",
+                f.ics,
                 self.ics,
-                format!("must be in 1..={}", super::map::MAX_ICS),
+                format!("must be in {}..={}", f.ics_min, super::map::MAX_ICS),
             ));
         }
         jeffcott_core::limits::check_periods("transient", self.transient, 0)?;
@@ -163,7 +193,7 @@ impl ContinuationSpec {
             for &(c, lo, hi) in b {
                 if c % 2 == 0 && lo.abs().max(hi.abs()) > bound {
                     return Err(Error::invalid(
-                        "box",
+                        f.start_box,
                         format!("{}:{lo}:{hi}", jeffcott_core::model::COORD_NAMES[c]),
                         format!("start positions must lie within --divergence-bound {bound} m"),
                     ));

@@ -257,7 +257,14 @@ impl MapSpec {
                 ));
             }
             (Some(w), false) => validate_omega(w)?,
-            _ => {}
+            (Some(w), true) => {
+                return Err(Error::invalid(
+                    "omega",
+                    w,
+                    "an axis is omega, which sets the speed of every cell; leave --omega out",
+                ));
+            }
+            (None, true) => {}
         }
         if !(1..=MAX_ICS).contains(&self.ics) {
             return Err(Error::invalid(

@@ -4,7 +4,9 @@
 //! `jeffcott basin-stability` and the Python package's `basin_stability`.
 
 use crate::catalogue::CatalogueConfig;
-use crate::continuation::{ContinuationResult, ContinuationSpec, Direction, Ramp, parse_box};
+use crate::continuation::{
+    ContinuationResult, ContinuationSpec, Direction, Fields, Ramp, parse_box,
+};
 use crate::map::{MapAxis, MapVar};
 use crate::record::{CoordRange, coord_box};
 use jeffcott_core::ensemble::{Backend, Precision};
@@ -62,13 +64,6 @@ pub fn spec(r: &StabilityRequest) -> Result<ContinuationSpec> {
     if range.n > 100_000 {
         return Err(Error::invalid("omega", r.omega, "at most 100000 speeds"));
     }
-    if !(2..=100_000_000).contains(&r.sample) {
-        return Err(Error::invalid(
-            "sample",
-            r.sample,
-            "must be in 2..=100000000",
-        ));
-    }
     let spec = ContinuationSpec {
         params: r.params.clone(),
         omega: None,
@@ -80,7 +75,7 @@ pub fn spec(r: &StabilityRequest) -> Result<ContinuationSpec> {
             log: false,
         },
         ics: r.sample,
-        start_box: Some(parse_box("box", r.start_box)?),
+        start_box: Some(parse_box(FIELDS.start_box, r.start_box)?),
         seed: r.seed,
         transient: r.transient,
         recorded: r.recorded,
@@ -92,9 +87,18 @@ pub fn spec(r: &StabilityRequest) -> Result<ContinuationSpec> {
         directions: vec![Direction::Up],
         match_threshold: f64::INFINITY,
     };
-    spec.validate()?;
+    spec.validate_as(&FIELDS)?;
     Ok(spec)
 }
+
+/// The continuation's fields as basin stability names them: a speed range `omega`,
+/// `sample` draws (at least 2: a fraction of one draw says nothing) in a `box`.
+pub const FIELDS: Fields = Fields {
+    param: "omega",
+    ics: "sample",
+    ics_min: 2,
+    start_box: "box",
+};
 
 /// The fractions `[n, ids + 1]` of the ramp (last column diverged) and the lower and
 /// upper ends of their 95 % Wilson intervals.

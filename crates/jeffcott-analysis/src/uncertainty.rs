@@ -25,6 +25,23 @@ pub const EPS: [f64; 7] = [1e-1, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7];
 /// Lanes per draw: the draw itself and +-eps along x and y for every eps.
 const PER_DRAW: usize = 1 + 4 * EPS.len();
 
+/// Draws at most: 1e6 draws are 2.9e7 lanes, more than a 5000 x 5000 basin, and put
+/// the floor of f(eps) at 1e-6, below any boundary this model has shown.
+pub const MAX_SAMPLES: usize = 1_000_000;
+
+/// Checks a number of draws (`uncertainty-samples`): 0 (none) ..= [`MAX_SAMPLES`].
+pub fn check_samples(samples: usize) -> Result<()> {
+    if samples <= MAX_SAMPLES {
+        Ok(())
+    } else {
+        Err(jeffcott_core::error::Error::invalid(
+            "uncertainty-samples",
+            samples,
+            format!("must be in 0..={MAX_SAMPLES} draws (0 skips the re-integration)"),
+        ))
+    }
+}
+
 /// Stage name of the lanes.
 pub const STAGE: &str = "uncertainty";
 
@@ -99,6 +116,7 @@ pub fn reintegration(
     store: &dyn UnitStore,
     ctl: Control,
 ) -> Result<Reintegration> {
+    check_samples(samples)?;
     let lanes = samples * PER_DRAW;
     let per_lane = (spec.transient + spec.recorded) as u64 * spec.stepper.steps_per_period as u64;
     // Whole draws per unit.

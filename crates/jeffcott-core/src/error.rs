@@ -66,6 +66,16 @@ pub enum Error {
         /// The output directory.
         path: PathBuf,
     },
+    /// The output directory's lock file was removed or replaced while this run held it:
+    /// another run may have taken the directory, so this one writes nothing more and is
+    /// not marked complete.
+    #[error(
+        "the lock file {path}/.jeffcott.lock was removed or replaced while this run was writing; another run may have written into {path}, so this run stopped and is not marked complete (its committed units are kept): rerun the same command when no other run writes there, or choose another --out"
+    )]
+    LockLost {
+        /// The output directory.
+        path: PathBuf,
+    },
     /// The output directory holds another run.
     #[error(
         "{path} holds {reason}; choose another --out, or give --overwrite to remove that run's files first"

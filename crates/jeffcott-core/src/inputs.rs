@@ -7,11 +7,28 @@ use crate::error::{Error, Result};
 use crate::model::{COORD_NAMES, Params, STATE_DIM, State, X_R, X_S, Y_R, Y_S, coord_index};
 
 /// Parses `a=1,b=2e-3` into pairs; `option` names the CLI option in errors.
+/// An empty list (`--param ''`) is refused: it sets nothing, which is never what was meant.
 pub fn parse_assignments(option: &str, text: &str) -> Result<Vec<(String, f64)>> {
     let mut out = Vec::new();
+    if text.trim().is_empty() {
+        return Err(Error::invalid(
+            option,
+            format!("{text:?}"),
+            "empty; expected NAME=VALUE,... (leave the option out to set nothing)",
+        ));
+    }
     for item in text.split(',').map(str::trim).filter(|s| !s.is_empty()) {
         let Some((name, value)) = item.split_once('=') else {
-            return Err(Error::invalid(option, item, "expected NAME=VALUE"));
+            let hint = if item.contains(':') {
+                " (a range NAME:lo:hi:n is `--vary` of `continuation` and `--x`/`--y` of `map`)"
+            } else {
+                ""
+            };
+            return Err(Error::invalid(
+                option,
+                item,
+                format!("expected NAME=VALUE{hint}"),
+            ));
         };
         let name = name.trim();
         let value: f64 = value.trim().parse().map_err(|_| {

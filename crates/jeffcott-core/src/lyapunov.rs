@@ -94,15 +94,16 @@ impl SpectrumConfig {
     pub fn validate(&self) -> Result<()> {
         self.stepper.validate()?;
         if !(self.max_time.is_finite() && self.max_time > 0.0) {
+            // Named as the command line (`--time`) and Python (`time=`) spell it.
             return Err(Error::invalid(
-                "max_time",
+                "time",
                 self.max_time,
                 "must be finite and > 0 s",
             ));
         }
         if !(self.min_time.is_finite() && self.min_time >= 0.0) {
             return Err(Error::invalid(
-                "min_time",
+                "min-time",
                 self.min_time,
                 "must be finite and >= 0 s",
             ));

@@ -13,7 +13,11 @@
 //! - A different specification (or files of a run this version cannot read) is refused
 //!   unless `overwrite`, which first removes that run's files.
 //! - An exclusive lock on `.jeffcott.lock` keeps a second run out while one is writing;
-//!   the operating system drops it when the process dies, SIGKILL included.
+//!   the operating system drops it when the process dies, SIGKILL included. The run
+//!   checks before every commit and before it marks itself complete that the file at
+//!   that path is still the one it locked (and that `run.json` is still its own): a lock
+//!   file deleted mid-run would let a second run in, so the first stops instead of
+//!   mixing its files with the second's ([`Error::LockLost`]).
 
 use super::unit::Unit;
 use crate::output;
@@ -321,9 +325,24 @@ impl RunDir {
         self.unit_path(stage, index).exists()
     }
 
-    /// Commits a unit: written atomically under its final name.
+    /// Commits a unit: written atomically under its final name, with the key of its
+    /// stage and index whatever key the study gave it (the key is what [`committed`]
+    /// checks on resume; a unit committed under another key would be thrown away there
+    /// and computed again, as cascade's and continuation's ramp units once were). The
+    /// lock is checked first: a run whose lock was taken from it writes nothing more.
+    ///
+    /// [`committed`]: RunDir::committed
     pub fn commit(&self, stage: &str, index: usize, unit: &Unit) -> Result<()> {
-        unit.write(&self.unit_path(stage, index))
+        self.check_lock()?;
+        let key = unit_key(stage, index);
+        let path = self.unit_path(stage, index);
+        if unit.key == key {
+            unit.write(&path)
+        } else {
+            let mut u = unit.clone();
+            u.key = key;
+            u.write(&path)
+        }
     }
 
     /// Reads a committed unit.
@@ -341,6 +360,25 @@ impl RunDir {
         Ok(u)
     }
 
+    /// Checks that the lock file is still the one this run locked: a lock file removed
+    /// mid-run (by hand, by a cleaning script) lets a second run take a lock of its own
+    /// and write into the directory, so a run that finds its lock gone or replaced stops
+    /// writing ([`Error::LockLost`]). Called before every commit and before the run is
+    /// marked complete.
+    pub fn check_lock(&self) -> Result<()> {
+        let path = self.dir.join(LOCK);
+        let lost = || Error::LockLost {
+            path: self.dir.clone(),
+        };
+        let on_disk = std::fs::metadata(&path).map_err(|_| lost())?;
+        let held = self._lock.metadata().map_err(io(&path))?;
+        if same_file(&on_disk, &held) {
+            Ok(())
+        } else {
+            Err(lost())
+        }
+    }
+
     /// Marks the run complete: `run.json` with `state: "complete"`, the run's result
     /// record `result` (a struct or map; its keys stay at the top level, and may not be
     /// the run's own keys, [`RUN_KEYS`]) and the list of final files. Call after every
@@ -355,6 +393,24 @@ impl RunDir {
             return Err(bad(format!(
                 "the result may not set run.json's own key `{k}`"
             )));
+        }
+        self.check_lock()?;
+        // run.json must still describe this run: another one writing here would have
+        // rewritten it with its own command and specification.
+        let rj = self.dir.join(RUN_JSON);
+        let now: Option<serde_json::Value> = std::fs::read(&rj)
+            .ok()
+            .and_then(|b| serde_json::from_slice(&b).ok());
+        let ours = now.as_ref().is_some_and(|o| {
+            o.get("command").and_then(|c| c.as_str()) == Some(self.command.as_str())
+                && o.get("spec") == Some(&self.spec)
+                && o.get("shard").cloned().unwrap_or(serde_json::Value::Null)
+                    == serde_json::to_value(self.shard).unwrap_or_default()
+        });
+        if !ours {
+            return Err(Error::LockLost {
+                path: self.dir.clone(),
+            });
         }
         self.write_state("complete", &map, outputs)
     }
@@ -398,6 +454,20 @@ struct RunJson<'a> {
     /// The command's result record, at the top level (its own `jeffcott_version` wins).
     #[serde(flatten)]
     result: &'a serde_json::Map<String, serde_json::Value>,
+}
+
+/// Whether two metadata describe the same file (device and inode on Unix).
+#[cfg(unix)]
+fn same_file(a: &std::fs::Metadata, b: &std::fs::Metadata) -> bool {
+    use std::os::unix::fs::MetadataExt;
+    a.dev() == b.dev() && a.ino() == b.ino()
+}
+
+/// Elsewhere a replaced lock file cannot be told from the held one; its presence is
+/// what is checked.
+#[cfg(not(unix))]
+fn same_file(_: &std::fs::Metadata, _: &std::fs::Metadata) -> bool {
+    true
 }
 
 /// The key of unit `index` of `stage`.

@@ -380,6 +380,11 @@ impl RangeSpec {
                         text,
                         "a:b:1 needs a == b (one value)",
                     )),
+                    _ if a == b => Err(Error::invalid(
+                        option,
+                        text,
+                        "a:b:n with n > 1 needs a != b (it would give n equal values; give a alone for one)",
+                    )),
                     n => Ok(RangeSpec { a, b, n }),
                 }
             }

@@ -86,6 +86,9 @@ impl LaneTable {
         let f = npyz::NpyFile::new(&bytes[..])
             .map_err(|e| table_err(path, format!("is not an NPY file: {e}")))?;
         let shape = f.shape().to_vec();
+        // `np.save` writes any transposed (Fortran-contiguous) array in column-major
+        // order with `fortran_order: True`: its values run down the columns.
+        let fortran = f.order() == npyz::Order::Fortran;
         let [nrows, ncols] = shape[..] else {
             return Err(table_err(
                 path,
@@ -125,10 +128,17 @@ impl LaneTable {
         if nrows as usize > MAX_ROWS {
             return Err(table_err(path, format!("has more than {MAX_ROWS} rows")));
         }
-        let rows = values
-            .chunks_exact(ncols.max(1) as usize)
-            .map(<[f64]>::to_vec)
-            .collect();
+        let (nr, nc) = (nrows as usize, ncols as usize);
+        let rows = if fortran {
+            (0..nr)
+                .map(|r| (0..nc).map(|c| values[c * nr + r]).collect())
+                .collect()
+        } else {
+            values
+                .chunks_exact(nc.max(1))
+                .map(<[f64]>::to_vec)
+                .collect()
+        };
         Ok(LaneTable { columns, rows })
     }
 
