@@ -335,13 +335,7 @@ fn ensemble_lanes(
     apply_init(&mut x0, &a.init)?;
     check_start_within_bound("init", &x0, bound)?;
     let range = jeffcott_core::ensemble::RangeSpec::parse("omega", omega)?;
-    jeffcott_core::limits::check_memory(
-        "omega",
-        omega,
-        jeffcott_core::ensemble::EnsembleSpec::memory_estimate_for(range.len(), a.periods as u64),
-        &format!("{} lanes x {} recorded periods", range.len(), a.periods),
-        "ask for fewer speeds (a smaller n in --omega a:b:n) or fewer --periods",
-    )?;
+    jeffcott_core::ensemble::EnsembleSpec::check_size("omega", omega, range.len(), a.periods)?;
     let omegas = range.values();
     let j = LanesRecord::Range {
         omega: Span::of(&omegas),

@@ -53,10 +53,17 @@ fn backend_precision(backend: &str, precision: Option<&str>) -> PyResult<(Backen
     Ok((b, p))
 }
 
-/// Speeds from a number, a sequence of numbers or the command line's `"a:b:n"`.
-fn speeds(field: &str, omega: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
+/// Speeds from a number, a sequence of numbers or the command line's `"a:b:n"`; a range
+/// is first put to `check` (its text and count: the study's memory check, the command
+/// line's), so a huge one is refused before its values are allocated.
+fn speeds(
+    field: &str,
+    omega: &Bound<'_, PyAny>,
+    check: impl Fn(&str, u64) -> jeffcott_core::Result<()>,
+) -> PyResult<Vec<f64>> {
     if let Ok(text) = omega.extract::<String>() {
         let r = RangeSpec::parse(field, &text).map_err(run::to_py_err)?;
+        check(&text, r.n).map_err(run::to_py_err)?;
         return Ok(r.values());
     }
     if let Ok(w) = omega.extract::<f64>() {
@@ -160,8 +167,8 @@ fn simulate<'py>(
         },
     };
     spec.validate().map_err(run::to_py_err)?;
-    let (res, rub) = run::detached(py, None, |_ctl| {
-        let res = jeffcott_analysis::simulate::simulate(&spec)?;
+    let (res, rub) = run::detached(py, None, |ctl| {
+        let res = jeffcott_analysis::simulate::simulate_with(&spec, ctl.cancel)?;
         let rub = if res.status.is_frozen() {
             None
         } else {
@@ -257,7 +264,9 @@ fn ensemble<'py>(
     );
     let model = model_params(params)?;
     let omegas = match &omega {
-        Some(w) => Some(speeds("omega", w)?),
+        Some(w) => Some(speeds("omega", w, |text, n| {
+            EnsembleSpec::check_size("omega", text, n, periods)
+        })?),
         None => None,
     };
     let (param_sets, lane_list) =
@@ -523,9 +532,17 @@ fn bifurcation<'py>(
     ] {
         jeffcott_core::limits::check_periods(name, v, min).map_err(run::to_py_err)?;
     }
+    let sweeps = match sweep {
+        None => 0,
+        Some(Sweep::Both) => 2,
+        Some(_) => 1,
+    };
+    let omegas = speeds("omega", &omega, |text, n| {
+        BifurcationSpec::check_size(text, n, sweeps, ics, max_seeds, periods)
+    })?;
     let spec = BifurcationSpec {
         params: model_params(params)?,
-        omegas: speeds("omega", &omega)?,
+        omegas,
         sweep,
         transient_first,
         transient,
@@ -629,8 +646,8 @@ fn lyapunov<'py>(
         ..SpectrumConfig::DEFAULT
     };
     cfg.validate().map_err(run::to_py_err)?;
-    let s = run::detached(py, None, |_ctl| {
-        jeffcott_core::lyapunov::spectrum(&params, omega, &x0, &cfg)
+    let s = run::detached(py, None, |ctl| {
+        jeffcott_core::lyapunov::spectrum_with(&params, omega, &x0, &cfg, ctl.cancel)
     })?;
     let d = json_to_py(py, &s.record())?.cast_into::<PyDict>()?;
     let history: Vec<f64> = s
@@ -1007,6 +1024,13 @@ fn basin_metrics<'py>(
 ) -> PyResult<Bound<'py, PyAny>> {
     let grid = labels.as_array();
     let (ny, nx) = grid.dim();
+    if nx == 0 || ny == 0 {
+        return Err(run::to_py_err(Error::invalid(
+            "labels",
+            format!("an array of shape ({ny}, {nx})"),
+            "a basin's labels are a 2-D array of at least one cell",
+        )));
+    }
     let flat: Vec<i32> = grid.iter().copied().collect();
     let eps =
         jeffcott_analysis::measures::entropy_box(entropy_box, nx, ny).map_err(run::to_py_err)?;

@@ -31,7 +31,12 @@ pub fn to_py_err(e: Error) -> PyErr {
             reason,
         } => PyValueError::new_err(
             Error::InvalidParameter {
-                name: name.replace('-', "_"),
+                // The command line's `--box` is the keyword `start_box`.
+                name: if name == "box" {
+                    "start_box".into()
+                } else {
+                    name.replace('-', "_")
+                },
                 value,
                 reason,
             }

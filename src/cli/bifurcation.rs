@@ -218,23 +218,13 @@ impl BifurcationArgs {
             Some(Sweep::Both) => 2,
             Some(_) => 1,
         };
-        let (ics, seeds) = (self.ics.min(100_000) as u64, self.max_seeds as u64);
-        jeffcott_core::limits::check_memory(
-            "omega",
+        BifurcationSpec::check_size(
             &self.omega,
-            BifurcationSpec::memory_estimate_for(
-                range.len(),
-                sweeps,
-                ics,
-                seeds,
-                self.periods as u64,
-            ),
-            &format!(
-                "{} speeds x ({sweeps} sweeps + {ics} start states + up to {seeds} seeds) x {} recorded periods",
-                range.len(),
-                self.periods
-            ),
-            "ask for fewer speeds (a smaller n in --omega a:b:n), fewer --ics or --max-seeds, or fewer --periods",
+            range.len(),
+            sweeps,
+            self.ics,
+            self.max_seeds,
+            self.periods,
         )?;
         let omegas = range.values();
         let precision = self

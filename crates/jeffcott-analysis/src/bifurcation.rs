@@ -144,6 +144,31 @@ impl BifurcationSpec {
     /// `ics` lanes of every W as one ensemble, then up to `max_seeds` more per W, each
     /// ensemble at [`EnsembleSpec::memory_estimate_for`], and copies both into the
     /// per-W results; writing `bifurcation.npy` gathers every row once more.
+    /// Refuses, before any speed is allocated, a diagram whose records would not fit
+    /// in memory: `n_omegas` speeds (given as `omega`, named in the error), `sweeps`
+    /// quasistatic sweeps, `ics` start states per speed, up to `max_seeds` seeds, each
+    /// recording `recorded` periods. The one check of the command line and Python.
+    pub fn check_size(
+        omega: &str,
+        n_omegas: u64,
+        sweeps: u64,
+        ics: u32,
+        max_seeds: usize,
+        recorded: u32,
+    ) -> Result<()> {
+        let (ics, seeds) = (ics.min(100_000) as u64, max_seeds as u64);
+        jeffcott_core::limits::check_memory(
+            "omega",
+            omega,
+            Self::memory_estimate_for(n_omegas, sweeps, ics, seeds, recorded as u64),
+            &format!(
+                "{n_omegas} speeds x ({sweeps} sweeps + {ics} start states + up to {seeds} seeds) x {recorded} recorded periods"
+            ),
+            "ask for fewer speeds (a smaller n in a:b:n), fewer start states (ics) or seeds (max-seeds), or fewer periods",
+        )
+    }
+
+    /// Bytes a diagram's records need at most (see [`BifurcationSpec::check_size`]).
     pub fn memory_estimate_for(
         n_omegas: u64,
         sweeps: u64,

@@ -6,6 +6,7 @@ use crate::classify::{Class, Classification, ClassifyConfig, classify};
 use crate::record::NamedState;
 use crate::rub::{RubFigures, normal_force, rub_figures};
 use crate::spectrum::{FullSpectrum, full_spectrum, orbit};
+use jeffcott_core::control::Cancel;
 use jeffcott_core::error::Result;
 use jeffcott_core::integrate::article::{ArticleConfig, ArticleCounters, ArticleStepper};
 use jeffcott_core::integrate::lane::{
@@ -180,7 +181,18 @@ pub struct SimulateResult {
 
 /// Runs a simulation. Validates the spec first.
 pub fn simulate(spec: &SimulateSpec) -> Result<SimulateResult> {
+    simulate_with(spec, &Cancel::new())
+}
+
+/// [`simulate`], stopped within a forcing period once `cancel` is set
+/// ([`Error::Interrupted`]; a Python caller's Ctrl-C). The result does not depend on
+/// `cancel` otherwise.
+pub fn simulate_with(spec: &SimulateSpec, cancel: &Cancel) -> Result<SimulateResult> {
     spec.validate()?;
+    let stopped = || jeffcott_core::error::Error::Interrupted {
+        committed: 0,
+        total: 1,
+    };
     let start = Instant::now();
     let p = &spec.params;
     let period = std::f64::consts::TAU / spec.omega;
@@ -208,6 +220,9 @@ pub fn simulate(spec: &SimulateSpec) -> Result<SimulateResult> {
             let mut lane = Lane::<f64>::new(&spec.x0, p.delta);
             let n = lc.n;
             'periods: for q in 0..total {
+                if cancel.is_set() {
+                    return Err(stopped());
+                }
                 for k in 0..n {
                     if k == 0 && q == ts_from {
                         record(q, 0, n, &lane.x, &mut timeseries);
@@ -229,6 +244,9 @@ pub fn simulate(spec: &SimulateSpec) -> Result<SimulateResult> {
             let n = spec.article.steps_per_period;
             let mut status = Status::Ok;
             'periods: for q in 0..total {
+                if cancel.is_set() {
+                    return Err(stopped());
+                }
                 for k in 0..n {
                     if k == 0 && q == ts_from {
                         record(q, 0, n, &st.x, &mut timeseries);

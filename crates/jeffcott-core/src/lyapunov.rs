@@ -233,6 +233,23 @@ impl Spectrum {
 
 /// The full Lyapunov spectrum at speed `omega` from `x0` (see the module docs).
 pub fn spectrum(p: &Params, omega: f64, x0: &State, cfg: &SpectrumConfig) -> Result<Spectrum> {
+    spectrum_with(p, omega, x0, cfg, &crate::control::Cancel::new())
+}
+
+/// [`spectrum`], stopped within a forcing period once `cancel` is set
+/// ([`crate::error::Error::Interrupted`]; a Python caller's Ctrl-C). The result does not
+/// depend on `cancel` otherwise.
+pub fn spectrum_with(
+    p: &Params,
+    omega: f64,
+    x0: &State,
+    cfg: &SpectrumConfig,
+    cancel: &crate::control::Cancel,
+) -> Result<Spectrum> {
+    let stopped = || crate::error::Error::Interrupted {
+        committed: 0,
+        total: 1,
+    };
     p.validate()?;
     validate_omega(omega)?;
     cfg.validate()?;
@@ -243,6 +260,9 @@ pub fn spectrum(p: &Params, omega: f64, x0: &State, cfg: &SpectrumConfig) -> Res
     for _ in 0..cfg.transient {
         if lane.status.is_frozen() {
             break;
+        }
+        if cancel.is_set() {
+            return Err(stopped());
         }
         advance_period(&lc, &mut lane);
     }
@@ -268,6 +288,9 @@ pub fn spectrum(p: &Params, omega: f64, x0: &State, cfg: &SpectrumConfig) -> Res
         if lane.status.is_frozen() {
             stop = StopReason::LaneFrozen;
             break;
+        }
+        if cancel.is_set() {
+            return Err(stopped());
         }
         let accumulating = p_count >= cfg.tangent_transient as u64;
         let (tr0, ld0, ns0) = (tan.trace_integral, tan.saltation_log_det, tan.saltations);

@@ -186,6 +186,19 @@ impl EnsembleSpec {
         crate::limits::product(&[lanes, per_lane])
     }
 
+    /// Refuses, before any lane is allocated, `lanes` lanes (set by the option `option`
+    /// with `value`) recording `recorded` periods each when they would not fit in
+    /// memory. The one check of the command line and Python.
+    pub fn check_size(option: &str, value: &str, lanes: u64, recorded: u32) -> Result<()> {
+        crate::limits::check_memory(
+            option,
+            value,
+            Self::memory_estimate_for(lanes, recorded as u64),
+            &format!("{lanes} lanes x {recorded} recorded periods"),
+            "ask for fewer lanes (a smaller n in a:b:n, a shorter table) or fewer periods",
+        )
+    }
+
     /// [`EnsembleSpec::memory_estimate_for`] of this spec.
     pub fn memory_estimate(&self) -> u64 {
         Self::memory_estimate_for(self.lanes.len() as u64, self.recorded as u64)
