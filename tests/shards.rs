@@ -143,18 +143,22 @@ fn an_ensemble_sharded_and_merged_equals_the_unsharded_run() {
     );
 }
 
-#[test]
-fn merge_refuses_a_missing_a_duplicated_and_a_foreign_shard() {
-    let dir = tempfile::tempdir().unwrap();
-    let small = with(BASIN, &["--backend", "cpu"]);
-    let small: Vec<String> = small
+/// [`BASIN`] on the CPU over a 6 x 5 grid (15 units): quick shards for refusals.
+fn small_basin() -> Vec<String> {
+    with(BASIN, &["--backend", "cpu"])
         .into_iter()
         .map(|a| match a.as_str() {
             "x_r:-0.006:0.006:24" => "x_r:-0.006:0.006:6".into(),
             "vx_r:-1:1:20" => "vx_r:-1:1:5".into(),
             _ => a,
         })
-        .collect();
+        .collect()
+}
+
+#[test]
+fn merge_refuses_a_missing_a_duplicated_and_a_foreign_shard() {
+    let dir = tempfile::tempdir().unwrap();
+    let small = small_basin();
     let small: Vec<&str> = small.iter().map(|s| s.as_str()).collect();
     let s = |i: usize, cmd: &[&str], tag: &str| {
         let d = dir.path().join(format!("{tag}{i}"));
@@ -196,14 +200,7 @@ fn merge_refuses_a_missing_a_duplicated_and_a_foreign_shard() {
 #[test]
 fn merge_names_a_corrupt_truncated_or_swapped_unit_with_its_shard_and_writes_nothing() {
     let dir = tempfile::tempdir().unwrap();
-    let small: Vec<String> = with(BASIN, &["--backend", "cpu"])
-        .into_iter()
-        .map(|a| match a.as_str() {
-            "x_r:-0.006:0.006:24" => "x_r:-0.006:0.006:6".into(),
-            "vx_r:-1:1:20" => "vx_r:-1:1:5".into(),
-            _ => a,
-        })
-        .collect();
+    let small = small_basin();
     let small: Vec<&str> = small.iter().map(|s| s.as_str()).collect();
     let shards: Vec<PathBuf> = (0..2)
         .map(|i| {

@@ -147,37 +147,6 @@ def _named(f):
     return call
 
 
-(
-    adapters,
-    basin,
-    basin_metrics,
-    basin_stability,
-    bifurcation,
-    cascade,
-    continuation,
-    ensemble,
-    lyapunov,
-    map,
-    parameters,
-    simulate,
-) = (
-    _named(f)
-    for f in (
-        adapters,
-        basin,
-        basin_metrics,
-        basin_stability,
-        bifurcation,
-        cascade,
-        continuation,
-        ensemble,
-        lyapunov,
-        map,
-        parameters,
-        simulate,
-    )
-)
-
 # `map` is not in __all__: a star import would shadow the builtin map.
 __all__ = [
     "COORD_NAMES",
@@ -196,3 +165,9 @@ __all__ = [
     "parameters",
     "simulate",
 ]
+
+# Every function of the package (`map` too) with conversion errors that name the keyword.
+for _name in __all__ + ["map"]:
+    if callable(globals()[_name]):
+        globals()[_name] = _named(globals()[_name])
+del _name
