@@ -393,7 +393,7 @@ impl RangeSpec {
                         text,
                         "a:b:1 needs a == b (one value)",
                     )),
-                    _ if a == b => Err(Error::invalid(
+                    n if n > 1 && a == b => Err(Error::invalid(
                         option,
                         text,
                         "a:b:n with n > 1 needs a != b (it would give n equal values; give a alone for one)",
