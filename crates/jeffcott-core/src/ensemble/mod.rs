@@ -195,7 +195,7 @@ impl EnsembleSpec {
             value,
             Self::memory_estimate_for(lanes, recorded as u64),
             &format!("{lanes} lanes x {recorded} recorded periods"),
-            "ask for fewer lanes (a smaller n in a:b:n, a shorter table) or fewer periods",
+            "ask for fewer speeds (a smaller n in a:b:n) or lanes (a shorter table), or fewer periods",
         )
     }
 
