@@ -136,12 +136,12 @@ def interrupted_after(call, delay=1.0):
     return back - fired[0]
 
 
-def test_ctrl_c_stops_simulate_within_a_second():
+def test_ctrl_c_stops_simulate_within_a_second(sigint_raises):
     # 100000 transient periods: ~9 s of CPU work.
     late = interrupted_after(lambda: jeffcott.simulate(132.2, transient=100000))
     assert late < 1.0, f"control came back {late:.2f} s after Ctrl-C"
 
 
-def test_ctrl_c_stops_lyapunov_within_a_second():
+def test_ctrl_c_stops_lyapunov_within_a_second(sigint_raises):
     late = interrupted_after(lambda: jeffcott.lyapunov(140, time=3000.0, min_time=3000.0))
     assert late < 1.0, f"control came back {late:.2f} s after Ctrl-C"

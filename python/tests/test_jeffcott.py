@@ -368,7 +368,7 @@ def test_the_gil_is_released_during_a_run():
     assert len(during) >= 20, f"{len(during)} ticks in {t1 - t0:.2f} s: the GIL was held"
 
 
-def test_keyboard_interrupt_during_a_long_ensemble_returns_within_a_second():
+def test_keyboard_interrupt_during_a_long_ensemble_returns_within_a_second(sigint_raises):
     # ~100 s of CPU work; Ctrl-C (as a notebook's interrupt sends it) after 1.5 s.
     fired = []
 
