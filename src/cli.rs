@@ -721,23 +721,8 @@ pub fn run_simulate(a: &SimulateArgs) -> Result<()> {
         },
     };
     spec.validate()?;
-    jeffcott_core::limits::check_memory(
-        "periods",
-        a.periods,
-        spec.memory_estimate(),
-        &format!(
-            "{} recorded periods, {} of them in the time series",
-            spec.periods, spec.timeseries_periods
-        ),
-        "ask for fewer --periods or --timeseries-periods",
-    )?;
-    if !(1..=10_000).contains(&a.spectrum_periods) {
-        return Err(Error::invalid(
-            "spectrum-periods",
-            a.spectrum_periods,
-            "must be in 1..=10000",
-        ));
-    }
+    spec.check_size()?;
+    spec.check_spectrum_periods(a.spectrum_periods)?;
     let mut outputs = vec![
         "poincare.npy",
         "timeseries.npy",

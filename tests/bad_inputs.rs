@@ -45,6 +45,26 @@ const CASES: &[Case] = &[
         &["simulate", "--omega", "133", "--no-such-option"],
         &["--no-such-option"],
     ),
+    (
+        &["simulate", "--omega", "133", "--spectrum-periods", "0"],
+        &["`spectrum-periods`"],
+    ),
+    (
+        &[
+            "simulate",
+            "--omega",
+            "133",
+            "--spectrum-periods",
+            "10000",
+            "--steps-per-period",
+            "1000000",
+        ],
+        &["`spectrum-periods`", "memory"],
+    ),
+    (
+        &["simulate", "--omega", "133", "--steps-per-period", "4"],
+        &["`steps-per-period`", "8..="],
+    ),
     // ensemble
     (&["ensemble", "--omega", "130:141:0"], &["`omega`", ">= 1"]),
     (
@@ -216,6 +236,16 @@ const CASES: &[Case] = &[
     (
         &["continuation", "--vary", "omega:130:131:3", "--ics", "0"],
         &["`ics`"],
+    ),
+    (
+        &[
+            "continuation",
+            "--vary",
+            "omega:130:131:3",
+            "--omega",
+            "133",
+        ],
+        &["`omega`", "leave omega out"],
     ),
     // cascade
     (&["cascade", "--omega", "130:130:4"], &["`omega`", "a != b"]),

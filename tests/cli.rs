@@ -123,7 +123,7 @@ fn bad_parameters_and_input_are_rejected_with_the_field_and_range() {
     );
     assert_rejected(
         &["simulate", "--omega", "133", "--steps-per-period", "3"],
-        &["steps_per_period", "8..="],
+        &["steps-per-period", "8..="],
     );
     assert_rejected(
         &[

@@ -752,7 +752,7 @@ fn contact_refinement_other_than_a_power_of_two_up_to_16_is_refused_naming_the_o
             "--out",
             out.to_str().unwrap(),
         ]);
-        assert_refused(&o, &["`contact_substeps`", "1, 2, 4, 8, 16"]);
+        assert_refused(&o, &["`contact-substeps`", "1, 2, 4, 8, 16"]);
         assert!(!out.exists(), "nothing may be written for R = {bad}");
     }
 }

@@ -1,6 +1,6 @@
 """Type stubs of the Rust extension (python/src/lib.rs)."""
 
-from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, List, Literal, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -10,9 +10,16 @@ COORD_NAMES: List[str]
 PARAM_KEYS: List[str]
 LANES_COLUMNS: List[str]
 
+# Bad input raises ValueError (a value out of range; a request too large for memory,
+# refused before anything is allocated) or TypeError (the wrong kind of value), naming
+# the keyword and what it accepts.
+
 Progress = Callable[[int, int], Any]
 Speeds = Union[float, Sequence[float], str]
 AxisSpec = Union[Tuple[str, float, float, int], str]
+Backend = Literal["auto", "cpu", "gpu"]
+Precision = Optional[Literal["f32", "f64"]]
+Direction = Literal["up", "down", "both"]
 
 def simulate(
     omega: float,
@@ -22,7 +29,7 @@ def simulate(
     transient: int = 1000,
     periods: int = 64,
     timeseries_periods: Optional[int] = None,
-    integrator: str = "lane",
+    integrator: Literal["lane", "article"] = "lane",
     spectrum_periods: int = 24,
     steps_per_period: int = 500,
     max_segments: int = 16,
@@ -40,14 +47,14 @@ def simulate(
 def ensemble(
     omega: Optional[Speeds] = None,
     *,
-    lanes: Optional[npt.NDArray[np.float64]] = None,
+    lanes: Optional[npt.ArrayLike] = None,
     columns: Optional[Sequence[str]] = None,
     params: Optional[Mapping[str, float]] = None,
     init: Optional[Mapping[str, float]] = None,
     transient: int = 500,
     periods: int = 64,
-    backend: str = "auto",
-    precision: Optional[str] = None,
+    backend: Backend = "auto",
+    precision: Precision = None,
     lyapunov: bool = False,
     steps_per_period: int = 500,
     max_segments: int = 16,
@@ -55,7 +62,8 @@ def ensemble(
     contact_substeps: int = 2,
     progress: Optional[Progress] = None,
 ) -> Dict[str, Any]:
-    """Many lanes: poincare [lanes, periods, 8], status [lanes] (uint32), lanes [lanes, 10],
+    """Many lanes (a speed range or sequence, or lanes: any 2-D array-like of numbers, read
+    as float64): poincare [lanes, periods, 8], status [lanes] (uint32), lanes [lanes, 10],
     params [sets, 14], lambda1 [lanes] (with lyapunov=True) and run (run.json's keys)."""
 
 def basin(
@@ -67,8 +75,8 @@ def basin(
     params: Optional[Mapping[str, float]] = None,
     transient: int = 500,
     periods: int = 64,
-    backend: str = "auto",
-    precision: Optional[str] = None,
+    backend: Backend = "auto",
+    precision: Precision = None,
     lyapunov: bool = False,
     refine: int = 0,
     uncertainty_samples: int = 0,
@@ -89,7 +97,7 @@ def basin(
 def bifurcation(
     omega: Speeds,
     *,
-    sweep: str = "both",
+    sweep: Literal["up", "down", "both", "none"] = "both",
     ics: int = 8,
     seed: int = 1,
     transient: int = 200,
@@ -98,8 +106,8 @@ def bifurcation(
     periods: int = 64,
     max_seeds: int = 8,
     params: Optional[Mapping[str, float]] = None,
-    backend: str = "auto",
-    precision: Optional[str] = None,
+    backend: Backend = "auto",
+    precision: Precision = None,
     lyapunov: bool = True,
     steps_per_period: int = 500,
     max_segments: int = 16,
@@ -140,8 +148,8 @@ def map(
     log_x: bool = False,
     log_y: bool = False,
     params: Optional[Mapping[str, float]] = None,
-    backend: str = "auto",
-    precision: Optional[str] = None,
+    backend: Backend = "auto",
+    precision: Precision = None,
     lyapunov: bool = True,
     steps_per_period: int = 500,
     max_segments: int = 16,
@@ -159,13 +167,13 @@ def continuation(
     ics: int = 32,
     start_box: Optional[str] = None,
     seed: int = 1,
-    direction: str = "both",
+    direction: Direction = "both",
     match_threshold: Optional[float] = None,
     transient: int = 500,
     periods: int = 64,
     params: Optional[Mapping[str, float]] = None,
-    backend: str = "auto",
-    precision: Optional[str] = None,
+    backend: Backend = "auto",
+    precision: Precision = None,
     lyapunov: bool = True,
     steps_per_period: int = 500,
     max_segments: int = 16,
@@ -185,8 +193,8 @@ def basin_stability(
     transient: int = 500,
     periods: int = 64,
     params: Optional[Mapping[str, float]] = None,
-    backend: str = "auto",
-    precision: Optional[str] = None,
+    backend: Backend = "auto",
+    precision: Precision = None,
     lyapunov: bool = True,
     steps_per_period: int = 500,
     max_segments: int = 16,
@@ -205,7 +213,7 @@ def cascade(
     transient: int = 100,
     periods: int = 24,
     max_order: float = 4.0,
-    direction: str = "both",
+    direction: Direction = "both",
     steps_per_period: int = 500,
     max_segments: int = 16,
     divergence_bound: float = 1.0,
@@ -217,9 +225,10 @@ def cascade(
     summary (cascade.json's keys; summary["sweeps"] names the blocks)."""
 
 def basin_metrics(
-    labels: npt.NDArray[np.int32], *, entropy_box: Optional[int] = None
+    labels: npt.ArrayLike, *, entropy_box: Optional[int] = None
 ) -> Dict[str, Any]:
-    """The basin measures of any 2-D int32 label array (basin_metrics.json's keys)."""
+    """The basin measures of any non-empty 2-D integer label array, any integer dtype
+    (basin_metrics.json's keys)."""
 
 def parameters(params: Optional[Mapping[str, float]] = None) -> Dict[str, float]:
     """Table 1 with the given overrides, validated."""

@@ -40,7 +40,8 @@ pub fn axis(field: &str, v: &Bound<'_, PyAny>) -> PyResult<Axis> {
     }
     let (name, lo, hi, n): (String, f64, f64, usize) = v.extract().map_err(|_| {
         pyo3::exceptions::PyValueError::new_err(format!(
-            "invalid value for `{field}`: expected (name, lo, hi, n) or \"name:lo:hi:n\", e.g. (\"x_r\", -0.006, 0.006, 80)"
+            "invalid value for `{field}`: {} (expected (name, lo, hi, n) or \"name:lo:hi:n\", e.g. (\"x_r\", -0.006, 0.006, 80))",
+            crate::args::shown(v)
         ))
     })?;
     let coord = jeffcott_core::inputs::coord(field, &name).map_err(to_py_err)?;
@@ -57,7 +58,8 @@ pub fn map_axis(field: &str, v: &Bound<'_, PyAny>, log: bool) -> PyResult<MapAxi
         Err(_) => {
             let (name, lo, hi, n): (String, f64, f64, usize) = v.extract().map_err(|_| {
                 pyo3::exceptions::PyValueError::new_err(format!(
-                    "invalid value for `{field}`: expected (name, lo, hi, n) or \"name:lo:hi:n\", e.g. (\"omega\", 120, 150, 60)"
+                    "invalid value for `{field}`: {} (expected (name, lo, hi, n) or \"name:lo:hi:n\", e.g. (\"omega\", 120, 150, 60))",
+                    crate::args::shown(v)
                 ))
             })?;
             // `{:e}` is the shortest text that parses back to the same f64.

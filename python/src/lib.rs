@@ -4,11 +4,16 @@
 //! (the defaults are the library's, `jeffcott_analysis::defaults` and the `DEFAULT`
 //! constants of the configuration types), validates it in the library, and runs it with
 //! the GIL released (`run::detached`), so a notebook stays responsive, an optional
-//! Python callable sees the progress and Ctrl-C stops the run cleanly.
+//! Python callable sees the progress and Ctrl-C stops the run cleanly. Every argument is
+//! read by its keyword's reader (`args::kw`, errors naming the keyword and what it
+//! accepts), and every request the command line refuses for its size is refused here by
+//! the same library check before anything is allocated.
 
+mod args;
 mod convert;
 mod run;
 
+use args::{Callback, Labels, Table, kw};
 use convert::{array1, array2, array3, json_to_py, lane_specs, model_params, start_state};
 use jeffcott_analysis::basin::{Axis, BasinSpec};
 use jeffcott_analysis::bifurcation::{BifurcationSpec, Sweep};
@@ -22,7 +27,6 @@ use jeffcott_core::integrate::article::ArticleConfig;
 use jeffcott_core::integrate::lane::StepperConfig;
 use jeffcott_core::lyapunov::SpectrumConfig;
 use jeffcott_core::model::STATE_DIM;
-use numpy::PyReadonlyArray2;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::collections::HashMap;
@@ -54,8 +58,9 @@ fn backend_precision(backend: &str, precision: Option<&str>) -> PyResult<(Backen
 }
 
 /// Speeds from a number, a sequence of numbers or the command line's `"a:b:n"`; a range
-/// is first put to `check` (its text and count: the study's memory check, the command
-/// line's), so a huge one is refused before its values are allocated.
+/// or a sequence is first put to `check` (its text and count: the study's memory check,
+/// the command line's), so a huge one is refused before its values (or its lanes) are
+/// allocated.
 fn speeds(
     field: &str,
     omega: &Bound<'_, PyAny>,
@@ -69,11 +74,15 @@ fn speeds(
     if let Ok(w) = omega.extract::<f64>() {
         return Ok(vec![w]);
     }
-    omega.extract::<Vec<f64>>().map_err(|_| {
-        pyo3::exceptions::PyValueError::new_err(format!(
-            "invalid value for `{field}`: expected a number, a sequence of numbers or \"a:b:n\""
+    let wrong = || {
+        pyo3::exceptions::PyTypeError::new_err(format!(
+            "invalid value for `{field}`: {} (expected a number, a sequence of numbers or \"a:b:n\")",
+            args::shown(omega)
         ))
-    })
+    };
+    let n = omega.len().map_err(|_| wrong())?;
+    check(&format!("a sequence of {n} speeds"), n as u64).map_err(run::to_py_err)?;
+    omega.extract::<Vec<f64>>().map_err(|_| wrong())
 }
 
 /// One trajectory at speed `omega` [rad/s]: the command line's `simulate`.
@@ -102,23 +111,23 @@ fn speeds(
 #[allow(clippy::too_many_arguments)]
 fn simulate<'py>(
     py: Python<'py>,
-    omega: f64,
-    params: Option<HashMap<String, f64>>,
-    init: Option<HashMap<String, f64>>,
-    transient: u32,
-    periods: u32,
-    timeseries_periods: Option<u32>,
-    integrator: &str,
-    spectrum_periods: u32,
-    steps_per_period: u32,
-    max_segments: u32,
-    divergence_bound: f64,
-    contact_substeps: u32,
-    n_max: usize,
-    rel_tol: f64,
-    abs_tol: f64,
-    article_steps: u32,
-    article_alpha: f64,
+    #[pyo3(from_py_with = kw::omega)] omega: f64,
+    #[pyo3(from_py_with = kw::params)] params: Option<HashMap<String, f64>>,
+    #[pyo3(from_py_with = kw::init)] init: Option<HashMap<String, f64>>,
+    #[pyo3(from_py_with = kw::transient)] transient: u32,
+    #[pyo3(from_py_with = kw::periods)] periods: u32,
+    #[pyo3(from_py_with = kw::timeseries_periods)] timeseries_periods: Option<u32>,
+    #[pyo3(from_py_with = kw::integrator)] integrator: &str,
+    #[pyo3(from_py_with = kw::spectrum_periods)] spectrum_periods: u32,
+    #[pyo3(from_py_with = kw::steps_per_period)] steps_per_period: u32,
+    #[pyo3(from_py_with = kw::max_segments)] max_segments: u32,
+    #[pyo3(from_py_with = kw::divergence_bound)] divergence_bound: f64,
+    #[pyo3(from_py_with = kw::contact_substeps)] contact_substeps: u32,
+    #[pyo3(from_py_with = kw::n_max)] n_max: usize,
+    #[pyo3(from_py_with = kw::rel_tol)] rel_tol: f64,
+    #[pyo3(from_py_with = kw::abs_tol)] abs_tol: f64,
+    #[pyo3(from_py_with = kw::article_steps)] article_steps: u32,
+    #[pyo3(from_py_with = kw::article_alpha)] article_alpha: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
     let params = model_params(params)?;
     let x0 = start_state(&params, init)?;
@@ -133,13 +142,6 @@ fn simulate<'py>(
             )));
         }
     };
-    if !(1..=10_000).contains(&spectrum_periods) {
-        return Err(run::to_py_err(Error::invalid(
-            "spectrum_periods",
-            spectrum_periods,
-            "must be in 1..=10000",
-        )));
-    }
     let spec = SimulateSpec {
         params,
         omega,
@@ -167,6 +169,9 @@ fn simulate<'py>(
         },
     };
     spec.validate().map_err(run::to_py_err)?;
+    spec.check_size().map_err(run::to_py_err)?;
+    spec.check_spectrum_periods(spectrum_periods)
+        .map_err(run::to_py_err)?;
     let (res, rub) = run::detached(py, None, |ctl| {
         let res = jeffcott_analysis::simulate::simulate_with(&spec, ctl.cancel)?;
         let rub = if res.status.is_frozen() {
@@ -238,20 +243,20 @@ fn simulate<'py>(
 fn ensemble<'py>(
     py: Python<'py>,
     omega: Option<Bound<'py, PyAny>>,
-    lanes: Option<PyReadonlyArray2<'py, f64>>,
-    columns: Option<Vec<String>>,
-    params: Option<HashMap<String, f64>>,
-    init: Option<HashMap<String, f64>>,
-    transient: u32,
-    periods: u32,
-    backend: &str,
-    precision: Option<&str>,
-    lyapunov: bool,
-    steps_per_period: u32,
-    max_segments: u32,
-    divergence_bound: f64,
-    contact_substeps: u32,
-    progress: Option<Bound<'py, PyAny>>,
+    #[pyo3(from_py_with = kw::lanes)] lanes: Option<Table<'py>>,
+    #[pyo3(from_py_with = kw::columns)] columns: Option<Vec<String>>,
+    #[pyo3(from_py_with = kw::params)] params: Option<HashMap<String, f64>>,
+    #[pyo3(from_py_with = kw::init)] init: Option<HashMap<String, f64>>,
+    #[pyo3(from_py_with = kw::transient)] transient: u32,
+    #[pyo3(from_py_with = kw::periods)] periods: u32,
+    #[pyo3(from_py_with = kw::backend)] backend: &str,
+    #[pyo3(from_py_with = kw::precision)] precision: Option<&str>,
+    #[pyo3(from_py_with = kw::lyapunov)] lyapunov: bool,
+    #[pyo3(from_py_with = kw::steps_per_period)] steps_per_period: u32,
+    #[pyo3(from_py_with = kw::max_segments)] max_segments: u32,
+    #[pyo3(from_py_with = kw::divergence_bound)] divergence_bound: f64,
+    #[pyo3(from_py_with = kw::contact_substeps)] contact_substeps: u32,
+    #[pyo3(from_py_with = kw::progress)] progress: Option<Callback<'py>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     jeffcott_core::limits::check_periods("transient", transient, 0).map_err(run::to_py_err)?;
     jeffcott_core::limits::check_periods("periods", periods, 1).map_err(run::to_py_err)?;
@@ -269,8 +274,24 @@ fn ensemble<'py>(
         })?),
         None => None,
     };
-    let (param_sets, lane_list) =
-        lane_specs(&model, omegas, lanes, columns, init, divergence_bound)?;
+    if let Some(t) = &lanes {
+        let rows = t.0.as_array().nrows();
+        EnsembleSpec::check_size(
+            "lanes",
+            &format!("an array of {rows} rows"),
+            rows as u64,
+            periods,
+        )
+        .map_err(run::to_py_err)?;
+    }
+    let (param_sets, lane_list) = lane_specs(
+        &model,
+        omegas,
+        lanes.map(|t| t.0),
+        columns,
+        init,
+        divergence_bound,
+    )?;
     let spec = EnsembleSpec {
         lanes: lane_list,
         param_sets,
@@ -280,15 +301,7 @@ fn ensemble<'py>(
         precision,
     };
     spec.validate().map_err(run::to_py_err)?;
-    jeffcott_core::limits::check_memory(
-        "lanes",
-        spec.lanes.len(),
-        spec.memory_estimate(),
-        &format!("{} lanes x {} recorded periods", spec.lanes.len(), periods),
-        "ask for fewer lanes or fewer periods",
-    )
-    .map_err(run::to_py_err)?;
-    let (res, info) = run::detached(py, progress.as_ref(), |ctl| {
+    let (res, info) = run::detached(py, progress.as_ref().map(|c| &c.0), |ctl| {
         jeffcott_analysis::backend::run(&spec, backend, lyapunov, ctl)
     })?;
     let n = spec.lanes.len();
@@ -355,24 +368,24 @@ struct BasinRun<'a> {
 #[allow(clippy::too_many_arguments)]
 fn basin<'py>(
     py: Python<'py>,
-    omega: f64,
+    #[pyo3(from_py_with = kw::omega)] omega: f64,
     x: Bound<'py, PyAny>,
     y: Bound<'py, PyAny>,
-    fix: Option<HashMap<String, f64>>,
-    params: Option<HashMap<String, f64>>,
-    transient: u32,
-    periods: u32,
-    backend: &str,
-    precision: Option<&str>,
-    lyapunov: bool,
-    refine: u32,
-    uncertainty_samples: usize,
-    entropy_box: Option<usize>,
-    steps_per_period: u32,
-    max_segments: u32,
-    divergence_bound: f64,
-    contact_substeps: u32,
-    progress: Option<Bound<'py, PyAny>>,
+    #[pyo3(from_py_with = kw::fix)] fix: Option<HashMap<String, f64>>,
+    #[pyo3(from_py_with = kw::params)] params: Option<HashMap<String, f64>>,
+    #[pyo3(from_py_with = kw::transient)] transient: u32,
+    #[pyo3(from_py_with = kw::periods)] periods: u32,
+    #[pyo3(from_py_with = kw::backend)] backend: &str,
+    #[pyo3(from_py_with = kw::precision)] precision: Option<&str>,
+    #[pyo3(from_py_with = kw::lyapunov)] lyapunov: bool,
+    #[pyo3(from_py_with = kw::refine)] refine: u32,
+    #[pyo3(from_py_with = kw::uncertainty_samples)] uncertainty_samples: usize,
+    #[pyo3(from_py_with = kw::entropy_box)] entropy_box: Option<usize>,
+    #[pyo3(from_py_with = kw::steps_per_period)] steps_per_period: u32,
+    #[pyo3(from_py_with = kw::max_segments)] max_segments: u32,
+    #[pyo3(from_py_with = kw::divergence_bound)] divergence_bound: f64,
+    #[pyo3(from_py_with = kw::contact_substeps)] contact_substeps: u32,
+    #[pyo3(from_py_with = kw::progress)] progress: Option<Callback<'py>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let (backend, precision) = backend_precision(backend, precision)?;
     let params = model_params(params)?;
@@ -410,10 +423,11 @@ fn basin<'py>(
     spec.validate().map_err(run::to_py_err)?;
     jeffcott_analysis::refine::check_levels(refine, spec.lyapunov, spec.x.n, spec.y.n)
         .map_err(run::to_py_err)?;
+    jeffcott_analysis::uncertainty::check_samples(uncertainty_samples).map_err(run::to_py_err)?;
     let eps = jeffcott_analysis::measures::entropy_box(entropy_box, spec.x.n, spec.y.n)
         .map_err(run::to_py_err)?;
     let coarse = spec.clone();
-    let (spec, res, refined, reint) = run::detached(py, progress.as_ref(), |ctl| {
+    let (spec, res, refined, reint) = run::detached(py, progress.as_ref().map(|c| &c.0), |ctl| {
         jeffcott_analysis::run::in_memory(backend, precision, ctl, |engine, store, ctl| {
             jeffcott_analysis::basin::refined_study(
                 &coarse,
@@ -492,23 +506,23 @@ fn basin<'py>(
 fn bifurcation<'py>(
     py: Python<'py>,
     omega: Bound<'py, PyAny>,
-    sweep: &str,
-    ics: u32,
-    seed: u64,
-    transient: u32,
-    transient_first: u32,
-    brute_transient: u32,
-    periods: u32,
-    max_seeds: usize,
-    params: Option<HashMap<String, f64>>,
-    backend: &str,
-    precision: Option<&str>,
-    lyapunov: bool,
-    steps_per_period: u32,
-    max_segments: u32,
-    divergence_bound: f64,
-    contact_substeps: u32,
-    progress: Option<Bound<'py, PyAny>>,
+    #[pyo3(from_py_with = kw::sweep)] sweep: &str,
+    #[pyo3(from_py_with = kw::ics)] ics: u32,
+    #[pyo3(from_py_with = kw::seed)] seed: u64,
+    #[pyo3(from_py_with = kw::transient)] transient: u32,
+    #[pyo3(from_py_with = kw::transient_first)] transient_first: u32,
+    #[pyo3(from_py_with = kw::brute_transient)] brute_transient: u32,
+    #[pyo3(from_py_with = kw::periods)] periods: u32,
+    #[pyo3(from_py_with = kw::max_seeds)] max_seeds: usize,
+    #[pyo3(from_py_with = kw::params)] params: Option<HashMap<String, f64>>,
+    #[pyo3(from_py_with = kw::backend)] backend: &str,
+    #[pyo3(from_py_with = kw::precision)] precision: Option<&str>,
+    #[pyo3(from_py_with = kw::lyapunov)] lyapunov: bool,
+    #[pyo3(from_py_with = kw::steps_per_period)] steps_per_period: u32,
+    #[pyo3(from_py_with = kw::max_segments)] max_segments: u32,
+    #[pyo3(from_py_with = kw::divergence_bound)] divergence_bound: f64,
+    #[pyo3(from_py_with = kw::contact_substeps)] contact_substeps: u32,
+    #[pyo3(from_py_with = kw::progress)] progress: Option<Callback<'py>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let (backend, precision) = backend_precision(backend, precision)?;
     let sweep = match sweep {
@@ -563,7 +577,7 @@ fn bifurcation<'py>(
         lyapunov,
     };
     spec.validate().map_err(run::to_py_err)?;
-    let (res, summary) = run::detached(py, progress.as_ref(), |ctl| {
+    let (res, summary) = run::detached(py, progress.as_ref().map(|c| &c.0), |ctl| {
         let res = jeffcott_analysis::bifurcation::bifurcation(&spec, ctl)?;
         // The summary borrows the result: held as the file's JSON value.
         let summary = jeffcott_analysis::bifurcation::summary(&spec, &res)?;
@@ -603,19 +617,19 @@ fn bifurcation<'py>(
 #[allow(clippy::too_many_arguments)]
 fn lyapunov<'py>(
     py: Python<'py>,
-    omega: f64,
-    params: Option<HashMap<String, f64>>,
-    init: Option<HashMap<String, f64>>,
-    time: f64,
-    min_time: Option<f64>,
-    transient: u32,
-    tangent_transient: u32,
-    tol: f64,
-    window: u32,
-    steps_per_period: u32,
-    max_segments: u32,
-    divergence_bound: f64,
-    contact_substeps: u32,
+    #[pyo3(from_py_with = kw::omega)] omega: f64,
+    #[pyo3(from_py_with = kw::params)] params: Option<HashMap<String, f64>>,
+    #[pyo3(from_py_with = kw::init)] init: Option<HashMap<String, f64>>,
+    #[pyo3(from_py_with = kw::time)] time: f64,
+    #[pyo3(from_py_with = kw::min_time)] min_time: Option<f64>,
+    #[pyo3(from_py_with = kw::transient)] transient: u32,
+    #[pyo3(from_py_with = kw::tangent_transient)] tangent_transient: u32,
+    #[pyo3(from_py_with = kw::tol)] tol: f64,
+    #[pyo3(from_py_with = kw::window)] window: u32,
+    #[pyo3(from_py_with = kw::steps_per_period)] steps_per_period: u32,
+    #[pyo3(from_py_with = kw::max_segments)] max_segments: u32,
+    #[pyo3(from_py_with = kw::divergence_bound)] divergence_bound: f64,
+    #[pyo3(from_py_with = kw::contact_substeps)] contact_substeps: u32,
 ) -> PyResult<Bound<'py, PyDict>> {
     let params = model_params(params)?;
     let x0 = start_state(&params, init)?;
@@ -646,6 +660,8 @@ fn lyapunov<'py>(
         ..SpectrumConfig::DEFAULT
     };
     cfg.validate().map_err(run::to_py_err)?;
+    cfg.check_size("time", &time.to_string(), 1, omega)
+        .map_err(run::to_py_err)?;
     let s = run::detached(py, None, |ctl| {
         jeffcott_core::lyapunov::spectrum_with(&params, omega, &x0, &cfg, ctl.cancel)
     })?;
@@ -683,22 +699,22 @@ fn map<'py>(
     py: Python<'py>,
     x: Bound<'py, PyAny>,
     y: Bound<'py, PyAny>,
-    omega: Option<f64>,
-    ics: u32,
-    seed: u64,
-    transient: u32,
-    periods: u32,
-    log_x: bool,
-    log_y: bool,
-    params: Option<HashMap<String, f64>>,
-    backend: &str,
-    precision: Option<&str>,
-    lyapunov: bool,
-    steps_per_period: u32,
-    max_segments: u32,
-    divergence_bound: f64,
-    contact_substeps: u32,
-    progress: Option<Bound<'py, PyAny>>,
+    #[pyo3(from_py_with = kw::omega)] omega: Option<f64>,
+    #[pyo3(from_py_with = kw::ics)] ics: u32,
+    #[pyo3(from_py_with = kw::seed)] seed: u64,
+    #[pyo3(from_py_with = kw::transient)] transient: u32,
+    #[pyo3(from_py_with = kw::periods)] periods: u32,
+    #[pyo3(from_py_with = kw::log_x)] log_x: bool,
+    #[pyo3(from_py_with = kw::log_y)] log_y: bool,
+    #[pyo3(from_py_with = kw::params)] params: Option<HashMap<String, f64>>,
+    #[pyo3(from_py_with = kw::backend)] backend: &str,
+    #[pyo3(from_py_with = kw::precision)] precision: Option<&str>,
+    #[pyo3(from_py_with = kw::lyapunov)] lyapunov: bool,
+    #[pyo3(from_py_with = kw::steps_per_period)] steps_per_period: u32,
+    #[pyo3(from_py_with = kw::max_segments)] max_segments: u32,
+    #[pyo3(from_py_with = kw::divergence_bound)] divergence_bound: f64,
+    #[pyo3(from_py_with = kw::contact_substeps)] contact_substeps: u32,
+    #[pyo3(from_py_with = kw::progress)] progress: Option<Callback<'py>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     use jeffcott_analysis::map::MapSpec;
     let (backend, precision) = backend_precision(backend, precision)?;
@@ -727,7 +743,7 @@ fn map<'py>(
         chunk: None,
     };
     spec.validate().map_err(run::to_py_err)?;
-    let res = run::detached(py, progress.as_ref(), |ctl| {
+    let res = run::detached(py, progress.as_ref().map(|c| &c.0), |ctl| {
         jeffcott_analysis::map::map(&spec, ctl)
     })?;
     let summary = json_to_py(py, &jeffcott_analysis::map::summary(&spec, &res))?;
@@ -771,23 +787,23 @@ fn map<'py>(
 fn continuation<'py>(
     py: Python<'py>,
     param: Bound<'py, PyAny>,
-    omega: Option<f64>,
-    ics: u32,
-    start_box: Option<&str>,
-    seed: u64,
-    direction: &str,
-    match_threshold: Option<f64>,
-    transient: u32,
-    periods: u32,
-    params: Option<HashMap<String, f64>>,
-    backend: &str,
-    precision: Option<&str>,
-    lyapunov: bool,
-    steps_per_period: u32,
-    max_segments: u32,
-    divergence_bound: f64,
-    contact_substeps: u32,
-    progress: Option<Bound<'py, PyAny>>,
+    #[pyo3(from_py_with = kw::omega)] omega: Option<f64>,
+    #[pyo3(from_py_with = kw::ics)] ics: u32,
+    #[pyo3(from_py_with = kw::start_box)] start_box: Option<String>,
+    #[pyo3(from_py_with = kw::seed)] seed: u64,
+    #[pyo3(from_py_with = kw::direction)] direction: &str,
+    #[pyo3(from_py_with = kw::match_threshold)] match_threshold: Option<f64>,
+    #[pyo3(from_py_with = kw::transient)] transient: u32,
+    #[pyo3(from_py_with = kw::periods)] periods: u32,
+    #[pyo3(from_py_with = kw::params)] params: Option<HashMap<String, f64>>,
+    #[pyo3(from_py_with = kw::backend)] backend: &str,
+    #[pyo3(from_py_with = kw::precision)] precision: Option<&str>,
+    #[pyo3(from_py_with = kw::lyapunov)] lyapunov: bool,
+    #[pyo3(from_py_with = kw::steps_per_period)] steps_per_period: u32,
+    #[pyo3(from_py_with = kw::max_segments)] max_segments: u32,
+    #[pyo3(from_py_with = kw::divergence_bound)] divergence_bound: f64,
+    #[pyo3(from_py_with = kw::contact_substeps)] contact_substeps: u32,
+    #[pyo3(from_py_with = kw::progress)] progress: Option<Callback<'py>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     use jeffcott_analysis::continuation::ContinuationSpec;
     let (backend, precision) = backend_precision(backend, precision)?;
@@ -807,6 +823,7 @@ fn continuation<'py>(
         param,
         ics,
         start_box: start_box
+            .as_deref()
             .map(|b| jeffcott_analysis::continuation::parse_box("start_box", b))
             .transpose()
             .map_err(run::to_py_err)?,
@@ -827,7 +844,7 @@ fn continuation<'py>(
         match_threshold: match_threshold.unwrap_or(f64::INFINITY),
     };
     spec.validate().map_err(run::to_py_err)?;
-    let res = run::detached(py, progress.as_ref(), |ctl| {
+    let res = run::detached(py, progress.as_ref().map(|c| &c.0), |ctl| {
         jeffcott_analysis::continuation::continuation(&spec, ctl)
     })?;
     let summary = jeffcott_analysis::continuation::summary(&spec, &res);
@@ -868,36 +885,37 @@ fn continuation<'py>(
 fn basin_stability<'py>(
     py: Python<'py>,
     omega: Bound<'py, PyAny>,
-    start_box: &str,
-    sample: u32,
-    seed: u64,
-    transient: u32,
-    periods: u32,
-    params: Option<HashMap<String, f64>>,
-    backend: &str,
-    precision: Option<&str>,
-    lyapunov: bool,
-    steps_per_period: u32,
-    max_segments: u32,
-    divergence_bound: f64,
-    contact_substeps: u32,
-    progress: Option<Bound<'py, PyAny>>,
+    #[pyo3(from_py_with = kw::start_box)] start_box: String,
+    #[pyo3(from_py_with = kw::sample)] sample: u32,
+    #[pyo3(from_py_with = kw::seed)] seed: u64,
+    #[pyo3(from_py_with = kw::transient)] transient: u32,
+    #[pyo3(from_py_with = kw::periods)] periods: u32,
+    #[pyo3(from_py_with = kw::params)] params: Option<HashMap<String, f64>>,
+    #[pyo3(from_py_with = kw::backend)] backend: &str,
+    #[pyo3(from_py_with = kw::precision)] precision: Option<&str>,
+    #[pyo3(from_py_with = kw::lyapunov)] lyapunov: bool,
+    #[pyo3(from_py_with = kw::steps_per_period)] steps_per_period: u32,
+    #[pyo3(from_py_with = kw::max_segments)] max_segments: u32,
+    #[pyo3(from_py_with = kw::divergence_bound)] divergence_bound: f64,
+    #[pyo3(from_py_with = kw::contact_substeps)] contact_substeps: u32,
+    #[pyo3(from_py_with = kw::progress)] progress: Option<Callback<'py>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     use jeffcott_analysis::stability::{StabilityRequest, fractions_with_intervals};
     let (backend, precision) = backend_precision(backend, precision)?;
     let omega = match omega.extract::<f64>() {
         Ok(w) => format!("{w:e}"),
         Err(_) => omega.extract::<String>().map_err(|_| {
-            pyo3::exceptions::PyValueError::new_err(
-                "invalid value for `omega`: expected a number or \"a:b:n\"",
-            )
+            pyo3::exceptions::PyTypeError::new_err(format!(
+                "invalid value for `omega`: {} (expected a speed in rad/s or a range \"a:b:n\")",
+                args::shown(&omega)
+            ))
         })?,
     };
     let spec = jeffcott_analysis::stability::spec(&StabilityRequest {
         params: model_params(params)?,
         omega: &omega,
         sample,
-        start_box,
+        start_box: &start_box,
         seed,
         transient,
         recorded: periods,
@@ -913,7 +931,7 @@ fn basin_stability<'py>(
         lyapunov,
     })
     .map_err(run::to_py_err)?;
-    let res = run::detached(py, progress.as_ref(), |ctl| {
+    let res = run::detached(py, progress.as_ref().map(|c| &c.0), |ctl| {
         jeffcott_analysis::continuation::continuation(&spec, ctl)
     })?;
     let ramp = &res.ramps[0];
@@ -955,25 +973,25 @@ fn basin_stability<'py>(
 #[allow(clippy::too_many_arguments)]
 fn cascade<'py>(
     py: Python<'py>,
-    omega: &str,
-    params: Option<HashMap<String, f64>>,
-    transient_first: u32,
-    transient: u32,
-    periods: u32,
-    max_order: f64,
-    direction: &str,
-    steps_per_period: u32,
-    max_segments: u32,
-    divergence_bound: f64,
-    contact_substeps: u32,
-    progress: Option<Bound<'py, PyAny>>,
+    #[pyo3(from_py_with = kw::omega_range)] omega: String,
+    #[pyo3(from_py_with = kw::params)] params: Option<HashMap<String, f64>>,
+    #[pyo3(from_py_with = kw::transient_first)] transient_first: u32,
+    #[pyo3(from_py_with = kw::transient)] transient: u32,
+    #[pyo3(from_py_with = kw::periods)] periods: u32,
+    #[pyo3(from_py_with = kw::max_order)] max_order: f64,
+    #[pyo3(from_py_with = kw::direction)] direction: &str,
+    #[pyo3(from_py_with = kw::steps_per_period)] steps_per_period: u32,
+    #[pyo3(from_py_with = kw::max_segments)] max_segments: u32,
+    #[pyo3(from_py_with = kw::divergence_bound)] divergence_bound: f64,
+    #[pyo3(from_py_with = kw::contact_substeps)] contact_substeps: u32,
+    #[pyo3(from_py_with = kw::progress)] progress: Option<Callback<'py>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     use jeffcott_analysis::cascade::CascadeSpec;
     use jeffcott_analysis::continuation::Direction;
     let ramps = jeffcott_analysis::continuation::directions(direction).map_err(run::to_py_err)?;
     let spec = CascadeSpec {
         params: model_params(params)?,
-        omegas: CascadeSpec::speeds(omega).map_err(run::to_py_err)?,
+        omegas: CascadeSpec::speeds(&omega).map_err(run::to_py_err)?,
         transient_first,
         transient,
         periods,
@@ -988,7 +1006,8 @@ fn cascade<'py>(
         down: ramps.contains(&Direction::Down),
     };
     spec.validate().map_err(run::to_py_err)?;
-    let res = run::detached(py, progress.as_ref(), |ctl| {
+    spec.check_size(&omega).map_err(run::to_py_err)?;
+    let res = run::detached(py, progress.as_ref().map(|c| &c.0), |ctl| {
         jeffcott_analysis::cascade::cascade(&spec, ctl)
     })?;
     let a = jeffcott_analysis::cascade::arrays(&res);
@@ -1019,18 +1038,11 @@ fn cascade<'py>(
 #[pyo3(signature = (labels, *, entropy_box=None))]
 fn basin_metrics<'py>(
     py: Python<'py>,
-    labels: numpy::PyReadonlyArray2<'py, i32>,
-    entropy_box: Option<usize>,
+    #[pyo3(from_py_with = kw::labels)] labels: Labels<'py>,
+    #[pyo3(from_py_with = kw::entropy_box)] entropy_box: Option<usize>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let grid = labels.as_array();
+    let grid = labels.0.as_array();
     let (ny, nx) = grid.dim();
-    if nx == 0 || ny == 0 {
-        return Err(run::to_py_err(Error::invalid(
-            "labels",
-            format!("an array of shape ({ny}, {nx})"),
-            "a basin's labels are a 2-D array of at least one cell",
-        )));
-    }
     let flat: Vec<i32> = grid.iter().copied().collect();
     let eps =
         jeffcott_analysis::measures::entropy_box(entropy_box, nx, ny).map_err(run::to_py_err)?;
@@ -1049,7 +1061,7 @@ fn basin_metrics<'py>(
 #[pyo3(signature = (params=None))]
 fn parameters<'py>(
     py: Python<'py>,
-    params: Option<HashMap<String, f64>>,
+    #[pyo3(from_py_with = kw::params)] params: Option<HashMap<String, f64>>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let p = model_params(params)?;
     json_to_py(py, &p)

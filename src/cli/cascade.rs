@@ -86,6 +86,7 @@ impl CascadeArgs {
             down: self.direction != DirectionArg::Up,
         };
         spec.validate()?;
+        spec.check_size(&self.omega)?;
         Ok(spec)
     }
 }

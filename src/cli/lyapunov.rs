@@ -157,30 +157,7 @@ pub fn run_lyapunov(a: &LyapunovArgs) -> Result<()> {
     };
     cfg.validate()?;
     // The accumulation is counted in forcing periods like every transient: the same cap.
-    let omega_max = range.a.max(range.b);
-    jeffcott_core::model::validate_omega(omega_max)?;
-    let periods = cfg.max_accumulated_periods(omega_max);
-    if periods > jeffcott_core::limits::MAX_PERIODS as f64 {
-        return Err(Error::invalid(
-            "time",
-            a.time,
-            format!(
-                "{periods:.3e} forcing periods at W = {omega_max} rad/s; --time must be at most {:.4e} s there ({} periods)",
-                jeffcott_core::limits::MAX_PERIODS as f64 * std::f64::consts::TAU / omega_max,
-                jeffcott_core::limits::MAX_PERIODS
-            ),
-        ));
-    }
-    jeffcott_core::limits::check_memory(
-        "omega",
-        &a.omega,
-        cfg.memory_estimate(range.len(), omega_max),
-        &format!(
-            "{} speeds x up to {periods:.0} accumulated periods of running estimates",
-            range.len()
-        ),
-        "ask for fewer speeds (a smaller n in --omega a:b:n) or a shorter --time",
-    )?;
+    cfg.check_size("omega", &a.omega, range.len(), range.a.max(range.b))?;
     let omegas = range.values();
     let dir = &a.out;
     let settings = Settings {

@@ -116,6 +116,46 @@ impl CascadeSpec {
             .collect()
     }
 
+    /// How many orders [`CascadeSpec::orders`] keeps, counted without allocating them.
+    fn bins(&self) -> u64 {
+        let kmax = (self.max_order * self.periods as f64).floor().max(0.0) as u64;
+        kmax.saturating_mul(2).saturating_add(1)
+    }
+
+    /// Bytes a cascade holds at its peak, an upper estimate: each sweep's rotor and
+    /// stator amplitudes (speeds x orders) three times (the sweep, its committed units,
+    /// the arrays returned or written), and per sweep (they run at once) a simulation's
+    /// time series and its spectra.
+    pub fn memory_estimate(&self) -> u64 {
+        use jeffcott_core::limits::product;
+        let sweeps = self.up as u64 + self.down as u64;
+        let amplitudes = product(&[sweeps, self.omegas.len() as u64, self.bins(), 8, 2, 3]);
+        let x0 = self.params.static_equilibrium();
+        let run = SimulateSpec::stretch(&self.params, 1.0, &x0, self.periods, &self.stepper)
+            .memory_estimate();
+        amplitudes.saturating_add(product(&[sweeps, run, 2]))
+    }
+
+    /// Refuses, before anything is allocated, a cascade (its speeds given as `omega`,
+    /// named in the error) whose amplitudes and time series would not fit in memory. The
+    /// one check of the command line and Python.
+    pub fn check_size(&self, omega: &str) -> Result<()> {
+        let sweeps = self.up as u64 + self.down as u64;
+        jeffcott_core::limits::check_memory(
+            "omega",
+            omega,
+            self.memory_estimate(),
+            &format!(
+                "{} speeds x {sweeps} sweeps x {} orders, and {} periods x {} steps of time series",
+                self.omegas.len(),
+                self.bins(),
+                self.periods,
+                self.stepper.steps_per_period
+            ),
+            "ask for fewer speeds (a smaller n in a:b:n), fewer periods or a smaller max order",
+        )
+    }
+
     /// The specification as `run.json` records it.
     pub fn record(&self) -> SpecRecord<'_> {
         SpecRecord {

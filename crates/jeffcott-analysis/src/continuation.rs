@@ -155,6 +155,18 @@ impl ContinuationSpec {
                 "a continuation follows attractors over omega or a model parameter, not a start coordinate",
             ));
         }
+        if self.param.var == MapVar::Omega
+            && let Some(w) = self.omega
+        {
+            return Err(Error::invalid(
+                "omega",
+                w,
+                format!(
+                    "the continued parameter is omega (`{}`), which sets the speed of every value; leave omega out",
+                    f.param
+                ),
+            ));
+        }
         if self.param.var != MapVar::Omega {
             match self.omega {
                 Some(w) => jeffcott_core::model::validate_omega(w)?,

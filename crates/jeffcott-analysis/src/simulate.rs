@@ -146,6 +146,53 @@ impl SimulateSpec {
         let series = 2 * jeffcott_core::limits::product(&[self.timeseries_periods as u64, n, row]);
         poincare.saturating_add(series)
     }
+
+    /// Checks the stretch of `spectrum_periods` periods continued from the final state
+    /// that the rub figures and full spectrum are taken over ([`rub_outputs`]):
+    /// `spectrum-periods` in 1..=10000 and its time series (each macro step of every
+    /// period) within memory. The one check of the command line and Python.
+    pub fn check_spectrum_periods(&self, spectrum_periods: u32) -> Result<()> {
+        if !(1..=10_000).contains(&spectrum_periods) {
+            return Err(jeffcott_core::error::Error::invalid(
+                "spectrum-periods",
+                spectrum_periods,
+                "must be in 1..=10000",
+            ));
+        }
+        let stretch = SimulateSpec::stretch(
+            &self.params,
+            self.omega,
+            &self.x0,
+            spectrum_periods,
+            &self.stepper,
+        );
+        jeffcott_core::limits::check_memory(
+            "spectrum-periods",
+            spectrum_periods,
+            stretch.memory_estimate(),
+            &format!(
+                "{spectrum_periods} periods of time series x {} steps",
+                self.stepper.steps_per_period
+            ),
+            "ask for fewer spectrum periods or steps per period",
+        )
+    }
+
+    /// Refuses, before anything is allocated, a run whose records
+    /// ([`SimulateSpec::memory_estimate`]) would not fit in memory; names `periods`. The
+    /// one check of the command line and Python.
+    pub fn check_size(&self) -> Result<()> {
+        jeffcott_core::limits::check_memory(
+            "periods",
+            self.periods,
+            self.memory_estimate(),
+            &format!(
+                "{} recorded periods, {} of them in the time series",
+                self.periods, self.timeseries_periods
+            ),
+            "ask for fewer periods or timeseries periods",
+        )
+    }
 }
 
 /// Counters of whichever integrator ran.

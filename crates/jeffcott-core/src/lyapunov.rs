@@ -149,6 +149,43 @@ impl SpectrumConfig {
             total as u64
         }
     }
+
+    /// Refuses, before any speed is allocated, spectra at `n_omegas` speeds up to
+    /// `omega_max` that would accumulate more than [`crate::limits::MAX_PERIODS`] forcing
+    /// periods (`time`, the cap every period count has) or whose running estimates would
+    /// not fit in memory (`option`, the input that sets the count, with `value`: the
+    /// command line's `omega` range, Python's `time`). The one check of the command line
+    /// and Python.
+    pub fn check_size(
+        &self,
+        option: &str,
+        value: &str,
+        n_omegas: u64,
+        omega_max: f64,
+    ) -> Result<()> {
+        validate_omega(omega_max)?;
+        let periods = self.max_accumulated_periods(omega_max);
+        let cap = crate::limits::MAX_PERIODS;
+        if periods > cap as f64 {
+            return Err(Error::invalid(
+                "time",
+                self.max_time,
+                format!(
+                    "{periods:.3e} forcing periods at W = {omega_max} rad/s; time must be at most {:.4e} s there ({cap} periods)",
+                    cap as f64 * std::f64::consts::TAU / omega_max,
+                ),
+            ));
+        }
+        crate::limits::check_memory(
+            option,
+            value,
+            self.memory_estimate(n_omegas, omega_max),
+            &format!(
+                "{n_omegas} speeds x up to {periods:.0} accumulated periods of running estimates"
+            ),
+            "ask for fewer speeds (a smaller n in a:b:n) or a shorter time",
+        )
+    }
 }
 
 /// Why a spectrum computation stopped.

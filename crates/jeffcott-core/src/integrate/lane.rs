@@ -191,7 +191,7 @@ impl StepperConfig {
         use crate::Error;
         if !(8..=1_000_000).contains(&self.steps_per_period) {
             return Err(Error::invalid(
-                "steps_per_period",
+                "steps-per-period",
                 self.steps_per_period,
                 "must be in 8..=1000000",
             ));
@@ -201,14 +201,14 @@ impl StepperConfig {
         // inside that.
         if !(2..=256).contains(&self.max_segments) {
             return Err(Error::invalid(
-                "max_segments",
+                "max-segments",
                 self.max_segments,
                 "must be in 2..=256",
             ));
         }
         if !(self.divergence_bound.is_finite() && self.divergence_bound > 0.0) {
             return Err(Error::invalid(
-                "divergence_bound",
+                "divergence-bound",
                 self.divergence_bound,
                 "must be finite and > 0 m",
             ));
@@ -220,7 +220,7 @@ impl StepperConfig {
             && self.contact_substeps <= MAX_CONTACT_SUBSTEPS)
         {
             return Err(Error::invalid(
-                "contact_substeps",
+                "contact-substeps",
                 self.contact_substeps,
                 "must be one of 1, 2, 4, 8, 16",
             ));
