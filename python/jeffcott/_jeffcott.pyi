@@ -88,7 +88,8 @@ def basin(
     progress: Optional[Progress] = None,
 ) -> Dict[str, Any]:
     """A basin: labels [ny, nx] (int32, -1 diverged, -2 an attractor a refinement found
-    that the coarse grid did not), x [nx], y [ny], attractors (as attractors.json),
+    that the coarse grid did not), x [nx], y [ny], attractors (as attractors.json: each
+    with its rub figures under "rub"),
     diverged, metrics (basin_metrics.json's keys: fractions, entropies, uncertainty
     exponent, box-counting dimension, Wada test; with uncertainty_samples > 0 the
     re-integration estimate), refined [ny, nx] (uint8, with refine > 0: 1 where the

@@ -15,11 +15,13 @@ mod run;
 
 use args::{Callback, Labels, Table, kw};
 use convert::{array1, array2, array3, json_to_py, lane_specs, model_params, start_state};
+use jeffcott_analysis::basin::study::BasinStudy;
 use jeffcott_analysis::basin::{Axis, BasinSpec};
 use jeffcott_analysis::bifurcation::{BifurcationSpec, Sweep};
 use jeffcott_analysis::catalogue::CatalogueConfig;
 use jeffcott_analysis::classify::ClassifyConfig;
 use jeffcott_analysis::defaults;
+use jeffcott_analysis::run::MemoryHost;
 use jeffcott_analysis::simulate::{Integrator, SimulateSpec};
 use jeffcott_core::Error;
 use jeffcott_core::ensemble::{Backend, EnsembleSpec, Precision, RangeSpec};
@@ -419,31 +421,18 @@ fn basin<'py>(
         chunk: None,
         lyapunov,
     };
-    spec.check_size().map_err(run::to_py_err)?;
-    spec.validate().map_err(run::to_py_err)?;
-    jeffcott_analysis::refine::check_levels(refine, spec.lyapunov, spec.x.n, spec.y.n)
-        .map_err(run::to_py_err)?;
-    jeffcott_analysis::uncertainty::check_samples(uncertainty_samples).map_err(run::to_py_err)?;
-    let eps = jeffcott_analysis::measures::entropy_box(entropy_box, spec.x.n, spec.y.n)
-        .map_err(run::to_py_err)?;
-    let coarse = spec.clone();
-    let (spec, res, refined, reint) = run::detached(py, progress.as_ref().map(|c| &c.0), |ctl| {
-        jeffcott_analysis::run::in_memory(backend, precision, ctl, |engine, store, ctl| {
-            jeffcott_analysis::basin::refined_study(
-                &coarse,
-                refine,
-                uncertainty_samples,
-                engine,
-                store,
-                ctl,
-            )
-        })
+    let study = BasinStudy {
+        refine,
+        uncertainty_samples,
+        entropy_box,
+        ..BasinStudy::new(spec)
+    };
+    study.validate().map_err(run::to_py_err)?;
+    let o = run::detached(py, progress.as_ref().map(|c| &c.0), |ctl| {
+        let engine = jeffcott_analysis::backend::Engine::new(backend, precision)?;
+        jeffcott_analysis::basin::study::run(&study, &engine, &MemoryHost::new(ctl))
     })?;
-    let metrics = py
-        .detach(|| {
-            jeffcott_analysis::measures::basin_labels_metrics(&res.labels, spec.x.n, spec.y.n, eps)
-        })
-        .map_err(run::to_py_err)?;
+    let (spec, res) = (&o.spec, &o.result);
     let (nx, ny) = (spec.x.n, spec.y.n);
     let d = PyDict::new(py);
     d.set_item("labels", array2(py, res.labels.clone(), nx)?)?;
@@ -455,20 +444,15 @@ fn basin<'py>(
         "y",
         array1(py, (0..ny).map(|i| spec.y.value(i)).collect::<Vec<_>>()),
     )?;
-    d.set_item("attractors", json_to_py(py, &res.catalogue.attractors)?)?;
+    // As attractors.json lists them: each with its rub figures.
+    d.set_item("attractors", json_to_py(py, &o.attractors())?)?;
     d.set_item("diverged", res.catalogue.diverged)?;
-    d.set_item(
-        "metrics",
-        json_to_py(
-            py,
-            &jeffcott_analysis::measures::MetricsRecord::new(&metrics, reint.as_ref()),
-        )?,
-    )?;
-    if let Some(f) = refined {
-        d.set_item("refined", array2(py, f.computed, nx)?)?;
+    d.set_item("metrics", json_to_py(py, &o.metrics_record())?)?;
+    if let Some(f) = &o.refined {
+        d.set_item("refined", array2(py, f.computed.clone(), nx)?)?;
     }
-    if let Some(l) = res.lambda1 {
-        d.set_item("lambda1", array2(py, l, nx)?)?;
+    if let Some(l) = &res.lambda1 {
+        d.set_item("lambda1", array2(py, l.clone(), nx)?)?;
     }
     // The specification asked for (the coarse grid), as run.json records it.
     let run = BasinRun {
@@ -476,7 +460,7 @@ fn basin<'py>(
         device: res.info.as_ref().map(|i| i.device.as_str()),
         precision: spec.precision,
         wall_time_s: res.seconds,
-        spec: coarse.record(),
+        spec: o.coarse.record(),
     };
     d.set_item("run", json_to_py(py, &run)?)?;
     Ok(d)

@@ -97,7 +97,7 @@ def test_an_ensemble_from_a_lane_table_equals_the_cli_lanes_csv_run(tmp_path):
     assert r["params"].tobytes() == np.load(out / "params.npy").tobytes()
 
 
-def test_basin_labels_equal_the_cli_labels(tmp_path):
+def test_basin_labels_and_attractors_equal_the_cli_files_rub_figures_included(tmp_path):
     out = tmp_path / "basin"
     cli("basin", "--omega", "133", "--x", "x_r:-0.006:0.006:12", "--y", "vx_r:-1:1:10",
         "--transient", "250", "--periods", "32", "--backend", "cpu",
@@ -109,7 +109,10 @@ def test_basin_labels_equal_the_cli_labels(tmp_path):
     assert np.array_equal(r["labels"], want)
     assert r["x"].tobytes() == np.load(out / "x.npy").tobytes()
     attractors = json.loads((out / "attractors.json").read_text())["attractors"]
-    assert [a["period"] for a in r["attractors"]] == [a["period"] for a in attractors]
+    # The same list as attractors.json, each attractor with its rub figures (one study
+    # behind both front ends).
+    assert r["attractors"] == attractors
+    assert all("regime" in a["rub"] for a in r["attractors"])
     # Coexisting attractors at 133 rad/s (the article's Fig. 7): period 4 and 5.
     assert sorted(a["period"] for a in r["attractors"]) == [4, 5]
 

@@ -8,15 +8,17 @@ use crate::plot::{
     AttractorTrace, attractor_color, basin_map, coexisting_attractors, coord_axis, lambda1_map,
 };
 use clap::Args;
-use jeffcott_analysis::basin::{Axis, BasinResult, BasinSpec, basin_with};
+use jeffcott_analysis::backend::Engine;
+use jeffcott_analysis::basin::study::{BasinOutcome, BasinStudy, run};
+use jeffcott_analysis::basin::{Axis, BasinResult, BasinSpec};
 use jeffcott_analysis::catalogue::Attractor;
 use jeffcott_analysis::defaults;
 use jeffcott_analysis::output;
 use jeffcott_analysis::rub::RubEntry;
-use jeffcott_analysis::simulate::{Integrator, SimulateSpec, simulate};
+use jeffcott_analysis::simulate::AttractorTrace as SimTrace;
 use jeffcott_core::ensemble::{Backend, Precision};
 use jeffcott_core::error::{Error, Result};
-use jeffcott_core::model::{COORD_NAMES, Params};
+use jeffcott_core::model::COORD_NAMES;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
@@ -108,8 +110,8 @@ pub struct BasinArgs {
 }
 
 impl BasinArgs {
-    /// The basin these arguments describe, validated.
-    pub fn spec(&self) -> Result<BasinSpec> {
+    /// The grid these arguments describe (validated with the study).
+    fn spec(&self) -> Result<BasinSpec> {
         let params = self.model.params()?;
         let x = Axis::parse("x", &self.x)?;
         let y = Axis::parse("y", &self.y)?;
@@ -125,7 +127,7 @@ impl BasinArgs {
         let precision = self
             .precision
             .unwrap_or_else(|| jeffcott_analysis::backend::default_precision(self.backend));
-        let spec = BasinSpec {
+        Ok(BasinSpec {
             params,
             omega: self.omega,
             x,
@@ -139,10 +141,24 @@ impl BasinArgs {
             catalogue: self.catalogue.config(precision)?,
             chunk: self.chunk,
             lyapunov: self.lyapunov,
+        })
+    }
+
+    /// The study these arguments describe (the basin and its stages), validated.
+    pub fn study(&self) -> Result<BasinStudy> {
+        let study = BasinStudy {
+            refine: self.refine,
+            uncertainty_samples: self.uncertainty_samples,
+            entropy_box: self.entropy_box,
+            traces: if self.no_plot {
+                0
+            } else {
+                defaults::basin::TRACES
+            },
+            ..BasinStudy::new(self.spec()?)
         };
-        spec.check_size()?;
-        spec.validate()?;
-        Ok(spec)
+        study.validate()?;
+        Ok(study)
     }
 }
 
@@ -162,25 +178,6 @@ pub const OUTPUTS: &[&str] = &[
     "attractors.png",
 ];
 
-/// Runs a basin with a progress bar, its units committed to `store`.
-pub fn run_basin_study(
-    spec: &BasinSpec,
-    store: &dyn jeffcott_analysis::run::UnitStore,
-    quiet: bool,
-) -> Result<BasinResult> {
-    let per_lane = (spec.transient + spec.recorded) as u64;
-    let total = (spec.x.n * spec.y.n) as u64 * per_lane;
-    rundir::with_bar(
-        "basin",
-        total,
-        per_lane,
-        quiet,
-        spec.backend,
-        spec.precision,
-        |engine, ctl| basin_with(spec, engine, store, ctl),
-    )
-}
-
 /// What run.json records of a finished basin besides its specification.
 /// What a basin's `run.json` adds once complete: backend and wall time, and with
 /// `--refine` what the refinement computed.
@@ -192,56 +189,37 @@ struct RunResult<'a> {
     refinement: Option<RefinementRecord<'a>>,
 }
 
-/// Runs `jeffcott basin`.
+/// Runs `jeffcott basin`: the study's units committed to --out, then its files.
 pub fn run_basin(a: &BasinArgs) -> Result<()> {
-    let spec = a.spec()?;
-    jeffcott_analysis::uncertainty::check_samples(a.uncertainty_samples)?;
-    let entropy_box = jeffcott_analysis::measures::entropy_box(a.entropy_box, spec.x.n, spec.y.n)?;
-    jeffcott_analysis::refine::check_levels(a.refine, a.lyapunov, spec.x.n, spec.y.n)?;
+    let study = a.study()?;
     let shard = a.shard.shard()?;
     let run_spec = RunSpec {
-        spec: spec.record(),
-        refine: a.refine,
-        uncertainty_samples: a.uncertainty_samples,
+        spec: study.basin.record(),
+        refine: study.refine,
+        uncertainty_samples: study.uncertainty_samples,
     };
     let rd = rundir::open_shard(&a.out, "basin", &run_spec, OUTPUTS, a.run, shard, a.quiet)?;
-    let res = match run_basin_study(&spec, rundir::store(&rd).as_ref(), a.quiet) {
+    let engine = Engine::new(study.basin.backend, study.basin.precision)?;
+    let o = match run(&study, &engine, &rundir::CommandHost::new(&rd, a.quiet)) {
         Err(Error::NotInShard) => return rundir::finish_shard(&rd, a.quiet),
         r => r?,
     };
-    let (spec, res, refined) = if a.refine > 0 {
-        let (s, r, f) = refine_basin(&spec, res, rundir::store(&rd).as_ref(), a.refine, a.quiet)?;
-        output::write_npy(&a.out.join("refined.npy"), &[f.ny, f.nx], &f.computed)?;
-        (s, r, Some(f))
-    } else {
-        (spec, res, None)
-    };
-    let rub_line = write_basin(&a.out, &spec, &res, !a.no_plot)?;
-    if a.highlight_boundary && !a.no_plot {
-        boundary_picture(&a.out.join("basin_boundary.png"), &spec, &res)?;
-    }
-    let reint = reintegrate(
-        &spec,
-        &res,
-        rundir::store(&rd).as_ref(),
-        a.uncertainty_samples,
-        a.quiet,
-    )?;
-    let metrics = write_metrics(&a.out, &spec, &res, entropy_box, reint.as_ref(), !a.no_plot)?;
+    let rub_line = write_basin_files(&a.out, &o, !a.no_plot, a.highlight_boundary)?;
+    let (spec, res) = (&o.spec, &o.result);
     let rj = RunResult {
         run: rundir::BackendTime {
             backend: res.info.as_ref(),
             wall_time_s: res.seconds,
         },
-        refinement: refined.as_ref().map(|f| refinement_record(f, &spec)),
+        refinement: o.refined.as_ref().map(|f| refinement_record(f, spec)),
     };
     rd.finish(&rj, &rundir::written(&rd, OUTPUTS))?;
     if !a.quiet {
-        println!("{}", human_summary(&spec, &res, &a.out));
+        println!("{}", human_summary(spec, res, &a.out));
         if !rub_line.is_empty() {
             println!("Rub on the attractors (attractors.json, docs/rub.md): {rub_line}.");
         }
-        if let Some(f) = &refined {
+        if let Some(f) = &o.refined {
             let lanes: usize = f.levels.iter().map(|l| l.lanes).sum();
             println!(
                 "Refined {} level(s) to {} x {}: {} lanes integrated besides the coarse grid, against {} for the full fine grid ({:.1} %).",
@@ -255,14 +233,36 @@ pub fn run_basin(a: &BasinArgs) -> Result<()> {
         }
         println!(
             "Basin measures (basin_metrics.json): {}{}",
-            metrics.summary(),
-            reint
+            o.metrics.summary(),
+            o.reintegration
                 .as_ref()
                 .map(|r| format!("; {}", r.summary()))
                 .unwrap_or_default()
         );
     }
     Ok(())
+}
+
+/// Writes every file of a basin study's outcome (labels, axes, attractors.json,
+/// refined.npy, basin_metrics.json and, with `plot_it`, the pictures; the boundary
+/// picture with `boundary`); returns one line on the rub of each attractor for the
+/// summary. Computes nothing.
+pub fn write_basin_files(
+    dir: &Path,
+    o: &BasinOutcome,
+    plot_it: bool,
+    boundary: bool,
+) -> Result<String> {
+    if let Some(f) = &o.refined {
+        output::ensure_dir(dir)?;
+        output::write_npy(&dir.join("refined.npy"), &[f.ny, f.nx], &f.computed)?;
+    }
+    let rub_line = write_basin(dir, o, plot_it)?;
+    if boundary && plot_it {
+        boundary_picture(&dir.join("basin_boundary.png"), &o.spec, &o.result)?;
+    }
+    write_metrics(dir, o, plot_it)?;
+    Ok(rub_line)
 }
 
 /// The basin with its boundary points (a 4-neighbour of another label) in dark grey.
@@ -321,44 +321,6 @@ fn boundary_picture(path: &Path, spec: &BasinSpec, res: &BasinResult) -> Result<
     )
 }
 
-/// Refines a computed basin `levels` times ([`jeffcott_analysis::refine`]), its lanes
-/// committed to `store`: the basin at the finest resolution (the spec with the fine axis
-/// counts, the labels replaced, basin fractions recounted as area fractions of the fine
-/// grid) and the refinement.
-pub fn refine_basin(
-    spec: &BasinSpec,
-    res: BasinResult,
-    store: &dyn jeffcott_analysis::run::UnitStore,
-    levels: u32,
-    quiet: bool,
-) -> Result<(BasinSpec, BasinResult, jeffcott_analysis::refine::Refined)> {
-    let per_lane = (spec.transient + spec.recorded) as u64;
-    // The boundary's lanes are not known in advance: the bar counts the coarse grid's
-    // size per level as a scale.
-    let f = rundir::with_bar(
-        "refine",
-        (spec.x.n * spec.y.n) as u64 * per_lane * levels as u64,
-        per_lane,
-        quiet,
-        spec.backend,
-        spec.precision,
-        |engine, ctl| {
-            jeffcott_analysis::refine::refine(
-                spec,
-                &res.catalogue,
-                &res.labels,
-                levels,
-                engine,
-                store,
-                ctl,
-            )
-        },
-    );
-    let f = f?;
-    let (fine, res) = jeffcott_analysis::refine::refined_basin(spec, res, &f);
-    Ok((fine, res, f))
-}
-
 /// A basin's specification as `run.json` records it: the study's, and the refinement
 /// and re-integration asked for.
 #[derive(Serialize)]
@@ -399,59 +361,11 @@ fn refinement_record<'a>(
     }
 }
 
-/// The uncertainty exponent by re-integration ([`jeffcott_analysis::uncertainty`]) of a
-/// computed basin, its lanes committed to `store` (stage `uncertainty`); `None` for 0
-/// samples.
-pub fn reintegrate(
-    spec: &BasinSpec,
-    res: &BasinResult,
-    store: &dyn jeffcott_analysis::run::UnitStore,
-    samples: usize,
-    quiet: bool,
-) -> Result<Option<jeffcott_analysis::uncertainty::Reintegration>> {
-    if samples == 0 {
-        return Ok(None);
-    }
-    let per_lane = (spec.transient + spec.recorded) as u64;
-    let lanes = (samples * (1 + 4 * jeffcott_analysis::uncertainty::EPS.len())) as u64;
-    rundir::with_bar(
-        "uncertainty",
-        lanes * per_lane,
-        per_lane,
-        quiet,
-        spec.backend,
-        spec.precision,
-        |engine, ctl| {
-            jeffcott_analysis::uncertainty::reintegration(
-                spec,
-                &res.catalogue,
-                samples,
-                1,
-                engine,
-                store,
-                ctl,
-            )
-        },
-    )
-    .map(Some)
-}
-
-/// Computes the basin measures of the labels and writes `basin_metrics.json` (with the
-/// re-integration estimate when given) and, with `plot_it`, `uncertainty.png`.
-pub fn write_metrics(
-    dir: &Path,
-    spec: &BasinSpec,
-    res: &BasinResult,
-    entropy_box: usize,
-    reint: Option<&jeffcott_analysis::uncertainty::Reintegration>,
-    plot_it: bool,
-) -> Result<jeffcott_analysis::measures::BasinMetrics> {
-    let m = jeffcott_analysis::measures::basin_labels_metrics(
-        &res.labels,
-        spec.x.n,
-        spec.y.n,
-        entropy_box,
-    )?;
+/// Writes `basin_metrics.json` (with the re-integration estimate when computed) and,
+/// with `plot_it`, `uncertainty.png`.
+fn write_metrics(dir: &Path, o: &BasinOutcome, plot_it: bool) -> Result<()> {
+    let (spec, m) = (&o.spec, &o.metrics);
+    let reint = o.reintegration.as_ref();
     if plot_it {
         // The grid estimate's eps in cells, as a fraction of the box side (nx - 1 cells).
         let side = (spec.x.n.max(2) - 1) as f64;
@@ -473,9 +387,7 @@ pub fn write_metrics(
             reint.and_then(|r| r.alpha),
         )?;
     }
-    let j = jeffcott_analysis::measures::MetricsRecord::new(&m, reint);
-    output::write_json(&dir.join("basin_metrics.json"), &j)?;
-    Ok(m)
+    output::write_json(&dir.join("basin_metrics.json"), &o.metrics_record())
 }
 
 /// Legend text of an attractor: "#0 period-5, 64.2 %", with its mean lambda_1 when
@@ -488,52 +400,28 @@ pub fn legend_name(a: &Attractor) -> String {
     s
 }
 
-/// Time series over a few periods from each attractor's first representative point, for
-/// phase portraits (`max_traces` attractors at most, the largest basins first).
-pub fn attractor_traces(
-    params: &Params,
-    omega: f64,
-    attractors: &[Attractor],
-    max_traces: usize,
-) -> Result<Vec<AttractorTrace>> {
-    let mut order: Vec<&Attractor> = attractors.iter().collect();
-    order.sort_by_key(|a| std::cmp::Reverse(a.lanes));
-    order
-        .into_iter()
-        .take(max_traces)
-        .map(|a| {
-            let periods = a.period.unwrap_or(12).clamp(1, 32) as u32;
-            let spec = SimulateSpec {
-                params: params.clone(),
-                omega,
-                x0: a.points[0],
-                transient: 0,
-                periods,
-                timeseries_periods: periods,
-                integrator: Integrator::Lane,
-                stepper: Default::default(),
-                article: Default::default(),
-                classify: Default::default(),
-            };
-            let r = simulate(&spec)?;
-            Ok(AttractorTrace {
-                name: legend_name(a),
-                color: attractor_color(a.id as i32),
-                timeseries: r.timeseries,
-                poincare: a.points.clone(),
-            })
+/// The phase traces of a study as the attractor portrait draws them: each with its
+/// attractor's legend text and colour.
+pub fn plot_traces(traces: &[SimTrace], attractors: &[Attractor]) -> Vec<AttractorTrace> {
+    traces
+        .iter()
+        .map(|t| AttractorTrace {
+            name: attractors
+                .iter()
+                .find(|a| a.id == t.id)
+                .map(legend_name)
+                .unwrap_or_default(),
+            color: attractor_color(t.id as i32),
+            timeseries: t.timeseries.clone(),
+            poincare: t.poincare.clone(),
         })
         .collect()
 }
 
 /// Writes labels.npy, attractors.json, basin.png and attractors.png; returns one line
 /// on the rub of each attractor (its regime and loads) for the summary.
-pub fn write_basin(
-    dir: &Path,
-    spec: &BasinSpec,
-    res: &BasinResult,
-    plot_it: bool,
-) -> Result<String> {
+fn write_basin(dir: &Path, o: &BasinOutcome, plot_it: bool) -> Result<String> {
+    let (spec, res) = (&o.spec, &o.result);
     output::ensure_dir(dir)?;
     let (nx, ny) = (spec.x.n, spec.y.n);
     output::write_npy(&dir.join("labels.npy"), &[ny, nx], &res.labels)?;
@@ -593,8 +481,8 @@ pub fn write_basin(
                 (&lx, &ly),
             )?;
         }
-        if !cat.attractors.is_empty() {
-            let traces = attractor_traces(&spec.params, spec.omega, &cat.attractors, 8)?;
+        if !o.traces.is_empty() {
+            let traces = plot_traces(&o.traces, &cat.attractors);
             coexisting_attractors(
                 &dir.join("attractors.png"),
                 &format!(
@@ -605,8 +493,7 @@ pub fn write_basin(
             )?;
         }
     }
-    let with_rub =
-        jeffcott_analysis::rub::attractors_with_rub(&spec.params, &cat.attractors, &spec.stepper)?;
+    let with_rub = o.attractors();
     let rub_line = with_rub
         .iter()
         .map(|a| match &a.rub {

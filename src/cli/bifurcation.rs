@@ -367,7 +367,16 @@ pub fn write_portraits(
         .unwrap_or(0);
     let omega = spec.omegas[wi];
     let traces = match res.brute.get(wi) {
-        Some(b) => super::basin::attractor_traces(&spec.params, omega, &b.catalogue.attractors, 8)?,
+        Some(b) => {
+            let attractors = &b.catalogue.attractors;
+            let t = jeffcott_analysis::simulate::attractor_traces(
+                &spec.params,
+                omega,
+                attractors,
+                jeffcott_analysis::defaults::basin::TRACES,
+            )?;
+            super::basin::plot_traces(&t, attractors)
+        }
         None => {
             let mut t = Vec::new();
             for (k, (name, sw)) in [("up sweep", &res.up), ("down sweep", &res.down)]

@@ -2,19 +2,18 @@
 //! down-sweep and brute-force diagrams it does not have, and writes `REPORT.md` with
 //! every figure, what this tool found there, the equivalent command and its time.
 
-use super::basin::{legend_name, write_basin};
+use super::basin::{legend_name, write_basin_files};
 use super::bifurcation::{diagram_series, lambda1_series, write_bifurcation};
 use crate::plot;
 use clap::Args;
 use jeffcott_analysis::backend::default_precision;
-use jeffcott_analysis::basin::{BasinResult, BasinSpec};
+use jeffcott_analysis::basin::study::BasinOutcome;
 use jeffcott_analysis::bifurcation::{BifurcationResult, BifurcationSpec};
 use jeffcott_analysis::cascade::{CascadeResult, CascadeSpec};
 use jeffcott_analysis::catalogue::Catalogue;
 use jeffcott_analysis::classify::Class;
 use jeffcott_analysis::continuation::{ContinuationResult, ContinuationSpec};
 use jeffcott_analysis::map::{MapResult, MapSpec};
-use jeffcott_analysis::refine::Refined;
 use jeffcott_analysis::reproduce::{
     ARTICLE_SPEEDS, BruteCounts, FULL, Host, Lambda1Row, MapFindings, Preset, QUICK, RampFindings,
     RegimeCells, ReproduceResult, ReproduceSpec, SMOKE, STEPS, Section, Survey, SweepCounts, THROW,
@@ -22,7 +21,6 @@ use jeffcott_analysis::reproduce::{
     up_down_differ,
 };
 use jeffcott_analysis::simulate::{RubOutputs, SimulateResult};
-use jeffcott_analysis::uncertainty::Reintegration;
 use jeffcott_core::ensemble::{Backend, Precision};
 use jeffcott_core::error::{Error, Result};
 use jeffcott_core::lyapunov::Spectrum;
@@ -246,11 +244,7 @@ struct Ctx<'a> {
     rep: Report,
 }
 
-impl Host for Ctx<'_> {
-    fn begin(&mut self, step: usize, what: &str) {
-        say(self.a, &format!("[{step}/{STEPS}] {what}"));
-    }
-
+impl jeffcott_analysis::run::Host for Ctx<'_> {
     fn store(&self) -> &dyn jeffcott_analysis::run::UnitStore {
         self.rd
     }
@@ -262,15 +256,13 @@ impl Host for Ctx<'_> {
         per_lane: u64,
         work: impl FnOnce(jeffcott_core::control::Control) -> Result<T>,
     ) -> Result<T> {
-        let bar = crate::progress::Bar::new(label, total, per_lane, self.a.quiet);
-        let cancel = super::rundir::cancel();
-        let cb = super::rundir::bar_callback(&bar);
-        let r = work(jeffcott_core::control::Control {
-            progress: &cb,
-            cancel: &cancel,
-        });
-        bar.finish();
-        r
+        super::rundir::progress(label, total, per_lane, self.a.quiet, work)
+    }
+}
+
+impl Host for Ctx<'_> {
+    fn begin(&mut self, step: usize, what: &str) {
+        say(self.a, &format!("[{step}/{STEPS}] {what}"));
     }
 
     fn section(&mut self, section: Section<'_>) -> Result<()> {
@@ -291,22 +283,14 @@ impl Host for Ctx<'_> {
                 seconds,
             } => portrait(self, figure, omega, res, class, survey, seconds),
             Section::Basin {
-                coarse,
-                spec,
-                res,
-                refined,
-                reintegration,
+                outcome,
                 class,
                 survey,
                 seconds,
             } => basin_section(
                 self,
                 &BasinFigures {
-                    coarse,
-                    spec,
-                    res,
-                    refined,
-                    reintegration,
+                    outcome,
                     class,
                     survey,
                     seconds,
@@ -627,11 +611,7 @@ fn portrait(
 
 /// The basin section's results ([`Section::Basin`]).
 struct BasinFigures<'a> {
-    coarse: &'a BasinSpec,
-    spec: &'a BasinSpec,
-    res: &'a BasinResult,
-    refined: Option<&'a Refined>,
-    reintegration: Option<&'a Reintegration>,
+    outcome: &'a BasinOutcome,
     class: Class,
     survey: &'a Survey,
     seconds: f64,
@@ -647,17 +627,10 @@ fn basin_section(c: &mut Ctx, f: &BasinFigures) -> Result<()> {
         ..
     } = *c;
     let p = c.spec.preset;
-    let (bspec, bres, refined, reint) = (f.spec, f.res, f.refined, f.reintegration);
-    let n = f.coarse.x.n;
+    let o = f.outcome;
+    let (bres, refined, reint) = (&o.result, o.refined.as_ref(), o.reintegration.as_ref());
+    let n = o.coarse.x.n;
     let bdir = dir.join("basin_133");
-    jeffcott_analysis::output::ensure_dir(&bdir)?;
-    if let Some(r) = refined {
-        jeffcott_analysis::output::write_npy(
-            &bdir.join("refined.npy"),
-            &[r.ny, r.nx],
-            &r.computed,
-        )?;
-    }
     let refine_text = match refined {
         Some(f) => {
             let lanes: usize = f.levels.iter().map(|l| l.lanes).sum();
@@ -674,15 +647,8 @@ fn basin_section(c: &mut Ctx, f: &BasinFigures) -> Result<()> {
         }
         None => String::new(),
     };
-    let basin_rub = write_basin(&bdir, bspec, bres, true)?;
-    let bmetrics = super::basin::write_metrics(
-        &bdir,
-        bspec,
-        bres,
-        jeffcott_analysis::measures::DEFAULT_ENTROPY_BOX.min(bspec.x.n.min(bspec.y.n)),
-        reint,
-        true,
-    )?;
+    let basin_rub = write_basin_files(&bdir, o, true, false)?;
+    let bmetrics = &o.metrics;
     copy(dir, &bdir.join("basin.png"), "fig07_basin_133.png")?;
     let basin_s = f.seconds;
     let basin_cmd = format!(

@@ -56,7 +56,7 @@ pub fn merging(stages: Option<Vec<String>>) {
 
 /// Runs a study with a progress bar `name` over `total` lane-periods (`per_lane` each), on
 /// an engine for `backend` and `precision`, with the command's cancel flag: the frame
-/// every command's study runs in.
+/// of the commands whose study has one stage.
 pub fn with_bar<T>(
     name: &str,
     total: u64,
@@ -69,19 +69,61 @@ pub fn with_bar<T>(
         jeffcott_analysis::run::lanes::Control,
     ) -> Result<T>,
 ) -> Result<T> {
-    let bar = crate::progress::Bar::new(name, total, per_lane, quiet);
     let engine = jeffcott_analysis::backend::Engine::new(backend, precision)?;
+    progress(name, total, per_lane, quiet, |ctl| study(&engine, ctl))
+}
+
+/// Runs `work` under a progress bar `name` over `total` lane-periods (`per_lane` each)
+/// and the command's cancel flag.
+pub fn progress<T>(
+    name: &str,
+    total: u64,
+    per_lane: u64,
+    quiet: bool,
+    work: impl FnOnce(jeffcott_analysis::run::lanes::Control) -> Result<T>,
+) -> Result<T> {
+    let bar = crate::progress::Bar::new(name, total, per_lane, quiet);
     let cancel = cancel();
     let cb = bar_callback(&bar);
-    let r = study(
-        &engine,
-        jeffcott_analysis::run::lanes::Control {
-            progress: &cb,
-            cancel: &cancel,
-        },
-    );
+    let r = work(jeffcott_analysis::run::lanes::Control {
+        progress: &cb,
+        cancel: &cancel,
+    });
     bar.finish();
     r
+}
+
+/// The host a command's study runs under ([`jeffcott_analysis::run::Host`]): its run
+/// directory's store ([`store`]), a progress bar per stage unless `quiet`, the
+/// command's cancel flag.
+pub struct CommandHost<'a> {
+    store: Box<dyn UnitStore + 'a>,
+    quiet: bool,
+}
+
+impl<'a> CommandHost<'a> {
+    /// The host of a command writing to `rd`.
+    pub fn new(rd: &'a RunDir, quiet: bool) -> Self {
+        CommandHost {
+            store: store(rd),
+            quiet,
+        }
+    }
+}
+
+impl jeffcott_analysis::run::Host for CommandHost<'_> {
+    fn store(&self) -> &dyn UnitStore {
+        &*self.store
+    }
+    fn progress<T>(
+        &self,
+        label: &str,
+        total: u64,
+        per_lane: u64,
+        work: impl FnOnce(jeffcott_analysis::run::lanes::Control) -> Result<T>,
+    ) -> Result<T> {
+        progress(label, total, per_lane, self.quiet, work)
+    }
 }
 
 /// The cancel flag a command's engine runs with.

@@ -34,6 +34,9 @@ pub mod basin {
     pub const PERIODS: u32 = 64;
     /// Draws of the uncertainty exponent by re-integration.
     pub const UNCERTAINTY_SAMPLES: usize = 100;
+    /// Attractors drawn in the phase portraits of `attractors.png`, the largest basins
+    /// first.
+    pub const TRACES: usize = 8;
 }
 
 /// `cascade`: full spectra along quasistatic sweeps.

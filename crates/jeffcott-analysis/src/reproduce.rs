@@ -19,20 +19,19 @@
 //! prefix of one run directory, and its own output writer into a sub-folder), draws the
 //! figures and words REPORT.md from these values.
 
-use crate::basin::{Axis, BasinResult, BasinSpec};
+use crate::basin::study::{BasinOutcome, BasinStudy};
+use crate::basin::{Axis, BasinSpec};
 use crate::bifurcation::{BifurcationResult, BifurcationSpec, Sweep, SweepPoint, start_states};
 use crate::cascade::{CascadeResult, CascadeSpec};
 use crate::catalogue::{Catalogue, CatalogueConfig, catalogue_result};
 use crate::classify::Class;
 use crate::continuation::{ContinuationResult, ContinuationSpec, Direction, Ramp};
 use crate::map::{MapAxis, MapResult, MapSpec, MapVar, code};
-use crate::refine::Refined;
 use crate::rub::RubRegime;
-use crate::run::{Prefixed, UnitStore};
+use crate::run::Prefixed;
 use crate::simulate::{
     Integrator, RubOutputs, SimulateResult, SimulateSpec, rub_outputs, simulate,
 };
-use crate::uncertainty::Reintegration;
 use jeffcott_core::control::Control;
 use jeffcott_core::ensemble::{Backend, EnsembleResult, EnsembleSpec, LaneSpec, Precision};
 use jeffcott_core::error::Result;
@@ -372,6 +371,17 @@ impl ReproduceSpec {
             catalogue: self.catalogue,
             chunk: None,
             lyapunov: false,
+        }
+    }
+
+    /// Fig. 7's study: [`ReproduceSpec::basin`] refined and re-integrated as the preset
+    /// asks, with the traces of Fig. 8.
+    pub fn basin_study(&self) -> BasinStudy {
+        BasinStudy {
+            refine: self.preset.basin_refine,
+            uncertainty_samples: self.preset.uncertainty_samples,
+            traces: crate::defaults::basin::TRACES,
+            ..BasinStudy::new(self.basin())
         }
     }
 
@@ -1022,20 +1032,9 @@ pub const STEPS: usize = 11;
 /// progress bar per study, keeps every study's units in one run directory (so an
 /// interrupted set resumes where it stopped), then draws each section's figures, writes
 /// its studies' files and words REPORT.md.
-pub trait Host {
+pub trait Host: crate::run::Host {
     /// Step `step` of [`STEPS`] begins; `what` it computes.
     fn begin(&mut self, step: usize, what: &str);
-    /// The store the studies keep their units in, each under its own prefix.
-    fn store(&self) -> &dyn UnitStore;
-    /// Runs `work` under a progress display named `label` (`total` lane-periods,
-    /// `per_lane` of them per lane) and the host's cancel flag.
-    fn progress<T>(
-        &self,
-        label: &str,
-        total: u64,
-        per_lane: u64,
-        work: impl FnOnce(Control) -> Result<T>,
-    ) -> Result<T>;
     /// One section's results, in the order of the set, as soon as they are computed
     /// (they are dropped after).
     fn section(&mut self, section: Section<'_>) -> Result<()>;
@@ -1090,21 +1089,14 @@ pub enum Section<'a> {
     /// Figs. 7-8: the basin at 133 rad/s at its finest resolution, with the refinement
     /// and the re-integration, and the class from the static equilibrium there.
     Basin {
-        /// The basin as computed (the coarse grid).
-        coarse: &'a BasinSpec,
-        /// The basin at its finest resolution.
-        spec: &'a BasinSpec,
-        /// Its labels and catalogue.
-        res: &'a BasinResult,
-        /// The boundary refinement, if any.
-        refined: Option<&'a Refined>,
-        /// The uncertainty exponent by re-integration, if any.
-        reintegration: Option<&'a Reintegration>,
+        /// The study's outcome: the coarse and finest grids, labels and catalogue,
+        /// refinement, re-integration, rub figures, traces and measures.
+        outcome: &'a BasinOutcome,
         /// The class from the static equilibrium, refined by lambda_1.
         class: Class,
         /// The survey, for the text.
         survey: &'a Survey,
-        /// Wall time of the basin, its refinement and re-integration [s].
+        /// Wall time of the basin study, all its stages [s].
         seconds: f64,
     },
     /// Figs. 9-12: the section from the static equilibrium at 135 or 140 rad/s.
@@ -1255,22 +1247,21 @@ pub fn reproduce<H: Host>(spec: &ReproduceSpec, host: &mut H) -> Result<Reproduc
 
     host.begin(6, "basin of attraction at 133 rad/s");
     let t = Instant::now();
-    let coarse = spec.basin();
-    let (fine, res, refined, reintegration) = run_basin(host, spec, &engine, &coarse)?;
+    let outcome = crate::basin::study::run(
+        &spec.basin_study(),
+        &engine,
+        &crate::run::PrefixedHost::new(&*host, "basin_133"),
+    )?;
     let r133 = simulate(&spec.portrait(133.0))?;
     let class = survey.refine(r133.classification.class, 133.0, lambda_tol);
     static_class.push((133.0, class));
     host.section(Section::Basin {
-        coarse: &coarse,
-        spec: &fine,
-        res: &res,
-        refined: refined.as_ref(),
-        reintegration: reintegration.as_ref(),
+        outcome: &outcome,
         class,
         survey: &survey,
         seconds: t.elapsed().as_secs_f64(),
     })?;
-    drop((res, refined));
+    drop(outcome);
 
     host.begin(
         7,
@@ -1428,75 +1419,10 @@ fn run_map<H: Host>(
     })
 }
 
-/// The basin at 133 rad/s, refined and re-integrated as the preset asks, its units
-/// under `basin_133`: the finest grid's spec and result, the refinement, the
-/// re-integration.
-#[allow(clippy::type_complexity)]
-fn run_basin<H: Host>(
-    host: &H,
-    spec: &ReproduceSpec,
-    engine: &crate::backend::Engine,
-    coarse: &BasinSpec,
-) -> Result<(
-    BasinSpec,
-    BasinResult,
-    Option<Refined>,
-    Option<Reintegration>,
-)> {
-    let p = spec.preset;
-    let store = Prefixed {
-        inner: host.store(),
-        prefix: "basin_133",
-    };
-    let per_lane = (coarse.transient + coarse.recorded) as u64;
-    let cells = (coarse.x.n * coarse.y.n) as u64;
-    let res = host.progress("basin", cells * per_lane, per_lane, |ctl| {
-        crate::basin::basin_with(coarse, engine, &store, ctl)
-    })?;
-    let (fine, res, refined) = if p.basin_refine > 0 {
-        // The boundary's lanes are not known in advance: the display counts the coarse
-        // grid's size per level as a scale.
-        let total = cells * per_lane * p.basin_refine as u64;
-        let f = host.progress("refine", total, per_lane, |ctl| {
-            crate::refine::refine(
-                coarse,
-                &res.catalogue,
-                &res.labels,
-                p.basin_refine,
-                engine,
-                &store,
-                ctl,
-            )
-        })?;
-        let (s, r) = crate::refine::refined_basin(coarse, res, &f);
-        (s, r, Some(f))
-    } else {
-        (coarse.clone(), res, None)
-    };
-    let reintegration = if p.uncertainty_samples > 0 {
-        let lanes = (p.uncertainty_samples * (1 + 4 * crate::uncertainty::EPS.len())) as u64;
-        Some(
-            host.progress("uncertainty", lanes * per_lane, per_lane, |ctl| {
-                crate::uncertainty::reintegration(
-                    &fine,
-                    &res.catalogue,
-                    p.uncertainty_samples,
-                    1,
-                    engine,
-                    &store,
-                    ctl,
-                )
-            })?,
-        )
-    } else {
-        None
-    };
-    Ok((fine, res, refined, reintegration))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::run::UnitStore;
 
     #[test]
     fn the_sum_rule_is_the_trace_of_the_models_jacobian_out_of_contact() {
@@ -1621,6 +1547,12 @@ mod tests {
         fn begin(&mut self, step: usize, _: &str) {
             self.steps.push(step);
         }
+        fn section(&mut self, s: Section<'_>) -> Result<()> {
+            self.record(s)
+        }
+    }
+
+    impl crate::run::Host for Recorder {
         fn store(&self) -> &dyn UnitStore {
             &self.store
         }
@@ -1642,7 +1574,10 @@ mod tests {
                 .push((label.to_string(), done.into_inner(), total));
             r
         }
-        fn section(&mut self, s: Section<'_>) -> Result<()> {
+    }
+
+    impl Recorder {
+        fn record(&mut self, s: Section<'_>) -> Result<()> {
             self.sections.push(match s {
                 Section::Bifurcation { spec, res } => {
                     assert_eq!(res.up.len(), spec.omegas.len());
@@ -1650,14 +1585,9 @@ mod tests {
                 }
                 Section::Zoom { k, res, .. } => format!("zoom {k} {:?}", periods_seen(&res.up)),
                 Section::Portrait { figure, class, .. } => format!("fig{figure} {class:?}"),
-                Section::Basin {
-                    coarse,
-                    spec,
-                    res,
-                    refined,
-                    class,
-                    ..
-                } => {
+                Section::Basin { outcome, class, .. } => {
+                    let (coarse, spec, res) = (&outcome.coarse, &outcome.spec, &outcome.result);
+                    let refined = &outcome.refined;
                     // One refinement level: (n - 1) 2 + 1 points per side.
                     assert_eq!(spec.x.n, (coarse.x.n - 1) * 2 + 1);
                     assert_eq!(res.labels.len(), spec.x.n * spec.y.n);

@@ -650,3 +650,53 @@ pub fn poincare_rows(spec: &SimulateSpec, res: &SimulateResult) -> Vec<f64> {
     flat.resize(spec.periods as usize * STATE_DIM, f64::NAN);
     flat
 }
+
+/// A few periods of an attractor, from its first representative point: what its phase
+/// portrait draws.
+#[derive(Clone, Debug)]
+pub struct AttractorTrace {
+    /// The attractor's id in its catalogue.
+    pub id: u32,
+    /// Rows (t, state) on the integrator grid.
+    pub timeseries: Vec<[f64; STATE_DIM + 1]>,
+    /// The attractor's Poincare points.
+    pub poincare: Vec<State>,
+}
+
+/// Traces of the `max_traces` attractors with the largest basins (by lanes), in that
+/// order: each over its period (12 periods for an aperiodic one), at most 32, on the
+/// default lane stepper.
+pub fn attractor_traces(
+    params: &Params,
+    omega: f64,
+    attractors: &[crate::catalogue::Attractor],
+    max_traces: usize,
+) -> Result<Vec<AttractorTrace>> {
+    let mut order: Vec<&crate::catalogue::Attractor> = attractors.iter().collect();
+    order.sort_by_key(|a| std::cmp::Reverse(a.lanes));
+    order
+        .into_iter()
+        .take(max_traces)
+        .map(|a| {
+            let periods = a.period.unwrap_or(12).clamp(1, 32) as u32;
+            let spec = SimulateSpec {
+                params: params.clone(),
+                omega,
+                x0: a.points[0],
+                transient: 0,
+                periods,
+                timeseries_periods: periods,
+                integrator: Integrator::Lane,
+                stepper: Default::default(),
+                article: Default::default(),
+                classify: Default::default(),
+            };
+            let r = simulate(&spec)?;
+            Ok(AttractorTrace {
+                id: a.id,
+                timeseries: r.timeseries,
+                poincare: a.points.clone(),
+            })
+        })
+        .collect()
+}

@@ -15,10 +15,12 @@
 //! measured speed, so unit size never costs GPU throughput.
 
 pub mod dir;
+pub mod host;
 pub mod lanes;
 pub mod unit;
 
 pub use dir::{Found, RunDir};
+pub use host::{Host, MemoryHost, PrefixedHost};
 pub use unit::{Array, Unit};
 
 use jeffcott_core::error::{Error, Result};

@@ -11,6 +11,11 @@
 //! With `lyapunov` every lane also gives its largest Lyapunov exponent (the ensembles'
 //! lambda_1 variant, either backend): 8 more bytes per cell (32 MB at 2000 x 2000), and
 //! aperiodic attractors are told apart as quasiperiodic or chaotic.
+//!
+//! [`study`] runs a basin with every stage built on it (refinement, re-integration,
+//! rub figures, traces, measures): the one way the front ends run a basin.
+
+pub mod study;
 
 use super::catalogue::{Catalogue, CatalogueBuilder, CatalogueConfig, part_unit, unit_parts};
 use crate::run::lanes::{Control, LaneUnits};
@@ -376,58 +381,6 @@ impl BasinSpec {
             "use a smaller grid (fewer cells per axis) or a smaller --chunk",
         )
     }
-}
-
-/// A basin with its boundary refined `levels` times ([`crate::refine`], none for 0) and
-/// the uncertainty exponent re-integrated from `samples` draws
-/// ([`crate::uncertainty`], none for 0), as the command line's `basin --refine K
-/// --uncertainty-samples M` computes it: the basin's spec and result at the finest
-/// resolution, the refinement, the re-integration. Every stage commits its units to
-/// `store`.
-#[allow(clippy::type_complexity)]
-pub fn refined_study(
-    spec: &BasinSpec,
-    levels: u32,
-    samples: usize,
-    engine: &crate::backend::Engine,
-    store: &dyn UnitStore,
-    ctl: Control,
-) -> Result<(
-    BasinSpec,
-    BasinResult,
-    Option<crate::refine::Refined>,
-    Option<crate::uncertainty::Reintegration>,
-)> {
-    let res = basin_with(spec, engine, store, ctl)?;
-    let (spec, res, refined) = if levels > 0 {
-        let f = crate::refine::refine(
-            spec,
-            &res.catalogue,
-            &res.labels,
-            levels,
-            engine,
-            store,
-            ctl,
-        )?;
-        let (s, r) = crate::refine::refined_basin(spec, res, &f);
-        (s, r, Some(f))
-    } else {
-        (spec.clone(), res, None)
-    };
-    let reint = if samples > 0 {
-        Some(crate::uncertainty::reintegration(
-            &spec,
-            &res.catalogue,
-            samples,
-            1,
-            engine,
-            store,
-            ctl,
-        )?)
-    } else {
-        None
-    };
-    Ok((spec, res, refined, reint))
 }
 
 /// Computes a basin in memory; `ctl.progress` counts lane-periods.
