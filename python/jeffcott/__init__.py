@@ -20,6 +20,10 @@ dictionaries whose keys are those of the command line's JSON files:
 ``backend`` is ``"auto"`` (a hardware GPU if present, else all CPU cores), ``"cpu"`` or
 ``"gpu"`` (any adapter, Mesa's lavapipe included); ``precision=None`` is f64 on the CPU
 and f32 on a GPU. ``progress`` takes a callable ``f(done, total)`` (lane-periods).
+Every function that integrates takes the lane stepper's settings as keywords
+(``steps_per_period``, ``max_segments``, ``divergence_bound``, ``contact_substeps``: the
+command line's options of those names), their defaults in ``STEPPER_DEFAULTS``; every
+keyword's default is in ``DEFAULTS``.
 Ctrl-C stops a run cleanly (KeyboardInterrupt), within a forcing period; bad input
 raises ``ValueError`` (a value out of range, a request too large for memory) or
 ``TypeError`` (the wrong kind of value), naming the keyword and what it accepts, before
@@ -39,8 +43,10 @@ if not any(
 
 from ._jeffcott import (  # noqa: E402
     COORD_NAMES,
+    DEFAULTS,
     LANES_COLUMNS,
     PARAM_KEYS,
+    STEPPER_DEFAULTS,
     __version__,
     adapters,
     basin,
@@ -59,8 +65,10 @@ from ._jeffcott import (  # noqa: E402
 # `map` is not in __all__: a star import would shadow the builtin map.
 __all__ = [
     "COORD_NAMES",
+    "DEFAULTS",
     "LANES_COLUMNS",
     "PARAM_KEYS",
+    "STEPPER_DEFAULTS",
     "__version__",
     "adapters",
     "basin",

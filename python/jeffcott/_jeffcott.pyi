@@ -2,6 +2,8 @@
 
 from typing import Any, Callable, Dict, List, Literal, Mapping, Optional, Sequence, Tuple, Union
 
+from typing_extensions import TypedDict, Unpack
+
 import numpy as np
 import numpy.typing as npt
 
@@ -9,6 +11,18 @@ __version__: str
 COORD_NAMES: List[str]
 PARAM_KEYS: List[str]
 LANES_COLUMNS: List[str]
+STEPPER_DEFAULTS: Dict[str, Union[int, float, bool]]
+DEFAULTS: Dict[str, Dict[str, Any]]
+
+class StepperOptions(TypedDict, total=False):
+    """The lane stepper's settings, keywords of every function that integrates
+    (``**stepper``); absent ones take ``STEPPER_DEFAULTS`` (the command line's defaults;
+    docs/convergence.md, docs/performance.md)."""
+
+    steps_per_period: int  # macro steps per forcing period N
+    max_segments: int  # cap on contact switches per macro step
+    divergence_bound: float  # |position| [m] beyond which a lane has diverged
+    contact_substeps: int  # contact refinement R: 1, 2, 4, 8 or 16
 
 # Bad input raises ValueError (a value out of range; a request too large for memory,
 # refused before anything is allocated) or TypeError (the wrong kind of value), naming
@@ -31,15 +45,12 @@ def simulate(
     timeseries_periods: Optional[int] = None,
     integrator: Literal["lane", "article"] = "lane",
     spectrum_periods: int = 24,
-    steps_per_period: int = 500,
-    max_segments: int = 16,
-    divergence_bound: float = 1.0,
-    contact_substeps: int = 2,
     n_max: int = 32,
     rel_tol: float = 1e-3,
     abs_tol: float = 1e-7,
     article_steps: int = 1000,
     article_alpha: float = 0.2,
+    **stepper: Unpack[StepperOptions],
 ) -> Dict[str, Any]:
     """One trajectory: summary.json's keys plus poincare [periods, 8], timeseries [M, 9],
     full_spectrum [bins, 4] and contact_history [M, 5] (the last two unless it diverged)."""
@@ -56,11 +67,8 @@ def ensemble(
     backend: Backend = "auto",
     precision: Precision = None,
     lyapunov: bool = False,
-    steps_per_period: int = 500,
-    max_segments: int = 16,
-    divergence_bound: float = 1.0,
-    contact_substeps: int = 2,
     progress: Optional[Progress] = None,
+    **stepper: Unpack[StepperOptions],
 ) -> Dict[str, Any]:
     """Many lanes (a speed range or sequence, or lanes: any 2-D array-like of numbers, read
     as float64): poincare [lanes, periods, 8], status [lanes] (uint32), lanes [lanes, 10],
@@ -81,11 +89,8 @@ def basin(
     refine: int = 0,
     uncertainty_samples: int = 0,
     entropy_box: Optional[int] = None,
-    steps_per_period: int = 500,
-    max_segments: int = 16,
-    divergence_bound: float = 1.0,
-    contact_substeps: int = 2,
     progress: Optional[Progress] = None,
+    **stepper: Unpack[StepperOptions],
 ) -> Dict[str, Any]:
     """A basin: labels [ny, nx] (int32, -1 diverged, -2 an attractor a refinement found
     that the coarse grid did not), x [nx], y [ny], attractors (as attractors.json: each
@@ -110,11 +115,8 @@ def bifurcation(
     backend: Backend = "auto",
     precision: Precision = None,
     lyapunov: bool = True,
-    steps_per_period: int = 500,
-    max_segments: int = 16,
-    divergence_bound: float = 1.0,
-    contact_substeps: int = 2,
     progress: Optional[Progress] = None,
+    **stepper: Unpack[StepperOptions],
 ) -> Dict[str, Any]:
     """Sweeps and brute force: omega [W], rows [rows, 4] (W, sweep 0 up / 1 down / 2 brute
     force, lane, attractor id), points [rows, periods, 8], lambda1 [rows], summary."""
@@ -130,10 +132,7 @@ def lyapunov(
     tangent_transient: int = 50,
     tol: float = 2e-3,
     window: int = 100,
-    steps_per_period: int = 500,
-    max_segments: int = 16,
-    divergence_bound: float = 1.0,
-    contact_substeps: int = 2,
+    **stepper: Unpack[StepperOptions],
 ) -> Dict[str, Any]:
     """The full spectrum: spectrum.json's keys plus history [periods, 9]."""
 
@@ -152,11 +151,8 @@ def map(
     backend: Backend = "auto",
     precision: Precision = None,
     lyapunov: bool = True,
-    steps_per_period: int = 500,
-    max_segments: int = 16,
-    divergence_bound: float = 1.0,
-    contact_substeps: int = 2,
     progress: Optional[Progress] = None,
+    **stepper: Unpack[StepperOptions],
 ) -> Dict[str, Any]:
     """A two-parameter map: period, class, attractors, regime (int32 [ny, nx]), lambda1,
     contact, peak_force (f64 [ny, nx]), x, y and summary (map.json's keys)."""
@@ -176,11 +172,8 @@ def continuation(
     backend: Backend = "auto",
     precision: Precision = None,
     lyapunov: bool = True,
-    steps_per_period: int = 500,
-    max_segments: int = 16,
-    divergence_bound: float = 1.0,
-    contact_substeps: int = 2,
     progress: Optional[Progress] = None,
+    **stepper: Unpack[StepperOptions],
 ) -> Dict[str, Any]:
     """Attractors followed over a parameter: values [n], fractions_<dir> [n, ids + 1],
     fraction_errors_<dir>, tipping_<dir> [n - 1, ids + 1, ids + 1], summary."""
@@ -197,11 +190,8 @@ def basin_stability(
     backend: Backend = "auto",
     precision: Precision = None,
     lyapunov: bool = True,
-    steps_per_period: int = 500,
-    max_segments: int = 16,
-    divergence_bound: float = 1.0,
-    contact_substeps: int = 2,
     progress: Optional[Progress] = None,
+    **stepper: Unpack[StepperOptions],
 ) -> Dict[str, Any]:
     """Basin stability: omega [n], fractions [n, ids + 1], ci_low, ci_high (95 % Wilson),
     summary (basin_stability.json's keys)."""
@@ -215,11 +205,8 @@ def cascade(
     periods: int = 24,
     max_order: float = 4.0,
     direction: Direction = "both",
-    steps_per_period: int = 500,
-    max_segments: int = 16,
-    divergence_bound: float = 1.0,
-    contact_substeps: int = 2,
     progress: Optional[Progress] = None,
+    **stepper: Unpack[StepperOptions],
 ) -> Dict[str, Any]:
     """Full-spectrum cascade over "a:b:n": omega [n], orders [bins], cascade and
     cascade_stator [sweeps, n, bins] (amplitudes [m]), regime [sweeps, n] (int32),

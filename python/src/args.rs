@@ -10,10 +10,12 @@
 //! What the values mean (ranges, names, choices) is checked afterwards by the library,
 //! whose errors name the same keyword.
 
+use jeffcott_core::integrate::lane::StepperConfig;
 use numpy::PyReadonlyArray2;
 use pyo3::exceptions::{PyOverflowError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::{PyBool, PyMapping, PyString, PyTuple};
+use pyo3::types::{PyBool, PyDict, PyMapping, PyString, PyTuple};
+use serde::Deserialize;
 use std::collections::HashMap;
 
 /// Why a value was refused, with what about it was wrong (may be empty).
@@ -419,10 +421,6 @@ pub mod kw {
         periods,
         timeseries_periods,
         spectrum_periods,
-        steps_per_period,
-        max_segments,
-        divergence_bound,
-        contact_substeps,
         n_max,
         rel_tol,
         abs_tol,
@@ -445,5 +443,115 @@ pub mod kw {
         match_threshold,
         sample,
         max_order,
+    }
+}
+
+/// The lane stepper's settings from a function's `**stepper` keywords: every field of
+/// [`StepperConfig`] is a keyword of its name, its default that of
+/// [`StepperConfig::DEFAULT`] (the command line's defaults). The fields and their kinds
+/// are read from the settings' serde form, so a new stepper setting reaches every
+/// function without code here; each value is read as the default's kind (a whole
+/// number in 0..=u32::MAX, a number or a bool) with the keyword named in errors, and a keyword that is
+/// not a setting is the TypeError Python raises for an unexpected keyword.
+pub fn stepper(function: &str, kwargs: Option<&Bound<'_, PyDict>>) -> PyResult<StepperConfig> {
+    use serde::de::value::MapDeserializer;
+    let defaults = stepper_defaults();
+    let mut values: Vec<(String, Scalar)> = Vec::with_capacity(defaults.len());
+    for (name, default) in &defaults {
+        let given = match kwargs {
+            Some(d) => d.get_item(name)?,
+            None => None,
+        };
+        values.push((
+            name.clone(),
+            match (given, *default) {
+                (None, d) => d,
+                (Some(v), Scalar::Whole(_)) => Scalar::Whole(read::<u32>(name, None, &v)? as u64),
+                (Some(v), Scalar::Real(_)) => Scalar::Real(read::<f64>(name, None, &v)?),
+                (Some(v), Scalar::Flag(_)) => Scalar::Flag(read::<bool>(name, None, &v)?),
+            },
+        ));
+    }
+    if let Some(d) = kwargs {
+        for k in d.keys() {
+            let k: String = k.extract()?;
+            if !defaults.iter().any(|(n, _)| *n == k) {
+                return Err(PyTypeError::new_err(format!(
+                    "{function}() got an unexpected keyword argument '{k}'"
+                )));
+            }
+        }
+    }
+    let de = MapDeserializer::<_, serde::de::value::Error>::new(values.into_iter());
+    StepperConfig::deserialize(de).map_err(|e| PyValueError::new_err(format!("stepper: {e}")))
+}
+
+/// The stepper settings' names and default values, in declaration order.
+pub fn stepper_defaults() -> Vec<(String, Scalar)> {
+    let serde_json::Value::Object(fields) =
+        serde_json::to_value(StepperConfig::DEFAULT).unwrap_or_default()
+    else {
+        return Vec::new();
+    };
+    fields
+        .into_iter()
+        .filter_map(|(k, v)| {
+            let s = match v {
+                serde_json::Value::Bool(b) => Scalar::Flag(b),
+                serde_json::Value::Number(n) => match n.as_u64() {
+                    Some(u) => Scalar::Whole(u),
+                    None => Scalar::Real(n.as_f64()?),
+                },
+                _ => return None,
+            };
+            Some((k, s))
+        })
+        .collect()
+}
+
+/// A stepper setting's value.
+#[derive(Clone, Copy, Debug)]
+pub enum Scalar {
+    /// A whole number.
+    Whole(u64),
+    /// A number.
+    Real(f64),
+    /// A switch.
+    Flag(bool),
+}
+
+impl<'de> serde::de::IntoDeserializer<'de> for Scalar {
+    type Deserializer = Scalar;
+    fn into_deserializer(self) -> Scalar {
+        self
+    }
+}
+
+impl<'de> serde::Deserializer<'de> for Scalar {
+    type Error = serde::de::value::Error;
+    fn deserialize_any<V: serde::de::Visitor<'de>>(self, v: V) -> Result<V::Value, Self::Error> {
+        match self {
+            Scalar::Whole(u) => v.visit_u64(u),
+            Scalar::Real(x) => v.visit_f64(x),
+            Scalar::Flag(b) => v.visit_bool(b),
+        }
+    }
+    serde::forward_to_deserialize_any! {
+        bool i8 i16 i32 i64 i128 u8 u16 u32 u64 u128 f32 f64 char str string
+        bytes byte_buf option unit unit_struct newtype_struct seq tuple
+        tuple_struct map struct enum identifier ignored_any
+    }
+}
+
+impl<'py> IntoPyObject<'py> for Scalar {
+    type Target = PyAny;
+    type Output = Bound<'py, PyAny>;
+    type Error = PyErr;
+    fn into_pyobject(self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        Ok(match self {
+            Scalar::Whole(u) => u.into_pyobject(py)?.into_any(),
+            Scalar::Real(x) => x.into_pyobject(py)?.into_any(),
+            Scalar::Flag(b) => pyo3::types::PyBool::new(py, b).to_owned().into_any(),
+        })
     }
 }

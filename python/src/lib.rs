@@ -26,27 +26,11 @@ use jeffcott_analysis::simulate::{Integrator, SimulateSpec};
 use jeffcott_core::Error;
 use jeffcott_core::ensemble::{Backend, EnsembleSpec, Precision, RangeSpec};
 use jeffcott_core::integrate::article::ArticleConfig;
-use jeffcott_core::integrate::lane::StepperConfig;
 use jeffcott_core::lyapunov::SpectrumConfig;
 use jeffcott_core::model::STATE_DIM;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::collections::HashMap;
-
-/// Lane stepper settings from the keyword arguments every integrating function takes.
-fn stepper(
-    steps_per_period: u32,
-    max_segments: u32,
-    divergence_bound: f64,
-    contact_substeps: u32,
-) -> StepperConfig {
-    StepperConfig {
-        steps_per_period,
-        max_segments,
-        divergence_bound,
-        contact_substeps,
-    }
-}
 
 /// The backend and precision as the command line resolves them: `precision=None` is
 /// f64 on the CPU and f32 on a GPU.
@@ -101,14 +85,11 @@ fn speeds(
     transient=defaults::simulate::TRANSIENT, periods=defaults::simulate::PERIODS,
     timeseries_periods=None, integrator="lane",
     spectrum_periods=defaults::simulate::SPECTRUM_PERIODS,
-    steps_per_period=StepperConfig::DEFAULT.steps_per_period,
-    max_segments=StepperConfig::DEFAULT.max_segments,
-    divergence_bound=StepperConfig::DEFAULT.divergence_bound,
-    contact_substeps=StepperConfig::DEFAULT.contact_substeps,
     n_max=ClassifyConfig::DEFAULT.n_max, rel_tol=ClassifyConfig::DEFAULT.rel_tol,
     abs_tol=ClassifyConfig::DEFAULT.abs_tol,
     article_steps=ArticleConfig::DEFAULT.steps_per_period,
     article_alpha=ArticleConfig::DEFAULT.alpha,
+    **stepper,
 ))]
 #[allow(clippy::too_many_arguments)]
 fn simulate<'py>(
@@ -121,16 +102,14 @@ fn simulate<'py>(
     #[pyo3(from_py_with = kw::timeseries_periods)] timeseries_periods: Option<u32>,
     #[pyo3(from_py_with = kw::integrator)] integrator: &str,
     #[pyo3(from_py_with = kw::spectrum_periods)] spectrum_periods: u32,
-    #[pyo3(from_py_with = kw::steps_per_period)] steps_per_period: u32,
-    #[pyo3(from_py_with = kw::max_segments)] max_segments: u32,
-    #[pyo3(from_py_with = kw::divergence_bound)] divergence_bound: f64,
-    #[pyo3(from_py_with = kw::contact_substeps)] contact_substeps: u32,
     #[pyo3(from_py_with = kw::n_max)] n_max: usize,
     #[pyo3(from_py_with = kw::rel_tol)] rel_tol: f64,
     #[pyo3(from_py_with = kw::abs_tol)] abs_tol: f64,
     #[pyo3(from_py_with = kw::article_steps)] article_steps: u32,
     #[pyo3(from_py_with = kw::article_alpha)] article_alpha: f64,
+    stepper: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let stepper = args::stepper("simulate", stepper)?;
     let params = model_params(params)?;
     let x0 = start_state(&params, init)?;
     let integrator = match integrator {
@@ -153,12 +132,7 @@ fn simulate<'py>(
         timeseries_periods: timeseries_periods
             .unwrap_or(periods.min(defaults::simulate::TIMESERIES_PERIODS)),
         integrator,
-        stepper: stepper(
-            steps_per_period,
-            max_segments,
-            divergence_bound,
-            contact_substeps,
-        ),
+        stepper,
         article: ArticleConfig {
             steps_per_period: article_steps,
             alpha: article_alpha,
@@ -235,11 +209,8 @@ fn simulate<'py>(
     omega=None, *, lanes=None, columns=None, params=None, init=None,
     transient=defaults::ensemble::TRANSIENT, periods=defaults::ensemble::PERIODS,
     backend="auto", precision=None, lyapunov=false,
-    steps_per_period=StepperConfig::DEFAULT.steps_per_period,
-    max_segments=StepperConfig::DEFAULT.max_segments,
-    divergence_bound=StepperConfig::DEFAULT.divergence_bound,
-    contact_substeps=StepperConfig::DEFAULT.contact_substeps,
     progress=None,
+    **stepper,
 ))]
 #[allow(clippy::too_many_arguments)]
 fn ensemble<'py>(
@@ -254,21 +225,13 @@ fn ensemble<'py>(
     #[pyo3(from_py_with = kw::backend)] backend: &str,
     #[pyo3(from_py_with = kw::precision)] precision: Option<&str>,
     #[pyo3(from_py_with = kw::lyapunov)] lyapunov: bool,
-    #[pyo3(from_py_with = kw::steps_per_period)] steps_per_period: u32,
-    #[pyo3(from_py_with = kw::max_segments)] max_segments: u32,
-    #[pyo3(from_py_with = kw::divergence_bound)] divergence_bound: f64,
-    #[pyo3(from_py_with = kw::contact_substeps)] contact_substeps: u32,
     #[pyo3(from_py_with = kw::progress)] progress: Option<Callback<'py>>,
+    stepper: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let stepper = args::stepper("ensemble", stepper)?;
     jeffcott_core::limits::check_periods("transient", transient, 0).map_err(run::to_py_err)?;
     jeffcott_core::limits::check_periods("periods", periods, 1).map_err(run::to_py_err)?;
     let (backend, precision) = backend_precision(backend, precision)?;
-    let stepper = stepper(
-        steps_per_period,
-        max_segments,
-        divergence_bound,
-        contact_substeps,
-    );
     let model = model_params(params)?;
     let omegas = match &omega {
         Some(w) => Some(speeds("omega", w, |text, n| {
@@ -292,7 +255,7 @@ fn ensemble<'py>(
         lanes.map(|t| t.0),
         columns,
         init,
-        divergence_bound,
+        stepper.divergence_bound,
     )?;
     let spec = EnsembleSpec {
         lanes: lane_list,
@@ -361,11 +324,8 @@ struct BasinRun<'a> {
     transient=defaults::basin::TRANSIENT, periods=defaults::basin::PERIODS,
     backend="auto", precision=None, lyapunov=false,
     refine=0, uncertainty_samples=0, entropy_box=None,
-    steps_per_period=StepperConfig::DEFAULT.steps_per_period,
-    max_segments=StepperConfig::DEFAULT.max_segments,
-    divergence_bound=StepperConfig::DEFAULT.divergence_bound,
-    contact_substeps=StepperConfig::DEFAULT.contact_substeps,
     progress=None,
+    **stepper,
 ))]
 #[allow(clippy::too_many_arguments)]
 fn basin<'py>(
@@ -383,12 +343,10 @@ fn basin<'py>(
     #[pyo3(from_py_with = kw::refine)] refine: u32,
     #[pyo3(from_py_with = kw::uncertainty_samples)] uncertainty_samples: usize,
     #[pyo3(from_py_with = kw::entropy_box)] entropy_box: Option<usize>,
-    #[pyo3(from_py_with = kw::steps_per_period)] steps_per_period: u32,
-    #[pyo3(from_py_with = kw::max_segments)] max_segments: u32,
-    #[pyo3(from_py_with = kw::divergence_bound)] divergence_bound: f64,
-    #[pyo3(from_py_with = kw::contact_substeps)] contact_substeps: u32,
     #[pyo3(from_py_with = kw::progress)] progress: Option<Callback<'py>>,
+    stepper: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let stepper = args::stepper("basin", stepper)?;
     let (backend, precision) = backend_precision(backend, precision)?;
     let params = model_params(params)?;
     let x = convert::axis("x", &x)?;
@@ -398,7 +356,7 @@ fn basin<'py>(
         &x,
         &y,
         &convert::sorted_pairs(fix.unwrap_or_default()),
-        divergence_bound,
+        stepper.divergence_bound,
     )
     .map_err(run::to_py_err)?;
     let spec = BasinSpec {
@@ -409,12 +367,7 @@ fn basin<'py>(
         base,
         transient,
         recorded: periods,
-        stepper: stepper(
-            steps_per_period,
-            max_segments,
-            divergence_bound,
-            contact_substeps,
-        ),
+        stepper,
         precision,
         backend,
         catalogue: CatalogueConfig::for_precision(precision),
@@ -480,11 +433,8 @@ fn basin<'py>(
     brute_transient=defaults::bifurcation::BRUTE_TRANSIENT,
     periods=defaults::bifurcation::PERIODS, max_seeds=defaults::bifurcation::MAX_SEEDS,
     params=None, backend="auto", precision=None, lyapunov=true,
-    steps_per_period=StepperConfig::DEFAULT.steps_per_period,
-    max_segments=StepperConfig::DEFAULT.max_segments,
-    divergence_bound=StepperConfig::DEFAULT.divergence_bound,
-    contact_substeps=StepperConfig::DEFAULT.contact_substeps,
     progress=None,
+    **stepper,
 ))]
 #[allow(clippy::too_many_arguments)]
 fn bifurcation<'py>(
@@ -502,12 +452,10 @@ fn bifurcation<'py>(
     #[pyo3(from_py_with = kw::backend)] backend: &str,
     #[pyo3(from_py_with = kw::precision)] precision: Option<&str>,
     #[pyo3(from_py_with = kw::lyapunov)] lyapunov: bool,
-    #[pyo3(from_py_with = kw::steps_per_period)] steps_per_period: u32,
-    #[pyo3(from_py_with = kw::max_segments)] max_segments: u32,
-    #[pyo3(from_py_with = kw::divergence_bound)] divergence_bound: f64,
-    #[pyo3(from_py_with = kw::contact_substeps)] contact_substeps: u32,
     #[pyo3(from_py_with = kw::progress)] progress: Option<Callback<'py>>,
+    stepper: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let stepper = args::stepper("bifurcation", stepper)?;
     let (backend, precision) = backend_precision(backend, precision)?;
     let sweep = match sweep {
         "up" => Some(Sweep::Up),
@@ -548,12 +496,7 @@ fn bifurcation<'py>(
         brute_transient,
         recorded: periods,
         seed,
-        stepper: stepper(
-            steps_per_period,
-            max_segments,
-            divergence_bound,
-            contact_substeps,
-        ),
+        stepper,
         precision,
         backend,
         catalogue: CatalogueConfig::for_precision(precision),
@@ -593,10 +536,7 @@ fn bifurcation<'py>(
     transient=SpectrumConfig::DEFAULT.transient,
     tangent_transient=SpectrumConfig::DEFAULT.tangent_transient,
     tol=SpectrumConfig::DEFAULT.tol, window=SpectrumConfig::DEFAULT.window,
-    steps_per_period=StepperConfig::DEFAULT.steps_per_period,
-    max_segments=StepperConfig::DEFAULT.max_segments,
-    divergence_bound=StepperConfig::DEFAULT.divergence_bound,
-    contact_substeps=StepperConfig::DEFAULT.contact_substeps,
+    **stepper,
 ))]
 #[allow(clippy::too_many_arguments)]
 fn lyapunov<'py>(
@@ -610,14 +550,12 @@ fn lyapunov<'py>(
     #[pyo3(from_py_with = kw::tangent_transient)] tangent_transient: u32,
     #[pyo3(from_py_with = kw::tol)] tol: f64,
     #[pyo3(from_py_with = kw::window)] window: u32,
-    #[pyo3(from_py_with = kw::steps_per_period)] steps_per_period: u32,
-    #[pyo3(from_py_with = kw::max_segments)] max_segments: u32,
-    #[pyo3(from_py_with = kw::divergence_bound)] divergence_bound: f64,
-    #[pyo3(from_py_with = kw::contact_substeps)] contact_substeps: u32,
+    stepper: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let stepper = args::stepper("lyapunov", stepper)?;
     let params = model_params(params)?;
     let x0 = start_state(&params, init)?;
-    jeffcott_core::inputs::check_start_within_bound("init", &x0, divergence_bound)
+    jeffcott_core::inputs::check_start_within_bound("init", &x0, stepper.divergence_bound)
         .map_err(run::to_py_err)?;
     jeffcott_core::model::validate_omega(omega).map_err(run::to_py_err)?;
     let min_time = min_time.unwrap_or(SpectrumConfig::DEFAULT.min_time.min(time));
@@ -635,12 +573,7 @@ fn lyapunov<'py>(
         max_time: time,
         window,
         tol,
-        stepper: stepper(
-            steps_per_period,
-            max_segments,
-            divergence_bound,
-            contact_substeps,
-        ),
+        stepper,
         ..SpectrumConfig::DEFAULT
     };
     cfg.validate().map_err(run::to_py_err)?;
@@ -672,11 +605,8 @@ fn lyapunov<'py>(
     x, y, *, omega=None, ics=defaults::map::ICS, seed=defaults::map::SEED,
     transient=defaults::map::TRANSIENT, periods=defaults::map::PERIODS,
     log_x=false, log_y=false, params=None, backend="auto", precision=None, lyapunov=true,
-    steps_per_period=StepperConfig::DEFAULT.steps_per_period,
-    max_segments=StepperConfig::DEFAULT.max_segments,
-    divergence_bound=StepperConfig::DEFAULT.divergence_bound,
-    contact_substeps=StepperConfig::DEFAULT.contact_substeps,
     progress=None,
+    **stepper,
 ))]
 #[allow(clippy::too_many_arguments)]
 fn map<'py>(
@@ -694,12 +624,10 @@ fn map<'py>(
     #[pyo3(from_py_with = kw::backend)] backend: &str,
     #[pyo3(from_py_with = kw::precision)] precision: Option<&str>,
     #[pyo3(from_py_with = kw::lyapunov)] lyapunov: bool,
-    #[pyo3(from_py_with = kw::steps_per_period)] steps_per_period: u32,
-    #[pyo3(from_py_with = kw::max_segments)] max_segments: u32,
-    #[pyo3(from_py_with = kw::divergence_bound)] divergence_bound: f64,
-    #[pyo3(from_py_with = kw::contact_substeps)] contact_substeps: u32,
     #[pyo3(from_py_with = kw::progress)] progress: Option<Callback<'py>>,
+    stepper: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let stepper = args::stepper("map", stepper)?;
     use jeffcott_analysis::map::MapSpec;
     let (backend, precision) = backend_precision(backend, precision)?;
     let x = convert::map_axis("x", &x, log_x)?;
@@ -714,12 +642,7 @@ fn map<'py>(
         seed,
         transient,
         recorded: periods,
-        stepper: stepper(
-            steps_per_period,
-            max_segments,
-            divergence_bound,
-            contact_substeps,
-        ),
+        stepper,
         precision,
         backend,
         catalogue: CatalogueConfig::for_precision(precision),
@@ -761,11 +684,8 @@ fn map<'py>(
     seed=defaults::continuation::SEED, direction="both", match_threshold=None,
     transient=defaults::continuation::TRANSIENT, periods=defaults::continuation::PERIODS,
     params=None, backend="auto", precision=None, lyapunov=true,
-    steps_per_period=StepperConfig::DEFAULT.steps_per_period,
-    max_segments=StepperConfig::DEFAULT.max_segments,
-    divergence_bound=StepperConfig::DEFAULT.divergence_bound,
-    contact_substeps=StepperConfig::DEFAULT.contact_substeps,
     progress=None,
+    **stepper,
 ))]
 #[allow(clippy::too_many_arguments)]
 fn continuation<'py>(
@@ -783,12 +703,10 @@ fn continuation<'py>(
     #[pyo3(from_py_with = kw::backend)] backend: &str,
     #[pyo3(from_py_with = kw::precision)] precision: Option<&str>,
     #[pyo3(from_py_with = kw::lyapunov)] lyapunov: bool,
-    #[pyo3(from_py_with = kw::steps_per_period)] steps_per_period: u32,
-    #[pyo3(from_py_with = kw::max_segments)] max_segments: u32,
-    #[pyo3(from_py_with = kw::divergence_bound)] divergence_bound: f64,
-    #[pyo3(from_py_with = kw::contact_substeps)] contact_substeps: u32,
     #[pyo3(from_py_with = kw::progress)] progress: Option<Callback<'py>>,
+    stepper: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let stepper = args::stepper("continuation", stepper)?;
     use jeffcott_analysis::continuation::ContinuationSpec;
     let (backend, precision) = backend_precision(backend, precision)?;
     let directions =
@@ -814,12 +732,7 @@ fn continuation<'py>(
         seed,
         transient,
         recorded: periods,
-        stepper: stepper(
-            steps_per_period,
-            max_segments,
-            divergence_bound,
-            contact_substeps,
-        ),
+        stepper,
         precision,
         backend,
         catalogue: CatalogueConfig::for_precision(precision),
@@ -859,11 +772,8 @@ fn continuation<'py>(
     omega, start_box, *, sample=defaults::stability::SAMPLE, seed=defaults::stability::SEED,
     transient=defaults::stability::TRANSIENT, periods=defaults::stability::PERIODS,
     params=None, backend="auto", precision=None, lyapunov=true,
-    steps_per_period=StepperConfig::DEFAULT.steps_per_period,
-    max_segments=StepperConfig::DEFAULT.max_segments,
-    divergence_bound=StepperConfig::DEFAULT.divergence_bound,
-    contact_substeps=StepperConfig::DEFAULT.contact_substeps,
     progress=None,
+    **stepper,
 ))]
 #[allow(clippy::too_many_arguments)]
 fn basin_stability<'py>(
@@ -878,12 +788,10 @@ fn basin_stability<'py>(
     #[pyo3(from_py_with = kw::backend)] backend: &str,
     #[pyo3(from_py_with = kw::precision)] precision: Option<&str>,
     #[pyo3(from_py_with = kw::lyapunov)] lyapunov: bool,
-    #[pyo3(from_py_with = kw::steps_per_period)] steps_per_period: u32,
-    #[pyo3(from_py_with = kw::max_segments)] max_segments: u32,
-    #[pyo3(from_py_with = kw::divergence_bound)] divergence_bound: f64,
-    #[pyo3(from_py_with = kw::contact_substeps)] contact_substeps: u32,
     #[pyo3(from_py_with = kw::progress)] progress: Option<Callback<'py>>,
+    stepper: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let stepper = args::stepper("basin_stability", stepper)?;
     use jeffcott_analysis::stability::{StabilityRequest, fractions_with_intervals};
     let (backend, precision) = backend_precision(backend, precision)?;
     let omega = match omega.extract::<f64>() {
@@ -903,12 +811,7 @@ fn basin_stability<'py>(
         seed,
         transient,
         recorded: periods,
-        stepper: stepper(
-            steps_per_period,
-            max_segments,
-            divergence_bound,
-            contact_substeps,
-        ),
+        stepper,
         precision,
         backend,
         catalogue: CatalogueConfig::for_precision(precision),
@@ -948,11 +851,8 @@ fn basin_stability<'py>(
     periods=defaults::cascade::PERIODS,
     max_order=defaults::cascade::MAX_ORDER,
     direction="both",
-    steps_per_period=StepperConfig::DEFAULT.steps_per_period,
-    max_segments=StepperConfig::DEFAULT.max_segments,
-    divergence_bound=StepperConfig::DEFAULT.divergence_bound,
-    contact_substeps=StepperConfig::DEFAULT.contact_substeps,
     progress=None,
+    **stepper,
 ))]
 #[allow(clippy::too_many_arguments)]
 fn cascade<'py>(
@@ -964,12 +864,10 @@ fn cascade<'py>(
     #[pyo3(from_py_with = kw::periods)] periods: u32,
     #[pyo3(from_py_with = kw::max_order)] max_order: f64,
     #[pyo3(from_py_with = kw::direction)] direction: &str,
-    #[pyo3(from_py_with = kw::steps_per_period)] steps_per_period: u32,
-    #[pyo3(from_py_with = kw::max_segments)] max_segments: u32,
-    #[pyo3(from_py_with = kw::divergence_bound)] divergence_bound: f64,
-    #[pyo3(from_py_with = kw::contact_substeps)] contact_substeps: u32,
     #[pyo3(from_py_with = kw::progress)] progress: Option<Callback<'py>>,
+    stepper: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let stepper = args::stepper("cascade", stepper)?;
     use jeffcott_analysis::cascade::CascadeSpec;
     use jeffcott_analysis::continuation::Direction;
     let ramps = jeffcott_analysis::continuation::directions(direction).map_err(run::to_py_err)?;
@@ -980,12 +878,7 @@ fn cascade<'py>(
         transient,
         periods,
         max_order,
-        stepper: stepper(
-            steps_per_period,
-            max_segments,
-            divergence_bound,
-            contact_substeps,
-        ),
+        stepper,
         up: ramps.contains(&Direction::Up),
         down: ramps.contains(&Direction::Down),
     };
@@ -1064,6 +957,32 @@ fn _jeffcott(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add("COORD_NAMES", jeffcott_core::model::COORD_NAMES.to_vec())?;
     m.add("PARAM_KEYS", jeffcott_core::model::Params::FIELDS.to_vec())?;
+    // The `**stepper` keywords of the integrating functions and their defaults.
+    let stepper = PyDict::new(m.py());
+    for (name, default) in args::stepper_defaults() {
+        stepper.set_item(name, default)?;
+    }
+    m.add("STEPPER_DEFAULTS", stepper)?;
+    // Every default the keywords take, by study (`analysis::defaults`) and by
+    // configuration (`stepper`, `classify`, `article`, `spectrum`): what the type stub
+    // is checked against (tests/test_stub.py).
+    let all = PyDict::new(m.py());
+    for (study, name, value) in defaults::table() {
+        let group = match all.get_item(study)? {
+            Some(g) => g,
+            None => {
+                let g = PyDict::new(m.py()).into_any();
+                all.set_item(study, &g)?;
+                g
+            }
+        };
+        group.set_item(name, json_to_py(m.py(), &value)?)?;
+    }
+    all.set_item("stepper", m.getattr("STEPPER_DEFAULTS")?)?;
+    all.set_item("classify", json_to_py(m.py(), &ClassifyConfig::DEFAULT)?)?;
+    all.set_item("article", json_to_py(m.py(), &ArticleConfig::DEFAULT)?)?;
+    all.set_item("spectrum", json_to_py(m.py(), &SpectrumConfig::DEFAULT)?)?;
+    m.add("DEFAULTS", all)?;
     m.add(
         "LANES_COLUMNS",
         jeffcott_core::ensemble::lane_table_columns(),
