@@ -1,0 +1,235 @@
+//! Basins and their measures: `basin`, `basin_stability` and `basin_metrics`.
+
+use crate::args::{self, Callback, Labels, kw};
+use crate::backend_precision;
+use crate::convert::{self, array1, array2, json_to_py, model_params};
+use crate::run;
+use jeffcott_analysis::basin::BasinSpec;
+use jeffcott_analysis::basin::study::BasinStudy;
+use jeffcott_analysis::catalogue::CatalogueConfig;
+use jeffcott_analysis::defaults;
+use jeffcott_analysis::run::MemoryHost;
+use jeffcott_core::ensemble::Precision;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use std::collections::HashMap;
+
+/// The `run` dictionary of `basin`: backend, device, precision, wall time and the
+/// specification `run.json` records.
+#[derive(serde::Serialize)]
+struct BasinRun<'a> {
+    backend: Option<&'static str>,
+    device: Option<&'a str>,
+    precision: Precision,
+    wall_time_s: f64,
+    spec: jeffcott_analysis::basin::SpecRecord<'a>,
+}
+
+/// A basin of attraction over two start coordinates at one speed: the command line's
+/// `basin`.
+///
+/// `x` and `y` are `(name, lo, hi, n)` tuples or `"name:lo:hi:n"` strings (e.g.
+/// `("x_r", -0.006, 0.006, 80)`); `fix` sets other start coordinates (default: the
+/// static equilibrium). Returns `labels` (int32 `[ny, nx]`, attractor ids, -1
+/// diverged), `x`, `y` (the axis values), `attractors` (the list of `attractors.json`),
+/// `diverged`, with `lyapunov=True` `lambda1` `[ny, nx]`, and `run` (backend, wall time).
+#[pyfunction]
+#[pyo3(signature = (
+    omega, x, y, *, fix=None, params=None,
+    transient=defaults::basin::TRANSIENT, periods=defaults::basin::PERIODS,
+    backend="auto", precision=None, lyapunov=false,
+    refine=0, uncertainty_samples=0, entropy_box=None,
+    progress=None,
+    **stepper,
+))]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn basin<'py>(
+    py: Python<'py>,
+    #[pyo3(from_py_with = kw::omega)] omega: f64,
+    x: Bound<'py, PyAny>,
+    y: Bound<'py, PyAny>,
+    #[pyo3(from_py_with = kw::fix)] fix: Option<HashMap<String, f64>>,
+    #[pyo3(from_py_with = kw::params)] params: Option<HashMap<String, f64>>,
+    #[pyo3(from_py_with = kw::transient)] transient: u32,
+    #[pyo3(from_py_with = kw::periods)] periods: u32,
+    #[pyo3(from_py_with = kw::backend)] backend: &str,
+    #[pyo3(from_py_with = kw::precision)] precision: Option<&str>,
+    #[pyo3(from_py_with = kw::lyapunov)] lyapunov: bool,
+    #[pyo3(from_py_with = kw::refine)] refine: u32,
+    #[pyo3(from_py_with = kw::uncertainty_samples)] uncertainty_samples: usize,
+    #[pyo3(from_py_with = kw::entropy_box)] entropy_box: Option<usize>,
+    #[pyo3(from_py_with = kw::progress)] progress: Option<Callback<'py>>,
+    stepper: Option<&Bound<'py, PyDict>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let stepper = args::stepper("basin", stepper)?;
+    let (backend, precision) = backend_precision(backend, precision)?;
+    let params = model_params(params)?;
+    let x = convert::axis("x", &x)?;
+    let y = convert::axis("y", &y)?;
+    let base = jeffcott_analysis::basin::base_state(
+        &params,
+        &x,
+        &y,
+        &convert::sorted_pairs(fix.unwrap_or_default()),
+        stepper.divergence_bound,
+    )
+    .map_err(run::to_py_err)?;
+    let spec = BasinSpec {
+        params,
+        omega,
+        x,
+        y,
+        base,
+        transient,
+        recorded: periods,
+        stepper,
+        precision,
+        backend,
+        catalogue: CatalogueConfig::for_precision(precision),
+        chunk: None,
+        lyapunov,
+    };
+    let study = BasinStudy {
+        refine,
+        uncertainty_samples,
+        entropy_box,
+        ..BasinStudy::new(spec)
+    };
+    study.validate().map_err(run::to_py_err)?;
+    let o = run::detached(py, progress.as_ref().map(|c| &c.0), |ctl| {
+        let engine = jeffcott_analysis::backend::Engine::new(backend, precision)?;
+        jeffcott_analysis::basin::study::run(&study, &engine, &MemoryHost::new(ctl))
+    })?;
+    let (spec, res) = (&o.spec, &o.result);
+    let (nx, ny) = (spec.x.n, spec.y.n);
+    let d = PyDict::new(py);
+    d.set_item("labels", array2(py, res.labels.clone(), nx)?)?;
+    d.set_item(
+        "x",
+        array1(py, (0..nx).map(|i| spec.x.value(i)).collect::<Vec<_>>()),
+    )?;
+    d.set_item(
+        "y",
+        array1(py, (0..ny).map(|i| spec.y.value(i)).collect::<Vec<_>>()),
+    )?;
+    // As attractors.json lists them: each with its rub figures.
+    d.set_item("attractors", json_to_py(py, &o.attractors())?)?;
+    d.set_item("diverged", res.catalogue.diverged)?;
+    d.set_item("metrics", json_to_py(py, &o.metrics_record())?)?;
+    if let Some(f) = &o.refined {
+        d.set_item("refined", array2(py, f.computed.clone(), nx)?)?;
+    }
+    if let Some(l) = &res.lambda1 {
+        d.set_item("lambda1", array2(py, l.clone(), nx)?)?;
+    }
+    // The specification asked for (the coarse grid), as run.json records it.
+    let run = BasinRun {
+        backend: res.info.as_ref().map(|i| i.backend),
+        device: res.info.as_ref().map(|i| i.device.as_str()),
+        precision: spec.precision,
+        wall_time_s: res.seconds,
+        spec: o.coarse.record(),
+    };
+    d.set_item("run", json_to_py(py, &run)?)?;
+    Ok(d)
+}
+
+/// Basin stability (Menck et al. 2013): the command line's `basin-stability`.
+///
+/// `omega` is a speed or `"a:b:n"`; `start_box` the box of start coordinates drawn
+/// from uniformly, e.g. `"x_r:-0.006:0.006,vx_r:-1:1"`. Returns `omega` `[n]`,
+/// `fractions` `[n, ids + 1]` (last column diverged), `ci_low` and `ci_high` (95 %
+/// Wilson intervals) and `summary`, the dictionary of `basin_stability.json`.
+#[pyfunction]
+#[pyo3(signature = (
+    omega, start_box, *, sample=defaults::stability::SAMPLE, seed=defaults::stability::SEED,
+    transient=defaults::stability::TRANSIENT, periods=defaults::stability::PERIODS,
+    params=None, backend="auto", precision=None, lyapunov=true,
+    progress=None,
+    **stepper,
+))]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn basin_stability<'py>(
+    py: Python<'py>,
+    omega: Bound<'py, PyAny>,
+    #[pyo3(from_py_with = kw::start_box)] start_box: String,
+    #[pyo3(from_py_with = kw::sample)] sample: u32,
+    #[pyo3(from_py_with = kw::seed)] seed: u64,
+    #[pyo3(from_py_with = kw::transient)] transient: u32,
+    #[pyo3(from_py_with = kw::periods)] periods: u32,
+    #[pyo3(from_py_with = kw::params)] params: Option<HashMap<String, f64>>,
+    #[pyo3(from_py_with = kw::backend)] backend: &str,
+    #[pyo3(from_py_with = kw::precision)] precision: Option<&str>,
+    #[pyo3(from_py_with = kw::lyapunov)] lyapunov: bool,
+    #[pyo3(from_py_with = kw::progress)] progress: Option<Callback<'py>>,
+    stepper: Option<&Bound<'py, PyDict>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let stepper = args::stepper("basin_stability", stepper)?;
+    use jeffcott_analysis::stability::{StabilityRequest, fractions_with_intervals};
+    let (backend, precision) = backend_precision(backend, precision)?;
+    let omega = match omega.extract::<f64>() {
+        Ok(w) => format!("{w:e}"),
+        Err(_) => omega.extract::<String>().map_err(|_| {
+            pyo3::exceptions::PyTypeError::new_err(format!(
+                "invalid value for `omega`: {} (expected a speed in rad/s or a range \"a:b:n\")",
+                args::shown(&omega)
+            ))
+        })?,
+    };
+    let spec = jeffcott_analysis::stability::spec(&StabilityRequest {
+        params: model_params(params)?,
+        omega: &omega,
+        sample,
+        start_box: &start_box,
+        seed,
+        transient,
+        recorded: periods,
+        stepper,
+        precision,
+        backend,
+        catalogue: CatalogueConfig::for_precision(precision),
+        lyapunov,
+    })
+    .map_err(run::to_py_err)?;
+    let res = run::detached(py, progress.as_ref().map(|c| &c.0), |ctl| {
+        jeffcott_analysis::continuation::continuation(&spec, ctl)
+    })?;
+    let ramp = &res.ramps[0];
+    let g = ramp.ids + 1;
+    let (f, lo, hi) = fractions_with_intervals(&spec, ramp);
+    let d = PyDict::new(py);
+    d.set_item("omega", array1(py, res.values.clone()))?;
+    d.set_item("fractions", array2(py, f, g)?)?;
+    d.set_item("ci_low", array2(py, lo, g)?)?;
+    d.set_item("ci_high", array2(py, hi, g)?)?;
+    let summary = jeffcott_analysis::stability::summary(&spec, &res);
+    d.set_item("summary", json_to_py(py, &summary)?)?;
+    Ok(d)
+}
+
+/// The basin measures of any 2-D integer label array (`basin_metrics.json` of the
+/// command line's `basin`, docs/basin-measures.md): fractions with their errors, basin
+/// entropy S_b and boundary basin entropy S_bb (boxes of `entropy_box` cells, default
+/// min(5, shorter side)), the uncertainty exponent and boundary dimension on the grid,
+/// the box-counting dimension and the Wada test. Labels are ids >= 0, -1 for diverged
+/// (a basin of its own), -2 for a refinement's attractor the coarse catalogue lacks.
+#[pyfunction]
+#[pyo3(signature = (labels, *, entropy_box=None))]
+pub(crate) fn basin_metrics<'py>(
+    py: Python<'py>,
+    #[pyo3(from_py_with = kw::labels)] labels: Labels<'py>,
+    #[pyo3(from_py_with = kw::entropy_box)] entropy_box: Option<usize>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let grid = labels.0.as_array();
+    let (ny, nx) = grid.dim();
+    let flat: Vec<i32> = grid.iter().copied().collect();
+    let eps =
+        jeffcott_analysis::measures::entropy_box(entropy_box, nx, ny).map_err(run::to_py_err)?;
+    let m = py
+        .detach(|| jeffcott_analysis::measures::basin_labels_metrics(&flat, nx, ny, eps))
+        .map_err(run::to_py_err)?;
+    json_to_py(
+        py,
+        &jeffcott_analysis::measures::MetricsRecord::new(&m, None),
+    )
+}

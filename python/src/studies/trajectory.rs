@@ -1,0 +1,208 @@
+//! One trajectory and its Lyapunov spectrum: `simulate` and `lyapunov`.
+
+use crate::args::{self, kw};
+use crate::convert::{array2, json_to_py, model_params, start_state};
+use crate::run;
+use jeffcott_analysis::classify::ClassifyConfig;
+use jeffcott_analysis::defaults;
+use jeffcott_analysis::simulate::{Integrator, SimulateSpec};
+use jeffcott_core::Error;
+use jeffcott_core::integrate::article::ArticleConfig;
+use jeffcott_core::lyapunov::SpectrumConfig;
+use jeffcott_core::model::STATE_DIM;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use std::collections::HashMap;
+
+/// One trajectory at speed `omega` [rad/s]: the command line's `simulate`.
+///
+/// Returns the dictionary of `summary.json` (class, period, status, classification,
+/// contact, rub figures, start and final state, settings, parameters) with the arrays
+/// `poincare` `[periods, 8]`, `timeseries` `[M, 9]` (t, then the state), and, unless the
+/// run diverged, `full_spectrum` `[bins, 4]` and `contact_history` `[M, 5]` (the files
+/// `full_spectrum.npy` and `contact.npy`) of the stretch of
+/// `spectrum_periods` periods continued from the final state.
+#[pyfunction]
+#[pyo3(signature = (
+    omega, *, params=None, init=None,
+    transient=defaults::simulate::TRANSIENT, periods=defaults::simulate::PERIODS,
+    timeseries_periods=None, integrator="lane",
+    spectrum_periods=defaults::simulate::SPECTRUM_PERIODS,
+    n_max=ClassifyConfig::DEFAULT.n_max, rel_tol=ClassifyConfig::DEFAULT.rel_tol,
+    abs_tol=ClassifyConfig::DEFAULT.abs_tol,
+    article_steps=ArticleConfig::DEFAULT.steps_per_period,
+    article_alpha=ArticleConfig::DEFAULT.alpha,
+    **stepper,
+))]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn simulate<'py>(
+    py: Python<'py>,
+    #[pyo3(from_py_with = kw::omega)] omega: f64,
+    #[pyo3(from_py_with = kw::params)] params: Option<HashMap<String, f64>>,
+    #[pyo3(from_py_with = kw::init)] init: Option<HashMap<String, f64>>,
+    #[pyo3(from_py_with = kw::transient)] transient: u32,
+    #[pyo3(from_py_with = kw::periods)] periods: u32,
+    #[pyo3(from_py_with = kw::timeseries_periods)] timeseries_periods: Option<u32>,
+    #[pyo3(from_py_with = kw::integrator)] integrator: &str,
+    #[pyo3(from_py_with = kw::spectrum_periods)] spectrum_periods: u32,
+    #[pyo3(from_py_with = kw::n_max)] n_max: usize,
+    #[pyo3(from_py_with = kw::rel_tol)] rel_tol: f64,
+    #[pyo3(from_py_with = kw::abs_tol)] abs_tol: f64,
+    #[pyo3(from_py_with = kw::article_steps)] article_steps: u32,
+    #[pyo3(from_py_with = kw::article_alpha)] article_alpha: f64,
+    stepper: Option<&Bound<'py, PyDict>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let stepper = args::stepper("simulate", stepper)?;
+    let params = model_params(params)?;
+    let x0 = start_state(&params, init)?;
+    let integrator = match integrator {
+        "lane" => Integrator::Lane,
+        "article" => Integrator::Article,
+        other => {
+            return Err(run::to_py_err(Error::invalid(
+                "integrator",
+                other,
+                "must be lane or article",
+            )));
+        }
+    };
+    let spec = SimulateSpec {
+        params,
+        omega,
+        x0,
+        transient,
+        periods,
+        timeseries_periods: timeseries_periods
+            .unwrap_or(periods.min(defaults::simulate::TIMESERIES_PERIODS)),
+        integrator,
+        stepper,
+        article: ArticleConfig {
+            steps_per_period: article_steps,
+            alpha: article_alpha,
+            ..ArticleConfig::DEFAULT
+        },
+        classify: ClassifyConfig {
+            n_max,
+            rel_tol,
+            abs_tol,
+        },
+    };
+    spec.validate().map_err(run::to_py_err)?;
+    spec.check_size().map_err(run::to_py_err)?;
+    spec.check_spectrum_periods(spectrum_periods)
+        .map_err(run::to_py_err)?;
+    let (res, rub) = run::detached(py, None, |ctl| {
+        let res = jeffcott_analysis::simulate::simulate_with(&spec, ctl.cancel)?;
+        let rub = if res.status.is_frozen() {
+            None
+        } else {
+            jeffcott_analysis::simulate::rub_outputs(
+                &spec.params,
+                spec.omega,
+                &res.final_state,
+                spectrum_periods,
+                &spec.stepper,
+            )?
+        };
+        Ok((res, rub))
+    })?;
+    let summary = jeffcott_analysis::simulate::summary(&spec, &res, rub.as_ref());
+    let d = json_to_py(py, &summary)?.cast_into::<PyDict>()?;
+    d.set_item(
+        "poincare",
+        array2(
+            py,
+            jeffcott_analysis::simulate::poincare_rows(&spec, &res),
+            STATE_DIM,
+        )?,
+    )?;
+    d.set_item(
+        "timeseries",
+        array2(
+            py,
+            res.timeseries.iter().flatten().copied().collect(),
+            STATE_DIM + 1,
+        )?,
+    )?;
+    if let Some(o) = &rub {
+        d.set_item(
+            "full_spectrum",
+            array2(py, o.spectrum_table().into_iter().flatten().collect(), 4)?,
+        )?;
+        // `contact.npy`; the key `contact` is summary.json's contact counters.
+        d.set_item(
+            "contact_history",
+            array2(py, o.contact.iter().flatten().copied().collect(), 5)?,
+        )?;
+    }
+    Ok(d)
+}
+
+/// The full Lyapunov spectrum (all 8 exponents, saltation matrices at the contact
+/// switches) at one speed: the command line's `lyapunov --omega W`.
+///
+/// Returns the dictionary of `spectrum.json` (`exponents` [1/s], `errors`, `sum`,
+/// `trace_average`, `stop`, ...) and `history` `[periods, 9]` (accumulation time, then
+/// the eight running estimates).
+#[pyfunction]
+#[pyo3(signature = (
+    omega, *, params=None, init=None,
+    time=SpectrumConfig::DEFAULT.max_time, min_time=None,
+    transient=SpectrumConfig::DEFAULT.transient,
+    tangent_transient=SpectrumConfig::DEFAULT.tangent_transient,
+    tol=SpectrumConfig::DEFAULT.tol, window=SpectrumConfig::DEFAULT.window,
+    **stepper,
+))]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn lyapunov<'py>(
+    py: Python<'py>,
+    #[pyo3(from_py_with = kw::omega)] omega: f64,
+    #[pyo3(from_py_with = kw::params)] params: Option<HashMap<String, f64>>,
+    #[pyo3(from_py_with = kw::init)] init: Option<HashMap<String, f64>>,
+    #[pyo3(from_py_with = kw::time)] time: f64,
+    #[pyo3(from_py_with = kw::min_time)] min_time: Option<f64>,
+    #[pyo3(from_py_with = kw::transient)] transient: u32,
+    #[pyo3(from_py_with = kw::tangent_transient)] tangent_transient: u32,
+    #[pyo3(from_py_with = kw::tol)] tol: f64,
+    #[pyo3(from_py_with = kw::window)] window: u32,
+    stepper: Option<&Bound<'py, PyDict>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let stepper = args::stepper("lyapunov", stepper)?;
+    let params = model_params(params)?;
+    let x0 = start_state(&params, init)?;
+    jeffcott_core::inputs::check_start_within_bound("init", &x0, stepper.divergence_bound)
+        .map_err(run::to_py_err)?;
+    jeffcott_core::model::validate_omega(omega).map_err(run::to_py_err)?;
+    let min_time = min_time.unwrap_or(SpectrumConfig::DEFAULT.min_time.min(time));
+    if min_time.is_finite() && time.is_finite() && min_time > time {
+        return Err(run::to_py_err(Error::invalid(
+            "min_time",
+            min_time,
+            format!("must be at most time ({time} s)"),
+        )));
+    }
+    let cfg = SpectrumConfig {
+        transient,
+        tangent_transient,
+        min_time,
+        max_time: time,
+        window,
+        tol,
+        stepper,
+        ..SpectrumConfig::DEFAULT
+    };
+    cfg.validate().map_err(run::to_py_err)?;
+    cfg.check_size("time", &time.to_string(), 1, omega)
+        .map_err(run::to_py_err)?;
+    let s = run::detached(py, None, |ctl| {
+        jeffcott_core::lyapunov::spectrum_with(&params, omega, &x0, &cfg, ctl.cancel)
+    })?;
+    let d = json_to_py(py, &s.record())?.cast_into::<PyDict>()?;
+    let history: Vec<f64> = s
+        .history
+        .iter()
+        .flat_map(|(t, e)| std::iter::once(*t).chain(e.iter().copied()))
+        .collect();
+    d.set_item("history", array2(py, history, STATE_DIM + 1)?)?;
+    Ok(d)
+}
