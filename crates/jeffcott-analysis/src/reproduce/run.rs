@@ -1,0 +1,398 @@
+//! The figure set as one study: the steps, what it needs from its host ([`Host`]), the
+//! sections it hands over ([`Section`]) and [`reproduce`], which runs every study in order.
+
+use super::*;
+
+/// Steps of the figure set; the last, the report, is the host's.
+pub const STEPS: usize = 11;
+
+/// What the figure set needs from the program that runs it. The command line shows a
+/// progress bar per study, keeps every study's units in one run directory (so an
+/// interrupted set resumes where it stopped), then draws each section's figures, writes
+/// its studies' files and words REPORT.md.
+pub trait Host: crate::run::Host {
+    /// Step `step` of [`STEPS`] begins; `what` it computes.
+    fn begin(&mut self, step: usize, what: &str);
+    /// One section's results, in the order of the set, as soon as they are computed
+    /// (they are dropped after).
+    fn section(&mut self, section: Section<'_>) -> Result<()>;
+}
+
+/// A backward throw and where it ended.
+#[derive(Clone, Debug)]
+pub struct Throw {
+    /// Friction coefficient.
+    pub mu: f64,
+    /// Contact stiffness [N/m].
+    pub k_c: f64,
+    /// Where it ended.
+    pub outcome: ThrowOutcome,
+}
+
+/// The results of one section of the figure set.
+pub enum Section<'a> {
+    /// Figs. 3-4, the down sweep and the brute force: one study over 130..141 rad/s.
+    Bifurcation {
+        /// The study.
+        spec: &'a BifurcationSpec,
+        /// Its result.
+        res: &'a BifurcationResult,
+    },
+    /// Enlargement `k` of Fig. 3, over [`ZOOMS`]`[k]`.
+    Zoom {
+        /// Which enlargement.
+        k: usize,
+        /// The study (an up sweep).
+        spec: &'a BifurcationSpec,
+        /// Its result.
+        res: &'a BifurcationResult,
+        /// Wall time [s].
+        seconds: f64,
+    },
+    /// Fig. 5 or 6: the response from the static equilibrium at `omega`.
+    Portrait {
+        /// 5 or 6.
+        figure: usize,
+        /// Rotor speed [rad/s].
+        omega: f64,
+        /// The trajectory ([`ReproduceSpec::portrait`]).
+        res: &'a SimulateResult,
+        /// Its class, refined by the full spectrum's lambda_1.
+        class: Class,
+        /// The survey, for the text.
+        survey: &'a Survey,
+        /// Wall time [s].
+        seconds: f64,
+    },
+    /// Figs. 7-8: the basin at 133 rad/s at its finest resolution, with the refinement
+    /// and the re-integration, and the class from the static equilibrium there.
+    Basin {
+        /// The study's outcome: the coarse and finest grids, labels and catalogue,
+        /// refinement, re-integration, rub figures, traces and measures.
+        outcome: &'a BasinOutcome,
+        /// The class from the static equilibrium, refined by lambda_1.
+        class: Class,
+        /// The survey, for the text.
+        survey: &'a Survey,
+        /// Wall time of the basin study, all its stages [s].
+        seconds: f64,
+    },
+    /// Figs. 9-12: the section from the static equilibrium at 135 or 140 rad/s.
+    Section {
+        /// Index in [`ARTICLE_SPEEDS`].
+        index: usize,
+        /// Rotor speed [rad/s].
+        omega: f64,
+        /// The trajectory ([`ReproduceSpec::section`]).
+        res: &'a SimulateResult,
+        /// Its class, refined by lambda_1.
+        class: Class,
+        /// The survey, for the text.
+        survey: &'a Survey,
+        /// Wall time [s].
+        seconds: f64,
+    },
+    /// The design chart over rotor speed and unbalance.
+    DesignChart {
+        /// The map.
+        spec: &'a MapSpec,
+        /// Its cells.
+        res: &'a MapResult,
+        /// What it shows.
+        findings: &'a MapFindings,
+        /// Wall time [s].
+        seconds: f64,
+    },
+    /// The attractor continuation over rotor speed.
+    Continuation {
+        /// The continuation.
+        spec: &'a ContinuationSpec,
+        /// Its ramps.
+        res: &'a ContinuationResult,
+        /// What each ramp found.
+        ramps: &'a [RampFindings],
+        /// Wall time [s].
+        seconds: f64,
+    },
+    /// The rub map over rotor speed and friction, and the backward throws.
+    RubMap {
+        /// The map.
+        spec: &'a MapSpec,
+        /// Its cells.
+        res: &'a MapResult,
+        /// Where each regime lies.
+        regimes: &'a [RegimeCells],
+        /// The throws with stiff and soft contact.
+        throws: &'a [Throw],
+        /// The natural frequencies with the soft contact [rad/s].
+        soft_modes: &'a [(String, f64)],
+        /// Wall time [s].
+        seconds: f64,
+    },
+    /// The full-spectrum cascade.
+    Cascade {
+        /// The cascade.
+        spec: &'a CascadeSpec,
+        /// Its spectra.
+        res: &'a CascadeResult,
+        /// Wall time [s].
+        seconds: f64,
+    },
+    /// The full spectrum and contact loads at `omega` (none when the stretch diverged).
+    Spectrum {
+        /// Rotor speed [rad/s].
+        omega: f64,
+        /// The trajectory ([`ReproduceSpec::portrait`]).
+        res: &'a SimulateResult,
+        /// Its rub figures, spectra and contact history.
+        rub: Option<&'a RubOutputs>,
+        /// Wall time [s].
+        seconds: f64,
+    },
+}
+
+/// What the report's head quotes once every section is done.
+#[derive(Clone, Debug)]
+pub struct ReproduceResult {
+    /// The survey and the full spectra at the article's speeds.
+    pub survey: Survey,
+    /// The class from the static equilibrium at each article speed simulated.
+    pub static_class: Vec<(f64, Class)>,
+}
+
+/// Computes the figure set, section by section, handing each section's results to
+/// `host` as they come. Every lane study keeps its units in `host.store()` under its own
+/// prefix, so a set interrupted and started again resumes where it stopped.
+pub fn reproduce<H: Host>(spec: &ReproduceSpec, host: &mut H) -> Result<ReproduceResult> {
+    use std::time::Instant;
+    let engine = crate::backend::Engine::new(spec.backend, spec.precision)?;
+    let p = spec.preset;
+    let lambda_tol = spec.catalogue.lambda_tol;
+
+    host.begin(1, "bifurcation diagram over 130..141 rad/s");
+    let b = spec.bifurcation()?;
+    let res = run_bifurcation(host, &b, "bifurcation")?;
+    host.section(Section::Bifurcation {
+        spec: &b,
+        res: &res,
+    })?;
+    drop(res);
+
+    host.begin(2, "enlargements of Fig. 3");
+    for k in 0..ZOOMS.len() {
+        let t = Instant::now();
+        let z = spec.zoom(k)?;
+        let res = run_bifurcation(host, &z, ["zoom0", "zoom1"][k])?;
+        host.section(Section::Zoom {
+            k,
+            spec: &z,
+            res: &res,
+            seconds: t.elapsed().as_secs_f64(),
+        })?;
+    }
+
+    host.begin(3, "attractor survey at the article's speeds");
+    let per_lane = (p.survey_transient + p.survey_periods) as u64;
+    let lanes = ARTICLE_SPEEDS.len() as u64 * p.survey_ics as u64;
+    let (catalogues, seconds) = host.progress("survey", lanes * per_lane, per_lane, |ctl| {
+        Survey::run_survey(spec, &engine, ctl)
+    })?;
+    host.begin(4, "Lyapunov spectra at the article's speeds");
+    let (spectra, spectra_seconds) = Survey::run_spectra(spec)?;
+    let survey = Survey {
+        catalogues,
+        seconds,
+        spectra,
+        spectra_seconds,
+    };
+    let mut static_class = Vec::new();
+
+    host.begin(5, "phase portraits at 131.7 and 132.2 rad/s");
+    for (figure, omega) in [(5, 131.7), (6, 132.2)] {
+        let t = Instant::now();
+        let res = simulate(&spec.portrait(omega))?;
+        let class = survey.refine(res.classification.class, omega, lambda_tol);
+        static_class.push((omega, class));
+        host.section(Section::Portrait {
+            figure,
+            omega,
+            res: &res,
+            class,
+            survey: &survey,
+            seconds: t.elapsed().as_secs_f64(),
+        })?;
+    }
+
+    host.begin(6, "basin of attraction at 133 rad/s");
+    let t = Instant::now();
+    let outcome = crate::basin::study::run(
+        &spec.basin_study(),
+        &engine,
+        &crate::run::PrefixedHost::new(&*host, "basin_133"),
+    )?;
+    let r133 = simulate(&spec.portrait(133.0))?;
+    let class = survey.refine(r133.classification.class, 133.0, lambda_tol);
+    static_class.push((133.0, class));
+    host.section(Section::Basin {
+        outcome: &outcome,
+        class,
+        survey: &survey,
+        seconds: t.elapsed().as_secs_f64(),
+    })?;
+    drop(outcome);
+
+    host.begin(
+        7,
+        "phase portraits and Poincare sections at 135 and 140 rad/s",
+    );
+    for (index, omega) in [(3, 135.0), (4, 140.0)] {
+        let t = Instant::now();
+        let res = simulate(&spec.section(omega))?;
+        let class = survey.refine(res.classification.class, omega, lambda_tol);
+        static_class.push((omega, class));
+        host.section(Section::Section {
+            index,
+            omega,
+            res: &res,
+            class,
+            survey: &survey,
+            seconds: t.elapsed().as_secs_f64(),
+        })?;
+    }
+
+    host.begin(8, "design chart: speed against unbalance");
+    let t = Instant::now();
+    let m = spec.design_map();
+    let res = run_map(host, &engine, &m, "map_w_e")?;
+    host.section(Section::DesignChart {
+        spec: &m,
+        res: &res,
+        findings: &MapFindings::of(&m, &res, 0.001),
+        seconds: t.elapsed().as_secs_f64(),
+    })?;
+    drop(res);
+
+    host.begin(9, "attractor continuation over 130..141 rad/s");
+    let t = Instant::now();
+    let c = spec.continuation();
+    let per_lane = (c.transient + c.recorded) as u64;
+    let store = Prefixed {
+        inner: host.store(),
+        prefix: "continuation",
+    };
+    let res = host.progress("continuation", c.lane_periods(), per_lane, |ctl| {
+        crate::continuation::continuation_with(&c, &engine, &store, ctl)
+    })?;
+    let ramps: Vec<RampFindings> = res.ramps.iter().map(RampFindings::of).collect();
+    host.section(Section::Continuation {
+        spec: &c,
+        res: &res,
+        ramps: &ramps,
+        seconds: t.elapsed().as_secs_f64(),
+    })?;
+    drop(res);
+
+    host.begin(
+        10,
+        "rub regimes: (W, mu) map, full-spectrum cascade, full spectrum at 132.2",
+    );
+    let t = Instant::now();
+    let r = spec.rub_map();
+    let res = run_map(host, &engine, &r, "map_w_mu")?;
+    // Backward whirl from a backward throw, stiff and soft contact (docs/rub.md).
+    let throws = [(0.3, 1e8), (0.25, 1e6)]
+        .into_iter()
+        .map(|(mu, k_c)| {
+            Ok(Throw {
+                mu,
+                k_c,
+                outcome: throw(spec, mu, k_c)?,
+            })
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let soft_modes = crate::rub::natural_frequencies(&Params {
+        k_c: 1e6,
+        ..spec.params.clone()
+    });
+    host.section(Section::RubMap {
+        spec: &r,
+        res: &res,
+        regimes: &regime_cells(&r, &res),
+        throws: &throws,
+        soft_modes: &soft_modes,
+        seconds: t.elapsed().as_secs_f64(),
+    })?;
+    drop(res);
+    let t = Instant::now();
+    let k = spec.cascade()?;
+    let speeds = k.omegas.len() as u64 * 2;
+    let store = Prefixed {
+        inner: host.store(),
+        prefix: "cascade",
+    };
+    let res = host.progress("cascade", speeds, 1, |ctl| {
+        crate::cascade::cascade_with(&k, &store, ctl)
+    })?;
+    host.section(Section::Cascade {
+        spec: &k,
+        res: &res,
+        seconds: t.elapsed().as_secs_f64(),
+    })?;
+    drop(res);
+    let t = Instant::now();
+    let s = spec.portrait(132.2);
+    let res = simulate(&s)?;
+    let rub = rub_outputs(
+        &s.params,
+        s.omega,
+        &res.final_state,
+        24,
+        &Default::default(),
+    )?;
+    host.section(Section::Spectrum {
+        omega: s.omega,
+        res: &res,
+        rub: rub.as_ref(),
+        seconds: t.elapsed().as_secs_f64(),
+    })?;
+    Ok(ReproduceResult {
+        survey,
+        static_class,
+    })
+}
+
+/// A bifurcation study of the set, its units under `prefix`.
+fn run_bifurcation<H: Host>(
+    host: &H,
+    b: &BifurcationSpec,
+    prefix: &'static str,
+) -> Result<BifurcationResult> {
+    let store = Prefixed {
+        inner: host.store(),
+        prefix,
+    };
+    let per_lane = (b.brute_transient + b.recorded) as u64;
+    host.progress(
+        "bifurcation",
+        crate::bifurcation::work(b),
+        per_lane,
+        |ctl| crate::bifurcation::bifurcation_with(b, &store, ctl),
+    )
+}
+
+/// A map of the set, its units under `prefix`.
+fn run_map<H: Host>(
+    host: &H,
+    engine: &crate::backend::Engine,
+    m: &MapSpec,
+    prefix: &'static str,
+) -> Result<MapResult> {
+    let store = Prefixed {
+        inner: host.store(),
+        prefix,
+    };
+    let per_lane = (m.transient + m.recorded) as u64;
+    host.progress("map", m.lane_periods(), per_lane, |ctl| {
+        crate::map::map_with(m, engine, &store, ctl)
+    })
+}

@@ -1,0 +1,310 @@
+//! [`ReproduceSpec`]: the specification of every study of the figure set, from its preset,
+//! model and backend.
+
+use super::*;
+
+/// What a figure set computes: its resolutions, the model (Table 1), and how its lanes
+/// run; every study's specification follows from these.
+#[derive(Clone, Debug)]
+pub struct ReproduceSpec {
+    /// The resolutions.
+    pub preset: Preset,
+    /// Model parameters.
+    pub params: Params,
+    /// Lane precision of the ensembles.
+    pub precision: Precision,
+    /// Backend of the ensembles.
+    pub backend: Backend,
+    /// Catalogue settings (tolerances follow the precision).
+    pub catalogue: CatalogueConfig,
+}
+
+impl ReproduceSpec {
+    /// The figure set at `preset` with Table 1's parameters.
+    pub fn new(preset: Preset, backend: Backend, precision: Precision) -> Self {
+        ReproduceSpec {
+            preset,
+            params: Params::default(),
+            precision,
+            backend,
+            catalogue: CatalogueConfig::for_precision(precision),
+        }
+    }
+
+    /// Figs. 3-4, the down sweep and the brute force: one study over [130, 141].
+    pub fn bifurcation(&self) -> Result<BifurcationSpec> {
+        let p = &self.preset;
+        Ok(BifurcationSpec {
+            params: self.params.clone(),
+            omegas: jeffcott_core::ensemble::parse_range(
+                "omega",
+                &format!("130:141:{}", p.speeds),
+            )?,
+            sweep: Some(Sweep::Both),
+            transient_first: p.sweep_first,
+            transient: p.sweep_transient,
+            ics: p.ics,
+            brute_transient: p.brute_transient,
+            recorded: p.periods,
+            seed: 1,
+            stepper: Default::default(),
+            precision: self.precision,
+            backend: self.backend,
+            catalogue: self.catalogue,
+            max_seeds: p.max_seeds,
+            lyapunov: true,
+        })
+    }
+
+    /// Enlargement `k` of Fig. 3 over [`ZOOMS`]`[k]`: an up sweep alone.
+    pub fn zoom(&self, k: usize) -> Result<BifurcationSpec> {
+        let (lo, hi) = ZOOMS[k];
+        Ok(BifurcationSpec {
+            omegas: jeffcott_core::ensemble::parse_range(
+                "omega",
+                &format!("{lo}:{hi}:{}", self.preset.zoom_speeds),
+            )?,
+            sweep: Some(Sweep::Up),
+            ics: 0,
+            ..self.bifurcation()?
+        })
+    }
+
+    /// The survey: the same seeded start states at each article speed, in one ensemble
+    /// (speed-major, [`Preset::survey_ics`] lanes per speed).
+    pub fn survey(&self) -> EnsembleSpec {
+        let p = &self.preset;
+        let starts = start_states(&self.params, p.survey_ics, 135.0, 7);
+        let lanes = ARTICLE_SPEEDS
+            .iter()
+            .flat_map(|&(omega, _)| {
+                starts.iter().map(move |&x0| LaneSpec {
+                    omega,
+                    x0,
+                    param_set: 0,
+                })
+            })
+            .collect();
+        EnsembleSpec {
+            param_sets: vec![self.params.clone()],
+            lanes,
+            transient: p.survey_transient,
+            recorded: p.survey_periods,
+            stepper: Default::default(),
+            precision: self.precision,
+        }
+    }
+
+    /// The full spectra's settings.
+    pub fn spectrum_config(&self) -> SpectrumConfig {
+        SpectrumConfig {
+            transient: self.preset.spectrum_transient,
+            min_time: self.preset.spectrum_min_time,
+            max_time: self.preset.spectrum_max_time,
+            ..SpectrumConfig::default()
+        }
+    }
+
+    /// Figs. 7-8: the basin at 133 rad/s over the rotor's x_r and vx_r.
+    pub fn basin(&self) -> BasinSpec {
+        let p = &self.preset;
+        BasinSpec {
+            params: self.params.clone(),
+            omega: 133.0,
+            x: Axis {
+                coord: X_R,
+                lo: -0.006,
+                hi: 0.006,
+                n: p.basin_n,
+            },
+            y: Axis {
+                coord: VX_R,
+                lo: -1.0,
+                hi: 1.0,
+                n: p.basin_n,
+            },
+            base: self.params.static_equilibrium(),
+            transient: p.basin_transient,
+            recorded: p.basin_periods,
+            stepper: Default::default(),
+            precision: self.precision,
+            backend: self.backend,
+            catalogue: self.catalogue,
+            chunk: None,
+            lyapunov: false,
+        }
+    }
+
+    /// Fig. 7's study: [`ReproduceSpec::basin`] refined and re-integrated as the preset
+    /// asks, with the traces of Fig. 8.
+    pub fn basin_study(&self) -> BasinStudy {
+        BasinStudy {
+            refine: self.preset.basin_refine,
+            uncertainty_samples: self.preset.uncertainty_samples,
+            traces: crate::defaults::basin::TRACES,
+            ..BasinStudy::new(self.basin())
+        }
+    }
+
+    /// A trajectory from the static equilibrium at `omega`, the last `ts` periods kept
+    /// as a time series.
+    pub fn from_static(&self, omega: f64, transient: u32, periods: u32, ts: u32) -> SimulateSpec {
+        SimulateSpec {
+            params: self.params.clone(),
+            omega,
+            x0: self.params.static_equilibrium(),
+            transient,
+            periods,
+            timeseries_periods: ts.min(periods),
+            integrator: Integrator::Lane,
+            stepper: Default::default(),
+            article: Default::default(),
+            classify: Default::default(),
+        }
+    }
+
+    /// Figs. 5-6 (and the class at 133 and the rub figures at 132.2): 1000 transient
+    /// periods, 64 recorded, the last 4 as a time series.
+    pub fn portrait(&self, omega: f64) -> SimulateSpec {
+        self.from_static(omega, 1000, 64, 4)
+    }
+
+    /// Figs. 9-12: the sections at 135 and 140 rad/s, the last 8 periods as a time series.
+    pub fn section(&self, omega: f64) -> SimulateSpec {
+        let p = &self.preset;
+        self.from_static(omega, p.section_transient, p.section_points, 8)
+    }
+
+    /// The design chart over rotor speed and unbalance (W 128..142 rad/s, e 0.2..2 mm).
+    pub fn design_map(&self) -> MapSpec {
+        let p = &self.preset;
+        self.map(
+            MapAxis {
+                var: MapVar::Omega,
+                lo: 128.0,
+                hi: 142.0,
+                n: p.map_nx,
+                log: false,
+            },
+            MapAxis {
+                var: MapVar::Param("e"),
+                lo: 0.0002,
+                hi: 0.002,
+                n: p.map_ny,
+                log: false,
+            },
+            p.map_ics,
+            true,
+        )
+    }
+
+    /// The rub map over rotor speed and friction (W 60..300 rad/s, mu 0..0.3), from the
+    /// static equilibrium alone, without lambda_1.
+    pub fn rub_map(&self) -> MapSpec {
+        let p = &self.preset;
+        self.map(
+            MapAxis {
+                var: MapVar::Omega,
+                lo: 60.0,
+                hi: 300.0,
+                n: p.rub_nx,
+                log: false,
+            },
+            MapAxis {
+                var: MapVar::Param("mu"),
+                lo: 0.0,
+                hi: 0.3,
+                n: p.rub_ny,
+                log: false,
+            },
+            1,
+            false,
+        )
+    }
+
+    fn map(&self, x: MapAxis, y: MapAxis, ics: u32, lyapunov: bool) -> MapSpec {
+        MapSpec {
+            params: self.params.clone(),
+            omega: None,
+            x,
+            y,
+            ics,
+            seed: 1,
+            transient: self.preset.map_transient,
+            recorded: self.preset.map_periods,
+            stepper: Default::default(),
+            precision: self.precision,
+            backend: self.backend,
+            catalogue: self.catalogue,
+            lyapunov,
+            chunk: None,
+        }
+    }
+
+    /// The continuation over 130..141 rad/s, run-up and run-down.
+    pub fn continuation(&self) -> ContinuationSpec {
+        let p = &self.preset;
+        ContinuationSpec {
+            params: self.params.clone(),
+            omega: None,
+            param: MapAxis {
+                var: MapVar::Omega,
+                lo: 130.0,
+                hi: 141.0,
+                n: p.cont_values,
+                log: false,
+            },
+            ics: p.cont_ics,
+            start_box: None,
+            seed: 1,
+            transient: p.cont_transient,
+            recorded: p.cont_periods,
+            stepper: Default::default(),
+            precision: self.precision,
+            backend: self.backend,
+            catalogue: self.catalogue,
+            lyapunov: true,
+            directions: vec![Direction::Up, Direction::Down],
+            match_threshold: f64::INFINITY,
+        }
+    }
+
+    /// The full-spectrum cascade over 100..200 rad/s, run-up and run-down.
+    pub fn cascade(&self) -> Result<CascadeSpec> {
+        Ok(CascadeSpec {
+            params: self.params.clone(),
+            omegas: jeffcott_core::ensemble::parse_range(
+                "omega",
+                &format!("100:200:{}", self.preset.cascade_speeds),
+            )?,
+            transient_first: 1000,
+            transient: 100,
+            periods: 24,
+            max_order: 4.0,
+            stepper: Default::default(),
+            up: true,
+            down: true,
+        })
+    }
+
+    /// The rotor thrown backward into the stator ([`THROW`]) at 140 rad/s with friction
+    /// `mu` and contact stiffness `k_c`: 1000 transient periods, 8 recorded.
+    pub fn throw(&self, mu: f64, k_c: f64) -> SimulateSpec {
+        let params = Params {
+            mu,
+            k_c,
+            ..self.params.clone()
+        };
+        let mut x0 = params.static_equilibrium();
+        x0[X_R] = THROW.0;
+        x0[VY_R] = THROW.1;
+        SimulateSpec {
+            x0,
+            timeseries_periods: 1,
+            ..SimulateSpec {
+                params,
+                ..self.from_static(140.0, 1000, 8, 1)
+            }
+        }
+    }
+}
