@@ -1406,7 +1406,7 @@ fn macro_step_on_the_gpu_equals_the_rust_function_bit_for_bit() {
 }
 
 /// Every function of the mirrored parts of the kernel (forcing.wgsl, model.wgsl,
-/// lane.wgsl) has a probe and a test above, but for the kernel-only pieces of
+/// tangent.wgsl, switch.wgsl, lane.wgsl) has a probe and a test above, but for the kernel-only pieces of
 /// find_switch and macro_step, which their probes run.
 #[test]
 fn every_mirrored_function_has_a_probe() {
@@ -1418,6 +1418,8 @@ fn every_mirrored_function_has_a_probe() {
         if ![
             "integrate/forcing.wgsl",
             "model.wgsl",
+            "integrate/tangent.wgsl",
+            "integrate/switch.wgsl",
             "integrate/lane.wgsl",
         ]
         .contains(&path)

@@ -378,23 +378,39 @@ mod tests {
                 kernel_only: &[],
             },
             Mirror {
-                wgsl: "integrate/lane.wgsl",
-                rs: Some(("integrate/lane.rs", lane_rs)),
+                wgsl: "integrate/tangent.wgsl",
+                rs: Some((
+                    "integrate/tangent.rs",
+                    include_str!("../../jeffcott-core/src/integrate/tangent.rs"),
+                )),
                 mirrored: &[
-                    "forcing_phasor",
-                    "rk4_substep",
                     "stage_partials",
                     "tangent_rhs",
                     "rk4_tangent_substep",
                     "saltation",
                     "renormalise",
-                    "hermite_gap",
-                    "wrong_side",
-                    "find_switch",
+                ],
+                kernel_only: &[],
+            },
+            Mirror {
+                wgsl: "integrate/switch.wgsl",
+                rs: Some((
+                    "integrate/switch.rs",
+                    include_str!("../../jeffcott-core/src/integrate/switch.rs"),
+                )),
+                mirrored: &["hermite_gap", "wrong_side", "find_switch"],
+                kernel_only: &["scan_sample"],
+            },
+            Mirror {
+                wgsl: "integrate/lane.wgsl",
+                rs: Some(("integrate/lane.rs", lane_rs)),
+                mirrored: &[
+                    "forcing_phasor",
+                    "rk4_substep",
                     "trial_extent",
                     "macro_step",
                 ],
-                kernel_only: &["scan_sample", "macro_step_begin", "macro_step_end"],
+                kernel_only: &["macro_step_begin", "macro_step_end"],
             },
             Mirror {
                 wgsl: "integrate/lane_entry.wgsl",
@@ -464,6 +480,6 @@ mod tests {
         }
         // advance_period is replaced by the resumable step loop of the entry point.
         assert!(rust_position(lane_rs, "advance_period").is_some());
-        assert!(WGSL_FILES[4].1.contains("advance_period"));
+        assert!(WGSL_FILES[6].1.contains("advance_period"));
     }
 }

@@ -18,9 +18,11 @@
 
 use crate::integrate::forcing::phasor_turns;
 use crate::integrate::lane::{
-    GRAZE_SAMPLES, Lane, LaneConsts, Partial, Tangent, commit_macro_step, finish_macro_step,
-    hermite_gap, jacobian_trace, macro_step_tangent, stage_partials, trial_extent, wrong_side,
+    Lane, LaneConsts, MacroStep, finish_macro_step, macro_step_begin, macro_step_end,
+    macro_step_tangent, trial_extent,
 };
+use crate::integrate::switch::{GRAZE_SAMPLES, hermite_gap, wrong_side};
+use crate::integrate::tangent::{Tangent, jacobian_trace, stage_partials};
 use crate::model::{
     Coeffs, STATE_DIM, VX_R, VX_S, VY_R, VY_S, X_R, X_S, Y_R, Y_S, contact_force_per_kc,
     rhs_with_force,
@@ -307,7 +309,7 @@ pub fn batch_macro_step_tangent<R: Real, const M: usize>(
     };
     let zero = R::lit(0.0);
     let one = R::lit(1.0);
-    let mut part: [Partial<R>; BATCH] = lanes(|l| Partial::start(&lane[l]));
+    let mut part: [MacroStep<R>; BATCH] = lanes(|l| macro_step_begin(&lane[l]));
     // Lanes the batch still advances; a lane leaves when its macro step is done (s = 1)
     // or when its trial sub-step needs the scalar switch search.
     let mut active: [bool; BATCH] = lanes(|l| !lane[l].status.is_frozen() && lane[l].k == k);
@@ -372,7 +374,7 @@ pub fn batch_macro_step_tangent<R: Real, const M: usize>(
         }
         if part[l].s >= R::lit(1.0) {
             // Done: only the checks and counters are left.
-            commit_macro_step(&lc[l], &mut lane[l], &part[l]);
+            macro_step_end(&lc[l], &mut lane[l], &part[l]);
         } else {
             // Handed over: the scalar stepper redoes the trial sub-step at s bit for bit
             // and locates the switch.

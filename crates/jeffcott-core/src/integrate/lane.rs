@@ -45,36 +45,41 @@ pub const WGSL: &str = concat!(
     include_str!("lane_buffers.wgsl"),
     include_str!("forcing.wgsl"),
     include_str!("../model.wgsl"),
+    include_str!("tangent.wgsl"),
+    include_str!("switch.wgsl"),
     include_str!("lane.wgsl"),
     include_str!("lane_entry.wgsl"),
 );
 
 /// The parts of [`WGSL`] in their order, as (path under `jeffcott-core/src`, text):
-/// the buffers and helpers, the mirrors of `integrate::forcing`, `model` and this
-/// module, and the entry point (which stands in for [`advance_period`]).
-pub const WGSL_FILES: [(&str, &str); 5] = [
+/// the buffers and helpers, the mirrors of `integrate::forcing`, `model`,
+/// `integrate::tangent`, `integrate::switch` and this module, and the entry point (which
+/// stands in for [`advance_period`]).
+pub const WGSL_FILES: [(&str, &str); 7] = [
     (
         "integrate/lane_buffers.wgsl",
         include_str!("lane_buffers.wgsl"),
     ),
     ("integrate/forcing.wgsl", crate::integrate::forcing::WGSL),
     ("model.wgsl", crate::model::WGSL),
+    ("integrate/tangent.wgsl", include_str!("tangent.wgsl")),
+    ("integrate/switch.wgsl", include_str!("switch.wgsl")),
     ("integrate/lane.wgsl", include_str!("lane.wgsl")),
     ("integrate/lane_entry.wgsl", include_str!("lane_entry.wgsl")),
 ];
 
 use crate::integrate::forcing::phasor_turns;
-use crate::model::{
-    Coeffs, STATE_DIM, VX_R, VX_S, VY_R, VY_S, X_R, X_S, Y_R, Y_S, contact_partials, penetration,
-    rhs_frozen,
-};
+use crate::model::{Coeffs, STATE_DIM, X_R, X_S, Y_R, Y_S, penetration, rhs_frozen};
 use crate::real::Real;
 use serde::Serialize;
 
-/// Number of interior samples of g per trial step (the grazing check).
-pub const GRAZE_SAMPLES: u32 = 8;
-/// Iteration cap of the crossing search.
-pub const ROOT_MAX_ITERS: u32 = 60;
+pub use super::switch::{
+    GRAZE_SAMPLES, ROOT_MAX_ITERS, Switch, find_switch, hermite_gap, wrong_side,
+};
+pub use super::tangent::{
+    LAMBDA1_START, Tangent, renormalise, rk4_tangent_substep, saltation, stage_partials,
+    tangent_rhs,
+};
 
 /// Per-lane outcome (DESIGN.md 2.5). Ordered by severity: a worse status replaces a
 /// milder one, never the reverse.
@@ -349,371 +354,6 @@ pub fn rk4_substep<R: Real>(
     out
 }
 
-/// Tangent vectors carried along a lane, with what the Lyapunov spectrum needs to
-/// account for them (MODEL.md 5 and 6). `M = 0` is the plain lane.
-#[derive(Clone, Copy, Debug)]
-pub struct Tangent<R, const M: usize> {
-    /// The tangent vectors, each a state-space direction.
-    pub v: [[R; STATE_DIM]; M],
-    /// Apply the saltation matrix at switches (`false` only to show what it changes).
-    pub saltation: bool,
-    /// Integral of the Jacobian's trace along the accepted sub-steps (RK4 quadrature on
-    /// the stages) [-].
-    pub trace_integral: f64,
-    /// Sum of ln|det S| over the saltation matrices applied [-].
-    pub saltation_log_det: f64,
-    /// Saltation matrices applied (located switches).
-    pub saltations: u64,
-    /// Largest |S_ij - I_ij| among them (0 when S = I).
-    pub max_saltation_deviation: f64,
-}
-
-impl<R: Real, const M: usize> Tangent<R, M> {
-    /// Tangent vectors `v`, saltation on, accumulators zero.
-    pub fn new(v: [[R; STATE_DIM]; M]) -> Self {
-        Tangent {
-            v,
-            saltation: true,
-            trace_integral: 0.0,
-            saltation_log_det: 0.0,
-            saltations: 0,
-            max_saltation_deviation: 0.0,
-        }
-    }
-}
-
-/// The contact block of the Jacobian in mode `contact` (zero out of contact).
-#[inline(always)]
-pub fn stage_partials<R: Real>(c: &Coeffs<R>, x: &[R; STATE_DIM], contact: bool) -> [R; 8] {
-    if contact {
-        contact_partials(c, x)
-    } else {
-        [R::lit(0.0); 8]
-    }
-}
-
-/// J v: the variational right-hand side for one tangent vector, the contact block given.
-/// Keep in sync with `tangent_rhs` in `integrate/lane.wgsl`.
-#[inline(always)]
-pub fn tangent_rhs<R: Real>(c: &Coeffs<R>, pc: &[R; 8], v: &[R; STATE_DIM]) -> [R; STATE_DIM] {
-    let ddx = v[X_R] - v[X_S];
-    let ddy = v[Y_R] - v[Y_S];
-    let ddvx = v[VX_R] - v[VX_S];
-    let ddvy = v[VY_R] - v[VY_S];
-    let dfx = pc[0] * ddx + pc[1] * ddy + pc[2] * ddvx + pc[3] * ddvy;
-    let dfy = pc[4] * ddx + pc[5] * ddy + pc[6] * ddvx + pc[7] * ddvy;
-    [
-        v[VX_R],
-        -c.wr2 * v[X_R] - c.dr * v[VX_R] + c.kc_mr * dfx,
-        v[VY_R],
-        -c.wr2 * v[Y_R] - c.dr * v[VY_R] + c.kc_mr * dfy,
-        v[VX_S],
-        -c.ws2 * v[X_S] - c.ds * v[VX_S] - c.kc_ms * dfx,
-        v[VY_S],
-        -c.ws2 * v[Y_S] - c.ds * v[VY_S] - c.kc_ms * dfy,
-    ]
-}
-
-/// Trace of the Jacobian given its contact block: only the velocity diagonal counts.
-#[inline(always)]
-pub(crate) fn jacobian_trace<R: Real>(c: &Coeffs<R>, pc: &[R; 8]) -> R {
-    -R::lit(2.0) * (c.dr + c.ds) + (c.kc_mr + c.kc_ms) * (pc[2] + pc[7])
-}
-
-/// Advances the tangent vectors over the sub-step [s0, s0 + ds] of macro step k that
-/// `rk4_substep` takes from `x` in mode `contact`: the state stages are recomputed with
-/// exactly `rk4_substep`'s operations, and each vector takes the RK4 step of
-/// dV/dt = J V on them. Also adds the trace integral over the sub-step.
-#[inline(always)]
-pub fn rk4_tangent_substep<R: Real, const M: usize>(
-    lc: &LaneConsts<R>,
-    x: &[R; STATE_DIM],
-    k: u32,
-    s0: R,
-    ds: R,
-    contact: bool,
-    tan: &mut Tangent<R, M>,
-) {
-    let hs = ds * lc.h;
-    let half = R::lit(0.5);
-    let (c0, s0p) = forcing_phasor(lc, k, s0);
-    let (cm, sm) = forcing_phasor(lc, k, s0 + half * ds);
-    let k1 = rhs_frozen(&lc.c, x, c0, s0p, contact);
-    let p1 = stage_partials(&lc.c, x, contact);
-    let mut xt = [R::lit(0.0); STATE_DIM];
-    for i in 0..STATE_DIM {
-        xt[i] = x[i] + half * hs * k1[i];
-    }
-    let k2 = rhs_frozen(&lc.c, &xt, cm, sm, contact);
-    let p2 = stage_partials(&lc.c, &xt, contact);
-    for i in 0..STATE_DIM {
-        xt[i] = x[i] + half * hs * k2[i];
-    }
-    let k3 = rhs_frozen(&lc.c, &xt, cm, sm, contact);
-    let p3 = stage_partials(&lc.c, &xt, contact);
-    for i in 0..STATE_DIM {
-        xt[i] = x[i] + hs * k3[i];
-    }
-    let p4 = stage_partials(&lc.c, &xt, contact);
-    let sixth = R::lit(1.0 / 6.0);
-    let two = R::lit(2.0);
-    for v in tan.v.iter_mut() {
-        let a1 = tangent_rhs(&lc.c, &p1, v);
-        let mut vt = [R::lit(0.0); STATE_DIM];
-        for i in 0..STATE_DIM {
-            vt[i] = v[i] + half * hs * a1[i];
-        }
-        let a2 = tangent_rhs(&lc.c, &p2, &vt);
-        for i in 0..STATE_DIM {
-            vt[i] = v[i] + half * hs * a2[i];
-        }
-        let a3 = tangent_rhs(&lc.c, &p3, &vt);
-        for i in 0..STATE_DIM {
-            vt[i] = v[i] + hs * a3[i];
-        }
-        let a4 = tangent_rhs(&lc.c, &p4, &vt);
-        for i in 0..STATE_DIM {
-            v[i] += hs * sixth * (a1[i] + two * (a2[i] + a3[i]) + a4[i]);
-        }
-    }
-    let tr = |pc: &[R; 8]| jacobian_trace(&lc.c, pc).to_f64();
-    tan.trace_integral += hs.to_f64() / 6.0 * (tr(&p1) + 2.0 * (tr(&p2) + tr(&p3)) + tr(&p4));
-}
-
-/// Mueller's transition condition at a switch of the contact mode away from `from_contact`
-/// at state `x`, fraction `s` of macro step `k`: every tangent vector v becomes S v with
-/// S = I + (f+ - f-) n^T / (n^T f-), n = grad g = (d/r, 0, -d/r, 0) over
-/// (rotor position, velocity, stator position, velocity), f- and f+ the fields of the
-/// old and new modes. Both fields are evaluated at the point of the switching surface
-/// g = 0 radially nearest to `x` (the located crossing lies within the search tolerance
-/// of it), so that for the model as specified, whose force vanishes at g = 0, f+ = f-
-/// to the last bit of the continuation and S = I; with contact damping the force jumps
-/// by c_c dg/dt and S != I. Since g depends on positions only and both fields share
-/// their position rows (the velocities), n^T f+ = n^T f- and det S = n^T f+ / n^T f- = 1:
-/// a force discontinuity shears tangent space without changing its volume. A grazing
-/// switch (n^T f- = 0) leaves the vectors alone.
-#[inline(always)]
-pub fn saltation<R: Real, const M: usize>(
-    lc: &LaneConsts<R>,
-    x: &[R; STATE_DIM],
-    k: u32,
-    s: R,
-    from_contact: bool,
-    tan: &mut Tangent<R, M>,
-) {
-    let dx = x[X_R] - x[X_S];
-    let dy = x[Y_R] - x[Y_S];
-    let r = (dx * dx + dy * dy).sqrt();
-    if r <= R::lit(0.0) || !r.is_finite() {
-        return;
-    }
-    let scale = lc.c.delta / r;
-    let mut xs = *x;
-    xs[X_R] = x[X_S] + dx * scale;
-    xs[Y_R] = x[Y_S] + dy * scale;
-    let (cph, sph) = forcing_phasor(lc, k, s);
-    let fm = rhs_frozen(&lc.c, &xs, cph, sph, from_contact);
-    let fp = rhs_frozen(&lc.c, &xs, cph, sph, !from_contact);
-    let (nx, ny) = (dx / r, dy / r);
-    let nf = nx * (fm[X_R] - fm[X_S]) + ny * (fm[Y_R] - fm[Y_S]);
-    if nf == R::lit(0.0) || !nf.is_finite() {
-        return;
-    }
-    for v in tan.v.iter_mut() {
-        let w = (nx * (v[X_R] - v[X_S]) + ny * (v[Y_R] - v[Y_S])) / nf;
-        for i in 0..STATE_DIM {
-            v[i] += (fp[i] - fm[i]) * w;
-        }
-    }
-    let nfp = nx * (fp[X_R] - fp[X_S]) + ny * (fp[Y_R] - fp[Y_S]);
-    let det = (nfp / nf).to_f64();
-    tan.saltation_log_det += det.abs().ln();
-    tan.saltations += 1;
-    // |n_j| <= 1, so max |S - I| = max_i |f+_i - f-_i| / |n^T f-| * max_j |n_j|.
-    let nmax = nx.abs().max(ny.abs()).to_f64();
-    for i in 0..STATE_DIM {
-        let d = ((fp[i] - fm[i]) / nf).abs().to_f64() * nmax;
-        tan.max_saltation_deviation = tan.max_saltation_deviation.max(d);
-    }
-}
-
-/// Component of the unit tangent vector (1, ..., 1)/sqrt(8) that the ensembles start
-/// their lambda_1 tangent from.
-pub const LAMBDA1_START: f64 = 0.353_553_390_593_273_8;
-
-/// Renormalises one tangent vector to unit length and returns its length before (the
-/// growth since the last renormalisation). A zero or non-finite length leaves the vector
-/// alone. Keep in sync with `renormalise` in `integrate/lane.wgsl` (unrolled there).
-#[inline(always)]
-pub fn renormalise<R: Real>(v: &mut [R; STATE_DIM]) -> R {
-    let mut sq = R::lit(0.0);
-    for c in v.iter() {
-        sq += *c * *c;
-    }
-    let n = sq.sqrt();
-    if n > R::lit(0.0) && n.is_finite() {
-        for c in v.iter_mut() {
-            *c = *c / n;
-        }
-    }
-    n
-}
-
-/// Penetration g and its rate dg/dtheta at fraction `theta` of a sub-step of duration
-/// `hs`, on the cubic Hermite interpolant of the relative displacement between the
-/// sub-step's end states (exact at theta = 0 and 1).
-#[inline(always)]
-pub fn hermite_gap<R: Real>(
-    delta: R,
-    x0: &[R; STATE_DIM],
-    x1: &[R; STATE_DIM],
-    hs: R,
-    theta: R,
-) -> (R, R) {
-    let one = R::lit(1.0);
-    let two = R::lit(2.0);
-    let three = R::lit(3.0);
-    let six = R::lit(6.0);
-    let u = one - theta;
-    let h00 = (one + two * theta) * u * u;
-    let h10 = theta * u * u * hs;
-    let h01 = theta * theta * (three - two * theta);
-    let h11 = -theta * theta * u * hs;
-    // d/dtheta of the basis.
-    let d00 = six * theta * (theta - one);
-    let d10 = (three * theta * theta - R::lit(4.0) * theta + one) * hs;
-    let d01 = -d00;
-    let d11 = (three * theta * theta - two * theta) * hs;
-    let (px0, py0) = (x0[X_R] - x0[X_S], x0[Y_R] - x0[Y_S]);
-    let (vx0, vy0) = (x0[VX_R] - x0[VX_S], x0[VY_R] - x0[VY_S]);
-    let (px1, py1) = (x1[X_R] - x1[X_S], x1[Y_R] - x1[Y_S]);
-    let (vx1, vy1) = (x1[VX_R] - x1[VX_S], x1[VY_R] - x1[VY_S]);
-    let dx = h00 * px0 + h10 * vx0 + h01 * px1 + h11 * vx1;
-    let dy = h00 * py0 + h10 * vy0 + h01 * py1 + h11 * vy1;
-    let ddx = d00 * px0 + d10 * vx0 + d01 * px1 + d11 * vx1;
-    let ddy = d00 * py0 + d10 * vy0 + d01 * py1 + d11 * vy1;
-    let r = (dx * dx + dy * dy).sqrt();
-    // r > 0 whenever g is near 0 (r ~ delta); the rate is only used there.
-    let rate = if r > R::lit(0.0) {
-        (dx * ddx + dy * ddy) / r
-    } else {
-        R::lit(0.0)
-    };
-    (r - delta, rate)
-}
-
-/// True when penetration `g` is on the side of g = 0 that the mode does not hold.
-#[inline(always)]
-pub fn wrong_side<R: Real>(g: R, contact: bool) -> bool {
-    if contact {
-        g <= R::lit(0.0)
-    } else {
-        g > R::lit(0.0)
-    }
-}
-
-/// Result of the switch search over one trial sub-step.
-#[derive(Clone, Copy, Debug)]
-pub struct Switch<R> {
-    /// Fraction of the sub-step at which the mode must flip, or a value > 1 for none.
-    pub theta: R,
-    /// Largest g among the samples on the trajectory before the switch.
-    pub max_g: R,
-}
-
-/// Looks for the first crossing of g = 0 along the trial sub-step x0 -> x1 (duration hs)
-/// taken in mode `contact`; see the module docs. Between two samples on the mode's side,
-/// an extremum of g heading to the other side (rates of opposite signs) is checked at
-/// its estimated location: this catches contacts that enter and leave (or separations
-/// that leave and re-enter) between samples, which would otherwise cost order.
-#[inline(always)]
-pub fn find_switch<R: Real>(
-    lc: &LaneConsts<R>,
-    x0: &[R; STATE_DIM],
-    x1: &[R; STATE_DIM],
-    hs: R,
-    contact: bool,
-) -> Switch<R> {
-    let delta = lc.c.delta;
-    let zero = R::lit(0.0);
-    let mut lo = zero;
-    let (mut g_lo, mut rate_lo) = hermite_gap(delta, x0, x1, hs, zero);
-    let mut max_g = g_lo;
-    for j in 1..=GRAZE_SAMPLES {
-        let th = R::lit(j as f64 / GRAZE_SAMPLES as f64);
-        let (g_th, rate_th) = hermite_gap(delta, x0, x1, hs, th);
-        let mut hi = th;
-        let mut g_hi = g_th;
-        let mut crossing = wrong_side(g_th, contact);
-        let toward = if contact {
-            rate_lo < zero && rate_th > zero
-        } else {
-            rate_lo > zero && rate_th < zero
-        };
-        if !crossing && toward {
-            // Extremum where the linearly interpolated rate vanishes.
-            let tp = lo + (th - lo) * rate_lo / (rate_lo - rate_th);
-            let (g_p, _) = hermite_gap(delta, x0, x1, hs, tp);
-            if wrong_side(g_p, contact) {
-                hi = tp;
-                g_hi = g_p;
-                crossing = true;
-            } else {
-                max_g = max_g.max(g_p);
-            }
-        }
-        if crossing {
-            if wrong_side(g_lo, contact) {
-                // Only at the start (j = 1): the lane sits on the switching surface and
-                // its mode's flow leaves to the other side; flip now.
-                return Switch { theta: lo, max_g };
-            }
-            // Illinois (modified regula falsi) on [lo, hi]; `a` stays on the mode's side,
-            // `b` on the other. Returns `b`, so the next segment starts on its own side.
-            let (mut a, mut ga, mut b, mut gb) = (lo, g_lo, hi, g_hi);
-            let mut last_kept_a = false;
-            let mut last_kept_b = false;
-            for _ in 0..ROOT_MAX_ITERS {
-                if b - a <= lc.root_tol {
-                    break;
-                }
-                let mut m = b - gb * (b - a) / (gb - ga);
-                if !(m > a && m < b) {
-                    m = R::lit(0.5) * (a + b);
-                }
-                let (gm, _) = hermite_gap(delta, x0, x1, hs, m);
-                if wrong_side(gm, contact) {
-                    b = m;
-                    gb = gm;
-                    if last_kept_a {
-                        ga = R::lit(0.5) * ga;
-                    }
-                    last_kept_a = true;
-                    last_kept_b = false;
-                } else {
-                    a = m;
-                    ga = gm;
-                    max_g = max_g.max(gm);
-                    if last_kept_b {
-                        gb = R::lit(0.5) * gb;
-                    }
-                    last_kept_b = true;
-                    last_kept_a = false;
-                }
-            }
-            return Switch { theta: b, max_g };
-        }
-        max_g = max_g.max(g_th);
-        lo = th;
-        g_lo = g_th;
-        rate_lo = rate_th;
-    }
-    Switch {
-        theta: R::lit(2.0),
-        max_g,
-    }
-}
-
 /// Length `ds` and end of the next trial sub-step from fraction `s` of the macro step:
 /// to the macro step's end (exactly 1) in free flight; in contact at most 1/R of the
 /// macro step (contact refinement: the contact stiffness adds a frequency about 40 times
@@ -747,16 +387,17 @@ pub fn macro_step_tangent<R: Real, const M: usize>(
     if lane.status.is_frozen() {
         return;
     }
-    let part = Partial::start(lane);
-    finish_macro_step(lc, lane, tan, part);
+    let ms = macro_step_begin(lane);
+    finish_macro_step(lc, lane, tan, ms);
 }
 
 /// A macro step in progress: the local variables of [`finish_macro_step`]'s segment
 /// loop, so that the batch stepper can hand over a lane in the middle of a macro step
 /// (after contact sub-steps it took itself) and the scalar stepper carries on exactly
-/// where it stands.
+/// where it stands. The kernel's `MacroStep` (lane.wgsl) holds the same, for the same
+/// reason: it resumes a macro step between sub-steps.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct Partial<R> {
+pub(crate) struct MacroStep<R> {
     /// State at the sub-step start `s`.
     pub x: [R; STATE_DIM],
     /// Fraction of the macro step done.
@@ -773,36 +414,34 @@ pub(crate) struct Partial<R> {
     pub max_g: R,
 }
 
-impl<R: Real> Partial<R> {
-    /// The start of `lane`'s next macro step.
-    #[inline(always)]
-    pub fn start(lane: &Lane<R>) -> Self {
-        Partial {
-            x: lane.x,
-            s: R::lit(0.0),
-            contact: lane.contact,
-            touched: lane.contact,
-            substeps: 0,
-            switches: 0,
-            max_g: R::lit(f64::NEG_INFINITY),
-        }
+/// The start of `lane`'s next macro step (`macro_step_begin` in lane.wgsl).
+#[inline(always)]
+pub(crate) fn macro_step_begin<R: Real>(lane: &Lane<R>) -> MacroStep<R> {
+    MacroStep {
+        x: lane.x,
+        s: R::lit(0.0),
+        contact: lane.contact,
+        touched: lane.contact,
+        substeps: 0,
+        switches: 0,
+        max_g: R::lit(f64::NEG_INFINITY),
     }
 }
 
-/// Runs the segment loop of `lane`'s macro step from `part`, then the refinement cap,
-/// the status checks and the counters.
+/// Runs the segment loop of `lane`'s macro step from `p`, then the refinement cap, the
+/// status checks and the counters ([`macro_step_end`]).
 pub(crate) fn finish_macro_step<R: Real, const M: usize>(
     lc: &LaneConsts<R>,
     lane: &mut Lane<R>,
     tan: &mut Tangent<R, M>,
-    mut p: Partial<R>,
+    mut p: MacroStep<R>,
 ) {
     let one = R::lit(1.0);
     let k = lane.k;
     // Each pass is one trial sub-step that ends the macro step, ends a contact sub-step
     // (at most R per segment) or locates a switch (a new segment), so the loop runs at
     // most max_segments * (R + 1) times. The macro step is done when s reaches 1 (which a
-    // Partial the batch stepper finished itself already is).
+    // MacroStep the batch stepper finished itself already is).
     while p.s < one && p.switches < lc.max_segments {
         let (ds, end) = trial_extent(lc, p.s, p.contact);
         let x1 = rk4_substep(lc, &p.x, k, p.s, ds, p.contact);
@@ -850,13 +489,13 @@ pub(crate) fn finish_macro_step<R: Real, const M: usize>(
             lane.status = Status::RefinementCap;
         }
     }
-    commit_macro_step(lc, lane, &p);
+    macro_step_end(lc, lane, &p);
 }
 
 /// The end of a macro step whose segments are done (`p.s >= 1` or capped): status
-/// checks, then the new lane state and counters.
+/// checks, then the new lane state and counters (`macro_step_end` in lane.wgsl).
 #[inline(always)]
-pub(crate) fn commit_macro_step<R: Real>(lc: &LaneConsts<R>, lane: &mut Lane<R>, p: &Partial<R>) {
+pub(crate) fn macro_step_end<R: Real>(lc: &LaneConsts<R>, lane: &mut Lane<R>, p: &MacroStep<R>) {
     let (x, contact, substeps, k) = (p.x, p.contact, p.substeps, lane.k);
     // Status checks: freeze at the last good state rather than poison anything.
     let mut finite = true;

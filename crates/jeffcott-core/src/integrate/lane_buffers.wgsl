@@ -1,16 +1,18 @@
-// The ensemble lane stepper on the GPU, part 1 of 5: the buffers and the helpers that
+// The ensemble lane stepper on the GPU, part 1 of 7: the buffers and the helpers that
 // stand in for the Real trait. One invocation advances one lane (one trajectory of the
 // rotor-stator system, MODEL.md 4.2) by a time slice of whole forcing periods, with the
 // state held in registers for the whole slice.
 //
-// The kernel is five files, each beside the Rust module it mirrors, concatenated in this
+// The kernel is seven files, each beside the Rust module it mirrors, concatenated in this
 // order by `integrate::lane::WGSL` (the list is `integrate::lane::WGSL_FILES`):
 //   integrate/lane_buffers.wgsl   this file: GPU-visible structs (keep in sync with
 //                                 jeffcott-gpu's layout.rs), bindings, helpers
 //   integrate/forcing.wgsl        integrate/forcing.rs (phasor_turns)
 //   model.wgsl                    model.rs (penetration, contact_force_per_kc,
 //                                 contact_partials, rhs_frozen)
-//   integrate/lane.wgsl           integrate/lane.rs (the stepper)
+//   integrate/tangent.wgsl        integrate/tangent.rs (tangent vectors, saltation)
+//   integrate/switch.wgsl         integrate/switch.rs (the switch search)
+//   integrate/lane.wgsl           integrate/lane.rs (the macro step)
 //   integrate/lane_entry.wgsl     the entry point (lane.rs's advance_period)
 // The mirrored functions have the same names, in the same order as in their .rs file,
 // doing the same arithmetic in the same order, so that the f64 variant reproduces the

@@ -6,3 +6,5 @@ pub mod batch;
 pub mod forcing;
 pub mod lane;
 pub mod rk4;
+pub mod switch;
+pub mod tangent;

@@ -1,0 +1,315 @@
+// The lane kernel, part 5 of 7 (see lane_buffers.wgsl for the whole): the switch search
+// of one trial sub-step.
+//
+// Keep in sync with switch.rs, beside this file: the functions below are those of
+// switch.rs, with the same names, in the same order, doing the same arithmetic in the
+// same order. Where the kernel's control flow differs from switch.rs's for speed on
+// lavapipe (find_switch), the comments say how, and the points evaluated and their
+// bookkeeping are switch.rs's.
+
+// Penetration g and its rate dg/dtheta (returned as (g, rate)) at fraction `theta` of
+// a sub-step of duration `hs`, on the cubic Hermite interpolant of the relative
+// displacement between the sub-step's end states (exact at theta = 0 and 1).
+fn hermite_gap(
+    delta: Real,
+    x0: array<Real, STATE_DIM>,
+    x1: array<Real, STATE_DIM>,
+    hs: Real,
+    theta: Real,
+) -> vec2<Real> {
+    let one = Real(1.0);
+    let two = Real(2.0);
+    let three = Real(3.0);
+    let six = Real(6.0);
+    let u = one - theta;
+    let h00 = (one + two * theta) * u * u;
+    let h10 = theta * u * u * hs;
+    let h01 = theta * theta * (three - two * theta);
+    let h11 = -theta * theta * u * hs;
+    // d/dtheta of the basis.
+    let d00 = six * theta * (theta - one);
+    let d10 = (keep(three * theta * theta - Real(4.0) * theta) + one) * hs;
+    let d01 = -d00;
+    let d11 = (three * theta * theta - two * theta) * hs;
+    let px0 = x0[X_R] - x0[X_S];
+    let py0 = x0[Y_R] - x0[Y_S];
+    let vx0 = x0[VX_R] - x0[VX_S];
+    let vy0 = x0[VY_R] - x0[VY_S];
+    let px1 = x1[X_R] - x1[X_S];
+    let py1 = x1[Y_R] - x1[Y_S];
+    let vx1 = x1[VX_R] - x1[VX_S];
+    let vy1 = x1[VY_R] - x1[VY_S];
+    let dx = h00 * px0 + h10 * vx0 + h01 * px1 + h11 * vx1;
+    let dy = h00 * py0 + h10 * vy0 + h01 * py1 + h11 * vy1;
+    let ddx = d00 * px0 + d10 * vx0 + d01 * px1 + d11 * vx1;
+    let ddy = d00 * py0 + d10 * vy0 + d01 * py1 + d11 * vy1;
+    let r = sqrt(dx * dx + dy * dy);
+    // r > 0 whenever g is near 0 (r ~ delta); the rate is only used there.
+    var rate = Real(0.0);
+    if r > Real(0.0) {
+        rate = (dx * ddx + dy * ddy) / r;
+    }
+    return vec2<Real>(r - delta, rate);
+}
+
+// True when penetration `g` is on the side of g = 0 that the mode does not hold.
+fn wrong_side(g: Real, contact: bool) -> bool {
+    if contact {
+        return g <= Real(0.0);
+    }
+    return g > Real(0.0);
+}
+
+// Result of the switch search over one trial sub-step.
+struct Switch {
+    // Fraction of the sub-step at which the mode must flip, or a value > 1 for none.
+    theta: Real,
+    // Largest g among the samples on the trajectory before the switch.
+    max_g: Real,
+}
+
+// Kernel-only control structure (lavapipe, see find_switch and macro_step).
+//
+// Mesa's llvmpipe (lavapipe) up to at least Mesa 22.3 runs 8 invocations (one AVX2
+// register of f32, two of f64) in lock-step and compiles every `if` to masked code
+// without a branch: both arms of every `if` are executed, whatever the lanes decide.
+// Only loops branch: a loop iterates while any of the 8 lanes is still in it, and its
+// body runs at least once (the exit test is at the end). So what a SIMD group pays per
+// macro step is the code of every `if` arm in the loop bodies it passes through, not
+// what a lane needs. switch.rs's find_switch written as it is (a sample loop with an
+// extremum evaluation and an Illinois loop inside each sample) costs 25 hermite_gap
+// evaluations per trial step even when no lane is near contact, and macro_step's
+// re-step and refinement-cap sub-steps cost two more RK4 steps per macro step. The
+// kernel therefore evaluates the samples of find_switch up front, then runs one loop
+// with one hermite_gap call per pass for the data-dependent points (extrema, Illinois
+// iterates), and macro_step as one loop with one rk4_substep call per iteration, the
+// phase of each lane choosing the arguments. Every lane's result is switch.rs's bit for
+// bit (same points evaluated with the same arguments, same bookkeeping in the same
+// order; extra evaluations whose results are not used change nothing), and a group
+// pays one trial step and 10 hermite_gap calls per macro step in free flight.
+
+// What a pass of find_switch's loop does for a lane.
+const FS_SCAN: u32 = 0u; // look for the next sample with a crossing or an extremum before it
+const FS_EXTREMUM: u32 = 1u; // check the estimated extremum before sample `je`
+const FS_ROOT: u32 = 2u; // an Illinois iterate
+const FS_DONE: u32 = 3u;
+// Passes at most: the first scan, an extremum check per sample, the Illinois iterations.
+const FS_MAX_PASSES: u32 = 1u + GRAZE_SAMPLES + ROOT_MAX_ITERS;
+
+// State of one scan of find_switch over the samples: switch.rs's sample loop up to the
+// first sample on the wrong side or with an extremum heading there before it (sample
+// `je`), its running max_g and its last sample passed (lo, g_lo).
+struct Scan {
+    found: bool,
+    crossing: bool,
+    je: u32,
+    g_th: Real,
+    rate_lo: Real,
+    rate_th: Real,
+    max_g: Real,
+    lo: Real,
+    g_lo: Real,
+}
+
+// One sample of the scan: sample j (g_j and its rate rate_th; rate_lo that of sample
+// j - 1), if the scan has not stopped yet and the lane's scan starts at or before j.
+// Called with constant j: straight-line code on values held in registers.
+fn scan_sample(
+    sc: ptr<function, Scan>,
+    jn: u32,
+    j: u32,
+    g_j: Real,
+    rate_lo: Real,
+    rate_th: Real,
+    contact: bool,
+) {
+    if (*sc).found || j < jn {
+        return;
+    }
+    let zero = Real(0.0);
+    let crossing = wrong_side(g_j, contact);
+    var toward: bool;
+    if contact {
+        toward = rate_lo < zero && rate_th > zero;
+    } else {
+        toward = rate_lo > zero && rate_th < zero;
+    }
+    if crossing || toward {
+        (*sc).found = true;
+        (*sc).crossing = crossing;
+        (*sc).je = j;
+        (*sc).g_th = g_j;
+        (*sc).rate_lo = rate_lo;
+        (*sc).rate_th = rate_th;
+    } else {
+        (*sc).max_g = rmax((*sc).max_g, g_j);
+        (*sc).lo = Real(j) / Real(GRAZE_SAMPLES);
+        (*sc).g_lo = g_j;
+    }
+}
+
+// Looks for the first crossing of g = 0 along the trial sub-step x0 -> x1 (duration hs)
+// taken in mode `contact`; see the docs of switch.rs and lane.rs. Between two samples on
+// the mode's side, an extremum of g heading to the other side (rates of opposite signs)
+// is checked at its estimated location.
+//
+// switch.rs walks the samples one at a time, evaluating each when it gets there. Here all
+// samples are evaluated first (independent evaluations the CPU core overlaps, where a
+// walk would wait on each sqrt and division in turn; lavapipe runs one SIMD group per
+// thread, so latency is what it pays), then each pass of one loop scans the samples
+// from where the lane is for the next event and evaluates the one point it needs (see
+// the note above FS_SCAN). switch.rs's `lo`, `g_lo`, `rate_lo` are always the last sample
+// passed, i.e. sample j - 1 when sample j is examined.
+fn find_switch(
+    lc: LaneConsts,
+    x0: array<Real, STATE_DIM>,
+    x1: array<Real, STATE_DIM>,
+    hs: Real,
+    contact: bool,
+) -> Switch {
+    let delta = lc.c.delta;
+    let zero = Real(0.0);
+    // The samples, written out: a loop here is not unrolled by Mesa 22.3 and would keep
+    // them in memory. j / GRAZE_SAMPLES: the quotient of two small integers is
+    // correctly rounded, equal to Rust's f64 quotient rounded to Real.
+    const_assert GRAZE_SAMPLES == 8u;
+    let s0 = hermite_gap(delta, x0, x1, hs, Real(0u) / Real(GRAZE_SAMPLES));
+    let s1 = hermite_gap(delta, x0, x1, hs, Real(1u) / Real(GRAZE_SAMPLES));
+    let s2 = hermite_gap(delta, x0, x1, hs, Real(2u) / Real(GRAZE_SAMPLES));
+    let s3 = hermite_gap(delta, x0, x1, hs, Real(3u) / Real(GRAZE_SAMPLES));
+    let s4 = hermite_gap(delta, x0, x1, hs, Real(4u) / Real(GRAZE_SAMPLES));
+    let s5 = hermite_gap(delta, x0, x1, hs, Real(5u) / Real(GRAZE_SAMPLES));
+    let s6 = hermite_gap(delta, x0, x1, hs, Real(6u) / Real(GRAZE_SAMPLES));
+    let s7 = hermite_gap(delta, x0, x1, hs, Real(7u) / Real(GRAZE_SAMPLES));
+    let s8 = hermite_gap(delta, x0, x1, hs, Real(8u) / Real(GRAZE_SAMPLES));
+    var max_g = s0.x;
+    var phase = FS_SCAN;
+    // The next sample to examine; the sample whose extremum is checked.
+    var jn = 1u;
+    var je = 0u;
+    var lo = zero;
+    var g_lo = s0.x;
+    var th = zero;
+    var g_th = zero;
+    // Where the pass evaluates (an extremum or an Illinois iterate).
+    var theta = zero;
+    // Illinois (modified regula falsi); `a` stays on the mode's side, `b` on the other.
+    var a = zero;
+    var ga = zero;
+    var b = zero;
+    var gb = zero;
+    var last_kept_a = false;
+    var last_kept_b = false;
+    var it = 0u;
+    var result = Real(2.0);
+    for (var n = 0u; n < FS_MAX_PASSES; n++) {
+        // The point this pass needs (unused in the first pass, which only scans).
+        let gp = hermite_gap(delta, x0, x1, hs, theta).x;
+        var crossing = false;
+        var hi = zero;
+        var g_hi = zero;
+        if phase == FS_EXTREMUM {
+            if wrong_side(gp, contact) {
+                hi = theta;
+                g_hi = gp;
+                crossing = true;
+            } else {
+                // switch.rs: the extremum's g, then sample je's, and on to the next sample.
+                max_g = rmax(max_g, gp);
+                max_g = rmax(max_g, g_th);
+                lo = th;
+                g_lo = g_th;
+                jn = je + 1u;
+                phase = FS_SCAN;
+            }
+        } else if phase == FS_ROOT {
+            let m = theta;
+            if wrong_side(gp, contact) {
+                b = m;
+                gb = gp;
+                if last_kept_a {
+                    ga = Real(0.5) * ga;
+                }
+                last_kept_a = true;
+                last_kept_b = false;
+            } else {
+                a = m;
+                ga = gp;
+                max_g = rmax(max_g, gp);
+                if last_kept_b {
+                    gb = Real(0.5) * gb;
+                }
+                last_kept_b = true;
+                last_kept_a = false;
+            }
+            it += 1u;
+            if it == ROOT_MAX_ITERS {
+                result = b;
+                phase = FS_DONE;
+            }
+        }
+        if phase == FS_SCAN {
+            // switch.rs's sample loop from sample jn, up to the first sample on the wrong
+            // side or with an extremum heading there before it.
+            var sc = Scan(false, false, 0u, zero, zero, zero, max_g, lo, g_lo);
+            scan_sample(&sc, jn, 1u, s1.x, s0.y, s1.y, contact);
+            scan_sample(&sc, jn, 2u, s2.x, s1.y, s2.y, contact);
+            scan_sample(&sc, jn, 3u, s3.x, s2.y, s3.y, contact);
+            scan_sample(&sc, jn, 4u, s4.x, s3.y, s4.y, contact);
+            scan_sample(&sc, jn, 5u, s5.x, s4.y, s5.y, contact);
+            scan_sample(&sc, jn, 6u, s6.x, s5.y, s6.y, contact);
+            scan_sample(&sc, jn, 7u, s7.x, s6.y, s7.y, contact);
+            scan_sample(&sc, jn, 8u, s8.x, s7.y, s8.y, contact);
+            max_g = sc.max_g;
+            lo = sc.lo;
+            g_lo = sc.g_lo;
+            if !sc.found {
+                phase = FS_DONE;
+            } else {
+                je = sc.je;
+                th = Real(je) / Real(GRAZE_SAMPLES);
+                g_th = sc.g_th;
+                if sc.crossing {
+                    hi = th;
+                    g_hi = g_th;
+                    crossing = true;
+                } else {
+                    // Extremum where the linearly interpolated rate vanishes.
+                    theta = lo + (th - lo) * sc.rate_lo / (sc.rate_lo - sc.rate_th);
+                    phase = FS_EXTREMUM;
+                }
+            }
+        }
+        if crossing {
+            if wrong_side(g_lo, contact) {
+                // Only at the start (j = 1): the lane sits on the switching surface and
+                // its mode's flow leaves to the other side; flip now.
+                result = lo;
+                phase = FS_DONE;
+            } else {
+                a = lo;
+                ga = g_lo;
+                b = hi;
+                gb = g_hi;
+                phase = FS_ROOT;
+            }
+        }
+        if phase == FS_ROOT {
+            // switch.rs's Illinois loop head: stop at the tolerance, else the next iterate.
+            if b - a <= lc.root_tol {
+                result = b;
+                phase = FS_DONE;
+            } else {
+                var m = b - gb * (b - a) / (gb - ga);
+                if !(m > a && m < b) {
+                    m = Real(0.5) * (a + b);
+                }
+                theta = m;
+            }
+        }
+        if phase == FS_DONE {
+            break;
+        }
+    }
+    return Switch(result, max_g);
+}
