@@ -67,7 +67,8 @@ pub enum Command {
     #[command(allow_negative_numbers = true)]
     Ensemble(EnsembleArgs),
     /// Bifurcation diagram over W: quasistatic sweeps up and down (hysteresis) and a
-    /// brute-force ensemble of start states per W (coexisting attractors).
+    /// brute-force ensemble of start states per W (coexisting attractors). The sweeps run
+    /// on the CPU; --backend and --precision are the brute force's.
     #[command(allow_negative_numbers = true)]
     Bifurcation(BifurcationArgs),
     /// Basin of attraction at one W over two start coordinates: labels.npy (attractor id
@@ -171,18 +172,8 @@ pub struct EnsembleArgs {
     /// Forcing periods recorded per lane.
     #[arg(long, default_value_t = defaults::ensemble::PERIODS, value_name = "P")]
     pub periods: u32,
-    /// Backend: auto (a hardware GPU if present, else the CPU), cpu, or gpu (any adapter,
-    /// software included; an error if none).
-    #[arg(long, value_enum, default_value_t = jeffcott_core::ensemble::Backend::Auto)]
-    pub backend: jeffcott_core::ensemble::Backend,
-    /// Lane precision [default: f64 on the CPU, f32 on a GPU]. f64 on a GPU needs an
-    /// adapter with SHADER_F64.
-    #[arg(long, value_enum)]
-    pub precision: Option<jeffcott_core::ensemble::Precision>,
     #[command(flatten)]
-    pub model: ModelArgs,
-    #[command(flatten)]
-    pub stepper: StepperArgs,
+    pub lane: LaneArgs,
     /// Output directory (created if missing). An unfinished run of the same command there
     /// is resumed.
     #[arg(long, value_name = "DIR", default_value = "jeffcott-out/ensemble")]
@@ -269,8 +260,8 @@ fn ensemble_lanes(
     use jeffcott_core::ensemble::table::{
         LaneTable, TableDefaults, lanes_checksum, lanes_from_table, read_params_table,
     };
-    let params = a.model.params()?;
-    let bound = a.stepper.divergence_bound;
+    let params = a.lane.model.params()?;
+    let bound = a.lane.stepper.divergence_bound;
     if let Some(path) = &a.lanes {
         let table = LaneTable::read(path, a.columns.as_deref())?;
         jeffcott_core::limits::check_memory(
@@ -352,15 +343,13 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
     jeffcott_core::limits::check_periods("transient", a.transient, 0)?;
     jeffcott_core::limits::check_periods("periods", a.periods, 1)?;
     let (param_sets, lanes, lanes_record) = ensemble_lanes(a)?;
-    let precision = a
-        .precision
-        .unwrap_or_else(|| jeffcott_analysis::backend::default_precision(a.backend));
+    let precision = a.lane.precision();
     let spec = EnsembleSpec {
         lanes,
         param_sets,
         transient: a.transient,
         recorded: a.periods,
-        stepper: a.stepper.config(),
+        stepper: a.lane.stepper.config(),
         precision,
     };
     spec.validate()?;
@@ -394,7 +383,7 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
     let store = rundir::store(&rd);
     let bar = crate::progress::Bar::new("ensemble", n as u64 * per_lane, per_lane, a.quiet);
     let start = std::time::Instant::now();
-    let engine = jeffcott_analysis::backend::Engine::new(a.backend, spec.precision)?;
+    let engine = jeffcott_analysis::backend::Engine::new(a.lane.backend, spec.precision)?;
     let ensemble = |u: usize| EnsembleSpec {
         lanes: spec.lanes[u * unit..((u + 1) * unit).min(n)].to_vec(),
         ..spec.clone()
@@ -612,6 +601,33 @@ impl StepperArgs {
             divergence_bound: self.divergence_bound,
             contact_substeps: self.contact_substeps,
         }
+    }
+}
+
+/// How a command's lanes run: the backend and precision, the model and the stepper.
+/// Every command that integrates ensembles flattens it, so each of these options is
+/// declared once.
+#[derive(Args, Debug)]
+pub struct LaneArgs {
+    /// Backend: auto (a hardware GPU if present, else the CPU), cpu, or gpu (any adapter,
+    /// software included; an error if none).
+    #[arg(long, value_enum, default_value_t = jeffcott_core::ensemble::Backend::Auto)]
+    pub backend: jeffcott_core::ensemble::Backend,
+    /// Lane precision [default: f64 on the CPU, f32 on a GPU]. f64 on a GPU needs an
+    /// adapter with SHADER_F64.
+    #[arg(long, value_enum)]
+    pub precision: Option<jeffcott_core::ensemble::Precision>,
+    #[command(flatten)]
+    pub model: ModelArgs,
+    #[command(flatten)]
+    pub stepper: StepperArgs,
+}
+
+impl LaneArgs {
+    /// The precision asked for, or the backend's default.
+    pub fn precision(&self) -> Precision {
+        self.precision
+            .unwrap_or_else(|| jeffcott_analysis::backend::default_precision(self.backend))
     }
 }
 

@@ -3,7 +3,7 @@
 
 use super::files::Documented;
 use super::rundir::{self, RunArgs};
-use super::{CatalogueArgs, ModelArgs, StepperArgs, parse_assignment_lists};
+use super::{CatalogueArgs, parse_assignment_lists};
 use crate::plot::{
     AttractorTrace, attractor_color, basin_map, coexisting_attractors, coord_axis, lambda1_map,
 };
@@ -16,7 +16,6 @@ use jeffcott_analysis::defaults;
 use jeffcott_analysis::output;
 use jeffcott_analysis::rub::RubEntry;
 use jeffcott_analysis::simulate::AttractorTrace as SimTrace;
-use jeffcott_core::ensemble::{Backend, Precision};
 use jeffcott_core::error::{Error, Result};
 use jeffcott_core::model::COORD_NAMES;
 use serde::Serialize;
@@ -54,16 +53,8 @@ pub struct BasinArgs {
     /// [default: at most 1/20 of the grid and about 25 s of CPU work].
     #[arg(long, value_name = "LANES")]
     pub chunk: Option<usize>,
-    /// Backend: auto (a hardware GPU if present, else the CPU), cpu, or gpu.
-    #[arg(long, value_enum, default_value_t = Backend::Auto)]
-    pub backend: Backend,
-    /// Lane precision [default: f64 on the CPU, f32 on a GPU].
-    #[arg(long, value_enum)]
-    pub precision: Option<Precision>,
     #[command(flatten)]
-    pub model: ModelArgs,
-    #[command(flatten)]
-    pub stepper: StepperArgs,
+    pub lane: super::LaneArgs,
     #[command(flatten)]
     pub catalogue: CatalogueArgs,
     /// Output directory (created if missing). An unfinished run of the same command there
@@ -112,7 +103,7 @@ pub struct BasinArgs {
 impl BasinArgs {
     /// The grid these arguments describe (validated with the study).
     fn spec(&self) -> Result<BasinSpec> {
-        let params = self.model.params()?;
+        let params = self.lane.model.params()?;
         let x = Axis::parse("x", &self.x)?;
         let y = Axis::parse("y", &self.y)?;
         let base = jeffcott_analysis::basin::base_state(
@@ -120,13 +111,11 @@ impl BasinArgs {
             &x,
             &y,
             &parse_assignment_lists("fix", &self.fix)?,
-            self.stepper.divergence_bound,
+            self.lane.stepper.divergence_bound,
         )?;
         jeffcott_core::limits::check_periods("transient", self.transient, 0)?;
         jeffcott_core::limits::check_periods("periods", self.periods, 2)?;
-        let precision = self
-            .precision
-            .unwrap_or_else(|| jeffcott_analysis::backend::default_precision(self.backend));
+        let precision = self.lane.precision();
         Ok(BasinSpec {
             params,
             omega: self.omega,
@@ -135,9 +124,9 @@ impl BasinArgs {
             base,
             transient: self.transient,
             recorded: self.periods,
-            stepper: self.stepper.config(),
+            stepper: self.lane.stepper.config(),
             precision,
-            backend: self.backend,
+            backend: self.lane.backend,
             catalogue: self.catalogue.config(precision)?,
             chunk: self.chunk,
             lyapunov: self.lyapunov,

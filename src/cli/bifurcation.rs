@@ -1,7 +1,6 @@
 //! `jeffcott bifurcation`: quasistatic sweeps up and down in W and a brute-force ensemble
 //! per W, with attractor catalogues, arrays, `summary.json` and `bifurcation.png`.
 
-use super::{ModelArgs, StepperArgs};
 use crate::plot::{DotSeries, Lambda1Series, bifurcation_diagram};
 use clap::Args;
 use jeffcott_analysis::bifurcation::{
@@ -11,7 +10,7 @@ use jeffcott_analysis::catalogue::CatalogueConfig;
 use jeffcott_analysis::classify::{Class, ClassifyConfig};
 use jeffcott_analysis::defaults;
 use jeffcott_analysis::output;
-use jeffcott_core::ensemble::{Backend, Precision};
+use jeffcott_core::ensemble::Precision;
 use jeffcott_core::error::{Error, Result};
 use jeffcott_core::model::{COORD_NAMES, STATE_DIM, State, coord_index};
 use plotters::style::RGBColor;
@@ -121,16 +120,8 @@ pub struct BifurcationArgs {
     /// Neighbour seeds per W in the brute force's second pass, at most.
     #[arg(long, default_value_t = defaults::bifurcation::MAX_SEEDS)]
     pub max_seeds: usize,
-    /// Backend of the brute-force ensembles (the sweeps run on the CPU).
-    #[arg(long, value_enum, default_value_t = Backend::Auto)]
-    pub backend: Backend,
-    /// Brute-force lane precision [default: f64 on the CPU, f32 on a GPU].
-    #[arg(long, value_enum)]
-    pub precision: Option<Precision>,
     #[command(flatten)]
-    pub model: ModelArgs,
-    #[command(flatten)]
-    pub stepper: StepperArgs,
+    pub lane: super::LaneArgs,
     #[command(flatten)]
     pub catalogue: CatalogueArgs,
     /// Output directory (created if missing). An unfinished run of the same command there
@@ -227,11 +218,9 @@ impl BifurcationArgs {
             self.periods,
         )?;
         let omegas = range.values();
-        let precision = self
-            .precision
-            .unwrap_or_else(|| jeffcott_analysis::backend::default_precision(self.backend));
+        let precision = self.lane.precision();
         let spec = BifurcationSpec {
-            params: self.model.params()?,
+            params: self.lane.model.params()?,
             omegas,
             sweep,
             transient_first: self.transient_first,
@@ -240,9 +229,9 @@ impl BifurcationArgs {
             brute_transient: self.brute_transient,
             recorded: self.periods,
             seed: self.seed,
-            stepper: self.stepper.config(),
+            stepper: self.lane.stepper.config(),
             precision,
-            backend: self.backend,
+            backend: self.lane.backend,
             catalogue: self.catalogue.config(precision)?,
             max_seeds: self.max_seeds,
             lyapunov: !self.no_lyapunov,

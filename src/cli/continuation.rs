@@ -3,7 +3,7 @@
 //! resumable, its fresh pass shardable.
 
 use super::rundir::{self, RunArgs};
-use super::{CatalogueArgs, ModelArgs, StepperArgs};
+use super::CatalogueArgs;
 use crate::plot::{PALETTE, StackedPanel, stacked_fractions};
 use clap::{Args, ValueEnum};
 use jeffcott_analysis::continuation::{
@@ -12,7 +12,6 @@ use jeffcott_analysis::continuation::{
 use jeffcott_analysis::defaults;
 use jeffcott_analysis::map::MapAxis;
 use jeffcott_analysis::output;
-use jeffcott_core::ensemble::{Backend, Precision};
 use jeffcott_core::error::{Error, Result};
 use std::path::{Path, PathBuf};
 
@@ -72,16 +71,8 @@ pub struct ContinuationArgs {
     /// chaotic).
     #[arg(long)]
     pub no_lyapunov: bool,
-    /// Backend: auto (a hardware GPU if present, else the CPU), cpu, or gpu.
-    #[arg(long, value_enum, default_value_t = Backend::Auto)]
-    pub backend: Backend,
-    /// Lane precision [default: f64 on the CPU, f32 on a GPU].
-    #[arg(long, value_enum)]
-    pub precision: Option<Precision>,
     #[command(flatten)]
-    pub model: ModelArgs,
-    #[command(flatten)]
-    pub stepper: StepperArgs,
+    pub lane: super::LaneArgs,
     #[command(flatten)]
     pub catalogue: CatalogueArgs,
     /// Output directory (created if missing). An unfinished run of the same command there
@@ -103,11 +94,9 @@ pub struct ContinuationArgs {
 impl ContinuationArgs {
     /// The continuation these arguments describe, validated.
     pub fn spec(&self) -> Result<ContinuationSpec> {
-        let precision = self
-            .precision
-            .unwrap_or_else(|| jeffcott_analysis::backend::default_precision(self.backend));
+        let precision = self.lane.precision();
         let spec = ContinuationSpec {
-            params: self.model.params()?,
+            params: self.lane.model.params()?,
             omega: self.omega,
             param: MapAxis::parse("vary", &self.vary, false)?,
             ics: self.ics,
@@ -119,9 +108,9 @@ impl ContinuationArgs {
             seed: self.seed,
             transient: self.transient,
             recorded: self.periods,
-            stepper: self.stepper.config(),
+            stepper: self.lane.stepper.config(),
             precision,
-            backend: self.backend,
+            backend: self.lane.backend,
             catalogue: self.catalogue.config(precision)?,
             lyapunov: !self.no_lyapunov,
             directions: match self.direction {

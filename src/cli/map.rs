@@ -4,13 +4,12 @@
 //! peak_force.npy, map.json and three pictures.
 
 use super::rundir::{self, RunArgs};
-use super::{CatalogueArgs, ModelArgs, StepperArgs};
+use super::CatalogueArgs;
 use crate::plot::{basin_map, category_map, lambda1_map};
 use clap::Args;
 use jeffcott_analysis::defaults;
 use jeffcott_analysis::map::{MapAxis, MapResult, MapSpec, MapVar, code, map_with};
 use jeffcott_analysis::output;
-use jeffcott_core::ensemble::{Backend, Precision};
 use jeffcott_core::error::{Error, Result};
 use std::path::{Path, PathBuf};
 
@@ -57,16 +56,8 @@ pub struct MapArgs {
     /// Cells per work unit [default: at most 1/20 of the map and about 25 s of CPU work].
     #[arg(long, value_name = "CELLS")]
     pub chunk: Option<usize>,
-    /// Backend: auto (a hardware GPU if present, else the CPU), cpu, or gpu.
-    #[arg(long, value_enum, default_value_t = Backend::Auto)]
-    pub backend: Backend,
-    /// Lane precision [default: f64 on the CPU, f32 on a GPU].
-    #[arg(long, value_enum)]
-    pub precision: Option<Precision>,
     #[command(flatten)]
-    pub model: ModelArgs,
-    #[command(flatten)]
-    pub stepper: StepperArgs,
+    pub lane: super::LaneArgs,
     #[command(flatten)]
     pub catalogue: CatalogueArgs,
     /// Output directory (created if missing). An unfinished run of the same command there
@@ -88,13 +79,11 @@ pub struct MapArgs {
 impl MapArgs {
     /// The map these arguments describe, validated.
     pub fn spec(&self) -> Result<MapSpec> {
-        let params = self.model.params()?;
+        let params = self.lane.model.params()?;
         let x = MapAxis::parse("x", &self.x, self.log_x)?;
         let y = MapAxis::parse("y", &self.y, self.log_y)?;
         jeffcott_analysis::map::check_size(&x, &y, self.ics)?;
-        let precision = self
-            .precision
-            .unwrap_or_else(|| jeffcott_analysis::backend::default_precision(self.backend));
+        let precision = self.lane.precision();
         let spec = MapSpec {
             params,
             omega: self.omega,
@@ -104,9 +93,9 @@ impl MapArgs {
             seed: self.seed,
             transient: self.transient,
             recorded: self.periods,
-            stepper: self.stepper.config(),
+            stepper: self.lane.stepper.config(),
             precision,
-            backend: self.backend,
+            backend: self.lane.backend,
             catalogue: self.catalogue.config(precision)?,
             lyapunov: !self.no_lyapunov,
             chunk: self.chunk,

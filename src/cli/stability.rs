@@ -7,13 +7,12 @@
 
 use super::continuation::run_continuation_study;
 use super::rundir::{self, RunArgs};
-use super::{CatalogueArgs, ModelArgs, StepperArgs};
+use super::CatalogueArgs;
 use crate::plot::{PALETTE, StackedPanel, stacked_fractions};
 use clap::Args;
 use jeffcott_analysis::continuation::{ContinuationResult, ContinuationSpec};
 use jeffcott_analysis::defaults;
 use jeffcott_analysis::output;
-use jeffcott_core::ensemble::{Backend, Precision};
 use jeffcott_core::error::{Error, Result};
 use std::path::{Path, PathBuf};
 
@@ -48,16 +47,8 @@ pub struct StabilityArgs {
     /// chaotic).
     #[arg(long)]
     pub no_lyapunov: bool,
-    /// Backend: auto (a hardware GPU if present, else the CPU), cpu, or gpu.
-    #[arg(long, value_enum, default_value_t = Backend::Auto)]
-    pub backend: Backend,
-    /// Lane precision [default: f64 on the CPU, f32 on a GPU].
-    #[arg(long, value_enum)]
-    pub precision: Option<Precision>,
     #[command(flatten)]
-    pub model: ModelArgs,
-    #[command(flatten)]
-    pub stepper: StepperArgs,
+    pub lane: super::LaneArgs,
     #[command(flatten)]
     pub catalogue: CatalogueArgs,
     /// Output directory (created if missing). An unfinished run of the same command there
@@ -93,20 +84,18 @@ pub const OUTPUTS: &[&str] = &[
 impl StabilityArgs {
     /// The study as a continuation over W of uniform draws in the box.
     pub fn spec(&self) -> Result<ContinuationSpec> {
-        let precision = self
-            .precision
-            .unwrap_or_else(|| jeffcott_analysis::backend::default_precision(self.backend));
+        let precision = self.lane.precision();
         jeffcott_analysis::stability::spec(&jeffcott_analysis::stability::StabilityRequest {
-            params: self.model.params()?,
+            params: self.lane.model.params()?,
             omega: &self.omega,
             sample: self.sample,
             start_box: &self.start_box,
             seed: self.seed,
             transient: self.transient,
             recorded: self.periods,
-            stepper: self.stepper.config(),
+            stepper: self.lane.stepper.config(),
             precision,
-            backend: self.backend,
+            backend: self.lane.backend,
             catalogue: self.catalogue.config(precision)?,
             lyapunov: !self.no_lyapunov,
         })
