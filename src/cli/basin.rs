@@ -8,7 +8,6 @@ use crate::plot::{
     AttractorTrace, attractor_color, basin_map, coexisting_attractors, coord_axis, lambda1_map,
 };
 use clap::Args;
-use jeffcott_analysis::backend::Engine;
 use jeffcott_analysis::basin::study::{BasinOutcome, BasinStudy, run};
 use jeffcott_analysis::basin::{Axis, BasinResult, BasinSpec};
 use jeffcott_analysis::catalogue::Attractor;
@@ -16,7 +15,7 @@ use jeffcott_analysis::defaults;
 use jeffcott_analysis::output;
 use jeffcott_analysis::rub::RubEntry;
 use jeffcott_analysis::simulate::AttractorTrace as SimTrace;
-use jeffcott_core::error::{Error, Result};
+use jeffcott_core::error::Result;
 use jeffcott_core::model::COORD_NAMES;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -181,17 +180,22 @@ struct RunResult<'a> {
 /// Runs `jeffcott basin`: the study's units committed to --out, then its files.
 pub fn run_basin(a: &BasinArgs) -> Result<()> {
     let study = a.study()?;
-    let shard = a.shard.shard()?;
     let run_spec = RunSpec {
         spec: study.basin.record(),
         refine: study.refine,
         uncertainty_samples: study.uncertainty_samples,
     };
-    let rd = rundir::open_shard(&a.out, "basin", &run_spec, OUTPUTS, a.run, shard, a.quiet)?;
-    let engine = Engine::new(study.basin.backend, study.basin.precision)?;
-    let o = match run(&study, &engine, &rundir::CommandHost::new(&rd, a.quiet)) {
-        Err(Error::NotInShard) => return rundir::finish_shard(&rd, a.quiet),
-        r => r?,
+    let frame = rundir::StudyRun {
+        command: "basin",
+        out: &a.out,
+        outputs: OUTPUTS,
+        run: a.run,
+        shard: &a.shard,
+        quiet: a.quiet,
+    };
+    let (backend, precision) = (study.basin.backend, study.basin.precision);
+    let Some((rd, o)) = frame.run(&run_spec, backend, precision, |e, h| run(&study, e, h))? else {
+        return Ok(());
     };
     let rub_line = write_basin_files(&a.out, &o, !a.no_plot, a.highlight_boundary)?;
     let (spec, res) = (&o.spec, &o.result);

@@ -2,8 +2,8 @@
 //! and run-down, with basin fractions, births and deaths, and tipping probabilities;
 //! resumable, its fresh pass shardable.
 
-use super::rundir::{self, RunArgs};
 use super::CatalogueArgs;
+use super::rundir::{self, RunArgs};
 use crate::plot::{PALETTE, StackedPanel, stacked_fractions};
 use clap::{Args, ValueEnum};
 use jeffcott_analysis::continuation::{
@@ -152,49 +152,39 @@ pub const OUTPUTS: &[&str] = &[
     "continuation.png",
 ];
 
-/// Runs a continuation with a progress bar, its units committed to `store`.
-pub fn run_continuation_study(
+/// Runs a continuation (or a basin stability, the same study) under a command's host,
+/// its units committed to the run directory, stage `continuation` on the progress bar.
+pub fn continuation_study(
     spec: &ContinuationSpec,
-    store: &dyn jeffcott_analysis::run::UnitStore,
-    quiet: bool,
+    engine: &jeffcott_analysis::backend::Engine,
+    host: &rundir::CommandHost,
 ) -> Result<ContinuationResult> {
+    use jeffcott_analysis::run::Host;
     let per_lane = (spec.transient + spec.recorded) as u64;
-    rundir::with_bar(
-        "continuation",
-        spec.lane_periods(),
-        per_lane,
-        quiet,
-        spec.backend,
-        spec.precision,
-        |engine, ctl| continuation_with(spec, engine, store, ctl),
-    )
+    host.progress("continuation", spec.lane_periods(), per_lane, |ctl| {
+        continuation_with(spec, engine, host.store(), ctl)
+    })
 }
 
 /// Runs `jeffcott continuation`.
 pub fn run_continuation(a: &ContinuationArgs) -> Result<()> {
     let spec = a.spec()?;
-    let shard = a.shard.shard()?;
-    let rd = rundir::open_shard(
-        &a.out,
-        "continuation",
-        &spec.record(),
-        OUTPUTS,
-        a.run,
-        shard,
-        a.quiet,
-    )?;
-    let res = match run_continuation_study(&spec, rundir::store(&rd).as_ref(), a.quiet) {
-        Err(Error::NotInShard) => return rundir::finish_shard(&rd, a.quiet),
-        r => r?,
+    let frame = rundir::StudyRun {
+        command: "continuation",
+        out: &a.out,
+        outputs: OUTPUTS,
+        run: a.run,
+        shard: &a.shard,
+        quiet: a.quiet,
+    };
+    let Some((rd, res)) = frame.run(&spec.record(), spec.backend, spec.precision, |e, h| {
+        continuation_study(&spec, e, h)
+    })?
+    else {
+        return Ok(());
     };
     write_continuation(&a.out, &spec, &res, !a.no_plot)?;
-    rd.finish(
-        &rundir::BackendTime {
-            backend: res.info.as_ref(),
-            wall_time_s: res.seconds,
-        },
-        &rundir::written(&rd, OUTPUTS),
-    )?;
+    frame.finish(&rd, res.info.as_ref(), res.seconds)?;
     if !a.quiet {
         println!("{}", human_summary(&spec, &res, &a.out));
     }

@@ -3,14 +3,14 @@
 //! (resumable, shardable): period.npy, lambda1.npy, attractors.npy, contact.npy,
 //! peak_force.npy, map.json and three pictures.
 
-use super::rundir::{self, RunArgs};
 use super::CatalogueArgs;
+use super::rundir::{self, RunArgs};
 use crate::plot::{basin_map, category_map, lambda1_map};
 use clap::Args;
 use jeffcott_analysis::defaults;
-use jeffcott_analysis::map::{MapAxis, MapResult, MapSpec, MapVar, code, map_with};
+use jeffcott_analysis::map::{MapAxis, MapResult, MapSpec, MapVar, code};
 use jeffcott_analysis::output;
-use jeffcott_core::error::{Error, Result};
+use jeffcott_core::error::Result;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `jeffcott map`.
@@ -123,49 +123,25 @@ pub const OUTPUTS: &[&str] = &[
     "map_regime.png",
 ];
 
-/// Runs a map with a progress bar, its units committed to `store`.
-pub fn run_map_study(
-    spec: &MapSpec,
-    store: &dyn jeffcott_analysis::run::UnitStore,
-    quiet: bool,
-) -> Result<MapResult> {
-    let per_lane = (spec.transient + spec.recorded) as u64;
-    rundir::with_bar(
-        "map",
-        spec.lane_periods(),
-        per_lane,
-        quiet,
-        spec.backend,
-        spec.precision,
-        |engine, ctl| map_with(spec, engine, store, ctl),
-    )
-}
-
 /// Runs `jeffcott map`.
 pub fn run_map(a: &MapArgs) -> Result<()> {
     let spec = a.spec()?;
-    let shard = a.shard.shard()?;
-    let rd = rundir::open_shard(
-        &a.out,
-        "map",
-        &spec.record(),
-        OUTPUTS,
-        a.run,
-        shard,
-        a.quiet,
-    )?;
-    let res = match run_map_study(&spec, rundir::store(&rd).as_ref(), a.quiet) {
-        Err(Error::NotInShard) => return rundir::finish_shard(&rd, a.quiet),
-        r => r?,
+    let frame = rundir::StudyRun {
+        command: "map",
+        out: &a.out,
+        outputs: OUTPUTS,
+        run: a.run,
+        shard: &a.shard,
+        quiet: a.quiet,
+    };
+    let Some((rd, res)) = frame.run(&spec.record(), spec.backend, spec.precision, |e, h| {
+        jeffcott_analysis::map::run(&spec, e, h)
+    })?
+    else {
+        return Ok(());
     };
     write_map(&a.out, &spec, &res, !a.no_plot)?;
-    rd.finish(
-        &rundir::BackendTime {
-            backend: res.info.as_ref(),
-            wall_time_s: res.seconds,
-        },
-        &rundir::written(&rd, OUTPUTS),
-    )?;
+    frame.finish(&rd, res.info.as_ref(), res.seconds)?;
     if !a.quiet {
         println!("{}", human_summary(&spec, &res, &a.out));
     }

@@ -394,3 +394,72 @@ pub fn files_under(dir: &Path) -> Result<Vec<String>> {
     out.sort();
     Ok(out)
 }
+
+/// Where and how a resumable, shardable study command runs: its output directory and
+/// the options every such command takes.
+pub struct StudyRun<'a> {
+    /// The command's name (run.json's `command`).
+    pub command: &'a str,
+    /// `--out`.
+    pub out: &'a Path,
+    /// The command's final files (run.json aside).
+    pub outputs: &'a [&'a str],
+    /// `--overwrite`.
+    pub run: RunArgs,
+    /// `--shard`.
+    pub shard: &'a ShardArgs,
+    /// `--quiet`.
+    pub quiet: bool,
+}
+
+impl StudyRun<'_> {
+    /// The frame of a study command: opens `--out` for the run recorded as `record` (or
+    /// for its shard), runs `study` on an engine for `backend` and `precision` under a
+    /// [`CommandHost`], and returns the open run directory with the result to write;
+    /// `None` when this process computed a shard (its run.json is finished and `merge`
+    /// assembles the files).
+    pub fn run<T>(
+        &self,
+        record: &impl serde::Serialize,
+        backend: jeffcott_core::ensemble::Backend,
+        precision: jeffcott_core::ensemble::Precision,
+        study: impl FnOnce(&jeffcott_analysis::backend::Engine, &CommandHost) -> Result<T>,
+    ) -> Result<Option<(RunDir, T)>> {
+        let shard = self.shard.shard()?;
+        let rd = open_shard(
+            self.out,
+            self.command,
+            record,
+            self.outputs,
+            self.run,
+            shard,
+            self.quiet,
+        )?;
+        let engine = jeffcott_analysis::backend::Engine::new(backend, precision)?;
+        let res = study(&engine, &CommandHost::new(&rd, self.quiet));
+        match res {
+            Err(jeffcott_core::Error::NotInShard) => {
+                finish_shard(&rd, self.quiet)?;
+                Ok(None)
+            }
+            r => Ok(Some((rd, r?))),
+        }
+    }
+
+    /// Marks the run complete once its files are written: the backend that ran its
+    /// lanes, the wall time, the outputs present.
+    pub fn finish(
+        &self,
+        rd: &RunDir,
+        backend: Option<&jeffcott_core::ensemble::RunInfo>,
+        wall_time_s: f64,
+    ) -> Result<()> {
+        rd.finish(
+            &BackendTime {
+                backend,
+                wall_time_s,
+            },
+            &written(rd, self.outputs),
+        )
+    }
+}

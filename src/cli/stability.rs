@@ -5,15 +5,15 @@
 //! speed to speed (the continuation's find-and-match, `analysis::continuation`).
 //! Resumable and shardable (its sampling pass runs in units).
 
-use super::continuation::run_continuation_study;
-use super::rundir::{self, RunArgs};
 use super::CatalogueArgs;
+use super::continuation::continuation_study;
+use super::rundir::{self, RunArgs};
 use crate::plot::{PALETTE, StackedPanel, stacked_fractions};
 use clap::Args;
 use jeffcott_analysis::continuation::{ContinuationResult, ContinuationSpec};
 use jeffcott_analysis::defaults;
 use jeffcott_analysis::output;
-use jeffcott_core::error::{Error, Result};
+use jeffcott_core::error::Result;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `jeffcott basin-stability`.
@@ -105,28 +105,22 @@ impl StabilityArgs {
 /// Runs `jeffcott basin-stability`.
 pub fn run_stability(a: &StabilityArgs) -> Result<()> {
     let spec = a.spec()?;
-    let shard = a.shard.shard()?;
-    let rd = rundir::open_shard(
-        &a.out,
-        "basin-stability",
-        &spec.record(),
-        OUTPUTS,
-        a.run,
-        shard,
-        a.quiet,
-    )?;
-    let res = match run_continuation_study(&spec, rundir::store(&rd).as_ref(), a.quiet) {
-        Err(Error::NotInShard) => return rundir::finish_shard(&rd, a.quiet),
-        r => r?,
+    let frame = rundir::StudyRun {
+        command: "basin-stability",
+        out: &a.out,
+        outputs: OUTPUTS,
+        run: a.run,
+        shard: &a.shard,
+        quiet: a.quiet,
+    };
+    let Some((rd, res)) = frame.run(&spec.record(), spec.backend, spec.precision, |e, h| {
+        continuation_study(&spec, e, h)
+    })?
+    else {
+        return Ok(());
     };
     let text = write_stability(&a.out, &spec, &res, !a.no_plot)?;
-    rd.finish(
-        &rundir::BackendTime {
-            backend: res.info.as_ref(),
-            wall_time_s: res.seconds,
-        },
-        &rundir::written(&rd, OUTPUTS),
-    )?;
+    frame.finish(&rd, res.info.as_ref(), res.seconds)?;
     if !a.quiet {
         println!("{text} {:.1} s. Files in {}.", res.seconds, a.out.display());
     }

@@ -12,6 +12,7 @@
 use super::catalogue::{CatalogueBuilder, CatalogueConfig};
 use super::classify::Class;
 use super::rub::{RubFigures, rub_on_attractor, rub_periods};
+use crate::run::Host;
 use crate::run::lanes::{Control, LaneUnits};
 use crate::run::{Array, Unit, UnitStore};
 use jeffcott_core::ensemble::{
@@ -550,6 +551,15 @@ fn reduce_cells(
             })
         })
         .collect()
+}
+
+/// Runs a map under `host` (its units committed to the host's store, its progress on
+/// the host's display as stage `map`): the front ends' entry point.
+pub fn run(spec: &MapSpec, engine: &crate::backend::Engine, host: &impl Host) -> Result<MapResult> {
+    let per_lane = (spec.transient + spec.recorded) as u64;
+    host.progress(STAGE, spec.lane_periods(), per_lane, |ctl| {
+        map_with(spec, engine, host.store(), ctl)
+    })
 }
 
 /// Computes a map unit by unit into `store` (resuming from the units it holds), then
