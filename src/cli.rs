@@ -9,7 +9,9 @@ use jeffcott_analysis::defaults;
 use jeffcott_analysis::ensemble::Totals;
 use jeffcott_analysis::output;
 use jeffcott_analysis::record::Span;
-use jeffcott_analysis::simulate::{Integrator, SimulateSpec, simulate};
+use jeffcott_analysis::simulate::{
+    Integrator, SimulateOutcome, SimulateSpec, SimulateStudy, run_study,
+};
 use jeffcott_core::ensemble::Precision;
 use jeffcott_core::error::{Error, Result};
 use jeffcott_core::integrate::article::{ArticleConfig, ErrorNorm};
@@ -736,9 +738,11 @@ pub fn run_simulate(a: &SimulateArgs) -> Result<()> {
             abs_tol: a.abs_tol,
         },
     };
-    spec.validate()?;
-    spec.check_size()?;
-    spec.check_spectrum_periods(a.spectrum_periods)?;
+    let study = SimulateStudy {
+        spec,
+        spectrum_periods: a.spectrum_periods,
+    };
+    study.validate()?;
     let mut outputs = vec![
         "poincare.npy",
         "timeseries.npy",
@@ -750,25 +754,15 @@ pub fn run_simulate(a: &SimulateArgs) -> Result<()> {
         &a.out,
         "simulate",
         &SimulateRecord {
-            spec: &spec,
+            spec: &study.spec,
             spectrum_periods: a.spectrum_periods,
         },
         &outputs,
         a.run,
         a.quiet,
     )?;
-    let res = simulate(&spec)?;
-    let rub = if res.status.is_frozen() {
-        None
-    } else {
-        rubout::rub_outputs(
-            &spec.params,
-            spec.omega,
-            &res.final_state,
-            a.spectrum_periods,
-            &spec.stepper,
-        )?
-    };
+    let SimulateOutcome { result: res, rub } = run_study(&study, &rundir::cancel())?;
+    let spec = study.spec;
     if let Some(o) = &rub {
         rubout::write_rub_outputs(
             &a.out,

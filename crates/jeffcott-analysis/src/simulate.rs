@@ -376,6 +376,56 @@ impl RubOutputs {
     }
 }
 
+/// A simulation and the stretch continued from its final state that the rub figures,
+/// full spectra and contact histories are taken over: what the command line's
+/// `simulate`, Python's `simulate()` and `reproduce`'s spectrum section run.
+#[derive(Clone, Debug)]
+pub struct SimulateStudy {
+    /// The trajectory.
+    pub spec: SimulateSpec,
+    /// Forcing periods of the rub stretch.
+    pub spectrum_periods: u32,
+}
+
+impl SimulateStudy {
+    /// Checks every input, the sizes of the trajectory and of the stretch included,
+    /// before anything is allocated.
+    pub fn validate(&self) -> Result<()> {
+        self.spec.validate()?;
+        self.spec.check_size()?;
+        self.spec.check_spectrum_periods(self.spectrum_periods)
+    }
+}
+
+/// What a simulation study computed.
+#[derive(Clone, Debug)]
+pub struct SimulateOutcome {
+    /// The trajectory.
+    pub result: SimulateResult,
+    /// The rub outputs of the stretch; `None` when the run or the stretch froze.
+    pub rub: Option<RubOutputs>,
+}
+
+/// Runs a simulation study: the trajectory (stopped within a forcing period once
+/// `cancel` is set), then, unless it froze, the rub stretch from its final state.
+pub fn run_study(study: &SimulateStudy, cancel: &Cancel) -> Result<SimulateOutcome> {
+    study.validate()?;
+    let spec = &study.spec;
+    let result = simulate_with(spec, cancel)?;
+    let rub = if result.status.is_frozen() {
+        None
+    } else {
+        rub_outputs(
+            &spec.params,
+            spec.omega,
+            &result.final_state,
+            study.spectrum_periods,
+            &spec.stepper,
+        )?
+    };
+    Ok(SimulateOutcome { result, rub })
+}
+
 /// Integrates `periods` forcing periods from `x0` (a state at t = kT) and derives the
 /// rub outputs; `None` when the stretch froze (diverged or non-finite).
 pub fn rub_outputs(

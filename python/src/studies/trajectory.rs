@@ -5,7 +5,7 @@ use crate::convert::{array2, json_to_py, model_params, start_state};
 use crate::run;
 use jeffcott_analysis::classify::ClassifyConfig;
 use jeffcott_analysis::defaults;
-use jeffcott_analysis::simulate::{Integrator, SimulateSpec};
+use jeffcott_analysis::simulate::{Integrator, SimulateOutcome, SimulateSpec, SimulateStudy};
 use jeffcott_core::Error;
 use jeffcott_core::integrate::article::ArticleConfig;
 use jeffcott_core::lyapunov::SpectrumConfig;
@@ -87,25 +87,15 @@ pub(crate) fn simulate<'py>(
             abs_tol,
         },
     };
-    spec.validate().map_err(run::to_py_err)?;
-    spec.check_size().map_err(run::to_py_err)?;
-    spec.check_spectrum_periods(spectrum_periods)
-        .map_err(run::to_py_err)?;
-    let (res, rub) = run::detached(py, None, |ctl| {
-        let res = jeffcott_analysis::simulate::simulate_with(&spec, ctl.cancel)?;
-        let rub = if res.status.is_frozen() {
-            None
-        } else {
-            jeffcott_analysis::simulate::rub_outputs(
-                &spec.params,
-                spec.omega,
-                &res.final_state,
-                spectrum_periods,
-                &spec.stepper,
-            )?
-        };
-        Ok((res, rub))
+    let study = SimulateStudy {
+        spec,
+        spectrum_periods,
+    };
+    study.validate().map_err(run::to_py_err)?;
+    let SimulateOutcome { result: res, rub } = run::detached(py, None, |ctl| {
+        jeffcott_analysis::simulate::run_study(&study, ctl.cancel)
     })?;
+    let spec = study.spec;
     let summary = jeffcott_analysis::simulate::summary(&spec, &res, rub.as_ref());
     let d = json_to_py(py, &summary)?.cast_into::<PyDict>()?;
     d.set_item(

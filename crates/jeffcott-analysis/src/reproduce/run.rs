@@ -340,19 +340,17 @@ pub fn reproduce<H: Host>(spec: &ReproduceSpec, host: &mut H) -> Result<Reproduc
     })?;
     drop(res);
     let t = Instant::now();
-    let s = spec.portrait(132.2);
-    let res = simulate(&s)?;
-    let rub = rub_outputs(
-        &s.params,
-        s.omega,
-        &res.final_state,
-        24,
-        &Default::default(),
+    let s = crate::simulate::run_study(
+        &crate::simulate::SimulateStudy {
+            spec: spec.portrait(132.2),
+            spectrum_periods: crate::defaults::simulate::SPECTRUM_PERIODS,
+        },
+        &jeffcott_core::control::Cancel::new(),
     )?;
     host.section(Section::Spectrum {
-        omega: s.omega,
-        res: &res,
-        rub: rub.as_ref(),
+        omega: 132.2,
+        res: &s.result,
+        rub: s.rub.as_ref(),
         seconds: t.elapsed().as_secs_f64(),
     })?;
     Ok(ReproduceResult {
