@@ -5,9 +5,7 @@ use super::files::Documented;
 use super::rundir::{self, RunArgs};
 use super::{ModelArgs, StepperArgs};
 use clap::Args;
-use jeffcott_analysis::cascade::{
-    CascadeResult, CascadeSpec, arrays, cascade_with, regime_summary, summary,
-};
+use jeffcott_analysis::cascade::{CascadeResult, CascadeSpec, arrays, regime_summary, summary};
 use jeffcott_analysis::defaults;
 use jeffcott_analysis::output;
 use jeffcott_analysis::rub::natural_frequencies;
@@ -95,18 +93,8 @@ impl CascadeArgs {
 pub fn run_cascade(a: &CascadeArgs) -> Result<()> {
     let spec = a.spec()?;
     let rd = rundir::open(&a.out, "cascade", &spec.record(), OUTPUTS, a.run, a.quiet)?;
-    let n = spec.omegas.len() as u64 * (spec.up as u64 + spec.down as u64);
-    let bar = crate::progress::Bar::new("cascade", n, 1, a.quiet);
     let t = std::time::Instant::now();
-    let cb = rundir::bar_callback(&bar);
-    let cancel = rundir::cancel();
-    let ctl = jeffcott_core::control::Control {
-        progress: &cb,
-        cancel: &cancel,
-    };
-    let res = cascade_with(&spec, rundir::store(&rd).as_ref(), ctl);
-    bar.finish();
-    let res = res?;
+    let res = jeffcott_analysis::cascade::run(&spec, &rundir::CommandHost::new(&rd, a.quiet))?;
     write_cascade(&a.out, &spec, &res, !a.no_plot, a.csv)?;
     let secs = t.elapsed().as_secs_f64();
     rd.finish(

@@ -359,6 +359,15 @@ pub fn cascade(spec: &CascadeSpec, ctl: Control) -> Result<CascadeResult> {
     cascade_with(spec, &MemoryStore::new(), ctl)
 }
 
+/// Runs a cascade under `host` (its units committed to the host's store, its progress,
+/// in speeds, on the host's display as stage `cascade`): the front ends' entry point.
+pub fn run(spec: &CascadeSpec, host: &impl crate::run::Host) -> Result<CascadeResult> {
+    let speeds = spec.omegas.len() as u64 * (spec.up as u64 + spec.down as u64);
+    host.progress("cascade", speeds, 1, |ctl| {
+        cascade_with(spec, host.store(), ctl)
+    })
+}
+
 /// Computes a cascade unit by unit into `store`, resuming from the units it holds;
 /// `ctl.progress(done, total)` counts speeds; `ctl.cancel` is checked between speeds.
 pub fn cascade_with(

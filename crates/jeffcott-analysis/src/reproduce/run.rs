@@ -263,7 +263,11 @@ pub fn reproduce<H: Host>(spec: &ReproduceSpec, host: &mut H) -> Result<Reproduc
     host.begin(8, "design chart: speed against unbalance");
     let t = Instant::now();
     let m = spec.design_map();
-    let res = run_map(host, &engine, &m, "map_w_e")?;
+    let res = crate::map::run(
+        &m,
+        &engine,
+        &crate::run::PrefixedHost::new(&*host, "map_w_e"),
+    )?;
     host.section(Section::DesignChart {
         spec: &m,
         res: &res,
@@ -298,7 +302,11 @@ pub fn reproduce<H: Host>(spec: &ReproduceSpec, host: &mut H) -> Result<Reproduc
     );
     let t = Instant::now();
     let r = spec.rub_map();
-    let res = run_map(host, &engine, &r, "map_w_mu")?;
+    let res = crate::map::run(
+        &r,
+        &engine,
+        &crate::run::PrefixedHost::new(&*host, "map_w_mu"),
+    )?;
     // Backward whirl from a backward throw, stiff and soft contact (docs/rub.md).
     let throws = [(0.3, 1e8), (0.25, 1e6)]
         .into_iter()
@@ -325,14 +333,7 @@ pub fn reproduce<H: Host>(spec: &ReproduceSpec, host: &mut H) -> Result<Reproduc
     drop(res);
     let t = Instant::now();
     let k = spec.cascade()?;
-    let speeds = k.omegas.len() as u64 * 2;
-    let store = Prefixed {
-        inner: host.store(),
-        prefix: "cascade",
-    };
-    let res = host.progress("cascade", speeds, 1, |ctl| {
-        crate::cascade::cascade_with(&k, &store, ctl)
-    })?;
+    let res = crate::cascade::run(&k, &crate::run::PrefixedHost::new(&*host, "cascade"))?;
     host.section(Section::Cascade {
         spec: &k,
         res: &res,
@@ -376,21 +377,4 @@ fn run_bifurcation<H: Host>(
         per_lane,
         |ctl| crate::bifurcation::bifurcation_with(b, &store, ctl),
     )
-}
-
-/// A map of the set, its units under `prefix`.
-fn run_map<H: Host>(
-    host: &H,
-    engine: &crate::backend::Engine,
-    m: &MapSpec,
-    prefix: &'static str,
-) -> Result<MapResult> {
-    let store = Prefixed {
-        inner: host.store(),
-        prefix,
-    };
-    let per_lane = (m.transient + m.recorded) as u64;
-    host.progress("map", m.lane_periods(), per_lane, |ctl| {
-        crate::map::map_with(m, engine, &store, ctl)
-    })
 }
