@@ -1,0 +1,244 @@
+//! The brute force: the K seeded start states per speed as one ensemble, then a second
+//! ensemble seeded from the attractors and sweep states at the neighbouring speeds,
+//! each speed catalogued.
+
+use super::{BifurcationSpec, BrutePoint, SweepPoint};
+use crate::catalogue::CatalogueBuilder;
+use crate::run::lanes::{Control, LaneUnits};
+use crate::run::{Array, Unit, UnitStore};
+use jeffcott_core::ensemble::{EnsembleSpec, LaneSpec, RunInfo};
+use jeffcott_core::error::Result;
+use jeffcott_core::integrate::lane::Status;
+use jeffcott_core::model::{Params, STATE_DIM, State, VX_R, VY_R, X_R, Y_R};
+
+/// A deterministic hash in [-1, 1) (splitmix64).
+pub(crate) fn unit(i: u64, salt: u64) -> f64 {
+    let mut z = i
+        .wrapping_add(salt.wrapping_mul(0x9E37_79B9_7F4A_7C15))
+        .wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^= z >> 31;
+    (z >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+}
+
+/// The K brute-force start states: the static equilibrium, then rotor states drawn
+/// (seeded) with positions within the gap `delta` of the static deflection and
+/// velocities within `w_ref * delta`; the stator starts at rest at its static deflection.
+pub fn start_states(params: &Params, k: u32, w_ref: f64, seed: u64) -> Vec<State> {
+    let eq = params.static_equilibrium();
+    (0..k as u64)
+        .map(|i| {
+            let mut x = eq;
+            if i > 0 {
+                let d = params.delta;
+                x[X_R] += d * unit(i, seed.wrapping_mul(4));
+                x[Y_R] += d * unit(i, seed.wrapping_mul(4) + 1);
+                x[VX_R] += w_ref * d * unit(i, seed.wrapping_mul(4) + 2);
+                x[VY_R] += w_ref * d * unit(i, seed.wrapping_mul(4) + 3);
+            }
+            x
+        })
+        .collect()
+}
+
+/// Concatenated results of all units of a brute-force stage.
+pub(super) struct StageResult {
+    poincare: Vec<f64>,
+    status: Vec<Status>,
+    lambda1: Option<Vec<f64>>,
+}
+
+/// Runs (or resumes) one brute-force stage: `lanes_of(wi)` are the lanes at speed index
+/// wi; a unit holds consecutive speeds (at most 1/20 of them and ~25 s of work).
+pub(super) fn brute_stage(
+    spec: &BifurcationSpec,
+    engine: &crate::backend::Engine,
+    stage: &str,
+    lanes_of: &(dyn Fn(usize) -> Vec<State> + Sync),
+    store: &dyn UnitStore,
+    ctl: Control,
+    base: u64,
+) -> Result<(StageResult, Option<RunInfo>)> {
+    let n = spec.omegas.len();
+    let per_w = spec.ics.max(1) as u64
+        * (spec.brute_transient + spec.recorded) as u64
+        * spec.stepper.steps_per_period as u64
+        * if spec.lyapunov { 2 } else { 1 };
+    let per = crate::run::unit_lanes(n, per_w);
+    let count = crate::run::unit_count(n, per);
+    let ensemble = |u: usize| EnsembleSpec {
+        param_sets: vec![spec.params.clone()],
+        lanes: (u * per..((u + 1) * per).min(n))
+            .flat_map(|wi| {
+                let omega = spec.omegas[wi];
+                lanes_of(wi).into_iter().map(move |x0| LaneSpec {
+                    omega,
+                    x0,
+                    param_set: 0,
+                })
+            })
+            .collect(),
+        transient: spec.brute_transient,
+        recorded: spec.recorded,
+        stepper: spec.stepper,
+        precision: spec.precision,
+    };
+    let reduce = |_u: usize, _e: &EnsembleSpec, r: jeffcott_core::ensemble::EnsembleResult| {
+        let mut unit = Unit::new("").with("poincare", Array::F64(r.poincare)).with(
+            "status",
+            Array::U32(r.status.iter().map(|s| s.code()).collect()),
+        );
+        if let Some(l) = r.lambda1 {
+            unit = unit.with("lambda1", Array::F64(l));
+        }
+        Ok(unit)
+    };
+    let progress = |d: u64, _t: u64| (ctl.progress)(base + d, 0);
+    let info = crate::run::lanes::run_units(
+        store,
+        engine,
+        &LaneUnits {
+            stage,
+            count,
+            ensemble: &ensemble,
+            lanes: &|u| {
+                (u * per..((u + 1) * per).min(n))
+                    .map(|wi| lanes_of(wi).len())
+                    .sum()
+            },
+            lambda1: spec.lyapunov,
+            reduce: &reduce,
+        },
+        Control {
+            progress: &progress,
+            cancel: ctl.cancel,
+        },
+    )?;
+    let mut out = StageResult {
+        poincare: Vec::new(),
+        status: Vec::new(),
+        lambda1: spec.lyapunov.then(Vec::new),
+    };
+    for u in 0..count {
+        let unit = store.load(stage, u)?;
+        out.poincare.extend_from_slice(unit.f64s("poincare")?);
+        out.status.extend(
+            unit.u32s("status")?
+                .iter()
+                .map(|&c| Status::from_code(c).unwrap_or(Status::NonFinite)),
+        );
+        if let Some(l) = out.lambda1.as_mut() {
+            l.extend_from_slice(unit.f64s("lambda1")?);
+        }
+    }
+    Ok((out, info))
+}
+
+/// The first brute-force pass as [`brute_force`] continues it: the engine, the common
+/// start states, the pass's lanes and how it ran.
+pub(super) type FirstPass = (
+    crate::backend::Engine,
+    Vec<State>,
+    StageResult,
+    Option<RunInfo>,
+);
+
+pub(super) fn brute_force(
+    spec: &BifurcationSpec,
+    up: &[SweepPoint],
+    down: &[SweepPoint],
+    first: FirstPass,
+    store: &dyn UnitStore,
+    ctl: Control,
+) -> Result<(Vec<BrutePoint>, Option<RunInfo>)> {
+    let (engine, common, res1, info1) = first;
+    let n = spec.omegas.len();
+    let k = spec.ics as usize;
+    let rec = spec.recorded as usize;
+    let lane_len = rec * STATE_DIM;
+    // First-pass catalogues, to know what to seed from.
+    let mut builders: Vec<CatalogueBuilder> = Vec::with_capacity(n);
+    let mut labels: Vec<Vec<i32>> = Vec::with_capacity(n);
+    for (wi, &omega) in spec.omegas.iter().enumerate() {
+        let mut b = CatalogueBuilder::new(omega, spec.catalogue);
+        let frozen: Vec<bool> = res1.status[wi * k..(wi + 1) * k]
+            .iter()
+            .map(|s| s.is_frozen())
+            .collect();
+        labels.push(b.add_block(
+            &res1.poincare[wi * k * lane_len..(wi + 1) * k * lane_len],
+            rec,
+            &frozen,
+            res1.lambda1.as_ref().map(|l| &l[wi * k..(wi + 1) * k]),
+        ));
+        builders.push(b);
+    }
+    // Second pass: at each W, start from the attractors of the neighbouring W (one point
+    // of each, a state at t = kT) and from the sweeps' states there.
+    let mut seeds: Vec<Vec<State>> = vec![Vec::new(); n];
+    for (wi, s) in seeds.iter_mut().enumerate() {
+        // The sweeps' states first (they are the branches a continuation follows), then
+        // one point of every attractor found at the neighbouring W.
+        let mut cand: Vec<State> = Vec::new();
+        let neighbours = [wi.wrapping_sub(1), wi + 1];
+        for &nj in &neighbours {
+            for sw in [up, down] {
+                if let Some(p) = sw.get(nj)
+                    && !p.status.is_frozen()
+                {
+                    cand.push(p.points[p.points.len() - 1]);
+                }
+            }
+        }
+        for &nj in &neighbours {
+            if nj < n {
+                for a in builders[nj].attractors() {
+                    cand.push(a.points[a.points.len() - 1]);
+                }
+            }
+        }
+        cand.truncate(spec.max_seeds);
+        *s = cand;
+    }
+    let (res2, info2) = if seeds.iter().all(|s| s.is_empty()) {
+        (None, None)
+    } else {
+        let (r, i) = brute_stage(spec, &engine, "bf2", &|wi| seeds[wi].clone(), store, ctl, 0)?;
+        (Some(r), i)
+    };
+    let mut out = Vec::with_capacity(n);
+    let mut off2 = 0usize;
+    for (wi, (mut b, mut lab)) in builders.into_iter().zip(labels).enumerate() {
+        let m = seeds[wi].len();
+        let mut points = res1.poincare[wi * k * lane_len..(wi + 1) * k * lane_len].to_vec();
+        let mut lambda1 = res1
+            .lambda1
+            .as_ref()
+            .map(|l| l[wi * k..(wi + 1) * k].to_vec());
+        if let Some(r2) = &res2 {
+            let frozen: Vec<bool> = r2.status[off2..off2 + m]
+                .iter()
+                .map(|s| s.is_frozen())
+                .collect();
+            let p2 = &r2.poincare[off2 * lane_len..(off2 + m) * lane_len];
+            let l2 = r2.lambda1.as_ref().map(|l| &l[off2..off2 + m]);
+            lab.extend(b.add_block(p2, rec, &frozen, l2));
+            points.extend_from_slice(p2);
+            if let (Some(l), Some(l2)) = (lambda1.as_mut(), l2) {
+                l.extend_from_slice(l2);
+            }
+        }
+        off2 += m;
+        let mut starts = common.clone();
+        starts.extend_from_slice(&seeds[wi]);
+        out.push(BrutePoint {
+            omega: spec.omegas[wi],
+            starts,
+            points,
+            catalogue: b.finish(lab),
+            lambda1,
+        });
+    }
+    Ok((out, info2.or(info1)))
+}
