@@ -3,9 +3,7 @@
 
 use crate::plot::{DotSeries, Lambda1Series, bifurcation_diagram};
 use clap::Args;
-use jeffcott_analysis::bifurcation::{
-    BifurcationResult, BifurcationSpec, Sweep, SweepPoint, bifurcation_with, work,
-};
+use jeffcott_analysis::bifurcation::{BifurcationResult, BifurcationSpec, Sweep, SweepPoint};
 use jeffcott_analysis::catalogue::CatalogueConfig;
 use jeffcott_analysis::classify::{Class, ClassifyConfig};
 use jeffcott_analysis::defaults;
@@ -265,7 +263,8 @@ pub fn run_bifurcation(a: &BifurcationArgs) -> Result<()> {
         shard,
         a.quiet,
     )?;
-    let res = match run_study(&spec, super::rundir::store(&rd).as_ref(), a.quiet) {
+    let host = super::rundir::CommandHost::new(&rd, a.quiet);
+    let res = match jeffcott_analysis::bifurcation::run(&spec, &host) {
         Err(Error::NotInShard) => return super::rundir::finish_shard(&rd, a.quiet),
         r => r?,
     };
@@ -411,25 +410,6 @@ pub fn write_portraits(
         &traces,
     )
     .map(|()| Some(name))
-}
-
-/// Runs a study with a progress bar, its units committed to `store`.
-pub fn run_study(
-    spec: &BifurcationSpec,
-    store: &dyn jeffcott_analysis::run::UnitStore,
-    quiet: bool,
-) -> Result<BifurcationResult> {
-    let per_lane = (spec.brute_transient + spec.recorded) as u64;
-    let bar = crate::progress::Bar::new("bifurcation", work(spec), per_lane, quiet);
-    let cancel = super::rundir::cancel();
-    let cb = super::rundir::bar_callback(&bar);
-    let ctl = jeffcott_analysis::run::lanes::Control {
-        progress: &cb,
-        cancel: &cancel,
-    };
-    let res = bifurcation_with(spec, store, ctl);
-    bar.finish();
-    res
 }
 
 /// The lambda_1 series under a diagram: brute-force lanes (grey pixels), up sweep (blue

@@ -7,7 +7,7 @@ use super::rundir::{self, RunArgs};
 use crate::plot::{PALETTE, StackedPanel, stacked_fractions};
 use clap::{Args, ValueEnum};
 use jeffcott_analysis::continuation::{
-    ContinuationResult, ContinuationSpec, Direction, Fields, continuation_with, id_name,
+    ContinuationResult, ContinuationSpec, Direction, Fields, id_name,
 };
 use jeffcott_analysis::defaults;
 use jeffcott_analysis::map::MapAxis;
@@ -152,20 +152,6 @@ pub const OUTPUTS: &[&str] = &[
     "continuation.png",
 ];
 
-/// Runs a continuation (or a basin stability, the same study) under a command's host,
-/// its units committed to the run directory, stage `continuation` on the progress bar.
-pub fn continuation_study(
-    spec: &ContinuationSpec,
-    engine: &jeffcott_analysis::backend::Engine,
-    host: &rundir::CommandHost,
-) -> Result<ContinuationResult> {
-    use jeffcott_analysis::run::Host;
-    let per_lane = (spec.transient + spec.recorded) as u64;
-    host.progress("continuation", spec.lane_periods(), per_lane, |ctl| {
-        continuation_with(spec, engine, host.store(), ctl)
-    })
-}
-
 /// Runs `jeffcott continuation`.
 pub fn run_continuation(a: &ContinuationArgs) -> Result<()> {
     let spec = a.spec()?;
@@ -178,7 +164,7 @@ pub fn run_continuation(a: &ContinuationArgs) -> Result<()> {
         quiet: a.quiet,
     };
     let Some((rd, res)) = frame.run(&spec.record(), spec.backend, spec.precision, |e, h| {
-        continuation_study(&spec, e, h)
+        jeffcott_analysis::continuation::run(&spec, e, h)
     })?
     else {
         return Ok(());

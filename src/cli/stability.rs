@@ -6,7 +6,6 @@
 //! Resumable and shardable (its sampling pass runs in units).
 
 use super::CatalogueArgs;
-use super::continuation::continuation_study;
 use super::rundir::{self, RunArgs};
 use crate::plot::{PALETTE, StackedPanel, stacked_fractions};
 use clap::Args;
@@ -114,7 +113,7 @@ pub fn run_stability(a: &StabilityArgs) -> Result<()> {
         quiet: a.quiet,
     };
     let Some((rd, res)) = frame.run(&spec.record(), spec.backend, spec.precision, |e, h| {
-        continuation_study(&spec, e, h)
+        jeffcott_analysis::continuation::run(&spec, e, h)
     })?
     else {
         return Ok(());

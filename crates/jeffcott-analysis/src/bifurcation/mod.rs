@@ -270,6 +270,15 @@ pub fn bifurcation(spec: &BifurcationSpec, ctl: Control) -> Result<BifurcationRe
     bifurcation_with(spec, &MemoryStore::new(), ctl)
 }
 
+/// Runs a bifurcation study under `host` (its units committed to the host's store, its
+/// progress on the host's display as stage `bifurcation`): the front ends' entry point.
+pub fn run(spec: &BifurcationSpec, host: &impl crate::run::Host) -> Result<BifurcationResult> {
+    let per_lane = (spec.brute_transient + spec.recorded) as u64;
+    host.progress("bifurcation", work(spec), per_lane, |ctl| {
+        bifurcation_with(spec, host.store(), ctl)
+    })
+}
+
 /// Runs the study unit by unit into `store`, resuming from the units it holds: the
 /// first brute-force pass (`bf1`, independent of everything else, so it is the part a
 /// shard computes), the sweeps (stages `up`, `down`), then the second brute-force pass

@@ -67,6 +67,20 @@ pub fn continuation(spec: &ContinuationSpec, ctl: Control) -> Result<Continuatio
     })
 }
 
+/// Runs a continuation (or a basin stability, the same study) under `host` (its units
+/// committed to the host's store, its progress on the host's display as stage
+/// `continuation`): the front ends' entry point.
+pub fn run(
+    spec: &ContinuationSpec,
+    engine: &crate::backend::Engine,
+    host: &impl crate::run::Host,
+) -> Result<ContinuationResult> {
+    let per_lane = (spec.transient + spec.recorded) as u64;
+    host.progress("continuation", spec.lane_periods(), per_lane, |ctl| {
+        continuation_with(spec, engine, host.store(), ctl)
+    })
+}
+
 /// Runs the continuation unit by unit into `store` (resuming from what it holds).
 pub fn continuation_with(
     spec: &ContinuationSpec,

@@ -31,7 +31,6 @@ use crate::classify::Class;
 use crate::continuation::{ContinuationResult, ContinuationSpec, Direction, Ramp};
 use crate::map::{MapAxis, MapResult, MapSpec, MapVar, code};
 use crate::rub::RubRegime;
-use crate::run::Prefixed;
 use crate::simulate::{
     Integrator, RubOutputs, SimulateResult, SimulateSpec, rub_outputs, simulate,
 };

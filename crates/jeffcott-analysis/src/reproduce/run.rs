@@ -171,7 +171,7 @@ pub fn reproduce<H: Host>(spec: &ReproduceSpec, host: &mut H) -> Result<Reproduc
 
     host.begin(1, "bifurcation diagram over 130..141 rad/s");
     let b = spec.bifurcation()?;
-    let res = run_bifurcation(host, &b, "bifurcation")?;
+    let res = crate::bifurcation::run(&b, &crate::run::PrefixedHost::new(&*host, "bifurcation"))?;
     host.section(Section::Bifurcation {
         spec: &b,
         res: &res,
@@ -182,7 +182,10 @@ pub fn reproduce<H: Host>(spec: &ReproduceSpec, host: &mut H) -> Result<Reproduc
     for k in 0..ZOOMS.len() {
         let t = Instant::now();
         let z = spec.zoom(k)?;
-        let res = run_bifurcation(host, &z, ["zoom0", "zoom1"][k])?;
+        let res = crate::bifurcation::run(
+            &z,
+            &crate::run::PrefixedHost::new(&*host, ["zoom0", "zoom1"][k]),
+        )?;
         host.section(Section::Zoom {
             k,
             spec: &z,
@@ -279,14 +282,11 @@ pub fn reproduce<H: Host>(spec: &ReproduceSpec, host: &mut H) -> Result<Reproduc
     host.begin(9, "attractor continuation over 130..141 rad/s");
     let t = Instant::now();
     let c = spec.continuation();
-    let per_lane = (c.transient + c.recorded) as u64;
-    let store = Prefixed {
-        inner: host.store(),
-        prefix: "continuation",
-    };
-    let res = host.progress("continuation", c.lane_periods(), per_lane, |ctl| {
-        crate::continuation::continuation_with(&c, &engine, &store, ctl)
-    })?;
+    let res = crate::continuation::run(
+        &c,
+        &engine,
+        &crate::run::PrefixedHost::new(&*host, "continuation"),
+    )?;
     let ramps: Vec<RampFindings> = res.ramps.iter().map(RampFindings::of).collect();
     host.section(Section::Continuation {
         spec: &c,
@@ -358,23 +358,4 @@ pub fn reproduce<H: Host>(spec: &ReproduceSpec, host: &mut H) -> Result<Reproduc
         survey,
         static_class,
     })
-}
-
-/// A bifurcation study of the set, its units under `prefix`.
-fn run_bifurcation<H: Host>(
-    host: &H,
-    b: &BifurcationSpec,
-    prefix: &'static str,
-) -> Result<BifurcationResult> {
-    let store = Prefixed {
-        inner: host.store(),
-        prefix,
-    };
-    let per_lane = (b.brute_transient + b.recorded) as u64;
-    host.progress(
-        "bifurcation",
-        crate::bifurcation::work(b),
-        per_lane,
-        |ctl| crate::bifurcation::bifurcation_with(b, &store, ctl),
-    )
 }
