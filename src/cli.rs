@@ -373,7 +373,7 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
         lanes: lanes_record,
     };
     let shard = a.shard.shard()?;
-    let rd = rundir::open_shard(
+    let run_dir = rundir::open_shard(
         &a.out,
         "ensemble",
         &run_spec,
@@ -382,7 +382,7 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
         shard,
         a.quiet,
     )?;
-    let store = rundir::store(&rd);
+    let store = rundir::store(&run_dir);
     let bar = crate::progress::Bar::new("ensemble", n as u64 * per_lane, per_lane, a.quiet);
     let start = std::time::Instant::now();
     let engine = jeffcott_analysis::backend::Engine::new(a.lane.backend, spec.precision)?;
@@ -424,7 +424,7 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
     )?;
     bar.finish();
     if shard.is_some() {
-        return rundir::finish_shard(&rd, a.quiet);
+        return rundir::finish_shard(&run_dir, a.quiet);
     }
     let elapsed = start.elapsed().as_secs_f64();
     let info = ran.unwrap_or(jeffcott_core::ensemble::RunInfo {
@@ -444,17 +444,17 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
             info.backend, info.device, info.reason, info.precision
         );
     }
-    let dir = rd.path();
+    let dir = run_dir.path();
     output::write_npy_parts(
         &dir.join("poincare.npy"),
         &[n, spec.recorded as usize, STATE_DIM],
-        (0..count).map(|u| Ok(rd.load("ensemble", u)?.f64s("poincare")?.to_vec())),
+        (0..count).map(|u| Ok(run_dir.load("ensemble", u)?.f64s("poincare")?.to_vec())),
     )?;
     let mut codes: Vec<u32> = Vec::with_capacity(n);
     let mut lambda1: Vec<f64> = Vec::new();
     let mut totals = Totals::default();
     for u in 0..count {
-        let unit = rd.load("ensemble", u)?;
+        let unit = run_dir.load("ensemble", u)?;
         codes.extend_from_slice(unit.u32s("status")?);
         if a.lyapunov {
             lambda1.extend_from_slice(unit.f64s("lambda1")?);
@@ -501,7 +501,7 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
             ),
         ],
     );
-    rd.finish(&run_json, &rundir::written(&rd, ENSEMBLE_OUTPUTS))?;
+    run_dir.finish(&run_json, &rundir::written(&run_dir, ENSEMBLE_OUTPUTS))?;
     if !a.quiet {
         println!(
             "{n} lanes x {} periods in {:.2} s ({:.3e} lane-steps/s); status ok {}, refinement_cap {}, diverged {}, non_finite {}; files in {}",
@@ -750,7 +750,7 @@ pub fn run_simulate(a: &SimulateArgs) -> Result<()> {
         "summary.json",
     ];
     outputs.extend_from_slice(rubout::FILES);
-    let rd = rundir::open(
+    let run_dir = rundir::open(
         &a.out,
         "simulate",
         &SimulateRecord {
@@ -775,11 +775,11 @@ pub fn run_simulate(a: &SimulateArgs) -> Result<()> {
         )?;
     }
     write_simulation(&a.out, &spec, &res, rub.as_ref(), !a.no_plot)?;
-    rd.finish(
+    run_dir.finish(
         &rundir::WallTime {
             wall_time_s: res.elapsed.as_secs_f64(),
         },
-        &rundir::written(&rd, &outputs),
+        &rundir::written(&run_dir, &outputs),
     )?;
     if !a.quiet {
         println!("{}", human_summary(&spec, &res, &a.out));

@@ -194,19 +194,20 @@ pub fn run_basin(a: &BasinArgs) -> Result<()> {
         quiet: a.quiet,
     };
     let (backend, precision) = (study.basin.backend, study.basin.precision);
-    let Some((rd, o)) = frame.run(&run_spec, backend, precision, |e, h| run(&study, e, h))? else {
+    let Some((run_dir, o)) = frame.run(&run_spec, backend, precision, |e, h| run(&study, e, h))?
+    else {
         return Ok(());
     };
     let rub_line = write_basin_files(&a.out, &o, !a.no_plot, a.highlight_boundary)?;
     let (spec, res) = (&o.spec, &o.result);
-    let rj = RunResult {
+    let run_result = RunResult {
         run: rundir::BackendTime {
             backend: res.info.as_ref(),
             wall_time_s: res.seconds,
         },
         refinement: o.refined.as_ref().map(|f| refinement_record(f, spec)),
     };
-    rd.finish(&rj, &rundir::written(&rd, OUTPUTS))?;
+    run_dir.finish(&run_result, &rundir::written(&run_dir, OUTPUTS))?;
     if !a.quiet {
         println!("{}", human_summary(spec, res, &a.out));
         if !rub_line.is_empty() {

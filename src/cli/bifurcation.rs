@@ -254,7 +254,7 @@ pub fn run_bifurcation(a: &BifurcationArgs) -> Result<()> {
             "only the brute force is sharded: give --ics >= 1",
         ));
     }
-    let rd = super::rundir::open_shard(
+    let run_dir = super::rundir::open_shard(
         &a.out,
         "bifurcation",
         &spec.record(),
@@ -263,19 +263,19 @@ pub fn run_bifurcation(a: &BifurcationArgs) -> Result<()> {
         shard,
         a.quiet,
     )?;
-    let host = super::rundir::CommandHost::new(&rd, a.quiet);
+    let host = super::rundir::CommandHost::new(&run_dir, a.quiet);
     let res = match jeffcott_analysis::bifurcation::run(&spec, &host) {
-        Err(Error::NotInShard) => return super::rundir::finish_shard(&rd, a.quiet),
+        Err(Error::NotInShard) => return super::rundir::finish_shard(&run_dir, a.quiet),
         r => r?,
     };
     write_bifurcation(&a.out, &spec, &res, &coords, !a.no_plot)?;
-    let mut outputs = super::rundir::written(&rd, OUTPUTS);
+    let mut outputs = super::rundir::written(&run_dir, OUTPUTS);
     for &w in &a.portraits {
         if let Some(f) = write_portraits(&a.out, &spec, &res, w)? {
             outputs.push(f);
         }
     }
-    rd.finish(&RunResult::of(&res), &outputs)?;
+    run_dir.finish(&RunResult::of(&res), &outputs)?;
     if !a.quiet {
         println!("{}", human_summary(&spec, &res, &a.out));
     }

@@ -92,14 +92,14 @@ impl CascadeArgs {
 /// Runs `jeffcott cascade`.
 pub fn run_cascade(a: &CascadeArgs) -> Result<()> {
     let spec = a.spec()?;
-    let rd = rundir::open(&a.out, "cascade", &spec.record(), OUTPUTS, a.run, a.quiet)?;
+    let run_dir = rundir::open(&a.out, "cascade", &spec.record(), OUTPUTS, a.run, a.quiet)?;
     let t = std::time::Instant::now();
-    let res = jeffcott_analysis::cascade::run(&spec, &rundir::CommandHost::new(&rd, a.quiet))?;
+    let res = jeffcott_analysis::cascade::run(&spec, &rundir::CommandHost::new(&run_dir, a.quiet))?;
     write_cascade(&a.out, &spec, &res, !a.no_plot, a.csv)?;
     let secs = t.elapsed().as_secs_f64();
-    rd.finish(
+    run_dir.finish(
         &rundir::WallTime { wall_time_s: secs },
-        &rundir::written(&rd, OUTPUTS),
+        &rundir::written(&run_dir, OUTPUTS),
     )?;
     if !a.quiet {
         println!(

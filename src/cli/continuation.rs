@@ -163,14 +163,15 @@ pub fn run_continuation(a: &ContinuationArgs) -> Result<()> {
         shard: &a.shard,
         quiet: a.quiet,
     };
-    let Some((rd, res)) = frame.run(&spec.record(), spec.backend, spec.precision, |e, h| {
-        jeffcott_analysis::continuation::run(&spec, e, h)
-    })?
+    let Some((run_dir, res)) =
+        frame.run(&spec.record(), spec.backend, spec.precision, |e, h| {
+            jeffcott_analysis::continuation::run(&spec, e, h)
+        })?
     else {
         return Ok(());
     };
     write_continuation(&a.out, &spec, &res, !a.no_plot)?;
-    frame.finish(&rd, res.info.as_ref(), res.seconds)?;
+    frame.finish(&run_dir, res.info.as_ref(), res.seconds)?;
     if !a.quiet {
         println!("{}", human_summary(&spec, &res, &a.out));
     }

@@ -177,7 +177,7 @@ pub fn run_lyapunov(a: &LyapunovArgs) -> Result<()> {
         params: &params,
     };
     if let [omega] = omegas[..] {
-        let rd = super::rundir::open(
+        let run_dir = super::rundir::open(
             dir,
             "lyapunov",
             &run_spec,
@@ -200,7 +200,7 @@ pub fn run_lyapunov(a: &LyapunovArgs) -> Result<()> {
             },
         };
         output::write_json(&dir.join("spectrum.json"), &j)?;
-        rd.finish(
+        run_dir.finish(
             &super::rundir::WallTime {
                 wall_time_s: s.wall_time_s,
             },
@@ -236,9 +236,9 @@ pub fn run_lyapunov(a: &LyapunovArgs) -> Result<()> {
         "lyapunov.json",
         "lyapunov.png",
     ];
-    let rd = super::rundir::open(dir, "lyapunov", &run_spec, &outputs, a.run, a.quiet)?;
+    let run_dir = super::rundir::open(dir, "lyapunov", &run_spec, &outputs, a.run, a.quiet)?;
     let start = std::time::Instant::now();
-    let all = range_units(&rd, &params, &omegas, &x0, a.start, &cfg)?;
+    let all = range_units(&run_dir, &params, &omegas, &x0, a.start, &cfg)?;
     let wall = start.elapsed().as_secs_f64();
     let n = omegas.len();
     let flat: Vec<f64> = all.iter().flat_map(|s| s.exponents).collect();
@@ -276,7 +276,7 @@ pub fn run_lyapunov(a: &LyapunovArgs) -> Result<()> {
         .collect(),
     };
     output::write_json(&dir.join("lyapunov.json"), &j)?;
-    rd.finish(
+    run_dir.finish(
         &super::rundir::WallTime { wall_time_s: wall },
         &outputs.map(String::from),
     )?;
@@ -319,7 +319,7 @@ const STOPS: [StopReason; 3] = [
 /// give every speed its start state run first, in sequence, and are cheap beside the
 /// spectra; they are recomputed on resume (deterministic).
 fn range_units(
-    rd: &jeffcott_analysis::run::RunDir,
+    run_dir: &jeffcott_analysis::run::RunDir,
     params: &jeffcott_core::model::Params,
     omegas: &[f64],
     x0: &jeffcott_core::model::State,
@@ -330,7 +330,7 @@ fn range_units(
     let n = omegas.len();
     let per = jeffcott_analysis::run::unit_lanes(n, 1).min(rayon::current_num_threads().max(1) * 4);
     let count = jeffcott_analysis::run::unit_count(n, per);
-    let done = rd.committed("lyapunov", count)?;
+    let done = run_dir.committed("lyapunov", count)?;
     for (u, _) in done.iter().enumerate().filter(|(_, d)| !**d) {
         let range = u * per..((u + 1) * per).min(n);
         let spectra: Vec<Spectrum> = range
@@ -365,11 +365,11 @@ fn range_units(
                 "status",
                 Array::U32(spectra.iter().map(|s| s.status.code()).collect()),
             );
-        rd.commit("lyapunov", u, &unit)?;
+        run_dir.commit("lyapunov", u, &unit)?;
     }
     let mut rows = Vec::with_capacity(n);
     for u in 0..count {
-        let unit = rd.load("lyapunov", u)?;
+        let unit = run_dir.load("lyapunov", u)?;
         let (e, r) = (unit.f64s("exponents")?, unit.f64s("errors")?);
         for (j, i) in (u * per..((u + 1) * per).min(n)).enumerate() {
             let eight = |v: &[f64]| -> [f64; STATE_DIM] {

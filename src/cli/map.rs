@@ -134,14 +134,15 @@ pub fn run_map(a: &MapArgs) -> Result<()> {
         shard: &a.shard,
         quiet: a.quiet,
     };
-    let Some((rd, res)) = frame.run(&spec.record(), spec.backend, spec.precision, |e, h| {
-        jeffcott_analysis::map::run(&spec, e, h)
-    })?
+    let Some((run_dir, res)) =
+        frame.run(&spec.record(), spec.backend, spec.precision, |e, h| {
+            jeffcott_analysis::map::run(&spec, e, h)
+        })?
     else {
         return Ok(());
     };
     write_map(&a.out, &spec, &res, !a.no_plot)?;
-    frame.finish(&rd, res.info.as_ref(), res.seconds)?;
+    frame.finish(&run_dir, res.info.as_ref(), res.seconds)?;
     if !a.quiet {
         println!("{}", human_summary(&spec, &res, &a.out));
     }

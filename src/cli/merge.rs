@@ -241,16 +241,16 @@ pub fn run_merge(a: &MergeArgs) -> Result<()> {
         }
     };
     {
-        let rd = rundir::open(&a.out, &first.command, &first.spec, outputs, a.run, a.quiet)?;
+        let run_dir = rundir::open(&a.out, &first.command, &first.spec, outputs, a.run, a.quiet)?;
         for s in &shards {
             for key in &s.units {
                 place(
                     &s.dir.join(UNITS).join(format!("{key}.unit")),
-                    &rd.path().join(UNITS).join(format!("{key}.unit")),
+                    &run_dir.path().join(UNITS).join(format!("{key}.unit")),
                 )?;
             }
         }
-        jeffcott_analysis::output::sync_dir(&rd.path().join(UNITS));
+        jeffcott_analysis::output::sync_dir(&run_dir.path().join(UNITS));
     } // the lock is released here; the replayed command takes it again
     let argv = replay_argv(&first.argv, &a.out, a.quiet);
     let cli = <super::Cli as clap::Parser>::try_parse_from(&argv).map_err(|e| {

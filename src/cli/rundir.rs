@@ -102,10 +102,10 @@ pub struct CommandHost<'a> {
 }
 
 impl<'a> CommandHost<'a> {
-    /// The host of a command writing to `rd`.
-    pub fn new(rd: &'a RunDir, quiet: bool) -> Self {
+    /// The host of a command writing to `run_dir`.
+    pub fn new(run_dir: &'a RunDir, quiet: bool) -> Self {
         CommandHost {
-            store: store(rd),
+            store: store(run_dir),
             quiet,
         }
     }
@@ -133,12 +133,15 @@ pub fn cancel() -> jeffcott_analysis::run::Cancel {
 
 /// The store a command's study commits to: the directory, seen through its shard, or
 /// while merging, checked for the shards' stages.
-pub fn store(rd: &RunDir) -> Box<dyn UnitStore + '_> {
+pub fn store(run_dir: &RunDir) -> Box<dyn UnitStore + '_> {
     let merge = MERGE_STAGES.lock().ok().and_then(|m| m.clone());
-    match (rd.shard(), merge) {
-        (Some(shard), _) => Box::new(Recording(ShardStore { inner: rd, shard })),
-        (None, Some(stages)) => Box::new(Merged { rd, stages }),
-        (None, None) => Box::new(Plain(rd)),
+    match (run_dir.shard(), merge) {
+        (Some(shard), _) => Box::new(Recording(ShardStore {
+            inner: run_dir,
+            shard,
+        })),
+        (None, Some(stages)) => Box::new(Merged { run_dir, stages }),
+        (None, None) => Box::new(Plain(run_dir)),
     }
 }
 
@@ -178,13 +181,13 @@ impl UnitStore for Recording<'_> {
 
 /// The merged run's store: the shards' stages must be complete.
 struct Merged<'a> {
-    rd: &'a RunDir,
+    run_dir: &'a RunDir,
     stages: Vec<String>,
 }
 
 impl UnitStore for Merged<'_> {
     fn committed(&self, stage: &str, count: usize) -> Result<Vec<bool>> {
-        let c = self.rd.committed(stage, count)?;
+        let c = self.run_dir.committed(stage, count)?;
         if self.stages.iter().any(|s| s == stage)
             && let Some(u) = c.iter().position(|d| !d)
         {
@@ -200,10 +203,10 @@ impl UnitStore for Merged<'_> {
         Ok(c)
     }
     fn commit(&self, stage: &str, index: usize, unit: &jeffcott_analysis::run::Unit) -> Result<()> {
-        self.rd.commit(stage, index, unit)
+        self.run_dir.commit(stage, index, unit)
     }
     fn load(&self, stage: &str, index: usize) -> Result<jeffcott_analysis::run::Unit> {
-        self.rd.load(stage, index)
+        self.run_dir.load(stage, index)
     }
 }
 
@@ -235,11 +238,11 @@ struct ShardResult<'a> {
 }
 
 /// Ends a shard's run: its units are committed; `run.json` says complete and lists them.
-pub fn finish_shard(rd: &RunDir, quiet: bool) -> Result<()> {
-    let keys = rd.unit_keys()?;
-    let shard = rd.shard().unwrap_or(Shard { index: 0, count: 1 });
+pub fn finish_shard(run_dir: &RunDir, quiet: bool) -> Result<()> {
+    let keys = run_dir.unit_keys()?;
+    let shard = run_dir.shard().unwrap_or(Shard { index: 0, count: 1 });
     let stages = SHARD_STAGES.lock().map(|s| s.clone()).unwrap_or_default();
-    rd.finish(
+    run_dir.finish(
         &ShardResult {
             shard_units: &keys,
             shard_stages: &stages,
@@ -252,7 +255,7 @@ pub fn finish_shard(rd: &RunDir, quiet: bool) -> Result<()> {
             shard.index,
             shard.count,
             keys.len(),
-            rd.path().display()
+            run_dir.path().display()
         );
     }
     Ok(())
@@ -323,13 +326,13 @@ pub fn open_shard(
     quiet: bool,
 ) -> Result<RunDir> {
     let argv: Vec<String> = std::env::args().collect();
-    let rd = RunDir::open(dir, command, spec, outputs, args.overwrite, shard, argv)?;
+    let run_dir = RunDir::open(dir, command, spec, outputs, args.overwrite, shard, argv)?;
     if let Ok(mut d) = RUN_DIRS.lock() {
         d.push(dir.display().to_string());
     }
     install_signal_handler();
     if !quiet {
-        match rd.found() {
+        match run_dir.found() {
             Found::Unfinished => eprintln!(
                 "resuming the unfinished run in {} (committed work units are kept)",
                 dir.display()
@@ -345,15 +348,15 @@ pub fn open_shard(
             Found::Fresh => {}
         }
     }
-    Ok(rd)
+    Ok(run_dir)
 }
 
 /// The names among `candidates` that exist in the run's directory (for `outputs` in
 /// run.json).
-pub fn written(rd: &RunDir, candidates: &[&str]) -> Vec<String> {
+pub fn written(run_dir: &RunDir, candidates: &[&str]) -> Vec<String> {
     candidates
         .iter()
-        .filter(|f| rd.path().join(f).exists())
+        .filter(|f| run_dir.path().join(f).exists())
         .map(|f| f.to_string())
         .collect()
 }
@@ -426,7 +429,7 @@ impl StudyRun<'_> {
         study: impl FnOnce(&jeffcott_analysis::backend::Engine, &CommandHost) -> Result<T>,
     ) -> Result<Option<(RunDir, T)>> {
         let shard = self.shard.shard()?;
-        let rd = open_shard(
+        let run_dir = open_shard(
             self.out,
             self.command,
             record,
@@ -436,13 +439,13 @@ impl StudyRun<'_> {
             self.quiet,
         )?;
         let engine = jeffcott_analysis::backend::Engine::new(backend, precision)?;
-        let res = study(&engine, &CommandHost::new(&rd, self.quiet));
+        let res = study(&engine, &CommandHost::new(&run_dir, self.quiet));
         match res {
             Err(jeffcott_core::Error::NotInShard) => {
-                finish_shard(&rd, self.quiet)?;
+                finish_shard(&run_dir, self.quiet)?;
                 Ok(None)
             }
-            r => Ok(Some((rd, r?))),
+            r => Ok(Some((run_dir, r?))),
         }
     }
 
@@ -450,16 +453,16 @@ impl StudyRun<'_> {
     /// lanes, the wall time, the outputs present.
     pub fn finish(
         &self,
-        rd: &RunDir,
+        run_dir: &RunDir,
         backend: Option<&jeffcott_core::ensemble::RunInfo>,
         wall_time_s: f64,
     ) -> Result<()> {
-        rd.finish(
+        run_dir.finish(
             &BackendTime {
                 backend,
                 wall_time_s,
             },
-            &written(rd, self.outputs),
+            &written(run_dir, self.outputs),
         )
     }
 }

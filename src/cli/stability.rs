@@ -112,14 +112,15 @@ pub fn run_stability(a: &StabilityArgs) -> Result<()> {
         shard: &a.shard,
         quiet: a.quiet,
     };
-    let Some((rd, res)) = frame.run(&spec.record(), spec.backend, spec.precision, |e, h| {
-        jeffcott_analysis::continuation::run(&spec, e, h)
-    })?
+    let Some((run_dir, res)) =
+        frame.run(&spec.record(), spec.backend, spec.precision, |e, h| {
+            jeffcott_analysis::continuation::run(&spec, e, h)
+        })?
     else {
         return Ok(());
     };
     let text = write_stability(&a.out, &spec, &res, !a.no_plot)?;
-    frame.finish(&rd, res.info.as_ref(), res.seconds)?;
+    frame.finish(&run_dir, res.info.as_ref(), res.seconds)?;
     if !a.quiet {
         println!("{text} {:.1} s. Files in {}.", res.seconds, a.out.display());
     }
