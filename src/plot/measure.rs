@@ -1,0 +1,254 @@
+//! Measure and uncertainty plots: stacked basin fractions, the uncertain fraction
+//! f(eps) on log-log axes, and work-precision diagrams.
+
+use super::{PALETTE, legend, plot_err, register_font};
+use jeffcott_core::error::{Error, Result};
+use plotters::prelude::*;
+use std::path::Path;
+
+/// One panel of [`stacked_fractions`]: a title and, per band, its legend text, colour and
+/// value at each x (bands stacked bottom-up in the order given).
+pub struct StackedPanel {
+    /// Panel caption.
+    pub title: String,
+    /// (legend, colour, values at each x).
+    pub bands: Vec<(String, RGBColor, Vec<f64>)>,
+}
+
+/// Stacked-area chart of fractions (0..1) against `x`, one panel per entry, stacked
+/// vertically: which attractor's basin dominates where.
+pub fn stacked_fractions(
+    path: &Path,
+    title: &str,
+    x_label: &str,
+    x: &[f64],
+    panels: &[StackedPanel],
+) -> Result<()> {
+    register_font();
+    let err = plot_err(path);
+    let h = 140 + 430 * panels.len().max(1) as u32;
+    let (x0, x1) = (x[0], x[x.len() - 1].max(x[0] + 1e-12));
+    crate::plot::render_png(path, (1300, h), |root| {
+        root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
+        let root = root
+            .titled(title, ("sans-serif", 24))
+            .map_err(|e| err(e.to_string()))?;
+        let areas = root.split_evenly((panels.len().max(1), 1));
+        for (area, panel) in areas.iter().zip(panels) {
+            let mut chart = ChartBuilder::on(area)
+                .caption(panel.title.as_str(), ("sans-serif", 19))
+                .margin(12)
+                .x_label_area_size(46)
+                .y_label_area_size(70)
+                .build_cartesian_2d(x0..x1, 0.0..1.0)
+                .map_err(|e| err(e.to_string()))?;
+            chart
+                .configure_mesh()
+                .x_desc(x_label)
+                .y_desc("basin fraction")
+                .label_style(("sans-serif", 15))
+                .axis_desc_style(("sans-serif", 17))
+                .draw()
+                .map_err(|e| err(e.to_string()))?;
+            let mut lower = vec![0.0; x.len()];
+            for (name, colour, values) in &panel.bands {
+                let upper: Vec<f64> = lower.iter().zip(values).map(|(l, v)| l + v).collect();
+                let outline: Vec<(f64, f64)> = x
+                    .iter()
+                    .zip(&upper)
+                    .map(|(&a, &b)| (a, b))
+                    .chain(x.iter().zip(&lower).rev().map(|(&a, &b)| (a, b)))
+                    .collect();
+                let c = *colour;
+                chart
+                    .draw_series(std::iter::once(Polygon::new(outline, c.mix(0.85).filled())))
+                    .map_err(|e| err(e.to_string()))?
+                    .label(name.as_str())
+                    .legend(move |(x, y)| {
+                        Rectangle::new([(x, y - 6), (x + 16, y + 6)], c.filled())
+                    });
+                lower = upper;
+            }
+            legend(&mut chart, SeriesLabelPosition::UpperRight, 14).map_err(&err)?;
+        }
+        root.present().map_err(|e| err(e.to_string()))
+    })
+}
+
+/// Log-log axes over f64.
+type LogLog = Cartesian2d<LogCoord<f64>, LogCoord<f64>>;
+
+/// A white canvas with a captioned chart on log-log axes over `x` and `y`, axes labelled
+/// `desc` (x, y) and ticks in 1e-n notation: the frame of the uncertainty and
+/// work-precision plots. `err` names the file in errors (`plot_err`).
+fn log_log_chart<'a, DB: DrawingBackend + 'a>(
+    err: &impl Fn(String) -> Error,
+    root: &'a DrawingArea<DB, plotters::coord::Shift>,
+    title: &str,
+    x: std::ops::Range<f64>,
+    y: std::ops::Range<f64>,
+    desc: (&str, &str),
+) -> Result<ChartContext<'a, DB, LogLog>> {
+    root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
+    let mut chart = ChartBuilder::on(root)
+        .caption(title, ("sans-serif", 20))
+        .margin(14)
+        .x_label_area_size(50)
+        .y_label_area_size(80)
+        .build_cartesian_2d(x.log_scale(), y.log_scale())
+        .map_err(|e| err(e.to_string()))?;
+    chart
+        .configure_mesh()
+        .x_desc(desc.0)
+        .y_desc(desc.1)
+        .label_style(("sans-serif", 15))
+        .axis_desc_style(("sans-serif", 17))
+        .x_label_formatter(&|v| format!("{v:.0e}"))
+        .y_label_formatter(&|v| format!("{v:.0e}"))
+        .draw()
+        .map_err(|e| err(e.to_string()))?;
+    Ok(chart)
+}
+
+/// The uncertain fraction f(eps) against eps (a fraction of the box side), log-log: the
+/// grid estimate and the re-integration estimate as points, each with its fitted slope
+/// drawn through the mean of its fitted points (where a least-squares line passes).
+pub fn uncertainty(
+    path: &Path,
+    title: &str,
+    grid: &[(f64, f64)],
+    grid_alpha: Option<f64>,
+    reint: &[(f64, f64)],
+    reint_alpha: Option<f64>,
+) -> Result<()> {
+    register_font();
+    let err = plot_err(path);
+    let all: Vec<(f64, f64)> = grid
+        .iter()
+        .chain(reint)
+        .copied()
+        .filter(|p| p.0 > 0.0 && p.1 > 0.0)
+        .collect();
+    let (x0, x1) = all
+        .iter()
+        .fold((1e-7f64, 1.0f64), |(a, b), p| (a.min(p.0), b.max(p.0)));
+    let (y0, y1) = all
+        .iter()
+        .fold((1e-4f64, 1.0f64), |(a, b), p| (a.min(p.1), b.max(p.1)));
+    crate::plot::render_png(path, (1100, 800), |root| {
+        let mut chart = log_log_chart(
+            &err,
+            &root,
+            title,
+            x0 * 0.5..x1 * 2.0,
+            y0 * 0.5..y1 * 2.0,
+            (
+                "eps (fraction of the box side)",
+                "uncertain fraction f(eps)",
+            ),
+        )?;
+        for (k, (pts, alpha, name)) in [
+            (grid, grid_alpha, "labelled grid"),
+            (reint, reint_alpha, "re-integration (Grebogi et al. 1983)"),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let c = PALETTE[k];
+            let used: Vec<(f64, f64)> = pts.iter().copied().filter(|p| p.1 > 0.0).collect();
+            if used.is_empty() {
+                continue;
+            }
+            let label = match alpha {
+                Some(a) => format!("{name}: alpha = {a:.3}"),
+                None => format!("{name}: not fitted"),
+            };
+            chart
+                .draw_series(used.iter().map(|&p| Circle::new(p, 5, c.filled())))
+                .map_err(|e| err(e.to_string()))?
+                .label(label)
+                .legend(move |(x, y)| Circle::new((x + 9, y), 5, c.filled()));
+            if let Some(a) = alpha {
+                let n = used.len() as f64;
+                let mx = used.iter().map(|p| p.0.ln()).sum::<f64>() / n;
+                let my = used.iter().map(|p| p.1.ln()).sum::<f64>() / n;
+                let (lo, hi) = used.iter().fold((f64::INFINITY, 0.0f64), |(l, h), p| {
+                    (l.min(p.0), h.max(p.0))
+                });
+                let line = [lo, hi].map(|x| (x, (my + a * (x.ln() - mx)).exp()));
+                chart
+                    .draw_series(std::iter::once(PathElement::new(
+                        line.to_vec(),
+                        c.stroke_width(2),
+                    )))
+                    .map_err(|e| err(e.to_string()))?;
+            }
+        }
+        legend(&mut chart, SeriesLabelPosition::LowerRight, 15).map_err(&err)?;
+        root.present().map_err(|e| err(e.to_string()))
+    })
+}
+
+/// One series of a work-precision diagram: legend, colour, dashed, and its points of
+/// (lane-periods per second, error [m]).
+pub type WorkPrecisionSeries = (String, RGBColor, bool, Vec<(f64, f64)>);
+
+/// A work-precision diagram (SciML style): a line through each series' points, log-log,
+/// with a horizontal line at `target` [m].
+pub fn work_precision(
+    path: &Path,
+    title: &str,
+    series: &[WorkPrecisionSeries],
+    target: f64,
+) -> Result<()> {
+    register_font();
+    let err = plot_err(path);
+    let pts: Vec<(f64, f64)> = series
+        .iter()
+        .flat_map(|s| s.3.iter().copied())
+        .filter(|p| p.0 > 0.0 && p.1 > 0.0)
+        .collect();
+    let (x0, x1) = pts.iter().fold((f64::INFINITY, 0.0f64), |(a, b), p| {
+        (a.min(p.0), b.max(p.0))
+    });
+    let (y0, y1) = pts
+        .iter()
+        .fold((target, target), |(a, b), p| (a.min(p.1), b.max(p.1)));
+    crate::plot::render_png(path, (1200, 850), |root| {
+        let mut chart = log_log_chart(
+            &err,
+            &root,
+            title,
+            x0 * 0.7..x1 * 1.4,
+            y0 * 0.3..y1 * 3.0,
+            (
+                "throughput [lane-periods per second] (higher is better)",
+                "position error after 200 periods [m] (lower is better)",
+            ),
+        )?;
+        chart
+            .draw_series(std::iter::once(PathElement::new(
+                vec![(x0 * 0.7, target), (x1 * 1.4, target)],
+                RGBColor(150, 150, 150).stroke_width(1),
+            )))
+            .map_err(|e| err(e.to_string()))?;
+        for (name, c, dashed, p) in series {
+            let c = *c;
+            let style = if *dashed {
+                c.mix(0.6).stroke_width(2)
+            } else {
+                c.stroke_width(3)
+            };
+            chart
+                .draw_series(LineSeries::new(p.iter().copied(), style))
+                .map_err(|e| err(e.to_string()))?
+                .label(name.as_str())
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], c));
+            chart
+                .draw_series(p.iter().map(|&q| Circle::new(q, 4, c.filled())))
+                .map_err(|e| err(e.to_string()))?;
+        }
+        legend(&mut chart, SeriesLabelPosition::LowerLeft, 15).map_err(&err)?;
+        root.present().map_err(|e| err(e.to_string()))
+    })
+}
