@@ -406,7 +406,7 @@ fn basin_lambda1_map_is_finite_and_the_catalogue_says_chaotic_at_140() {
         precision: Precision::F64,
         backend: Backend::Cpu,
         catalogue: CatalogueConfig::default(),
-        chunk: Some(4),
+        lanes_per_unit: Some(4),
         lyapunov: true,
     };
     let r = basin(&spec, jeffcott_core::control::Control::none()).unwrap();

@@ -42,7 +42,7 @@ fn basin_labels_are_identical_on_cpu_and_gpu_f64() {
         precision: Precision::F64,
         backend: Backend::Cpu,
         catalogue: Default::default(),
-        chunk: Some(7),
+        lanes_per_unit: Some(7),
         lyapunov: true,
     };
     let cpu = basin(&spec, jeffcott_core::control::Control::none()).unwrap();

@@ -706,7 +706,7 @@ fn basin_labels_do_not_depend_on_the_unit_size() {
         precision: Precision::F64,
         backend: Backend::Cpu,
         catalogue: Default::default(),
-        chunk: Some(80),
+        lanes_per_unit: Some(80),
         lyapunov: false,
     };
     let one = basin(&spec, jeffcott_core::control::Control::none()).unwrap();
@@ -716,7 +716,7 @@ fn basin_labels_do_not_depend_on_the_unit_size() {
         "two or more periodic attractors at W = 133: {periods:?}"
     );
     for unit in [1, 7, 13] {
-        spec.chunk = Some(unit);
+        spec.lanes_per_unit = Some(unit);
         let cut = basin(&spec, jeffcott_core::control::Control::none()).unwrap();
         assert_eq!(cut.labels, one.labels, "units of {unit} lanes");
         for (a, b) in cut

@@ -127,7 +127,7 @@ impl BasinArgs {
             precision,
             backend: self.lane.backend,
             catalogue: self.catalogue.config(precision)?,
-            chunk: self.chunk,
+            lanes_per_unit: self.chunk,
             lyapunov: self.lyapunov,
         })
     }

@@ -98,7 +98,7 @@ impl MapArgs {
             backend: self.lane.backend,
             catalogue: self.catalogue.config(precision)?,
             lyapunov: !self.no_lyapunov,
-            chunk: self.chunk,
+            cells_per_unit: self.chunk,
         };
         spec.validate()?;
         Ok(spec)

@@ -226,7 +226,7 @@ pub struct MapSpec {
     /// Compute lambda_1 of every lane.
     pub lyapunov: bool,
     /// Cells per work unit (`None`: [`crate::run::unit_lanes`] in cells).
-    pub chunk: Option<usize>,
+    pub cells_per_unit: Option<usize>,
 }
 
 /// Start states per cell at most.
@@ -276,7 +276,7 @@ impl MapSpec {
         }
         jeffcott_core::limits::check_periods("transient", self.transient, 0)?;
         jeffcott_core::limits::check_periods("periods", self.recorded, 2)?;
-        if self.chunk == Some(0) {
+        if self.cells_per_unit == Some(0) {
             return Err(Error::invalid("chunk", 0, "must be >= 1 cell"));
         }
         // Every cell's parameters lie between those of the corners (each axis is
@@ -369,7 +369,7 @@ impl MapSpec {
             * (self.transient + self.recorded) as u64
             * self.stepper.steps_per_period as u64
             * if self.lyapunov { 2 } else { 1 };
-        self.chunk
+        self.cells_per_unit
             .unwrap_or_else(|| crate::run::unit_lanes(self.cells(), per_cell))
     }
 

@@ -86,7 +86,7 @@ pub(crate) fn basin<'py>(
         precision,
         backend,
         catalogue: CatalogueConfig::for_precision(precision),
-        chunk: None,
+        lanes_per_unit: None,
         lyapunov,
     };
     let study = BasinStudy {

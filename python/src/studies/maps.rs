@@ -66,7 +66,7 @@ pub(crate) fn map<'py>(
         backend,
         catalogue: CatalogueConfig::for_precision(precision),
         lyapunov,
-        chunk: None,
+        cells_per_unit: None,
     };
     spec.validate().map_err(run::to_py_err)?;
     let res = run::detached(py, progress.as_ref().map(|c| &c.0), |ctl| {

@@ -65,7 +65,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     let dir = a.out.as_path();
     // One run directory for the whole figure set; each study keeps its units under its
     // own prefix, so an interrupted reproduce resumes where it stopped.
-    let rd = super::rundir::open(
+    let run_dir = super::rundir::open(
         dir,
         "reproduce",
         &RunSpec {
@@ -77,10 +77,10 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         a.quiet,
     )?;
     let mut c = Ctx {
-        a,
+        args: a,
         spec: &spec,
         dir,
-        rd: &rd,
+        run_dir: &run_dir,
         mode: format!("--{}", preset.name),
         backend: format!("{:?}", a.backend).to_lowercase(),
         rep: Report {
@@ -99,7 +99,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     // REPORT.md.
     say(a, &format!("[{STEPS}/{STEPS}] REPORT.md"));
     rep.write(dir, &spec, &result, mode, backend)?;
-    rd.finish(
+    run_dir.finish(
         &super::rundir::WallTime {
             wall_time_s: rep.started.elapsed().as_secs_f64(),
         },
@@ -128,10 +128,10 @@ struct RunSpec {
 /// report being written. Each section draws its figures, writes its studies' files into
 /// a sub-folder as the study's own command would, and adds its text.
 struct Ctx<'a> {
-    a: &'a ReproduceArgs,
+    args: &'a ReproduceArgs,
     spec: &'a ReproduceSpec,
     dir: &'a Path,
-    rd: &'a jeffcott_analysis::run::RunDir,
+    run_dir: &'a jeffcott_analysis::run::RunDir,
     mode: String,
     backend: String,
     rep: Report,
@@ -139,7 +139,7 @@ struct Ctx<'a> {
 
 impl jeffcott_analysis::run::Host for Ctx<'_> {
     fn store(&self) -> &dyn jeffcott_analysis::run::UnitStore {
-        self.rd
+        self.run_dir
     }
 
     fn progress<T>(
@@ -149,13 +149,13 @@ impl jeffcott_analysis::run::Host for Ctx<'_> {
         per_lane: u64,
         work: impl FnOnce(jeffcott_core::control::Control) -> Result<T>,
     ) -> Result<T> {
-        super::rundir::progress(label, total, per_lane, self.a.quiet, work)
+        super::rundir::progress(label, total, per_lane, self.args.quiet, work)
     }
 }
 
 impl Host for Ctx<'_> {
     fn begin(&mut self, step: usize, what: &str) {
-        say(self.a, &format!("[{step}/{STEPS}] {what}"));
+        say(self.args, &format!("[{step}/{STEPS}] {what}"));
     }
 
     fn section(&mut self, section: Section<'_>) -> Result<()> {
@@ -189,7 +189,7 @@ impl Host for Ctx<'_> {
                     seconds,
                 },
             ),
-            Section::Section {
+            Section::PoincareSection {
                 index,
                 omega,
                 res,

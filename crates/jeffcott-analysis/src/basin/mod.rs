@@ -178,7 +178,7 @@ pub struct BasinSpec {
     /// Classification tolerances.
     pub catalogue: CatalogueConfig,
     /// Lanes per work unit (`None`: [`crate::run::unit_lanes`]).
-    pub chunk: Option<usize>,
+    pub lanes_per_unit: Option<usize>,
     /// Compute the largest Lyapunov exponent of every cell.
     pub lyapunov: bool,
 }
@@ -215,7 +215,7 @@ impl BasinSpec {
                 "fixed coordinates must be finite",
             ));
         }
-        if self.chunk == Some(0) {
+        if self.lanes_per_unit == Some(0) {
             return Err(Error::invalid("chunk", 0, "must be >= 1 lane"));
         }
         Ok(())
@@ -256,7 +256,7 @@ impl BasinSpec {
         let per_lane = (self.transient + self.recorded) as u64
             * self.stepper.steps_per_period as u64
             * if self.lyapunov { 2 } else { 1 };
-        self.chunk
+        self.lanes_per_unit
             .unwrap_or_else(|| crate::run::unit_lanes(self.x.n * self.y.n, per_lane))
     }
 

@@ -228,7 +228,9 @@ mod tests {
                     assert!(refined.is_some());
                     format!("basin {:?} {class:?}", res.labels)
                 }
-                Section::Section { omega, class, .. } => format!("section {omega} {class:?}"),
+                Section::PoincareSection { omega, class, .. } => {
+                    format!("section {omega} {class:?}")
+                }
                 Section::DesignChart { res, findings, .. } => {
                     assert!(findings.rubbing <= res.class.len());
                     format!("design {:?}", res.class)

@@ -78,7 +78,7 @@ pub enum Section<'a> {
         seconds: f64,
     },
     /// Figs. 9-12: the section from the static equilibrium at 135 or 140 rad/s.
-    Section {
+    PoincareSection {
         /// Index in [`ARTICLE_SPEEDS`].
         index: usize,
         /// Rotor speed [rad/s].
@@ -253,7 +253,7 @@ pub fn reproduce<H: Host>(spec: &ReproduceSpec, host: &mut H) -> Result<Reproduc
         let res = simulate(&spec.section(omega))?;
         let class = survey.refine(res.classification.class, omega, lambda_tol);
         static_class.push((omega, class));
-        host.section(Section::Section {
+        host.section(Section::PoincareSection {
             index,
             omega,
             res: &res,

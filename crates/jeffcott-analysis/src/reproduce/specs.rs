@@ -130,7 +130,7 @@ impl ReproduceSpec {
             precision: self.precision,
             backend: self.backend,
             catalogue: self.catalogue,
-            chunk: None,
+            lanes_per_unit: None,
             lyapunov: false,
         }
     }
@@ -237,7 +237,7 @@ impl ReproduceSpec {
             backend: self.backend,
             catalogue: self.catalogue,
             lyapunov,
-            chunk: None,
+            cells_per_unit: None,
         }
     }
 
