@@ -11,6 +11,10 @@
 #                                            manifest says so)
 #   scripts/golden.sh compare A B            compare two manifests (or their folders);
 #                                            exit 1 and list the files that differ
+#   scripts/golden.sh selftest BIN [PYTHON]  run the set twice with BIN and compare: the
+#                                            set runs and its manifest is deterministic
+#                                            (the README's test command runs this, so
+#                                            the script cannot rot)
 #
 # What varies from run to run is masked before hashing, and nothing else: in JSON files
 # the keys that hold wall times, dates, versions, hosts and adapters, in Markdown the
@@ -134,8 +138,17 @@ case "${1:-}" in
       exit 1
     fi
     ;;
+  selftest)
+    [ $# -ge 2 ] || { echo "usage: $0 selftest BIN [PYTHON]" >&2; exit 2; }
+    tmp=$(mktemp -d)
+    trap 'rm -rf "$tmp"' EXIT
+    run_set "$2" "$tmp/a" "${3:-}" >/dev/null
+    run_set "$2" "$tmp/b" "${3:-}" >/dev/null
+    # The two runs' folders differ by name: compare the manifests' hashes and paths.
+    "$0" compare "$tmp/a/MANIFEST" "$tmp/b/MANIFEST"
+    ;;
   *)
-    sed -n '2,24p' "$0" >&2
+    sed -n '2,28p' "$0" >&2
     exit 2
     ;;
 esac

@@ -2,7 +2,9 @@
 # Runs jeffcott's test suite in release mode (the physics tests integrate many periods),
 # then the Python package's (scripts/python-test.sh: builds the wheel with maturin in a
 # virtual environment python/.venv, installing maturin, numpy, pytest and matplotlib
-# there when absent, and runs pytest and the example), then the real-Slurm test of the
+# there when absent, and runs pytest and the example), then the refactoring check's
+# self-test (scripts/golden.sh selftest: its command set runs twice to identical
+# outputs), then the real-Slurm test of the
 # cluster recipe (scripts/slurm-test.sh: a single-node
 # Slurm started by hand, a 4-task array job and its merge; it needs root and installs
 # slurm-wlm when absent; JEFFCOTT_REQUIRE_SLURM=1 makes a Slurm that cannot start fail
@@ -28,4 +30,7 @@ fi
 
 cargo test --release "$@"
 bash scripts/python-test.sh target/release/jeffcott
+# The refactoring check (scripts/golden.sh: a fixed command set, every study and every
+# Python function, hashed) runs, and two runs give identical outputs.
+bash scripts/golden.sh selftest target/release/jeffcott python/.venv/bin/python
 bash scripts/slurm-test.sh target/release/jeffcott
