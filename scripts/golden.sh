@@ -91,6 +91,7 @@ run_set() {
   step simulate-article "$bin" simulate --omega 135 --transient 20 --periods 8 --integrator article --spectrum-periods 12 --quiet --out "$out/simulate-article"
   step ensemble "$bin" ensemble --omega 130:141:12 --transient 40 --periods 8 --lyapunov "${j[@]}" --out "$out/ensemble"
   step bifurcation "$bin" bifurcation --omega 131:135:6 --ics 2 --transient 20 --transient-first 40 --brute-transient 40 --periods 12 --portraits 133 "${j[@]}" --out "$out/bifurcation"
+  step bifurcation-sweeps "$bin" bifurcation --omega 131:135:6 --ics 0 --transient 20 --transient-first 40 --periods 12 --portraits 131,133 "${j[@]}" --out "$out/bifurcation-sweeps"
   step basin "$bin" basin --omega 133 --x x_r:-0.006:0.006:10 --y vx_r:-1:1:9 --transient 120 --periods 16 --refine 1 --uncertainty-samples 6 --highlight-boundary "${j[@]}" --out "$out/basin"
   step basin-lyapunov "$bin" basin --omega 137.25 --x x_r:-0.004:0.004:6 --y vx_r:-0.5:0.5:5 --fix y_r=0.0005 --transient 80 --periods 16 --lyapunov --param mu=0.12 "${j[@]}" --out "$out/basin-lyapunov"
   local shards=()

@@ -3,6 +3,7 @@
 
 use crate::plot::{DotSeries, Lambda1Series, bifurcation_diagram};
 use clap::Args;
+use jeffcott_analysis::bifurcation::portrait::{Portrait, PortraitSource, portrait};
 use jeffcott_analysis::bifurcation::{BifurcationResult, BifurcationSpec, Sweep, SweepPoint};
 use jeffcott_analysis::catalogue::CatalogueConfig;
 use jeffcott_analysis::classify::{Class, ClassifyConfig};
@@ -268,10 +269,15 @@ pub fn run_bifurcation(a: &BifurcationArgs) -> Result<()> {
         Err(Error::NotInShard) => return super::rundir::finish_shard(&run_dir, a.quiet),
         r => r?,
     };
+    let portraits = a
+        .portraits
+        .iter()
+        .map(|&w| portrait(&spec, &res, w))
+        .collect::<Result<Vec<_>>>()?;
     write_bifurcation(&a.out, &spec, &res, &coords, !a.no_plot)?;
     let mut outputs = super::rundir::written(&run_dir, OUTPUTS);
-    for &w in &a.portraits {
-        if let Some(f) = write_portraits(&a.out, &spec, &res, w)? {
+    for p in &portraits {
+        if let Some(f) = write_portrait(&a.out, &res, p)? {
             outputs.push(f);
         }
     }
@@ -334,75 +340,41 @@ pub fn check_portrait_speed(omegas: &[f64], w: f64) -> Result<()> {
     }
 }
 
-/// Draws `attractors_W.png` at the grid speed nearest `w`: the brute-force catalogue's
-/// attractors, or the sweeps' final cycles when there was no brute force. Returns the
-/// file's name when one was drawn.
-pub fn write_portraits(
+/// Draws a portrait computed by [`portrait`] (`attractors_W.png`): the brute force's
+/// attractors with their legend, or the sweeps' final cycles; returns the file's name
+/// when there was anything to draw. Computes nothing.
+pub fn write_portrait(
     dir: &std::path::Path,
-    spec: &BifurcationSpec,
     res: &BifurcationResult,
-    w: f64,
+    p: &Portrait,
 ) -> Result<Option<String>> {
-    if !w.is_finite() {
-        return Err(Error::invalid("portraits", w, "must be a finite speed"));
-    }
-    let wi = (0..spec.omegas.len())
-        .min_by(|&a, &b| {
-            (spec.omegas[a] - w)
-                .abs()
-                .total_cmp(&(spec.omegas[b] - w).abs())
-        })
-        .unwrap_or(0);
-    let omega = spec.omegas[wi];
-    let traces = match res.brute.get(wi) {
-        Some(b) => {
-            let attractors = &b.catalogue.attractors;
-            let t = jeffcott_analysis::simulate::attractor_traces(
-                &spec.params,
-                omega,
-                attractors,
-                jeffcott_analysis::defaults::basin::TRACES,
-            )?;
-            super::basin::plot_traces(&t, attractors)
+    let traces = match p.source {
+        PortraitSource::Brute => {
+            super::basin::plot_traces(&p.traces, &res.brute[p.index].catalogue.attractors)
         }
-        None => {
-            let mut t = Vec::new();
-            for (k, (name, sw)) in [("up sweep", &res.up), ("down sweep", &res.down)]
-                .into_iter()
-                .enumerate()
-            {
-                let Some(p) = sw.get(wi).filter(|p| !p.status.is_frozen()) else {
-                    continue;
+        PortraitSource::Sweeps => p
+            .traces
+            .iter()
+            .map(|t| {
+                let (name, sweep) = if t.id == 0 {
+                    ("up sweep", &res.up)
+                } else {
+                    ("down sweep", &res.down)
                 };
-                let r = jeffcott_analysis::simulate::simulate(
-                    &jeffcott_analysis::simulate::SimulateSpec {
-                        params: spec.params.clone(),
-                        omega,
-                        x0: p.points[p.points.len() - 1],
-                        transient: 0,
-                        periods: p.class.class.period().unwrap_or(12).clamp(1, 32) as u32,
-                        timeseries_periods: p.class.class.period().unwrap_or(12).clamp(1, 32)
-                            as u32,
-                        integrator: jeffcott_analysis::simulate::Integrator::Lane,
-                        stepper: spec.stepper,
-                        article: Default::default(),
-                        classify: spec.catalogue.classify,
-                    },
-                )?;
-                t.push(crate::plot::AttractorTrace {
-                    name: format!("{name}: {}", p.class.class.label()),
-                    color: crate::plot::attractor_color(k as i32),
-                    timeseries: r.timeseries,
-                    poincare: p.points.clone(),
-                });
-            }
-            t
-        }
+                crate::plot::AttractorTrace {
+                    name: format!("{name}: {}", sweep[p.index].class.class.label()),
+                    color: crate::plot::attractor_color(t.id as i32),
+                    timeseries: t.timeseries.clone(),
+                    poincare: t.poincare.clone(),
+                }
+            })
+            .collect(),
     };
     if traces.is_empty() {
         return Ok(None);
     }
     output::ensure_dir(dir)?;
+    let omega = p.omega;
     let name = format!("attractors_{omega:.4}.png");
     crate::plot::coexisting_attractors(
         &dir.join(&name),

@@ -20,6 +20,7 @@
 //! [`advance_period_tangent`]: jeffcott_core::integrate::lane::advance_period_tangent
 
 mod brute;
+pub mod portrait;
 mod record;
 mod sweeps;
 
