@@ -54,25 +54,6 @@ pub fn merging(stages: Option<Vec<String>>) {
     }
 }
 
-/// Runs a study with a progress bar `name` over `total` lane-periods (`per_lane` each), on
-/// an engine for `backend` and `precision`, with the command's cancel flag: the frame
-/// of the commands whose study has one stage.
-pub fn with_bar<T>(
-    name: &str,
-    total: u64,
-    per_lane: u64,
-    quiet: bool,
-    backend: jeffcott_core::ensemble::Backend,
-    precision: jeffcott_core::ensemble::Precision,
-    study: impl FnOnce(
-        &jeffcott_analysis::backend::Engine,
-        jeffcott_analysis::run::lanes::Control,
-    ) -> Result<T>,
-) -> Result<T> {
-    let engine = jeffcott_analysis::backend::Engine::new(backend, precision)?;
-    progress(name, total, per_lane, quiet, |ctl| study(&engine, ctl))
-}
-
 /// Runs `work` under a progress bar `name` over `total` lane-periods (`per_lane` each)
 /// and the command's cancel flag.
 pub fn progress<T>(

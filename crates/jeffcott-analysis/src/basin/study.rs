@@ -9,7 +9,6 @@
 
 use super::{BasinResult, BasinSpec, STAGE, basin_with};
 use crate::backend::Engine;
-use crate::catalogue::Attractor;
 use crate::measures::{BasinMetrics, MetricsRecord};
 use crate::refine::Refined;
 use crate::rub::{AttractorWithRub, RubEntry};
@@ -97,11 +96,6 @@ impl BasinOutcome {
     /// estimate when computed.
     pub fn metrics_record(&self) -> MetricsRecord<'_> {
         MetricsRecord::new(&self.metrics, self.reintegration.as_ref())
-    }
-
-    /// The attractor with catalogue id `id`.
-    pub fn attractor(&self, id: u32) -> Option<&Attractor> {
-        self.result.catalogue.attractors.iter().find(|a| a.id == id)
     }
 }
 

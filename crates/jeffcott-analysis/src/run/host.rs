@@ -58,12 +58,12 @@ impl Host for MemoryHost<'_> {
 
 /// Another host seen with its store under a stage prefix ([`Prefixed`]): the studies
 /// of a composite run keep their units apart in one directory.
-pub struct PrefixedHost<'a, H: Host + ?Sized> {
+pub struct PrefixedHost<'a, H: Host> {
     host: &'a H,
     store: Prefixed<'a>,
 }
 
-impl<'a, H: Host + ?Sized> PrefixedHost<'a, H> {
+impl<'a, H: Host> PrefixedHost<'a, H> {
     /// `host` with its store seen under `prefix`.
     pub fn new(host: &'a H, prefix: &'a str) -> Self {
         PrefixedHost {
@@ -76,7 +76,7 @@ impl<'a, H: Host + ?Sized> PrefixedHost<'a, H> {
     }
 }
 
-impl<H: Host + ?Sized> Host for PrefixedHost<'_, H> {
+impl<H: Host> Host for PrefixedHost<'_, H> {
     fn store(&self) -> &dyn UnitStore {
         &self.store
     }
