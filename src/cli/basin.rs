@@ -180,11 +180,7 @@ struct RunResult<'a> {
 /// Runs `jeffcott basin`: the study's units committed to --out, then its files.
 pub fn run_basin(a: &BasinArgs) -> Result<()> {
     let study = a.study()?;
-    let run_spec = RunSpec {
-        spec: study.basin.record(),
-        refine: study.refine,
-        uncertainty_samples: study.uncertainty_samples,
-    };
+    let run_spec = study.resolved();
     let frame = rundir::StudyRun {
         command: "basin",
         out: &a.out,
@@ -313,16 +309,6 @@ fn boundary_picture(path: &Path, spec: &BasinSpec, res: &BasinResult) -> Result<
             }
         },
     )
-}
-
-/// A basin's specification as `run.json` records it: the study's, and the refinement
-/// and re-integration asked for.
-#[derive(Serialize)]
-struct RunSpec<'a> {
-    #[serde(flatten)]
-    spec: jeffcott_analysis::basin::SpecRecord<'a>,
-    refine: u32,
-    uncertainty_samples: usize,
 }
 
 /// What `run.json` records of a refinement: its levels, the finest grid, the lanes it
@@ -511,8 +497,8 @@ fn write_basin(dir: &Path, o: &BasinOutcome, plot_it: bool) -> Result<String> {
     let json = Documented::new(
         AttractorsFile {
             omega: spec.omega,
-            x: spec.x.record(),
-            y: spec.y.record(),
+            x: spec.x,
+            y: spec.y,
             fixed,
             transient: spec.transient,
             periods: spec.recorded,
@@ -571,8 +557,8 @@ fn write_basin(dir: &Path, o: &BasinOutcome, plot_it: bool) -> Result<String> {
 #[derive(Serialize)]
 struct AttractorsFile<'a> {
     omega: f64,
-    x: jeffcott_analysis::basin::AxisRecord,
-    y: jeffcott_analysis::basin::AxisRecord,
+    x: jeffcott_analysis::basin::Axis,
+    y: jeffcott_analysis::basin::Axis,
     /// The start coordinates the grid does not vary, by name.
     fixed: std::collections::BTreeMap<&'static str, f64>,
     transient: u32,

@@ -255,15 +255,8 @@ pub fn run_bifurcation(a: &BifurcationArgs) -> Result<()> {
             "only the brute force is sharded: give --ics >= 1",
         ));
     }
-    let run_dir = super::rundir::open_shard(
-        &a.out,
-        "bifurcation",
-        &spec.record(),
-        OUTPUTS,
-        a.run,
-        shard,
-        a.quiet,
-    )?;
+    let run_dir =
+        super::rundir::open_shard(&a.out, "bifurcation", &spec, OUTPUTS, a.run, shard, a.quiet)?;
     let host = super::rundir::CommandHost::new(&run_dir, a.quiet);
     let res = match jeffcott_analysis::bifurcation::run(&spec, &host) {
         Err(Error::NotInShard) => return super::rundir::finish_shard(&run_dir, a.quiet),

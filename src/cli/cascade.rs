@@ -92,7 +92,7 @@ impl CascadeArgs {
 /// Runs `jeffcott cascade`.
 pub fn run_cascade(a: &CascadeArgs) -> Result<()> {
     let spec = a.spec()?;
-    let run_dir = rundir::open(&a.out, "cascade", &spec.record(), OUTPUTS, a.run, a.quiet)?;
+    let run_dir = rundir::open(&a.out, "cascade", &spec, OUTPUTS, a.run, a.quiet)?;
     let t = std::time::Instant::now();
     let res = jeffcott_analysis::cascade::run(&spec, &rundir::CommandHost::new(&run_dir, a.quiet))?;
     write_cascade(&a.out, &spec, &res, !a.no_plot, a.csv)?;

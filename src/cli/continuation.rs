@@ -119,6 +119,7 @@ impl ContinuationArgs {
                 DirectionArg::Both => vec![Direction::Up, Direction::Down],
             },
             match_threshold: self.match_threshold.unwrap_or(f64::INFINITY),
+            values_per_unit: None,
         };
         if spec.param.n < 2 {
             return Err(Error::invalid(
@@ -164,7 +165,7 @@ pub fn run_continuation(a: &ContinuationArgs) -> Result<()> {
         quiet: a.quiet,
     };
     let Some((run_dir, res)) =
-        frame.run(&spec.record(), spec.backend, spec.precision, |e, h| {
+        frame.run(&spec.resolved(), spec.backend, spec.precision, |e, h| {
             jeffcott_analysis::continuation::run(&spec, e, h)
         })?
     else {

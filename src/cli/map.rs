@@ -135,7 +135,7 @@ pub fn run_map(a: &MapArgs) -> Result<()> {
         quiet: a.quiet,
     };
     let Some((run_dir, res)) =
-        frame.run(&spec.record(), spec.backend, spec.precision, |e, h| {
+        frame.run(&spec.resolved(), spec.backend, spec.precision, |e, h| {
             jeffcott_analysis::map::run(&spec, e, h)
         })?
     else {

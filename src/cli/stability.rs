@@ -113,7 +113,7 @@ pub fn run_stability(a: &StabilityArgs) -> Result<()> {
         quiet: a.quiet,
     };
     let Some((run_dir, res)) =
-        frame.run(&spec.record(), spec.backend, spec.precision, |e, h| {
+        frame.run(&spec.resolved(), spec.backend, spec.precision, |e, h| {
             jeffcott_analysis::continuation::run(&spec, e, h)
         })?
     else {

@@ -16,14 +16,16 @@ use jeffcott_core::control::Control;
 use jeffcott_core::error::{Error, Result};
 use jeffcott_core::integrate::lane::StepperConfig;
 use jeffcott_core::model::{Params, STATE_DIM, State};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
-/// What a cascade computes.
-#[derive(Clone, Debug)]
+/// What a cascade computes; `run.json` records it as it serializes, and it reads back
+/// from there.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct CascadeSpec {
     /// Model parameters.
     pub params: Params,
     /// The speeds, ascending [rad/s].
+    #[serde(rename = "omega", with = "crate::record::speeds")]
     pub omegas: Vec<f64>,
     /// Forcing periods integrated at the first speed from the static equilibrium.
     pub transient_first: u32,
@@ -155,44 +157,6 @@ impl CascadeSpec {
             "ask for fewer speeds (a smaller n in a:b:n), fewer periods or a smaller max order",
         )
     }
-
-    /// The specification as `run.json` records it.
-    pub fn record(&self) -> SpecRecord<'_> {
-        SpecRecord {
-            omega: Span::of(&self.omegas),
-            transient_first: self.transient_first,
-            transient: self.transient,
-            periods: self.periods,
-            max_order: self.max_order,
-            stepper: self.stepper,
-            up: self.up,
-            down: self.down,
-            params: &self.params,
-        }
-    }
-}
-
-/// A cascade's specification as `run.json` records it.
-#[derive(Clone, Debug, Serialize)]
-pub struct SpecRecord<'a> {
-    /// The speeds.
-    pub omega: Span,
-    /// Transient at the first speed.
-    pub transient_first: u32,
-    /// Transient at every later speed.
-    pub transient: u32,
-    /// Periods of each spectrum.
-    pub periods: u32,
-    /// Largest order kept.
-    pub max_order: f64,
-    /// Lane stepper settings.
-    pub stepper: StepperConfig,
-    /// Whether the run-up is computed.
-    pub up: bool,
-    /// Whether the run-down is computed.
-    pub down: bool,
-    /// Model parameters.
-    pub params: &'a Params,
 }
 
 /// One sweep's cascade, speeds in sweep order.

@@ -26,7 +26,7 @@ use jeffcott_core::model::{
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-/// What an axis of a map varies.
+/// What an axis of a map varies (the files record it by name).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum MapVar {
     /// The rotor speed W [rad/s].
@@ -88,9 +88,22 @@ impl MapVar {
     }
 }
 
+impl Serialize for MapVar {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        s.serialize_str(self.name())
+    }
+}
+
+impl<'de> Deserialize<'de> for MapVar {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        let name = String::deserialize(d)?;
+        MapVar::parse("var", &name).map_err(serde::de::Error::custom)
+    }
+}
+
 /// One axis of a map: `n` values of a variable from `lo` to `hi` inclusive, evenly
 /// spaced, or geometrically with `log`.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct MapAxis {
     /// What the axis varies.
     pub var: MapVar,
@@ -155,23 +168,15 @@ impl MapAxis {
         (0..self.n).map(|i| self.value(i)).collect()
     }
 
-    /// The axis as `run.json` records it (no unit: it follows from the variable).
-    pub fn spec_record(&self) -> AxisRecord {
+    /// The axis as `map.json` records it, with its unit.
+    pub fn record(&self) -> AxisRecord {
         AxisRecord {
             var: self.var.name(),
-            unit: None,
+            unit: Some(self.var.unit()),
             lo: self.lo,
             hi: self.hi,
             n: self.n,
             log: Some(self.log),
-        }
-    }
-
-    /// The axis as `map.json` records it, with its unit.
-    pub fn record(&self) -> AxisRecord {
-        AxisRecord {
-            unit: Some(self.var.unit()),
-            ..self.spec_record()
         }
     }
 }
@@ -196,8 +201,11 @@ pub struct AxisRecord {
     pub log: Option<bool>,
 }
 
-/// What a map computes.
-#[derive(Clone, Debug)]
+/// What a map computes. It is its own record: `run.json` holds it as
+/// [`MapSpec::resolved`] serializes it (everything the cells depend on and the unit
+/// size, as units of another size do not combine; not the backend), and it reads back
+/// from there.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct MapSpec {
     /// Model parameters of every cell before the axes set theirs.
     pub params: Params,
@@ -214,18 +222,22 @@ pub struct MapSpec {
     /// Forcing periods integrated and discarded.
     pub transient: u32,
     /// Forcing periods recorded per lane.
+    #[serde(rename = "periods")]
     pub recorded: u32,
     /// Lane stepper settings.
     pub stepper: StepperConfig,
     /// Lane precision.
     pub precision: Precision,
-    /// Backend.
+    /// Backend (not recorded).
+    #[serde(skip)]
     pub backend: Backend,
     /// Classification tolerances.
     pub catalogue: CatalogueConfig,
     /// Compute lambda_1 of every lane.
     pub lyapunov: bool,
-    /// Cells per work unit (`None`: [`crate::run::unit_lanes`] in cells).
+    /// Cells per work unit (`None`: [`crate::run::unit_lanes`] in cells; recorded
+    /// resolved).
+    #[serde(rename = "unit_cells")]
     pub cells_per_unit: Option<usize>,
 }
 
@@ -373,22 +385,11 @@ impl MapSpec {
             .unwrap_or_else(|| crate::run::unit_lanes(self.cells(), per_cell))
     }
 
-    /// The specification as `run.json` records it (not the backend).
-    pub fn record(&self) -> SpecRecord<'_> {
-        SpecRecord {
-            omega: self.omega,
-            x: self.x.spec_record(),
-            y: self.y.spec_record(),
-            ics: self.ics,
-            seed: self.seed,
-            transient: self.transient,
-            periods: self.recorded,
-            stepper: self.stepper,
-            precision: self.precision,
-            catalogue: &self.catalogue,
-            lyapunov: self.lyapunov,
-            unit_cells: self.unit_cells(),
-            params: &self.params,
+    /// The specification as `run.json` records it: the unit size resolved.
+    pub fn resolved(&self) -> MapSpec {
+        MapSpec {
+            cells_per_unit: Some(self.unit_cells()),
+            ..self.clone()
         }
     }
 
@@ -697,38 +698,6 @@ pub fn class_name(c: i32) -> String {
         code::UNCLASSIFIED => "unclassified".into(),
         _ => "diverged".into(),
     }
-}
-
-/// A map's specification as `run.json` records it: everything the cells depend on, and
-/// the unit size (units of another size do not combine).
-#[derive(Clone, Debug, Serialize)]
-pub struct SpecRecord<'a> {
-    /// Rotor speed when no axis is `omega` [rad/s].
-    pub omega: Option<f64>,
-    /// Horizontal axis.
-    pub x: AxisRecord,
-    /// Vertical axis.
-    pub y: AxisRecord,
-    /// Start states per cell.
-    pub ics: u32,
-    /// Seed of the start states.
-    pub seed: u64,
-    /// Transient periods.
-    pub transient: u32,
-    /// Recorded periods.
-    pub periods: u32,
-    /// Lane stepper settings.
-    pub stepper: StepperConfig,
-    /// Lane precision.
-    pub precision: Precision,
-    /// Catalogue settings.
-    pub catalogue: &'a CatalogueConfig,
-    /// Whether lambda_1 is computed.
-    pub lyapunov: bool,
-    /// Cells per work unit.
-    pub unit_cells: usize,
-    /// Model parameters.
-    pub params: &'a Params,
 }
 
 /// The metadata of a map unit: its cells' attractors.

@@ -29,6 +29,68 @@ impl Span {
     }
 }
 
+/// A state coordinate held as its index and recorded by its name (`x_r`, `vy_s`, ...):
+/// `#[serde(with = "crate::record::coord_name")]`.
+pub mod coord_name {
+    use jeffcott_core::model::COORD_NAMES;
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    /// Writes the coordinate's name.
+    pub fn serialize<S: Serializer>(c: &usize, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(COORD_NAMES.get(*c).copied().unwrap_or("?"))
+    }
+
+    /// Reads a coordinate name back into its index; an unknown name is an error.
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<usize, D::Error> {
+        let name = String::deserialize(d)?;
+        COORD_NAMES
+            .iter()
+            .position(|n| *n == name)
+            .ok_or_else(|| serde::de::Error::custom(format!("unknown coordinate `{name}`")))
+    }
+}
+
+/// A list of speeds recorded as a [`Span`] when it is the range `a:b:n` makes
+/// ([`jeffcott_core::ensemble::range_value`], bit for bit), else value by value, so the
+/// record always gives the list back: `#[serde(with = "crate::record::speeds")]`.
+pub mod speeds {
+    use super::Span;
+    use jeffcott_core::ensemble::range_value;
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    /// `values` as a span when a range gives them, else as a list.
+    pub fn serialize<S: Serializer>(values: &[f64], s: S) -> Result<S::Ok, S::Error> {
+        let span = Span::of(values);
+        let is_range = !values.is_empty()
+            && values.iter().enumerate().all(|(i, v)| {
+                v.to_bits()
+                    == range_value(span.first, span.last, span.count as u64, i as u64).to_bits()
+            });
+        if is_range {
+            span.serialize(s)
+        } else {
+            values.serialize(s)
+        }
+    }
+
+    #[derive(Deserialize)]
+    #[serde(untagged)]
+    enum Recorded {
+        Span { first: f64, last: f64, count: usize },
+        List(Vec<f64>),
+    }
+
+    /// The list back from a span or a list.
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<f64>, D::Error> {
+        Ok(match Recorded::deserialize(d)? {
+            Recorded::Span { first, last, count } => (0..count as u64)
+                .map(|i| range_value(first, last, count as u64, i))
+                .collect(),
+            Recorded::List(v) => v,
+        })
+    }
+}
+
 /// One side of a box of start states: a coordinate and its interval.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct CoordRange {

@@ -86,6 +86,7 @@ pub fn spec(r: &StabilityRequest) -> Result<ContinuationSpec> {
         lyapunov: r.lyapunov,
         directions: vec![Direction::Up],
         match_threshold: f64::INFINITY,
+        values_per_unit: None,
     };
     spec.validate_as(&FIELDS)?;
     Ok(spec)

@@ -22,7 +22,7 @@ struct BasinRun<'a> {
     device: Option<&'a str>,
     precision: Precision,
     wall_time_s: f64,
-    spec: jeffcott_analysis::basin::SpecRecord<'a>,
+    spec: jeffcott_analysis::basin::BasinSpec,
 }
 
 /// A basin of attraction over two start coordinates at one speed: the command line's
@@ -128,7 +128,7 @@ pub(crate) fn basin<'py>(
         device: res.info.as_ref().map(|i| i.device.as_str()),
         precision: spec.precision,
         wall_time_s: res.seconds,
-        spec: o.coarse.record(),
+        spec: o.coarse.resolved(),
     };
     d.set_item("run", json_to_py(py, &run)?)?;
     Ok(d)

@@ -158,6 +158,7 @@ pub(crate) fn continuation<'py>(
         lyapunov,
         directions,
         match_threshold: match_threshold.unwrap_or(f64::INFINITY),
+        values_per_unit: None,
     };
     spec.validate().map_err(run::to_py_err)?;
     let res = run::detached(py, progress.as_ref().map(|c| &c.0), |ctl| {

@@ -24,7 +24,7 @@ use jeffcott_core::ensemble::{Backend, EnsembleSpec, LaneSpec, Precision, RunInf
 use jeffcott_core::error::{Error, Result};
 use jeffcott_core::integrate::lane::StepperConfig;
 use jeffcott_core::model::{COORD_NAMES, Params, State};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// Splits `NAME:lo:hi:n` into its name, finite bounds and count (the name unchecked);
 /// `option` names the CLI option and `example` shows the form in errors.
@@ -80,10 +80,12 @@ pub fn check_axis(option: &str, lo: f64, hi: f64, n: usize) -> Result<()> {
     Ok(())
 }
 
-/// One axis of the grid: a state coordinate from `lo` to `hi` inclusive in `n` values.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+/// One axis of the grid: a state coordinate from `lo` to `hi` inclusive in `n` values
+/// (the files record the coordinate by name).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Axis {
     /// Index of the state coordinate.
+    #[serde(with = "crate::record::coord_name")]
     pub coord: usize,
     /// First value.
     pub lo: f64,
@@ -152,8 +154,11 @@ pub fn base_state(
     Ok(base)
 }
 
-/// What a basin computes.
-#[derive(Clone, Debug)]
+/// What a basin computes. It is its own record: `run.json` and `basin.json` hold it as
+/// [`BasinSpec::resolved`] serializes it (everything the labels depend on, not the
+/// backend: units computed on any backend may be combined), and it reads back from
+/// there.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct BasinSpec {
     /// Model parameters.
     pub params: Params,
@@ -168,16 +173,20 @@ pub struct BasinSpec {
     /// Forcing periods integrated and discarded.
     pub transient: u32,
     /// Forcing periods recorded per cell (>= 2 n to see period n).
+    #[serde(rename = "periods")]
     pub recorded: u32,
     /// Lane stepper settings.
     pub stepper: StepperConfig,
     /// Lane precision.
     pub precision: Precision,
-    /// Backend.
+    /// Backend (not recorded).
+    #[serde(skip)]
     pub backend: Backend,
     /// Classification tolerances.
     pub catalogue: CatalogueConfig,
-    /// Lanes per work unit (`None`: [`crate::run::unit_lanes`]).
+    /// Lanes per work unit (`None`: [`crate::run::unit_lanes`]; recorded resolved, as
+    /// units of another size do not combine).
+    #[serde(rename = "unit_lanes")]
     pub lanes_per_unit: Option<usize>,
     /// Compute the largest Lyapunov exponent of every cell.
     pub lyapunov: bool,
@@ -260,78 +269,14 @@ impl BasinSpec {
             .unwrap_or_else(|| crate::run::unit_lanes(self.x.n * self.y.n, per_lane))
     }
 
-    /// The specification as `run.json` records it: everything the labels depend on
-    /// (not the backend: units computed on any backend may be combined).
-    pub fn record(&self) -> SpecRecord<'_> {
-        SpecRecord {
-            omega: self.omega,
-            x: self.x.record(),
-            y: self.y.record(),
-            base: self.base,
-            transient: self.transient,
-            periods: self.recorded,
-            stepper: self.stepper,
-            precision: self.precision,
-            catalogue: &self.catalogue,
-            lyapunov: self.lyapunov,
-            unit_lanes: self.unit_lanes(),
-            params: &self.params,
+    /// The specification as the files record it: the unit size resolved
+    /// ([`BasinSpec::unit_lanes`]), so that a resumed or merged run checks it.
+    pub fn resolved(&self) -> BasinSpec {
+        BasinSpec {
+            lanes_per_unit: Some(self.unit_lanes()),
+            ..self.clone()
         }
     }
-}
-
-impl Axis {
-    /// The axis as the files record it.
-    pub fn record(&self) -> AxisRecord {
-        AxisRecord {
-            coord: COORD_NAMES[self.coord],
-            lo: self.lo,
-            hi: self.hi,
-            n: self.n,
-        }
-    }
-}
-
-/// A basin axis as the files record it.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
-pub struct AxisRecord {
-    /// The start coordinate's name.
-    pub coord: &'static str,
-    /// First value.
-    pub lo: f64,
-    /// Last value.
-    pub hi: f64,
-    /// Cells.
-    pub n: usize,
-}
-
-/// A basin's specification as `run.json` records it.
-#[derive(Clone, Debug, Serialize)]
-pub struct SpecRecord<'a> {
-    /// Rotor speed [rad/s].
-    pub omega: f64,
-    /// Horizontal axis.
-    pub x: AxisRecord,
-    /// Vertical axis.
-    pub y: AxisRecord,
-    /// The start state's other coordinates.
-    pub base: State,
-    /// Transient periods.
-    pub transient: u32,
-    /// Recorded periods.
-    pub periods: u32,
-    /// Lane stepper settings.
-    pub stepper: StepperConfig,
-    /// Lane precision.
-    pub precision: Precision,
-    /// Catalogue settings.
-    pub catalogue: &'a CatalogueConfig,
-    /// Whether lambda_1 is computed.
-    pub lyapunov: bool,
-    /// Lanes per work unit.
-    pub unit_lanes: usize,
-    /// Model parameters.
-    pub params: &'a Params,
 }
 
 /// Most cells a basin may have: 1e9 (4 GB of labels, 12 GB with lambda_1; at the

@@ -17,10 +17,14 @@ use crate::simulate::AttractorTrace;
 use crate::uncertainty::Reintegration;
 use jeffcott_core::error::Result;
 
-/// A basin and the stages computed from it.
-#[derive(Clone, Debug)]
+/// A basin and the stages computed from it. `run.json` records it as
+/// [`BasinStudy::resolved`] serializes it: what the units depend on (the grid, the
+/// refinement, the re-integration); the entropy box and the traces are computed from
+/// the units on every run and are not part of a run's identity.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct BasinStudy {
     /// The grid as asked (the coarse grid when refined).
+    #[serde(flatten)]
     pub basin: BasinSpec,
     /// Levels of boundary refinement (0: none; not with lambda_1).
     pub refine: u32,
@@ -29,9 +33,11 @@ pub struct BasinStudy {
     /// Side of the basin entropy's boxes in cells (`None`:
     /// [`crate::measures::DEFAULT_ENTROPY_BOX`], capped by the finest grid's shorter
     /// side).
+    #[serde(skip)]
     pub entropy_box: Option<usize>,
     /// Attractors whose phase traces are computed, the largest basins first (0: none;
     /// the command line asks for 8 when it draws `attractors.png`).
+    #[serde(skip)]
     pub traces: usize,
 }
 
@@ -44,6 +50,14 @@ impl BasinStudy {
             uncertainty_samples: 0,
             entropy_box: None,
             traces: 0,
+        }
+    }
+
+    /// The study as `run.json` records it: the grid's unit size resolved.
+    pub fn resolved(&self) -> BasinStudy {
+        BasinStudy {
+            basin: self.basin.resolved(),
+            ..self.clone()
         }
     }
 

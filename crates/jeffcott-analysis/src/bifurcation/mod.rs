@@ -27,8 +27,8 @@ mod sweeps;
 pub use brute::start_states;
 pub(crate) use brute::unit;
 pub use record::{
-    BifurcationArrays, BruteAttractor, BruteRecord, SpecRecord, SpeedRecord, Summary, SweepRecord,
-    arrays, summary, sweep_id,
+    BifurcationArrays, BruteAttractor, BruteRecord, SpeedRecord, Summary, SweepRecord, arrays,
+    summary, sweep_id,
 };
 pub use sweeps::sweep_unit;
 
@@ -40,11 +40,11 @@ use jeffcott_core::ensemble::{Backend, EnsembleSpec, Precision, RunInfo};
 use jeffcott_core::error::{Error, Result};
 use jeffcott_core::integrate::lane::{Status, StepperConfig};
 use jeffcott_core::model::{Params, STATE_DIM, State};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use sweeps::sweep;
 
 /// Which quasistatic sweeps to run.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "snake_case")]
 pub enum Sweep {
@@ -56,12 +56,15 @@ pub enum Sweep {
     Both,
 }
 
-/// What a bifurcation study computes.
-#[derive(Clone, Debug)]
+/// What a bifurcation study computes. It is its own record: `run.json` holds it as it
+/// serializes (not the backend: units computed on any backend may be combined), and it
+/// reads back from there.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct BifurcationSpec {
     /// Model parameters.
     pub params: Params,
     /// Speeds, increasing [rad/s].
+    #[serde(with = "crate::record::speeds")]
     pub omegas: Vec<f64>,
     /// Quasistatic sweeps to run (`None`: none).
     pub sweep: Option<Sweep>,
@@ -74,6 +77,7 @@ pub struct BifurcationSpec {
     /// Transient of the brute-force lanes [periods].
     pub brute_transient: u32,
     /// Recorded periods (Poincare points) per lane, sweeps and brute force alike.
+    #[serde(rename = "periods")]
     pub recorded: u32,
     /// Seed of the random start states.
     pub seed: u64,
@@ -82,6 +86,7 @@ pub struct BifurcationSpec {
     /// Precision of the brute-force lanes (sweeps are f64).
     pub precision: Precision,
     /// Backend of the brute-force ensembles.
+    #[serde(skip)]
     pub backend: Backend,
     /// Classification tolerances.
     pub catalogue: CatalogueConfig,

@@ -3,69 +3,11 @@
 
 use super::{BifurcationResult, BifurcationSpec, Sweep, SweepPoint};
 use crate::catalogue::CatalogueConfig;
-use crate::record::Span;
 use crate::rub::RubEntry;
-use jeffcott_core::ensemble::Precision;
 use jeffcott_core::error::Result;
-use jeffcott_core::integrate::lane::{Status, StepperConfig};
+use jeffcott_core::integrate::lane::Status;
 use jeffcott_core::model::Params;
 use serde::Serialize;
-
-/// A bifurcation study's specification as `run.json` records it (not the backend: units
-/// computed on any backend may be combined).
-#[derive(Clone, Debug, Serialize)]
-pub struct SpecRecord<'a> {
-    /// The speeds.
-    pub omegas: Span,
-    /// Which sweeps ran.
-    pub sweep: Option<Sweep>,
-    /// Transient at the first speed of a sweep.
-    pub transient_first: u32,
-    /// Transient at every later speed of a sweep.
-    pub transient: u32,
-    /// Brute-force start states per speed.
-    pub ics: u32,
-    /// Brute-force transient.
-    pub brute_transient: u32,
-    /// Recorded periods.
-    pub periods: u32,
-    /// Seed of the brute-force start states.
-    pub seed: u64,
-    /// Lane stepper settings.
-    pub stepper: StepperConfig,
-    /// Lane precision.
-    pub precision: Precision,
-    /// Catalogue settings.
-    pub catalogue: &'a CatalogueConfig,
-    /// Neighbour seeds at most per speed.
-    pub max_seeds: usize,
-    /// Whether lambda_1 is computed.
-    pub lyapunov: bool,
-    /// Model parameters.
-    pub params: &'a Params,
-}
-
-impl BifurcationSpec {
-    /// The specification as `run.json` records it.
-    pub fn record(&self) -> SpecRecord<'_> {
-        SpecRecord {
-            omegas: Span::of(&self.omegas),
-            sweep: self.sweep,
-            transient_first: self.transient_first,
-            transient: self.transient,
-            ics: self.ics,
-            brute_transient: self.brute_transient,
-            periods: self.recorded,
-            seed: self.seed,
-            stepper: self.stepper,
-            precision: self.precision,
-            catalogue: &self.catalogue,
-            max_seeds: self.max_seeds,
-            lyapunov: self.lyapunov,
-            params: &self.params,
-        }
-    }
-}
 
 /// The flat arrays of a study, as `bifurcation_rows.npy`, `bifurcation.npy` and
 /// `bifurcation_lambda1.npy` hold them: rows of the up sweep, the down sweep, then every

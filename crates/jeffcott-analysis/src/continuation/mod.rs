@@ -33,7 +33,7 @@ mod spec;
 
 pub use matching::{match_attractors, set_distance};
 pub use ramp::{Ramp, Step, Tracked};
-pub use record::{Lifetime, RampRecord, SpecRecord, Summary, Threshold, id_name, summary};
+pub use record::{Lifetime, RampRecord, Summary, id_name, summary};
 pub use spec::{ContinuationSpec, Direction, Fields, directions, parse_box, uniform_in_box};
 
 use super::catalogue::CatalogueBuilder;

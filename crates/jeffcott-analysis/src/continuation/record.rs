@@ -1,12 +1,9 @@
 //! The continuation as its files hold it: the specification for `run.json`, the
 //! summary for `continuation.json` (each attractor's lifetime per ramp) and legend names.
 
-use super::{ContinuationResult, ContinuationSpec, Direction, Ramp, Step};
-use crate::catalogue::CatalogueConfig;
+use super::{ContinuationResult, ContinuationSpec, Ramp, Step};
 use crate::map::AxisRecord;
 use crate::record::{CoordRange, coord_box};
-use jeffcott_core::ensemble::Precision;
-use jeffcott_core::integrate::lane::StepperConfig;
 use jeffcott_core::model::Params;
 use serde::Serialize;
 
@@ -25,60 +22,35 @@ pub fn id_name(r: &Ramp, id: u32) -> String {
     }
 }
 
-/// A continuation's specification as `run.json` records it.
-#[derive(Clone, Debug, Serialize)]
-pub struct SpecRecord<'a> {
-    /// The continued parameter (var, lo, hi, n).
-    pub param: AxisRecord,
-    /// Rotor speed when the parameter is not `omega` [rad/s].
-    pub omega: Option<f64>,
-    /// Fresh start states per value.
-    pub ics: u32,
-    /// The box of the fresh start states as (coordinate index, lo, hi).
-    #[serde(rename = "box")]
-    pub start_box: Option<&'a [(usize, f64, f64)]>,
-    /// Seed of the start states.
-    pub seed: u64,
-    /// Transient periods.
-    pub transient: u32,
-    /// Recorded periods.
-    pub periods: u32,
-    /// Lane stepper settings.
-    pub stepper: StepperConfig,
-    /// Lane precision.
-    pub precision: Precision,
-    /// Catalogue settings.
-    pub catalogue: &'a CatalogueConfig,
-    /// Whether lambda_1 is computed.
-    pub lyapunov: bool,
-    /// The ramps.
-    pub directions: &'a [Direction],
-    /// Largest matching distance.
-    pub match_threshold: Threshold,
-    /// Values per unit of the fresh pass.
-    pub unit_values: usize,
-    /// Model parameters.
-    pub params: &'a Params,
-}
-
 /// The matching threshold as the files hold it: a number, or `"inf"` (JSON has no
-/// infinity) for matching without one.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
-#[serde(untagged)]
-pub enum Threshold {
-    /// A finite threshold [m].
-    Value(f64),
-    /// No threshold.
-    Inf(&'static str),
-}
+/// infinity) for matching without one: `#[serde(with = "threshold")]`.
+pub mod threshold {
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
-impl Threshold {
-    /// The record of `m`.
-    pub fn of(m: f64) -> Self {
+    /// A finite threshold as a number, an infinite one as `"inf"`.
+    pub fn serialize<S: Serializer>(m: &f64, s: S) -> Result<S::Ok, S::Error> {
         if m.is_finite() {
-            Threshold::Value(m)
+            m.serialize(s)
         } else {
-            Threshold::Inf("inf")
+            s.serialize_str("inf")
+        }
+    }
+
+    #[derive(Deserialize)]
+    #[serde(untagged)]
+    enum Recorded {
+        Value(f64),
+        Word(String),
+    }
+
+    /// The threshold back: a number, or infinity from `"inf"`.
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+        match Recorded::deserialize(d)? {
+            Recorded::Value(m) => Ok(m),
+            Recorded::Word(w) if w == "inf" => Ok(f64::INFINITY),
+            Recorded::Word(w) => Err(serde::de::Error::custom(format!(
+                "match_threshold `{w}` is neither a number nor \"inf\""
+            ))),
         }
     }
 }
@@ -134,7 +106,8 @@ pub struct Summary<'a> {
     /// Whether lambda_1 was computed.
     pub lyapunov: bool,
     /// Largest matching distance.
-    pub match_threshold: Threshold,
+    #[serde(with = "threshold")]
+    pub match_threshold: f64,
     /// The ramps by direction (`up`, `down`).
     pub ramps: std::collections::BTreeMap<&'static str, RampRecord<'a>>,
     /// Model parameters.
@@ -180,7 +153,7 @@ pub fn summary<'a>(spec: &'a ContinuationSpec, res: &'a ContinuationResult) -> S
         transient: spec.transient,
         periods: spec.recorded,
         lyapunov: spec.lyapunov,
-        match_threshold: Threshold::of(spec.match_threshold),
+        match_threshold: spec.match_threshold,
         ramps,
         params: &spec.params,
     }

@@ -2,9 +2,8 @@
 //! checks and per-value parameters, and the fresh start states (a seeded box or the
 //! brute-force draws).
 
-use super::record::{SpecRecord, Threshold};
 use crate::catalogue::CatalogueConfig;
-use crate::map::{AxisRecord, MapAxis, MapVar};
+use crate::map::{MapAxis, MapVar};
 use jeffcott_core::ensemble::{Backend, EnsembleSpec, LaneSpec, Precision};
 use jeffcott_core::error::{Error, Result};
 use jeffcott_core::integrate::lane::StepperConfig;
@@ -45,32 +44,39 @@ pub fn directions(text: &str) -> Result<Vec<Direction>> {
     }
 }
 
-/// What a continuation computes.
-#[derive(Clone, Debug)]
+/// What a continuation computes. It is its own record: `run.json` holds it as
+/// [`ContinuationSpec::resolved`] serializes it (not the backend), and it reads back
+/// from there.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ContinuationSpec {
     /// Model parameters before the continued one is set.
     pub params: Params,
     /// Rotor speed when the parameter is not omega [rad/s].
     pub omega: Option<f64>,
-    /// The continued parameter and its values (omega or a model parameter).
+    /// The continued parameter and its values (omega or a model parameter; evenly
+    /// spaced, so recorded without `log`).
+    #[serde(with = "linear_axis")]
     pub param: MapAxis,
     /// Fresh start states per value.
     pub ics: u32,
     /// Draw the fresh start states uniformly in this box of start coordinates
     /// (coordinate index, lo, hi), the others at the static equilibrium; `None`: the
     /// static equilibrium plus the brute-force draws.
+    #[serde(rename = "box")]
     pub start_box: Option<Vec<(usize, f64, f64)>>,
     /// Seed of the fresh start states.
     pub seed: u64,
     /// Forcing periods integrated and discarded.
     pub transient: u32,
     /// Forcing periods recorded per lane.
+    #[serde(rename = "periods")]
     pub recorded: u32,
     /// Lane stepper settings.
     pub stepper: StepperConfig,
     /// Lane precision.
     pub precision: Precision,
-    /// Backend.
+    /// Backend (not recorded).
+    #[serde(skip)]
     pub backend: Backend,
     /// Classification tolerances.
     pub catalogue: CatalogueConfig,
@@ -80,7 +86,43 @@ pub struct ContinuationSpec {
     pub directions: Vec<Direction>,
     /// Largest Poincare-set distance at which two attractors of consecutive values are
     /// the same one [m in positions, m/s / W in velocities]; infinite by default.
+    #[serde(with = "super::record::threshold")]
     pub match_threshold: f64,
+    /// Values per unit of the fresh pass (`None`: [`crate::run::unit_lanes`] counted in
+    /// values; recorded resolved, as units of another size do not combine).
+    #[serde(rename = "unit_values")]
+    pub values_per_unit: Option<usize>,
+}
+
+/// The continued parameter as `run.json` records it: name and range, no spacing (a
+/// continuation's values are evenly spaced): `#[serde(with = "linear_axis")]`.
+mod linear_axis {
+    use crate::map::{MapAxis, MapVar};
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    #[derive(Serialize, Deserialize)]
+    struct Linear {
+        var: MapVar,
+        lo: f64,
+        hi: f64,
+        n: usize,
+    }
+
+    pub fn serialize<S: Serializer>(a: &MapAxis, s: S) -> Result<S::Ok, S::Error> {
+        let MapAxis { var, lo, hi, n, .. } = *a;
+        Linear { var, lo, hi, n }.serialize(s)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<MapAxis, D::Error> {
+        let Linear { var, lo, hi, n } = Linear::deserialize(d)?;
+        Ok(MapAxis {
+            var,
+            lo,
+            hi,
+            n,
+            log: false,
+        })
+    }
 }
 
 /// The names a study gives the fields of a [`ContinuationSpec`] in its errors.
@@ -194,6 +236,9 @@ impl ContinuationSpec {
                 "must be > 0 (inf: always match the nearest)",
             ));
         }
+        if self.values_per_unit == Some(0) {
+            return Err(Error::invalid("unit_values", 0, "must be >= 1 value"));
+        }
         Ok(())
     }
 
@@ -230,28 +275,11 @@ impl ContinuationSpec {
         }
     }
 
-    /// The specification as `run.json` records it (not the backend).
-    pub fn record(&self) -> SpecRecord<'_> {
-        SpecRecord {
-            param: AxisRecord {
-                unit: None,
-                log: None,
-                ..self.param.spec_record()
-            },
-            omega: self.omega,
-            ics: self.ics,
-            start_box: self.start_box.as_deref(),
-            seed: self.seed,
-            transient: self.transient,
-            periods: self.recorded,
-            stepper: self.stepper,
-            precision: self.precision,
-            catalogue: &self.catalogue,
-            lyapunov: self.lyapunov,
-            directions: &self.directions,
-            match_threshold: Threshold::of(self.match_threshold),
-            unit_values: self.unit_values(),
-            params: &self.params,
+    /// The specification as `run.json` records it: the unit size resolved.
+    pub fn resolved(&self) -> ContinuationSpec {
+        ContinuationSpec {
+            values_per_unit: Some(self.unit_values()),
+            ..self.clone()
         }
     }
 
@@ -261,7 +289,8 @@ impl ContinuationSpec {
             * (self.transient + self.recorded) as u64
             * self.stepper.steps_per_period as u64
             * if self.lyapunov { 2 } else { 1 };
-        crate::run::unit_lanes(self.param.n, per_value)
+        self.values_per_unit
+            .unwrap_or_else(|| crate::run::unit_lanes(self.param.n, per_value))
     }
 
     /// Lane-periods of the fresh pass (the bulk of the work).

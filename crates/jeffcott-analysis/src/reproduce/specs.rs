@@ -266,6 +266,7 @@ impl ReproduceSpec {
             lyapunov: true,
             directions: vec![Direction::Up, Direction::Down],
             match_threshold: f64::INFINITY,
+            values_per_unit: None,
         }
     }
 
@@ -306,5 +307,60 @@ impl ReproduceSpec {
                 ..self.from_static(140.0, 1000, 8, 1)
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde::{Serialize, de::DeserializeOwned};
+
+    /// `spec` written as `run.json` records it and read back.
+    fn round_trip<T: Serialize + DeserializeOwned>(spec: &T) -> T {
+        let json = serde_json::to_string(spec).unwrap();
+        serde_json::from_str(&json).unwrap_or_else(|e| panic!("{e}: {json}"))
+    }
+
+    #[test]
+    fn every_study_spec_reads_back_from_its_record_unchanged() {
+        for preset in [SMOKE, QUICK, FULL] {
+            // The backend is not recorded: a spec read back runs on `auto`.
+            let r = ReproduceSpec::new(preset, Backend::Auto, Precision::F64);
+            let basin = r.basin_study().resolved();
+            assert_eq!(round_trip(&basin).basin, basin.basin);
+            assert_eq!(basin.basin.lanes_per_unit, Some(basin.basin.unit_lanes()));
+            for map in [r.design_map().resolved(), r.rub_map().resolved()] {
+                assert_eq!(round_trip(&map), map);
+            }
+            let c = r.continuation().resolved();
+            assert_eq!(round_trip(&c), c);
+            let b = r.bifurcation().unwrap();
+            assert_eq!(round_trip(&b), b);
+            let k = r.cascade().unwrap();
+            assert_eq!(round_trip(&k), k);
+        }
+    }
+
+    #[test]
+    fn speeds_are_recorded_as_a_span_only_when_a_range_gives_them_bit_for_bit() {
+        let mut k = ReproduceSpec::new(SMOKE, Backend::Auto, Precision::F64)
+            .cascade()
+            .unwrap();
+        let v = serde_json::to_value(&k).unwrap();
+        assert_eq!(v["omega"]["count"], serde_json::json!(k.omegas.len()));
+        // One speed nudged by an ulp: no longer a range, so recorded value by value.
+        k.omegas[1] = f64::from_bits(k.omegas[1].to_bits() + 1);
+        let v = serde_json::to_value(&k).unwrap();
+        assert!(v["omega"].is_array(), "{}", v["omega"]);
+        assert_eq!(round_trip(&k), k);
+    }
+
+    #[test]
+    fn an_infinite_match_threshold_is_recorded_as_inf_and_reads_back() {
+        let c = ReproduceSpec::new(SMOKE, Backend::Auto, Precision::F64).continuation();
+        assert!(c.match_threshold.is_infinite());
+        let v = serde_json::to_value(&c).unwrap();
+        assert_eq!(v["match_threshold"], serde_json::json!("inf"));
+        assert_eq!(round_trip(&c).match_threshold, f64::INFINITY);
     }
 }

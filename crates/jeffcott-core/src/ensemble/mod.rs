@@ -11,10 +11,10 @@ use crate::model::{
     COORD_NAMES, OMEGA_RANGE, Params, STATE_DIM, State, short_number, validate_omega,
 };
 use crate::real::Real;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// Floating-point precision of the lanes.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "snake_case")]
 pub enum Precision {
@@ -263,11 +263,12 @@ pub fn lane_table_columns() -> Vec<String> {
 }
 
 /// Which backend runs an ensemble.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "snake_case")]
 pub enum Backend {
     /// A hardware GPU if one is present, else the CPU.
+    #[default]
     Auto,
     /// The rayon CPU path.
     Cpu,
