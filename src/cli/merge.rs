@@ -240,8 +240,13 @@ pub fn run_merge(a: &MergeArgs) -> Result<()> {
             ));
         }
     };
+    let mut stages: Vec<String> = shards.iter().flat_map(|s| s.stages.clone()).collect();
+    stages.sort();
+    stages.dedup();
     {
-        let run_dir = rundir::open(&a.out, &first.command, &first.spec, outputs, a.run, a.quiet)?;
+        let mut run_dir =
+            rundir::open(&a.out, &first.command, &first.spec, outputs, a.run, a.quiet)?;
+        run_dir.begin_merge(stages)?;
         for s in &shards {
             for key in &s.units {
                 place(
@@ -260,12 +265,7 @@ pub fn run_merge(a: &MergeArgs) -> Result<()> {
             format!("its recorded command line does not parse: {e}"),
         )
     })?;
-    let mut stages: Vec<String> = shards.iter().flat_map(|s| s.stages.clone()).collect();
-    stages.sort();
-    stages.dedup();
-    rundir::merging(Some(stages));
     let r = super::dispatch(&cli.command);
-    rundir::merging(None);
     if r.is_err() {
         eprintln!(
             "note: {} is left as an unfinished merge (its run.json says running); the same merge command resumes it once the cause below is mended",

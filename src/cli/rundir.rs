@@ -38,22 +38,6 @@ impl ShardArgs {
     }
 }
 
-/// The stages whose units came from shards, while `jeffcott merge` assembles: their
-/// units must all be there (a missing one is an error, never computed on the merge
-/// node). Other stages of the study (a bifurcation's sweeps and seeded second pass,
-/// which need the whole first pass) are computed by the merge.
-static MERGE_STAGES: Mutex<Option<Vec<String>>> = Mutex::new(None);
-
-/// The stages a shard's study asked the store about (recorded in its run.json).
-static SHARD_STAGES: Mutex<Vec<String>> = Mutex::new(Vec::new());
-
-/// Sets (or with `None` clears) the stages of the shards being merged.
-pub fn merging(stages: Option<Vec<String>>) {
-    if let Ok(mut m) = MERGE_STAGES.lock() {
-        *m = stages;
-    }
-}
-
 /// Runs `work` under a progress bar `name` over `total` lane-periods (`per_lane` each)
 /// and the command's cancel flag.
 pub fn progress<T>(
@@ -113,14 +97,13 @@ pub fn cancel() -> jeffcott_analysis::run::Cancel {
 }
 
 /// The store a command's study commits to: the directory, seen through its shard, or
-/// while merging, checked for the shards' stages.
+/// while it is a merge ([`RunDir::begin_merge`]), checked for the shards' stages.
 pub fn store(run_dir: &RunDir) -> Box<dyn UnitStore + '_> {
-    let merge = MERGE_STAGES.lock().ok().and_then(|m| m.clone());
-    match (run_dir.shard(), merge) {
-        (Some(shard), _) => Box::new(Recording(ShardStore {
+    match (run_dir.shard(), run_dir.merge_stages()) {
+        (Some(shard), _) => Box::new(ShardStore {
             inner: run_dir,
             shard,
-        })),
+        }),
         (None, Some(stages)) => Box::new(Merged { run_dir, stages }),
         (None, None) => Box::new(Plain(run_dir)),
     }
@@ -140,30 +123,10 @@ impl UnitStore for Plain<'_> {
     }
 }
 
-/// A shard's store that remembers which stages its study used.
-struct Recording<'a>(ShardStore<'a>);
-
-impl UnitStore for Recording<'_> {
-    fn committed(&self, stage: &str, count: usize) -> Result<Vec<bool>> {
-        if let Ok(mut s) = SHARD_STAGES.lock()
-            && !s.iter().any(|x| x == stage)
-        {
-            s.push(stage.to_string());
-        }
-        self.0.committed(stage, count)
-    }
-    fn commit(&self, stage: &str, index: usize, unit: &jeffcott_analysis::run::Unit) -> Result<()> {
-        self.0.commit(stage, index, unit)
-    }
-    fn load(&self, stage: &str, index: usize) -> Result<jeffcott_analysis::run::Unit> {
-        self.0.load(stage, index)
-    }
-}
-
 /// The merged run's store: the shards' stages must be complete.
 struct Merged<'a> {
     run_dir: &'a RunDir,
-    stages: Vec<String>,
+    stages: &'a [String],
 }
 
 impl UnitStore for Merged<'_> {
@@ -222,7 +185,7 @@ struct ShardResult<'a> {
 pub fn finish_shard(run_dir: &RunDir, quiet: bool) -> Result<()> {
     let keys = run_dir.unit_keys()?;
     let shard = run_dir.shard().unwrap_or(Shard { index: 0, count: 1 });
-    let stages = SHARD_STAGES.lock().map(|s| s.clone()).unwrap_or_default();
+    let stages = run_dir.stages_asked();
     run_dir.finish(
         &ShardResult {
             shard_units: &keys,

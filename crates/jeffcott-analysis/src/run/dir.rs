@@ -53,6 +53,13 @@ pub struct RunDir {
     shard: Option<super::Shard>,
     argv: Vec<String>,
     found: Found,
+    /// While `jeffcott merge` assembles shards: the stages whose units came from them
+    /// (every unit must be there; none is computed here). Kept in run.json, so an
+    /// interrupted merge resumes as one.
+    merge_stages: Option<Vec<String>>,
+    /// The stages the run's study asked about, in first-asked order (a shard lists
+    /// them in run.json for the merge).
+    stages: std::sync::Mutex<Vec<String>>,
     _lock: std::fs::File,
 }
 
@@ -195,6 +202,13 @@ impl RunDir {
                 });
             }
         };
+        // A merge in progress (or done) in this directory stays one.
+        let merge_stages = match (&old, found) {
+            (Some(o), Found::Unfinished | Found::Complete) => o
+                .get("merge_stages")
+                .and_then(|v| serde_json::from_value(v.clone()).ok()),
+            _ => None,
+        };
         let rd = RunDir {
             dir: dir.to_path_buf(),
             command: command.to_string(),
@@ -202,6 +216,8 @@ impl RunDir {
             shard,
             argv,
             found,
+            merge_stages,
+            stages: Default::default(),
             _lock: lock,
         };
         rd.write_state("running", &serde_json::Map::new(), &[])?;
@@ -253,6 +269,7 @@ impl RunDir {
             spec: &self.spec,
             shard: self.shard,
             argv: &self.argv,
+            merge_stages: self.merge_stages.as_deref(),
             units_dir: UNITS,
             outputs,
             jeffcott_version: env!("CARGO_PKG_VERSION"),
@@ -269,6 +286,24 @@ impl RunDir {
     /// The shard this run computes, if any.
     pub fn shard(&self) -> Option<super::Shard> {
         self.shard
+    }
+
+    /// Makes this run the merge of shards that computed `stages`: recorded in run.json
+    /// (state `running`), so the run that assembles the files, and any resumption of
+    /// it, requires every unit of those stages and computes none.
+    pub fn begin_merge(&mut self, stages: Vec<String>) -> Result<()> {
+        self.merge_stages = Some(stages);
+        self.write_state("running", &serde_json::Map::new(), &[])
+    }
+
+    /// The stages whose units came from shards, while this directory is a merge.
+    pub fn merge_stages(&self) -> Option<&[String]> {
+        self.merge_stages.as_deref()
+    }
+
+    /// The stages the run's study asked about so far, in first-asked order.
+    pub fn stages_asked(&self) -> Vec<String> {
+        self.stages.lock().map(|s| s.clone()).unwrap_or_default()
     }
 
     /// Keys of the unit files committed in the directory, sorted.
@@ -303,6 +338,11 @@ impl RunDir {
     /// that does not read back (torn by a crash of the machine, altered) is removed, so
     /// its unit is computed again.
     pub fn committed(&self, stage: &str, count: usize) -> Result<Vec<bool>> {
+        if let Ok(mut s) = self.stages.lock()
+            && !s.iter().any(|x| x == stage)
+        {
+            s.push(stage.to_string());
+        }
         let mut done = vec![false; count];
         for (i, d) in done.iter_mut().enumerate() {
             let p = self.unit_path(stage, i);
@@ -418,12 +458,13 @@ impl RunDir {
 
 /// The keys of `run.json` the run itself writes (a result's `jeffcott_version`, where it
 /// has one, is its own).
-pub const RUN_KEYS: [&str; 7] = [
+pub const RUN_KEYS: [&str; 8] = [
     "state",
     "command",
     "spec",
     "shard",
     "argv",
+    "merge_stages",
     "units_dir",
     "outputs",
 ];
@@ -444,6 +485,9 @@ struct RunJson<'a> {
     shard: Option<super::Shard>,
     /// The command line.
     argv: &'a [String],
+    /// While a merge: the stages whose units came from the shards.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    merge_stages: Option<&'a [String]>,
     /// Folder of the committed units.
     units_dir: &'static str,
     /// The final files, once complete.
@@ -473,4 +517,66 @@ fn same_file(_: &std::fs::Metadata, _: &std::fs::Metadata) -> bool {
 /// The key of unit `index` of `stage`.
 pub fn unit_key(stage: &str, index: usize) -> String {
     format!("{stage}-{index:07}")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn open(dir: &Path) -> RunDir {
+        RunDir::open(
+            dir,
+            "basin",
+            &serde_json::json!({"n": 3}),
+            &[],
+            false,
+            None,
+            vec![],
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn a_merge_stays_a_merge_when_it_is_interrupted_and_resumed() {
+        let tmp = tempfile::tempdir().unwrap();
+        {
+            let mut d = open(tmp.path());
+            assert_eq!(d.merge_stages(), None);
+            d.begin_merge(vec!["basin".into()]).unwrap();
+        } // killed here: the lock is released, run.json says running
+        let resumed = open(tmp.path());
+        assert_eq!(resumed.found(), Found::Unfinished);
+        assert_eq!(resumed.merge_stages(), Some(&["basin".to_string()][..]));
+        let j: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(tmp.path().join(RUN_JSON)).unwrap()).unwrap();
+        assert_eq!(j["merge_stages"], serde_json::json!(["basin"]));
+    }
+
+    #[test]
+    fn another_specification_in_the_directory_does_not_inherit_a_merge() {
+        let tmp = tempfile::tempdir().unwrap();
+        open(tmp.path()).begin_merge(vec!["basin".into()]).unwrap();
+        let other = RunDir::open(
+            tmp.path(),
+            "basin",
+            &serde_json::json!({"n": 4}),
+            &[],
+            true,
+            None,
+            vec![],
+        )
+        .unwrap();
+        assert_eq!(other.found(), Found::Overwritten);
+        assert_eq!(other.merge_stages(), None);
+    }
+
+    #[test]
+    fn the_stages_a_study_asks_about_are_listed_once_in_first_asked_order() {
+        let tmp = tempfile::tempdir().unwrap();
+        let d = open(tmp.path());
+        for stage in ["basin", "refine", "basin"] {
+            d.committed(stage, 2).unwrap();
+        }
+        assert_eq!(d.stages_asked(), ["basin", "refine"]);
+    }
 }
