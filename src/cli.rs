@@ -31,6 +31,7 @@ mod reproduce;
 pub mod rubout;
 pub mod rundir;
 mod stability;
+pub mod study;
 mod usage;
 pub use basin::{BasinArgs, run_basin};
 pub use bench::{BenchArgs, run_bench};
@@ -372,15 +373,11 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
         params: &spec.param_sets,
         lanes: lanes_record,
     };
-    let shard = a.shard.shard()?;
-    let run_dir = rundir::open_shard(
-        &a.out,
-        "ensemble",
-        &run_spec,
+    let exec = rundir::Execution::of(&a.out, a.run, &a.shard, a.quiet, a.lane.backend)?;
+    let shard = exec.shard;
+    let run_dir = exec.open(
+        jeffcott_analysis::run::RunHeader::new("ensemble", &run_spec)?,
         ENSEMBLE_OUTPUTS,
-        a.run,
-        shard,
-        a.quiet,
     )?;
     let store = rundir::store(&run_dir);
     let bar = crate::progress::Bar::new("ensemble", n as u64 * per_lane, per_lane, a.quiet);

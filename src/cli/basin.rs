@@ -2,19 +2,23 @@
 //! in work units committed to --out (resumable); `labels.npy`, `attractors.json`, `basin.png` and `attractors.png`.
 
 use super::files::Documented;
-use super::rundir::{self, RunArgs};
+use super::rundir::{self, CommandHost, Execution, RunArgs};
+use super::study::{self, StudyCommand};
 use super::{CatalogueArgs, parse_assignment_lists};
 use crate::plot::{
     AttractorTrace, attractor_color, basin_map, coexisting_attractors, coord_axis, lambda1_map,
 };
 use clap::Args;
+use jeffcott_analysis::backend::Engine;
 use jeffcott_analysis::basin::study::{BasinOutcome, BasinStudy, run};
 use jeffcott_analysis::basin::{Axis, BasinResult, BasinSpec};
 use jeffcott_analysis::catalogue::Attractor;
 use jeffcott_analysis::defaults;
 use jeffcott_analysis::output;
 use jeffcott_analysis::rub::RubEntry;
+use jeffcott_analysis::run::RunDir;
 use jeffcott_analysis::simulate::AttractorTrace as SimTrace;
+use jeffcott_core::ensemble::Backend;
 use jeffcott_core::error::Result;
 use jeffcott_core::model::COORD_NAMES;
 use serde::Serialize;
@@ -179,22 +183,70 @@ struct RunResult<'a> {
 
 /// Runs `jeffcott basin`: the study's units committed to --out, then its files.
 pub fn run_basin(a: &BasinArgs) -> Result<()> {
-    let study = a.study()?;
-    let run_spec = study.resolved();
-    let frame = rundir::StudyRun {
-        command: "basin",
-        out: &a.out,
-        outputs: OUTPUTS,
-        run: a.run,
-        shard: &a.shard,
-        quiet: a.quiet,
+    let exec = Execution::of(&a.out, a.run, &a.shard, a.quiet, a.lane.backend)?;
+    let write = BasinWrite {
+        entropy_box: a.entropy_box,
+        plot: !a.no_plot,
+        highlight_boundary: a.highlight_boundary,
     };
-    let (backend, precision) = (study.basin.backend, study.basin.precision);
-    let Some((run_dir, o)) = frame.run(&run_spec, backend, precision, |e, h| run(&study, e, h))?
-    else {
-        return Ok(());
-    };
-    let rub_line = write_basin_files(&a.out, &o, !a.no_plot, a.highlight_boundary)?;
+    study::execute::<Basin>(&a.study()?, &write, &exec)
+}
+
+/// What `jeffcott basin` writes besides the study's result.
+#[derive(Clone, Copy, Debug, Serialize, serde::Deserialize)]
+pub struct BasinWrite {
+    /// `--entropy-box` (the measures are computed from the units on every run).
+    pub entropy_box: Option<usize>,
+    /// Draw the pictures (and compute the attractors' traces for `attractors.png`).
+    pub plot: bool,
+    /// `--highlight-boundary`.
+    pub highlight_boundary: bool,
+}
+
+/// `jeffcott basin` as a study command.
+pub struct Basin;
+
+impl StudyCommand for Basin {
+    const COMMAND: &'static str = "basin";
+    const OUTPUTS: &'static [&'static str] = OUTPUTS;
+    type Spec = BasinStudy;
+    type Write = BasinWrite;
+    type Outcome = BasinOutcome;
+    fn record(study: &BasinStudy) -> BasinStudy {
+        study.resolved()
+    }
+    fn set_backend(study: &mut BasinStudy, backend: Backend) {
+        study.basin.backend = backend;
+    }
+    fn run(study: &BasinStudy, w: &BasinWrite, host: &CommandHost) -> Result<BasinOutcome> {
+        let study = BasinStudy {
+            entropy_box: w.entropy_box,
+            traces: if w.plot { defaults::basin::TRACES } else { 0 },
+            ..study.clone()
+        };
+        let engine = Engine::new(study.basin.backend, study.basin.precision)?;
+        run(&study, &engine, host)
+    }
+    fn finish(
+        _: &BasinStudy,
+        w: &BasinWrite,
+        o: BasinOutcome,
+        run_dir: &RunDir,
+        exec: &Execution,
+    ) -> Result<()> {
+        report_basin(&exec.out, w, &o, run_dir, exec.quiet)
+    }
+}
+
+/// Writes a basin study's files, marks its run complete and says what it found.
+fn report_basin(
+    out: &Path,
+    w: &BasinWrite,
+    o: &BasinOutcome,
+    run_dir: &RunDir,
+    quiet: bool,
+) -> Result<()> {
+    let rub_line = write_basin_files(out, o, w.plot, w.highlight_boundary)?;
     let (spec, res) = (&o.spec, &o.result);
     let run_result = RunResult {
         run: rundir::BackendTime {
@@ -203,9 +255,9 @@ pub fn run_basin(a: &BasinArgs) -> Result<()> {
         },
         refinement: o.refined.as_ref().map(|f| refinement_record(f, spec)),
     };
-    run_dir.finish(&run_result, &rundir::written(&run_dir, OUTPUTS))?;
-    if !a.quiet {
-        println!("{}", human_summary(spec, res, &a.out));
+    run_dir.finish(&run_result, &rundir::written(run_dir, OUTPUTS))?;
+    if !quiet {
+        println!("{}", human_summary(spec, res, out));
         if !rub_line.is_empty() {
             println!("Rub on the attractors (attractors.json, docs/rub.md): {rub_line}.");
         }

@@ -1,6 +1,8 @@
 //! `jeffcott bifurcation`: quasistatic sweeps up and down in W and a brute-force ensemble
 //! per W, with attractor catalogues, arrays, `summary.json` and `bifurcation.png`.
 
+use super::rundir::{self, CommandHost, Execution};
+use super::study::{self, StudyCommand};
 use crate::plot::{DotSeries, Lambda1Series, bifurcation_diagram};
 use clap::Args;
 use jeffcott_analysis::bifurcation::portrait::{Portrait, PortraitSource, portrait};
@@ -9,6 +11,8 @@ use jeffcott_analysis::catalogue::CatalogueConfig;
 use jeffcott_analysis::classify::{Class, ClassifyConfig};
 use jeffcott_analysis::defaults;
 use jeffcott_analysis::output;
+use jeffcott_analysis::run::RunDir;
+use jeffcott_core::ensemble::Backend;
 use jeffcott_core::ensemble::Precision;
 use jeffcott_core::error::{Error, Result};
 use jeffcott_core::model::{COORD_NAMES, STATE_DIM, State, coord_index};
@@ -242,43 +246,84 @@ impl BifurcationArgs {
 
 /// Runs `jeffcott bifurcation`.
 pub fn run_bifurcation(a: &BifurcationArgs) -> Result<()> {
-    let coords = parse_coords("coord", &a.coord)?;
     let spec = a.spec()?;
     for &w in &a.portraits {
         check_portrait_speed(&spec.omegas, w)?;
     }
-    let shard = a.shard.shard()?;
-    if shard.is_some() && spec.ics == 0 {
+    let exec = Execution::of(&a.out, a.run, &a.shard, a.quiet, a.lane.backend)?;
+    if exec.shard.is_some() && spec.ics == 0 {
         return Err(Error::invalid(
             "shard",
             a.shard.shard.as_deref().unwrap_or_default(),
             "only the brute force is sharded: give --ics >= 1",
         ));
     }
-    let run_dir =
-        super::rundir::open_shard(&a.out, "bifurcation", &spec, OUTPUTS, a.run, shard, a.quiet)?;
-    let host = super::rundir::CommandHost::new(&run_dir, a.quiet);
-    let res = match jeffcott_analysis::bifurcation::run(&spec, &host) {
-        Err(Error::NotInShard) => return super::rundir::finish_shard(&run_dir, a.quiet),
-        r => r?,
+    let write = BifurcationWrite {
+        coords: parse_coords("coord", &a.coord)?,
+        portraits: a.portraits.clone(),
+        plot: !a.no_plot,
     };
-    let portraits = a
-        .portraits
-        .iter()
-        .map(|&w| portrait(&spec, &res, w))
-        .collect::<Result<Vec<_>>>()?;
-    write_bifurcation(&a.out, &spec, &res, &coords, !a.no_plot)?;
-    let mut outputs = super::rundir::written(&run_dir, OUTPUTS);
-    for p in &portraits {
-        if let Some(f) = write_portrait(&a.out, &res, p)? {
-            outputs.push(f);
+    study::execute::<Bifurcation>(&spec, &write, &exec)
+}
+
+/// What `jeffcott bifurcation` writes besides the study's result.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct BifurcationWrite {
+    /// `--coord`: the coordinates drawn, by index (recorded as numbers).
+    pub coords: Vec<usize>,
+    /// `--portraits`: the speeds whose phase portraits are drawn.
+    pub portraits: Vec<f64>,
+    /// Draw the diagram.
+    pub plot: bool,
+}
+
+/// `jeffcott bifurcation` as a study command.
+pub struct Bifurcation;
+
+impl StudyCommand for Bifurcation {
+    const COMMAND: &'static str = "bifurcation";
+    const OUTPUTS: &'static [&'static str] = OUTPUTS;
+    type Spec = BifurcationSpec;
+    type Write = BifurcationWrite;
+    type Outcome = BifurcationResult;
+    fn record(spec: &BifurcationSpec) -> BifurcationSpec {
+        spec.clone()
+    }
+    fn set_backend(spec: &mut BifurcationSpec, backend: Backend) {
+        spec.backend = backend;
+    }
+    fn run(
+        spec: &BifurcationSpec,
+        _: &BifurcationWrite,
+        host: &CommandHost,
+    ) -> Result<BifurcationResult> {
+        jeffcott_analysis::bifurcation::run(spec, host)
+    }
+    fn finish(
+        spec: &BifurcationSpec,
+        w: &BifurcationWrite,
+        res: BifurcationResult,
+        run_dir: &RunDir,
+        exec: &Execution,
+    ) -> Result<()> {
+        let portraits = w
+            .portraits
+            .iter()
+            .map(|&speed| portrait(spec, &res, speed))
+            .collect::<Result<Vec<_>>>()?;
+        write_bifurcation(&exec.out, spec, &res, &w.coords, w.plot)?;
+        let mut outputs = rundir::written(run_dir, OUTPUTS);
+        for p in &portraits {
+            if let Some(f) = write_portrait(&exec.out, &res, p)? {
+                outputs.push(f);
+            }
         }
+        run_dir.finish(&RunResult::of(&res), &outputs)?;
+        if !exec.quiet {
+            println!("{}", human_summary(spec, &res, &exec.out));
+        }
+        Ok(())
     }
-    run_dir.finish(&RunResult::of(&res), &outputs)?;
-    if !a.quiet {
-        println!("{}", human_summary(&spec, &res, &a.out));
-    }
-    Ok(())
 }
 
 /// Final files of a bifurcation study (run.json and the portraits aside).

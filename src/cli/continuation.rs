@@ -3,15 +3,19 @@
 //! resumable, its fresh pass shardable.
 
 use super::CatalogueArgs;
-use super::rundir::{self, RunArgs};
+use super::rundir::{self, CommandHost, Execution, RunArgs};
+use super::study::{self, Plot, StudyCommand};
 use crate::plot::{PALETTE, StackedPanel, stacked_fractions};
 use clap::{Args, ValueEnum};
+use jeffcott_analysis::backend::Engine;
 use jeffcott_analysis::continuation::{
     ContinuationResult, ContinuationSpec, Direction, Fields, id_name,
 };
 use jeffcott_analysis::defaults;
 use jeffcott_analysis::map::MapAxis;
 use jeffcott_analysis::output;
+use jeffcott_analysis::run::RunDir;
+use jeffcott_core::ensemble::Backend;
 use jeffcott_core::error::{Error, Result};
 use std::path::{Path, PathBuf};
 
@@ -155,28 +159,48 @@ pub const OUTPUTS: &[&str] = &[
 
 /// Runs `jeffcott continuation`.
 pub fn run_continuation(a: &ContinuationArgs) -> Result<()> {
-    let spec = a.spec()?;
-    let frame = rundir::StudyRun {
-        command: "continuation",
-        out: &a.out,
-        outputs: OUTPUTS,
-        run: a.run,
-        shard: &a.shard,
-        quiet: a.quiet,
-    };
-    let Some((run_dir, res)) =
-        frame.run(&spec.resolved(), spec.backend, spec.precision, |e, h| {
-            jeffcott_analysis::continuation::run(&spec, e, h)
-        })?
-    else {
-        return Ok(());
-    };
-    write_continuation(&a.out, &spec, &res, !a.no_plot)?;
-    frame.finish(&run_dir, res.info.as_ref(), res.seconds)?;
-    if !a.quiet {
-        println!("{}", human_summary(&spec, &res, &a.out));
+    let exec = Execution::of(&a.out, a.run, &a.shard, a.quiet, a.lane.backend)?;
+    study::execute::<Continuation>(&a.spec()?, &Plot { plot: !a.no_plot }, &exec)
+}
+
+/// `jeffcott continuation` as a study command.
+pub struct Continuation;
+
+impl StudyCommand for Continuation {
+    const COMMAND: &'static str = "continuation";
+    const OUTPUTS: &'static [&'static str] = OUTPUTS;
+    type Spec = ContinuationSpec;
+    type Write = Plot;
+    type Outcome = ContinuationResult;
+    fn record(spec: &ContinuationSpec) -> ContinuationSpec {
+        spec.resolved()
     }
-    Ok(())
+    fn set_backend(spec: &mut ContinuationSpec, backend: Backend) {
+        spec.backend = backend;
+    }
+    fn run(spec: &ContinuationSpec, _: &Plot, host: &CommandHost) -> Result<ContinuationResult> {
+        continue_study(spec, host)
+    }
+    fn finish(
+        spec: &ContinuationSpec,
+        w: &Plot,
+        res: ContinuationResult,
+        run_dir: &RunDir,
+        exec: &Execution,
+    ) -> Result<()> {
+        write_continuation(&exec.out, spec, &res, w.plot)?;
+        rundir::finish_study(run_dir, OUTPUTS, res.info.as_ref(), res.seconds)?;
+        if !exec.quiet {
+            println!("{}", human_summary(spec, &res, &exec.out));
+        }
+        Ok(())
+    }
+}
+
+/// Runs a continuation (`continuation` and `basin-stability`) on its spec's engine.
+pub fn continue_study(spec: &ContinuationSpec, host: &CommandHost) -> Result<ContinuationResult> {
+    let engine = Engine::new(spec.backend, spec.precision)?;
+    jeffcott_analysis::continuation::run(spec, &engine, host)
 }
 
 /// Writes the arrays, continuation.json and continuation.png.

@@ -4,12 +4,16 @@
 //! peak_force.npy, map.json and three pictures.
 
 use super::CatalogueArgs;
-use super::rundir::{self, RunArgs};
+use super::rundir::{self, CommandHost, Execution, RunArgs};
+use super::study::{self, Plot, StudyCommand};
 use crate::plot::{basin_map, category_map, lambda1_map};
 use clap::Args;
+use jeffcott_analysis::backend::Engine;
 use jeffcott_analysis::defaults;
 use jeffcott_analysis::map::{MapAxis, MapResult, MapSpec, MapVar, code};
 use jeffcott_analysis::output;
+use jeffcott_analysis::run::RunDir;
+use jeffcott_core::ensemble::Backend;
 use jeffcott_core::error::Result;
 use std::path::{Path, PathBuf};
 
@@ -125,28 +129,43 @@ pub const OUTPUTS: &[&str] = &[
 
 /// Runs `jeffcott map`.
 pub fn run_map(a: &MapArgs) -> Result<()> {
-    let spec = a.spec()?;
-    let frame = rundir::StudyRun {
-        command: "map",
-        out: &a.out,
-        outputs: OUTPUTS,
-        run: a.run,
-        shard: &a.shard,
-        quiet: a.quiet,
-    };
-    let Some((run_dir, res)) =
-        frame.run(&spec.resolved(), spec.backend, spec.precision, |e, h| {
-            jeffcott_analysis::map::run(&spec, e, h)
-        })?
-    else {
-        return Ok(());
-    };
-    write_map(&a.out, &spec, &res, !a.no_plot)?;
-    frame.finish(&run_dir, res.info.as_ref(), res.seconds)?;
-    if !a.quiet {
-        println!("{}", human_summary(&spec, &res, &a.out));
+    let exec = Execution::of(&a.out, a.run, &a.shard, a.quiet, a.lane.backend)?;
+    study::execute::<Map>(&a.spec()?, &Plot { plot: !a.no_plot }, &exec)
+}
+
+/// `jeffcott map` as a study command.
+pub struct Map;
+
+impl StudyCommand for Map {
+    const COMMAND: &'static str = "map";
+    const OUTPUTS: &'static [&'static str] = OUTPUTS;
+    type Spec = MapSpec;
+    type Write = Plot;
+    type Outcome = MapResult;
+    fn record(spec: &MapSpec) -> MapSpec {
+        spec.resolved()
     }
-    Ok(())
+    fn set_backend(spec: &mut MapSpec, backend: Backend) {
+        spec.backend = backend;
+    }
+    fn run(spec: &MapSpec, _: &Plot, host: &CommandHost) -> Result<MapResult> {
+        let engine = Engine::new(spec.backend, spec.precision)?;
+        jeffcott_analysis::map::run(spec, &engine, host)
+    }
+    fn finish(
+        spec: &MapSpec,
+        w: &Plot,
+        res: MapResult,
+        run_dir: &RunDir,
+        exec: &Execution,
+    ) -> Result<()> {
+        write_map(&exec.out, spec, &res, w.plot)?;
+        rundir::finish_study(run_dir, OUTPUTS, res.info.as_ref(), res.seconds)?;
+        if !exec.quiet {
+            println!("{}", human_summary(spec, &res, &exec.out));
+        }
+        Ok(())
+    }
 }
 
 /// Axis label with unit, and the plotted range (log10 of the values on a log axis).

@@ -5,12 +5,16 @@
 //! shards are 0..n, each once; copies (hard-links where it can) every shard's units into
 //! `--out`; then runs the shards' own command into `--out`, where every unit of the
 //! stages the shards computed must be present (a missing one is an error, never computed
-//! here), so the files come from the one assembly code path an unsharded run takes,
+//! here), so the files come from the one assembly code path an unsharded run takes
+//! ([`super::study::execute`], fed the specification and writer options the shards
+//! recorded in run.json; an ensemble, whose lanes only its table holds, runs its
+//! recorded command line again),
 //! reading the units in unit order: the result is identical to the unsharded run's for
 //! any n and any order of the shard directories. A bifurcation's quasistatic sweeps and
 //! its seeded second brute-force pass need the whole first pass: the merge computes them.
 
 use super::rundir::{self, RunArgs};
+use super::study::execute_recorded;
 use clap::Args;
 use jeffcott_analysis::run::dir::{RUN_JSON, UNITS};
 use jeffcott_core::error::{Error, Result};
@@ -27,6 +31,11 @@ pub struct MergeArgs {
     pub out: PathBuf,
     #[command(flatten)]
     pub run: RunArgs,
+    /// Backend of what the merge computes itself (a bifurcation's sweeps, a basin's
+    /// traces and rub figures): auto (a hardware GPU if present, else the CPU), cpu, or
+    /// gpu. Results are the same on either: the backends agree to the bit.
+    #[arg(long, value_enum, default_value_t = jeffcott_core::ensemble::Backend::Auto)]
+    pub backend: jeffcott_core::ensemble::Backend,
     /// Print nothing but errors.
     #[arg(long)]
     pub quiet: bool,
@@ -37,6 +46,7 @@ struct ShardRun {
     dir: PathBuf,
     command: String,
     spec: serde_json::Value,
+    write: serde_json::Value,
     index: usize,
     count: usize,
     argv: Vec<String>,
@@ -75,6 +85,7 @@ fn read_shard(dir: &Path) -> Result<ShardRun> {
         dir: dir.to_path_buf(),
         command: j["command"].as_str().unwrap_or_default().to_string(),
         spec: j["spec"].clone(),
+        write: j["write"].clone(),
         index: index as usize,
         count: count as usize,
         argv: strings(&j["argv"]),
@@ -111,6 +122,20 @@ fn replay_argv(argv: &[String], out: &Path, quiet: bool) -> Vec<String> {
         v.push("--quiet".into());
     }
     v
+}
+
+/// Runs the shards' command line again into `--out` (an ensemble: its lanes are in its
+/// table, which run.json names but does not hold).
+fn replay(first: &ShardRun, a: &MergeArgs) -> Result<()> {
+    let argv = replay_argv(&first.argv, &a.out, a.quiet);
+    let cli = <super::Cli as clap::Parser>::try_parse_from(&argv).map_err(|e| {
+        Error::invalid(
+            "SHARD_DIR",
+            first.dir.display(),
+            format!("its recorded command line does not parse: {e}"),
+        )
+    })?;
+    super::dispatch(&cli.command)
 }
 
 /// Places a unit file into the merged run: a hard link where the file system allows,
@@ -257,15 +282,29 @@ pub fn run_merge(a: &MergeArgs) -> Result<()> {
         }
         jeffcott_analysis::output::sync_dir(&run_dir.path().join(UNITS));
     } // the lock is released here; the replayed command takes it again
-    let argv = replay_argv(&first.argv, &a.out, a.quiet);
-    let cli = <super::Cli as clap::Parser>::try_parse_from(&argv).map_err(|e| {
-        Error::invalid(
-            "SHARD_DIR",
-            first.dir.display(),
-            format!("its recorded command line does not parse: {e}"),
-        )
-    })?;
-    let r = super::dispatch(&cli.command);
+    let exec = rundir::Execution {
+        out: a.out.clone(),
+        run: a.run,
+        shard: None,
+        quiet: a.quiet,
+        backend: a.backend,
+    };
+    let (spec, write, dir) = (&first.spec, &first.write, first.dir.as_path());
+    let r = match first.command.as_str() {
+        "basin" => execute_recorded::<super::basin::Basin>(spec, write, dir, &exec),
+        "map" => execute_recorded::<super::map::Map>(spec, write, dir, &exec),
+        "continuation" => {
+            execute_recorded::<super::continuation::Continuation>(spec, write, dir, &exec)
+        }
+        "basin-stability" => {
+            execute_recorded::<super::stability::Stability>(spec, write, dir, &exec)
+        }
+        "bifurcation" => {
+            execute_recorded::<super::bifurcation::Bifurcation>(spec, write, dir, &exec)
+        }
+        // The ensemble, the one other command the check above lets through.
+        _ => replay(first, a),
+    };
     if r.is_err() {
         eprintln!(
             "note: {} is left as an unfinished merge (its run.json says running); the same merge command resumes it once the cause below is mended",

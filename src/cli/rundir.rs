@@ -3,7 +3,7 @@
 //! and the SIGINT/SIGTERM handler that stops cleanly and prints the command that resumes.
 
 use clap::Args;
-use jeffcott_analysis::run::{Found, RunDir, Shard, ShardStore, UnitStore};
+use jeffcott_analysis::run::{Found, RunDir, RunHeader, Shard, ShardStore, UnitStore};
 use jeffcott_core::error::Result;
 use std::path::Path;
 use std::sync::{Mutex, OnceLock};
@@ -246,8 +246,8 @@ fn install_signal_handler() {
     });
 }
 
-/// Opens `dir` for a run (see [`RunDir::open`]), says on stderr when it resumes, and
-/// arms the signal handler.
+/// Opens `dir` for an unsharded run (see [`RunDir::open`]), says on stderr when it
+/// resumes, and arms the signal handler.
 pub fn open(
     dir: &Path,
     command: &str,
@@ -256,43 +256,85 @@ pub fn open(
     args: RunArgs,
     quiet: bool,
 ) -> Result<RunDir> {
-    open_shard(dir, command, spec, outputs, args, None, quiet)
+    Execution {
+        out: dir.to_path_buf(),
+        run: args,
+        shard: None,
+        quiet,
+        backend: jeffcott_core::ensemble::Backend::Auto,
+    }
+    .open(RunHeader::new(command, spec)?, outputs)
 }
 
-/// [`open`] for one shard of a run (or the whole run, `shard: None`).
-pub fn open_shard(
-    dir: &Path,
-    command: &str,
-    spec: &impl serde::Serialize,
-    outputs: &[&str],
-    args: RunArgs,
-    shard: Option<Shard>,
-    quiet: bool,
-) -> Result<RunDir> {
-    let argv: Vec<String> = std::env::args().collect();
-    let run_dir = RunDir::open(dir, command, spec, outputs, args.overwrite, shard, argv)?;
-    if let Ok(mut d) = RUN_DIRS.lock() {
-        d.push(dir.display().to_string());
+/// How a command's run goes, whether the command line asked for it or `jeffcott merge`
+/// assembles it from shards: where it writes, whether it may replace another run, which
+/// shard it computes, how much it prints, which backend runs its lanes.
+#[derive(Clone, Debug)]
+pub struct Execution {
+    /// `--out`.
+    pub out: std::path::PathBuf,
+    /// `--overwrite`.
+    pub run: RunArgs,
+    /// `--shard`, parsed.
+    pub shard: Option<Shard>,
+    /// `--quiet`.
+    pub quiet: bool,
+    /// `--backend`.
+    pub backend: jeffcott_core::ensemble::Backend,
+}
+
+impl Execution {
+    /// The execution a study command's options ask for (`--shard` parsed: the
+    /// environment read for `slurm`).
+    pub fn of(
+        out: &Path,
+        run: RunArgs,
+        shard: &ShardArgs,
+        quiet: bool,
+        backend: jeffcott_core::ensemble::Backend,
+    ) -> Result<Execution> {
+        Ok(Execution {
+            out: out.to_path_buf(),
+            run,
+            shard: shard.shard()?,
+            quiet,
+            backend,
+        })
     }
-    install_signal_handler();
-    if !quiet {
-        match run_dir.found() {
-            Found::Unfinished => eprintln!(
-                "resuming the unfinished run in {} (committed work units are kept)",
-                dir.display()
-            ),
-            Found::Complete => eprintln!(
-                "{} holds this run, complete; writing its files again from its units",
-                dir.display()
-            ),
-            Found::Overwritten => eprintln!(
-                "--overwrite: removed the other run's files from {}",
-                dir.display()
-            ),
-            Found::Fresh => {}
+
+    /// Opens `--out` for the run `header` describes (its shard and command line filled
+    /// in here), says on stderr when it resumes, and arms the signal handler.
+    pub fn open(&self, header: RunHeader, outputs: &[&str]) -> Result<RunDir> {
+        let dir = &self.out;
+        let header = RunHeader {
+            shard: self.shard,
+            argv: std::env::args().collect(),
+            ..header
+        };
+        let run_dir = RunDir::open(dir, header, outputs, self.run.overwrite)?;
+        if let Ok(mut d) = RUN_DIRS.lock() {
+            d.push(dir.display().to_string());
         }
+        install_signal_handler();
+        if !self.quiet {
+            match run_dir.found() {
+                Found::Unfinished => eprintln!(
+                    "resuming the unfinished run in {} (committed work units are kept)",
+                    dir.display()
+                ),
+                Found::Complete => eprintln!(
+                    "{} holds this run, complete; writing its files again from its units",
+                    dir.display()
+                ),
+                Found::Overwritten => eprintln!(
+                    "--overwrite: removed the other run's files from {}",
+                    dir.display()
+                ),
+                Found::Fresh => {}
+            }
+        }
+        Ok(run_dir)
     }
-    Ok(run_dir)
 }
 
 /// The names among `candidates` that exist in the run's directory (for `outputs` in
@@ -342,71 +384,19 @@ pub fn files_under(dir: &Path) -> Result<Vec<String>> {
     Ok(out)
 }
 
-/// Where and how a resumable, shardable study command runs: its output directory and
-/// the options every such command takes.
-pub struct StudyRun<'a> {
-    /// The command's name (run.json's `command`).
-    pub command: &'a str,
-    /// `--out`.
-    pub out: &'a Path,
-    /// The command's final files (run.json aside).
-    pub outputs: &'a [&'a str],
-    /// `--overwrite`.
-    pub run: RunArgs,
-    /// `--shard`.
-    pub shard: &'a ShardArgs,
-    /// `--quiet`.
-    pub quiet: bool,
-}
-
-impl StudyRun<'_> {
-    /// The frame of a study command: opens `--out` for the run recorded as `record` (or
-    /// for its shard), runs `study` on an engine for `backend` and `precision` under a
-    /// [`CommandHost`], and returns the open run directory with the result to write;
-    /// `None` when this process computed a shard (its run.json is finished and `merge`
-    /// assembles the files).
-    pub fn run<T>(
-        &self,
-        record: &impl serde::Serialize,
-        backend: jeffcott_core::ensemble::Backend,
-        precision: jeffcott_core::ensemble::Precision,
-        study: impl FnOnce(&jeffcott_analysis::backend::Engine, &CommandHost) -> Result<T>,
-    ) -> Result<Option<(RunDir, T)>> {
-        let shard = self.shard.shard()?;
-        let run_dir = open_shard(
-            self.out,
-            self.command,
-            record,
-            self.outputs,
-            self.run,
-            shard,
-            self.quiet,
-        )?;
-        let engine = jeffcott_analysis::backend::Engine::new(backend, precision)?;
-        let res = study(&engine, &CommandHost::new(&run_dir, self.quiet));
-        match res {
-            Err(jeffcott_core::Error::NotInShard) => {
-                finish_shard(&run_dir, self.quiet)?;
-                Ok(None)
-            }
-            r => Ok(Some((run_dir, r?))),
-        }
-    }
-
-    /// Marks the run complete once its files are written: the backend that ran its
-    /// lanes, the wall time, the outputs present.
-    pub fn finish(
-        &self,
-        run_dir: &RunDir,
-        backend: Option<&jeffcott_core::ensemble::RunInfo>,
-        wall_time_s: f64,
-    ) -> Result<()> {
-        run_dir.finish(
-            &BackendTime {
-                backend,
-                wall_time_s,
-            },
-            &written(run_dir, self.outputs),
-        )
-    }
+/// Marks a study's run complete once its files are written: the backend that ran its
+/// lanes, the wall time, the outputs present among `outputs`.
+pub fn finish_study(
+    run_dir: &RunDir,
+    outputs: &[&str],
+    backend: Option<&jeffcott_core::ensemble::RunInfo>,
+    wall_time_s: f64,
+) -> Result<()> {
+    run_dir.finish(
+        &BackendTime {
+            backend,
+            wall_time_s,
+        },
+        &written(run_dir, outputs),
+    )
 }

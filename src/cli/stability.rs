@@ -6,12 +6,15 @@
 //! Resumable and shardable (its sampling pass runs in units).
 
 use super::CatalogueArgs;
-use super::rundir::{self, RunArgs};
+use super::rundir::{self, CommandHost, Execution, RunArgs};
+use super::study::{self, Plot, StudyCommand};
 use crate::plot::{PALETTE, StackedPanel, stacked_fractions};
 use clap::Args;
 use jeffcott_analysis::continuation::{ContinuationResult, ContinuationSpec};
 use jeffcott_analysis::defaults;
 use jeffcott_analysis::output;
+use jeffcott_analysis::run::RunDir;
+use jeffcott_core::ensemble::Backend;
 use jeffcott_core::error::Result;
 use std::path::{Path, PathBuf};
 
@@ -103,28 +106,47 @@ impl StabilityArgs {
 
 /// Runs `jeffcott basin-stability`.
 pub fn run_stability(a: &StabilityArgs) -> Result<()> {
-    let spec = a.spec()?;
-    let frame = rundir::StudyRun {
-        command: "basin-stability",
-        out: &a.out,
-        outputs: OUTPUTS,
-        run: a.run,
-        shard: &a.shard,
-        quiet: a.quiet,
-    };
-    let Some((run_dir, res)) =
-        frame.run(&spec.resolved(), spec.backend, spec.precision, |e, h| {
-            jeffcott_analysis::continuation::run(&spec, e, h)
-        })?
-    else {
-        return Ok(());
-    };
-    let text = write_stability(&a.out, &spec, &res, !a.no_plot)?;
-    frame.finish(&run_dir, res.info.as_ref(), res.seconds)?;
-    if !a.quiet {
-        println!("{text} {:.1} s. Files in {}.", res.seconds, a.out.display());
+    let exec = Execution::of(&a.out, a.run, &a.shard, a.quiet, a.lane.backend)?;
+    study::execute::<Stability>(&a.spec()?, &Plot { plot: !a.no_plot }, &exec)
+}
+
+/// `jeffcott basin-stability` as a study command: a continuation over omega from
+/// sampled start states.
+pub struct Stability;
+
+impl StudyCommand for Stability {
+    const COMMAND: &'static str = "basin-stability";
+    const OUTPUTS: &'static [&'static str] = OUTPUTS;
+    type Spec = ContinuationSpec;
+    type Write = Plot;
+    type Outcome = ContinuationResult;
+    fn record(spec: &ContinuationSpec) -> ContinuationSpec {
+        spec.resolved()
     }
-    Ok(())
+    fn set_backend(spec: &mut ContinuationSpec, backend: Backend) {
+        spec.backend = backend;
+    }
+    fn run(spec: &ContinuationSpec, _: &Plot, host: &CommandHost) -> Result<ContinuationResult> {
+        super::continuation::continue_study(spec, host)
+    }
+    fn finish(
+        spec: &ContinuationSpec,
+        w: &Plot,
+        res: ContinuationResult,
+        run_dir: &RunDir,
+        exec: &Execution,
+    ) -> Result<()> {
+        let text = write_stability(&exec.out, spec, &res, w.plot)?;
+        rundir::finish_study(run_dir, OUTPUTS, res.info.as_ref(), res.seconds)?;
+        if !exec.quiet {
+            println!(
+                "{text} {:.1} s. Files in {}.",
+                res.seconds,
+                exec.out.display()
+            );
+        }
+        Ok(())
+    }
 }
 
 /// Writes the arrays, basin_stability.json and the plot; returns the summary line.

@@ -44,6 +44,40 @@ pub enum Found {
     Overwritten,
 }
 
+/// What `run.json` says of a run from the start: what it computes and how it was asked
+/// for.
+#[derive(Clone, Debug)]
+pub struct RunHeader {
+    /// The subcommand.
+    pub command: String,
+    /// Its specification, the run's identity: the same command and specification
+    /// resume, another one is refused.
+    pub spec: serde_json::Value,
+    /// The shard this run computes, if any.
+    pub shard: Option<super::Shard>,
+    /// The command line.
+    pub argv: Vec<String>,
+    /// What the command's writer needs besides the study's result (its file options;
+    /// `Null` for none): recorded, not part of the identity, so that `jeffcott merge`
+    /// writes the files the shards' command would have.
+    pub write: serde_json::Value,
+}
+
+impl RunHeader {
+    /// The header of `command` with specification `spec`, unsharded, no command line
+    /// and no writer options.
+    pub fn new(command: &str, spec: &impl serde::Serialize) -> Result<RunHeader> {
+        Ok(RunHeader {
+            command: command.to_string(),
+            spec: serde_json::to_value(spec)
+                .map_err(|e| Error::invalid("run specification", command, e.to_string()))?,
+            shard: None,
+            argv: Vec::new(),
+            write: serde_json::Value::Null,
+        })
+    }
+}
+
 /// An output directory held by this run (see the module docs).
 #[derive(Debug)]
 pub struct RunDir {
@@ -52,6 +86,7 @@ pub struct RunDir {
     spec: serde_json::Value,
     shard: Option<super::Shard>,
     argv: Vec<String>,
+    write: serde_json::Value,
     found: Found,
     /// While `jeffcott merge` assembles shards: the stages whose units came from them
     /// (every unit must be there; none is computed here). Kept in run.json, so an
@@ -99,23 +134,25 @@ fn plain_name(name: &str) -> bool {
 }
 
 impl RunDir {
-    /// Opens `dir` for a run of `command` with specification `spec`, whose final files
-    /// are named `outputs`; `shard` when it computes one shard of the run, `argv` the
-    /// command line (recorded, so `jeffcott merge` can assemble shards). Creates the
+    /// Opens `dir` for the run `header` describes, whose final files are named
+    /// `outputs`. Creates the
     /// directory, takes its lock, checks that files can
     /// be written there, compares with what the directory holds (module docs), removes
     /// temporaries a killed run left, and writes `run.json` with `state: "running"`.
     pub fn open(
         dir: &Path,
-        command: &str,
-        spec: &impl serde::Serialize,
+        header: RunHeader,
         outputs: &[&str],
         overwrite: bool,
-        shard: Option<super::Shard>,
-        argv: Vec<String>,
     ) -> Result<RunDir> {
-        let spec = serde_json::to_value(spec)
-            .map_err(|e| Error::invalid("run specification", command, e.to_string()))?;
+        let RunHeader {
+            command,
+            spec,
+            shard,
+            argv,
+            write,
+        } = header;
+        let command = command.as_str();
         output::ensure_dir(dir)?;
         let lock_path = dir.join(LOCK);
         let lock = std::fs::OpenOptions::new()
@@ -215,6 +252,7 @@ impl RunDir {
             spec,
             shard,
             argv,
+            write,
             found,
             merge_stages,
             stages: Default::default(),
@@ -269,6 +307,7 @@ impl RunDir {
             spec: &self.spec,
             shard: self.shard,
             argv: &self.argv,
+            write: &self.write,
             merge_stages: self.merge_stages.as_deref(),
             units_dir: UNITS,
             outputs,
@@ -458,12 +497,13 @@ impl RunDir {
 
 /// The keys of `run.json` the run itself writes (a result's `jeffcott_version`, where it
 /// has one, is its own).
-pub const RUN_KEYS: [&str; 8] = [
+pub const RUN_KEYS: [&str; 9] = [
     "state",
     "command",
     "spec",
     "shard",
     "argv",
+    "write",
     "merge_stages",
     "units_dir",
     "outputs",
@@ -485,6 +525,9 @@ struct RunJson<'a> {
     shard: Option<super::Shard>,
     /// The command line.
     argv: &'a [String],
+    /// The writer's options (not part of the identity).
+    #[serde(skip_serializing_if = "serde_json::Value::is_null")]
+    write: &'a serde_json::Value,
     /// While a merge: the stages whose units came from the shards.
     #[serde(skip_serializing_if = "Option::is_none")]
     merge_stages: Option<&'a [String]>,
@@ -524,16 +567,8 @@ mod tests {
     use super::*;
 
     fn open(dir: &Path) -> RunDir {
-        RunDir::open(
-            dir,
-            "basin",
-            &serde_json::json!({"n": 3}),
-            &[],
-            false,
-            None,
-            vec![],
-        )
-        .unwrap()
+        let header = RunHeader::new("basin", &serde_json::json!({"n": 3})).unwrap();
+        RunDir::open(dir, header, &[], false).unwrap()
     }
 
     #[test]
@@ -556,16 +591,8 @@ mod tests {
     fn another_specification_in_the_directory_does_not_inherit_a_merge() {
         let tmp = tempfile::tempdir().unwrap();
         open(tmp.path()).begin_merge(vec!["basin".into()]).unwrap();
-        let other = RunDir::open(
-            tmp.path(),
-            "basin",
-            &serde_json::json!({"n": 4}),
-            &[],
-            true,
-            None,
-            vec![],
-        )
-        .unwrap();
+        let header = RunHeader::new("basin", &serde_json::json!({"n": 4})).unwrap();
+        let other = RunDir::open(tmp.path(), header, &[], true).unwrap();
         assert_eq!(other.found(), Found::Overwritten);
         assert_eq!(other.merge_stages(), None);
     }

@@ -19,7 +19,7 @@ pub mod host;
 pub mod lanes;
 pub mod unit;
 
-pub use dir::{Found, RunDir};
+pub use dir::{Found, RunDir, RunHeader};
 pub use host::{Host, MemoryHost, PrefixedHost};
 pub use unit::{Array, Unit};
 

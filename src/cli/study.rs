@@ -1,0 +1,92 @@
+//! The shardable study commands (`basin`, `map`, `continuation`, `basin-stability`,
+//! `bifurcation`) run one way, [`execute`]: from their arguments, or by `jeffcott merge`
+//! from the specification and writer options their shards recorded in run.json
+//! ([`execute_recorded`]), never by parsing a command line again.
+
+use super::rundir::{CommandHost, Execution, finish_shard};
+use jeffcott_analysis::run::{RunDir, RunHeader};
+use jeffcott_core::ensemble::Backend;
+use jeffcott_core::error::{Error, Result};
+use serde::{Serialize, de::DeserializeOwned};
+
+/// A study command: its specification, the writer's options, and how the study is run
+/// and its files written.
+pub trait StudyCommand {
+    /// The subcommand (run.json's `command`).
+    const COMMAND: &'static str;
+    /// Its final files (run.json aside).
+    const OUTPUTS: &'static [&'static str];
+    /// The study's specification: run.json's `spec`, the run's identity.
+    type Spec: Serialize + DeserializeOwned;
+    /// What the writer needs besides the study's result (file options): run.json's
+    /// `write`, not part of the identity.
+    type Write: Serialize + DeserializeOwned;
+    /// What the study computes.
+    type Outcome;
+    /// The specification as run.json records it (defaults such as the unit size
+    /// resolved).
+    fn record(spec: &Self::Spec) -> Self::Spec;
+    /// Sets the backend of a specification read back from run.json (the backend is not
+    /// recorded: units computed on any backend combine).
+    fn set_backend(spec: &mut Self::Spec, backend: Backend);
+    /// Runs every stage of the study on `host` (a shard's end is
+    /// [`Error::NotInShard`]).
+    fn run(spec: &Self::Spec, write: &Self::Write, host: &CommandHost) -> Result<Self::Outcome>;
+    /// Writes the files, marks the run complete and says what it found.
+    fn finish(
+        spec: &Self::Spec,
+        write: &Self::Write,
+        outcome: Self::Outcome,
+        run_dir: &RunDir,
+        exec: &Execution,
+    ) -> Result<()>;
+}
+
+/// Runs study `C` with `spec` and writer options `write` as `exec` says: opens `--out`
+/// (resume, refuse or replace), runs the study under the command's host, and either ends
+/// a shard or writes the files.
+pub fn execute<C: StudyCommand>(spec: &C::Spec, write: &C::Write, exec: &Execution) -> Result<()> {
+    let header = RunHeader {
+        write: serde_json::to_value(write)
+            .map_err(|e| Error::invalid("run specification", C::COMMAND, e.to_string()))?,
+        ..RunHeader::new(C::COMMAND, &C::record(spec))?
+    };
+    let run_dir = exec.open(header, C::OUTPUTS)?;
+    match C::run(spec, write, &CommandHost::new(&run_dir, exec.quiet)) {
+        Err(Error::NotInShard) => finish_shard(&run_dir, exec.quiet),
+        r => C::finish(spec, write, r?, &run_dir, exec),
+    }
+}
+
+/// [`execute`] for the specification and writer options a shard recorded (`spec` and
+/// `write` of its run.json); `shard_dir` names the shard in errors.
+pub fn execute_recorded<C: StudyCommand>(
+    spec: &serde_json::Value,
+    write: &serde_json::Value,
+    shard_dir: &std::path::Path,
+    exec: &Execution,
+) -> Result<()> {
+    let unreadable = |what: &str, e: serde_json::Error| {
+        Error::invalid(
+            "SHARD_DIR",
+            shard_dir.display(),
+            format!(
+                "its run.json's {what} does not read as a `{}` run's ({e}); run the shard's command again with this version (it keeps the committed units) and merge again",
+                C::COMMAND
+            ),
+        )
+    };
+    let mut spec: C::Spec =
+        serde_json::from_value(spec.clone()).map_err(|e| unreadable("spec", e))?;
+    C::set_backend(&mut spec, exec.backend);
+    let write: C::Write =
+        serde_json::from_value(write.clone()).map_err(|e| unreadable("write", e))?;
+    execute::<C>(&spec, &write, exec)
+}
+
+/// The writer options of the commands whose only file option is `--no-plot`.
+#[derive(Clone, Copy, Debug, Serialize, serde::Deserialize)]
+pub struct Plot {
+    /// Draw the pictures.
+    pub plot: bool,
+}
