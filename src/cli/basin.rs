@@ -18,7 +18,6 @@ use jeffcott_analysis::output;
 use jeffcott_analysis::rub::RubEntry;
 use jeffcott_analysis::run::RunDir;
 use jeffcott_analysis::simulate::AttractorTrace as SimTrace;
-use jeffcott_core::ensemble::Backend;
 use jeffcott_core::error::Result;
 use jeffcott_core::model::COORD_NAMES;
 use serde::Serialize;
@@ -212,12 +211,6 @@ impl StudyCommand for Basin {
     type Spec = BasinStudy;
     type Write = BasinWrite;
     type Outcome = BasinOutcome;
-    fn record(study: &BasinStudy) -> BasinStudy {
-        study.resolved()
-    }
-    fn set_backend(study: &mut BasinStudy, backend: Backend) {
-        study.basin.backend = backend;
-    }
     fn run(study: &BasinStudy, w: &BasinWrite, host: &CommandHost) -> Result<BasinOutcome> {
         let study = BasinStudy {
             entropy_box: w.entropy_box,

@@ -12,7 +12,6 @@ use jeffcott_analysis::classify::{Class, ClassifyConfig};
 use jeffcott_analysis::defaults;
 use jeffcott_analysis::output;
 use jeffcott_analysis::run::RunDir;
-use jeffcott_core::ensemble::Backend;
 use jeffcott_core::ensemble::Precision;
 use jeffcott_core::error::{Error, Result};
 use jeffcott_core::model::{COORD_NAMES, STATE_DIM, State, coord_index};
@@ -286,12 +285,6 @@ impl StudyCommand for Bifurcation {
     type Spec = BifurcationSpec;
     type Write = BifurcationWrite;
     type Outcome = BifurcationResult;
-    fn record(spec: &BifurcationSpec) -> BifurcationSpec {
-        spec.clone()
-    }
-    fn set_backend(spec: &mut BifurcationSpec, backend: Backend) {
-        spec.backend = backend;
-    }
     fn run(
         spec: &BifurcationSpec,
         _: &BifurcationWrite,

@@ -4,7 +4,7 @@
 
 use super::CatalogueArgs;
 use super::rundir::{self, CommandHost, Execution, RunArgs};
-use super::study::{self, Plot, StudyCommand};
+use super::study::{self, Plot};
 use crate::plot::{PALETTE, StackedPanel, stacked_fractions};
 use clap::{Args, ValueEnum};
 use jeffcott_analysis::backend::Engine;
@@ -14,8 +14,6 @@ use jeffcott_analysis::continuation::{
 use jeffcott_analysis::defaults;
 use jeffcott_analysis::map::MapAxis;
 use jeffcott_analysis::output;
-use jeffcott_analysis::run::RunDir;
-use jeffcott_core::ensemble::Backend;
 use jeffcott_core::error::{Error, Result};
 use std::path::{Path, PathBuf};
 
@@ -163,42 +161,21 @@ pub fn run_continuation(a: &ContinuationArgs) -> Result<()> {
     study::execute::<Continuation>(&a.spec()?, &Plot { plot: !a.no_plot }, &exec)
 }
 
-/// `jeffcott continuation` as a study command.
-pub struct Continuation;
+study::plot_study! { Continuation, "continuation", ContinuationSpec, ContinuationResult }
 
-impl StudyCommand for Continuation {
-    const COMMAND: &'static str = "continuation";
-    const OUTPUTS: &'static [&'static str] = OUTPUTS;
-    type Spec = ContinuationSpec;
-    type Write = Plot;
-    type Outcome = ContinuationResult;
-    fn record(spec: &ContinuationSpec) -> ContinuationSpec {
-        spec.resolved()
-    }
-    fn set_backend(spec: &mut ContinuationSpec, backend: Backend) {
-        spec.backend = backend;
-    }
-    fn run(spec: &ContinuationSpec, _: &Plot, host: &CommandHost) -> Result<ContinuationResult> {
-        continue_study(spec, host)
-    }
-    fn finish(
-        spec: &ContinuationSpec,
-        w: &Plot,
-        res: ContinuationResult,
-        run_dir: &RunDir,
-        exec: &Execution,
-    ) -> Result<()> {
-        write_continuation(&exec.out, spec, &res, w.plot)?;
-        rundir::finish_study(run_dir, OUTPUTS, res.info.as_ref(), res.seconds)?;
-        if !exec.quiet {
-            println!("{}", human_summary(spec, &res, &exec.out));
-        }
-        Ok(())
-    }
+/// Writes a continuation's files; returns its summary line.
+fn write_study(
+    out: &Path,
+    spec: &ContinuationSpec,
+    res: &ContinuationResult,
+    plot: bool,
+) -> Result<String> {
+    write_continuation(out, spec, res, plot)?;
+    Ok(human_summary(spec, res, out))
 }
 
 /// Runs a continuation (`continuation` and `basin-stability`) on its spec's engine.
-pub fn continue_study(spec: &ContinuationSpec, host: &CommandHost) -> Result<ContinuationResult> {
+pub fn run_study(spec: &ContinuationSpec, host: &CommandHost) -> Result<ContinuationResult> {
     let engine = Engine::new(spec.backend, spec.precision)?;
     jeffcott_analysis::continuation::run(spec, &engine, host)
 }

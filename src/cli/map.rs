@@ -5,15 +5,13 @@
 
 use super::CatalogueArgs;
 use super::rundir::{self, CommandHost, Execution, RunArgs};
-use super::study::{self, Plot, StudyCommand};
+use super::study::{self, Plot};
 use crate::plot::{basin_map, category_map, lambda1_map};
 use clap::Args;
 use jeffcott_analysis::backend::Engine;
 use jeffcott_analysis::defaults;
 use jeffcott_analysis::map::{MapAxis, MapResult, MapSpec, MapVar, code};
 use jeffcott_analysis::output;
-use jeffcott_analysis::run::RunDir;
-use jeffcott_core::ensemble::Backend;
 use jeffcott_core::error::Result;
 use std::path::{Path, PathBuf};
 
@@ -133,39 +131,17 @@ pub fn run_map(a: &MapArgs) -> Result<()> {
     study::execute::<Map>(&a.spec()?, &Plot { plot: !a.no_plot }, &exec)
 }
 
-/// `jeffcott map` as a study command.
-pub struct Map;
+study::plot_study! { Map, "map", MapSpec, MapResult }
 
-impl StudyCommand for Map {
-    const COMMAND: &'static str = "map";
-    const OUTPUTS: &'static [&'static str] = OUTPUTS;
-    type Spec = MapSpec;
-    type Write = Plot;
-    type Outcome = MapResult;
-    fn record(spec: &MapSpec) -> MapSpec {
-        spec.resolved()
-    }
-    fn set_backend(spec: &mut MapSpec, backend: Backend) {
-        spec.backend = backend;
-    }
-    fn run(spec: &MapSpec, _: &Plot, host: &CommandHost) -> Result<MapResult> {
-        let engine = Engine::new(spec.backend, spec.precision)?;
-        jeffcott_analysis::map::run(spec, &engine, host)
-    }
-    fn finish(
-        spec: &MapSpec,
-        w: &Plot,
-        res: MapResult,
-        run_dir: &RunDir,
-        exec: &Execution,
-    ) -> Result<()> {
-        write_map(&exec.out, spec, &res, w.plot)?;
-        rundir::finish_study(run_dir, OUTPUTS, res.info.as_ref(), res.seconds)?;
-        if !exec.quiet {
-            println!("{}", human_summary(spec, &res, &exec.out));
-        }
-        Ok(())
-    }
+/// Runs a map on its spec's engine.
+fn run_study(spec: &MapSpec, host: &CommandHost) -> Result<MapResult> {
+    jeffcott_analysis::map::run(spec, &Engine::new(spec.backend, spec.precision)?, host)
+}
+
+/// Writes a map's files; returns its summary line.
+fn write_study(out: &Path, spec: &MapSpec, res: &MapResult, plot: bool) -> Result<String> {
+    write_map(out, spec, res, plot)?;
+    Ok(human_summary(spec, res, out))
 }
 
 /// Axis label with unit, and the plotted range (log10 of the values on a log axis).

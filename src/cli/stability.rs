@@ -6,15 +6,13 @@
 //! Resumable and shardable (its sampling pass runs in units).
 
 use super::CatalogueArgs;
-use super::rundir::{self, CommandHost, Execution, RunArgs};
-use super::study::{self, Plot, StudyCommand};
+use super::rundir::{self, Execution, RunArgs};
+use super::study::{self, Plot};
 use crate::plot::{PALETTE, StackedPanel, stacked_fractions};
 use clap::Args;
 use jeffcott_analysis::continuation::{ContinuationResult, ContinuationSpec};
 use jeffcott_analysis::defaults;
 use jeffcott_analysis::output;
-use jeffcott_analysis::run::RunDir;
-use jeffcott_core::ensemble::Backend;
 use jeffcott_core::error::Result;
 use std::path::{Path, PathBuf};
 
@@ -110,43 +108,24 @@ pub fn run_stability(a: &StabilityArgs) -> Result<()> {
     study::execute::<Stability>(&a.spec()?, &Plot { plot: !a.no_plot }, &exec)
 }
 
-/// `jeffcott basin-stability` as a study command: a continuation over omega from
-/// sampled start states.
-pub struct Stability;
+// A continuation over omega from sampled start states.
+study::plot_study! { Stability, "basin-stability", ContinuationSpec, ContinuationResult }
 
-impl StudyCommand for Stability {
-    const COMMAND: &'static str = "basin-stability";
-    const OUTPUTS: &'static [&'static str] = OUTPUTS;
-    type Spec = ContinuationSpec;
-    type Write = Plot;
-    type Outcome = ContinuationResult;
-    fn record(spec: &ContinuationSpec) -> ContinuationSpec {
-        spec.resolved()
-    }
-    fn set_backend(spec: &mut ContinuationSpec, backend: Backend) {
-        spec.backend = backend;
-    }
-    fn run(spec: &ContinuationSpec, _: &Plot, host: &CommandHost) -> Result<ContinuationResult> {
-        super::continuation::continue_study(spec, host)
-    }
-    fn finish(
-        spec: &ContinuationSpec,
-        w: &Plot,
-        res: ContinuationResult,
-        run_dir: &RunDir,
-        exec: &Execution,
-    ) -> Result<()> {
-        let text = write_stability(&exec.out, spec, &res, w.plot)?;
-        rundir::finish_study(run_dir, OUTPUTS, res.info.as_ref(), res.seconds)?;
-        if !exec.quiet {
-            println!(
-                "{text} {:.1} s. Files in {}.",
-                res.seconds,
-                exec.out.display()
-            );
-        }
-        Ok(())
-    }
+use super::continuation::run_study;
+
+/// Writes a basin-stability study's files; returns its summary line.
+fn write_study(
+    out: &Path,
+    spec: &ContinuationSpec,
+    res: &ContinuationResult,
+    plot: bool,
+) -> Result<String> {
+    let text = write_stability(out, spec, res, plot)?;
+    Ok(format!(
+        "{text} {:.1} s. Files in {}.",
+        res.seconds,
+        out.display()
+    ))
 }
 
 /// Writes the arrays, basin_stability.json and the plot; returns the summary line.

@@ -4,8 +4,8 @@
 //! ([`execute_recorded`]), never by parsing a command line again.
 
 use super::rundir::{CommandHost, Execution, finish_shard};
+use jeffcott_analysis::record::StudySpec;
 use jeffcott_analysis::run::{RunDir, RunHeader};
-use jeffcott_core::ensemble::Backend;
 use jeffcott_core::error::{Error, Result};
 use serde::{Serialize, de::DeserializeOwned};
 
@@ -16,19 +16,14 @@ pub trait StudyCommand {
     const COMMAND: &'static str;
     /// Its final files (run.json aside).
     const OUTPUTS: &'static [&'static str];
-    /// The study's specification: run.json's `spec`, the run's identity.
-    type Spec: Serialize + DeserializeOwned;
+    /// The study's specification: run.json's `spec` ([`StudySpec::resolved`]), the
+    /// run's identity.
+    type Spec: StudySpec;
     /// What the writer needs besides the study's result (file options): run.json's
     /// `write`, not part of the identity.
     type Write: Serialize + DeserializeOwned;
     /// What the study computes.
     type Outcome;
-    /// The specification as run.json records it (defaults such as the unit size
-    /// resolved).
-    fn record(spec: &Self::Spec) -> Self::Spec;
-    /// Sets the backend of a specification read back from run.json (the backend is not
-    /// recorded: units computed on any backend combine).
-    fn set_backend(spec: &mut Self::Spec, backend: Backend);
     /// Runs every stage of the study on `host` (a shard's end is
     /// [`Error::NotInShard`]).
     fn run(spec: &Self::Spec, write: &Self::Write, host: &CommandHost) -> Result<Self::Outcome>;
@@ -49,7 +44,7 @@ pub fn execute<C: StudyCommand>(spec: &C::Spec, write: &C::Write, exec: &Executi
     let header = RunHeader {
         write: serde_json::to_value(write)
             .map_err(|e| Error::invalid("run specification", C::COMMAND, e.to_string()))?,
-        ..RunHeader::new(C::COMMAND, &C::record(spec))?
+        ..RunHeader::new(C::COMMAND, &spec.resolved())?
     };
     let run_dir = exec.open(header, C::OUTPUTS)?;
     match C::run(spec, write, &CommandHost::new(&run_dir, exec.quiet)) {
@@ -78,11 +73,58 @@ pub fn execute_recorded<C: StudyCommand>(
     };
     let mut spec: C::Spec =
         serde_json::from_value(spec.clone()).map_err(|e| unreadable("spec", e))?;
-    C::set_backend(&mut spec, exec.backend);
+    spec.set_backend(exec.backend);
     let write: C::Write =
         serde_json::from_value(write.clone()).map_err(|e| unreadable("write", e))?;
     execute::<C>(&spec, &write, exec)
 }
+
+/// Implements [`StudyCommand`] as `$cmd` for `jeffcott $name`, a study whose one writer
+/// option is `--no-plot` ([`Plot`]) and whose run.json adds its backend and wall time
+/// (its outcome has `info` and `seconds`), from the invoking module's `OUTPUTS`,
+/// `run_study(spec, host)` (computes it) and `write_study(out, spec, outcome, plot)`
+/// (writes its files and returns the line printed unless `--quiet`).
+macro_rules! plot_study {
+    ($cmd:ident, $name:literal, $spec:ty, $outcome:ty) => {
+        #[doc = concat!("`jeffcott ", $name, "` as a study command.")]
+        pub struct $cmd;
+
+        impl $crate::cli::study::StudyCommand for $cmd {
+            const COMMAND: &'static str = $name;
+            const OUTPUTS: &'static [&'static str] = OUTPUTS;
+            type Spec = $spec;
+            type Write = $crate::cli::study::Plot;
+            type Outcome = $outcome;
+            fn run(
+                spec: &$spec,
+                _: &Self::Write,
+                host: &$crate::cli::rundir::CommandHost,
+            ) -> jeffcott_core::error::Result<$outcome> {
+                run_study(spec, host)
+            }
+            fn finish(
+                spec: &$spec,
+                w: &Self::Write,
+                res: $outcome,
+                run_dir: &jeffcott_analysis::run::RunDir,
+                exec: &$crate::cli::rundir::Execution,
+            ) -> jeffcott_core::error::Result<()> {
+                let line = write_study(&exec.out, spec, &res, w.plot)?;
+                $crate::cli::rundir::finish_study(
+                    run_dir,
+                    OUTPUTS,
+                    res.info.as_ref(),
+                    res.seconds,
+                )?;
+                if !exec.quiet {
+                    println!("{line}");
+                }
+                Ok(())
+            }
+        }
+    };
+}
+pub(crate) use plot_study;
 
 /// The writer options of the commands whose only file option is `--no-plot`.
 #[derive(Clone, Copy, Debug, Serialize, serde::Deserialize)]

@@ -43,6 +43,11 @@ pub struct CascadeSpec {
     pub down: bool,
 }
 
+impl crate::record::StudySpec for CascadeSpec {
+    /// A cascade runs on the CPU: no backend to set.
+    fn set_backend(&mut self, _: jeffcott_core::ensemble::Backend) {}
+}
+
 /// Speeds per unit at most.
 const UNIT_SPEEDS: usize = 25;
 

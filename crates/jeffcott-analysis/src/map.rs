@@ -385,19 +385,13 @@ impl MapSpec {
             .unwrap_or_else(|| crate::run::unit_lanes(self.cells(), per_cell))
     }
 
-    /// The specification as `run.json` records it: the unit size resolved.
-    pub fn resolved(&self) -> MapSpec {
-        MapSpec {
-            cells_per_unit: Some(self.unit_cells()),
-            ..self.clone()
-        }
-    }
-
     /// Lane-periods of the whole map (for progress and estimates).
     pub fn lane_periods(&self) -> u64 {
         self.cells() as u64 * self.ics as u64 * (self.transient + self.recorded) as u64
     }
 }
+
+crate::record::unit_sized_spec!(MapSpec, cells_per_unit, unit_cells);
 
 /// One attractor found in one cell.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -50,6 +50,39 @@ pub mod coord_name {
     }
 }
 
+/// A study's specification as its run records it: serialized, it is run.json's `spec`
+/// (the run's identity), and it reads back from there for `merge`.
+pub trait StudySpec: Serialize + serde::de::DeserializeOwned + Clone {
+    /// The specification with its defaults resolved (the unit size), as recorded.
+    fn resolved(&self) -> Self {
+        self.clone()
+    }
+    /// Sets the backend, which is not recorded (units computed on any backend combine).
+    fn set_backend(&mut self, backend: jeffcott_core::ensemble::Backend);
+}
+
+/// Implements [`StudySpec`] for `$spec`, whose `backend` field is set and whose unit
+/// size `$field` (an `Option`, `None` for the default) is recorded resolved by its
+/// method `$unit` (units of another size do not combine, so a resumed or merged run
+/// checks it).
+macro_rules! unit_sized_spec {
+    ($spec:ty, $field:ident, $unit:ident) => {
+        impl $crate::record::StudySpec for $spec {
+            fn resolved(&self) -> Self {
+                let $field = Some(self.$unit());
+                Self {
+                    $field,
+                    ..self.clone()
+                }
+            }
+            fn set_backend(&mut self, backend: jeffcott_core::ensemble::Backend) {
+                self.backend = backend;
+            }
+        }
+    };
+}
+pub(crate) use unit_sized_spec;
+
 /// A list of speeds recorded as a [`Span`] when it is the range `a:b:n` makes
 /// ([`jeffcott_core::ensemble::range_value`], bit for bit), else value by value, so the
 /// record always gives the list back: `#[serde(with = "crate::record::speeds")]`.

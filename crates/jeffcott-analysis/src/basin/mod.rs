@@ -268,16 +268,9 @@ impl BasinSpec {
         self.lanes_per_unit
             .unwrap_or_else(|| crate::run::unit_lanes(self.x.n * self.y.n, per_lane))
     }
-
-    /// The specification as the files record it: the unit size resolved
-    /// ([`BasinSpec::unit_lanes`]), so that a resumed or merged run checks it.
-    pub fn resolved(&self) -> BasinSpec {
-        BasinSpec {
-            lanes_per_unit: Some(self.unit_lanes()),
-            ..self.clone()
-        }
-    }
 }
+
+crate::record::unit_sized_spec!(BasinSpec, lanes_per_unit, unit_lanes);
 
 /// Most cells a basin may have: 1e9 (4 GB of labels, 12 GB with lambda_1; at the
 /// default 564 periods per cell about 16 hours at 1e7 lane-periods/s, a large GPU).

@@ -53,14 +53,6 @@ impl BasinStudy {
         }
     }
 
-    /// The study as `run.json` records it: the grid's unit size resolved.
-    pub fn resolved(&self) -> BasinStudy {
-        BasinStudy {
-            basin: self.basin.resolved(),
-            ..self.clone()
-        }
-    }
-
     /// Checks every input before anything is allocated or integrated; errors name the
     /// option and the allowed range.
     pub fn validate(&self) -> Result<()> {
@@ -70,6 +62,19 @@ impl BasinStudy {
         crate::uncertainty::check_samples(self.uncertainty_samples)?;
         crate::measures::entropy_box(self.entropy_box, b.x.n, b.y.n)?;
         crate::refine::check_levels(self.refine, b.lyapunov, b.x.n, b.y.n)
+    }
+}
+
+impl crate::record::StudySpec for BasinStudy {
+    /// The grid's unit size resolved.
+    fn resolved(&self) -> BasinStudy {
+        BasinStudy {
+            basin: self.basin.resolved(),
+            ..self.clone()
+        }
+    }
+    fn set_backend(&mut self, backend: jeffcott_core::ensemble::Backend) {
+        self.basin.backend = backend;
     }
 }
 

@@ -96,6 +96,12 @@ pub struct BifurcationSpec {
     pub lyapunov: bool,
 }
 
+impl crate::record::StudySpec for BifurcationSpec {
+    fn set_backend(&mut self, backend: Backend) {
+        self.backend = backend;
+    }
+}
+
 impl BifurcationSpec {
     /// Checks the inputs; errors name the option and the allowed range.
     pub fn validate(&self) -> Result<()> {

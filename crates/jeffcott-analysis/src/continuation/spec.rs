@@ -94,6 +94,8 @@ pub struct ContinuationSpec {
     pub values_per_unit: Option<usize>,
 }
 
+crate::record::unit_sized_spec!(ContinuationSpec, values_per_unit, unit_values);
+
 /// The continued parameter as `run.json` records it: name and range, no spacing (a
 /// continuation's values are evenly spaced): `#[serde(with = "linear_axis")]`.
 mod linear_axis {
@@ -272,14 +274,6 @@ impl ContinuationSpec {
         match &self.start_box {
             None => crate::bifurcation::start_states(&p, self.ics, self.w_ref(), self.seed),
             Some(b) => uniform_in_box(&p.static_equilibrium(), b, self.ics, self.seed),
-        }
-    }
-
-    /// The specification as `run.json` records it: the unit size resolved.
-    pub fn resolved(&self) -> ContinuationSpec {
-        ContinuationSpec {
-            values_per_unit: Some(self.unit_values()),
-            ..self.clone()
         }
     }
 
