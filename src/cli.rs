@@ -189,9 +189,6 @@ pub struct EnsembleArgs {
     /// vector renormalised every period (written to `lambda1.npy`).
     #[arg(long)]
     pub lyapunov: bool,
-    /// Print nothing but errors.
-    #[arg(long)]
-    pub quiet: bool,
 }
 
 /// Final files of an ensemble (run.json aside).
@@ -373,14 +370,14 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
         params: &spec.param_sets,
         lanes: lanes_record,
     };
-    let exec = rundir::Execution::of(&a.out, a.run, &a.shard, a.quiet, a.lane.backend)?;
+    let exec = rundir::Execution::of(&a.out, a.run, &a.shard, a.lane.backend)?;
     let shard = exec.shard;
     let run_dir = exec.open(
         jeffcott_analysis::run::RunHeader::new("ensemble", &run_spec)?,
         ENSEMBLE_OUTPUTS,
     )?;
     let store = rundir::store(&run_dir);
-    let bar = crate::progress::Bar::new("ensemble", n as u64 * per_lane, per_lane, a.quiet);
+    let bar = crate::progress::Bar::new("ensemble", n as u64 * per_lane, per_lane, a.run.quiet);
     let start = std::time::Instant::now();
     let engine = jeffcott_analysis::backend::Engine::new(a.lane.backend, spec.precision)?;
     let ensemble = |u: usize| EnsembleSpec {
@@ -421,7 +418,7 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
     )?;
     bar.finish();
     if shard.is_some() {
-        return rundir::finish_shard(&run_dir, a.quiet);
+        return rundir::finish_shard(&run_dir, a.run.quiet);
     }
     let elapsed = start.elapsed().as_secs_f64();
     let info = ran.unwrap_or(jeffcott_core::ensemble::RunInfo {
@@ -435,7 +432,7 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
         precision: spec.precision,
         elapsed_s: 0.0,
     });
-    if !a.quiet {
+    if !a.run.quiet {
         println!(
             "backend: {} ({}; {}), precision {:?}",
             info.backend, info.device, info.reason, info.precision
@@ -499,7 +496,7 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
         ],
     );
     run_dir.finish(&run_json, &rundir::written(&run_dir, ENSEMBLE_OUTPUTS))?;
-    if !a.quiet {
+    if !a.run.quiet {
         println!(
             "{n} lanes x {} periods in {:.2} s ({:.3e} lane-steps/s); status ok {}, refinement_cap {}, diverged {}, non_finite {}; files in {}",
             spec.transient + spec.recorded,
@@ -693,9 +690,6 @@ pub struct SimulateArgs {
     /// Skip phase.png, full_spectrum.png and contact.png.
     #[arg(long)]
     pub no_plot: bool,
-    /// Print nothing but errors.
-    #[arg(long)]
-    pub quiet: bool,
 }
 
 pub use jeffcott_core::inputs::{
@@ -756,7 +750,6 @@ pub fn run_simulate(a: &SimulateArgs) -> Result<()> {
         },
         &outputs,
         a.run,
-        a.quiet,
     )?;
     let SimulateOutcome { result: res, rub } = run_study(&study, &rundir::cancel())?;
     let spec = study.spec;
@@ -778,7 +771,7 @@ pub fn run_simulate(a: &SimulateArgs) -> Result<()> {
         },
         &rundir::written(&run_dir, &outputs),
     )?;
-    if !a.quiet {
+    if !a.run.quiet {
         println!("{}", human_summary(&spec, &res, &a.out));
         match &rub {
             Some(o) => println!("{}", rubout::rub_sentence(o)),

@@ -97,9 +97,6 @@ pub struct BasinArgs {
     /// Skip basin.png, basin_lambda1.png, attractors.png and uncertainty.png.
     #[arg(long)]
     pub no_plot: bool,
-    /// Print nothing but errors (no progress bar).
-    #[arg(long)]
-    pub quiet: bool,
 }
 
 impl BasinArgs {
@@ -182,7 +179,7 @@ struct RunResult<'a> {
 
 /// Runs `jeffcott basin`: the study's units committed to --out, then its files.
 pub fn run_basin(a: &BasinArgs) -> Result<()> {
-    let exec = Execution::of(&a.out, a.run, &a.shard, a.quiet, a.lane.backend)?;
+    let exec = Execution::of(&a.out, a.run, &a.shard, a.lane.backend)?;
     let write = BasinWrite {
         entropy_box: a.entropy_box,
         plot: !a.no_plot,
@@ -227,7 +224,7 @@ impl StudyCommand for Basin {
         run_dir: &RunDir,
         exec: &Execution,
     ) -> Result<()> {
-        report_basin(&exec.out, w, &o, run_dir, exec.quiet)
+        report_basin(&exec.out, w, &o, run_dir, exec.run.quiet)
     }
 }
 

@@ -152,9 +152,6 @@ pub struct BifurcationArgs {
     /// Skip bifurcation.png.
     #[arg(long)]
     pub no_plot: bool,
-    /// Print nothing but errors (no progress bar).
-    #[arg(long)]
-    pub quiet: bool,
 }
 
 /// Parses a comma-separated list of coordinate names.
@@ -249,7 +246,7 @@ pub fn run_bifurcation(a: &BifurcationArgs) -> Result<()> {
     for &w in &a.portraits {
         check_portrait_speed(&spec.omegas, w)?;
     }
-    let exec = Execution::of(&a.out, a.run, &a.shard, a.quiet, a.lane.backend)?;
+    let exec = Execution::of(&a.out, a.run, &a.shard, a.lane.backend)?;
     if exec.shard.is_some() && spec.ics == 0 {
         return Err(Error::invalid(
             "shard",
@@ -312,7 +309,7 @@ impl StudyCommand for Bifurcation {
             }
         }
         run_dir.finish(&RunResult::of(&res), &outputs)?;
-        if !exec.quiet {
+        if !exec.run.quiet {
             println!("{}", human_summary(spec, &res, &exec.out));
         }
         Ok(())

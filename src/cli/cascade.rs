@@ -49,9 +49,6 @@ pub struct CascadeArgs {
     /// Skip the pictures.
     #[arg(long)]
     pub no_plot: bool,
-    /// Print nothing but errors (no progress bar).
-    #[arg(long)]
-    pub quiet: bool,
 }
 
 /// Final files (run.json aside).
@@ -92,16 +89,17 @@ impl CascadeArgs {
 /// Runs `jeffcott cascade`.
 pub fn run_cascade(a: &CascadeArgs) -> Result<()> {
     let spec = a.spec()?;
-    let run_dir = rundir::open(&a.out, "cascade", &spec, OUTPUTS, a.run, a.quiet)?;
+    let run_dir = rundir::open(&a.out, "cascade", &spec, OUTPUTS, a.run)?;
     let t = std::time::Instant::now();
-    let res = jeffcott_analysis::cascade::run(&spec, &rundir::CommandHost::new(&run_dir, a.quiet))?;
+    let res =
+        jeffcott_analysis::cascade::run(&spec, &rundir::CommandHost::new(&run_dir, a.run.quiet))?;
     write_cascade(&a.out, &spec, &res, !a.no_plot, a.csv)?;
     let secs = t.elapsed().as_secs_f64();
     run_dir.finish(
         &rundir::WallTime { wall_time_s: secs },
         &rundir::written(&run_dir, OUTPUTS),
     )?;
-    if !a.quiet {
+    if !a.run.quiet {
         println!(
             "Cascade over {} speeds ({}..{} rad/s){}: {}; {secs:.1} s. Files in {}.",
             spec.omegas.len(),

@@ -88,9 +88,6 @@ pub struct ContinuationArgs {
     /// Skip continuation.png.
     #[arg(long)]
     pub no_plot: bool,
-    /// Print nothing but errors (no progress bar).
-    #[arg(long)]
-    pub quiet: bool,
 }
 
 impl ContinuationArgs {
@@ -157,7 +154,7 @@ pub const OUTPUTS: &[&str] = &[
 
 /// Runs `jeffcott continuation`.
 pub fn run_continuation(a: &ContinuationArgs) -> Result<()> {
-    let exec = Execution::of(&a.out, a.run, &a.shard, a.quiet, a.lane.backend)?;
+    let exec = Execution::of(&a.out, a.run, &a.shard, a.lane.backend)?;
     study::execute::<Continuation>(&a.spec()?, &Plot { plot: !a.no_plot }, &exec)
 }
 

@@ -118,9 +118,6 @@ pub struct LyapunovArgs {
     pub out: PathBuf,
     #[command(flatten)]
     pub run: super::rundir::RunArgs,
-    /// Print nothing but errors.
-    #[arg(long)]
-    pub quiet: bool,
 }
 
 /// Runs `jeffcott lyapunov`.
@@ -183,7 +180,6 @@ pub fn run_lyapunov(a: &LyapunovArgs) -> Result<()> {
             &run_spec,
             &["spectrum.json", "convergence.png"],
             a.run,
-            a.quiet,
         )?;
         let s = spectrum(&params, omega, &x0, &cfg)?;
         plot::lyapunov::convergence(
@@ -206,7 +202,7 @@ pub fn run_lyapunov(a: &LyapunovArgs) -> Result<()> {
             },
             &["spectrum.json".into(), "convergence.png".into()],
         )?;
-        if !a.quiet {
+        if !a.run.quiet {
             println!(
                 "W = {omega} rad/s: exponents [1/s] {}; sum {:.4} (= <tr J> {:.4} + saltation {:.1e}); \
                  {:.1} s accumulated ({:?}) in {:.2} s wall; files in {}",
@@ -236,7 +232,7 @@ pub fn run_lyapunov(a: &LyapunovArgs) -> Result<()> {
         "lyapunov.json",
         "lyapunov.png",
     ];
-    let run_dir = super::rundir::open(dir, "lyapunov", &run_spec, &outputs, a.run, a.quiet)?;
+    let run_dir = super::rundir::open(dir, "lyapunov", &run_spec, &outputs, a.run)?;
     let start = std::time::Instant::now();
     let all = range_units(&run_dir, &params, &omegas, &x0, a.start, &cfg)?;
     let wall = start.elapsed().as_secs_f64();
@@ -280,7 +276,7 @@ pub fn run_lyapunov(a: &LyapunovArgs) -> Result<()> {
         &super::rundir::WallTime { wall_time_s: wall },
         &outputs.map(String::from),
     )?;
-    if !a.quiet {
+    if !a.run.quiet {
         for s in &all {
             println!(
                 "W = {:.4}: lambda_1 = {:.4} +- {:.1e} 1/s, sum {:.3}",

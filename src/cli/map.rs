@@ -73,9 +73,6 @@ pub struct MapArgs {
     /// Skip the pictures.
     #[arg(long)]
     pub no_plot: bool,
-    /// Print nothing but errors (no progress bar).
-    #[arg(long)]
-    pub quiet: bool,
 }
 
 impl MapArgs {
@@ -127,7 +124,7 @@ pub const OUTPUTS: &[&str] = &[
 
 /// Runs `jeffcott map`.
 pub fn run_map(a: &MapArgs) -> Result<()> {
-    let exec = Execution::of(&a.out, a.run, &a.shard, a.quiet, a.lane.backend)?;
+    let exec = Execution::of(&a.out, a.run, &a.shard, a.lane.backend)?;
     study::execute::<Map>(&a.spec()?, &Plot { plot: !a.no_plot }, &exec)
 }
 

@@ -36,9 +36,6 @@ pub struct MergeArgs {
     /// gpu. Results are the same on either: the backends agree to the bit.
     #[arg(long, value_enum, default_value_t = jeffcott_core::ensemble::Backend::Auto)]
     pub backend: jeffcott_core::ensemble::Backend,
-    /// Print nothing but errors.
-    #[arg(long)]
-    pub quiet: bool,
 }
 
 /// What a shard directory's run.json says.
@@ -127,7 +124,7 @@ fn replay_argv(argv: &[String], out: &Path, quiet: bool) -> Vec<String> {
 /// Runs the shards' command line again into `--out` (an ensemble: its lanes are in its
 /// table, which run.json names but does not hold).
 fn replay(first: &ShardRun, a: &MergeArgs) -> Result<()> {
-    let argv = replay_argv(&first.argv, &a.out, a.quiet);
+    let argv = replay_argv(&first.argv, &a.out, a.run.quiet);
     let cli = <super::Cli as clap::Parser>::try_parse_from(&argv).map_err(|e| {
         Error::invalid(
             "SHARD_DIR",
@@ -269,8 +266,7 @@ pub fn run_merge(a: &MergeArgs) -> Result<()> {
     stages.sort();
     stages.dedup();
     {
-        let mut run_dir =
-            rundir::open(&a.out, &first.command, &first.spec, outputs, a.run, a.quiet)?;
+        let mut run_dir = rundir::open(&a.out, &first.command, &first.spec, outputs, a.run)?;
         run_dir.begin_merge(stages)?;
         for s in &shards {
             for key in &s.units {
@@ -286,7 +282,6 @@ pub fn run_merge(a: &MergeArgs) -> Result<()> {
         out: a.out.clone(),
         run: a.run,
         shard: None,
-        quiet: a.quiet,
         backend: a.backend,
     };
     let (spec, write, dir) = (&first.spec, &first.write, first.dir.as_path());
@@ -312,7 +307,7 @@ pub fn run_merge(a: &MergeArgs) -> Result<()> {
         );
     }
     r?;
-    if !a.quiet {
+    if !a.run.quiet {
         println!(
             "merged {n} shards of a `{}` run into {} in {:.2} s",
             first.command,

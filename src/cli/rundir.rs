@@ -8,7 +8,7 @@ use jeffcott_core::error::Result;
 use std::path::Path;
 use std::sync::{Mutex, OnceLock};
 
-/// Options every resumable command takes.
+/// Options every resumable command takes: may it replace another run, and may it talk.
 #[derive(Args, Debug, Clone, Copy)]
 pub struct RunArgs {
     /// Replace the run in --out if it has another specification (its files are removed
@@ -17,6 +17,9 @@ pub struct RunArgs {
     /// to those of an uninterrupted run.
     #[arg(long)]
     pub overwrite: bool,
+    /// Print nothing but errors (no progress bar).
+    #[arg(long)]
+    pub quiet: bool,
 }
 
 /// Options of the commands that can run one shard of a run spread over many machines.
@@ -254,13 +257,11 @@ pub fn open(
     spec: &impl serde::Serialize,
     outputs: &[&str],
     args: RunArgs,
-    quiet: bool,
 ) -> Result<RunDir> {
     Execution {
         out: dir.to_path_buf(),
         run: args,
         shard: None,
-        quiet,
         backend: jeffcott_core::ensemble::Backend::Auto,
     }
     .open(RunHeader::new(command, spec)?, outputs)
@@ -273,12 +274,10 @@ pub fn open(
 pub struct Execution {
     /// `--out`.
     pub out: std::path::PathBuf,
-    /// `--overwrite`.
+    /// `--overwrite`, `--quiet`.
     pub run: RunArgs,
     /// `--shard`, parsed.
     pub shard: Option<Shard>,
-    /// `--quiet`.
-    pub quiet: bool,
     /// `--backend`.
     pub backend: jeffcott_core::ensemble::Backend,
 }
@@ -290,14 +289,12 @@ impl Execution {
         out: &Path,
         run: RunArgs,
         shard: &ShardArgs,
-        quiet: bool,
         backend: jeffcott_core::ensemble::Backend,
     ) -> Result<Execution> {
         Ok(Execution {
             out: out.to_path_buf(),
             run,
             shard: shard.shard()?,
-            quiet,
             backend,
         })
     }
@@ -316,7 +313,7 @@ impl Execution {
             d.push(dir.display().to_string());
         }
         install_signal_handler();
-        if !self.quiet {
+        if !self.run.quiet {
             match run_dir.found() {
                 Found::Unfinished => eprintln!(
                     "resuming the unfinished run in {} (committed work units are kept)",

@@ -66,9 +66,6 @@ pub struct StabilityArgs {
     /// Skip basin_stability.png.
     #[arg(long)]
     pub no_plot: bool,
-    /// Print nothing but errors (no progress bar).
-    #[arg(long)]
-    pub quiet: bool,
 }
 
 /// Final files (run.json aside).
@@ -104,7 +101,7 @@ impl StabilityArgs {
 
 /// Runs `jeffcott basin-stability`.
 pub fn run_stability(a: &StabilityArgs) -> Result<()> {
-    let exec = Execution::of(&a.out, a.run, &a.shard, a.quiet, a.lane.backend)?;
+    let exec = Execution::of(&a.out, a.run, &a.shard, a.lane.backend)?;
     study::execute::<Stability>(&a.spec()?, &Plot { plot: !a.no_plot }, &exec)
 }
 

@@ -47,8 +47,8 @@ pub fn execute<C: StudyCommand>(spec: &C::Spec, write: &C::Write, exec: &Executi
         ..RunHeader::new(C::COMMAND, &spec.resolved())?
     };
     let run_dir = exec.open(header, C::OUTPUTS)?;
-    match C::run(spec, write, &CommandHost::new(&run_dir, exec.quiet)) {
-        Err(Error::NotInShard) => finish_shard(&run_dir, exec.quiet),
+    match C::run(spec, write, &CommandHost::new(&run_dir, exec.run.quiet)) {
+        Err(Error::NotInShard) => finish_shard(&run_dir, exec.run.quiet),
         r => C::finish(spec, write, r?, &run_dir, exec),
     }
 }
@@ -116,7 +116,7 @@ macro_rules! plot_study {
                     res.info.as_ref(),
                     res.seconds,
                 )?;
-                if !exec.quiet {
+                if !exec.run.quiet {
                     println!("{line}");
                 }
                 Ok(())

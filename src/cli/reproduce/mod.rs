@@ -45,9 +45,6 @@ pub struct ReproduceArgs {
     pub out: PathBuf,
     #[command(flatten)]
     pub run: super::rundir::RunArgs,
-    /// Print nothing but errors (no progress bars).
-    #[arg(long)]
-    pub quiet: bool,
 }
 
 /// Runs `jeffcott reproduce`: the sections below in order, each adding its figures to
@@ -74,7 +71,6 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         },
         &["REPORT.md"],
         a.run,
-        a.quiet,
     )?;
     let mut c = Ctx {
         args: a,
@@ -105,7 +101,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         },
         &super::rundir::files_under(dir)?,
     )?;
-    if !a.quiet {
+    if !a.run.quiet {
         println!(
             "reproduce {mode}: figures and REPORT.md in {} ({:.1} s)",
             dir.display(),
@@ -149,7 +145,7 @@ impl jeffcott_analysis::run::Host for Ctx<'_> {
         per_lane: u64,
         work: impl FnOnce(jeffcott_core::control::Control) -> Result<T>,
     ) -> Result<T> {
-        super::rundir::progress(label, total, per_lane, self.args.quiet, work)
+        super::rundir::progress(label, total, per_lane, self.args.run.quiet, work)
     }
 }
 
@@ -241,7 +237,7 @@ fn copy(dir: &Path, from: &Path, to: &str) -> Result<()> {
 
 /// A progress line on stderr (not with --quiet).
 fn say(a: &ReproduceArgs, s: &str) {
-    if !a.quiet {
+    if !a.run.quiet {
         eprintln!("{s}");
     }
 }
