@@ -625,6 +625,24 @@ impl LaneArgs {
         self.precision
             .unwrap_or_else(|| jeffcott_analysis::backend::default_precision(self.backend))
     }
+
+    /// The lane settings of a study: these options, the tolerances of `catalogue` for
+    /// the precision, lambda_1 with `lyapunov`.
+    pub fn settings(
+        &self,
+        catalogue: &CatalogueArgs,
+        lyapunov: bool,
+    ) -> Result<jeffcott_analysis::settings::LaneSettings> {
+        let precision = self.precision();
+        Ok(jeffcott_analysis::settings::LaneSettings {
+            params: self.model.params()?,
+            stepper: self.stepper.config(),
+            precision,
+            backend: self.backend,
+            catalogue: catalogue.config(precision)?,
+            lyapunov,
+        })
+    }
 }
 
 /// Arguments of `jeffcott simulate`.

@@ -5,6 +5,7 @@
 use jeffcott_analysis::backend::run;
 use jeffcott_analysis::catalogue::{CatalogueConfig, catalogue, catalogue_result};
 use jeffcott_analysis::classify::Class;
+use jeffcott_analysis::settings::LaneSettings;
 use jeffcott_core::ensemble::{Backend, EnsembleSpec, LaneSpec, Precision};
 use jeffcott_core::model::{Params, STATE_DIM, State, VX_R, X_R};
 
@@ -240,7 +241,14 @@ fn real_runs_are_one_period_1_attractor_at_131_7_and_one_period_2_attractor_at_1
 fn study(omega: &str, ics: u32) -> jeffcott_analysis::bifurcation::BifurcationSpec {
     use jeffcott_analysis::bifurcation::{BifurcationSpec, Sweep};
     BifurcationSpec {
-        params: Params::default(),
+        lane: LaneSettings {
+            params: Params::default(),
+            stepper: Default::default(),
+            precision: Precision::F64,
+            backend: Backend::Cpu,
+            catalogue: CatalogueConfig::default(),
+            lyapunov: false,
+        },
         omegas: jeffcott_core::ensemble::parse_range("omega", omega).unwrap(),
         sweep: Some(Sweep::Both),
         transient_first: 800,
@@ -249,12 +257,7 @@ fn study(omega: &str, ics: u32) -> jeffcott_analysis::bifurcation::BifurcationSp
         brute_transient: 300,
         recorded: 24,
         seed: 1,
-        stepper: Default::default(),
-        precision: Precision::F64,
-        backend: Backend::Cpu,
-        catalogue: CatalogueConfig::default(),
         max_seeds: 6,
-        lyapunov: false,
     }
 }
 
@@ -355,7 +358,7 @@ fn lambda1_row_is_negative_on_the_period_1_branch_and_positive_at_140() {
     // 131.7 (period-1), then a jump to 140 (chaotic, lambda_1 ~ 7.5 1/s): sweeps up and
     // down and two brute-force lanes per W, all with lambda_1.
     spec.omegas = vec![131.7, 140.0];
-    spec.lyapunov = true;
+    spec.lane.lyapunov = true;
     spec.transient_first = 600;
     spec.transient = 300;
     spec.brute_transient = 300;
@@ -386,7 +389,14 @@ fn basin_lambda1_map_is_finite_and_the_catalogue_says_chaotic_at_140() {
     let p = Params::default();
     let spec = BasinSpec {
         base: p.static_equilibrium(),
-        params: p,
+        lane: LaneSettings {
+            params: p,
+            stepper: Default::default(),
+            precision: Precision::F64,
+            backend: Backend::Cpu,
+            catalogue: CatalogueConfig::default(),
+            lyapunov: true,
+        },
         omega: 140.0,
         x: Axis {
             coord: X_R,
@@ -402,12 +412,7 @@ fn basin_lambda1_map_is_finite_and_the_catalogue_says_chaotic_at_140() {
         },
         transient: 300,
         recorded: 64,
-        stepper: Default::default(),
-        precision: Precision::F64,
-        backend: Backend::Cpu,
-        catalogue: CatalogueConfig::default(),
         lanes_per_unit: Some(4),
-        lyapunov: true,
     };
     let r = basin(&spec, jeffcott_core::control::Control::none()).unwrap();
     let l1 = r.lambda1.as_ref().unwrap();

@@ -5,6 +5,7 @@
 //! `tests/gpu.rs`.
 
 use jeffcott_analysis::basin::{Axis, BasinSpec, basin};
+use jeffcott_analysis::settings::LaneSettings;
 use jeffcott_core::ensemble::{Backend, Precision};
 use jeffcott_core::integrate::lane::StepperConfig;
 use jeffcott_core::model::{Params, VX_R, X_R};
@@ -19,7 +20,17 @@ fn basin_labels_are_identical_on_cpu_and_gpu_f64() {
     let p = Params::default();
     let mut spec = BasinSpec {
         base: p.static_equilibrium(),
-        params: p,
+        lane: LaneSettings {
+            params: p,
+            stepper: StepperConfig {
+                steps_per_period: 200,
+                ..StepperConfig::default()
+            },
+            precision: Precision::F64,
+            backend: Backend::Cpu,
+            catalogue: Default::default(),
+            lyapunov: true,
+        },
         omega: 133.0,
         x: Axis {
             coord: X_R,
@@ -35,18 +46,10 @@ fn basin_labels_are_identical_on_cpu_and_gpu_f64() {
         },
         transient: 60,
         recorded: 12,
-        stepper: StepperConfig {
-            steps_per_period: 200,
-            ..StepperConfig::default()
-        },
-        precision: Precision::F64,
-        backend: Backend::Cpu,
-        catalogue: Default::default(),
         lanes_per_unit: Some(7),
-        lyapunov: true,
     };
     let cpu = basin(&spec, jeffcott_core::control::Control::none()).unwrap();
-    spec.backend = Backend::Gpu;
+    spec.lane.backend = Backend::Gpu;
     let gpu = basin(&spec, jeffcott_core::control::Control::none()).unwrap();
     assert_eq!(gpu.info.as_ref().unwrap().backend, "gpu");
     assert_eq!(cpu.labels, gpu.labels);

@@ -681,12 +681,20 @@ fn a_full_disk_leaves_no_partial_file_and_the_run_resumes_after_space_is_freed()
 #[test]
 fn basin_labels_do_not_depend_on_the_unit_size() {
     use jeffcott_analysis::basin::{Axis, BasinSpec, basin};
+    use jeffcott_analysis::settings::LaneSettings;
     use jeffcott_core::ensemble::{Backend, Precision};
     use jeffcott_core::model::{Params, VX_R, X_R};
     let p = Params::default();
     let mut spec = BasinSpec {
         base: p.static_equilibrium(),
-        params: p,
+        lane: LaneSettings {
+            params: p,
+            stepper: Default::default(),
+            precision: Precision::F64,
+            backend: Backend::Cpu,
+            catalogue: Default::default(),
+            lyapunov: false,
+        },
         omega: 133.0,
         x: Axis {
             coord: X_R,
@@ -702,12 +710,7 @@ fn basin_labels_do_not_depend_on_the_unit_size() {
         },
         transient: 250,
         recorded: 32,
-        stepper: Default::default(),
-        precision: Precision::F64,
-        backend: Backend::Cpu,
-        catalogue: Default::default(),
         lanes_per_unit: Some(80),
-        lyapunov: false,
     };
     let one = basin(&spec, jeffcott_core::control::Control::none()).unwrap();
     let periods: Vec<Option<usize>> = one.catalogue.attractors.iter().map(|a| a.period).collect();

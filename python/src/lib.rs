@@ -40,6 +40,29 @@ pub(crate) fn backend_precision(
     Ok((b, p))
 }
 
+/// A study's lane settings from its keywords: `params`, `backend`, `precision`,
+/// `lyapunov` and the stepper keywords of `function` (read first, so an unknown keyword
+/// is named before anything else); the tolerances follow the precision.
+pub(crate) fn lane_settings(
+    function: &str,
+    params: Option<HashMap<String, f64>>,
+    backend: &str,
+    precision: Option<&str>,
+    lyapunov: bool,
+    stepper: Option<&Bound<'_, PyDict>>,
+) -> PyResult<jeffcott_analysis::settings::LaneSettings> {
+    let stepper = args::stepper(function, stepper)?;
+    let (backend, precision) = backend_precision(backend, precision)?;
+    Ok(jeffcott_analysis::settings::LaneSettings {
+        params: convert::model_params(params)?,
+        stepper,
+        precision,
+        backend,
+        catalogue: jeffcott_analysis::catalogue::CatalogueConfig::for_precision(precision),
+        lyapunov,
+    })
+}
+
 /// Speeds from a number, a sequence of numbers or the command line's `"a:b:n"`; a range
 /// or a sequence is first put to `check` (its text and count: the study's memory check,
 /// the command line's), so a huge one is refused before its values (or its lanes) are

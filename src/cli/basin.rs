@@ -102,11 +102,11 @@ pub struct BasinArgs {
 impl BasinArgs {
     /// The grid these arguments describe (validated with the study).
     fn spec(&self) -> Result<BasinSpec> {
-        let params = self.lane.model.params()?;
+        let lane = self.lane.settings(&self.catalogue, self.lyapunov)?;
         let x = Axis::parse("x", &self.x)?;
         let y = Axis::parse("y", &self.y)?;
         let base = jeffcott_analysis::basin::base_state(
-            &params,
+            &lane.params,
             &x,
             &y,
             &parse_assignment_lists("fix", &self.fix)?,
@@ -114,21 +114,15 @@ impl BasinArgs {
         )?;
         jeffcott_core::limits::check_periods("transient", self.transient, 0)?;
         jeffcott_core::limits::check_periods("periods", self.periods, 2)?;
-        let precision = self.lane.precision();
         Ok(BasinSpec {
-            params,
+            lane,
             omega: self.omega,
             x,
             y,
             base,
             transient: self.transient,
             recorded: self.periods,
-            stepper: self.lane.stepper.config(),
-            precision,
-            backend: self.lane.backend,
-            catalogue: self.catalogue.config(precision)?,
             lanes_per_unit: self.chunk,
-            lyapunov: self.lyapunov,
         })
     }
 
@@ -214,7 +208,7 @@ impl StudyCommand for Basin {
             traces: if w.plot { defaults::basin::TRACES } else { 0 },
             ..study.clone()
         };
-        let engine = Engine::new(study.basin.backend, study.basin.precision)?;
+        let engine = Engine::new(study.basin.lane.backend, study.basin.lane.precision)?;
         run(&study, &engine, host)
     }
     fn finish(
@@ -544,14 +538,14 @@ fn write_basin(dir: &Path, o: &BasinOutcome, plot_it: bool) -> Result<String> {
             fixed,
             transient: spec.transient,
             periods: spec.recorded,
-            steps_per_period: spec.stepper.steps_per_period,
-            lyapunov: spec.lyapunov,
+            steps_per_period: spec.lane.stepper.steps_per_period,
+            lyapunov: spec.lane.lyapunov,
             cells: nx * ny,
             diverged: cat.diverged,
             diverged_fraction: cat.diverged_fraction,
             attractors: with_rub,
             catalogue_config: &cat.config,
-            params: &spec.params,
+            params: &spec.lane.params,
         },
         &[
             (

@@ -217,9 +217,8 @@ impl BifurcationArgs {
             self.periods,
         )?;
         let omegas = range.values();
-        let precision = self.lane.precision();
         let spec = BifurcationSpec {
-            params: self.lane.model.params()?,
+            lane: self.lane.settings(&self.catalogue, !self.no_lyapunov)?,
             omegas,
             sweep,
             transient_first: self.transient_first,
@@ -228,12 +227,7 @@ impl BifurcationArgs {
             brute_transient: self.brute_transient,
             recorded: self.periods,
             seed: self.seed,
-            stepper: self.lane.stepper.config(),
-            precision,
-            backend: self.lane.backend,
-            catalogue: self.catalogue.config(precision)?,
             max_seeds: self.max_seeds,
-            lyapunov: !self.no_lyapunov,
         };
         spec.validate()?;
         Ok(spec)
@@ -422,7 +416,7 @@ pub fn lambda1_series(
     brute: bool,
 ) -> Vec<Lambda1Series> {
     let mut out = Vec::new();
-    if !spec.lyapunov {
+    if !spec.lane.lyapunov {
         return out;
     }
     let (r_up, r_down) = if spec.omegas.len() > 600 {
@@ -552,7 +546,7 @@ pub fn write_bifurcation(
     let arrays = jeffcott_analysis::bifurcation::arrays(res);
     let (rows, pts, l1) = (&arrays.rows, &arrays.points, &arrays.lambda1);
     let nrows = rows.len() / 4;
-    if spec.lyapunov {
+    if spec.lane.lyapunov {
         output::write_npy(&dir.join("bifurcation_lambda1.npy"), &[nrows], l1)?;
     }
     output::write_npy(&dir.join("omega.npy"), &[spec.omegas.len()], &spec.omegas)?;

@@ -93,9 +93,8 @@ pub struct ContinuationArgs {
 impl ContinuationArgs {
     /// The continuation these arguments describe, validated.
     pub fn spec(&self) -> Result<ContinuationSpec> {
-        let precision = self.lane.precision();
         let spec = ContinuationSpec {
-            params: self.lane.model.params()?,
+            lane: self.lane.settings(&self.catalogue, !self.no_lyapunov)?,
             omega: self.omega,
             param: MapAxis::parse("vary", &self.vary, false)?,
             ics: self.ics,
@@ -107,11 +106,6 @@ impl ContinuationArgs {
             seed: self.seed,
             transient: self.transient,
             recorded: self.periods,
-            stepper: self.lane.stepper.config(),
-            precision,
-            backend: self.lane.backend,
-            catalogue: self.catalogue.config(precision)?,
-            lyapunov: !self.no_lyapunov,
             directions: match self.direction {
                 DirectionArg::Up => vec![Direction::Up],
                 DirectionArg::Down => vec![Direction::Down],
@@ -173,7 +167,7 @@ fn write_study(
 
 /// Runs a continuation (`continuation` and `basin-stability`) on its spec's engine.
 pub fn run_study(spec: &ContinuationSpec, host: &CommandHost) -> Result<ContinuationResult> {
-    let engine = Engine::new(spec.backend, spec.precision)?;
+    let engine = Engine::new(spec.lane.backend, spec.lane.precision)?;
     jeffcott_analysis::continuation::run(spec, &engine, host)
 }
 

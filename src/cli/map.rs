@@ -78,13 +78,12 @@ pub struct MapArgs {
 impl MapArgs {
     /// The map these arguments describe, validated.
     pub fn spec(&self) -> Result<MapSpec> {
-        let params = self.lane.model.params()?;
+        let lane = self.lane.settings(&self.catalogue, !self.no_lyapunov)?;
         let x = MapAxis::parse("x", &self.x, self.log_x)?;
         let y = MapAxis::parse("y", &self.y, self.log_y)?;
         jeffcott_analysis::map::check_size(&x, &y, self.ics)?;
-        let precision = self.lane.precision();
         let spec = MapSpec {
-            params,
+            lane,
             omega: self.omega,
             x,
             y,
@@ -92,11 +91,6 @@ impl MapArgs {
             seed: self.seed,
             transient: self.transient,
             recorded: self.periods,
-            stepper: self.lane.stepper.config(),
-            precision,
-            backend: self.lane.backend,
-            catalogue: self.catalogue.config(precision)?,
-            lyapunov: !self.no_lyapunov,
             cells_per_unit: self.chunk,
         };
         spec.validate()?;
@@ -132,7 +126,11 @@ study::plot_study! { Map, "map", MapSpec, MapResult }
 
 /// Runs a map on its spec's engine.
 fn run_study(spec: &MapSpec, host: &CommandHost) -> Result<MapResult> {
-    jeffcott_analysis::map::run(spec, &Engine::new(spec.backend, spec.precision)?, host)
+    jeffcott_analysis::map::run(
+        spec,
+        &Engine::new(spec.lane.backend, spec.lane.precision)?,
+        host,
+    )
 }
 
 /// Writes a map's files; returns its summary line.
@@ -264,7 +262,7 @@ pub fn write_map(dir: &Path, spec: &MapSpec, res: &MapResult, plot_it: bool) -> 
             &class_legend(&res.class),
             &class_colour,
         )?;
-        if spec.lyapunov {
+        if spec.lane.lyapunov {
             lambda1_map(
                 &dir.join("map_lambda1.png"),
                 &format!("Largest Lyapunov exponent from the static equilibrium ({what})"),

@@ -81,20 +81,14 @@ pub const OUTPUTS: &[&str] = &[
 impl StabilityArgs {
     /// The study as a continuation over W of uniform draws in the box.
     pub fn spec(&self) -> Result<ContinuationSpec> {
-        let precision = self.lane.precision();
         jeffcott_analysis::stability::spec(&jeffcott_analysis::stability::StabilityRequest {
-            params: self.lane.model.params()?,
+            lane: self.lane.settings(&self.catalogue, !self.no_lyapunov)?,
             omega: &self.omega,
             sample: self.sample,
             start_box: &self.start_box,
             seed: self.seed,
             transient: self.transient,
             recorded: self.periods,
-            stepper: self.lane.stepper.config(),
-            precision,
-            backend: self.lane.backend,
-            catalogue: self.catalogue.config(precision)?,
-            lyapunov: !self.no_lyapunov,
         })
     }
 }

@@ -24,6 +24,7 @@ pub mod refine;
 pub mod reproduce;
 pub mod rub;
 pub mod run;
+pub mod settings;
 pub mod simulate;
 pub mod spectrum;
 pub mod stability;

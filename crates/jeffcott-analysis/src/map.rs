@@ -9,17 +9,15 @@
 //! figures and attractor lists, so a map resumes and shards like a basin, and a cell's
 //! figures depend on that cell alone (lanes are independent).
 
-use super::catalogue::{CatalogueBuilder, CatalogueConfig};
+use super::catalogue::CatalogueBuilder;
 use super::classify::Class;
 use super::rub::{RubFigures, rub_on_attractor, rub_periods};
 use crate::run::Host;
 use crate::run::lanes::{Control, LaneUnits};
 use crate::run::{Array, Unit, UnitStore};
-use jeffcott_core::ensemble::{
-    Backend, EnsembleResult, EnsembleSpec, LaneSpec, Precision, RunInfo,
-};
+use crate::settings::LaneSettings;
+use jeffcott_core::ensemble::{EnsembleResult, EnsembleSpec, LaneSpec, RunInfo};
 use jeffcott_core::error::{Error, Result};
-use jeffcott_core::integrate::lane::StepperConfig;
 use jeffcott_core::model::{
     COORD_NAMES, Params, State, X_R, X_S, Y_R, Y_S, coord_index, validate_omega,
 };
@@ -207,8 +205,9 @@ pub struct AxisRecord {
 /// from there.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct MapSpec {
-    /// Model parameters of every cell before the axes set theirs.
-    pub params: Params,
+    /// Model, stepper, precision, backend, classification, lambda_1.
+    #[serde(flatten)]
+    pub lane: LaneSettings,
     /// Rotor speed of every cell when no axis is `omega` [rad/s].
     pub omega: Option<f64>,
     /// Horizontal axis (cells along a row).
@@ -224,17 +223,6 @@ pub struct MapSpec {
     /// Forcing periods recorded per lane.
     #[serde(rename = "periods")]
     pub recorded: u32,
-    /// Lane stepper settings.
-    pub stepper: StepperConfig,
-    /// Lane precision.
-    pub precision: Precision,
-    /// Backend (not recorded).
-    #[serde(skip)]
-    pub backend: Backend,
-    /// Classification tolerances.
-    pub catalogue: CatalogueConfig,
-    /// Compute lambda_1 of every lane.
-    pub lyapunov: bool,
     /// Cells per work unit (`None`: [`crate::run::unit_lanes`] in cells; recorded
     /// resolved).
     #[serde(rename = "unit_cells")]
@@ -248,9 +236,7 @@ impl MapSpec {
     /// Checks the inputs, every cell's parameter set included (through the extreme
     /// values of each axis); errors name the option and the allowed range.
     pub fn validate(&self) -> Result<()> {
-        self.params.validate()?;
-        self.stepper.validate()?;
-        self.catalogue.validate()?;
+        self.lane.validate()?;
         self.x.validate("x")?;
         self.y.validate("y")?;
         if self.x.var == self.y.var {
@@ -317,7 +303,7 @@ impl MapSpec {
                     format!("a cell of the map is invalid: {e}"),
                 )
             })?;
-            let bound = self.stepper.divergence_bound;
+            let bound = self.lane.stepper.divergence_bound;
             for s in self.cell_starts(ix, iy) {
                 for c in [X_R, Y_R, X_S, Y_S] {
                     if s[c].abs() > bound {
@@ -342,7 +328,7 @@ impl MapSpec {
 
     /// The parameters and speed of cell (ix, iy).
     pub fn cell_params(&self, ix: usize, iy: usize) -> (Params, f64) {
-        let mut p = self.params.clone();
+        let mut p = self.lane.params.clone();
         let mut w = self.omega.unwrap_or(f64::NAN);
         for (axis, i) in [(&self.x, ix), (&self.y, iy)] {
             match axis.var {
@@ -379,8 +365,8 @@ impl MapSpec {
     pub fn unit_cells(&self) -> usize {
         let per_cell = self.ics as u64
             * (self.transient + self.recorded) as u64
-            * self.stepper.steps_per_period as u64
-            * if self.lyapunov { 2 } else { 1 };
+            * self.lane.stepper.steps_per_period as u64
+            * if self.lane.lyapunov { 2 } else { 1 };
         self.cells_per_unit
             .unwrap_or_else(|| crate::run::unit_lanes(self.cells(), per_cell))
     }
@@ -481,7 +467,7 @@ pub const STAGE: &str = "map";
 
 /// Computes a map in memory; `ctl.progress` counts lane-periods.
 pub fn map(spec: &MapSpec, ctl: Control) -> Result<MapResult> {
-    crate::run::in_memory(spec.backend, spec.precision, ctl, |e, store, ctl| {
+    crate::run::in_memory(&spec.lane, ctl, |e, store, ctl| {
         map_with(spec, e, store, ctl)
     })
 }
@@ -507,7 +493,7 @@ fn reduce_cells(
             let lanes = j * k..(j + 1) * k;
             let p = &e.param_sets[e.lanes[j * k].param_set as usize];
             let w = e.lanes[j * k].omega;
-            let mut b = CatalogueBuilder::new(w, spec.catalogue);
+            let mut b = CatalogueBuilder::new(w, spec.lane.catalogue);
             let frozen: Vec<bool> = res.status[lanes.clone()]
                 .iter()
                 .map(|s| s.is_frozen())
@@ -527,7 +513,7 @@ fn reduce_cells(
                     .position(|&l| l == a.id as i32)
                     .unwrap_or(0);
                 let x0 = res.final_state[lanes.start + first];
-                let rub = rub_on_attractor(p, w, &x0, rub_periods(a.period), &spec.stepper)?;
+                let rub = rub_on_attractor(p, w, &x0, rub_periods(a.period), &spec.lane.stepper)?;
                 attractors.push(CellAttractor {
                     id: a.id,
                     class: a.class.clone(),
@@ -593,8 +579,8 @@ pub fn map_with(
             lanes,
             transient: spec.transient,
             recorded: spec.recorded,
-            stepper: spec.stepper,
-            precision: spec.precision,
+            stepper: spec.lane.stepper,
+            precision: spec.lane.precision,
         }
     };
     let reduce = |u: usize, e: &EnsembleSpec, res: EnsembleResult| {
@@ -611,7 +597,7 @@ pub fn map_with(
             count,
             ensemble: &ensemble,
             lanes: &|u| per_unit.min(cells - u * per_unit) * k,
-            lambda1: spec.lyapunov,
+            lambda1: spec.lane.lyapunov,
             reduce: &reduce,
         },
         ctl,
@@ -753,15 +739,15 @@ pub fn summary<'a>(spec: &'a MapSpec, res: &'a MapResult) -> Summary<'a> {
         seed: spec.seed,
         transient: spec.transient,
         periods: spec.recorded,
-        steps_per_period: spec.stepper.steps_per_period,
-        lyapunov: spec.lyapunov,
+        steps_per_period: spec.lane.stepper.steps_per_period,
+        lyapunov: spec.lane.lyapunov,
         cells: spec.x.n * spec.y.n,
         classes_from_static_equilibrium: tally,
         multistable_cells: res.attractors.iter().filter(|&&n| n > 1).count(),
         rubbing_cells: res.contact.iter().filter(|&&c| c > 0.0).count(),
         max_attractors: res.attractors.iter().copied().max().unwrap_or(0),
         cell_attractors: &res.cells,
-        params: &spec.params,
+        params: &spec.lane.params,
     }
 }
 

@@ -76,7 +76,7 @@ macro_rules! unit_sized_spec {
                 }
             }
             fn set_backend(&mut self, backend: jeffcott_core::ensemble::Backend) {
-                self.backend = backend;
+                self.lane.backend = backend;
             }
         }
     };

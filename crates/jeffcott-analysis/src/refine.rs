@@ -185,12 +185,12 @@ pub fn refine(
         };
         let n = points.len();
         let per_lane =
-            (spec.transient + spec.recorded) as u64 * spec.stepper.steps_per_period as u64;
+            (spec.transient + spec.recorded) as u64 * spec.lane.stepper.steps_per_period as u64;
         let unit = crate::run::unit_lanes(n, per_lane);
         let count = crate::run::unit_count(n, unit);
         let stage = format!("refine{k}");
         let ensemble = |u: usize| EnsembleSpec {
-            param_sets: vec![spec.params.clone()],
+            param_sets: vec![spec.lane.params.clone()],
             lanes: points[u * unit..((u + 1) * unit).min(n)]
                 .iter()
                 .map(|&p| LaneSpec {
@@ -201,8 +201,8 @@ pub fn refine(
                 .collect(),
             transient: spec.transient,
             recorded: spec.recorded,
-            stepper: spec.stepper,
-            precision: spec.precision,
+            stepper: spec.lane.stepper,
+            precision: spec.lane.precision,
         };
         let reduce = |_u: usize, _e: &EnsembleSpec, r: EnsembleResult| {
             let labels = catalogue.label_lanes(&r);
@@ -217,7 +217,7 @@ pub fn refine(
                     count,
                     ensemble: &ensemble,
                     lanes: &|u| unit.min(n - u * unit),
-                    lambda1: spec.lyapunov,
+                    lambda1: spec.lane.lyapunov,
                     reduce: &reduce,
                 },
                 ctl,

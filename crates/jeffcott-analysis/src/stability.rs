@@ -3,15 +3,13 @@
 //! coordinates, with 95 % Wilson intervals on every fraction. The work behind
 //! `jeffcott basin-stability` and the Python package's `basin_stability`.
 
-use crate::catalogue::CatalogueConfig;
 use crate::continuation::{
     ContinuationResult, ContinuationSpec, Direction, Fields, Ramp, parse_box,
 };
 use crate::map::{MapAxis, MapVar};
 use crate::record::{CoordRange, coord_box};
-use jeffcott_core::ensemble::{Backend, Precision};
+use crate::settings::LaneSettings;
 use jeffcott_core::error::{Error, Result};
-use jeffcott_core::integrate::lane::StepperConfig;
 use jeffcott_core::model::Params;
 use serde::Serialize;
 
@@ -31,8 +29,8 @@ pub fn wilson95(k: u64, n: u64) -> (f64, f64) {
 
 /// What a basin-stability study is asked for, as the command line spells it.
 pub struct StabilityRequest<'a> {
-    /// Model parameters.
-    pub params: Params,
+    /// Model, stepper, precision, backend, classification, lambda_1.
+    pub lane: LaneSettings,
     /// A speed, or `a:b:n` [rad/s].
     pub omega: &'a str,
     /// Start states drawn per speed.
@@ -45,16 +43,6 @@ pub struct StabilityRequest<'a> {
     pub transient: u32,
     /// Forcing periods recorded per lane.
     pub recorded: u32,
-    /// Lane stepper settings.
-    pub stepper: StepperConfig,
-    /// Lane precision.
-    pub precision: Precision,
-    /// Backend.
-    pub backend: Backend,
-    /// Classification tolerances.
-    pub catalogue: CatalogueConfig,
-    /// Compute lambda_1 per lane.
-    pub lyapunov: bool,
 }
 
 /// The study as a continuation over W of uniform draws in the box, validated; errors
@@ -65,7 +53,7 @@ pub fn spec(r: &StabilityRequest) -> Result<ContinuationSpec> {
         return Err(Error::invalid("omega", r.omega, "at most 100000 speeds"));
     }
     let spec = ContinuationSpec {
-        params: r.params.clone(),
+        lane: r.lane.clone(),
         omega: None,
         param: MapAxis {
             var: MapVar::Omega,
@@ -79,11 +67,6 @@ pub fn spec(r: &StabilityRequest) -> Result<ContinuationSpec> {
         seed: r.seed,
         transient: r.transient,
         recorded: r.recorded,
-        stepper: r.stepper,
-        precision: r.precision,
-        backend: r.backend,
-        catalogue: r.catalogue,
-        lyapunov: r.lyapunov,
         directions: vec![Direction::Up],
         match_threshold: f64::INFINITY,
         values_per_unit: None,
@@ -211,9 +194,9 @@ pub fn summary<'a>(spec: &'a ContinuationSpec, res: &'a ContinuationResult) -> S
         seed: spec.seed,
         transient: spec.transient,
         periods: spec.recorded,
-        lyapunov: spec.lyapunov,
+        lyapunov: spec.lane.lyapunov,
         per_omega,
-        params: &spec.params,
+        params: &spec.lane.params,
         definition: "basin stability (Menck et al. 2013): the fraction of start states drawn uniformly in the box that end on each attractor; standard error sqrt(f (1 - f) / N), 95 % Wilson score interval; attractor ids follow attractors from speed to speed (docs/maps.md, continuation)",
     }
 }

@@ -118,7 +118,8 @@ pub fn reintegration(
 ) -> Result<Reintegration> {
     check_samples(samples)?;
     let lanes = samples * PER_DRAW;
-    let per_lane = (spec.transient + spec.recorded) as u64 * spec.stepper.steps_per_period as u64;
+    let per_lane =
+        (spec.transient + spec.recorded) as u64 * spec.lane.stepper.steps_per_period as u64;
     // Whole draws per unit.
     let unit = crate::run::unit_lanes(lanes, per_lane)
         .div_ceil(PER_DRAW)
@@ -126,7 +127,7 @@ pub fn reintegration(
         * PER_DRAW;
     let count = crate::run::unit_count(lanes, unit);
     let ensemble = |u: usize| EnsembleSpec {
-        param_sets: vec![spec.params.clone()],
+        param_sets: vec![spec.lane.params.clone()],
         lanes: (u * unit..((u + 1) * unit).min(lanes))
             .map(|l| LaneSpec {
                 omega: spec.omega,
@@ -136,8 +137,8 @@ pub fn reintegration(
             .collect(),
         transient: spec.transient,
         recorded: spec.recorded,
-        stepper: spec.stepper,
-        precision: spec.precision,
+        stepper: spec.lane.stepper,
+        precision: spec.lane.precision,
     };
     let reduce = |_u: usize, _e: &EnsembleSpec, r: EnsembleResult| {
         let labels = catalogue.label_lanes(&r);
@@ -151,7 +152,7 @@ pub fn reintegration(
             count,
             ensemble: &ensemble,
             lanes: &|u| unit.min(lanes - u * unit),
-            lambda1: spec.lyapunov,
+            lambda1: spec.lane.lyapunov,
             reduce: &reduce,
         },
         ctl,

@@ -1,13 +1,13 @@
 //! Basins and their measures: `basin`, `basin_stability` and `basin_metrics`.
 
 use crate::args::{self, Callback, Labels, kw};
-use crate::backend_precision;
-use crate::convert::{self, array1, array2, json_to_py, model_params};
+use crate::convert::{self, array1, array2, json_to_py};
+use crate::lane_settings;
 use crate::run;
 use jeffcott_analysis::basin::BasinSpec;
 use jeffcott_analysis::basin::study::BasinStudy;
-use jeffcott_analysis::catalogue::CatalogueConfig;
 use jeffcott_analysis::defaults;
+use jeffcott_analysis::record::StudySpec;
 use jeffcott_analysis::run::MemoryHost;
 use jeffcott_core::ensemble::Precision;
 use pyo3::prelude::*;
@@ -61,33 +61,26 @@ pub(crate) fn basin<'py>(
     #[pyo3(from_py_with = kw::progress)] progress: Option<Callback<'py>>,
     stepper: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let stepper = args::stepper("basin", stepper)?;
-    let (backend, precision) = backend_precision(backend, precision)?;
-    let params = model_params(params)?;
+    let lane = lane_settings("basin", params, backend, precision, lyapunov, stepper)?;
     let x = convert::axis("x", &x)?;
     let y = convert::axis("y", &y)?;
     let base = jeffcott_analysis::basin::base_state(
-        &params,
+        &lane.params,
         &x,
         &y,
         &convert::sorted_pairs(fix.unwrap_or_default()),
-        stepper.divergence_bound,
+        lane.stepper.divergence_bound,
     )
     .map_err(run::to_py_err)?;
     let spec = BasinSpec {
-        params,
+        lane,
         omega,
         x,
         y,
         base,
         transient,
         recorded: periods,
-        stepper,
-        precision,
-        backend,
-        catalogue: CatalogueConfig::for_precision(precision),
         lanes_per_unit: None,
-        lyapunov,
     };
     let study = BasinStudy {
         refine,
@@ -97,7 +90,8 @@ pub(crate) fn basin<'py>(
     };
     study.validate().map_err(run::to_py_err)?;
     let o = run::detached(py, progress.as_ref().map(|c| &c.0), |ctl| {
-        let engine = jeffcott_analysis::backend::Engine::new(backend, precision)?;
+        let lane = &study.basin.lane;
+        let engine = jeffcott_analysis::backend::Engine::new(lane.backend, lane.precision)?;
         jeffcott_analysis::basin::study::run(&study, &engine, &MemoryHost::new(ctl))
     })?;
     let (spec, res) = (&o.spec, &o.result);
@@ -126,7 +120,7 @@ pub(crate) fn basin<'py>(
     let run = BasinRun {
         backend: res.info.as_ref().map(|i| i.backend),
         device: res.info.as_ref().map(|i| i.device.as_str()),
-        precision: spec.precision,
+        precision: spec.lane.precision,
         wall_time_s: res.seconds,
         spec: o.coarse.resolved(),
     };
@@ -164,9 +158,15 @@ pub(crate) fn basin_stability<'py>(
     #[pyo3(from_py_with = kw::progress)] progress: Option<Callback<'py>>,
     stepper: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let stepper = args::stepper("basin_stability", stepper)?;
+    let lane = lane_settings(
+        "basin_stability",
+        params,
+        backend,
+        precision,
+        lyapunov,
+        stepper,
+    )?;
     use jeffcott_analysis::stability::{StabilityRequest, fractions_with_intervals};
-    let (backend, precision) = backend_precision(backend, precision)?;
     let omega = match omega.extract::<f64>() {
         Ok(w) => format!("{w:e}"),
         Err(_) => omega.extract::<String>().map_err(|_| {
@@ -177,18 +177,13 @@ pub(crate) fn basin_stability<'py>(
         })?,
     };
     let spec = jeffcott_analysis::stability::spec(&StabilityRequest {
-        params: model_params(params)?,
+        lane,
         omega: &omega,
         sample,
         start_box: &start_box,
         seed,
         transient,
         recorded: periods,
-        stepper,
-        precision,
-        backend,
-        catalogue: CatalogueConfig::for_precision(precision),
-        lyapunov,
     })
     .map_err(run::to_py_err)?;
     let res = run::detached(py, progress.as_ref().map(|c| &c.0), |ctl| {

@@ -3,9 +3,8 @@
 use crate::args::{self, Callback, Table, kw};
 use crate::convert::{self, array1, array2, array3, json_to_py, lane_specs, model_params};
 use crate::run;
-use crate::{backend_precision, speeds};
+use crate::{backend_precision, lane_settings, speeds};
 use jeffcott_analysis::bifurcation::{BifurcationSpec, Sweep};
-use jeffcott_analysis::catalogue::CatalogueConfig;
 use jeffcott_analysis::defaults;
 use jeffcott_core::Error;
 use jeffcott_core::ensemble::EnsembleSpec;
@@ -154,8 +153,7 @@ pub(crate) fn bifurcation<'py>(
     #[pyo3(from_py_with = kw::progress)] progress: Option<Callback<'py>>,
     stepper: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let stepper = args::stepper("bifurcation", stepper)?;
-    let (backend, precision) = backend_precision(backend, precision)?;
+    let lane = lane_settings("bifurcation", params, backend, precision, lyapunov, stepper)?;
     let sweep = match sweep {
         "up" => Some(Sweep::Up),
         "down" => Some(Sweep::Down),
@@ -186,7 +184,7 @@ pub(crate) fn bifurcation<'py>(
         BifurcationSpec::check_size(text, n, sweeps, ics, max_seeds, periods)
     })?;
     let spec = BifurcationSpec {
-        params: model_params(params)?,
+        lane,
         omegas,
         sweep,
         transient_first,
@@ -195,12 +193,7 @@ pub(crate) fn bifurcation<'py>(
         brute_transient,
         recorded: periods,
         seed,
-        stepper,
-        precision,
-        backend,
-        catalogue: CatalogueConfig::for_precision(precision),
         max_seeds,
-        lyapunov,
     };
     spec.validate().map_err(run::to_py_err)?;
     let (res, summary) = run::detached(py, progress.as_ref().map(|c| &c.0), |ctl| {

@@ -1,10 +1,9 @@
 //! Studies over parameters: the two-parameter `map` and `continuation`.
 
-use crate::args::{self, Callback, kw};
-use crate::backend_precision;
-use crate::convert::{self, array1, array2, json_to_py, model_params};
+use crate::args::{Callback, kw};
+use crate::convert::{self, array1, array2, json_to_py};
+use crate::lane_settings;
 use crate::run;
-use jeffcott_analysis::catalogue::CatalogueConfig;
 use jeffcott_analysis::defaults;
 use jeffcott_core::Error;
 use pyo3::prelude::*;
@@ -46,14 +45,13 @@ pub(crate) fn map<'py>(
     #[pyo3(from_py_with = kw::progress)] progress: Option<Callback<'py>>,
     stepper: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let stepper = args::stepper("map", stepper)?;
+    let lane = lane_settings("map", params, backend, precision, lyapunov, stepper)?;
     use jeffcott_analysis::map::MapSpec;
-    let (backend, precision) = backend_precision(backend, precision)?;
     let x = convert::map_axis("x", &x, log_x)?;
     let y = convert::map_axis("y", &y, log_y)?;
     jeffcott_analysis::map::check_size(&x, &y, ics).map_err(run::to_py_err)?;
     let spec = MapSpec {
-        params: model_params(params)?,
+        lane,
         omega,
         x,
         y,
@@ -61,11 +59,6 @@ pub(crate) fn map<'py>(
         seed,
         transient,
         recorded: periods,
-        stepper,
-        precision,
-        backend,
-        catalogue: CatalogueConfig::for_precision(precision),
-        lyapunov,
         cells_per_unit: None,
     };
     spec.validate().map_err(run::to_py_err)?;
@@ -125,9 +118,15 @@ pub(crate) fn continuation<'py>(
     #[pyo3(from_py_with = kw::progress)] progress: Option<Callback<'py>>,
     stepper: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let stepper = args::stepper("continuation", stepper)?;
+    let lane = lane_settings(
+        "continuation",
+        params,
+        backend,
+        precision,
+        lyapunov,
+        stepper,
+    )?;
     use jeffcott_analysis::continuation::ContinuationSpec;
-    let (backend, precision) = backend_precision(backend, precision)?;
     let directions =
         jeffcott_analysis::continuation::directions(direction).map_err(run::to_py_err)?;
     let param = convert::map_axis("param", &param, false)?;
@@ -139,7 +138,7 @@ pub(crate) fn continuation<'py>(
         )));
     }
     let spec = ContinuationSpec {
-        params: model_params(params)?,
+        lane,
         omega,
         param,
         ics,
@@ -151,11 +150,6 @@ pub(crate) fn continuation<'py>(
         seed,
         transient,
         recorded: periods,
-        stepper,
-        precision,
-        backend,
-        catalogue: CatalogueConfig::for_precision(precision),
-        lyapunov,
         directions,
         match_threshold: match_threshold.unwrap_or(f64::INFINITY),
         values_per_unit: None,

@@ -17,12 +17,12 @@
 
 pub mod study;
 
-use super::catalogue::{Catalogue, CatalogueBuilder, CatalogueConfig, part_unit, unit_parts};
+use super::catalogue::{Catalogue, CatalogueBuilder, part_unit, unit_parts};
 use crate::run::lanes::{Control, LaneUnits};
 use crate::run::{Array, UnitStore};
-use jeffcott_core::ensemble::{Backend, EnsembleSpec, LaneSpec, Precision, RunInfo};
+use crate::settings::LaneSettings;
+use jeffcott_core::ensemble::{EnsembleSpec, LaneSpec, RunInfo};
 use jeffcott_core::error::{Error, Result};
-use jeffcott_core::integrate::lane::StepperConfig;
 use jeffcott_core::model::{COORD_NAMES, Params, State};
 use serde::{Deserialize, Serialize};
 
@@ -160,8 +160,9 @@ pub fn base_state(
 /// there.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct BasinSpec {
-    /// Model parameters.
-    pub params: Params,
+    /// Model, stepper, precision, backend, classification, lambda_1.
+    #[serde(flatten)]
+    pub lane: LaneSettings,
     /// Rotor speed W [rad/s].
     pub omega: f64,
     /// Horizontal axis (cells along a row).
@@ -175,30 +176,17 @@ pub struct BasinSpec {
     /// Forcing periods recorded per cell (>= 2 n to see period n).
     #[serde(rename = "periods")]
     pub recorded: u32,
-    /// Lane stepper settings.
-    pub stepper: StepperConfig,
-    /// Lane precision.
-    pub precision: Precision,
-    /// Backend (not recorded).
-    #[serde(skip)]
-    pub backend: Backend,
-    /// Classification tolerances.
-    pub catalogue: CatalogueConfig,
     /// Lanes per work unit (`None`: [`crate::run::unit_lanes`]; recorded resolved, as
     /// units of another size do not combine).
     #[serde(rename = "unit_lanes")]
     pub lanes_per_unit: Option<usize>,
-    /// Compute the largest Lyapunov exponent of every cell.
-    pub lyapunov: bool,
 }
 
 impl BasinSpec {
     /// Checks the inputs; errors name the option and the allowed range.
     pub fn validate(&self) -> Result<()> {
-        self.params.validate()?;
+        self.lane.validate()?;
         jeffcott_core::model::validate_omega(self.omega)?;
-        self.stepper.validate()?;
-        self.catalogue.validate()?;
         self.x.validate("x")?;
         self.y.validate("y")?;
         if self.x.coord == self.y.coord {
@@ -263,8 +251,8 @@ impl BasinSpec {
     /// Lanes per work unit: `chunk`, or [`crate::run::unit_lanes`] of the grid.
     pub fn unit_lanes(&self) -> usize {
         let per_lane = (self.transient + self.recorded) as u64
-            * self.stepper.steps_per_period as u64
-            * if self.lyapunov { 2 } else { 1 };
+            * self.lane.stepper.steps_per_period as u64
+            * if self.lane.lyapunov { 2 } else { 1 };
         self.lanes_per_unit
             .unwrap_or_else(|| crate::run::unit_lanes(self.x.n * self.y.n, per_lane))
     }
@@ -301,7 +289,7 @@ impl BasinSpec {
                 format!("{grid} = {cells} cells"),
                 format!(
                     "a basin may have at most {MAX_BASIN_CELLS} cells (labels alone: {}); use a smaller grid",
-                    jeffcott_core::limits::gb(memory_estimate(cells, self.lyapunov, 0, 0))
+                    jeffcott_core::limits::gb(memory_estimate(cells, self.lane.lyapunov, 0, 0))
                 ),
             ));
         }
@@ -310,11 +298,15 @@ impl BasinSpec {
         jeffcott_core::limits::check_memory(
             "x, y",
             format!("{grid} = {cells} cells"),
-            memory_estimate(cells, self.lyapunov, chunk, recorded),
+            memory_estimate(cells, self.lane.lyapunov, chunk, recorded),
             &format!(
                 "{} bytes of labels per cell{} plus a work unit of {chunk} lanes x {recorded} recorded periods",
-                if self.lyapunov { 12 } else { 4 },
-                if self.lyapunov { " with lambda_1" } else { "" }
+                if self.lane.lyapunov { 12 } else { 4 },
+                if self.lane.lyapunov {
+                    " with lambda_1"
+                } else {
+                    ""
+                }
             ),
             "use a smaller grid (fewer cells per axis) or a smaller --chunk",
         )
@@ -323,7 +315,7 @@ impl BasinSpec {
 
 /// Computes a basin in memory; `ctl.progress` counts lane-periods.
 pub fn basin(spec: &BasinSpec, ctl: Control) -> Result<BasinResult> {
-    crate::run::in_memory(spec.backend, spec.precision, ctl, |e, store, ctl| {
+    crate::run::in_memory(&spec.lane, ctl, |e, store, ctl| {
         basin_with(spec, e, store, ctl)
     })
 }
@@ -347,7 +339,7 @@ pub fn basin_with(
     let per_unit = spec.unit_lanes();
     let count = crate::run::unit_count(cells, per_unit);
     let ensemble = |u: usize| EnsembleSpec {
-        param_sets: vec![spec.params.clone()],
+        param_sets: vec![spec.lane.params.clone()],
         lanes: (u * per_unit..((u + 1) * per_unit).min(cells))
             .map(|c| LaneSpec {
                 omega: spec.omega,
@@ -357,11 +349,11 @@ pub fn basin_with(
             .collect(),
         transient: spec.transient,
         recorded: spec.recorded,
-        stepper: spec.stepper,
-        precision: spec.precision,
+        stepper: spec.lane.stepper,
+        precision: spec.lane.precision,
     };
     let reduce = |_u: usize, _e: &EnsembleSpec, res: jeffcott_core::ensemble::EnsembleResult| {
-        let mut b = CatalogueBuilder::new(spec.omega, spec.catalogue);
+        let mut b = CatalogueBuilder::new(spec.omega, spec.lane.catalogue);
         let frozen: Vec<bool> = res.status.iter().map(|s| s.is_frozen()).collect();
         let labels = b.add_block(&res.poincare, res.recorded, &frozen, res.lambda1.as_deref());
         let (parts, labels, diverged) = b.finish_part(labels);
@@ -379,15 +371,15 @@ pub fn basin_with(
             count,
             ensemble: &ensemble,
             lanes: &|u| per_unit.min(cells - u * per_unit),
-            lambda1: spec.lyapunov,
+            lambda1: spec.lane.lyapunov,
             reduce: &reduce,
         },
         ctl,
     )?;
     // Assembly, in unit order.
     let mut labels = Vec::with_capacity(cells);
-    let mut lambda1 = spec.lyapunov.then(|| Vec::with_capacity(cells));
-    let mut builder = CatalogueBuilder::new(spec.omega, spec.catalogue);
+    let mut lambda1 = spec.lane.lyapunov.then(|| Vec::with_capacity(cells));
+    let mut builder = CatalogueBuilder::new(spec.omega, spec.lane.catalogue);
     for u in 0..count {
         let unit = store.load(STAGE, u)?;
         let (parts, diverged) = unit_parts(&unit)?;

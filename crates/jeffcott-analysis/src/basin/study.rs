@@ -61,7 +61,7 @@ impl BasinStudy {
         b.validate()?;
         crate::uncertainty::check_samples(self.uncertainty_samples)?;
         crate::measures::entropy_box(self.entropy_box, b.x.n, b.y.n)?;
-        crate::refine::check_levels(self.refine, b.lyapunov, b.x.n, b.y.n)
+        crate::refine::check_levels(self.refine, b.lane.lyapunov, b.x.n, b.y.n)
     }
 }
 
@@ -74,7 +74,7 @@ impl crate::record::StudySpec for BasinStudy {
         }
     }
     fn set_backend(&mut self, backend: jeffcott_core::ensemble::Backend) {
-        self.basin.backend = backend;
+        self.basin.lane.backend = backend;
     }
 }
 
@@ -171,12 +171,12 @@ pub fn run(study: &BasinStudy, engine: &Engine, host: &impl Host) -> Result<Basi
         None
     };
     let attractors = &result.catalogue.attractors;
-    let rub = crate::rub::attractors_with_rub(&spec.params, attractors, &spec.stepper)?
+    let rub = crate::rub::attractors_with_rub(&spec.lane.params, attractors, &spec.lane.stepper)?
         .into_iter()
         .map(|a| a.rub)
         .collect();
     let traces = if study.traces > 0 && !attractors.is_empty() {
-        crate::simulate::attractor_traces(&spec.params, spec.omega, attractors, study.traces)?
+        crate::simulate::attractor_traces(&spec.lane.params, spec.omega, attractors, study.traces)?
     } else {
         Vec::new()
     };

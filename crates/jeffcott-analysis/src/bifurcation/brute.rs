@@ -63,12 +63,12 @@ pub(super) fn brute_stage(
     let n = spec.omegas.len();
     let per_w = spec.ics.max(1) as u64
         * (spec.brute_transient + spec.recorded) as u64
-        * spec.stepper.steps_per_period as u64
-        * if spec.lyapunov { 2 } else { 1 };
+        * spec.lane.stepper.steps_per_period as u64
+        * if spec.lane.lyapunov { 2 } else { 1 };
     let per = crate::run::unit_lanes(n, per_w);
     let count = crate::run::unit_count(n, per);
     let ensemble = |u: usize| EnsembleSpec {
-        param_sets: vec![spec.params.clone()],
+        param_sets: vec![spec.lane.params.clone()],
         lanes: (u * per..((u + 1) * per).min(n))
             .flat_map(|wi| {
                 let omega = spec.omegas[wi];
@@ -81,8 +81,8 @@ pub(super) fn brute_stage(
             .collect(),
         transient: spec.brute_transient,
         recorded: spec.recorded,
-        stepper: spec.stepper,
-        precision: spec.precision,
+        stepper: spec.lane.stepper,
+        precision: spec.lane.precision,
     };
     let reduce = |_u: usize, _e: &EnsembleSpec, r: jeffcott_core::ensemble::EnsembleResult| {
         let mut unit = Unit::new("").with("poincare", Array::F64(r.poincare)).with(
@@ -107,7 +107,7 @@ pub(super) fn brute_stage(
                     .map(|wi| lanes_of(wi).len())
                     .sum()
             },
-            lambda1: spec.lyapunov,
+            lambda1: spec.lane.lyapunov,
             reduce: &reduce,
         },
         Control {
@@ -118,7 +118,7 @@ pub(super) fn brute_stage(
     let mut out = StageResult {
         poincare: Vec::new(),
         status: Vec::new(),
-        lambda1: spec.lyapunov.then(Vec::new),
+        lambda1: spec.lane.lyapunov.then(Vec::new),
     };
     for u in 0..count {
         let unit = store.load(stage, u)?;
@@ -161,7 +161,7 @@ pub(super) fn brute_force(
     let mut builders: Vec<CatalogueBuilder> = Vec::with_capacity(n);
     let mut labels: Vec<Vec<i32>> = Vec::with_capacity(n);
     for (wi, &omega) in spec.omegas.iter().enumerate() {
-        let mut b = CatalogueBuilder::new(omega, spec.catalogue);
+        let mut b = CatalogueBuilder::new(omega, spec.lane.catalogue);
         let frozen: Vec<bool> = res1.status[wi * k..(wi + 1) * k]
             .iter()
             .map(|s| s.is_frozen())

@@ -32,14 +32,15 @@ pub use record::{
 };
 pub use sweeps::sweep_unit;
 
-use super::catalogue::{Catalogue, CatalogueConfig, LaneClass};
+use super::catalogue::{Catalogue, LaneClass};
 use crate::run::lanes::Control;
 use crate::run::{MemoryStore, UnitStore};
+use crate::settings::LaneSettings;
 use brute::{brute_force, brute_stage};
-use jeffcott_core::ensemble::{Backend, EnsembleSpec, Precision, RunInfo};
+use jeffcott_core::ensemble::{Backend, EnsembleSpec, RunInfo};
 use jeffcott_core::error::{Error, Result};
-use jeffcott_core::integrate::lane::{Status, StepperConfig};
-use jeffcott_core::model::{Params, STATE_DIM, State};
+use jeffcott_core::integrate::lane::Status;
+use jeffcott_core::model::{STATE_DIM, State};
 use serde::{Deserialize, Serialize};
 use sweeps::sweep;
 
@@ -61,8 +62,9 @@ pub enum Sweep {
 /// reads back from there.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct BifurcationSpec {
-    /// Model parameters.
-    pub params: Params,
+    /// Model, stepper, precision, backend, classification, lambda_1.
+    #[serde(flatten)]
+    pub lane: LaneSettings,
     /// Speeds, increasing [rad/s].
     #[serde(with = "crate::record::speeds")]
     pub omegas: Vec<f64>,
@@ -81,33 +83,20 @@ pub struct BifurcationSpec {
     pub recorded: u32,
     /// Seed of the random start states.
     pub seed: u64,
-    /// Lane stepper settings.
-    pub stepper: StepperConfig,
-    /// Precision of the brute-force lanes (sweeps are f64).
-    pub precision: Precision,
-    /// Backend of the brute-force ensembles.
-    #[serde(skip)]
-    pub backend: Backend,
-    /// Classification tolerances.
-    pub catalogue: CatalogueConfig,
     /// Neighbour seeds per W in the second brute-force pass, at most.
     pub max_seeds: usize,
-    /// Compute the largest Lyapunov exponent of every lane (sweeps and brute force).
-    pub lyapunov: bool,
 }
 
 impl crate::record::StudySpec for BifurcationSpec {
     fn set_backend(&mut self, backend: Backend) {
-        self.backend = backend;
+        self.lane.backend = backend;
     }
 }
 
 impl BifurcationSpec {
     /// Checks the inputs; errors name the option and the allowed range.
     pub fn validate(&self) -> Result<()> {
-        self.params.validate()?;
-        self.stepper.validate()?;
-        self.catalogue.validate()?;
+        self.lane.validate()?;
         if self.omegas.is_empty() {
             return Err(Error::invalid("omega", 0, "at least one speed is needed"));
         }
@@ -315,9 +304,9 @@ pub fn bifurcation_with(
         cancel: ctl.cancel,
     };
     let first_pass = if spec.ics > 0 {
-        let engine = crate::backend::Engine::new(spec.backend, spec.precision)?;
+        let engine = crate::backend::Engine::new(spec.lane.backend, spec.lane.precision)?;
         let w_mid = 0.5 * (spec.omegas[0] + spec.omegas[spec.omegas.len() - 1]);
-        let common = start_states(&spec.params, spec.ics, w_mid, spec.seed);
+        let common = start_states(&spec.lane.params, spec.ics, w_mid, spec.seed);
         let (res1, info1) =
             brute_stage(spec, &engine, "bf1", &|_| common.clone(), store, ctl_bf1, 0)?;
         Some((engine, common, res1, info1))

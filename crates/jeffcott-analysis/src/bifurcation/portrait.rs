@@ -48,7 +48,7 @@ pub fn portrait(spec: &BifurcationSpec, res: &BifurcationResult, w: f64) -> Resu
             omega,
             source: PortraitSource::Brute,
             traces: attractor_traces(
-                &spec.params,
+                &spec.lane.params,
                 omega,
                 &b.catalogue.attractors,
                 crate::defaults::basin::TRACES,
@@ -62,16 +62,16 @@ pub fn portrait(spec: &BifurcationSpec, res: &BifurcationResult, w: f64) -> Resu
         };
         let periods = p.class.class.period().unwrap_or(12).clamp(1, 32) as u32;
         let r = simulate(&SimulateSpec {
-            params: spec.params.clone(),
+            params: spec.lane.params.clone(),
             omega,
             x0: p.points[p.points.len() - 1],
             transient: 0,
             periods,
             timeseries_periods: periods,
             integrator: Integrator::Lane,
-            stepper: spec.stepper,
+            stepper: spec.lane.stepper,
             article: Default::default(),
-            classify: spec.catalogue.classify,
+            classify: spec.lane.catalogue.classify,
         })?;
         traces.push(AttractorTrace {
             id: k as u32,

@@ -178,9 +178,12 @@ pub fn summary<'a>(spec: &'a BifurcationSpec, res: &'a BifurcationResult) -> Res
                 b.catalogue
                     .attractors
                     .iter()
-                    .map(
-                        |at| Ok(crate::rub::attractor_rub(&spec.params, at, &spec.stepper)?.into()),
-                    )
+                    .map(|at| {
+                        Ok(
+                            crate::rub::attractor_rub(&spec.lane.params, at, &spec.lane.stepper)?
+                                .into(),
+                        )
+                    })
                     .collect::<Result<Vec<_>>>()
             })
             .collect::<Result<Vec<_>>>()?
@@ -238,11 +241,11 @@ pub fn summary<'a>(spec: &'a BifurcationSpec, res: &'a BifurcationResult) -> Res
         brute_transient: spec.brute_transient,
         periods: spec.recorded,
         max_seeds: spec.max_seeds,
-        lyapunov: spec.lyapunov,
-        steps_per_period: spec.stepper.steps_per_period,
-        catalogue: &spec.catalogue,
+        lyapunov: spec.lane.lyapunov,
+        steps_per_period: spec.lane.stepper.steps_per_period,
+        catalogue: &spec.lane.catalogue,
         up_down_differ_at,
         per_omega,
-        params: &spec.params,
+        params: &spec.lane.params,
     })
 }

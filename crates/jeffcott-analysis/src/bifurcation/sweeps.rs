@@ -17,16 +17,16 @@ use jeffcott_core::model::{STATE_DIM, State};
 /// ensemble rate that [`crate::run::MAX_UNIT_LANE_STEPS`] assumes).
 pub fn sweep_unit(spec: &BifurcationSpec) -> usize {
     let per_w = (spec.transient.max(spec.transient_first) + spec.recorded) as u64
-        * spec.stepper.steps_per_period as u64
-        * if spec.lyapunov { 2 } else { 1 };
+        * spec.lane.stepper.steps_per_period as u64
+        * if spec.lane.lyapunov { 2 } else { 1 };
     crate::run::unit_lanes(spec.omegas.len(), 4 * per_w)
 }
 
 /// One W of a sweep, from start state `x`: the point and the state the next W starts
 /// from (the static equilibrium again after a diverged lane).
 fn sweep_step(spec: &BifurcationSpec, omega: f64, first: bool, x: &State) -> (SweepPoint, State) {
-    let lc = LaneConsts::<f64>::new(&spec.params, omega, &spec.stepper);
-    let mut lane = Lane::<f64>::new(x, spec.params.delta);
+    let lc = LaneConsts::<f64>::new(&spec.lane.params, omega, &spec.lane.stepper);
+    let mut lane = Lane::<f64>::new(x, spec.lane.params.delta);
     let transient = if first {
         spec.transient_first
     } else {
@@ -36,7 +36,7 @@ fn sweep_step(spec: &BifurcationSpec, omega: f64, first: bool, x: &State) -> (Sw
     // the transient, as the ensembles' lambda_1 does.
     let mut tan = Tangent::<f64, 1>::new([[LAMBDA1_START; STATE_DIM]]);
     let mut step = |lane: &mut Lane<f64>| -> f64 {
-        if spec.lyapunov {
+        if spec.lane.lyapunov {
             advance_period_tangent(&lc, lane, &mut tan);
             if lane.status.is_frozen() {
                 1.0
@@ -66,13 +66,13 @@ fn sweep_step(spec: &BifurcationSpec, omega: f64, first: bool, x: &State) -> (Sw
             lane.x
         });
     }
-    let lambda1 = if spec.lyapunov && !lane.status.is_frozen() {
+    let lambda1 = if spec.lane.lyapunov && !lane.status.is_frozen() {
         jeffcott_core::lyapunov::lambda1_from_norms(&norms, omega)
     } else {
         f64::NAN
     };
     let next = if lane.status.is_frozen() {
-        spec.params.static_equilibrium()
+        spec.lane.params.static_equilibrium()
     } else {
         lane.x
     };
@@ -90,8 +90,8 @@ fn sweep_point(
         &points,
         omega,
         status.is_frozen(),
-        spec.lyapunov.then_some(lambda1),
-        &spec.catalogue,
+        spec.lane.lyapunov.then_some(lambda1),
+        &spec.lane.catalogue,
     );
     SweepPoint {
         omega,
@@ -118,7 +118,7 @@ pub(super) fn sweep(
     let count = crate::run::unit_count(omegas.len(), per);
     let done = store.committed(stage, count)?;
     let rec = spec.recorded as usize;
-    let mut x = spec.params.static_equilibrium();
+    let mut x = spec.lane.params.static_equilibrium();
     let mut out = Vec::with_capacity(omegas.len());
     let add = |periods: u64| {
         let d = done_work.fetch_add(periods, std::sync::atomic::Ordering::Relaxed) + periods;

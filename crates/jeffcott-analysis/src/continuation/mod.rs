@@ -62,7 +62,7 @@ pub const FRESH: &str = "fresh";
 
 /// Computes a continuation in memory; `ctl.progress` counts lane-periods of the fresh pass.
 pub fn continuation(spec: &ContinuationSpec, ctl: Control) -> Result<ContinuationResult> {
-    crate::run::in_memory(spec.backend, spec.precision, ctl, |e, store, ctl| {
+    crate::run::in_memory(&spec.lane, ctl, |e, store, ctl| {
         continuation_with(spec, e, store, ctl)
     })
 }
@@ -116,7 +116,7 @@ pub fn continuation_with(
         for (j, i) in (u * per_unit..((u + 1) * per_unit).min(n)).enumerate() {
             let lanes = j * k..(j + 1) * k;
             let (_, w) = spec.value_params(i);
-            let mut b = CatalogueBuilder::new(w, spec.catalogue);
+            let mut b = CatalogueBuilder::new(w, spec.lane.catalogue);
             let frozen: Vec<bool> = res.status[lanes.clone()]
                 .iter()
                 .map(|s| s.is_frozen())
@@ -144,7 +144,7 @@ pub fn continuation_with(
             count,
             ensemble: &ensemble,
             lanes: &|u| per_unit.min(n - u * per_unit) * k,
-            lambda1: spec.lyapunov,
+            lambda1: spec.lane.lyapunov,
             reduce: &reduce,
         },
         ctl,

@@ -152,9 +152,9 @@ pub fn summary<'a>(spec: &'a ContinuationSpec, res: &'a ContinuationResult) -> S
         seed: spec.seed,
         transient: spec.transient,
         periods: spec.recorded,
-        lyapunov: spec.lyapunov,
+        lyapunov: spec.lane.lyapunov,
         match_threshold: spec.match_threshold,
         ramps,
-        params: &spec.params,
+        params: &spec.lane.params,
     }
 }

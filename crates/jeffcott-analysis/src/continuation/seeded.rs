@@ -138,7 +138,7 @@ fn seeded_step(
 ) -> Result<Step> {
     let (_, w) = spec.value_params(i);
     let k = fresh_labels.len();
-    let mut b = CatalogueBuilder::new(w, spec.catalogue);
+    let mut b = CatalogueBuilder::new(w, spec.lane.catalogue);
     let ids: Vec<i32> = parts.iter().map(|p| b.absorb(p, 0)).collect();
     b.add_lanes(k as u64, diverged);
     let mut labels: Vec<i32> = fresh_labels
@@ -153,7 +153,7 @@ fn seeded_step(
         .collect();
     if !seeds.is_empty() {
         let e = spec.ensemble(i, seeds);
-        let (res, _) = engine.run(&e, spec.lyapunov, Control::none())?;
+        let (res, _) = engine.run(&e, spec.lane.lyapunov, Control::none())?;
         for lane in 0..e.lanes.len() {
             let states = res.lane_states(lane);
             let lc = classify_lane(
@@ -161,7 +161,7 @@ fn seeded_step(
                 w,
                 res.status[lane].is_frozen(),
                 res.lambda1.as_ref().map(|l| l[lane]),
-                &spec.catalogue,
+                &spec.lane.catalogue,
             );
             labels.push(b.add(lc));
         }

@@ -2,11 +2,10 @@
 //! checks and per-value parameters, and the fresh start states (a seeded box or the
 //! brute-force draws).
 
-use crate::catalogue::CatalogueConfig;
 use crate::map::{MapAxis, MapVar};
-use jeffcott_core::ensemble::{Backend, EnsembleSpec, LaneSpec, Precision};
+use crate::settings::LaneSettings;
+use jeffcott_core::ensemble::{EnsembleSpec, LaneSpec};
 use jeffcott_core::error::{Error, Result};
-use jeffcott_core::integrate::lane::StepperConfig;
 use jeffcott_core::model::{Params, State};
 use serde::{Deserialize, Serialize};
 
@@ -49,8 +48,9 @@ pub fn directions(text: &str) -> Result<Vec<Direction>> {
 /// from there.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ContinuationSpec {
-    /// Model parameters before the continued one is set.
-    pub params: Params,
+    /// Model, stepper, precision, backend, classification, lambda_1.
+    #[serde(flatten)]
+    pub lane: LaneSettings,
     /// Rotor speed when the parameter is not omega [rad/s].
     pub omega: Option<f64>,
     /// The continued parameter and its values (omega or a model parameter; evenly
@@ -71,17 +71,6 @@ pub struct ContinuationSpec {
     /// Forcing periods recorded per lane.
     #[serde(rename = "periods")]
     pub recorded: u32,
-    /// Lane stepper settings.
-    pub stepper: StepperConfig,
-    /// Lane precision.
-    pub precision: Precision,
-    /// Backend (not recorded).
-    #[serde(skip)]
-    pub backend: Backend,
-    /// Classification tolerances.
-    pub catalogue: CatalogueConfig,
-    /// lambda_1 per lane (quasiperiodic and chaotic told apart).
-    pub lyapunov: bool,
     /// Ramp directions.
     pub directions: Vec<Direction>,
     /// Largest Poincare-set distance at which two attractors of consecutive values are
@@ -160,9 +149,7 @@ impl ContinuationSpec {
     /// built this specification spells them (`basin-stability` continues over `omega`
     /// with `sample` draws in a `box`).
     pub fn validate_as(&self, f: &Fields) -> Result<()> {
-        self.params.validate()?;
-        self.stepper.validate()?;
-        self.catalogue.validate()?;
+        self.lane.validate()?;
         self.param.validate(f.param)?;
         if let MapVar::Coord(_) = self.param.var {
             return Err(Error::invalid(
@@ -217,7 +204,7 @@ impl ContinuationSpec {
         jeffcott_core::limits::check_periods("transient", self.transient, 0)?;
         jeffcott_core::limits::check_periods("periods", self.recorded, 2)?;
         if let Some(b) = &self.start_box {
-            let bound = self.stepper.divergence_bound;
+            let bound = self.lane.stepper.divergence_bound;
             for &(c, lo, hi) in b {
                 if c % 2 == 0 && lo.abs().max(hi.abs()) > bound {
                     return Err(Error::invalid(
@@ -246,7 +233,7 @@ impl ContinuationSpec {
 
     /// Parameters and speed at value `i`.
     pub fn value_params(&self, i: usize) -> (Params, f64) {
-        let mut p = self.params.clone();
+        let mut p = self.lane.params.clone();
         let mut w = self.omega.unwrap_or(f64::NAN);
         match self.param.var {
             MapVar::Omega => w = self.param.value(i),
@@ -281,8 +268,8 @@ impl ContinuationSpec {
     pub fn unit_values(&self) -> usize {
         let per_value = self.ics as u64
             * (self.transient + self.recorded) as u64
-            * self.stepper.steps_per_period as u64
-            * if self.lyapunov { 2 } else { 1 };
+            * self.lane.stepper.steps_per_period as u64
+            * if self.lane.lyapunov { 2 } else { 1 };
         self.values_per_unit
             .unwrap_or_else(|| crate::run::unit_lanes(self.param.n, per_value))
     }
@@ -306,8 +293,8 @@ impl ContinuationSpec {
                 .collect(),
             transient: self.transient,
             recorded: self.recorded,
-            stepper: self.stepper,
-            precision: self.precision,
+            stepper: self.lane.stepper,
+            precision: self.lane.precision,
         }
     }
 }

@@ -2,6 +2,7 @@
 //! model and backend.
 
 use super::*;
+use crate::settings::LaneSettings;
 
 /// What a figure set computes: its resolutions, the model (Table 1), and how its lanes
 /// run; every study's specification follows from these.
@@ -31,11 +32,24 @@ impl ReproduceSpec {
         }
     }
 
+    /// The lanes of every study: Table 1's model, the default stepper, the set's
+    /// precision, backend and tolerances; lambda_1 with `lyapunov`.
+    pub fn lane(&self, lyapunov: bool) -> LaneSettings {
+        LaneSettings {
+            params: self.params.clone(),
+            stepper: Default::default(),
+            precision: self.precision,
+            backend: self.backend,
+            catalogue: self.catalogue,
+            lyapunov,
+        }
+    }
+
     /// Figs. 3-4, the down sweep and the brute force: one study over [130, 141].
     pub fn bifurcation(&self) -> Result<BifurcationSpec> {
         let p = &self.preset;
         Ok(BifurcationSpec {
-            params: self.params.clone(),
+            lane: self.lane(true),
             omegas: jeffcott_core::ensemble::parse_range(
                 "omega",
                 &format!("130:141:{}", p.speeds),
@@ -47,12 +61,7 @@ impl ReproduceSpec {
             brute_transient: p.brute_transient,
             recorded: p.periods,
             seed: 1,
-            stepper: Default::default(),
-            precision: self.precision,
-            backend: self.backend,
-            catalogue: self.catalogue,
             max_seeds: p.max_seeds,
-            lyapunov: true,
         })
     }
 
@@ -109,7 +118,7 @@ impl ReproduceSpec {
     pub fn basin(&self) -> BasinSpec {
         let p = &self.preset;
         BasinSpec {
-            params: self.params.clone(),
+            lane: self.lane(false),
             omega: 133.0,
             x: Axis {
                 coord: X_R,
@@ -126,12 +135,7 @@ impl ReproduceSpec {
             base: self.params.static_equilibrium(),
             transient: p.basin_transient,
             recorded: p.basin_periods,
-            stepper: Default::default(),
-            precision: self.precision,
-            backend: self.backend,
-            catalogue: self.catalogue,
             lanes_per_unit: None,
-            lyapunov: false,
         }
     }
 
@@ -224,7 +228,7 @@ impl ReproduceSpec {
 
     fn map(&self, x: MapAxis, y: MapAxis, ics: u32, lyapunov: bool) -> MapSpec {
         MapSpec {
-            params: self.params.clone(),
+            lane: self.lane(lyapunov),
             omega: None,
             x,
             y,
@@ -232,11 +236,6 @@ impl ReproduceSpec {
             seed: 1,
             transient: self.preset.map_transient,
             recorded: self.preset.map_periods,
-            stepper: Default::default(),
-            precision: self.precision,
-            backend: self.backend,
-            catalogue: self.catalogue,
-            lyapunov,
             cells_per_unit: None,
         }
     }
@@ -245,7 +244,7 @@ impl ReproduceSpec {
     pub fn continuation(&self) -> ContinuationSpec {
         let p = &self.preset;
         ContinuationSpec {
-            params: self.params.clone(),
+            lane: self.lane(true),
             omega: None,
             param: MapAxis {
                 var: MapVar::Omega,
@@ -259,11 +258,6 @@ impl ReproduceSpec {
             seed: 1,
             transient: p.cont_transient,
             recorded: p.cont_periods,
-            stepper: Default::default(),
-            precision: self.precision,
-            backend: self.backend,
-            catalogue: self.catalogue,
-            lyapunov: true,
             directions: vec![Direction::Up, Direction::Down],
             match_threshold: f64::INFINITY,
             values_per_unit: None,

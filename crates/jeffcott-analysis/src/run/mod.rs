@@ -231,12 +231,11 @@ pub use jeffcott_core::control::{Cancel, ProgressFn, no_progress};
 /// engine, reporting and stopped through `ctl`: the library entry points of the studies
 /// (`basin`, `map`, `continuation`) are this around their `*_with` form.
 pub fn in_memory<T>(
-    backend: jeffcott_core::ensemble::Backend,
-    precision: jeffcott_core::ensemble::Precision,
+    lane: &crate::settings::LaneSettings,
     ctl: lanes::Control,
     study: impl FnOnce(&crate::backend::Engine, &dyn UnitStore, lanes::Control) -> Result<T>,
 ) -> Result<T> {
-    let engine = crate::backend::Engine::new(backend, precision)?;
+    let engine = crate::backend::Engine::new(lane.backend, lane.precision)?;
     study(&engine, &MemoryStore::new(), ctl)
 }
 
