@@ -255,7 +255,7 @@ fn study(omega: &str, ics: u32) -> jeffcott_analysis::bifurcation::BifurcationSp
         transient: 200,
         ics,
         brute_transient: 300,
-        recorded: 24,
+        periods: 24,
         seed: 1,
         max_seeds: 6,
     }
@@ -362,7 +362,7 @@ fn lambda1_row_is_negative_on_the_period_1_branch_and_positive_at_140() {
     spec.transient_first = 600;
     spec.transient = 300;
     spec.brute_transient = 300;
-    spec.recorded = 64;
+    spec.periods = 64;
     spec.max_seeds = 2;
     let r = bifurcation(&spec, jeffcott_core::control::Control::none()).unwrap();
     for sw in [&r.up, &r.down] {
@@ -411,7 +411,7 @@ fn basin_lambda1_map_is_finite_and_the_catalogue_says_chaotic_at_140() {
             n: 2,
         },
         transient: 300,
-        recorded: 64,
+        periods: 64,
         lanes_per_unit: Some(4),
     };
     let r = basin(&spec, jeffcott_core::control::Control::none()).unwrap();

@@ -45,7 +45,7 @@ fn basin_labels_are_identical_on_cpu_and_gpu_f64() {
             n: 4,
         },
         transient: 60,
-        recorded: 12,
+        periods: 12,
         lanes_per_unit: Some(7),
     };
     let cpu = basin(&spec, jeffcott_core::control::Control::none()).unwrap();

@@ -709,7 +709,7 @@ fn basin_labels_do_not_depend_on_the_unit_size() {
             n: 8,
         },
         transient: 250,
-        recorded: 32,
+        periods: 32,
         lanes_per_unit: Some(80),
     };
     let one = basin(&spec, jeffcott_core::control::Control::none()).unwrap();

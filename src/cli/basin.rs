@@ -121,7 +121,7 @@ impl BasinArgs {
             y,
             base,
             transient: self.transient,
-            recorded: self.periods,
+            periods: self.periods,
             lanes_per_unit: self.chunk,
         })
     }
@@ -537,7 +537,7 @@ fn write_basin(dir: &Path, o: &BasinOutcome, plot_it: bool) -> Result<String> {
             y: spec.y,
             fixed,
             transient: spec.transient,
-            periods: spec.recorded,
+            periods: spec.periods,
             steps_per_period: spec.lane.stepper.steps_per_period,
             lyapunov: spec.lane.lyapunov,
             cells: nx * ny,

@@ -225,7 +225,7 @@ impl BifurcationArgs {
             transient: self.transient,
             ics: self.ics,
             brute_transient: self.brute_transient,
-            recorded: self.periods,
+            periods: self.periods,
             seed: self.seed,
             max_seeds: self.max_seeds,
         };
@@ -476,7 +476,7 @@ pub fn diagram_series(
     down: bool,
     brute: bool,
 ) -> Vec<DotSeries> {
-    let rec = spec.recorded as usize;
+    let rec = spec.periods as usize;
     // Dots shrink for dense diagrams so 1000+ speeds stay readable; the down sweep is
     // drawn smaller on top of the up sweep, so both show where they coincide.
     let (r_up, r_down) = if spec.omegas.len() > 600 {
@@ -542,7 +542,7 @@ pub fn write_bifurcation(
     plot_it: bool,
 ) -> Result<()> {
     output::ensure_dir(dir)?;
-    let rec = spec.recorded as usize;
+    let rec = spec.periods as usize;
     let arrays = jeffcott_analysis::bifurcation::arrays(res);
     let (rows, pts, l1) = (&arrays.rows, &arrays.points, &arrays.lambda1);
     let nrows = rows.len() / 4;

@@ -105,7 +105,7 @@ impl ContinuationArgs {
                 .transpose()?,
             seed: self.seed,
             transient: self.transient,
-            recorded: self.periods,
+            periods: self.periods,
             directions: match self.direction {
                 DirectionArg::Up => vec![Direction::Up],
                 DirectionArg::Down => vec![Direction::Down],

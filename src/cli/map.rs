@@ -90,7 +90,7 @@ impl MapArgs {
             ics: self.ics,
             seed: self.seed,
             transient: self.transient,
-            recorded: self.periods,
+            periods: self.periods,
             cells_per_unit: self.chunk,
         };
         spec.validate()?;

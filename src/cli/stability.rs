@@ -88,7 +88,7 @@ impl StabilityArgs {
             start_box: &self.start_box,
             seed: self.seed,
             transient: self.transient,
-            recorded: self.periods,
+            periods: self.periods,
         })
     }
 }

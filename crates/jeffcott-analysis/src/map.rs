@@ -221,8 +221,7 @@ pub struct MapSpec {
     /// Forcing periods integrated and discarded.
     pub transient: u32,
     /// Forcing periods recorded per lane.
-    #[serde(rename = "periods")]
-    pub recorded: u32,
+    pub periods: u32,
     /// Cells per work unit (`None`: [`crate::run::unit_lanes`] in cells; recorded
     /// resolved).
     #[serde(rename = "unit_cells")]
@@ -273,7 +272,7 @@ impl MapSpec {
             ));
         }
         jeffcott_core::limits::check_periods("transient", self.transient, 0)?;
-        jeffcott_core::limits::check_periods("periods", self.recorded, 2)?;
+        jeffcott_core::limits::check_periods("periods", self.periods, 2)?;
         if self.cells_per_unit == Some(0) {
             return Err(Error::invalid("chunk", 0, "must be >= 1 cell"));
         }
@@ -364,7 +363,7 @@ impl MapSpec {
     /// Cells per work unit: `chunk`, or [`crate::run::unit_lanes`] counted in cells.
     pub fn unit_cells(&self) -> usize {
         let per_cell = self.ics as u64
-            * (self.transient + self.recorded) as u64
+            * (self.transient + self.periods) as u64
             * self.lane.stepper.steps_per_period as u64
             * if self.lane.lyapunov { 2 } else { 1 };
         self.cells_per_unit
@@ -373,7 +372,7 @@ impl MapSpec {
 
     /// Lane-periods of the whole map (for progress and estimates).
     pub fn lane_periods(&self) -> u64 {
-        self.cells() as u64 * self.ics as u64 * (self.transient + self.recorded) as u64
+        self.cells() as u64 * self.ics as u64 * (self.transient + self.periods) as u64
     }
 }
 
@@ -537,7 +536,7 @@ fn reduce_cells(
 /// Runs a map under `host` (its units committed to the host's store, its progress on
 /// the host's display as stage `map`): the front ends' entry point.
 pub fn run(spec: &MapSpec, engine: &crate::backend::Engine, host: &impl Host) -> Result<MapResult> {
-    let per_lane = (spec.transient + spec.recorded) as u64;
+    let per_lane = (spec.transient + spec.periods) as u64;
     host.progress(STAGE, spec.lane_periods(), per_lane, |ctl| {
         map_with(spec, engine, host.store(), ctl)
     })
@@ -578,7 +577,7 @@ pub fn map_with(
             param_sets,
             lanes,
             transient: spec.transient,
-            recorded: spec.recorded,
+            recorded: spec.periods,
             stepper: spec.lane.stepper,
             precision: spec.lane.precision,
         }
@@ -738,7 +737,7 @@ pub fn summary<'a>(spec: &'a MapSpec, res: &'a MapResult) -> Summary<'a> {
         ics: spec.ics,
         seed: spec.seed,
         transient: spec.transient,
-        periods: spec.recorded,
+        periods: spec.periods,
         steps_per_period: spec.lane.stepper.steps_per_period,
         lyapunov: spec.lane.lyapunov,
         cells: spec.x.n * spec.y.n,

@@ -185,7 +185,7 @@ pub fn refine(
         };
         let n = points.len();
         let per_lane =
-            (spec.transient + spec.recorded) as u64 * spec.lane.stepper.steps_per_period as u64;
+            (spec.transient + spec.periods) as u64 * spec.lane.stepper.steps_per_period as u64;
         let unit = crate::run::unit_lanes(n, per_lane);
         let count = crate::run::unit_count(n, unit);
         let stage = format!("refine{k}");
@@ -200,7 +200,7 @@ pub fn refine(
                 })
                 .collect(),
             transient: spec.transient,
-            recorded: spec.recorded,
+            recorded: spec.periods,
             stepper: spec.lane.stepper,
             precision: spec.lane.precision,
         };

@@ -42,7 +42,7 @@ pub struct StabilityRequest<'a> {
     /// Forcing periods integrated and discarded per lane.
     pub transient: u32,
     /// Forcing periods recorded per lane.
-    pub recorded: u32,
+    pub periods: u32,
 }
 
 /// The study as a continuation over W of uniform draws in the box, validated; errors
@@ -66,7 +66,7 @@ pub fn spec(r: &StabilityRequest) -> Result<ContinuationSpec> {
         start_box: Some(parse_box(FIELDS.start_box, r.start_box)?),
         seed: r.seed,
         transient: r.transient,
-        recorded: r.recorded,
+        periods: r.periods,
         directions: vec![Direction::Up],
         match_threshold: f64::INFINITY,
         values_per_unit: None,
@@ -193,7 +193,7 @@ pub fn summary<'a>(spec: &'a ContinuationSpec, res: &'a ContinuationResult) -> S
         sample: spec.ics,
         seed: spec.seed,
         transient: spec.transient,
-        periods: spec.recorded,
+        periods: spec.periods,
         lyapunov: spec.lane.lyapunov,
         per_omega,
         params: &spec.lane.params,

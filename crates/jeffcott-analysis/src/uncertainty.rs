@@ -119,7 +119,7 @@ pub fn reintegration(
     check_samples(samples)?;
     let lanes = samples * PER_DRAW;
     let per_lane =
-        (spec.transient + spec.recorded) as u64 * spec.lane.stepper.steps_per_period as u64;
+        (spec.transient + spec.periods) as u64 * spec.lane.stepper.steps_per_period as u64;
     // Whole draws per unit.
     let unit = crate::run::unit_lanes(lanes, per_lane)
         .div_ceil(PER_DRAW)
@@ -136,7 +136,7 @@ pub fn reintegration(
             })
             .collect(),
         transient: spec.transient,
-        recorded: spec.recorded,
+        recorded: spec.periods,
         stepper: spec.lane.stepper,
         precision: spec.lane.precision,
     };

@@ -79,7 +79,7 @@ pub(crate) fn basin<'py>(
         y,
         base,
         transient,
-        recorded: periods,
+        periods,
         lanes_per_unit: None,
     };
     let study = BasinStudy {
@@ -183,7 +183,7 @@ pub(crate) fn basin_stability<'py>(
         start_box: &start_box,
         seed,
         transient,
-        recorded: periods,
+        periods,
     })
     .map_err(run::to_py_err)?;
     let res = run::detached(py, progress.as_ref().map(|c| &c.0), |ctl| {

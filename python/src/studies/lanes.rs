@@ -191,7 +191,7 @@ pub(crate) fn bifurcation<'py>(
         transient,
         ics,
         brute_transient,
-        recorded: periods,
+        periods,
         seed,
         max_seeds,
     };

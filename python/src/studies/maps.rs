@@ -58,7 +58,7 @@ pub(crate) fn map<'py>(
         ics,
         seed,
         transient,
-        recorded: periods,
+        periods,
         cells_per_unit: None,
     };
     spec.validate().map_err(run::to_py_err)?;
@@ -149,7 +149,7 @@ pub(crate) fn continuation<'py>(
             .map_err(run::to_py_err)?,
         seed,
         transient,
-        recorded: periods,
+        periods,
         directions,
         match_threshold: match_threshold.unwrap_or(f64::INFINITY),
         values_per_unit: None,

@@ -174,8 +174,7 @@ pub struct BasinSpec {
     /// Forcing periods integrated and discarded.
     pub transient: u32,
     /// Forcing periods recorded per cell (>= 2 n to see period n).
-    #[serde(rename = "periods")]
-    pub recorded: u32,
+    pub periods: u32,
     /// Lanes per work unit (`None`: [`crate::run::unit_lanes`]; recorded resolved, as
     /// units of another size do not combine).
     #[serde(rename = "unit_lanes")]
@@ -196,15 +195,15 @@ impl BasinSpec {
                 "the two axes must be different coordinates",
             ));
         }
-        if self.recorded < 2 {
+        if self.periods < 2 {
             return Err(Error::invalid(
                 "periods",
-                self.recorded,
+                self.periods,
                 "at least 2 periods must be recorded",
             ));
         }
         jeffcott_core::limits::check_periods("transient", self.transient, 0)?;
-        jeffcott_core::limits::check_periods("periods", self.recorded, 2)?;
+        jeffcott_core::limits::check_periods("periods", self.periods, 2)?;
         if let Some((i, v)) = self.base.iter().enumerate().find(|(_, v)| !v.is_finite()) {
             return Err(Error::invalid(
                 COORD_NAMES[i],
@@ -250,7 +249,7 @@ pub const STAGE: &str = "basin";
 impl BasinSpec {
     /// Lanes per work unit: `chunk`, or [`crate::run::unit_lanes`] of the grid.
     pub fn unit_lanes(&self) -> usize {
-        let per_lane = (self.transient + self.recorded) as u64
+        let per_lane = (self.transient + self.periods) as u64
             * self.lane.stepper.steps_per_period as u64
             * if self.lane.lyapunov { 2 } else { 1 };
         self.lanes_per_unit
@@ -293,7 +292,7 @@ impl BasinSpec {
                 ),
             ));
         }
-        let recorded = self.recorded.max(1) as u64;
+        let recorded = self.periods.max(1) as u64;
         let chunk = (self.unit_lanes() as u64).min(cells);
         jeffcott_core::limits::check_memory(
             "x, y",
@@ -348,7 +347,7 @@ pub fn basin_with(
             })
             .collect(),
         transient: spec.transient,
-        recorded: spec.recorded,
+        recorded: spec.periods,
         stepper: spec.lane.stepper,
         precision: spec.lane.precision,
     };

@@ -125,7 +125,7 @@ impl BasinOutcome {
 pub fn run(study: &BasinStudy, engine: &Engine, host: &impl Host) -> Result<BasinOutcome> {
     study.validate()?;
     let coarse = &study.basin;
-    let per_lane = (coarse.transient + coarse.recorded) as u64;
+    let per_lane = (coarse.transient + coarse.periods) as u64;
     let cells = (coarse.x.n * coarse.y.n) as u64;
     let store = host.store();
     let res = host.progress(STAGE, cells * per_lane, per_lane, |ctl| {

@@ -62,7 +62,7 @@ pub(super) fn brute_stage(
 ) -> Result<(StageResult, Option<RunInfo>)> {
     let n = spec.omegas.len();
     let per_w = spec.ics.max(1) as u64
-        * (spec.brute_transient + spec.recorded) as u64
+        * (spec.brute_transient + spec.periods) as u64
         * spec.lane.stepper.steps_per_period as u64
         * if spec.lane.lyapunov { 2 } else { 1 };
     let per = crate::run::unit_lanes(n, per_w);
@@ -80,7 +80,7 @@ pub(super) fn brute_stage(
             })
             .collect(),
         transient: spec.brute_transient,
-        recorded: spec.recorded,
+        recorded: spec.periods,
         stepper: spec.lane.stepper,
         precision: spec.lane.precision,
     };
@@ -155,7 +155,7 @@ pub(super) fn brute_force(
     let (engine, common, res1, info1) = first;
     let n = spec.omegas.len();
     let k = spec.ics as usize;
-    let rec = spec.recorded as usize;
+    let rec = spec.periods as usize;
     let lane_len = rec * STATE_DIM;
     // First-pass catalogues, to know what to seed from.
     let mut builders: Vec<CatalogueBuilder> = Vec::with_capacity(n);

@@ -79,8 +79,7 @@ pub struct BifurcationSpec {
     /// Transient of the brute-force lanes [periods].
     pub brute_transient: u32,
     /// Recorded periods (Poincare points) per lane, sweeps and brute force alike.
-    #[serde(rename = "periods")]
-    pub recorded: u32,
+    pub periods: u32,
     /// Seed of the random start states.
     pub seed: u64,
     /// Neighbour seeds per W in the second brute-force pass, at most.
@@ -110,10 +109,10 @@ impl BifurcationSpec {
                 "speeds must increase (write a:b:n with a < b)",
             ));
         }
-        if self.recorded < 2 {
+        if self.periods < 2 {
             return Err(Error::invalid(
                 "periods",
-                self.recorded,
+                self.periods,
                 "at least 2 periods must be recorded",
             ));
         }
@@ -130,7 +129,7 @@ impl BifurcationSpec {
         jeffcott_core::limits::check_periods("transient-first", self.transient_first, 0)?;
         jeffcott_core::limits::check_periods("transient", self.transient, 0)?;
         jeffcott_core::limits::check_periods("brute-transient", self.brute_transient, 0)?;
-        jeffcott_core::limits::check_periods("periods", self.recorded, 2)?;
+        jeffcott_core::limits::check_periods("periods", self.periods, 2)?;
         Ok(())
     }
 
@@ -147,7 +146,7 @@ impl BifurcationSpec {
             sweeps,
             self.ics as u64,
             self.max_seeds as u64,
-            self.recorded as u64,
+            self.periods as u64,
         )
     }
 
@@ -259,11 +258,11 @@ pub fn work(spec: &BifurcationSpec) -> u64 {
         Some(Sweep::Both) => 2,
         Some(_) => 1,
     };
-    let per_w = (spec.transient + spec.recorded) as u64;
-    let sweep = (spec.transient_first + spec.recorded) as u64 + n.saturating_sub(1) * per_w;
+    let per_w = (spec.transient + spec.periods) as u64;
+    let sweep = (spec.transient_first + spec.periods) as u64 + n.saturating_sub(1) * per_w;
     sweeps * sweep
-        + n * spec.ics as u64 * (spec.brute_transient + spec.recorded) as u64
-        + n * spec.max_seeds as u64 * (spec.brute_transient + spec.recorded) as u64
+        + n * spec.ics as u64 * (spec.brute_transient + spec.periods) as u64
+        + n * spec.max_seeds as u64 * (spec.brute_transient + spec.periods) as u64
 }
 
 /// Runs the study in memory; `ctl.progress` counts lane-periods (see [`work`]).
@@ -274,7 +273,7 @@ pub fn bifurcation(spec: &BifurcationSpec, ctl: Control) -> Result<BifurcationRe
 /// Runs a bifurcation study under `host` (its units committed to the host's store, its
 /// progress on the host's display as stage `bifurcation`): the front ends' entry point.
 pub fn run(spec: &BifurcationSpec, host: &impl crate::run::Host) -> Result<BifurcationResult> {
-    let per_lane = (spec.brute_transient + spec.recorded) as u64;
+    let per_lane = (spec.brute_transient + spec.periods) as u64;
     host.progress("bifurcation", work(spec), per_lane, |ctl| {
         bifurcation_with(spec, host.store(), ctl)
     })
@@ -314,7 +313,7 @@ pub fn bifurcation_with(
         None
     };
     let pass1 =
-        spec.omegas.len() as u64 * spec.ics as u64 * (spec.brute_transient + spec.recorded) as u64;
+        spec.omegas.len() as u64 * spec.ics as u64 * (spec.brute_transient + spec.periods) as u64;
     let done_work = std::sync::atomic::AtomicU64::new(pass1);
     let rev: Vec<f64> = spec.omegas.iter().rev().copied().collect();
     let (up, down) = rayon::join(

@@ -239,7 +239,7 @@ pub fn summary<'a>(spec: &'a BifurcationSpec, res: &'a BifurcationResult) -> Res
         ics: spec.ics,
         seed: spec.seed,
         brute_transient: spec.brute_transient,
-        periods: spec.recorded,
+        periods: spec.periods,
         max_seeds: spec.max_seeds,
         lyapunov: spec.lane.lyapunov,
         steps_per_period: spec.lane.stepper.steps_per_period,

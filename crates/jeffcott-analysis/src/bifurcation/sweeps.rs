@@ -16,7 +16,7 @@ use jeffcott_core::model::{STATE_DIM, State};
 /// of one core (a sweep is one lane, stepped at about a quarter of the batched
 /// ensemble rate that [`crate::run::MAX_UNIT_LANE_STEPS`] assumes).
 pub fn sweep_unit(spec: &BifurcationSpec) -> usize {
-    let per_w = (spec.transient.max(spec.transient_first) + spec.recorded) as u64
+    let per_w = (spec.transient.max(spec.transient_first) + spec.periods) as u64
         * spec.lane.stepper.steps_per_period as u64
         * if spec.lane.lyapunov { 2 } else { 1 };
     crate::run::unit_lanes(spec.omegas.len(), 4 * per_w)
@@ -54,9 +54,9 @@ fn sweep_step(spec: &BifurcationSpec, omega: f64, first: bool, x: &State) -> (Sw
         }
         step(&mut lane);
     }
-    let mut points = Vec::with_capacity(spec.recorded as usize);
-    let mut norms = Vec::with_capacity(spec.recorded as usize);
-    for _ in 0..spec.recorded {
+    let mut points = Vec::with_capacity(spec.periods as usize);
+    let mut norms = Vec::with_capacity(spec.periods as usize);
+    for _ in 0..spec.periods {
         norms.push(step(&mut lane));
         // As in the ensembles (`ensemble::mask_frozen_records`): from the period in which
         // the lane froze on, its records are NaN, not its last finite state.
@@ -117,7 +117,7 @@ pub(super) fn sweep(
     let per = sweep_unit(spec);
     let count = crate::run::unit_count(omegas.len(), per);
     let done = store.committed(stage, count)?;
-    let rec = spec.recorded as usize;
+    let rec = spec.periods as usize;
     let mut x = spec.lane.params.static_equilibrium();
     let mut out = Vec::with_capacity(omegas.len());
     let add = |periods: u64| {
@@ -133,7 +133,7 @@ pub(super) fn sweep(
                     spec.transient_first
                 } else {
                     spec.transient
-                } + spec.recorded) as u64
+                } + spec.periods) as u64
             })
             .sum();
         if is_done {

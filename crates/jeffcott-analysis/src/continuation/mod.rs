@@ -75,7 +75,7 @@ pub fn run(
     engine: &crate::backend::Engine,
     host: &impl crate::run::Host,
 ) -> Result<ContinuationResult> {
-    let per_lane = (spec.transient + spec.recorded) as u64;
+    let per_lane = (spec.transient + spec.periods) as u64;
     host.progress("continuation", spec.lane_periods(), per_lane, |ctl| {
         continuation_with(spec, engine, host.store(), ctl)
     })

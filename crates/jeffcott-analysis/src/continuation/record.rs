@@ -151,7 +151,7 @@ pub fn summary<'a>(spec: &'a ContinuationSpec, res: &'a ContinuationResult) -> S
         start_box: spec.start_box.as_deref().map(coord_box),
         seed: spec.seed,
         transient: spec.transient,
-        periods: spec.recorded,
+        periods: spec.periods,
         lyapunov: spec.lane.lyapunov,
         match_threshold: spec.match_threshold,
         ramps,

@@ -69,8 +69,7 @@ pub struct ContinuationSpec {
     /// Forcing periods integrated and discarded.
     pub transient: u32,
     /// Forcing periods recorded per lane.
-    #[serde(rename = "periods")]
-    pub recorded: u32,
+    pub periods: u32,
     /// Ramp directions.
     pub directions: Vec<Direction>,
     /// Largest Poincare-set distance at which two attractors of consecutive values are
@@ -202,7 +201,7 @@ impl ContinuationSpec {
             ));
         }
         jeffcott_core::limits::check_periods("transient", self.transient, 0)?;
-        jeffcott_core::limits::check_periods("periods", self.recorded, 2)?;
+        jeffcott_core::limits::check_periods("periods", self.periods, 2)?;
         if let Some(b) = &self.start_box {
             let bound = self.lane.stepper.divergence_bound;
             for &(c, lo, hi) in b {
@@ -267,7 +266,7 @@ impl ContinuationSpec {
     /// Values per unit of the fresh pass: [`crate::run::unit_lanes`] counted in values.
     pub fn unit_values(&self) -> usize {
         let per_value = self.ics as u64
-            * (self.transient + self.recorded) as u64
+            * (self.transient + self.periods) as u64
             * self.lane.stepper.steps_per_period as u64
             * if self.lane.lyapunov { 2 } else { 1 };
         self.values_per_unit
@@ -276,7 +275,7 @@ impl ContinuationSpec {
 
     /// Lane-periods of the fresh pass (the bulk of the work).
     pub fn lane_periods(&self) -> u64 {
-        self.param.n as u64 * self.ics as u64 * (self.transient + self.recorded) as u64
+        self.param.n as u64 * self.ics as u64 * (self.transient + self.periods) as u64
     }
 
     pub(super) fn ensemble(&self, i: usize, starts: Vec<State>) -> EnsembleSpec {
@@ -292,7 +291,7 @@ impl ContinuationSpec {
                 })
                 .collect(),
             transient: self.transient,
-            recorded: self.recorded,
+            recorded: self.periods,
             stepper: self.lane.stepper,
             precision: self.lane.precision,
         }

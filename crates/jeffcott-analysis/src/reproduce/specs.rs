@@ -59,7 +59,7 @@ impl ReproduceSpec {
             transient: p.sweep_transient,
             ics: p.ics,
             brute_transient: p.brute_transient,
-            recorded: p.periods,
+            periods: p.periods,
             seed: 1,
             max_seeds: p.max_seeds,
         })
@@ -134,7 +134,7 @@ impl ReproduceSpec {
             },
             base: self.params.static_equilibrium(),
             transient: p.basin_transient,
-            recorded: p.basin_periods,
+            periods: p.basin_periods,
             lanes_per_unit: None,
         }
     }
@@ -235,7 +235,7 @@ impl ReproduceSpec {
             ics,
             seed: 1,
             transient: self.preset.map_transient,
-            recorded: self.preset.map_periods,
+            periods: self.preset.map_periods,
             cells_per_unit: None,
         }
     }
@@ -257,7 +257,7 @@ impl ReproduceSpec {
             start_box: None,
             seed: 1,
             transient: p.cont_transient,
-            recorded: p.cont_periods,
+            periods: p.cont_periods,
             directions: vec![Direction::Up, Direction::Down],
             match_threshold: f64::INFINITY,
             values_per_unit: None,
