@@ -15,7 +15,7 @@ use super::basin::BasinSpec;
 use super::catalogue::Catalogue;
 use crate::run::lanes::{Control, LaneUnits};
 use crate::run::{Array, Unit, UnitStore};
-use jeffcott_core::ensemble::{EnsembleResult, EnsembleSpec, LaneSpec};
+use jeffcott_core::ensemble::{EnsembleResult, EnsembleSpec};
 use jeffcott_core::error::{Error, Result};
 use serde::Serialize;
 
@@ -189,20 +189,12 @@ pub fn refine(
         let unit = crate::run::unit_lanes(n, per_lane);
         let count = crate::run::unit_count(n, unit);
         let stage = format!("refine{k}");
-        let ensemble = |u: usize| EnsembleSpec {
-            param_sets: vec![spec.lane.params.clone()],
-            lanes: points[u * unit..((u + 1) * unit).min(n)]
-                .iter()
-                .map(|&p| LaneSpec {
-                    omega: spec.omega,
-                    x0: start(p),
-                    param_set: 0,
-                })
-                .collect(),
-            transient: spec.transient,
-            recorded: spec.periods,
-            stepper: spec.lane.stepper,
-            precision: spec.lane.precision,
+        let ensemble = |u: usize| {
+            spec.ensemble(
+                points[u * unit..((u + 1) * unit).min(n)]
+                    .iter()
+                    .map(|&p| start(p)),
+            )
         };
         let reduce = |_u: usize, _e: &EnsembleSpec, r: EnsembleResult| {
             let labels = catalogue.label_lanes(&r);

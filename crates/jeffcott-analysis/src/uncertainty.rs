@@ -14,7 +14,7 @@ use super::basin::BasinSpec;
 use super::catalogue::Catalogue;
 use crate::run::lanes::{Control, LaneUnits};
 use crate::run::{Array, Unit, UnitStore};
-use jeffcott_core::ensemble::{EnsembleResult, EnsembleSpec, LaneSpec};
+use jeffcott_core::ensemble::{EnsembleResult, EnsembleSpec};
 use jeffcott_core::error::Result;
 use jeffcott_core::model::State;
 use serde::Serialize;
@@ -126,19 +126,8 @@ pub fn reintegration(
         .max(1)
         * PER_DRAW;
     let count = crate::run::unit_count(lanes, unit);
-    let ensemble = |u: usize| EnsembleSpec {
-        param_sets: vec![spec.lane.params.clone()],
-        lanes: (u * unit..((u + 1) * unit).min(lanes))
-            .map(|l| LaneSpec {
-                omega: spec.omega,
-                x0: lane_start(spec, seed, l),
-                param_set: 0,
-            })
-            .collect(),
-        transient: spec.transient,
-        recorded: spec.periods,
-        stepper: spec.lane.stepper,
-        precision: spec.lane.precision,
+    let ensemble = |u: usize| {
+        spec.ensemble((u * unit..((u + 1) * unit).min(lanes)).map(|l| lane_start(spec, seed, l)))
     };
     let reduce = |_u: usize, _e: &EnsembleSpec, r: EnsembleResult| {
         let labels = catalogue.label_lanes(&r);

@@ -217,6 +217,25 @@ impl BasinSpec {
         Ok(())
     }
 
+    /// The lanes from `starts` at the basin's speed, with its periods and lane settings.
+    pub fn ensemble(&self, starts: impl IntoIterator<Item = State>) -> EnsembleSpec {
+        EnsembleSpec {
+            param_sets: vec![self.lane.params.clone()],
+            lanes: starts
+                .into_iter()
+                .map(|x0| LaneSpec {
+                    omega: self.omega,
+                    x0,
+                    param_set: 0,
+                })
+                .collect(),
+            transient: self.transient,
+            recorded: self.periods,
+            stepper: self.lane.stepper,
+            precision: self.lane.precision,
+        }
+    }
+
     /// The start state of cell (ix, iy).
     pub fn start(&self, ix: usize, iy: usize) -> State {
         let mut x = self.base;
@@ -337,19 +356,10 @@ pub fn basin_with(
     let cells = nx * ny;
     let per_unit = spec.unit_lanes();
     let count = crate::run::unit_count(cells, per_unit);
-    let ensemble = |u: usize| EnsembleSpec {
-        param_sets: vec![spec.lane.params.clone()],
-        lanes: (u * per_unit..((u + 1) * per_unit).min(cells))
-            .map(|c| LaneSpec {
-                omega: spec.omega,
-                x0: spec.start(c % nx, c / nx),
-                param_set: 0,
-            })
-            .collect(),
-        transient: spec.transient,
-        recorded: spec.periods,
-        stepper: spec.lane.stepper,
-        precision: spec.lane.precision,
+    let ensemble = |u: usize| {
+        spec.ensemble(
+            (u * per_unit..((u + 1) * per_unit).min(cells)).map(|c| spec.start(c % nx, c / nx)),
+        )
     };
     let reduce = |_u: usize, _e: &EnsembleSpec, res: jeffcott_core::ensemble::EnsembleResult| {
         let mut b = CatalogueBuilder::new(spec.omega, spec.lane.catalogue);
