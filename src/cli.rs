@@ -177,14 +177,8 @@ pub struct EnsembleArgs {
     pub periods: u32,
     #[command(flatten)]
     pub lane: LaneArgs,
-    /// Output directory (created if missing). An unfinished run of the same command there
-    /// is resumed.
-    #[arg(long, value_name = "DIR", default_value = "jeffcott-out/ensemble")]
-    pub out: PathBuf,
     #[command(flatten)]
-    pub run: rundir::RunArgs,
-    #[command(flatten)]
-    pub shard: rundir::ShardArgs,
+    pub exec: rundir::StudyRunArgs,
     /// Also compute each lane's largest Lyapunov exponent lambda_1 [1/s] from a tangent
     /// vector renormalised every period (written to `lambda1.npy`).
     #[arg(long)]
@@ -359,7 +353,7 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
         n,
         per_lane * spec.stepper.steps_per_period as u64 * if a.lyapunov { 2 } else { 1 },
     );
-    let count = jeffcott_analysis::run::unit_count(n, unit);
+    let split = jeffcott_analysis::run::lanes::Split::new(n, unit);
     let run_spec = EnsembleRecord {
         transient: spec.transient,
         periods: spec.recorded,
@@ -370,18 +364,18 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
         params: &spec.param_sets,
         lanes: lanes_record,
     };
-    let exec = rundir::Execution::of(&a.out, a.run, &a.shard, a.lane.backend)?;
+    let exec = a.exec.execution("ensemble", a.lane.backend)?;
     let shard = exec.shard;
     let run_dir = exec.open(
         jeffcott_analysis::run::RunHeader::new("ensemble", &run_spec)?,
         ENSEMBLE_OUTPUTS,
     )?;
     let store = rundir::store(&run_dir);
-    let bar = crate::progress::Bar::new("ensemble", n as u64 * per_lane, per_lane, a.run.quiet);
+    let bar = crate::progress::Bar::new("ensemble", n as u64 * per_lane, per_lane, exec.run.quiet);
     let start = std::time::Instant::now();
     let engine = jeffcott_analysis::backend::Engine::new(a.lane.backend, spec.precision)?;
     let ensemble = |u: usize| EnsembleSpec {
-        lanes: spec.lanes[u * unit..((u + 1) * unit).min(n)].to_vec(),
+        lanes: spec.lanes[split.range(u)].to_vec(),
         ..spec.clone()
     };
     let reduce = |_u: usize, _e: &EnsembleSpec, r: jeffcott_core::ensemble::EnsembleResult| {
@@ -400,25 +394,16 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
     };
     let cancel = rundir::cancel();
     let cb = rundir::bar_callback(&bar);
-    let ran = jeffcott_analysis::run::lanes::run_units(
-        store.as_ref(),
-        &engine,
-        &jeffcott_analysis::run::lanes::LaneUnits {
-            stage: "ensemble",
-            count,
-            ensemble: &ensemble,
-            lanes: &|u| unit.min(n - u * unit),
-            lambda1: a.lyapunov,
-            reduce: &reduce,
-        },
-        jeffcott_analysis::run::lanes::Control {
-            progress: &cb,
-            cancel: &cancel,
-        },
-    )?;
+    let ctl = jeffcott_analysis::run::lanes::Control {
+        progress: &cb,
+        cancel: &cancel,
+    };
+    let ran = jeffcott_analysis::run::lanes::LaneUnits::new("ensemble", split, &ensemble, &reduce)
+        .lambda1(a.lyapunov)
+        .run(store.as_ref(), &engine, ctl)?;
     bar.finish();
     if shard.is_some() {
-        return rundir::finish_shard(&run_dir, a.run.quiet);
+        return rundir::finish_shard(&run_dir, exec.run.quiet);
     }
     let elapsed = start.elapsed().as_secs_f64();
     let info = ran.unwrap_or(jeffcott_core::ensemble::RunInfo {
@@ -432,7 +417,7 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
         precision: spec.precision,
         elapsed_s: 0.0,
     });
-    if !a.run.quiet {
+    if !exec.run.quiet {
         println!(
             "backend: {} ({}; {}), precision {:?}",
             info.backend, info.device, info.reason, info.precision
@@ -442,12 +427,12 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
     output::write_npy_parts(
         &dir.join("poincare.npy"),
         &[n, spec.recorded as usize, STATE_DIM],
-        (0..count).map(|u| Ok(run_dir.load("ensemble", u)?.f64s("poincare")?.to_vec())),
+        (0..split.count()).map(|u| Ok(run_dir.load("ensemble", u)?.f64s("poincare")?.to_vec())),
     )?;
     let mut codes: Vec<u32> = Vec::with_capacity(n);
     let mut lambda1: Vec<f64> = Vec::new();
     let mut totals = Totals::default();
-    for u in 0..count {
+    for u in 0..split.count() {
         let unit = run_dir.load("ensemble", u)?;
         codes.extend_from_slice(unit.u32s("status")?);
         if a.lyapunov {
@@ -496,7 +481,7 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
         ],
     );
     run_dir.finish(&run_json, &rundir::written(&run_dir, ENSEMBLE_OUTPUTS))?;
-    if !a.run.quiet {
+    if !exec.run.quiet {
         println!(
             "{n} lanes x {} periods in {:.2} s ({:.3e} lane-steps/s); status ok {}, refinement_cap {}, diverged {}, non_finite {}; files in {}",
             spec.transient + spec.recorded,
@@ -625,21 +610,31 @@ impl LaneArgs {
         self.precision
             .unwrap_or_else(|| jeffcott_analysis::backend::default_precision(self.backend))
     }
+}
 
-    /// The lane settings of a study: these options, the tolerances of `catalogue` for
-    /// the precision, lambda_1 with `lyapunov`.
-    pub fn settings(
-        &self,
-        catalogue: &CatalogueArgs,
-        lyapunov: bool,
-    ) -> Result<jeffcott_analysis::settings::LaneSettings> {
-        let precision = self.precision();
+/// The options every attractor-labelling study takes (basin, map, continuation,
+/// basin-stability, bifurcation): how its lanes run, how their attractors are told
+/// apart, and where and how the run goes.
+#[derive(Args, Debug)]
+pub struct StudyArgs {
+    #[command(flatten)]
+    pub run: LaneArgs,
+    #[command(flatten)]
+    pub catalogue: CatalogueArgs,
+    #[command(flatten)]
+    pub exec: rundir::StudyRunArgs,
+}
+
+impl StudyArgs {
+    /// The study's lane settings (with lambda_1 where `lyapunov`), validated.
+    pub fn settings(&self, lyapunov: bool) -> Result<jeffcott_analysis::settings::LaneSettings> {
+        let precision = self.run.precision();
         Ok(jeffcott_analysis::settings::LaneSettings {
-            params: self.model.params()?,
-            stepper: self.stepper.config(),
+            params: self.run.model.params()?,
+            stepper: self.run.stepper.config(),
             precision,
-            backend: self.backend,
-            catalogue: catalogue.config(precision)?,
+            backend: self.run.backend,
+            catalogue: self.catalogue.config(precision)?,
             lyapunov,
         })
     }

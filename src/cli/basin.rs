@@ -2,9 +2,9 @@
 //! in work units committed to --out (resumable); `labels.npy`, `attractors.json`, `basin.png` and `attractors.png`.
 
 use super::files::Documented;
-use super::rundir::{self, CommandHost, Execution, RunArgs};
+use super::parse_assignment_lists;
+use super::rundir::{self, CommandHost, Execution};
 use super::study::{self, StudyCommand};
-use super::{CatalogueArgs, parse_assignment_lists};
 use crate::plot::{
     AttractorTrace, attractor_color, basin_map, coexisting_attractors, coord_axis, lambda1_map,
 };
@@ -21,7 +21,7 @@ use jeffcott_analysis::simulate::AttractorTrace as SimTrace;
 use jeffcott_core::error::Result;
 use jeffcott_core::model::COORD_NAMES;
 use serde::Serialize;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// Arguments of `jeffcott basin`.
 ///
@@ -56,17 +56,7 @@ pub struct BasinArgs {
     #[arg(long, value_name = "LANES")]
     pub chunk: Option<usize>,
     #[command(flatten)]
-    pub lane: super::LaneArgs,
-    #[command(flatten)]
-    pub catalogue: CatalogueArgs,
-    /// Output directory (created if missing). An unfinished run of the same command there
-    /// is resumed.
-    #[arg(long, value_name = "DIR", default_value = "jeffcott-out/basin")]
-    pub out: PathBuf,
-    #[command(flatten)]
-    pub run: RunArgs,
-    #[command(flatten)]
-    pub shard: rundir::ShardArgs,
+    pub study: super::StudyArgs,
     /// Also compute every cell's largest Lyapunov exponent lambda_1 (one tangent vector
     /// per lane, either backend): lambda1.npy, basin_lambda1.png, lambda_1 per attractor,
     /// and aperiodic attractors split into quasiperiodic and chaotic. Costs about 1.8x
@@ -102,7 +92,7 @@ pub struct BasinArgs {
 impl BasinArgs {
     /// The grid these arguments describe (validated with the study).
     fn spec(&self) -> Result<BasinSpec> {
-        let lane = self.lane.settings(&self.catalogue, self.lyapunov)?;
+        let lane = self.study.settings(self.lyapunov)?;
         let x = Axis::parse("x", &self.x)?;
         let y = Axis::parse("y", &self.y)?;
         let base = jeffcott_analysis::basin::base_state(
@@ -110,7 +100,7 @@ impl BasinArgs {
             &x,
             &y,
             &parse_assignment_lists("fix", &self.fix)?,
-            self.lane.stepper.divergence_bound,
+            self.study.run.stepper.divergence_bound,
         )?;
         jeffcott_core::limits::check_periods("transient", self.transient, 0)?;
         jeffcott_core::limits::check_periods("periods", self.periods, 2)?;
@@ -173,7 +163,10 @@ struct RunResult<'a> {
 
 /// Runs `jeffcott basin`: the study's units committed to --out, then its files.
 pub fn run_basin(a: &BasinArgs) -> Result<()> {
-    let exec = Execution::of(&a.out, a.run, &a.shard, a.lane.backend)?;
+    let exec = a
+        .study
+        .exec
+        .execution(Basin::COMMAND, a.study.run.backend)?;
     let write = BasinWrite {
         entropy_box: a.entropy_box,
         plot: !a.no_plot,

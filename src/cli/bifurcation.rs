@@ -16,7 +16,6 @@ use jeffcott_core::ensemble::Precision;
 use jeffcott_core::error::{Error, Result};
 use jeffcott_core::model::{COORD_NAMES, STATE_DIM, State, coord_index};
 use plotters::style::RGBColor;
-use std::path::PathBuf;
 
 /// Attractor classification tolerances shared by the analysis commands.
 #[derive(Args, Debug, Clone)]
@@ -123,20 +122,7 @@ pub struct BifurcationArgs {
     #[arg(long, default_value_t = defaults::bifurcation::MAX_SEEDS)]
     pub max_seeds: usize,
     #[command(flatten)]
-    pub lane: super::LaneArgs,
-    #[command(flatten)]
-    pub catalogue: CatalogueArgs,
-    /// Output directory (created if missing). An unfinished run of the same command there
-    /// is resumed.
-    #[arg(long, value_name = "DIR", default_value = "jeffcott-out/bifurcation")]
-    pub out: PathBuf,
-    #[command(flatten)]
-    pub run: super::rundir::RunArgs,
-    /// Compute one shard of the first brute-force pass (`i/n` or `slurm`, as for
-    /// `basin`); `jeffcott merge` then runs the sweeps and the seeded second pass, which
-    /// need the whole first pass.
-    #[command(flatten)]
-    pub shard: super::rundir::ShardArgs,
+    pub study: super::StudyArgs,
     /// Speeds at which to draw phase portraits of the attractors found there (the nearest
     /// speed of the grid), e.g. `--portraits 133,135`: `attractors_W.png`, coexisting
     /// attractors overlaid (from the brute force, or the sweeps with --ics 0).
@@ -218,7 +204,7 @@ impl BifurcationArgs {
         )?;
         let omegas = range.values();
         let spec = BifurcationSpec {
-            lane: self.lane.settings(&self.catalogue, !self.no_lyapunov)?,
+            lane: self.study.settings(!self.no_lyapunov)?,
             omegas,
             sweep,
             transient_first: self.transient_first,
@@ -240,11 +226,14 @@ pub fn run_bifurcation(a: &BifurcationArgs) -> Result<()> {
     for &w in &a.portraits {
         check_portrait_speed(&spec.omegas, w)?;
     }
-    let exec = Execution::of(&a.out, a.run, &a.shard, a.lane.backend)?;
+    let exec = a
+        .study
+        .exec
+        .execution(Bifurcation::COMMAND, a.study.run.backend)?;
     if exec.shard.is_some() && spec.ics == 0 {
         return Err(Error::invalid(
             "shard",
-            a.shard.shard.as_deref().unwrap_or_default(),
+            a.study.exec.shard.as_deref().unwrap_or_default(),
             "only the brute force is sharded: give --ics >= 1",
         ));
     }

@@ -2,12 +2,9 @@
 //! and run-down, with basin fractions, births and deaths, and tipping probabilities;
 //! resumable, its fresh pass shardable.
 
-use super::CatalogueArgs;
-use super::rundir::{self, CommandHost, Execution, RunArgs};
-use super::study::{self, Plot};
+use super::study::{self};
 use crate::plot::{PALETTE, StackedPanel, stacked_fractions};
 use clap::{Args, ValueEnum};
-use jeffcott_analysis::backend::Engine;
 use jeffcott_analysis::continuation::{
     ContinuationResult, ContinuationSpec, Direction, Fields, id_name,
 };
@@ -15,7 +12,7 @@ use jeffcott_analysis::defaults;
 use jeffcott_analysis::map::MapAxis;
 use jeffcott_analysis::output;
 use jeffcott_core::error::{Error, Result};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// Which ramps to run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -74,17 +71,7 @@ pub struct ContinuationArgs {
     #[arg(long)]
     pub no_lyapunov: bool,
     #[command(flatten)]
-    pub lane: super::LaneArgs,
-    #[command(flatten)]
-    pub catalogue: CatalogueArgs,
-    /// Output directory (created if missing). An unfinished run of the same command there
-    /// is resumed.
-    #[arg(long, value_name = "DIR", default_value = "jeffcott-out/continuation")]
-    pub out: PathBuf,
-    #[command(flatten)]
-    pub run: RunArgs,
-    #[command(flatten)]
-    pub shard: rundir::ShardArgs,
+    pub study: super::StudyArgs,
     /// Skip continuation.png.
     #[arg(long)]
     pub no_plot: bool,
@@ -94,7 +81,7 @@ impl ContinuationArgs {
     /// The continuation these arguments describe, validated.
     pub fn spec(&self) -> Result<ContinuationSpec> {
         let spec = ContinuationSpec {
-            lane: self.lane.settings(&self.catalogue, !self.no_lyapunov)?,
+            lane: self.study.settings(!self.no_lyapunov)?,
             omega: self.omega,
             param: MapAxis::parse("vary", &self.vary, false)?,
             ics: self.ics,
@@ -146,29 +133,15 @@ pub const OUTPUTS: &[&str] = &[
     "continuation.png",
 ];
 
-/// Runs `jeffcott continuation`.
-pub fn run_continuation(a: &ContinuationArgs) -> Result<()> {
-    let exec = Execution::of(&a.out, a.run, &a.shard, a.lane.backend)?;
-    study::execute::<Continuation>(&a.spec()?, &Plot { plot: !a.no_plot }, &exec)
+study::plot_study! {
+    Continuation, "continuation", ContinuationArgs => run_continuation,
+    jeffcott_analysis::continuation::run, ContinuationSpec, ContinuationResult
 }
-
-study::plot_study! { Continuation, "continuation", ContinuationSpec, ContinuationResult }
 
 /// Writes a continuation's files; returns its summary line.
-fn write_study(
-    out: &Path,
-    spec: &ContinuationSpec,
-    res: &ContinuationResult,
-    plot: bool,
-) -> Result<String> {
+fn write_study(out: &Path, spec: &Spec, res: &Outcome, plot: bool) -> Result<String> {
     write_continuation(out, spec, res, plot)?;
     Ok(human_summary(spec, res, out))
-}
-
-/// Runs a continuation (`continuation` and `basin-stability`) on its spec's engine.
-pub fn run_study(spec: &ContinuationSpec, host: &CommandHost) -> Result<ContinuationResult> {
-    let engine = Engine::new(spec.lane.backend, spec.lane.precision)?;
-    jeffcott_analysis::continuation::run(spec, &engine, host)
 }
 
 /// Writes the arrays, continuation.json and continuation.png.

@@ -3,17 +3,14 @@
 //! (resumable, shardable): period.npy, lambda1.npy, attractors.npy, contact.npy,
 //! peak_force.npy, map.json and three pictures.
 
-use super::CatalogueArgs;
-use super::rundir::{self, CommandHost, Execution, RunArgs};
-use super::study::{self, Plot};
+use super::study::{self};
 use crate::plot::{basin_map, category_map, lambda1_map};
 use clap::Args;
-use jeffcott_analysis::backend::Engine;
 use jeffcott_analysis::defaults;
 use jeffcott_analysis::map::{MapAxis, MapResult, MapSpec, MapVar, code};
 use jeffcott_analysis::output;
 use jeffcott_core::error::Result;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// Arguments of `jeffcott map`.
 #[derive(Args, Debug)]
@@ -59,17 +56,7 @@ pub struct MapArgs {
     #[arg(long, value_name = "CELLS")]
     pub chunk: Option<usize>,
     #[command(flatten)]
-    pub lane: super::LaneArgs,
-    #[command(flatten)]
-    pub catalogue: CatalogueArgs,
-    /// Output directory (created if missing). An unfinished run of the same command there
-    /// is resumed.
-    #[arg(long, value_name = "DIR", default_value = "jeffcott-out/map")]
-    pub out: PathBuf,
-    #[command(flatten)]
-    pub run: RunArgs,
-    #[command(flatten)]
-    pub shard: rundir::ShardArgs,
+    pub study: super::StudyArgs,
     /// Skip the pictures.
     #[arg(long)]
     pub no_plot: bool,
@@ -78,7 +65,7 @@ pub struct MapArgs {
 impl MapArgs {
     /// The map these arguments describe, validated.
     pub fn spec(&self) -> Result<MapSpec> {
-        let lane = self.lane.settings(&self.catalogue, !self.no_lyapunov)?;
+        let lane = self.study.settings(!self.no_lyapunov)?;
         let x = MapAxis::parse("x", &self.x, self.log_x)?;
         let y = MapAxis::parse("y", &self.y, self.log_y)?;
         jeffcott_analysis::map::check_size(&x, &y, self.ics)?;
@@ -116,25 +103,13 @@ pub const OUTPUTS: &[&str] = &[
     "map_regime.png",
 ];
 
-/// Runs `jeffcott map`.
-pub fn run_map(a: &MapArgs) -> Result<()> {
-    let exec = Execution::of(&a.out, a.run, &a.shard, a.lane.backend)?;
-    study::execute::<Map>(&a.spec()?, &Plot { plot: !a.no_plot }, &exec)
-}
-
-study::plot_study! { Map, "map", MapSpec, MapResult }
-
-/// Runs a map on its spec's engine.
-fn run_study(spec: &MapSpec, host: &CommandHost) -> Result<MapResult> {
-    jeffcott_analysis::map::run(
-        spec,
-        &Engine::new(spec.lane.backend, spec.lane.precision)?,
-        host,
-    )
+study::plot_study! {
+    Map, "map", MapArgs => run_map,
+    jeffcott_analysis::map::run, MapSpec, MapResult
 }
 
 /// Writes a map's files; returns its summary line.
-fn write_study(out: &Path, spec: &MapSpec, res: &MapResult, plot: bool) -> Result<String> {
+fn write_study(out: &Path, spec: &Spec, res: &Outcome, plot: bool) -> Result<String> {
     write_map(out, spec, res, plot)?;
     Ok(human_summary(spec, res, out))
 }

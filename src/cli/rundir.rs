@@ -5,11 +5,11 @@
 use clap::Args;
 use jeffcott_analysis::run::{Found, RunDir, RunHeader, Shard, ShardStore, UnitStore};
 use jeffcott_core::error::Result;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::{Mutex, OnceLock};
 
 /// Options every resumable command takes: may it replace another run, and may it talk.
-#[derive(Args, Debug, Clone, Copy)]
+#[derive(Args, Debug, Clone, Copy, Default)]
 pub struct RunArgs {
     /// Replace the run in --out if it has another specification (its files are removed
     /// first). Without it such a directory is refused. The same command into the same
@@ -22,22 +22,41 @@ pub struct RunArgs {
     pub quiet: bool,
 }
 
-/// Options of the commands that can run one shard of a run spread over many machines.
+/// Options of the study commands, whose runs can be spread over many machines: where the
+/// run goes, may it replace another, may it talk, which shard it computes.
 #[derive(Args, Debug, Clone, Default)]
-pub struct ShardArgs {
+pub struct StudyRunArgs {
+    /// Output directory (created if missing) [default: jeffcott-out/ and the
+    /// command's name]. An unfinished run of the same command there is resumed.
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    #[command(flatten)]
+    pub run: RunArgs,
     /// Compute one shard of the run: `i/n` (shard i of n, 0 <= i < n; the units whose
     /// index is i modulo n) or `slurm` (i and n from the Slurm job array's
     /// SLURM_ARRAY_TASK_ID, _MIN and _COUNT). Each shard writes its own --out (its units
     /// and run.json, no final files); `jeffcott merge` turns the shard directories into
     /// the files of the unsharded run, identical to the bit. A shard resumes like any run.
+    /// (`bifurcation` shards its first brute-force pass only: the merge runs the sweeps
+    /// and the seeded second pass, which need the whole first pass.)
     #[arg(long, value_name = "i/n|slurm")]
     pub shard: Option<String>,
 }
 
-impl ShardArgs {
-    /// The shard, parsed (environment read for `slurm`).
-    pub fn shard(&self) -> Result<Option<Shard>> {
-        self.shard.as_deref().map(Shard::parse).transpose()
+impl StudyRunArgs {
+    /// The execution these options ask for of `command` (its --out by default
+    /// `jeffcott-out/<command>`; `--shard` parsed: the environment read for `slurm`).
+    pub fn execution(
+        &self,
+        command: &str,
+        backend: jeffcott_core::ensemble::Backend,
+    ) -> Result<Execution> {
+        Ok(Execution {
+            out: (self.out.clone()).unwrap_or_else(|| Path::new("jeffcott-out").join(command)),
+            run: self.run,
+            shard: self.shard.as_deref().map(Shard::parse).transpose()?,
+            backend,
+        })
     }
 }
 
@@ -283,22 +302,6 @@ pub struct Execution {
 }
 
 impl Execution {
-    /// The execution a study command's options ask for (`--shard` parsed: the
-    /// environment read for `slurm`).
-    pub fn of(
-        out: &Path,
-        run: RunArgs,
-        shard: &ShardArgs,
-        backend: jeffcott_core::ensemble::Backend,
-    ) -> Result<Execution> {
-        Ok(Execution {
-            out: out.to_path_buf(),
-            run,
-            shard: shard.shard()?,
-            backend,
-        })
-    }
-
     /// Opens `--out` for the run `header` describes (its shard and command line filled
     /// in here), says on stderr when it resumes, and arms the signal handler.
     pub fn open(&self, header: RunHeader, outputs: &[&str]) -> Result<RunDir> {

@@ -5,16 +5,14 @@
 //! speed to speed (the continuation's find-and-match, `analysis::continuation`).
 //! Resumable and shardable (its sampling pass runs in units).
 
-use super::CatalogueArgs;
-use super::rundir::{self, Execution, RunArgs};
-use super::study::{self, Plot};
+use super::study::{self};
 use crate::plot::{PALETTE, StackedPanel, stacked_fractions};
 use clap::Args;
 use jeffcott_analysis::continuation::{ContinuationResult, ContinuationSpec};
 use jeffcott_analysis::defaults;
 use jeffcott_analysis::output;
 use jeffcott_core::error::Result;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// Arguments of `jeffcott basin-stability`.
 #[derive(Args, Debug)]
@@ -48,21 +46,7 @@ pub struct StabilityArgs {
     #[arg(long)]
     pub no_lyapunov: bool,
     #[command(flatten)]
-    pub lane: super::LaneArgs,
-    #[command(flatten)]
-    pub catalogue: CatalogueArgs,
-    /// Output directory (created if missing). An unfinished run of the same command there
-    /// is resumed.
-    #[arg(
-        long,
-        value_name = "DIR",
-        default_value = "jeffcott-out/basin-stability"
-    )]
-    pub out: PathBuf,
-    #[command(flatten)]
-    pub run: RunArgs,
-    #[command(flatten)]
-    pub shard: rundir::ShardArgs,
+    pub study: super::StudyArgs,
     /// Skip basin_stability.png.
     #[arg(long)]
     pub no_plot: bool,
@@ -82,7 +66,7 @@ impl StabilityArgs {
     /// The study as a continuation over W of uniform draws in the box.
     pub fn spec(&self) -> Result<ContinuationSpec> {
         jeffcott_analysis::stability::spec(&jeffcott_analysis::stability::StabilityRequest {
-            lane: self.lane.settings(&self.catalogue, !self.no_lyapunov)?,
+            lane: self.study.settings(!self.no_lyapunov)?,
             omega: &self.omega,
             sample: self.sample,
             start_box: &self.start_box,
@@ -93,24 +77,13 @@ impl StabilityArgs {
     }
 }
 
-/// Runs `jeffcott basin-stability`.
-pub fn run_stability(a: &StabilityArgs) -> Result<()> {
-    let exec = Execution::of(&a.out, a.run, &a.shard, a.lane.backend)?;
-    study::execute::<Stability>(&a.spec()?, &Plot { plot: !a.no_plot }, &exec)
+study::plot_study! {
+    Stability, "basin-stability", StabilityArgs => run_stability,
+    jeffcott_analysis::continuation::run, ContinuationSpec, ContinuationResult
 }
 
-// A continuation over omega from sampled start states.
-study::plot_study! { Stability, "basin-stability", ContinuationSpec, ContinuationResult }
-
-use super::continuation::run_study;
-
 /// Writes a basin-stability study's files; returns its summary line.
-fn write_study(
-    out: &Path,
-    spec: &ContinuationSpec,
-    res: &ContinuationResult,
-    plot: bool,
-) -> Result<String> {
+fn write_study(out: &Path, spec: &Spec, res: &Outcome, plot: bool) -> Result<String> {
     let text = write_stability(out, spec, res, plot)?;
     Ok(format!(
         "{text} {:.1} s. Files in {}.",

@@ -3,9 +3,10 @@
 //! from the specification and writer options their shards recorded in run.json
 //! ([`execute_recorded`]), never by parsing a command line again.
 
-use super::rundir::{CommandHost, Execution, finish_shard};
+use super::rundir::{CommandHost, Execution, StudyRunArgs, finish_shard};
 use jeffcott_analysis::record::StudySpec;
 use jeffcott_analysis::run::{RunDir, RunHeader};
+use jeffcott_core::ensemble::Backend;
 use jeffcott_core::error::{Error, Result};
 use serde::{Serialize, de::DeserializeOwned};
 
@@ -35,6 +36,18 @@ pub trait StudyCommand {
         run_dir: &RunDir,
         exec: &Execution,
     ) -> Result<()>;
+}
+
+/// Runs study `C` as its command line asks: `spec`, the writer options `write`, the
+/// run options (`--out`, by default `jeffcott-out/<command>`; `--overwrite`, `--quiet`,
+/// `--shard`) and `--backend`.
+pub fn execute_args<C: StudyCommand>(
+    spec: &C::Spec,
+    write: &C::Write,
+    args: &StudyRunArgs,
+    backend: Backend,
+) -> Result<()> {
+    execute::<C>(spec, write, &args.execution(C::COMMAND, backend)?)
 }
 
 /// Runs study `C` with `spec` and writer options `write` as `exec` says: opens `--out`
@@ -79,13 +92,31 @@ pub fn execute_recorded<C: StudyCommand>(
     execute::<C>(&spec, &write, exec)
 }
 
-/// Implements [`StudyCommand`] as `$cmd` for `jeffcott $name`, a study whose one writer
-/// option is `--no-plot` ([`Plot`]) and whose run.json adds its backend and wall time
-/// (its outcome has `info` and `seconds`), from the invoking module's `OUTPUTS`,
-/// `run_study(spec, host)` (computes it) and `write_study(out, spec, outcome, plot)`
-/// (writes its files and returns the line printed unless `--quiet`).
+/// Declares `jeffcott $name`, a study whose one writer option is `--no-plot` ([`Plot`])
+/// and whose run.json adds its backend and wall time (its outcome has `info` and
+/// `seconds`): the command `$cmd` ([`StudyCommand`]) and `$run_cmd(&$args)`, which runs it
+/// as the command line asks. The study is computed by `$study(spec, engine, host)` (an
+/// analysis crate's `run`) and written by the invoking module's
+/// `write_study(out, spec, outcome, plot)` (returns the line printed unless `--quiet`),
+/// with its `OUTPUTS`; the module gets the aliases `Spec` and `Outcome`.
 macro_rules! plot_study {
-    ($cmd:ident, $name:literal, $spec:ty, $outcome:ty) => {
+    ($cmd:ident, $name:literal, $args:ty => $run_cmd:ident, $study:path, $spec:ty, $outcome:ty) => {
+        #[doc = concat!("The spec of `jeffcott ", $name, "`.")]
+        type Spec = $spec;
+        #[doc = concat!("The computed study of `jeffcott ", $name, "`.")]
+        type Outcome = $outcome;
+
+        #[doc = concat!("Runs `jeffcott ", $name, "`.")]
+        pub fn $run_cmd(a: &$args) -> jeffcott_core::error::Result<()> {
+            let plot = $crate::cli::study::Plot { plot: !a.no_plot };
+            $crate::cli::study::execute_args::<$cmd>(
+                &a.spec()?,
+                &plot,
+                &a.study.exec,
+                a.study.run.backend,
+            )
+        }
+
         #[doc = concat!("`jeffcott ", $name, "` as a study command.")]
         pub struct $cmd;
 
@@ -100,7 +131,11 @@ macro_rules! plot_study {
                 _: &Self::Write,
                 host: &$crate::cli::rundir::CommandHost,
             ) -> jeffcott_core::error::Result<$outcome> {
-                run_study(spec, host)
+                let engine = jeffcott_analysis::backend::Engine::new(
+                    spec.lane.backend,
+                    spec.lane.precision,
+                )?;
+                $study(spec, &engine, host)
             }
             fn finish(
                 spec: &$spec,

@@ -13,7 +13,7 @@ use super::catalogue::CatalogueBuilder;
 use super::classify::Class;
 use super::rub::{RubFigures, rub_on_attractor, rub_periods};
 use crate::run::Host;
-use crate::run::lanes::{Control, LaneUnits};
+use crate::run::lanes::{Control, LaneUnits, Split};
 use crate::run::{Array, Unit, UnitStore};
 use crate::settings::LaneSettings;
 use jeffcott_core::ensemble::{EnsembleResult, EnsembleSpec, LaneSpec, RunInfo};
@@ -554,10 +554,11 @@ pub fn map_with(
     let t0 = std::time::Instant::now();
     let cells = spec.cells();
     let per_unit = spec.unit_cells();
-    let count = crate::run::unit_count(cells, per_unit);
+    let split = Split::new(cells, per_unit);
+    let count = split.count();
     let k = spec.ics as usize;
     let ensemble = |u: usize| {
-        let range = u * per_unit..((u + 1) * per_unit).min(cells);
+        let range = split.range(u);
         let mut param_sets = Vec::with_capacity(range.len());
         let mut lanes = Vec::with_capacity(range.len() * k);
         for c in range {
@@ -588,19 +589,10 @@ pub fn map_with(
             .with("n", Array::U32(vec![cells.len() as u32]))
             .with_meta(&CellsMeta { cells }))
     };
-    let info = crate::run::lanes::run_units(
-        store,
-        engine,
-        &LaneUnits {
-            stage: STAGE,
-            count,
-            ensemble: &ensemble,
-            lanes: &|u| per_unit.min(cells - u * per_unit) * k,
-            lambda1: spec.lane.lyapunov,
-            reduce: &reduce,
-        },
-        ctl,
-    )?;
+    let info = LaneUnits::new(STAGE, split, &ensemble, &reduce)
+        .lanes_per_item(k)
+        .lambda1(spec.lane.lyapunov)
+        .run(store, engine, ctl)?;
     let mut out = MapResult {
         class: Vec::with_capacity(cells),
         period: Vec::with_capacity(cells),

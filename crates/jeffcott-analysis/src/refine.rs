@@ -13,7 +13,7 @@
 
 use super::basin::BasinSpec;
 use super::catalogue::Catalogue;
-use crate::run::lanes::{Control, LaneUnits};
+use crate::run::lanes::{Control, LaneUnits, Split};
 use crate::run::{Array, Unit, UnitStore};
 use jeffcott_core::ensemble::{EnsembleResult, EnsembleSpec};
 use jeffcott_core::error::{Error, Result};
@@ -187,33 +187,18 @@ pub fn refine(
         let per_lane =
             (spec.transient + spec.periods) as u64 * spec.lane.stepper.steps_per_period as u64;
         let unit = crate::run::unit_lanes(n, per_lane);
-        let count = crate::run::unit_count(n, unit);
+        let split = Split::new(n, unit);
+        let count = split.count();
         let stage = format!("refine{k}");
-        let ensemble = |u: usize| {
-            spec.ensemble(
-                points[u * unit..((u + 1) * unit).min(n)]
-                    .iter()
-                    .map(|&p| start(p)),
-            )
-        };
+        let ensemble = |u: usize| spec.ensemble(points[split.range(u)].iter().map(|&p| start(p)));
         let reduce = |_u: usize, _e: &EnsembleSpec, r: EnsembleResult| {
             let labels = catalogue.label_lanes(&r);
             Ok(Unit::new("").with("labels", Array::I32(labels)))
         };
         if n > 0 {
-            crate::run::lanes::run_units(
-                store,
-                engine,
-                &LaneUnits {
-                    stage: &stage,
-                    count,
-                    ensemble: &ensemble,
-                    lanes: &|u| unit.min(n - u * unit),
-                    lambda1: spec.lane.lyapunov,
-                    reduce: &reduce,
-                },
-                ctl,
-            )?;
+            LaneUnits::new(&stage, split, &ensemble, &reduce)
+                .lambda1(spec.lane.lyapunov)
+                .run(store, engine, ctl)?;
             let mut at = 0;
             for u in 0..count {
                 for &l in store.load(&stage, u)?.i32s("labels")? {

@@ -12,7 +12,7 @@
 
 use super::basin::BasinSpec;
 use super::catalogue::Catalogue;
-use crate::run::lanes::{Control, LaneUnits};
+use crate::run::lanes::{Control, LaneUnits, Split};
 use crate::run::{Array, Unit, UnitStore};
 use jeffcott_core::ensemble::{EnsembleResult, EnsembleSpec};
 use jeffcott_core::error::Result;
@@ -125,27 +125,16 @@ pub fn reintegration(
         .div_ceil(PER_DRAW)
         .max(1)
         * PER_DRAW;
-    let count = crate::run::unit_count(lanes, unit);
-    let ensemble = |u: usize| {
-        spec.ensemble((u * unit..((u + 1) * unit).min(lanes)).map(|l| lane_start(spec, seed, l)))
-    };
+    let split = Split::new(lanes, unit);
+    let count = split.count();
+    let ensemble = |u: usize| spec.ensemble(split.range(u).map(|l| lane_start(spec, seed, l)));
     let reduce = |_u: usize, _e: &EnsembleSpec, r: EnsembleResult| {
         let labels = catalogue.label_lanes(&r);
         Ok(Unit::new("").with("labels", Array::I32(labels)))
     };
-    crate::run::lanes::run_units(
-        store,
-        engine,
-        &LaneUnits {
-            stage: STAGE,
-            count,
-            ensemble: &ensemble,
-            lanes: &|u| unit.min(lanes - u * unit),
-            lambda1: spec.lane.lyapunov,
-            reduce: &reduce,
-        },
-        ctl,
-    )?;
+    LaneUnits::new(STAGE, split, &ensemble, &reduce)
+        .lambda1(spec.lane.lyapunov)
+        .run(store, engine, ctl)?;
     let mut labels = Vec::with_capacity(lanes);
     for u in 0..count {
         labels.extend_from_slice(store.load(STAGE, u)?.i32s("labels")?);

@@ -330,6 +330,58 @@ pub(super) fn basin_section(c: &mut Ctx, f: &BasinFigures) -> Result<()> {
     Ok(())
 }
 
+/// A Poincare-section figure of Figs. 10 to 12: its file, the title drawn, the two
+/// coordinate pairs, the enlargement (the central fraction of each axis), the report's
+/// heading and text (`None`: the section's findings).
+struct SectionFigure {
+    file: &'static str,
+    title: &'static str,
+    axes: [(usize, usize); 2],
+    zoom: Option<f64>,
+    heading: &'static str,
+    text: Option<&'static str>,
+}
+
+/// Fig. 10 and its enlargement, at 135 rad/s.
+const SECTIONS_135: [SectionFigure; 2] = [
+    SectionFigure {
+        file: "fig10_section_135.png",
+        title: "Fig. 10: Poincare section at W = 135 rad/s",
+        axes: [(X_S, VX_S), (X_R, VX_R)],
+        zoom: None,
+        heading: "Fig. 10: Poincare section at W = 135 rad/s",
+        text: None,
+    },
+    SectionFigure {
+        file: "fig10b_section_135_zoom.png",
+        title: "Fig. 10 enlarged: 30 % of each axis around the median point",
+        axes: [(X_S, VX_S), (X_R, VX_R)],
+        zoom: Some(0.3),
+        heading: "Fig. 10, enlarged",
+        text: Some("The central 30 % of each axis of the section above."),
+    },
+];
+
+/// Figs. 11 and 12, at 140 rad/s.
+const SECTIONS_140: [SectionFigure; 2] = [
+    SectionFigure {
+        file: "fig11_section_stator_140.png",
+        title: "Fig. 11: stator Poincare section at W = 140 rad/s",
+        axes: [(X_S, VX_S), (X_S, Y_S)],
+        zoom: None,
+        heading: "Fig. 11: stator section at W = 140 rad/s",
+        text: None,
+    },
+    SectionFigure {
+        file: "fig12_section_rotor_140.png",
+        title: "Fig. 12: rotor Poincare section at W = 140 rad/s",
+        axes: [(X_R, VX_R), (X_R, Y_R)],
+        zoom: None,
+        heading: "Fig. 12: rotor section at W = 140 rad/s",
+        text: None,
+    },
+];
+
 /// Figs. 9 to 12: the phase portrait and Poincare sections at 135 or 140 rad/s.
 pub(super) fn section_figures(
     c: &mut Ctx,
@@ -360,79 +412,28 @@ pub(super) fn section_figures(
             "jeffcott simulate --omega {omega} --transient {} --periods {} --timeseries-periods 8",
             p.section_transient, p.section_points
         );
-        if omega == 135.0 {
+        let figures = if omega == 135.0 {
             plot::phase_portraits(
                 &dir.join("fig09_phase_135.png"),
                 &format!("Fig. 9: W = 135 rad/s, last 8 periods: {class}"),
                 &r.timeseries,
                 &r.poincare,
             )?;
-            plot::poincare_sections(
-                &dir.join("fig10_section_135.png"),
-                "Fig. 10: Poincare section at W = 135 rad/s",
-                &r.poincare,
-                &[(X_S, VX_S), (X_R, VX_R)],
-                None,
-            )?;
-            plot::poincare_sections(
-                &dir.join("fig10b_section_135_zoom.png"),
-                "Fig. 10 enlarged: 30 % of each axis around the median point",
-                &r.poincare,
-                &[(X_S, VX_S), (X_R, VX_R)],
-                Some(0.3),
-            )?;
-            let s = seconds;
             rep.figure(
                 "Fig. 9: phase spaces at W = 135 rad/s",
                 "fig09_phase_135.png",
                 &found,
                 &cmd,
-                s,
+                seconds,
             );
-            rep.figure(
-                "Fig. 10: Poincare section at W = 135 rad/s",
-                "fig10_section_135.png",
-                &found,
-                &cmd,
-                s,
-            );
-            rep.figure(
-                "Fig. 10, enlarged",
-                "fig10b_section_135_zoom.png",
-                "The central 30 % of each axis of the section above.",
-                &cmd,
-                s,
-            );
+            &SECTIONS_135
         } else {
-            plot::poincare_sections(
-                &dir.join("fig11_section_stator_140.png"),
-                "Fig. 11: stator Poincare section at W = 140 rad/s",
-                &r.poincare,
-                &[(X_S, VX_S), (X_S, Y_S)],
-                None,
-            )?;
-            plot::poincare_sections(
-                &dir.join("fig12_section_rotor_140.png"),
-                "Fig. 12: rotor Poincare section at W = 140 rad/s",
-                &r.poincare,
-                &[(X_R, VX_R), (X_R, Y_R)],
-                None,
-            )?;
-            let s = seconds;
-            rep.figure(
-                "Fig. 11: stator section at W = 140 rad/s",
-                "fig11_section_stator_140.png",
-                &found,
-                &cmd,
-                s,
-            );
-            rep.figure(
-                "Fig. 12: rotor section at W = 140 rad/s",
-                "fig12_section_rotor_140.png",
-                &found,
-                &cmd,
-                s,
-            );
+            &SECTIONS_140
+        };
+        for f in figures {
+            plot::poincare_sections(&dir.join(f.file), f.title, &r.poincare, &f.axes, f.zoom)?;
+            let text = f.text.unwrap_or(&found);
+            rep.figure(f.heading, f.file, text, &cmd, seconds);
         }
     }
     Ok(())

@@ -18,7 +18,7 @@
 pub mod study;
 
 use super::catalogue::{Catalogue, CatalogueBuilder, part_unit, unit_parts};
-use crate::run::lanes::{Control, LaneUnits};
+use crate::run::lanes::{Control, LaneUnits, Split};
 use crate::run::{Array, UnitStore};
 use crate::settings::LaneSettings;
 use jeffcott_core::ensemble::{EnsembleSpec, LaneSpec, RunInfo};
@@ -355,12 +355,9 @@ pub fn basin_with(
     let (nx, ny) = (spec.x.n, spec.y.n);
     let cells = nx * ny;
     let per_unit = spec.unit_lanes();
-    let count = crate::run::unit_count(cells, per_unit);
-    let ensemble = |u: usize| {
-        spec.ensemble(
-            (u * per_unit..((u + 1) * per_unit).min(cells)).map(|c| spec.start(c % nx, c / nx)),
-        )
-    };
+    let split = Split::new(cells, per_unit);
+    let count = split.count();
+    let ensemble = |u: usize| spec.ensemble(split.range(u).map(|c| spec.start(c % nx, c / nx)));
     let reduce = |_u: usize, _e: &EnsembleSpec, res: jeffcott_core::ensemble::EnsembleResult| {
         let mut b = CatalogueBuilder::new(spec.omega, spec.lane.catalogue);
         let frozen: Vec<bool> = res.status.iter().map(|s| s.is_frozen()).collect();
@@ -372,19 +369,9 @@ pub fn basin_with(
         }
         Ok(unit)
     };
-    let info = crate::run::lanes::run_units(
-        store,
-        engine,
-        &LaneUnits {
-            stage: STAGE,
-            count,
-            ensemble: &ensemble,
-            lanes: &|u| per_unit.min(cells - u * per_unit),
-            lambda1: spec.lane.lyapunov,
-            reduce: &reduce,
-        },
-        ctl,
-    )?;
+    let info = LaneUnits::new(STAGE, split, &ensemble, &reduce)
+        .lambda1(spec.lane.lyapunov)
+        .run(store, engine, ctl)?;
     // Assembly, in unit order.
     let mut labels = Vec::with_capacity(cells);
     let mut lambda1 = spec.lane.lyapunov.then(|| Vec::with_capacity(cells));

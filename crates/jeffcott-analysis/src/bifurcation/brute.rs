@@ -4,7 +4,7 @@
 
 use super::{BifurcationSpec, BrutePoint, SweepPoint};
 use crate::catalogue::CatalogueBuilder;
-use crate::run::lanes::{Control, LaneUnits};
+use crate::run::lanes::{Control, LaneUnits, Split};
 use crate::run::{Array, Unit, UnitStore};
 use jeffcott_core::ensemble::{EnsembleSpec, LaneSpec, RunInfo};
 use jeffcott_core::error::Result;
@@ -66,10 +66,12 @@ pub(super) fn brute_stage(
         * spec.lane.stepper.steps_per_period as u64
         * if spec.lane.lyapunov { 2 } else { 1 };
     let per = crate::run::unit_lanes(n, per_w);
-    let count = crate::run::unit_count(n, per);
+    let split = Split::new(n, per);
+    let count = split.count();
     let ensemble = |u: usize| EnsembleSpec {
         param_sets: vec![spec.lane.params.clone()],
-        lanes: (u * per..((u + 1) * per).min(n))
+        lanes: split
+            .range(u)
             .flat_map(|wi| {
                 let omega = spec.omegas[wi];
                 lanes_of(wi).into_iter().map(move |x0| LaneSpec {
@@ -95,26 +97,15 @@ pub(super) fn brute_stage(
         Ok(unit)
     };
     let progress = |d: u64, _t: u64| (ctl.progress)(base + d, 0);
-    let info = crate::run::lanes::run_units(
-        store,
-        engine,
-        &LaneUnits {
-            stage,
-            count,
-            ensemble: &ensemble,
-            lanes: &|u| {
-                (u * per..((u + 1) * per).min(n))
-                    .map(|wi| lanes_of(wi).len())
-                    .sum()
-            },
-            lambda1: spec.lane.lyapunov,
-            reduce: &reduce,
-        },
-        Control {
-            progress: &progress,
-            cancel: ctl.cancel,
-        },
-    )?;
+    let lanes = |u: usize| split.range(u).map(|wi| lanes_of(wi).len()).sum();
+    let ctl = Control {
+        progress: &progress,
+        cancel: ctl.cancel,
+    };
+    let info = LaneUnits::new(stage, split, &ensemble, &reduce)
+        .lanes_of(&lanes)
+        .lambda1(spec.lane.lyapunov)
+        .run(store, engine, ctl)?;
     let mut out = StageResult {
         poincare: Vec::new(),
         status: Vec::new(),

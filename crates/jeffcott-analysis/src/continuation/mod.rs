@@ -37,7 +37,7 @@ pub use record::{Lifetime, RampRecord, Summary, id_name, summary};
 pub use spec::{ContinuationSpec, Direction, Fields, directions, parse_box, uniform_in_box};
 
 use super::catalogue::CatalogueBuilder;
-use crate::run::lanes::{Control, LaneUnits};
+use crate::run::lanes::{Control, LaneUnits, Split};
 use crate::run::{Unit, UnitStore};
 use jeffcott_core::ensemble::{EnsembleResult, EnsembleSpec, RunInfo};
 use jeffcott_core::error::{Error, Result};
@@ -93,10 +93,10 @@ pub fn continuation_with(
     let n = spec.param.n;
     let k = spec.ics as usize;
     let per_unit = spec.unit_values();
-    let count = crate::run::unit_count(n, per_unit);
+    let split = Split::new(n, per_unit);
     let ensemble = |u: usize| {
         let mut e = spec.ensemble(u * per_unit, spec.fresh_starts(u * per_unit));
-        for i in u * per_unit + 1..((u + 1) * per_unit).min(n) {
+        for i in split.range(u).skip(1) {
             let next = spec.ensemble(i, spec.fresh_starts(i));
             let set = e.param_sets.len() as u32;
             e.param_sets.extend(next.param_sets);
@@ -113,7 +113,7 @@ pub fn continuation_with(
         let mut unit = Unit::new("");
         let mut metas = Vec::new();
         let rec = res.recorded * STATE_DIM;
-        for (j, i) in (u * per_unit..((u + 1) * per_unit).min(n)).enumerate() {
+        for (j, i) in split.range(u).enumerate() {
             let lanes = j * k..(j + 1) * k;
             let (_, w) = spec.value_params(i);
             let mut b = CatalogueBuilder::new(w, spec.lane.catalogue);
@@ -136,19 +136,10 @@ pub fn continuation_with(
         }
         Ok(unit.with_meta(&FreshMeta { values: metas }))
     };
-    let info = crate::run::lanes::run_units(
-        store,
-        engine,
-        &LaneUnits {
-            stage: FRESH,
-            count,
-            ensemble: &ensemble,
-            lanes: &|u| per_unit.min(n - u * per_unit) * k,
-            lambda1: spec.lane.lyapunov,
-            reduce: &reduce,
-        },
-        ctl,
-    )?;
+    let info = LaneUnits::new(FRESH, split, &ensemble, &reduce)
+        .lanes_per_item(k)
+        .lambda1(spec.lane.lyapunov)
+        .run(store, engine, ctl)?;
     // A shard's work ends here: reading the fresh pass is the merge's (NotInShard), and
     // the ramps' stages must not be asked about before, so a shard never lists them.
     fresh_value(spec, store, 0)?;

@@ -19,22 +19,123 @@ pub const GPU_BATCH_SECONDS: f64 = 10.0;
 /// Bytes of Poincare records a GPU batch may hold at most.
 const GPU_BATCH_RECORD_BYTES: usize = 512 << 20;
 
-/// The units of one stage of a study.
+/// A stage's items (cells, lanes, parameter values, speeds) in units of `per_unit`
+/// consecutive items, the last one shorter.
+#[derive(Clone, Copy, Debug)]
+pub struct Split {
+    /// Number of items.
+    pub items: usize,
+    /// Items per unit (at least 1).
+    pub per_unit: usize,
+}
+
+impl Split {
+    /// `items` in units of `per_unit` (at least 1).
+    pub fn new(items: usize, per_unit: usize) -> Split {
+        Split {
+            items,
+            per_unit: per_unit.max(1),
+        }
+    }
+
+    /// Number of units.
+    pub fn count(&self) -> usize {
+        super::unit_count(self.items, self.per_unit)
+    }
+
+    /// The items of unit `u`.
+    pub fn range(&self, u: usize) -> std::ops::Range<usize> {
+        u * self.per_unit..((u + 1) * self.per_unit).min(self.items)
+    }
+}
+
+/// How many lanes a unit has, known without building its ensemble.
+#[derive(Clone, Copy)]
+enum UnitLanes<'a> {
+    /// A fixed number of lanes per item.
+    PerItem(usize),
+    /// Computed from the unit's index.
+    Of(&'a (dyn Fn(usize) -> usize + Sync)),
+}
+
+/// The units of one stage of a study, built by [`LaneUnits::new`] and run by
+/// [`LaneUnits::run`].
 pub struct LaneUnits<'a> {
     /// Stage name (unit files are `units/<stage>-NNNNNNN.unit`).
-    pub stage: &'a str,
-    /// Number of units.
-    pub count: usize,
+    stage: &'a str,
+    /// The stage's items and units.
+    split: Split,
     /// The ensemble of unit `i` (deterministic; every unit with the same transient and
     /// recorded periods).
-    pub ensemble: &'a (dyn Fn(usize) -> EnsembleSpec + Sync),
-    /// The number of lanes of unit `i` (without building its ensemble).
-    pub lanes: &'a (dyn Fn(usize) -> usize + Sync),
+    ensemble: &'a (dyn Fn(usize) -> EnsembleSpec + Sync),
+    /// The number of lanes of unit `i`.
+    lanes: UnitLanes<'a>,
     /// Run the lambda_1 variant.
-    pub lambda1: bool,
+    lambda1: bool,
     /// Turns unit `i`'s ensemble and result into what is committed (its key is set by
     /// the engine).
-    pub reduce: &'a (dyn Fn(usize, &EnsembleSpec, EnsembleResult) -> Result<Unit> + Sync),
+    reduce: &'a (dyn Fn(usize, &EnsembleSpec, EnsembleResult) -> Result<Unit> + Sync),
+}
+
+impl<'a> LaneUnits<'a> {
+    /// Stage `stage` over `split`'s units: unit `i` runs `ensemble(i)` and commits
+    /// `reduce(i, ensemble, result)`; one lane per item, no lambda_1, unless said.
+    pub fn new(
+        stage: &'a str,
+        split: Split,
+        ensemble: &'a (dyn Fn(usize) -> EnsembleSpec + Sync),
+        reduce: &'a (dyn Fn(usize, &EnsembleSpec, EnsembleResult) -> Result<Unit> + Sync),
+    ) -> Self {
+        LaneUnits {
+            stage,
+            split,
+            ensemble,
+            lanes: UnitLanes::PerItem(1),
+            lambda1: false,
+            reduce,
+        }
+    }
+
+    /// Each item runs `k` lanes.
+    pub fn lanes_per_item(mut self, k: usize) -> Self {
+        self.lanes = UnitLanes::PerItem(k);
+        self
+    }
+
+    /// Unit `i` runs `lanes(i)` lanes.
+    pub fn lanes_of(mut self, lanes: &'a (dyn Fn(usize) -> usize + Sync)) -> Self {
+        self.lanes = UnitLanes::Of(lanes);
+        self
+    }
+
+    /// Whether the lanes compute lambda_1.
+    pub fn lambda1(mut self, on: bool) -> Self {
+        self.lambda1 = on;
+        self
+    }
+
+    /// Number of units.
+    pub fn count(&self) -> usize {
+        self.split.count()
+    }
+
+    /// Lanes of unit `i`.
+    fn unit_lanes(&self, i: usize) -> usize {
+        match self.lanes {
+            UnitLanes::PerItem(k) => self.split.range(i).len() * k,
+            UnitLanes::Of(f) => f(i),
+        }
+    }
+
+    /// Computes and commits every unit not yet committed in `store` ([`run_units`]).
+    pub fn run(
+        &self,
+        store: &dyn UnitStore,
+        engine: &Engine,
+        ctl: Control,
+    ) -> Result<Option<RunInfo>> {
+        run_units(store, engine, self, ctl)
+    }
 }
 
 pub use jeffcott_core::control::Control;
@@ -77,27 +178,28 @@ fn split(res: EnsembleResult, counts: &[usize]) -> Vec<EnsembleResult> {
 
 /// Computes and commits every unit of `units` not yet committed in `store`; returns how
 /// the last batch was run (`None` when every unit was already committed).
-pub fn run_units(
+fn run_units(
     store: &dyn UnitStore,
     engine: &Engine,
     units: &LaneUnits,
     ctl: Control,
 ) -> Result<Option<RunInfo>> {
-    let done = store.committed(units.stage, units.count)?;
-    if units.count == 0 {
+    let count = units.count();
+    let done = store.committed(units.stage, count)?;
+    if count == 0 {
         return Ok(None);
     }
     let probe = (units.ensemble)(0);
     let per_lane = (probe.transient + probe.recorded) as u64;
     let record_bytes = probe.recorded as usize * STATE_DIM * 8;
     drop(probe);
-    let lanes_of: Vec<usize> = (0..units.count).map(units.lanes).collect();
+    let lanes_of: Vec<usize> = (0..count).map(|i| units.unit_lanes(i)).collect();
     let work = |i: usize| lanes_of[i] as u64 * per_lane;
-    let total: u64 = (0..units.count).map(work).sum();
-    let mut base: u64 = (0..units.count).filter(|&i| done[i]).map(work).sum();
+    let total: u64 = (0..count).map(work).sum();
+    let mut base: u64 = (0..count).filter(|&i| done[i]).map(work).sum();
     (ctl.progress)(base, total);
-    let pending: Vec<usize> = (0..units.count).filter(|&i| !done[i]).collect();
-    let mut committed = units.count - pending.len();
+    let pending: Vec<usize> = (0..count).filter(|&i| !done[i]).collect();
+    let mut committed = count - pending.len();
     let gpu = engine.runner().is_some();
     let mut batch_work_target: u64 = 0; // 0: one unit (before a speed was measured)
     let mut info = None;
@@ -106,7 +208,7 @@ pub fn run_units(
         if ctl.cancel.is_set() {
             return Err(Error::Interrupted {
                 committed,
-                total: units.count,
+                total: count,
             });
         }
         // Consecutive pending units up to the batch target (at least one).
@@ -149,7 +251,7 @@ pub fn run_units(
                 Err(Error::Interrupted { .. }) => {
                     return Err(Error::Interrupted {
                         committed,
-                        total: units.count,
+                        total: count,
                     });
                 }
                 r => r?,
