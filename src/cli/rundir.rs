@@ -60,16 +60,14 @@ impl StudyRunArgs {
     }
 }
 
-/// Runs `work` under a progress bar `name` over `total` lane-periods (`per_lane` each)
-/// and the command's cancel flag.
+/// Runs `work` under a progress bar for `stage` (unless `quiet`) and the command's
+/// cancel flag.
 pub fn progress<T>(
-    name: &str,
-    total: u64,
-    per_lane: u64,
+    stage: jeffcott_analysis::run::Stage<'_>,
     quiet: bool,
     work: impl FnOnce(jeffcott_analysis::run::lanes::Control) -> Result<T>,
 ) -> Result<T> {
-    let bar = crate::progress::Bar::new(name, total, per_lane, quiet);
+    let bar = crate::progress::Bar::new(stage.label, stage.total, stage.per_lane, quiet);
     let cancel = cancel();
     let cb = bar_callback(&bar);
     let r = work(jeffcott_analysis::run::lanes::Control {
@@ -104,12 +102,10 @@ impl jeffcott_analysis::run::Host for CommandHost<'_> {
     }
     fn progress<T>(
         &self,
-        label: &str,
-        total: u64,
-        per_lane: u64,
+        stage: jeffcott_analysis::run::Stage<'_>,
         work: impl FnOnce(jeffcott_analysis::run::lanes::Control) -> Result<T>,
     ) -> Result<T> {
-        progress(label, total, per_lane, self.quiet, work)
+        progress(stage, self.quiet, work)
     }
 }
 

@@ -332,7 +332,7 @@ pub fn cascade(spec: &CascadeSpec, ctl: Control) -> Result<CascadeResult> {
 /// in speeds, on the host's display as stage `cascade`): the front ends' entry point.
 pub fn run(spec: &CascadeSpec, host: &impl crate::run::Host) -> Result<CascadeResult> {
     let speeds = spec.omegas.len() as u64 * (spec.up as u64 + spec.down as u64);
-    host.progress("cascade", speeds, 1, |ctl| {
+    host.progress(crate::run::Stage::new("cascade", speeds, 1), |ctl| {
         cascade_with(spec, host.store(), ctl)
     })
 }

@@ -466,9 +466,7 @@ pub const STAGE: &str = "map";
 
 /// Computes a map in memory; `ctl.progress` counts lane-periods.
 pub fn map(spec: &MapSpec, ctl: Control) -> Result<MapResult> {
-    crate::run::in_memory(&spec.lane, ctl, |e, store, ctl| {
-        map_with(spec, e, store, ctl)
-    })
+    crate::run::in_memory(&spec.lane, ctl, |e, s, c| map_with(spec, e, s, c))
 }
 
 /// The cells of one unit from its ensemble result: per cell, its K lanes catalogued
@@ -537,9 +535,10 @@ fn reduce_cells(
 /// the host's display as stage `map`): the front ends' entry point.
 pub fn run(spec: &MapSpec, engine: &crate::backend::Engine, host: &impl Host) -> Result<MapResult> {
     let per_lane = (spec.transient + spec.periods) as u64;
-    host.progress(STAGE, spec.lane_periods(), per_lane, |ctl| {
-        map_with(spec, engine, host.store(), ctl)
-    })
+    host.progress(
+        crate::run::Stage::new(STAGE, spec.lane_periods(), per_lane),
+        |ctl| map_with(spec, engine, host.store(), ctl),
+    )
 }
 
 /// Computes a map unit by unit into `store` (resuming from the units it holds), then

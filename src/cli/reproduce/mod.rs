@@ -140,12 +140,10 @@ impl jeffcott_analysis::run::Host for Ctx<'_> {
 
     fn progress<T>(
         &self,
-        label: &str,
-        total: u64,
-        per_lane: u64,
+        stage: jeffcott_analysis::run::Stage<'_>,
         work: impl FnOnce(jeffcott_core::control::Control) -> Result<T>,
     ) -> Result<T> {
-        super::rundir::progress(label, total, per_lane, self.args.run.quiet, work)
+        super::rundir::progress(stage, self.args.run.quiet, work)
     }
 }
 

@@ -333,9 +333,7 @@ impl BasinSpec {
 
 /// Computes a basin in memory; `ctl.progress` counts lane-periods.
 pub fn basin(spec: &BasinSpec, ctl: Control) -> Result<BasinResult> {
-    crate::run::in_memory(&spec.lane, ctl, |e, store, ctl| {
-        basin_with(spec, e, store, ctl)
-    })
+    crate::run::in_memory(&spec.lane, ctl, |e, s, c| basin_with(spec, e, s, c))
 }
 
 /// Computes a basin unit by unit into `store` (resuming from the units it holds), then

@@ -128,14 +128,15 @@ pub fn run(study: &BasinStudy, engine: &Engine, host: &impl Host) -> Result<Basi
     let per_lane = (coarse.transient + coarse.periods) as u64;
     let cells = (coarse.x.n * coarse.y.n) as u64;
     let store = host.store();
-    let res = host.progress(STAGE, cells * per_lane, per_lane, |ctl| {
-        basin_with(coarse, engine, store, ctl)
-    })?;
+    let res = host.progress(
+        crate::run::Stage::new(STAGE, cells * per_lane, per_lane),
+        |ctl| basin_with(coarse, engine, store, ctl),
+    )?;
     let (spec, result, refined) = if study.refine > 0 {
         // The boundary's lanes are not known in advance: the display counts the coarse
         // grid's size per level as a scale.
         let total = cells * per_lane * study.refine as u64;
-        let f = host.progress("refine", total, per_lane, |ctl| {
+        let f = host.progress(crate::run::Stage::new("refine", total, per_lane), |ctl| {
             crate::refine::refine(
                 coarse,
                 &res.catalogue,
@@ -154,8 +155,9 @@ pub fn run(study: &BasinStudy, engine: &Engine, host: &impl Host) -> Result<Basi
     let reintegration = if study.uncertainty_samples > 0 {
         let m = study.uncertainty_samples;
         let lanes = (m * (1 + 4 * crate::uncertainty::EPS.len())) as u64;
-        Some(
-            host.progress("uncertainty", lanes * per_lane, per_lane, |ctl| {
+        Some(host.progress(
+            crate::run::Stage::new("uncertainty", lanes * per_lane, per_lane),
+            |ctl| {
                 crate::uncertainty::reintegration(
                     &spec,
                     &result.catalogue,
@@ -165,8 +167,8 @@ pub fn run(study: &BasinStudy, engine: &Engine, host: &impl Host) -> Result<Basi
                     store,
                     ctl,
                 )
-            })?,
-        )
+            },
+        )?)
     } else {
         None
     };

@@ -274,9 +274,10 @@ pub fn bifurcation(spec: &BifurcationSpec, ctl: Control) -> Result<BifurcationRe
 /// progress on the host's display as stage `bifurcation`): the front ends' entry point.
 pub fn run(spec: &BifurcationSpec, host: &impl crate::run::Host) -> Result<BifurcationResult> {
     let per_lane = (spec.brute_transient + spec.periods) as u64;
-    host.progress("bifurcation", work(spec), per_lane, |ctl| {
-        bifurcation_with(spec, host.store(), ctl)
-    })
+    host.progress(
+        crate::run::Stage::new("bifurcation", work(spec), per_lane),
+        |ctl| bifurcation_with(spec, host.store(), ctl),
+    )
 }
 
 /// Runs the study unit by unit into `store`, resuming from the units it holds: the

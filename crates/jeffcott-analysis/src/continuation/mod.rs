@@ -62,9 +62,7 @@ pub const FRESH: &str = "fresh";
 
 /// Computes a continuation in memory; `ctl.progress` counts lane-periods of the fresh pass.
 pub fn continuation(spec: &ContinuationSpec, ctl: Control) -> Result<ContinuationResult> {
-    crate::run::in_memory(&spec.lane, ctl, |e, store, ctl| {
-        continuation_with(spec, e, store, ctl)
-    })
+    crate::run::in_memory(&spec.lane, ctl, |e, s, c| continuation_with(spec, e, s, c))
 }
 
 /// Runs a continuation (or a basin stability, the same study) under `host` (its units
@@ -76,9 +74,10 @@ pub fn run(
     host: &impl crate::run::Host,
 ) -> Result<ContinuationResult> {
     let per_lane = (spec.transient + spec.periods) as u64;
-    host.progress("continuation", spec.lane_periods(), per_lane, |ctl| {
-        continuation_with(spec, engine, host.store(), ctl)
-    })
+    host.progress(
+        crate::run::Stage::new("continuation", spec.lane_periods(), per_lane),
+        |ctl| continuation_with(spec, engine, host.store(), ctl),
+    )
 }
 
 /// Runs the continuation unit by unit into `store` (resuming from what it holds).

@@ -192,9 +192,7 @@ mod tests {
         }
         fn progress<T>(
             &self,
-            label: &str,
-            total: u64,
-            _per_lane: u64,
+            stage: crate::run::Stage<'_>,
             work: impl FnOnce(Control) -> Result<T>,
         ) -> Result<T> {
             let done = std::sync::atomic::AtomicU64::new(0);
@@ -202,10 +200,11 @@ mod tests {
                 done.fetch_max(d, std::sync::atomic::Ordering::Relaxed);
             };
             let r = work(Control::progress(&report));
-            self.committed_by
-                .lock()
-                .unwrap()
-                .push((label.to_string(), done.into_inner(), total));
+            self.committed_by.lock().unwrap().push((
+                stage.label.to_string(),
+                done.into_inner(),
+                stage.total,
+            ));
             r
         }
     }

@@ -197,9 +197,10 @@ pub fn reproduce<H: Host>(spec: &ReproduceSpec, host: &mut H) -> Result<Reproduc
     host.begin(3, "attractor survey at the article's speeds");
     let per_lane = (p.survey_transient + p.survey_periods) as u64;
     let lanes = ARTICLE_SPEEDS.len() as u64 * p.survey_ics as u64;
-    let (catalogues, seconds) = host.progress("survey", lanes * per_lane, per_lane, |ctl| {
-        Survey::run_survey(spec, &engine, ctl)
-    })?;
+    let (catalogues, seconds) = host.progress(
+        crate::run::Stage::new("survey", lanes * per_lane, per_lane),
+        |ctl| Survey::run_survey(spec, &engine, ctl),
+    )?;
     host.begin(4, "Lyapunov spectra at the article's speeds");
     let (spectra, spectra_seconds) = Survey::run_spectra(spec)?;
     let survey = Survey {

@@ -9,19 +9,34 @@ use super::{Prefixed, UnitStore};
 use jeffcott_core::control::Control;
 use jeffcott_core::error::Result;
 
+/// A stage of a study as its host shows it.
+#[derive(Clone, Copy, Debug)]
+pub struct Stage<'a> {
+    /// Its name (the progress bar's label).
+    pub label: &'a str,
+    /// Its work [lane-periods].
+    pub total: u64,
+    /// The lane-periods of one lane (the bar counts lanes with them).
+    pub per_lane: u64,
+}
+
+impl<'a> Stage<'a> {
+    /// Stage `label` of `total` lane-periods, `per_lane` of them per lane.
+    pub fn new(label: &'a str, total: u64, per_lane: u64) -> Self {
+        Stage {
+            label,
+            total,
+            per_lane,
+        }
+    }
+}
+
 /// The frame a study's stages run in.
 pub trait Host {
     /// The store the study commits its units to.
     fn store(&self) -> &dyn UnitStore;
-    /// Runs stage `label` (`total` lane-periods, `per_lane` of them per lane) under the
-    /// host's progress display and cancel flag.
-    fn progress<T>(
-        &self,
-        label: &str,
-        total: u64,
-        per_lane: u64,
-        work: impl FnOnce(Control) -> Result<T>,
-    ) -> Result<T>;
+    /// Runs `stage` under the host's progress display and cancel flag.
+    fn progress<T>(&self, stage: Stage<'_>, work: impl FnOnce(Control) -> Result<T>) -> Result<T>;
 }
 
 /// A host for library calls: units in memory, every stage reported through one
@@ -45,13 +60,7 @@ impl Host for MemoryHost<'_> {
     fn store(&self) -> &dyn UnitStore {
         &self.store
     }
-    fn progress<T>(
-        &self,
-        _label: &str,
-        _total: u64,
-        _per_lane: u64,
-        work: impl FnOnce(Control) -> Result<T>,
-    ) -> Result<T> {
+    fn progress<T>(&self, _: Stage<'_>, work: impl FnOnce(Control) -> Result<T>) -> Result<T> {
         work(self.ctl)
     }
 }
@@ -80,13 +89,7 @@ impl<H: Host> Host for PrefixedHost<'_, H> {
     fn store(&self) -> &dyn UnitStore {
         &self.store
     }
-    fn progress<T>(
-        &self,
-        label: &str,
-        total: u64,
-        per_lane: u64,
-        work: impl FnOnce(Control) -> Result<T>,
-    ) -> Result<T> {
-        self.host.progress(label, total, per_lane, work)
+    fn progress<T>(&self, stage: Stage<'_>, work: impl FnOnce(Control) -> Result<T>) -> Result<T> {
+        self.host.progress(stage, work)
     }
 }

@@ -20,7 +20,7 @@ pub mod lanes;
 pub mod unit;
 
 pub use dir::{Found, RunDir, RunHeader};
-pub use host::{Host, MemoryHost, PrefixedHost};
+pub use host::{Host, MemoryHost, PrefixedHost, Stage};
 pub use unit::{Array, Unit};
 
 use jeffcott_core::error::{Error, Result};
