@@ -6,7 +6,7 @@ use clap::{Args, Parser, Subcommand};
 use files::Documented;
 use jeffcott_analysis::classify::ClassifyConfig;
 use jeffcott_analysis::defaults;
-use jeffcott_analysis::ensemble::Totals;
+use jeffcott_analysis::ensemble::{EnsembleStudy, LanesRecord, Totals};
 use jeffcott_analysis::output;
 use jeffcott_analysis::record::Span;
 use jeffcott_analysis::simulate::{
@@ -194,53 +194,6 @@ pub(crate) const ENSEMBLE_OUTPUTS: &[&str] = &[
     "lambda1.npy",
 ];
 
-/// How `run.json` records an ensemble's lanes: the table they were read from, or a
-/// speed range from one start state (the keys of earlier versions, `omega` and `x0`, so
-/// their runs resume).
-#[derive(serde::Serialize)]
-#[serde(untagged)]
-enum LanesRecord {
-    /// Lanes from a table.
-    Table {
-        /// The table, its columns, its rows and a checksum of the lanes read.
-        lanes: TableRecord,
-    },
-    /// A speed range.
-    Range {
-        /// The speeds.
-        omega: Span,
-        /// The start state of every lane.
-        x0: State,
-    },
-}
-
-/// A lane table as `run.json` records it.
-#[derive(serde::Serialize)]
-struct TableRecord {
-    /// Its path as given.
-    table: String,
-    /// Its columns.
-    columns: Vec<String>,
-    /// Its rows.
-    count: usize,
-    /// [`lanes_checksum`] of the lanes and parameter sets read.
-    checksum: String,
-}
-
-/// An ensemble's specification as `run.json` records it.
-#[derive(serde::Serialize)]
-struct EnsembleRecord<'a> {
-    transient: u32,
-    periods: u32,
-    stepper: StepperConfig,
-    precision: Precision,
-    lyapunov: bool,
-    unit_lanes: usize,
-    params: &'a [Params],
-    #[serde(flatten)]
-    lanes: LanesRecord,
-}
-
 /// The lanes of `jeffcott ensemble`: a speed range from one start state, or a table.
 /// Returns the parameter sets, the lanes and what run.json records of them.
 fn ensemble_lanes(
@@ -306,7 +259,7 @@ fn ensemble_lanes(
             },
         )?;
         let j = LanesRecord::Table {
-            lanes: TableRecord {
+            lanes: jeffcott_analysis::ensemble::TableRecord {
                 table: path.display().to_string(),
                 columns: table.columns,
                 count: lanes.len(),
@@ -332,141 +285,117 @@ fn ensemble_lanes(
 /// Runs `jeffcott ensemble`: lanes in work units committed to --out, then the files
 /// assembled from the units (poincare.npy streamed, one unit in memory at a time).
 pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
-    use jeffcott_analysis::run::{Array, Unit};
-    use jeffcott_core::ensemble::EnsembleSpec;
     jeffcott_core::limits::check_periods("transient", a.transient, 0)?;
     jeffcott_core::limits::check_periods("periods", a.periods, 1)?;
-    let (param_sets, lanes, lanes_record) = ensemble_lanes(a)?;
-    let precision = a.lane.precision();
-    let spec = EnsembleSpec {
+    let (param_sets, lanes, record) = ensemble_lanes(a)?;
+    let spec = jeffcott_core::ensemble::EnsembleSpec {
         lanes,
         param_sets,
         transient: a.transient,
         recorded: a.periods,
         stepper: a.lane.stepper.config(),
-        precision,
+        precision: a.lane.precision(),
     };
     spec.validate()?;
-    let n = spec.lanes.len();
-    let per_lane = (spec.transient + spec.recorded) as u64;
-    let unit = jeffcott_analysis::run::unit_lanes(
-        n,
-        per_lane * spec.stepper.steps_per_period as u64 * if a.lyapunov { 2 } else { 1 },
-    );
-    let split = jeffcott_analysis::run::lanes::Split::new(n, unit);
-    let run_spec = EnsembleRecord {
-        transient: spec.transient,
-        periods: spec.recorded,
-        stepper: spec.stepper,
-        precision: spec.precision,
-        lyapunov: a.lyapunov,
-        unit_lanes: unit,
-        params: &spec.param_sets,
-        lanes: lanes_record,
-    };
-    let exec = a.exec.execution("ensemble", a.lane.backend)?;
-    let shard = exec.shard;
-    let run_dir = exec.open(
-        jeffcott_analysis::run::RunHeader::new("ensemble", &run_spec)?,
-        ENSEMBLE_OUTPUTS,
-    )?;
-    let store = rundir::store(&run_dir);
-    let bar = crate::progress::Bar::new("ensemble", n as u64 * per_lane, per_lane, exec.run.quiet);
-    let start = std::time::Instant::now();
-    let engine = jeffcott_analysis::backend::Engine::new(a.lane.backend, spec.precision)?;
-    let ensemble = |u: usize| EnsembleSpec {
-        lanes: spec.lanes[split.range(u)].to_vec(),
-        ..spec.clone()
-    };
-    let reduce = |_u: usize, _e: &EnsembleSpec, r: jeffcott_core::ensemble::EnsembleResult| {
-        let c = &r.counters;
-        let mut out = Unit::new("")
-            .with("poincare", Array::F64(r.poincare))
-            .with(
-                "status",
-                Array::U32(r.status.iter().map(|s| s.code()).collect()),
-            )
-            .with_meta(&Totals::of(c));
-        if let Some(l) = r.lambda1 {
-            out = out.with("lambda1", Array::F64(l));
+    let study = EnsembleStudy::of(spec, record, a.lyapunov, a.lane.backend);
+    study::execute_args::<Ensemble>(&study, &NoOptions {}, &a.exec, a.lane.backend)
+}
+
+/// The writer options of a command that has none (run.json's `write` is `{}`).
+#[derive(serde::Serialize, serde::Deserialize)]
+pub struct NoOptions {}
+
+/// `jeffcott ensemble` as a study command.
+pub struct Ensemble;
+
+impl study::StudyCommand for Ensemble {
+    const COMMAND: &'static str = "ensemble";
+    const OUTPUTS: &'static [&'static str] = ENSEMBLE_OUTPUTS;
+    type Spec = EnsembleStudy;
+    type Write = NoOptions;
+    type Outcome = (jeffcott_core::ensemble::RunInfo, f64);
+    fn run(
+        study: &EnsembleStudy,
+        _: &NoOptions,
+        host: &rundir::CommandHost,
+    ) -> Result<Self::Outcome> {
+        let start = std::time::Instant::now();
+        let engine = jeffcott_analysis::backend::Engine::new(study.backend, study.precision)?;
+        let info = jeffcott_analysis::ensemble::run(study, &engine, host)?;
+        Ok((info, start.elapsed().as_secs_f64()))
+    }
+    fn finish(
+        study: &EnsembleStudy,
+        _: &NoOptions,
+        (info, elapsed): Self::Outcome,
+        run_dir: &jeffcott_analysis::run::RunDir,
+        exec: &rundir::Execution,
+    ) -> Result<()> {
+        if !exec.run.quiet {
+            println!(
+                "backend: {} ({}; {}), precision {:?}",
+                info.backend, info.device, info.reason, info.precision
+            );
         }
-        Ok(out)
-    };
-    let cancel = rundir::cancel();
-    let cb = rundir::bar_callback(&bar);
-    let ctl = jeffcott_analysis::run::lanes::Control {
-        progress: &cb,
-        cancel: &cancel,
-    };
-    let ran = jeffcott_analysis::run::lanes::LaneUnits::new("ensemble", split, &ensemble, &reduce)
-        .lambda1(a.lyapunov)
-        .run(store.as_ref(), &engine, ctl)?;
-    bar.finish();
-    if shard.is_some() {
-        return rundir::finish_shard(&run_dir, exec.run.quiet);
+        let info = jeffcott_core::ensemble::RunInfo {
+            elapsed_s: elapsed,
+            ..info
+        };
+        write_ensemble(study, &info, run_dir, exec.run.quiet)
     }
-    let elapsed = start.elapsed().as_secs_f64();
-    let info = ran.unwrap_or(jeffcott_core::ensemble::RunInfo {
-        backend: if engine.runner().is_some() {
-            "gpu"
-        } else {
-            "cpu"
-        },
-        device: String::new(),
-        reason: "every unit was already committed".into(),
-        precision: spec.precision,
-        elapsed_s: 0.0,
-    });
-    if !exec.run.quiet {
-        println!(
-            "backend: {} ({}; {}), precision {:?}",
-            info.backend, info.device, info.reason, info.precision
-        );
-    }
+}
+
+/// Writes an ensemble's files from its units (poincare.npy streamed, one unit in memory
+/// at a time) and its record, marks the run complete and, unless `quiet`, says what ran.
+fn write_ensemble(
+    study: &EnsembleStudy,
+    info: &jeffcott_core::ensemble::RunInfo,
+    run_dir: &jeffcott_analysis::run::RunDir,
+    quiet: bool,
+) -> Result<()> {
+    use jeffcott_analysis::ensemble::STAGE;
+    let n = study.lane_count();
+    let units = study.split().count();
     let dir = run_dir.path();
     output::write_npy_parts(
         &dir.join("poincare.npy"),
-        &[n, spec.recorded as usize, STATE_DIM],
-        (0..split.count()).map(|u| Ok(run_dir.load("ensemble", u)?.f64s("poincare")?.to_vec())),
+        &[n, study.periods as usize, STATE_DIM],
+        (0..units).map(|u| Ok(run_dir.load(STAGE, u)?.f64s("poincare")?.to_vec())),
     )?;
     let mut codes: Vec<u32> = Vec::with_capacity(n);
     let mut lambda1: Vec<f64> = Vec::new();
+    let mut lanes: Vec<f64> = Vec::with_capacity(n * (2 + STATE_DIM));
     let mut totals = Totals::default();
-    for u in 0..split.count() {
-        let unit = run_dir.load("ensemble", u)?;
+    for u in 0..units {
+        let unit = run_dir.load(STAGE, u)?;
         codes.extend_from_slice(unit.u32s("status")?);
-        if a.lyapunov {
+        match unit.f64s("lanes") {
+            Ok(l) => lanes.extend_from_slice(l),
+            // A unit of an earlier version, without its lanes: this run has them.
+            Err(_) if study.given.len() == n => {
+                let given = &study.given[study.split().range(u)];
+                lanes.extend(jeffcott_analysis::ensemble::lanes_table(given));
+            }
+            Err(e) => return Err(e),
+        }
+        if study.lyapunov {
             lambda1.extend_from_slice(unit.f64s("lambda1")?);
         }
         totals.add(&unit.meta_as::<Totals>()?);
     }
     output::write_npy(&dir.join("status.npy"), &[n], &codes)?;
-    output::write_npy(
-        &dir.join("lanes.npy"),
-        &[n, 2 + STATE_DIM],
-        &jeffcott_analysis::ensemble::lanes_table(&spec),
-    )?;
+    output::write_npy(&dir.join("lanes.npy"), &[n, 2 + STATE_DIM], &lanes)?;
     output::write_npy(
         &dir.join("params.npy"),
-        &[spec.param_sets.len(), Params::FIELDS.len()],
-        &jeffcott_core::ensemble::table::params_table(&spec.param_sets),
+        &[study.params.len(), Params::FIELDS.len()],
+        &jeffcott_core::ensemble::table::params_table(&study.params),
     )?;
-    if a.lyapunov {
+    if study.lyapunov {
         output::write_npy(&dir.join("lambda1.npy"), &[n], &lambda1)?;
     }
-    let status: Vec<jeffcott_core::integrate::lane::Status> = codes
-        .iter()
-        .filter_map(|&c| jeffcott_core::integrate::lane::Status::from_code(c))
-        .collect();
-    let count =
-        |s: jeffcott_core::integrate::lane::Status| status.iter().filter(|&&x| x == s).count();
-    use jeffcott_core::integrate::lane::Status;
-    let info = jeffcott_core::ensemble::RunInfo {
-        elapsed_s: elapsed,
-        ..info
-    };
+    let record = jeffcott_analysis::ensemble::run_record(study.sizes(), &totals, &codes, info);
     let run_json = Documented::new(
-        jeffcott_analysis::ensemble::run_record(&spec, &totals, &codes, &info),
+        &record,
         &[
             (
                 "poincare.npy",
@@ -480,17 +409,18 @@ pub fn run_ensemble(a: &EnsembleArgs) -> Result<()> {
             ),
         ],
     );
-    run_dir.finish(&run_json, &rundir::written(&run_dir, ENSEMBLE_OUTPUTS))?;
-    if !exec.run.quiet {
+    run_dir.finish(&run_json, &rundir::written(run_dir, ENSEMBLE_OUTPUTS))?;
+    if !quiet {
+        let s = record.status_counts;
         println!(
             "{n} lanes x {} periods in {:.2} s ({:.3e} lane-steps/s); status ok {}, refinement_cap {}, diverged {}, non_finite {}; files in {}",
-            spec.transient + spec.recorded,
+            study.transient + study.periods,
             info.elapsed_s,
             totals.macro_steps as f64 / info.elapsed_s,
-            count(Status::Ok),
-            count(Status::RefinementCap),
-            count(Status::Diverged),
-            count(Status::NonFinite),
+            s.ok,
+            s.refinement_cap,
+            s.diverged,
+            s.non_finite,
             dir.display()
         );
     }

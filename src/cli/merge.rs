@@ -7,9 +7,8 @@
 //! stages the shards computed must be present (a missing one is an error, never computed
 //! here), so the files come from the one assembly code path an unsharded run takes
 //! ([`super::study::execute`], fed the specification and writer options the shards
-//! recorded in run.json; an ensemble, whose lanes only its table holds, runs its
-//! recorded command line again),
-//! reading the units in unit order: the result is identical to the unsharded run's for
+//! recorded in run.json; an ensemble's lanes are in its units), reading the units in
+//! unit order: the result is identical to the unsharded run's for
 //! any n and any order of the shard directories. A bifurcation's quasistatic sweeps and
 //! its seeded second brute-force pass need the whole first pass: the merge computes them.
 
@@ -46,7 +45,6 @@ struct ShardRun {
     write: serde_json::Value,
     index: usize,
     count: usize,
-    argv: Vec<String>,
     units: Vec<String>,
     stages: Vec<String>,
 }
@@ -85,7 +83,6 @@ fn read_shard(dir: &Path) -> Result<ShardRun> {
         write: j["write"].clone(),
         index: index as usize,
         count: count as usize,
-        argv: strings(&j["argv"]),
         units: strings(&j["shard_units"]),
         stages: strings(&j["shard_stages"]),
     })
@@ -94,45 +91,6 @@ fn read_shard(dir: &Path) -> Result<ShardRun> {
 /// The unit index of a unit key (`stage-NNNNNNN`).
 fn unit_index(key: &str) -> Option<usize> {
     key.rsplit_once('-').and_then(|(_, n)| n.parse().ok())
-}
-
-/// The shard's command line for the merge: `--shard`, `--out` and `--overwrite` taken
-/// out, `--out` and (with `quiet`) `--quiet` put in.
-fn replay_argv(argv: &[String], out: &Path, quiet: bool) -> Vec<String> {
-    let mut v = Vec::with_capacity(argv.len() + 3);
-    let mut skip = false;
-    for a in argv {
-        if skip {
-            skip = false;
-            continue;
-        }
-        match a.as_str() {
-            "--shard" | "--out" => skip = true,
-            "--overwrite" => {}
-            s if s.starts_with("--shard=") || s.starts_with("--out=") => {}
-            _ => v.push(a.clone()),
-        }
-    }
-    v.push("--out".into());
-    v.push(out.display().to_string());
-    if quiet && !v.iter().any(|a| a == "--quiet") {
-        v.push("--quiet".into());
-    }
-    v
-}
-
-/// Runs the shards' command line again into `--out` (an ensemble: its lanes are in its
-/// table, which run.json names but does not hold).
-fn replay(first: &ShardRun, a: &MergeArgs) -> Result<()> {
-    let argv = replay_argv(&first.argv, &a.out, a.run.quiet);
-    let cli = <super::Cli as clap::Parser>::try_parse_from(&argv).map_err(|e| {
-        Error::invalid(
-            "SHARD_DIR",
-            first.dir.display(),
-            format!("its recorded command line does not parse: {e}"),
-        )
-    })?;
-    super::dispatch(&cli.command)
 }
 
 /// Places a unit file into the merged run: a hard link where the file system allows,
@@ -277,7 +235,7 @@ pub fn run_merge(a: &MergeArgs) -> Result<()> {
             }
         }
         jeffcott_analysis::output::sync_dir(&run_dir.path().join(UNITS));
-    } // the lock is released here; the replayed command takes it again
+    } // the lock is released here; the assembly takes it again
     let exec = rundir::Execution {
         out: a.out.clone(),
         run: a.run,
@@ -298,7 +256,7 @@ pub fn run_merge(a: &MergeArgs) -> Result<()> {
             execute_recorded::<super::bifurcation::Bifurcation>(spec, write, dir, &exec)
         }
         // The ensemble, the one other command the check above lets through.
-        _ => replay(first, a),
+        _ => execute_recorded::<super::Ensemble>(spec, write, dir, &exec),
     };
     if r.is_err() {
         eprintln!(
@@ -316,33 +274,4 @@ pub fn run_merge(a: &MergeArgs) -> Result<()> {
         );
     }
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_replayed_command_line_drops_shard_out_and_overwrite() {
-        let argv: Vec<String> = [
-            "jeffcott",
-            "basin",
-            "--shard",
-            "slurm",
-            "--out",
-            "s/3",
-            "--overwrite",
-            "--omega",
-            "133",
-            "--shard=1/2",
-        ]
-        .map(String::from)
-        .to_vec();
-        assert_eq!(
-            replay_argv(&argv, Path::new("m"), true),
-            [
-                "jeffcott", "basin", "--omega", "133", "--out", "m", "--quiet"
-            ]
-        );
-    }
 }

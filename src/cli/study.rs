@@ -1,5 +1,5 @@
-//! The shardable study commands (`basin`, `map`, `continuation`, `basin-stability`,
-//! `bifurcation`) run one way, [`execute`]: from their arguments, or by `jeffcott merge`
+//! The shardable study commands (`ensemble`, `basin`, `map`, `continuation`,
+//! `basin-stability`, `bifurcation`) run one way, [`execute`]: from their arguments, or by `jeffcott merge`
 //! from the specification and writer options their shards recorded in run.json
 //! ([`execute_recorded`]), never by parsing a command line again.
 

@@ -5,10 +5,10 @@
 //! sorted, so a file does not depend on the order a struct declares its fields in.
 
 use jeffcott_core::model::{COORD_NAMES, State};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// A range of values as the files record it: first, last and how many.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Span {
     /// First value.
     pub first: f64,

@@ -90,7 +90,12 @@ pub(crate) fn ensemble<'py>(
     let n = spec.lanes.len();
     let codes: Vec<u32> = res.status.iter().map(|s| s.code()).collect();
     let totals = jeffcott_analysis::ensemble::Totals::of(&res.counters);
-    let record = jeffcott_analysis::ensemble::run_record(&spec, &totals, &codes, &info);
+    let record = jeffcott_analysis::ensemble::run_record(
+        jeffcott_analysis::ensemble::Sizes::of(&spec),
+        &totals,
+        &codes,
+        &info,
+    );
     let d = PyDict::new(py);
     d.set_item("poincare", array3(py, res.poincare, n, periods as usize)?)?;
     d.set_item("status", array1(py, codes))?;
@@ -98,7 +103,7 @@ pub(crate) fn ensemble<'py>(
         "lanes",
         array2(
             py,
-            jeffcott_analysis::ensemble::lanes_table(&spec),
+            jeffcott_analysis::ensemble::lanes_table(&spec.lanes),
             2 + STATE_DIM,
         )?,
     )?;

@@ -186,7 +186,8 @@ fn run_units(
 ) -> Result<Option<RunInfo>> {
     let count = units.count();
     let done = store.committed(units.stage, count)?;
-    if count == 0 {
+    if done.iter().all(|&d| d) {
+        // Nothing to run (a resumed run, a merge): no unit's ensemble is built.
         return Ok(None);
     }
     let probe = (units.ensemble)(0);
