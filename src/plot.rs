@@ -7,6 +7,7 @@ use std::path::Path;
 use std::sync::Once;
 
 mod bifurcation;
+mod frame;
 pub mod lyapunov;
 mod maps;
 mod measure;

@@ -1,7 +1,8 @@
 //! Bifurcation diagrams: Poincare points against the rotor speed W, one panel per
 //! coordinate, with an optional lambda_1 panel underneath.
 
-use super::{coord_axis, legend, padded_range, plot_err, register_font};
+use super::frame::{Area, Drawn, Mesh, Ticks, chart, dot_key, figure, line_key, zero_line};
+use super::{coord_axis, legend, padded_range};
 use jeffcott_core::error::Result;
 use jeffcott_core::model::State;
 use plotters::prelude::*;
@@ -36,6 +37,18 @@ pub struct Lambda1Series {
     pub points: Vec<(f64, f64)>,
 }
 
+/// Margin and label areas of every panel: the W axes line up across panels.
+const PANEL: (u32, u32, u32) = (14, 50, 90);
+
+/// The axes of a panel against W, `y_desc` with ticks by `y_ticks`.
+fn w_mesh<'m>(y_desc: &'m str, y_ticks: Ticks<'m>) -> Mesh<'m> {
+    // No light grid lines: they would hide single-pixel dots.
+    Mesh::new("W [rad/s]", y_desc)
+        .fonts(16, 19)
+        .no_light_lines()
+        .ticks(&|v| format!("{v:.2}"), y_ticks)
+}
+
 /// Draws a bifurcation diagram: one panel per coordinate in `coords`, W on the x axis,
 /// the series drawn in order (later ones on top); with `lambda1` series, a panel under
 /// them with the largest Lyapunov exponent against the same W axis and the zero line.
@@ -47,22 +60,17 @@ pub fn bifurcation_diagram(
     series: &[DotSeries],
     lambda1: &[Lambda1Series],
 ) -> Result<()> {
-    register_font();
-    let err = plot_err(path);
     let l1 = lambda1
         .iter()
         .any(|s| s.points.iter().any(|p| p.1.is_finite()));
     let l1_h = if l1 { 380 } else { 0 };
     let h = 120 + 620 * coords.len().max(1) as u32 + l1_h;
-    crate::plot::render_png(path, (1800, h), |root| {
-        root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
-        let root = root
-            .titled(title, ("sans-serif", 26))
-            .map_err(|e| err(e.to_string()))?;
+    figure(path, (1800, h), |root| {
+        let root = root.titled(title, ("sans-serif", 26))?;
         let (top, bottom) = root.split_vertically(root.dim_in_pixel().1 - l1_h);
         let pad = 0.005 * (w_range.1 - w_range.0).max(1e-9);
         if l1 {
-            lambda1_panel(&bottom, w_range, pad, lambda1).map_err(|e| err(e.to_string()))?;
+            lambda1_panel(&bottom, w_range, pad, lambda1)?;
         }
         for (area, &ci) in top
             .split_evenly((coords.len().max(1), 1))
@@ -75,23 +83,9 @@ pub fn bifurcation_diagram(
                     .iter()
                     .flat_map(|se| se.points.iter().map(move |p| p.1[ci] * s)),
             );
-            let mut chart = ChartBuilder::on(area)
-                .margin(14)
-                .x_label_area_size(50)
-                .y_label_area_size(90)
-                .build_cartesian_2d((w_range.0 - pad)..(w_range.1 + pad), yr)
-                .map_err(|e| err(e.to_string()))?;
-            chart
-                .configure_mesh()
-                .light_line_style(WHITE)
-                .x_desc("W [rad/s]")
-                .y_desc(label.as_str())
-                .label_style(("sans-serif", 16))
-                .axis_desc_style(("sans-serif", 19))
-                .x_label_formatter(&|v| format!("{v:.2}"))
-                .y_label_formatter(&|v| format!("{v:.4}"))
-                .draw()
-                .map_err(|e| err(e.to_string()))?;
+            let x = (w_range.0 - pad)..(w_range.1 + pad);
+            let mut chart = chart(area, None, PANEL, x, yr)?;
+            w_mesh(&label, &|v| format!("{v:.4}")).draw(&mut chart)?;
             for se in series.iter().filter(|se| !se.points.is_empty()) {
                 let c = se.color;
                 let r = se.radius;
@@ -109,25 +103,22 @@ pub fn bifurcation_diagram(
                             .filter(|p| p.1[ci].is_finite())
                             .map(|p| Circle::new((p.0, p.1[ci] * s), r, c.filled())),
                     )
-                }
-                .map_err(|e| err(e.to_string()))?;
-                anno.label(se.label.as_str())
-                    .legend(move |(x, y)| Circle::new((x + 9, y), 4, c.filled()));
+                }?;
+                anno.label(se.label.as_str()).legend(dot_key(c, 4));
             }
-            legend(&mut chart, SeriesLabelPosition::UpperLeft, 16).map_err(&err)?;
+            legend(&mut chart, SeriesLabelPosition::UpperLeft, 16)?;
         }
-        root.present().map_err(|e| err(e.to_string()))
+        Ok(())
     })
 }
 
 /// The lambda_1 panel of [`bifurcation_diagram`].
-fn lambda1_panel<DB: DrawingBackend>(
-    area: &DrawingArea<DB, plotters::coord::Shift>,
+fn lambda1_panel(
+    area: &Area<'_>,
     w_range: (f64, f64),
     pad: f64,
     series: &[Lambda1Series],
-) -> std::result::Result<(), String> {
-    let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
+) -> Drawn {
     let yr = padded_range(
         series
             .iter()
@@ -135,31 +126,11 @@ fn lambda1_panel<DB: DrawingBackend>(
             .chain([0.0]),
     );
     let x = (w_range.0 - pad)..(w_range.1 + pad);
-    let mut chart = ChartBuilder::on(area)
-        .margin(14)
-        .x_label_area_size(50)
-        .y_label_area_size(90)
-        .build_cartesian_2d(x.clone(), yr)
-        .map_err(e)?;
-    chart
-        .configure_mesh()
-        .light_line_style(WHITE)
-        .x_desc("W [rad/s]")
-        .y_desc("lambda_1 [1/s]")
-        .label_style(("sans-serif", 16))
-        .axis_desc_style(("sans-serif", 19))
-        .x_label_formatter(&|v| format!("{v:.2}"))
-        .y_label_formatter(&|v| format!("{v:.1}"))
-        .draw()
-        .map_err(e)?;
-    chart
-        .draw_series(LineSeries::new(
-            [(x.start, 0.0), (x.end, 0.0)],
-            BLACK.stroke_width(1),
-        ))
-        .map_err(e)?
+    let mut chart = chart(area, None, PANEL, x.clone(), yr)?;
+    w_mesh("lambda_1 [1/s]", &|v| format!("{v:.1}")).draw(&mut chart)?;
+    zero_line(&mut chart, &x, 1)?
         .label("lambda_1 = 0")
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK));
+        .legend(line_key(BLACK));
     for s in series {
         let c = s.color;
         let pts: Vec<(f64, f64)> = s
@@ -178,28 +149,22 @@ fn lambda1_panel<DB: DrawingBackend>(
                 if p.1.is_finite() {
                     run.push(*p);
                 } else if !run.is_empty() {
-                    chart
-                        .draw_series(LineSeries::new(
-                            std::mem::take(&mut run),
-                            c.mix(0.7).stroke_width(1),
-                        ))
-                        .map_err(e)?;
+                    chart.draw_series(LineSeries::new(
+                        std::mem::take(&mut run),
+                        c.mix(0.7).stroke_width(1),
+                    ))?;
                 }
             }
             if !run.is_empty() {
-                chart
-                    .draw_series(LineSeries::new(run, c.mix(0.7).stroke_width(1)))
-                    .map_err(e)?;
+                chart.draw_series(LineSeries::new(run, c.mix(0.7).stroke_width(1)))?;
             }
         }
         let anno = if s.radius == 0 {
             chart.draw_series(pts.iter().map(|&p| Pixel::new(p, c)))
         } else {
             chart.draw_series(pts.iter().map(|&p| Circle::new(p, s.radius, c.filled())))
-        }
-        .map_err(e)?;
-        anno.label(s.label.as_str())
-            .legend(move |(x, y)| Circle::new((x + 9, y), 4, c.filled()));
+        }?;
+        anno.label(s.label.as_str()).legend(dot_key(c, 4));
     }
     legend(&mut chart, SeriesLabelPosition::UpperLeft, 16)?;
     Ok(())

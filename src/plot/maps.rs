@@ -1,7 +1,8 @@
 //! Maps over a grid of start states or parameters: basins of attraction, category
 //! maps with a legend, and lambda_1 maps with a diverging colour bar.
 
-use super::{attractor_color, plot_err, register_font};
+use super::attractor_color;
+use super::frame::{Area, Drawn, Mesh, chart, figure};
 use jeffcott_core::error::Result;
 use plotters::prelude::*;
 use std::path::Path;
@@ -56,14 +57,12 @@ pub fn category_map(
             side.draw(&Rectangle::new(
                 [(10, y), (34, y + 24)],
                 colour(*id).filled(),
-            ))
-            .map_err(|e| e.to_string())?;
+            ))?;
             side.draw(&Text::new(
                 name.clone(),
                 (42, y + 3),
                 ("sans-serif", 17).into_font(),
-            ))
-            .map_err(|e| e.to_string())?;
+            ))?;
         }
         Ok(())
     })
@@ -79,8 +78,7 @@ struct Grid<'a> {
 }
 
 /// The side panel of a grid map (legend or colour bar), drawn by the caller.
-type SidePanel<'a> = dyn Fn(&DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>) -> std::result::Result<(), String>
-    + 'a;
+type SidePanel<'a> = dyn Fn(&Area<'_>) -> Drawn + 'a;
 
 /// Draws a grid map: each cell (index iy * nx + ix) in `colour(index)`, scaled to the
 /// plotting area pixel by pixel, axes labelled, and a side panel to the right.
@@ -91,33 +89,23 @@ fn grid_map(
     colour: &dyn Fn(usize) -> RGBColor,
     side: &SidePanel,
 ) -> Result<()> {
-    register_font();
-    let err = plot_err(path);
     let (nx, ny) = grid.cells;
     let (x_range, y_range) = (grid.x_range, grid.y_range);
-    crate::plot::render_png(path, (1300, 1100), |root| {
-        root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
-        let root = root
-            .titled(title, ("sans-serif", 24))
-            .map_err(|e| err(e.to_string()))?;
+    figure(path, (1300, 1100), |root| {
+        let root = root.titled(title, ("sans-serif", 24))?;
         let (plot_area, side_area) = root.split_horizontally(1000);
-        let mut chart = ChartBuilder::on(&plot_area)
-            .margin(14)
-            .x_label_area_size(50)
-            .y_label_area_size(90)
-            .build_cartesian_2d(x_range.0..x_range.1, y_range.0..y_range.1)
-            .map_err(|e| err(e.to_string()))?;
-        chart
-            .configure_mesh()
-            .disable_mesh()
-            .x_desc(grid.axes.0)
-            .y_desc(grid.axes.1)
-            .label_style(("sans-serif", 16))
-            .axis_desc_style(("sans-serif", 19))
-            .x_label_formatter(&|v| format!("{v:.4}"))
-            .y_label_formatter(&|v| format!("{v:.4}"))
-            .draw()
-            .map_err(|e| err(e.to_string()))?;
+        let mut chart = chart(
+            &plot_area,
+            None,
+            (14, 50, 90),
+            x_range.0..x_range.1,
+            y_range.0..y_range.1,
+        )?;
+        Mesh::new(grid.axes.0, grid.axes.1)
+            .no_grid()
+            .fonts(16, 19)
+            .ticks(&|v| format!("{v:.4}"), &|v| format!("{v:.4}"))
+            .draw(&mut chart)?;
         let (pw, ph) = chart.plotting_area().dim_in_pixel();
         let mut buf = vec![0u8; (pw * ph * 3) as usize];
         for py in 0..ph as usize {
@@ -131,12 +119,10 @@ fn grid_map(
             }
         }
         let img = BitMapElement::with_owned_buffer((x_range.0, y_range.1), (pw, ph), buf)
-            .ok_or_else(|| err("bitmap buffer size".into()))?;
-        chart
-            .draw_series(std::iter::once(img))
-            .map_err(|e| err(e.to_string()))?;
-        side(&side_area).map_err(&err)?;
-        root.present().map_err(|e| err(e.to_string()))
+            .ok_or("bitmap buffer size")?;
+        chart.draw_series(std::iter::once(img))?;
+        side(&side_area)?;
+        Ok(())
     })
 }
 
@@ -187,21 +173,16 @@ pub fn lambda1_map(
         &grid,
         &|i| lambda1_color(values[i], lo, hi),
         &|bar_area| {
-            let e = |e: DrawingAreaErrorKind<_>| e.to_string();
             // Colour bar: hi at the top, lo at the bottom.
             let (top, bot) = (80i32, 880i32);
             for y in top..bot {
                 let v = hi + (lo - hi) * (y - top) as f64 / (bot - top) as f64;
-                bar_area
-                    .draw(&Rectangle::new(
-                        [(20, y), (60, y + 1)],
-                        lambda1_color(v, lo, hi).filled(),
-                    ))
-                    .map_err(e)?;
+                bar_area.draw(&Rectangle::new(
+                    [(20, y), (60, y + 1)],
+                    lambda1_color(v, lo, hi).filled(),
+                ))?;
             }
-            bar_area
-                .draw(&Rectangle::new([(20, top), (60, bot)], BLACK))
-                .map_err(e)?;
+            bar_area.draw(&Rectangle::new([(20, top), (60, bot)], BLACK))?;
             let zero_y = if hi > lo {
                 top + ((hi / (hi - lo)) * (bot - top) as f64).round() as i32
             } else {
@@ -212,28 +193,22 @@ pub fn lambda1_map(
                 (zero_y, "0".to_string()),
                 (bot, format!("{lo:.2}")),
             ] {
-                bar_area
-                    .draw(&Text::new(
-                        text,
-                        (68, y - 8),
-                        ("sans-serif", 17).into_font(),
-                    ))
-                    .map_err(e)?;
+                bar_area.draw(&Text::new(
+                    text,
+                    (68, y - 8),
+                    ("sans-serif", 17).into_font(),
+                ))?;
             }
-            bar_area
-                .draw(&Text::new(
-                    "lambda_1 [1/s]",
-                    (10, top - 40),
-                    ("sans-serif", 18).into_font(),
-                ))
-                .map_err(e)?;
-            bar_area
-                .draw(&Text::new(
-                    "black: diverged",
-                    (10, bot + 30),
-                    ("sans-serif", 16).into_font(),
-                ))
-                .map_err(e)?;
+            bar_area.draw(&Text::new(
+                "lambda_1 [1/s]",
+                (10, top - 40),
+                ("sans-serif", 18).into_font(),
+            ))?;
+            bar_area.draw(&Text::new(
+                "black: diverged",
+                (10, bot + 30),
+                ("sans-serif", 16).into_font(),
+            ))?;
             Ok(())
         },
     )

@@ -1,8 +1,9 @@
 //! Measure and uncertainty plots: stacked basin fractions, the uncertain fraction
 //! f(eps) on log-log axes, and work-precision diagrams.
 
-use super::{PALETTE, legend, plot_err, register_font};
-use jeffcott_core::error::{Error, Result};
+use super::frame::{Area, Chart, Drawn, Mesh, chart, dot_key, figure, line_key};
+use super::{PALETTE, legend};
+use jeffcott_core::error::Result;
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -24,32 +25,15 @@ pub fn stacked_fractions(
     x: &[f64],
     panels: &[StackedPanel],
 ) -> Result<()> {
-    register_font();
-    let err = plot_err(path);
     let h = 140 + 430 * panels.len().max(1) as u32;
     let (x0, x1) = (x[0], x[x.len() - 1].max(x[0] + 1e-12));
-    crate::plot::render_png(path, (1300, h), |root| {
-        root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
-        let root = root
-            .titled(title, ("sans-serif", 24))
-            .map_err(|e| err(e.to_string()))?;
+    figure(path, (1300, h), |root| {
+        let root = root.titled(title, ("sans-serif", 24))?;
         let areas = root.split_evenly((panels.len().max(1), 1));
         for (area, panel) in areas.iter().zip(panels) {
-            let mut chart = ChartBuilder::on(area)
-                .caption(panel.title.as_str(), ("sans-serif", 19))
-                .margin(12)
-                .x_label_area_size(46)
-                .y_label_area_size(70)
-                .build_cartesian_2d(x0..x1, 0.0..1.0)
-                .map_err(|e| err(e.to_string()))?;
-            chart
-                .configure_mesh()
-                .x_desc(x_label)
-                .y_desc("basin fraction")
-                .label_style(("sans-serif", 15))
-                .axis_desc_style(("sans-serif", 17))
-                .draw()
-                .map_err(|e| err(e.to_string()))?;
+            let caption = Some((panel.title.as_str(), 19));
+            let mut chart = chart(area, caption, (12, 46, 70), x0..x1, 0.0..1.0)?;
+            Mesh::new(x_label, "basin fraction").draw(&mut chart)?;
             let mut lower = vec![0.0; x.len()];
             for (name, colour, values) in &panel.bands {
                 let upper: Vec<f64> = lower.iter().zip(values).map(|(l, v)| l + v).collect();
@@ -61,52 +45,38 @@ pub fn stacked_fractions(
                     .collect();
                 let c = *colour;
                 chart
-                    .draw_series(std::iter::once(Polygon::new(outline, c.mix(0.85).filled())))
-                    .map_err(|e| err(e.to_string()))?
+                    .draw_series(std::iter::once(Polygon::new(outline, c.mix(0.85).filled())))?
                     .label(name.as_str())
                     .legend(move |(x, y)| {
                         Rectangle::new([(x, y - 6), (x + 16, y + 6)], c.filled())
                     });
                 lower = upper;
             }
-            legend(&mut chart, SeriesLabelPosition::UpperRight, 14).map_err(&err)?;
+            legend(&mut chart, SeriesLabelPosition::UpperRight, 14)?;
         }
-        root.present().map_err(|e| err(e.to_string()))
+        Ok(())
     })
 }
 
-/// Log-log axes over f64.
-type LogLog = Cartesian2d<LogCoord<f64>, LogCoord<f64>>;
-
-/// A white canvas with a captioned chart on log-log axes over `x` and `y`, axes labelled
-/// `desc` (x, y) and ticks in 1e-n notation: the frame of the uncertainty and
-/// work-precision plots. `err` names the file in errors (`plot_err`).
-fn log_log_chart<'a, DB: DrawingBackend + 'a>(
-    err: &impl Fn(String) -> Error,
-    root: &'a DrawingArea<DB, plotters::coord::Shift>,
+/// A captioned chart on log-log axes over `x` and `y`, axes labelled `desc` (x, y) and
+/// ticks in 1e-n notation: the frame of the uncertainty and work-precision plots.
+fn log_log_chart<'a, 'b>(
+    root: &'a Area<'b>,
     title: &str,
     x: std::ops::Range<f64>,
     y: std::ops::Range<f64>,
     desc: (&str, &str),
-) -> Result<ChartContext<'a, DB, LogLog>> {
-    root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
-    let mut chart = ChartBuilder::on(root)
-        .caption(title, ("sans-serif", 20))
-        .margin(14)
-        .x_label_area_size(50)
-        .y_label_area_size(80)
-        .build_cartesian_2d(x.log_scale(), y.log_scale())
-        .map_err(|e| err(e.to_string()))?;
-    chart
-        .configure_mesh()
-        .x_desc(desc.0)
-        .y_desc(desc.1)
-        .label_style(("sans-serif", 15))
-        .axis_desc_style(("sans-serif", 17))
-        .x_label_formatter(&|v| format!("{v:.0e}"))
-        .y_label_formatter(&|v| format!("{v:.0e}"))
-        .draw()
-        .map_err(|e| err(e.to_string()))?;
+) -> Drawn<Chart<'a, 'b, LogCoord<f64>, LogCoord<f64>>> {
+    let mut chart = chart(
+        root,
+        Some((title, 20)),
+        (14, 50, 80),
+        x.log_scale(),
+        y.log_scale(),
+    )?;
+    Mesh::new(desc.0, desc.1)
+        .ticks(&|v| format!("{v:.0e}"), &|v| format!("{v:.0e}"))
+        .draw(&mut chart)?;
     Ok(chart)
 }
 
@@ -121,8 +91,6 @@ pub fn uncertainty(
     reint: &[(f64, f64)],
     reint_alpha: Option<f64>,
 ) -> Result<()> {
-    register_font();
-    let err = plot_err(path);
     let all: Vec<(f64, f64)> = grid
         .iter()
         .chain(reint)
@@ -135,10 +103,9 @@ pub fn uncertainty(
     let (y0, y1) = all
         .iter()
         .fold((1e-4f64, 1.0f64), |(a, b), p| (a.min(p.1), b.max(p.1)));
-    crate::plot::render_png(path, (1100, 800), |root| {
+    figure(path, (1100, 800), |root| {
         let mut chart = log_log_chart(
-            &err,
-            &root,
+            root,
             title,
             x0 * 0.5..x1 * 2.0,
             y0 * 0.5..y1 * 2.0,
@@ -164,10 +131,9 @@ pub fn uncertainty(
                 None => format!("{name}: not fitted"),
             };
             chart
-                .draw_series(used.iter().map(|&p| Circle::new(p, 5, c.filled())))
-                .map_err(|e| err(e.to_string()))?
+                .draw_series(used.iter().map(|&p| Circle::new(p, 5, c.filled())))?
                 .label(label)
-                .legend(move |(x, y)| Circle::new((x + 9, y), 5, c.filled()));
+                .legend(dot_key(c, 5));
             if let Some(a) = alpha {
                 let n = used.len() as f64;
                 let mx = used.iter().map(|p| p.0.ln()).sum::<f64>() / n;
@@ -176,16 +142,14 @@ pub fn uncertainty(
                     (l.min(p.0), h.max(p.0))
                 });
                 let line = [lo, hi].map(|x| (x, (my + a * (x.ln() - mx)).exp()));
-                chart
-                    .draw_series(std::iter::once(PathElement::new(
-                        line.to_vec(),
-                        c.stroke_width(2),
-                    )))
-                    .map_err(|e| err(e.to_string()))?;
+                chart.draw_series(std::iter::once(PathElement::new(
+                    line.to_vec(),
+                    c.stroke_width(2),
+                )))?;
             }
         }
-        legend(&mut chart, SeriesLabelPosition::LowerRight, 15).map_err(&err)?;
-        root.present().map_err(|e| err(e.to_string()))
+        legend(&mut chart, SeriesLabelPosition::LowerRight, 15)?;
+        Ok(())
     })
 }
 
@@ -201,8 +165,6 @@ pub fn work_precision(
     series: &[WorkPrecisionSeries],
     target: f64,
 ) -> Result<()> {
-    register_font();
-    let err = plot_err(path);
     let pts: Vec<(f64, f64)> = series
         .iter()
         .flat_map(|s| s.3.iter().copied())
@@ -214,10 +176,9 @@ pub fn work_precision(
     let (y0, y1) = pts
         .iter()
         .fold((target, target), |(a, b), p| (a.min(p.1), b.max(p.1)));
-    crate::plot::render_png(path, (1200, 850), |root| {
+    figure(path, (1200, 850), |root| {
         let mut chart = log_log_chart(
-            &err,
-            &root,
+            root,
             title,
             x0 * 0.7..x1 * 1.4,
             y0 * 0.3..y1 * 3.0,
@@ -226,12 +187,10 @@ pub fn work_precision(
                 "position error after 200 periods [m] (lower is better)",
             ),
         )?;
-        chart
-            .draw_series(std::iter::once(PathElement::new(
-                vec![(x0 * 0.7, target), (x1 * 1.4, target)],
-                RGBColor(150, 150, 150).stroke_width(1),
-            )))
-            .map_err(|e| err(e.to_string()))?;
+        chart.draw_series(std::iter::once(PathElement::new(
+            vec![(x0 * 0.7, target), (x1 * 1.4, target)],
+            RGBColor(150, 150, 150).stroke_width(1),
+        )))?;
         for (name, c, dashed, p) in series {
             let c = *c;
             let style = if *dashed {
@@ -240,15 +199,12 @@ pub fn work_precision(
                 c.stroke_width(3)
             };
             chart
-                .draw_series(LineSeries::new(p.iter().copied(), style))
-                .map_err(|e| err(e.to_string()))?
+                .draw_series(LineSeries::new(p.iter().copied(), style))?
                 .label(name.as_str())
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], c));
-            chart
-                .draw_series(p.iter().map(|&q| Circle::new(q, 4, c.filled())))
-                .map_err(|e| err(e.to_string()))?;
+                .legend(line_key(c));
+            chart.draw_series(p.iter().map(|&q| Circle::new(q, 4, c.filled())))?;
         }
-        legend(&mut chart, SeriesLabelPosition::LowerLeft, 15).map_err(&err)?;
-        root.present().map_err(|e| err(e.to_string()))
+        legend(&mut chart, SeriesLabelPosition::LowerLeft, 15)?;
+        Ok(())
     })
 }

@@ -1,7 +1,8 @@
 //! Phase portraits and state-space traces: one run's portraits with its Poincare
 //! points, coexisting attractors on common axes, and Poincare sections.
 
-use super::{coord_axis, legend, padded_range, plot_err, register_font};
+use super::frame::{Mesh, chart, dot_key, figure, line_key};
+use super::{coord_axis, legend, padded_range};
 use jeffcott_core::error::Result;
 use jeffcott_core::model::{STATE_DIM, State, VX_R, VX_S, X_R, X_S, Y_R, Y_S};
 use plotters::prelude::*;
@@ -18,6 +19,14 @@ struct Panel {
     y_label: &'static str,
 }
 
+/// Margin and label areas of a portrait panel (the four panels share one layout).
+const PORTRAIT: (u32, u32, u32) = (12, 48, 80);
+
+/// The axes of a portrait panel, ticks to three decimals.
+fn portrait_mesh<'m>(x_desc: &'m str, y_desc: &'m str) -> Mesh<'m> {
+    Mesh::new(x_desc, y_desc).ticks(&|v| format!("{v:.3}"), &|v| format!("{v:.3}"))
+}
+
 /// Draws the phase portraits of `simulate`: rotor and stator (x, vx) and (x, y), the
 /// trajectory as a line and the Poincare points as red dots.
 pub fn phase_portraits(
@@ -26,8 +35,6 @@ pub fn phase_portraits(
     timeseries: &[[f64; STATE_DIM + 1]],
     poincare: &[State],
 ) -> Result<()> {
-    register_font();
-    let err = plot_err(path);
     let panels = [
         Panel {
             title: "rotor phase portrait",
@@ -66,11 +73,8 @@ pub fn phase_portraits(
             y_label: "y_s [mm]",
         },
     ];
-    crate::plot::render_png(path, (1400, 1150), |root| {
-        root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
-        let root = root
-            .titled(title, ("sans-serif", 26))
-            .map_err(|e| err(e.to_string()))?;
+    figure(path, (1400, 1150), |root| {
+        let root = root.titled(title, ("sans-serif", 26))?;
         for (area, pn) in root.split_evenly((2, 2)).iter().zip(panels.iter()) {
             // Row layout: timeseries rows are (t, state...), so component i is column i + 1.
             let line: Vec<(f64, f64)> = timeseries
@@ -83,36 +87,19 @@ pub fn phase_portraits(
                 .collect();
             let xr = padded_range(line.iter().chain(dots.iter()).map(|p| p.0));
             let yr = padded_range(line.iter().chain(dots.iter()).map(|p| p.1));
-            let mut chart = ChartBuilder::on(area)
-                .caption(pn.title, ("sans-serif", 20))
-                .margin(12)
-                .x_label_area_size(48)
-                .y_label_area_size(80)
-                .build_cartesian_2d(xr, yr)
-                .map_err(|e| err(e.to_string()))?;
+            let mut chart = chart(area, Some((pn.title, 20)), PORTRAIT, xr, yr)?;
+            portrait_mesh(pn.x_label, pn.y_label).draw(&mut chart)?;
             chart
-                .configure_mesh()
-                .x_desc(pn.x_label)
-                .y_desc(pn.y_label)
-                .label_style(("sans-serif", 15))
-                .axis_desc_style(("sans-serif", 17))
-                .x_label_formatter(&|v| format!("{v:.3}"))
-                .y_label_formatter(&|v| format!("{v:.3}"))
-                .draw()
-                .map_err(|e| err(e.to_string()))?;
-            chart
-                .draw_series(LineSeries::new(line, BLUE.mix(0.55).stroke_width(1)))
-                .map_err(|e| err(e.to_string()))?
+                .draw_series(LineSeries::new(line, BLUE.mix(0.55).stroke_width(1)))?
                 .label("trajectory")
-                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLUE));
+                .legend(line_key(BLUE));
             chart
-                .draw_series(dots.iter().map(|&p| Circle::new(p, 4, RED.filled())))
-                .map_err(|e| err(e.to_string()))?
+                .draw_series(dots.iter().map(|&p| Circle::new(p, 4, RED.filled())))?
                 .label("Poincare points (t = kT)")
-                .legend(|(x, y)| Circle::new((x + 9, y), 4, RED.filled()));
-            legend(&mut chart, SeriesLabelPosition::MiddleRight, 14).map_err(&err)?;
+                .legend(dot_key(RED, 4));
+            legend(&mut chart, SeriesLabelPosition::MiddleRight, 14)?;
         }
-        root.present().map_err(|e| err(e.to_string()))
+        Ok(())
     })
 }
 
@@ -133,19 +120,14 @@ pub struct AttractorTrace {
 /// Draws coexisting attractors at one W on common axes: rotor and stator (x, vx) and
 /// (x, y), each attractor in its colour with its Poincare points as large dots.
 pub fn coexisting_attractors(path: &Path, title: &str, traces: &[AttractorTrace]) -> Result<()> {
-    register_font();
-    let err = plot_err(path);
     let panels = [
         (X_R, VX_R, "rotor phase portrait"),
         (X_R, Y_R, "rotor orbit"),
         (X_S, VX_S, "stator phase portrait"),
         (X_S, Y_S, "stator orbit"),
     ];
-    crate::plot::render_png(path, (1400, 1150), |root| {
-        root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
-        let root = root
-            .titled(title, ("sans-serif", 26))
-            .map_err(|e| err(e.to_string()))?;
+    figure(path, (1400, 1150), |root| {
+        let root = root.titled(title, ("sans-serif", 26))?;
         for (area, &(xi, yi, name)) in root.split_evenly((2, 2)).iter().zip(panels.iter()) {
             let (xs, xl) = coord_axis(xi);
             let (ys, yl) = coord_axis(yi);
@@ -157,26 +139,10 @@ pub fn coexisting_attractors(path: &Path, title: &str, traces: &[AttractorTrace]
                         .chain(t.poincare.iter().map(|p| (p[xi] * xs, p[yi] * ys)))
                 })
             };
-            let mut chart = ChartBuilder::on(area)
-                .caption(name, ("sans-serif", 20))
-                .margin(12)
-                .x_label_area_size(48)
-                .y_label_area_size(80)
-                .build_cartesian_2d(
-                    padded_range(all().map(|p| p.0)),
-                    padded_range(all().map(|p| p.1)),
-                )
-                .map_err(|e| err(e.to_string()))?;
-            chart
-                .configure_mesh()
-                .x_desc(xl.as_str())
-                .y_desc(yl.as_str())
-                .label_style(("sans-serif", 15))
-                .axis_desc_style(("sans-serif", 17))
-                .x_label_formatter(&|v| format!("{v:.3}"))
-                .y_label_formatter(&|v| format!("{v:.3}"))
-                .draw()
-                .map_err(|e| err(e.to_string()))?;
+            let xr = padded_range(all().map(|p| p.0));
+            let yr = padded_range(all().map(|p| p.1));
+            let mut chart = chart(area, Some((name, 20)), PORTRAIT, xr, yr)?;
+            portrait_mesh(&xl, &yl).draw(&mut chart)?;
             for t in traces {
                 let c = t.color;
                 chart
@@ -185,21 +151,18 @@ pub fn coexisting_attractors(path: &Path, title: &str, traces: &[AttractorTrace]
                             .iter()
                             .map(|r| (r[xi + 1] * xs, r[yi + 1] * ys)),
                         c.mix(0.6).stroke_width(1),
-                    ))
-                    .map_err(|e| err(e.to_string()))?
+                    ))?
                     .label(t.name.as_str())
-                    .legend(move |(x, y)| Circle::new((x + 9, y), 5, c.filled()));
-                chart
-                    .draw_series(
-                        t.poincare
-                            .iter()
-                            .map(|p| Circle::new((p[xi] * xs, p[yi] * ys), 5, c.filled())),
-                    )
-                    .map_err(|e| err(e.to_string()))?;
+                    .legend(dot_key(c, 5));
+                chart.draw_series(
+                    t.poincare
+                        .iter()
+                        .map(|p| Circle::new((p[xi] * xs, p[yi] * ys), 5, c.filled())),
+                )?;
             }
-            legend(&mut chart, SeriesLabelPosition::MiddleRight, 14).map_err(&err)?;
+            legend(&mut chart, SeriesLabelPosition::MiddleRight, 14)?;
         }
-        root.present().map_err(|e| err(e.to_string()))
+        Ok(())
     })
 }
 
@@ -213,15 +176,10 @@ pub fn poincare_sections(
     panels: &[(usize, usize)],
     zoom: Option<f64>,
 ) -> Result<()> {
-    register_font();
-    let err = plot_err(path);
     let cols = panels.len().clamp(1, 2);
     let rows = panels.len().div_ceil(2).max(1);
-    crate::plot::render_png(path, (700 * cols as u32, 80 + 620 * rows as u32), |root| {
-        root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
-        let root = root
-            .titled(title, ("sans-serif", 24))
-            .map_err(|e| err(e.to_string()))?;
+    figure(path, (700 * cols as u32, 80 + 620 * rows as u32), |root| {
+        let root = root.titled(title, ("sans-serif", 24))?;
         for (area, &(xi, yi)) in root.split_evenly((rows, cols)).iter().zip(panels) {
             let (xs, xl) = coord_axis(xi);
             let (ys, yl) = coord_axis(yi);
@@ -249,32 +207,18 @@ pub fn poincare_sections(
                 .into_iter()
                 .filter(|p| xr.contains(&p.0) && yr.contains(&p.1))
                 .collect();
-            let mut chart = ChartBuilder::on(area)
-                .margin(12)
-                .x_label_area_size(48)
-                .y_label_area_size(85)
-                .build_cartesian_2d(xr, yr)
-                .map_err(|e| err(e.to_string()))?;
-            chart
-                .configure_mesh()
-                .x_desc(xl.as_str())
-                .y_desc(yl.as_str())
-                .label_style(("sans-serif", 15))
-                .axis_desc_style(("sans-serif", 17))
-                .light_line_style(WHITE)
-                .x_label_formatter(&|v| format!("{v:.4}"))
-                .y_label_formatter(&|v| format!("{v:.4}"))
-                .draw()
-                .map_err(|e| err(e.to_string()))?;
+            let mut chart = chart(area, None, (12, 48, 85), xr, yr)?;
+            Mesh::new(&xl, &yl)
+                .no_light_lines()
+                .ticks(&|v| format!("{v:.4}"), &|v| format!("{v:.4}"))
+                .draw(&mut chart)?;
             let r = if inside.len() > 5000 { 1 } else { 2 };
-            chart
-                .draw_series(
-                    inside
-                        .iter()
-                        .map(|&p| Circle::new(p, r, RGBColor(20, 60, 160).filled())),
-                )
-                .map_err(|e| err(e.to_string()))?;
+            chart.draw_series(
+                inside
+                    .iter()
+                    .map(|&p| Circle::new(p, r, RGBColor(20, 60, 160).filled())),
+            )?;
         }
-        root.present().map_err(|e| err(e.to_string()))
+        Ok(())
     })
 }

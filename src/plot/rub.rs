@@ -3,7 +3,8 @@
 //! circle and the contact load histories (`contact.png`), and the full-spectrum cascade
 //! against speed (`cascade.png`).
 
-use super::{padded_range, plot_err, register_font};
+use super::frame::{Mesh, chart, dot_key, figure, line_key};
+use super::{legend, padded_range};
 use jeffcott_analysis::spectrum::FullSpectrum;
 use jeffcott_core::error::Result;
 use plotters::prelude::*;
@@ -30,13 +31,8 @@ pub fn full_spectrum(
     stator: &FullSpectrum,
     max_order: f64,
 ) -> Result<()> {
-    register_font();
-    let err = plot_err(path);
-    crate::plot::render_png(path, (1300, 1000), |root| {
-        root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
-        let root = root
-            .titled(title, ("sans-serif", 24))
-            .map_err(|e| err(e.to_string()))?;
+    figure(path, (1300, 1000), |root| {
+        let root = root.titled(title, ("sans-serif", 24))?;
         let areas = root.split_evenly((2, 1));
         for (area, (name, s)) in areas.iter().zip([("rotor", rotor), ("stator", stator)]) {
             let pts: Vec<(f64, f64)> = s
@@ -47,50 +43,34 @@ pub fn full_spectrum(
                 .map(|(&o, &a)| (o, a * 1e3))
                 .collect();
             let top = pts.iter().map(|p| p.1).fold(1e-9, f64::max) * 1.15;
-            let mut chart = ChartBuilder::on(area)
-                .caption(
-                    format!("{name}: full spectrum of x + i y (forward > 0, backward < 0)"),
-                    ("sans-serif", 19),
-                )
-                .margin(12)
-                .x_label_area_size(46)
-                .y_label_area_size(80)
-                .build_cartesian_2d(-max_order..max_order, 0.0..top)
-                .map_err(|e| err(e.to_string()))?;
-            chart
-                .configure_mesh()
-                .x_desc("frequency / W (order)")
-                .y_desc("amplitude [mm]")
-                .label_style(("sans-serif", 15))
-                .axis_desc_style(("sans-serif", 17))
-                .draw()
-                .map_err(|e| err(e.to_string()))?;
+            let caption = format!("{name}: full spectrum of x + i y (forward > 0, backward < 0)");
+            let mut chart = chart(
+                area,
+                Some((&caption, 19)),
+                (12, 46, 80),
+                -max_order..max_order,
+                0.0..top,
+            )?;
+            Mesh::new("frequency / W (order)", "amplitude [mm]").draw(&mut chart)?;
             for (o, label) in MARKS {
                 if o.abs() <= max_order {
-                    chart
-                        .draw_series(std::iter::once(PathElement::new(
-                            vec![(o, 0.0), (o, top)],
-                            RGBColor(170, 170, 170).stroke_width(1),
-                        )))
-                        .map_err(|e| err(e.to_string()))?;
-                    chart
-                        .draw_series(std::iter::once(Text::new(
-                            label,
-                            (o, top * 0.97),
-                            ("sans-serif", 14).into_font().color(&RGBColor(90, 90, 90)),
-                        )))
-                        .map_err(|e| err(e.to_string()))?;
+                    chart.draw_series(std::iter::once(PathElement::new(
+                        vec![(o, 0.0), (o, top)],
+                        RGBColor(170, 170, 170).stroke_width(1),
+                    )))?;
+                    chart.draw_series(std::iter::once(Text::new(
+                        label,
+                        (o, top * 0.97),
+                        ("sans-serif", 14).into_font().color(&RGBColor(90, 90, 90)),
+                    )))?;
                 }
             }
             chart
-                .draw_series(
-                    pts.iter().map(|&(o, a)| {
-                        PathElement::new(vec![(o, 0.0), (o, a)], BLUE.stroke_width(2))
-                    }),
-                )
-                .map_err(|e| err(e.to_string()))?;
+                .draw_series(pts.iter().map(|&(o, a)| {
+                    PathElement::new(vec![(o, 0.0), (o, a)], BLUE.stroke_width(2))
+                }))?;
         }
-        root.present().map_err(|e| err(e.to_string()))
+        Ok(())
     })
 }
 
@@ -98,37 +78,22 @@ pub fn full_spectrum(
 /// red), and the normal contact force and penetration against time. `rows` are
 /// (t [s], dx [m], dy [m], g [m], F_n [N]).
 pub fn contact(path: &Path, title: &str, rows: &[[f64; 5]], delta: f64) -> Result<()> {
-    register_font();
-    let err = plot_err(path);
-    crate::plot::render_png(path, (1500, 800), |root| {
-        root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
-        let root = root
-            .titled(title, ("sans-serif", 24))
-            .map_err(|e| err(e.to_string()))?;
+    figure(path, (1500, 800), |root| {
+        let root = root.titled(title, ("sans-serif", 24))?;
         let (left, right) = root.split_horizontally(760);
         let reach = rows
             .iter()
             .map(|r| r[1].abs().max(r[2].abs()))
             .fold(delta, f64::max)
             * 1.1e3;
-        let mut orbit = ChartBuilder::on(&left)
-            .caption(
-                "rotor centre relative to the stator, clearance circle",
-                ("sans-serif", 18),
-            )
-            .margin(12)
-            .x_label_area_size(46)
-            .y_label_area_size(70)
-            .build_cartesian_2d(-reach..reach, -reach..reach)
-            .map_err(|e| err(e.to_string()))?;
-        orbit
-            .configure_mesh()
-            .x_desc("x_r - x_s [mm]")
-            .y_desc("y_r - y_s [mm]")
-            .label_style(("sans-serif", 15))
-            .axis_desc_style(("sans-serif", 17))
-            .draw()
-            .map_err(|e| err(e.to_string()))?;
+        let mut orbit = chart(
+            &left,
+            Some(("rotor centre relative to the stator, clearance circle", 18)),
+            (12, 46, 70),
+            -reach..reach,
+            -reach..reach,
+        )?;
+        Mesh::new("x_r - x_s [mm]", "y_r - y_s [mm]").draw(&mut orbit)?;
         let circle: Vec<(f64, f64)> = (0..=360)
             .map(|k| {
                 let a = (k as f64).to_radians();
@@ -139,28 +104,25 @@ pub fn contact(path: &Path, title: &str, rows: &[[f64; 5]], delta: f64) -> Resul
             .draw_series(std::iter::once(PathElement::new(
                 circle,
                 BLACK.stroke_width(2),
-            )))
-            .map_err(|e| err(e.to_string()))?
+            )))?
             .label("clearance")
-            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK));
+            .legend(line_key(BLACK));
         orbit
             .draw_series(LineSeries::new(
                 rows.iter().map(|r| (r[1] * 1e3, r[2] * 1e3)),
                 BLUE.mix(0.6).stroke_width(1),
-            ))
-            .map_err(|e| err(e.to_string()))?
+            ))?
             .label("orbit")
-            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLUE));
+            .legend(line_key(BLUE));
         orbit
             .draw_series(
                 rows.iter()
                     .filter(|r| r[3] > 0.0)
                     .map(|r| Circle::new((r[1] * 1e3, r[2] * 1e3), 2, RED.filled())),
-            )
-            .map_err(|e| err(e.to_string()))?
+            )?
             .label("in contact")
-            .legend(|(x, y)| Circle::new((x + 9, y), 3, RED.filled()));
-        super::legend(&mut orbit, SeriesLabelPosition::UpperRight, 14).map_err(&err)?;
+            .legend(dot_key(RED, 3));
+        legend(&mut orbit, SeriesLabelPosition::UpperRight, 14)?;
         let (t0, t1) = (
             rows.first().map(|r| r[0]).unwrap_or(0.0),
             rows.last().map(|r| r[0]).unwrap_or(1.0),
@@ -171,28 +133,16 @@ pub fn contact(path: &Path, title: &str, rows: &[[f64; 5]], delta: f64) -> Resul
             (3, "penetration g [um]", 1e6),
         ]) {
             let yr = padded_range(rows.iter().map(|r| r[col].max(0.0) * scale).chain([0.0]));
-            let mut chart = ChartBuilder::on(area)
-                .margin(12)
-                .x_label_area_size(40)
-                .y_label_area_size(80)
-                .build_cartesian_2d(0.0..(t1 - t0).max(1e-12), yr)
-                .map_err(|e| err(e.to_string()))?;
-            chart
-                .configure_mesh()
-                .x_desc("t - t0 [s]")
-                .y_desc(name)
-                .label_style(("sans-serif", 14))
-                .axis_desc_style(("sans-serif", 16))
-                .draw()
-                .map_err(|e| err(e.to_string()))?;
-            chart
-                .draw_series(LineSeries::new(
-                    rows.iter().map(|r| (r[0] - t0, r[col].max(0.0) * scale)),
-                    RED.stroke_width(1),
-                ))
-                .map_err(|e| err(e.to_string()))?;
+            let mut chart = chart(area, None, (12, 40, 80), 0.0..(t1 - t0).max(1e-12), yr)?;
+            Mesh::new("t - t0 [s]", name)
+                .fonts(14, 16)
+                .draw(&mut chart)?;
+            chart.draw_series(LineSeries::new(
+                rows.iter().map(|r| (r[0] - t0, r[col].max(0.0) * scale)),
+                RED.stroke_width(1),
+            ))?;
         }
-        root.present().map_err(|e| err(e.to_string()))
+        Ok(())
     })
 }
 
@@ -207,8 +157,6 @@ pub fn cascade(
     amplitude: &[f64],
     naturals: &[(String, f64)],
 ) -> Result<()> {
-    register_font();
-    let err = plot_err(path);
     let n = orders.len();
     let tau = std::f64::consts::TAU;
     let (w0, w1) = (speeds[0], speeds[speeds.len() - 1].max(speeds[0] + 1e-9));
@@ -219,23 +167,13 @@ pub fn cascade(
         .filter(|a| a.is_finite())
         .fold(1e-12, f64::max);
     let floor = top * 1e-4;
-    crate::plot::render_png(path, (1400, 1000), |root| {
-        root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
-        let mut chart = ChartBuilder::on(&root)
-            .caption(title, ("sans-serif", 22))
-            .margin(14)
-            .x_label_area_size(50)
-            .y_label_area_size(80)
-            .build_cartesian_2d(w0..w1, -fmax..fmax)
-            .map_err(|e| err(e.to_string()))?;
-        chart
-            .configure_mesh()
-            .x_desc("rotor speed W [rad/s]")
-            .y_desc("frequency [Hz] (forward > 0, backward < 0)")
-            .label_style(("sans-serif", 15))
-            .axis_desc_style(("sans-serif", 17))
-            .draw()
-            .map_err(|e| err(e.to_string()))?;
+    figure(path, (1400, 1000), |root| {
+        let mut chart = chart(root, Some((title, 22)), (14, 50, 80), w0..w1, -fmax..fmax)?;
+        Mesh::new(
+            "rotor speed W [rad/s]",
+            "frequency [Hz] (forward > 0, backward < 0)",
+        )
+        .draw(&mut chart)?;
         let dw = if speeds.len() > 1 {
             (w1 - w0) / (speeds.len() - 1) as f64
         } else {
@@ -264,33 +202,29 @@ pub fn cascade(
                 ));
             }
         }
-        chart.draw_series(cells).map_err(|e| err(e.to_string()))?;
+        chart.draw_series(cells)?;
         chart
             .draw_series(std::iter::once(PathElement::new(
                 vec![(w0, w0 / tau), (w1, w1 / tau)],
                 BLUE.stroke_width(2),
-            )))
-            .map_err(|e| err(e.to_string()))?
+            )))?
             .label("1X")
-            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLUE));
+            .legend(line_key(BLUE));
         for (k, (name, f)) in naturals.iter().enumerate() {
             let c = super::PALETTE[(k + 2) % super::PALETTE.len()];
             for sign in [1.0, -1.0] {
                 if f.abs() <= fmax {
-                    let s = chart
-                        .draw_series(std::iter::once(PathElement::new(
-                            vec![(w0, sign * f), (w1, sign * f)],
-                            c.stroke_width(1),
-                        )))
-                        .map_err(|e| err(e.to_string()))?;
+                    let s = chart.draw_series(std::iter::once(PathElement::new(
+                        vec![(w0, sign * f), (w1, sign * f)],
+                        c.stroke_width(1),
+                    )))?;
                     if sign > 0.0 {
-                        s.label(name.as_str())
-                            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], c));
+                        s.label(name.as_str()).legend(line_key(c));
                     }
                 }
             }
         }
-        super::legend(&mut chart, SeriesLabelPosition::UpperLeft, 14).map_err(&err)?;
-        root.present().map_err(|e| err(e.to_string()))
+        legend(&mut chart, SeriesLabelPosition::UpperLeft, 14)?;
+        Ok(())
     })
 }
