@@ -3,11 +3,12 @@
 //! (period-2).
 
 use jeffcott_analysis::backend::run;
-use jeffcott_analysis::catalogue::{CatalogueConfig, catalogue, catalogue_result};
+use jeffcott_analysis::catalogue::{Catalogue, CatalogueConfig, catalogue, catalogue_result};
 use jeffcott_analysis::classify::Class;
-use jeffcott_analysis::settings::LaneSettings;
 use jeffcott_core::ensemble::{Backend, EnsembleSpec, LaneSpec, Precision};
 use jeffcott_core::model::{Params, STATE_DIM, State, VX_R, X_R};
+
+mod common;
 
 const W: f64 = 133.0;
 
@@ -56,6 +57,12 @@ fn circle(len: usize, start: usize) -> Vec<State> {
         .collect()
 }
 
+/// The default catalogue at [`W`] of lanes none of which diverged, with their lambda_1.
+fn catalogue_with_lambda1(pts: &[f64], rec: usize, lam: &[f64]) -> Catalogue {
+    let frozen = vec![false; lam.len()];
+    catalogue(W, pts, rec, &frozen, Some(lam), &CatalogueConfig::default())
+}
+
 #[test]
 fn period_n_with_noise_below_tolerance_is_period_n_and_phase_shifts_share_an_id() {
     let cfg = CatalogueConfig::default();
@@ -97,25 +104,11 @@ fn a_quasiperiodic_circle_is_aperiodic_and_one_attractor_whatever_the_phase() {
     assert_eq!(c.attractors[0].kind(), Class::Aperiodic);
     // The Lyapunov hook: lambda1 ~ 0 is quasiperiodic, > 0 chaotic, < 0 stays aperiodic.
     let lam = [0.01, -0.05, 0.0];
-    let c = catalogue(
-        W,
-        &pts,
-        rec,
-        &[false; 3],
-        Some(&lam),
-        &CatalogueConfig::default(),
-    );
+    let c = catalogue_with_lambda1(&pts, rec, &lam);
     assert_eq!(c.attractors[0].kind(), Class::Quasiperiodic);
     assert_eq!(c.labels, vec![0, 0, 0]);
     let lam = [3.0, 3.0, -2.0];
-    let c = catalogue(
-        W,
-        &pts,
-        rec,
-        &[false; 3],
-        Some(&lam),
-        &CatalogueConfig::default(),
-    );
+    let c = catalogue_with_lambda1(&pts, rec, &lam);
     // One cloud is one attractor whatever each lane's short-time lambda1; its class
     // follows the mean (4/3 1/s: chaotic).
     assert_eq!(c.attractors.len(), 1, "{:?}", c.attractors);
@@ -124,14 +117,7 @@ fn a_quasiperiodic_circle_is_aperiodic_and_one_attractor_whatever_the_phase() {
     assert_eq!(c.attractors[0].lambda1_range, Some((-2.0, 3.0)));
     assert_eq!(c.labels, vec![0, 0, 0]);
     let lam = [-3.0, -3.0, -2.0];
-    let c = catalogue(
-        W,
-        &pts,
-        rec,
-        &[false; 3],
-        Some(&lam),
-        &CatalogueConfig::default(),
-    );
+    let c = catalogue_with_lambda1(&pts, rec, &lam);
     assert_eq!(c.attractors[0].kind(), Class::Aperiodic);
 }
 
@@ -241,14 +227,7 @@ fn real_runs_are_one_period_1_attractor_at_131_7_and_one_period_2_attractor_at_1
 fn study(omega: &str, ics: u32) -> jeffcott_analysis::bifurcation::BifurcationSpec {
     use jeffcott_analysis::bifurcation::{BifurcationSpec, Sweep};
     BifurcationSpec {
-        lane: LaneSettings {
-            params: Params::default(),
-            stepper: Default::default(),
-            precision: Precision::F64,
-            backend: Backend::Cpu,
-            catalogue: CatalogueConfig::default(),
-            lyapunov: false,
-        },
+        lane: common::cpu_f64_lane(Params::default(), false),
         omegas: jeffcott_core::ensemble::parse_range("omega", omega).unwrap(),
         sweep: Some(Sweep::Both),
         transient_first: 800,
@@ -389,14 +368,7 @@ fn basin_lambda1_map_is_finite_and_the_catalogue_says_chaotic_at_140() {
     let p = Params::default();
     let spec = BasinSpec {
         base: p.static_equilibrium(),
-        lane: LaneSettings {
-            params: p,
-            stepper: Default::default(),
-            precision: Precision::F64,
-            backend: Backend::Cpu,
-            catalogue: CatalogueConfig::default(),
-            lyapunov: true,
-        },
+        lane: common::cpu_f64_lane(p, true),
         omega: 140.0,
         x: Axis {
             coord: X_R,
@@ -435,14 +407,7 @@ fn scattered_lambda1_estimates_on_one_cloud_give_one_quasiperiodic_attractor() {
     let lanes: Vec<Vec<State>> = (0..6).map(|k| circle(200, 13 * k)).collect();
     let (pts, rec) = flat(&lanes);
     let lam = [0.25, -0.3, 0.1, 0.35, -0.22, -0.05];
-    let c = catalogue(
-        W,
-        &pts,
-        rec,
-        &[false; 6],
-        Some(&lam),
-        &CatalogueConfig::default(),
-    );
+    let c = catalogue_with_lambda1(&pts, rec, &lam);
     assert_eq!(c.attractors.len(), 1, "{:?}", c.attractors);
     assert_eq!(c.attractors[0].kind(), Class::Quasiperiodic);
     assert_eq!(c.labels, vec![0; 6]);

@@ -2,36 +2,16 @@
 //! file, `.npy` files that follow the NPY format spec, clear errors for bad input.
 
 mod common;
-use common::{jeffcott, json, npy_header};
+use common::{jeffcott, jeffcott_temp, json, npy_header, ok, temp_out, words};
 
 #[test]
 fn bifurcation_writes_arrays_summary_and_diagram() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("bif");
-    let o = jeffcott(&[
-        "bifurcation",
-        "--omega",
-        "132.1:132.3:3",
-        "--coord",
-        "vx_s,vx_r",
-        "--ics",
-        "2",
-        "--transient",
-        "60",
-        "--transient-first",
-        "300",
-        "--brute-transient",
-        "150",
-        "--periods",
-        "8",
-        "--backend",
-        "cpu",
-        "--portraits",
-        "132.2",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (_dir, out, o) = jeffcott_temp(
+        "bif",
+        "bifurcation --omega 132.1:132.3:3 --coord vx_s,vx_r --ics 2 --transient 60 \
+         --transient-first 300 --brute-transient 150 --periods 8 --backend cpu --portraits 132.2",
+    );
+    ok(&o);
     assert_eq!(npy_header(&out.join("omega.npy")), ("<f8".into(), vec![3]));
     let png = std::fs::read(out.join("attractors_132.2000.png")).unwrap();
     assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
@@ -67,29 +47,12 @@ fn bifurcation_writes_arrays_summary_and_diagram() {
 
 #[test]
 fn basin_writes_int32_labels_catalogue_and_pictures() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("basin");
-    let o = jeffcott(&[
+    let (_dir, out, o) = jeffcott_temp(
         "basin",
-        "--omega",
-        "132.2",
-        "--x",
-        "x_r:-0.004:0.004:4",
-        "--y",
-        "vx_r:-0.5:0.5:3",
-        "--fix",
-        "y_r=-0.0005",
-        "--lyapunov",
-        "--transient",
-        "150",
-        "--periods",
-        "8",
-        "--backend",
-        "cpu",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        "basin --omega 132.2 --x x_r:-0.004:0.004:4 --y vx_r:-0.5:0.5:3 --fix y_r=-0.0005 \
+         --lyapunov --transient 150 --periods 8 --backend cpu",
+    );
+    ok(&o);
     let a = json(&out.join("attractors.json"));
     assert!(
         a["attractors"]
@@ -125,87 +88,31 @@ fn basin_writes_int32_labels_catalogue_and_pictures() {
 
 #[test]
 fn bad_analysis_input_names_the_field_and_the_allowed_range() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("x");
+    let (_dir, out) = temp_out("x");
     let o = out.to_str().unwrap();
-    let cases: [(&[&str], &str); 6] = [
+    let cases = [
         (
-            &[
-                "basin",
-                "--omega",
-                "133",
-                "--x",
-                "q_r:0:1:4",
-                "--y",
-                "vx_r:0:1:4",
-                "--out",
-                o,
-            ],
+            "basin --omega 133 --x q_r:0:1:4 --y vx_r:0:1:4",
             "unknown coordinate",
         ),
+        ("basin --omega 133 --x x_r:1:0:4 --y vx_r:0:1:4", "lo < hi"),
         (
-            &[
-                "basin",
-                "--omega",
-                "133",
-                "--x",
-                "x_r:1:0:4",
-                "--y",
-                "vx_r:0:1:4",
-                "--out",
-                o,
-            ],
-            "lo < hi",
-        ),
-        (
-            &[
-                "basin",
-                "--omega",
-                "133",
-                "--x",
-                "x_r:0:1:4",
-                "--y",
-                "x_r:0:1:4",
-                "--out",
-                o,
-            ],
+            "basin --omega 133 --x x_r:0:1:4 --y x_r:0:1:4",
             "different coordinates",
         ),
         (
-            &[
-                "basin",
-                "--omega",
-                "133",
-                "--x",
-                "x_r:0:1:4",
-                "--y",
-                "vx_r:0:1:4",
-                "--fix",
-                "x_r=0",
-                "--out",
-                o,
-            ],
+            "basin --omega 133 --x x_r:0:1:4 --y vx_r:0:1:4 --fix x_r=0",
             "is an axis",
         ),
+        ("bifurcation --omega 133:130:4", "speeds must increase"),
         (
-            &["bifurcation", "--omega", "133:130:4", "--out", o],
-            "speeds must increase",
-        ),
-        (
-            &[
-                "bifurcation",
-                "--omega",
-                "130:133:4",
-                "--coord",
-                "vz",
-                "--out",
-                o,
-            ],
+            "bifurcation --omega 130:133:4 --coord vz",
             "unknown coordinate",
         ),
     ];
-    for (args, msg) in cases {
-        let r = jeffcott(args);
+    for (line, msg) in cases {
+        let args = [words(line), vec!["--out", o]].concat();
+        let r = jeffcott(&args);
         let err = String::from_utf8_lossy(&r.stderr);
         assert_eq!(r.status.code(), Some(2), "{args:?}: {err}");
         assert!(err.contains(msg), "{args:?}: {err}");
@@ -215,18 +122,8 @@ fn bad_analysis_input_names_the_field_and_the_allowed_range() {
 
 #[test]
 fn reproduce_writes_every_figure_and_a_report_that_shows_them() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("rep");
-    let o = jeffcott(&[
-        "reproduce",
-        "--smoke",
-        "--backend",
-        "cpu",
-        "--quiet",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (_dir, out, o) = jeffcott_temp("rep", "reproduce --smoke --backend cpu --quiet");
+    ok(&o);
     let report = std::fs::read_to_string(out.join("REPORT.md")).unwrap();
     for fig in [
         "fig03_bifurcation_vx_s.png",
@@ -263,29 +160,12 @@ fn reproduce_writes_every_figure_and_a_report_that_shows_them() {
 
 #[test]
 fn bifurcation_no_lyapunov_writes_no_lambda1_array() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("bif");
-    let o = jeffcott(&[
-        "bifurcation",
-        "--omega",
-        "131.6:131.8:2",
-        "--ics",
-        "0",
-        "--sweep",
-        "up",
-        "--transient",
-        "20",
-        "--transient-first",
-        "50",
-        "--periods",
-        "4",
-        "--no-lyapunov",
-        "--no-plot",
-        "--quiet",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (_dir, out, o) = jeffcott_temp(
+        "bif",
+        "bifurcation --omega 131.6:131.8:2 --ics 0 --sweep up --transient 20 --transient-first 50 \
+         --periods 4 --no-lyapunov --no-plot --quiet",
+    );
+    ok(&o);
     assert!(!out.join("bifurcation_lambda1.npy").exists());
     let s = json(&out.join("summary.json"));
     assert_eq!(s["lyapunov"], false);

@@ -5,57 +5,21 @@
 mod common;
 use common::*;
 
-const RUN: &[&str] = &[
-    "--transient",
-    "250",
-    "--periods",
-    "32",
-    "--backend",
-    "cpu",
-    "--quiet",
-];
+/// The options every run of this file shares.
+const RUN: &str = "--transient 250 --periods 32 --backend cpu --quiet";
 
 #[test]
 fn basin_stability_agrees_with_a_dense_grid_over_the_same_box_within_its_95_percent_intervals() {
-    let tmp = tempfile::tempdir().unwrap();
-    let (s, b) = (tmp.path().join("s"), tmp.path().join("b"));
-    let mut a = vec![
-        "basin-stability",
-        "--omega",
-        "133",
-        "--sample",
-        "160",
-        "--box",
-        "x_r:-0.006:0.006,vx_r:-1:1",
-        "--out",
-        s.to_str().unwrap(),
-    ];
-    a.extend_from_slice(RUN);
-    ok(&jeffcott(&a));
-    let mut a = vec![
-        "basin",
-        "--omega",
-        "133",
-        "--x",
-        "x_r:-0.006:0.006:40",
-        "--y",
-        "vx_r:-1:1:40",
-        "--no-plot",
-        "--out",
-        b.to_str().unwrap(),
-    ];
-    a.extend_from_slice(RUN);
-    ok(&jeffcott(&a));
+    let (_tmp, [s, b]) = temp_outs(["s", "b"]);
+    let sample = "basin-stability --omega 133 --sample 160 --box x_r:-0.006:0.006,vx_r:-1:1";
+    ok(&jeffcott_out(&format!("{sample} {RUN}"), &s));
+    let grid = "basin --omega 133 --x x_r:-0.006:0.006:40 --y vx_r:-1:1:40 --no-plot";
+    ok(&jeffcott_out(&format!("{grid} {RUN}"), &b));
     let grid = json(&b.join("attractors.json"));
     let st = json(&s.join("basin_stability.json"));
     let found = st["per_omega"][0]["attractors"].as_array().unwrap();
     for class in ["period-4", "period-5"] {
-        let g = grid["attractors"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|a| a["class"] == class)
-            .unwrap()["basin_fraction"]
+        let g = of_class(&grid["attractors"], class).unwrap()["basin_fraction"]
             .as_f64()
             .unwrap();
         let a = found.iter().find(|a| a["class"] == class).unwrap();
@@ -71,19 +35,9 @@ fn basin_stability_agrees_with_a_dense_grid_over_the_same_box_within_its_95_perc
 fn four_coordinates_and_a_speed_range_give_fractions_summing_to_one_and_a_stacked_plot() {
     let tmp = tempfile::tempdir().unwrap();
     let s = tmp.path().join("s");
-    let mut a = vec![
-        "basin-stability",
-        "--omega",
-        "132:134:3",
-        "--sample",
-        "24",
-        "--box",
-        "x_r:-0.006:0.006,vx_r:-1:1,y_r:-0.006:0.0,vy_r:-0.5:0.5",
-        "--out",
-        s.to_str().unwrap(),
-    ];
-    a.extend_from_slice(RUN);
-    ok(&jeffcott(&a));
+    let sample = "basin-stability --omega 132:134:3 --sample 24 \
+                  --box x_r:-0.006:0.006,vx_r:-1:1,y_r:-0.006:0.0,vy_r:-0.5:0.5";
+    ok(&jeffcott_out(&format!("{sample} {RUN}"), &s));
     let bytes = std::fs::read(s.join("fractions.npy")).unwrap();
     let f = npyz::NpyFile::new(&bytes[..]).unwrap();
     let g = f.shape()[1] as usize;
@@ -97,15 +51,8 @@ fn four_coordinates_and_a_speed_range_give_fractions_summing_to_one_and_a_stacke
         ("x_r:0.001:-0.001", "lo <= hi"),
         ("x_r:0:1e-3,x_r:0:1e-3", "twice"),
     ] {
-        let o = jeffcott(&[
-            "basin-stability",
-            "--omega",
-            "133",
-            "--box",
-            bad,
-            "--out",
-            tmp.path().join("bad").to_str().unwrap(),
-        ]);
+        let line = format!("basin-stability --omega 133 --box {bad}");
+        let o = jeffcott_out(&line, tmp.path().join("bad"));
         assert_eq!(o.status.code(), Some(2), "{bad}");
         assert!(String::from_utf8_lossy(&o.stderr).contains(needle), "{bad}");
     }

@@ -5,7 +5,7 @@
 use std::path::Path;
 
 mod common;
-use common::{jeffcott, npy_header};
+use common::{jeffcott, jeffcott_out, jeffcott_temp, npy_header, ok, temp_out, words};
 
 /// The shape of an f64 NPY file that follows the format spec (`common::npy_header`).
 fn npy_shape(path: &Path) -> Vec<usize> {
@@ -16,22 +16,11 @@ fn npy_shape(path: &Path) -> Vec<usize> {
 
 #[test]
 fn simulate_writes_poincare_timeseries_summary_and_plot() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("run");
-    let o = jeffcott(&[
-        "simulate",
-        "--omega",
-        "132.2",
-        "--transient",
-        "600",
-        "--periods",
-        "16",
-        "--init",
-        "vx_r=0.01",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (_dir, out, o) = jeffcott_temp(
+        "run",
+        "simulate --omega 132.2 --transient 600 --periods 16 --init vx_r=0.01",
+    );
+    ok(&o);
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(stdout.contains("period-2"), "{stdout}");
     assert_eq!(npy_shape(&out.join("poincare.npy")), vec![16, 8]);
@@ -53,8 +42,7 @@ fn simulate_writes_poincare_timeseries_summary_and_plot() {
 }
 
 fn assert_rejected(args: &[&str], needles: &[&str]) {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("run");
+    let (_dir, out) = temp_out("run");
     let mut all: Vec<&str> = args.to_vec();
     all.extend([
         "--out",
@@ -82,100 +70,63 @@ fn assert_rejected(args: &[&str], needles: &[&str]) {
 
 #[test]
 fn bad_parameters_and_input_are_rejected_with_the_field_and_range() {
-    assert_rejected(
-        &["simulate", "--omega", "133", "--param", "k_c=-1"],
-        &["k_c", "-1", "> 0"],
-    );
-    assert_rejected(
-        &["simulate", "--omega", "133", "--param", "xi_r=-0.1"],
-        &["xi_r", ">= 0"],
-    );
-    assert_rejected(
-        &["simulate", "--omega", "133", "--param", "m_s=0"],
-        &["m_s", "> 0"],
-    );
-    assert_rejected(
-        &["simulate", "--omega", "133", "--param", "delta=inf"],
-        &["delta", "finite"],
-    );
-    assert_rejected(
-        &["simulate", "--omega", "133", "--param", "mu=nan"],
-        &["mu", "finite"],
-    );
-    assert_rejected(
-        &["simulate", "--omega", "133", "--param", "stiffness=3"],
-        &["stiffness", "valid names", "k_c"],
-    );
-    assert_rejected(
-        &["simulate", "--omega", "133", "--param", "k_c"],
-        &["param", "NAME=VALUE"],
-    );
-    assert_rejected(&["simulate", "--omega", "-5"], &["omega", "> 0"]);
-    assert_rejected(&["simulate", "--omega", "nan"], &["omega"]);
-    assert_rejected(&["simulate", "--omega", "abc"], &["omega"]);
-    assert_rejected(
-        &["simulate", "--omega", "133", "--init", "z_r=1"],
-        &["z_r", "x_r, vx_r"],
-    );
-    assert_rejected(
-        &["simulate", "--omega", "133", "--init", "x_r=fast"],
-        &["x_r", "not a number"],
-    );
-    assert_rejected(
-        &["simulate", "--omega", "133", "--steps-per-period", "3"],
-        &["steps-per-period", "8..="],
-    );
-    assert_rejected(
-        &[
-            "simulate",
-            "--omega",
-            "133",
-            "--config",
-            "/nonexistent/p.toml",
-        ],
-        &["/nonexistent/p.toml"],
-    );
-    assert_rejected(&["simulate"], &["--omega"]);
+    let cases: &[(&str, &[&str])] = &[
+        ("simulate --omega 133 --param k_c=-1", &["k_c", "-1", "> 0"]),
+        ("simulate --omega 133 --param xi_r=-0.1", &["xi_r", ">= 0"]),
+        ("simulate --omega 133 --param m_s=0", &["m_s", "> 0"]),
+        (
+            "simulate --omega 133 --param delta=inf",
+            &["delta", "finite"],
+        ),
+        ("simulate --omega 133 --param mu=nan", &["mu", "finite"]),
+        (
+            "simulate --omega 133 --param stiffness=3",
+            &["stiffness", "valid names", "k_c"],
+        ),
+        ("simulate --omega 133 --param k_c", &["param", "NAME=VALUE"]),
+        ("simulate --omega -5", &["omega", "> 0"]),
+        ("simulate --omega nan", &["omega"]),
+        ("simulate --omega abc", &["omega"]),
+        ("simulate --omega 133 --init z_r=1", &["z_r", "x_r, vx_r"]),
+        (
+            "simulate --omega 133 --init x_r=fast",
+            &["x_r", "not a number"],
+        ),
+        (
+            "simulate --omega 133 --steps-per-period 3",
+            &["steps-per-period", "8..="],
+        ),
+        (
+            "simulate --omega 133 --config /nonexistent/p.toml",
+            &["/nonexistent/p.toml"],
+        ),
+        ("simulate", &["--omega"]),
+    ];
+    for &(line, needles) in cases {
+        assert_rejected(&words(line), needles);
+    }
 }
 
 #[test]
 fn periods_zero_and_bad_config_keys_are_rejected() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("run");
-    let o = jeffcott(&[
-        "simulate",
-        "--omega",
-        "133",
-        "--periods",
-        "0",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let (dir, _, o) = jeffcott_temp("run", "simulate --omega 133 --periods 0");
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("periods"));
     let cfg = dir.path().join("p.toml");
     std::fs::write(&cfg, "k_c = 2e8\nstiffnes = 1\n").unwrap();
-    assert_rejected(
-        &[
+    let with_config = |needles: &[&str]| {
+        let args = [
             "simulate",
             "--omega",
             "133",
             "--config",
             cfg.to_str().unwrap(),
-        ],
-        &["stiffnes", "p.toml"],
-    );
+        ];
+        assert_rejected(&args, needles)
+    };
+    with_config(&["stiffnes", "p.toml"]);
     std::fs::write(&cfg, "k_c = -2e8\n").unwrap();
-    assert_rejected(
-        &[
-            "simulate",
-            "--omega",
-            "133",
-            "--config",
-            cfg.to_str().unwrap(),
-        ],
-        &["k_c", "> 0"],
-    );
+    with_config(&["k_c", "> 0"]);
 }
 
 #[test]
@@ -201,7 +152,7 @@ fn config_file_and_param_overrides_reach_the_model() {
         "--out",
         out.to_str().unwrap(),
     ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    ok(&o);
     assert!(o.stdout.is_empty(), "--quiet prints nothing");
     let s: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
@@ -215,22 +166,11 @@ fn config_file_and_param_overrides_reach_the_model() {
 
 #[test]
 fn ensemble_writes_poincare_status_lanes_and_run_json() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("ens");
-    let o = jeffcott(&[
-        "ensemble",
-        "--omega",
-        "131.7:132.2:3",
-        "--transient",
-        "400",
-        "--periods",
-        "8",
-        "--backend",
-        "cpu",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (_dir, out, o) = jeffcott_temp(
+        "ens",
+        "ensemble --omega 131.7:132.2:3 --transient 400 --periods 8 --backend cpu",
+    );
+    ok(&o);
     assert_eq!(npy_shape(&out.join("poincare.npy")), vec![3, 8, 8]);
     assert_eq!(npy_shape(&out.join("lanes.npy")), vec![3, 10]);
     let status = std::fs::read(out.join("status.npy")).unwrap();
@@ -249,24 +189,11 @@ fn ensemble_writes_poincare_status_lanes_and_run_json() {
 /// responses (131.7, 132.2), and a positive one on the chaotic response at 140.
 #[test]
 fn ensemble_lyapunov_writes_lambda1_negative_when_periodic_positive_when_chaotic() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("ens");
-    let o = jeffcott(&[
-        "ensemble",
-        "--omega",
-        "131.7",
-        "--transient",
-        "300",
-        "--periods",
-        "200",
-        "--backend",
-        "cpu",
-        "--lyapunov",
-        "--quiet",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (dir, out, o) = jeffcott_temp(
+        "ens",
+        "ensemble --omega 131.7 --transient 300 --periods 200 --backend cpu --lyapunov --quiet",
+    );
+    ok(&o);
     let read = |out: &Path| -> Vec<f64> {
         assert_eq!(npy_shape(&out.join("lambda1.npy")), vec![1]);
         let b = std::fs::read(out.join("lambda1.npy")).unwrap();
@@ -278,22 +205,10 @@ fn ensemble_lyapunov_writes_lambda1_negative_when_periodic_positive_when_chaotic
     let periodic = read(&out)[0];
     assert!(periodic < -0.5, "lambda_1 at 131.7 = {periodic}");
     let out2 = dir.path().join("ens2");
-    let o = jeffcott(&[
-        "ensemble",
-        "--omega",
-        "140",
-        "--transient",
-        "300",
-        "--periods",
-        "300",
-        "--backend",
-        "cpu",
-        "--lyapunov",
-        "--quiet",
-        "--out",
-        out2.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    ok(&jeffcott_out(
+        "ensemble --omega 140 --transient 300 --periods 300 --backend cpu --lyapunov --quiet",
+        &out2,
+    ));
     let chaotic = read(&out2)[0];
     assert!(chaotic > 1.0, "lambda_1 at 140 = {chaotic}");
 }
@@ -306,8 +221,7 @@ fn ensemble_rejects_bad_ranges_with_the_syntax() {
         ("130:x:4", "not a number"),
         ("-1:2:3", "omega (lane 0)"),
     ] {
-        let dir = tempfile::tempdir().unwrap();
-        let out = dir.path().join("ens");
+        let (_dir, out) = temp_out("ens");
         let o = jeffcott(&[
             "ensemble",
             "--omega",

@@ -10,31 +10,18 @@ use std::process::Output;
 
 use std::path::Path;
 
-fn continuation(out: &Path, extra: &[&str]) -> Output {
-    let mut a = vec![
-        "continuation",
-        "--out",
-        out.to_str().unwrap(),
-        "--transient",
-        "300",
-        "--periods",
-        "32",
-        "--backend",
-        "cpu",
-        "--quiet",
-    ];
-    a.extend_from_slice(extra);
+/// Runs a continuation into `out` with the options `extra` (`common::words`).
+fn continuation(out: &Path, extra: &str) -> Output {
+    let mut a = vec!["continuation", "--out", out.to_str().unwrap()];
+    a.extend(words("--transient 300 --periods 32 --backend cpu --quiet"));
+    a.extend(words(extra));
     jeffcott(&a)
 }
 
 #[test]
 fn over_a_monostable_range_one_attractor_keeps_its_id_with_fraction_one() {
-    let tmp = tempfile::tempdir().unwrap();
-    let out = tmp.path().join("c");
-    ok(&continuation(
-        &out,
-        &["--vary", "omega:131.3:131.7:5", "--ics", "16"],
-    ));
+    let (_tmp, out) = temp_out("c");
+    ok(&continuation(&out, "--vary omega:131.3:131.7:5 --ics 16"));
     let j = json(&out.join("continuation.json"));
     for d in ["up", "down"] {
         let ramp = &j["ramps"][d];
@@ -55,45 +42,19 @@ fn over_a_monostable_range_one_attractor_keeps_its_id_with_fraction_one() {
 
 #[test]
 fn at_133_the_period_4_and_period_5_attractors_are_tracked_with_the_fractions_of_basin() {
-    let tmp = tempfile::tempdir().unwrap();
-    let (c, b) = (tmp.path().join("c"), tmp.path().join("b"));
+    let (_tmp, [c, b]) = temp_outs(["c", "b"]);
     ok(&continuation(
         &c,
-        &[
-            "--vary",
-            "omega:132.9:133.1:3",
-            "--box",
-            "x_r:-0.006:0.006,vx_r:-1:1",
-            "--ics",
-            "96",
-        ],
+        "--vary omega:132.9:133.1:3 --box x_r:-0.006:0.006,vx_r:-1:1 --ics 96",
     ));
-    ok(&jeffcott(&[
-        "basin",
-        "--omega",
-        "133",
-        "--x",
-        "x_r:-0.006:0.006:40",
-        "--y",
-        "vx_r:-1:1:40",
-        "--transient",
-        "250",
-        "--periods",
-        "32",
-        "--backend",
-        "cpu",
-        "--no-plot",
-        "--quiet",
-        "--out",
-        b.to_str().unwrap(),
-    ]));
+    ok(&jeffcott_out(
+        "basin --omega 133 --x x_r:-0.006:0.006:40 --y vx_r:-1:1:40 --transient 250 --periods 32 \
+         --backend cpu --no-plot --quiet",
+        &b,
+    ));
     let basin = json(&b.join("attractors.json"));
     let basin_fraction = |class: &str| {
-        basin["attractors"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|a| a["class"] == class)
+        of_class(&basin["attractors"], class)
             .map(|a| a["basin_fraction"].as_f64().unwrap())
             .unwrap_or_else(|| panic!("basin has no {class}"))
     };
@@ -102,11 +63,7 @@ fn at_133_the_period_4_and_period_5_attractors_are_tracked_with_the_fractions_of
         let step = &j["ramps"][d]["steps"][1];
         assert_eq!(step["value"], 133.0);
         for class in ["period-4", "period-5"] {
-            let a = step["attractors"]
-                .as_array()
-                .unwrap()
-                .iter()
-                .find(|a| a["class"] == class)
+            let a = of_class(&step["attractors"], class)
                 .unwrap_or_else(|| panic!("{d}: no {class} at 133"));
             let (f, e) = (
                 a["fraction"].as_f64().unwrap(),
@@ -125,12 +82,8 @@ fn at_133_the_period_4_and_period_5_attractors_are_tracked_with_the_fractions_of
 
 #[test]
 fn every_tipping_row_with_a_basin_sums_to_one() {
-    let tmp = tempfile::tempdir().unwrap();
-    let out = tmp.path().join("c");
-    ok(&continuation(
-        &out,
-        &["--vary", "omega:132.6:133.4:5", "--ics", "24"],
-    ));
+    let (_tmp, out) = temp_out("c");
+    ok(&continuation(&out, "--vary omega:132.6:133.4:5 --ics 24"));
     for d in ["up", "down"] {
         let (shape, t) = npy::<f64>(&out.join(format!("tipping_{d}.npy")));
         let g = shape[1] as usize;
@@ -156,46 +109,38 @@ fn every_tipping_row_with_a_basin_sums_to_one() {
 fn bad_continuations_are_refused_naming_the_option() {
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("c");
-    let cases: &[(&[&str], &[&str])] = &[
-        (&["--vary", "omega:130:130:1"], &["vary", "at least 2"]),
-        (&["--vary", "mu:0:0.3:4"], &["omega", "--omega"]),
+    let cases: &[(&str, &[&str])] = &[
+        ("--vary omega:130:130:1", &["vary", "at least 2"]),
+        ("--vary mu:0:0.3:4", &["omega", "--omega"]),
         (
-            &["--vary", "x_r:0:0.001:4", "--omega", "133"],
+            "--vary x_r:0:0.001:4 --omega 133",
             &["vary", "start coordinate"],
         ),
         (
-            &["--vary", "delta:-0.001:0.006:4", "--omega", "133"],
+            "--vary delta:-0.001:0.006:4 --omega 133",
             &["vary", "delta"],
         ),
         (
-            &["--vary", "omega:130:131:3", "--box", "x_r:-2:2"],
+            "--vary omega:130:131:3 --box x_r:-2:2",
             &["box", "divergence-bound"],
         ),
         (
-            &["--vary", "omega:130:131:3", "--box", "spin:0:1"],
+            "--vary omega:130:131:3 --box spin:0:1",
             &["box", "unknown coordinate"],
         ),
         (
-            &["--vary", "omega:130:131:3", "--match-threshold", "0"],
+            "--vary omega:130:131:3 --match-threshold 0",
             &["match-threshold"],
         ),
         // The continued range given where a model-parameter override goes.
         (
-            &["--vary", "omega:130:131:3", "--param", "mu:0:0.3:4"],
+            "--vary omega:130:131:3 --param mu:0:0.3:4",
             &["param", "--vary"],
         ),
-        (
-            &["--vary", "omega:130:131:3", "--param", ""],
-            &["param", "empty"],
-        ),
+        ("--vary omega:130:131:3 --param ''", &["param", "empty"]),
     ];
     for (args, needles) in cases {
-        let o = continuation(&out, args);
-        assert_eq!(o.status.code(), Some(2), "{args:?}");
-        let e = String::from_utf8_lossy(&o.stderr);
-        for n in *needles {
-            assert!(e.contains(n), "{args:?}: `{n}` not in {e}");
-        }
+        assert_refused_naming(&continuation(&out, args), args, needles);
     }
 }
 
@@ -203,32 +148,12 @@ fn bad_continuations_are_refused_naming_the_option() {
 fn model_parameter_overrides_reach_a_continuation_beside_the_continued_parameter() {
     // `--param NAME=VALUE` (every command's override) and `--vary NAME:lo:hi:n` (the
     // continued parameter) are two spellings; both reach the specification.
-    let tmp = tempfile::tempdir().unwrap();
-    let out = tmp.path().join("c");
-    let mut a = vec![
-        "continuation",
-        "--out",
-        out.to_str().unwrap(),
-        "--transient",
-        "20",
-        "--periods",
-        "4",
-        "--backend",
-        "cpu",
-        "--quiet",
-        "--no-plot",
-        "--no-lyapunov",
-    ];
-    a.extend_from_slice(&[
-        "--vary",
-        "e:0.0005:0.001:2",
-        "--omega",
-        "131",
-        "--ics",
-        "2",
-        "--param",
-        "mu=0.15",
-    ]);
+    let (_tmp, out) = temp_out("c");
+    let mut a = vec!["continuation", "--out", out.to_str().unwrap()];
+    a.extend(words(
+        "--transient 20 --periods 4 --backend cpu --quiet --no-plot --no-lyapunov \
+         --vary e:0.0005:0.001:2 --omega 131 --ics 2 --param mu=0.15",
+    ));
     ok(&jeffcott(&a));
     let run = json(&out.join("run.json"));
     assert_eq!(run["spec"]["params"]["mu"], 0.15, "{}", run["spec"]);

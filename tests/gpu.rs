@@ -13,7 +13,7 @@ use jeffcott_gpu::{GpuReal, GpuRunner, LaneOutcome, Schedule};
 use rayon::prelude::*;
 
 mod common;
-use common::gpu::runner_for;
+use common::gpu::{in_both_precisions, runner_for};
 use common::unit;
 
 /// Macro steps per period in these tests: small enough for lavapipe on two cores,
@@ -194,22 +194,40 @@ fn assert_ensemble_is_varied<R: GpuReal>(cpu: &[LaneOutcome<R>], kinds: &[Kind])
     }
 }
 
+/// The outcomes of both runs and the lanes' kinds, with the runner.
+type BothRuns<R> = (
+    &'static GpuRunner,
+    Vec<LaneOutcome<R>>,
+    Vec<LaneOutcome<R>>,
+    Vec<Kind>,
+);
+
+/// The varied ensemble of `n` lanes over 50 periods in precision `R`, run on the GPU and
+/// on the CPU (its variety checked): the runner, the GPU's outcomes, the CPU's and the
+/// lanes' kinds; `None` without a runner for `R`.
+fn gpu_and_cpu_runs<R: GpuReal>(n: usize) -> Option<BothRuns<R>> {
+    let runner = runner_for::<R>()?;
+    let (consts, init, kinds) = ensemble::<R>(n);
+    let schedule = Schedule::new(TRANSIENT, RECORDED, 10);
+    let gpu = timed(
+        &format!("GPU {}, {n} lanes x 50 periods", R::WGSL_NAME),
+        || runner.run(&consts, &init, &schedule),
+    )
+    .expect("GPU run");
+    let cpu = timed(
+        &format!("CPU {}, {n} lanes x 50 periods", R::WGSL_NAME),
+        || cpu_run(&consts, &init, TRANSIENT, RECORDED),
+    );
+    assert_ensemble_is_varied(&cpu, &kinds);
+    Some((runner, gpu, cpu, kinds))
+}
+
 #[test]
 fn f64_kernel_reproduces_cpu_f64_lanes_to_the_bit() {
-    let Some(runner) = runner_for::<f64>() else {
+    let n = 260;
+    let Some((_, gpu, cpu, kinds)) = gpu_and_cpu_runs::<f64>(n) else {
         return;
     };
-    let n = 260;
-    let (consts, init, kinds) = ensemble::<f64>(n);
-    let schedule = Schedule::new(TRANSIENT, RECORDED, 10);
-    let gpu = timed("GPU f64, 260 lanes x 50 periods", || {
-        runner.run(&consts, &init, &schedule)
-    })
-    .expect("GPU run");
-    let cpu = timed("CPU f64, 260 lanes x 50 periods", || {
-        cpu_run(&consts, &init, TRANSIENT, RECORDED)
-    });
-    assert_ensemble_is_varied(&cpu, &kinds);
     let mut exact = 0;
     let mut worst: f64 = 0.0;
     for (i, (g, c)) in gpu.iter().zip(&cpu).enumerate() {
@@ -294,20 +312,10 @@ fn f64_kernel_with_contact_refinement_reproduces_cpu_to_the_bit_for_every_r() {
 /// gap-sized region the dynamics allow (2 delta).
 #[test]
 fn f32_kernel_matches_cpu_f32_lanes_within_derived_bound() {
-    let Some(runner) = runner_for::<f32>() else {
+    let n = 260;
+    let Some((runner, gpu, cpu, _)) = gpu_and_cpu_runs::<f32>(n) else {
         return;
     };
-    let n = 260;
-    let (consts, init, kinds) = ensemble::<f32>(n);
-    let schedule = Schedule::new(TRANSIENT, RECORDED, 10);
-    let gpu = timed("GPU f32, 260 lanes x 50 periods", || {
-        runner.run(&consts, &init, &schedule)
-    })
-    .expect("GPU run");
-    let cpu = timed("CPU f32, 260 lanes x 50 periods", || {
-        cpu_run(&consts, &init, TRANSIENT, RECORDED)
-    });
-    assert_ensemble_is_varied(&cpu, &kinds);
     let software = runner.gpu().adapter().software;
     let mut exact = 0;
     let mut worst: f64 = 0.0;
@@ -395,12 +403,10 @@ fn slicing_does_not_change_results<R: GpuReal>(runner: &GpuRunner) {
 
 #[test]
 fn one_dispatch_and_many_slices_and_chunks_are_bit_identical() {
-    if let Some(r) = runner_for::<f64>() {
-        slicing_does_not_change_results::<f64>(r);
-    }
-    if let Some(r) = runner_for::<f32>() {
-        slicing_does_not_change_results::<f32>(r);
-    }
+    in_both_precisions(
+        slicing_does_not_change_results::<f32>,
+        slicing_does_not_change_results::<f64>,
+    );
 }
 
 /// Poisons lanes 3, 4, 5 and 6 of a small ensemble and checks they are flagged as the CPU
@@ -465,12 +471,10 @@ fn poisoned_lanes_are_frozen_and_isolated<R: GpuReal>(runner: &GpuRunner) {
 
 #[test]
 fn poisoned_lanes_are_flagged_and_do_not_touch_their_neighbours() {
-    if let Some(r) = runner_for::<f64>() {
-        poisoned_lanes_are_frozen_and_isolated::<f64>(r);
-    }
-    if let Some(r) = runner_for::<f32>() {
-        poisoned_lanes_are_frozen_and_isolated::<f32>(r);
-    }
+    in_both_precisions(
+        poisoned_lanes_are_frozen_and_isolated::<f32>,
+        poisoned_lanes_are_frozen_and_isolated::<f64>,
+    );
 }
 
 /// f32 on the GPU against the f64 CPU reference in periodic regimes, through the public
@@ -511,23 +515,22 @@ fn f32_gpu_lanes_find_the_f64_cpu_period_and_points_within_1e_5_m() {
         precision,
     };
     let quiet = |_: u64, _: u64| {};
-    let (cpu, _) = timed("CPU f64, 10 lanes x 1064 periods", || {
-        run(
-            &spec(Precision::F64),
-            Backend::Cpu,
-            false,
-            Control::progress(&quiet),
-        )
-    })
+    let timed_run = |what: &str, precision, backend| {
+        timed(what, || {
+            run(&spec(precision), backend, false, Control::progress(&quiet))
+        })
+    };
+    let (cpu, _) = timed_run(
+        "CPU f64, 10 lanes x 1064 periods",
+        Precision::F64,
+        Backend::Cpu,
+    )
     .expect("CPU run");
-    let (gpu, info) = timed("GPU f32, 10 lanes x 1064 periods", || {
-        run(
-            &spec(Precision::F32),
-            Backend::Gpu,
-            false,
-            Control::progress(&quiet),
-        )
-    })
+    let (gpu, info) = timed_run(
+        "GPU f32, 10 lanes x 1064 periods",
+        Precision::F32,
+        Backend::Gpu,
+    )
     .expect("GPU run");
     assert_eq!(info.backend, "gpu");
     let (cfg64, cfg32) = (

@@ -13,7 +13,7 @@ use std::path::Path;
 use std::process::{Command, Output};
 
 mod common;
-use common::{jeffcott, npy, require_gpu};
+use common::{jeffcott, jeffcott_out, jeffcott_temp, npy, require_gpu, temp_out, words};
 
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
@@ -28,6 +28,15 @@ fn assert_refused(o: &Output, needles: &[&str]) -> String {
         assert!(e.contains(n), "`{n}` missing from: {e}");
     }
     e
+}
+
+/// Asserts that the run of `args` with `--out` a fresh temporary path is refused
+/// ([`assert_refused`]) and makes no output directory.
+fn assert_refused_before_output(args: &[&str], needles: &[&str]) {
+    let (_dir, out) = temp_out("run");
+    let o = jeffcott(&[args, &["--out", out.to_str().unwrap()]].concat());
+    assert_refused(&o, needles);
+    assert!(!out.exists(), "{args:?} created its output");
 }
 
 /// True when `jeffcott info` sees an adapter; panics without one when
@@ -52,8 +61,7 @@ fn gpu_present() -> bool {
 
 #[test]
 fn speed_ranges_too_large_for_memory_are_refused_with_the_estimate_before_allocating() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("run");
+    let (_dir, out) = temp_out("run");
     let out = out.to_str().unwrap();
     for (cmd, omega) in [
         ("ensemble", "130:140:1000000000000"),
@@ -74,19 +82,10 @@ fn speed_ranges_too_large_for_memory_are_refused_with_the_estimate_before_alloca
 
 #[test]
 fn basin_grids_of_1e10_cells_are_refused_before_allocating() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("basin");
-    let o = jeffcott(&[
+    let (_dir, out, o) = jeffcott_temp(
         "basin",
-        "--omega",
-        "133",
-        "--x",
-        "x_r:-0.006:0.006:100000",
-        "--y",
-        "vx_r:-1:1:100000",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+        "basin --omega 133 --x x_r:-0.006:0.006:100000 --y vx_r:-1:1:100000",
+    );
     assert_refused(
         &o,
         &[
@@ -104,110 +103,51 @@ fn basin_grids_of_1e10_cells_are_refused_before_allocating() {
 
 #[test]
 fn period_counts_beyond_1e8_are_refused_by_every_command() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("run");
+    let (_dir, out) = temp_out("run");
     let out = out.to_str().unwrap();
     let huge = "4294967295";
-    let cases: Vec<(Vec<&str>, &str)> = vec![
+    // Each command line ends with the option that `huge` is given to.
+    let cases = [
+        ("simulate --omega 133 --transient", "transient"),
+        ("ensemble --omega 133 --transient", "transient"),
+        ("ensemble --omega 133 --periods", "periods"),
         (
-            vec!["simulate", "--omega", "133", "--transient", huge],
-            "transient",
-        ),
-        (
-            vec!["ensemble", "--omega", "133", "--transient", huge],
-            "transient",
-        ),
-        (
-            vec!["ensemble", "--omega", "133", "--periods", huge],
-            "periods",
-        ),
-        (
-            vec![
-                "bifurcation",
-                "--omega",
-                "130:131:3",
-                "--transient-first",
-                huge,
-            ],
+            "bifurcation --omega 130:131:3 --transient-first",
             "transient-first",
         ),
+        ("bifurcation --omega 130:131:3 --transient", "transient"),
         (
-            vec!["bifurcation", "--omega", "130:131:3", "--transient", huge],
-            "transient",
-        ),
-        (
-            vec![
-                "bifurcation",
-                "--omega",
-                "130:131:3",
-                "--brute-transient",
-                huge,
-            ],
+            "bifurcation --omega 130:131:3 --brute-transient",
             "brute-transient",
         ),
+        ("lyapunov --omega 133 --transient", "transient"),
         (
-            vec!["lyapunov", "--omega", "133", "--transient", huge],
-            "transient",
-        ),
-        (
-            vec!["lyapunov", "--omega", "133", "--tangent-transient", huge],
+            "lyapunov --omega 133 --tangent-transient",
             "tangent-transient",
         ),
         (
-            vec![
-                "basin",
-                "--omega",
-                "133",
-                "--x",
-                "x_r:-0.006:0.006:4",
-                "--y",
-                "vx_r:-1:1:4",
-                "--transient",
-                huge,
-            ],
+            "basin --omega 133 --x x_r:-0.006:0.006:4 --y vx_r:-1:1:4 --transient",
             "transient",
         ),
     ];
-    for (mut args, option) in cases {
-        args.extend(["--out", out]);
-        let o = jeffcott(&args);
-        assert_refused(
-            &o,
-            &[
-                &format!("`{option}`: {huge}"),
-                "..=100000000 forcing periods",
-            ],
-        );
-        assert!(!Path::new(out).exists(), "{args:?} created its output");
+    for (line, option) in cases {
+        let args = [words(line), vec![huge]].concat();
+        let cap = format!("`{option}`: {huge}");
+        assert_refused_before_output(&args, &[&cap, "..=100000000 forcing periods"]);
     }
     // The cap itself is allowed (refused here only for lack of --ics, after the counts).
-    let o = jeffcott(&[
-        "bifurcation",
-        "--omega",
-        "130:131:3",
-        "--brute-transient",
-        "100000000",
-        "--sweep",
-        "none",
-        "--ics",
-        "0",
-        "--out",
+    let o = jeffcott_out(
+        "bifurcation --omega 130:131:3 --brute-transient 100000000 --sweep none --ics 0",
         out,
-    ]);
+    );
     assert_refused(&o, &["`ics`"]);
 }
 
 #[test]
 fn lyapunov_times_beyond_1e8_forcing_periods_are_refused() {
-    let o = jeffcott(&[
-        "lyapunov",
-        "--omega",
-        "133",
-        "--time",
-        "1e9",
-        "--out",
-        "/nonexistent/x",
-    ]);
+    let o = jeffcott(&words(
+        "lyapunov --omega 133 --time 1e9 --out /nonexistent/x",
+    ));
     assert_refused(&o, &["`time`", "100000000 periods"]);
 }
 
@@ -263,48 +203,23 @@ fn a_config_value_replaced_by_param_is_not_validated_but_the_final_set_is() {
 
 #[test]
 fn bifurcation_sweep_none_is_offered_and_runs_the_brute_force_only() {
-    let help = jeffcott(&["bifurcation", "--help"]);
+    let help = jeffcott(&words("bifurcation --help"));
     let help = String::from_utf8_lossy(&help.stdout);
     assert!(help.contains("none"), "{help}");
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("bif");
+    let (_dir, out) = temp_out("bif");
     let out = out.to_str().unwrap();
-    let o = jeffcott(&[
-        "bifurcation",
-        "--omega",
-        "131:132:3",
-        "--sweep",
-        "none",
-        "--ics",
-        "2",
-        "--max-seeds",
-        "0",
-        "--brute-transient",
-        "20",
-        "--periods",
-        "4",
-        "--no-lyapunov",
-        "--no-plot",
-        "--backend",
-        "cpu",
-        "--quiet",
-        "--out",
+    let o = jeffcott_out(
+        "bifurcation --omega 131:132:3 --sweep none --ics 2 --max-seeds 0 --brute-transient 20 \
+         --periods 4 --no-lyapunov --no-plot --backend cpu --quiet",
         out,
-    ]);
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     let (shape, _) = npy::<f64>(&Path::new(out).join("bifurcation_rows.npy"));
     assert_eq!(shape[0], 3 * 2, "brute-force rows only: {shape:?}");
-    let o = jeffcott(&[
-        "bifurcation",
-        "--omega",
-        "131:132:3",
-        "--sweep",
-        "none",
-        "--ics",
-        "0",
-        "--out",
-        &format!("{out}-2"),
-    ]);
+    let o = jeffcott_out(
+        "bifurcation --omega 131:132:3 --sweep none --ics 0",
+        format!("{out}-2"),
+    );
     assert_refused(&o, &["`ics`", "at least one brute-force start state"]);
 }
 
@@ -312,95 +227,43 @@ fn bifurcation_sweep_none_is_offered_and_runs_the_brute_force_only() {
 
 #[test]
 fn a_key_given_twice_is_refused_naming_the_key() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("run");
-    let out = out.to_str().unwrap();
-    let sim = ["simulate", "--omega", "133", "--out", out];
-    let basin = [
-        "basin",
-        "--omega",
-        "133",
-        "--x",
-        "x_r:-0.006:0.006:4",
-        "--y",
-        "vx_r:-1:1:4",
-        "--out",
-        out,
-    ];
-    let cases: Vec<(Vec<&str>, &[&str], &str)> = vec![
+    let sim = "simulate --omega 133";
+    let basin = "basin --omega 133 --x x_r:-0.006:0.006:4 --y vx_r:-1:1:4";
+    let cases = [
         (
-            sim.to_vec(),
-            &["--param", "mu=0.1,mu=0.2"],
+            sim,
+            "--param mu=0.1,mu=0.2",
             "`param mu`: mu=0.1 and mu=0.2",
         ),
-        (
-            sim.to_vec(),
-            &["--param", "mu=0.1", "--param", "k_c=2e8,mu=0.2"],
-            "`param mu`",
-        ),
-        (
-            sim.to_vec(),
-            &["--init", "x_r=1,x_r=2"],
-            "`init x_r`: x_r=1 and x_r=2",
-        ),
-        (
-            sim.to_vec(),
-            &["--init", "x_r=0.001", "--init", "x_r=0.002"],
-            "`init x_r`",
-        ),
-        (basin.to_vec(), &["--fix", "y_r=0,y_r=0.001"], "`fix y_r`"),
-        (
-            basin.to_vec(),
-            &["--fix", "y_r=0", "--fix", "y_r=0.001"],
-            "`fix y_r`",
-        ),
+        (sim, "--param mu=0.1 --param k_c=2e8,mu=0.2", "`param mu`"),
+        (sim, "--init x_r=1,x_r=2", "`init x_r`: x_r=1 and x_r=2"),
+        (sim, "--init x_r=0.001 --init x_r=0.002", "`init x_r`"),
+        (basin, "--fix y_r=0,y_r=0.001", "`fix y_r`"),
+        (basin, "--fix y_r=0 --fix y_r=0.001", "`fix y_r`"),
     ];
-    for (mut args, extra, needle) in cases {
-        args.extend(extra);
-        assert_refused(&jeffcott(&args), &[needle, "given twice"]);
-        assert!(!Path::new(out).exists());
+    for (cmd, extra, needle) in cases {
+        let args = [words(cmd), words(extra)].concat();
+        assert_refused_before_output(&args, &[needle, "given twice"]);
     }
 }
 
 #[test]
 fn lyapunov_min_time_above_time_is_refused_and_the_default_follows_a_short_time() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("ly");
-    let out = out.to_str().unwrap();
-    let o = jeffcott(&[
-        "lyapunov",
-        "--omega",
-        "133",
-        "--min-time",
-        "5",
-        "--time",
-        "1",
-        "--out",
-        out,
-    ]);
-    assert_refused(&o, &["`min-time`: 5", "0..=--time (1 s)"]);
-    assert!(!Path::new(out).exists());
+    assert_refused_before_output(
+        &words("lyapunov --omega 133 --min-time 5 --time 1"),
+        &["`min-time`: 5", "0..=--time (1 s)"],
+    );
     // Without --min-time a --time under the default 20 s is fine.
-    let o = jeffcott(&[
-        "lyapunov",
-        "--omega",
-        "133",
-        "--transient",
-        "5",
-        "--tangent-transient",
-        "2",
-        "--time",
-        "0.5",
-        "--quiet",
-        "--out",
-        out,
-    ]);
+    let (_dir, _, o) = jeffcott_temp(
+        "ly",
+        "lyapunov --omega 133 --transient 5 --tangent-transient 2 --time 0.5 --quiet",
+    );
     assert!(o.status.success(), "{}", stderr(&o));
 }
 
 #[test]
 fn bench_twin_at_must_be_zero_or_a_measured_size() {
-    let o = jeffcott(&["bench", "--lanes", "8,16", "--twin-at", "99999999999"]);
+    let o = jeffcott(&words("bench --lanes 8,16 --twin-at 99999999999"));
     assert_refused(
         &o,
         &[
@@ -412,71 +275,32 @@ fn bench_twin_at_must_be_zero_or_a_measured_size() {
 
 #[test]
 fn bifurcation_portraits_outside_the_speed_range_are_refused_before_the_run() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("bif");
-    let out = out.to_str().unwrap();
-    let o = jeffcott(&[
-        "bifurcation",
-        "--omega",
-        "130:140:11",
-        "--portraits",
-        "135,999",
-        "--out",
-        out,
-    ]);
-    assert_refused(&o, &["`portraits`: 999", "130..=140 rad/s"]);
-    assert!(!Path::new(out).exists());
+    assert_refused_before_output(
+        &words("bifurcation --omega 130:140:11 --portraits 135,999"),
+        &["`portraits`: 999", "130..=140 rad/s"],
+    );
 }
 
 #[test]
 fn start_positions_beyond_the_divergence_bound_are_refused_naming_coordinate_and_bound() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("run");
-    let out = out.to_str().unwrap();
     let bound = ["--divergence-bound", "1"];
-    let axes = ["--x", "x_r:-0.006:0.006:4", "--y", "vx_r:-1:1:4"];
-    let cases: Vec<(Vec<&str>, &str)> = vec![
+    let cases = [
+        ("simulate --omega 133 --init x_r=5", "`init x_r`: 5"),
+        ("ensemble --omega 133 --init y_s=-5", "`init y_s`: -5"),
+        ("lyapunov --omega 133 --init x_r=5", "`init x_r`: 5"),
         (
-            vec!["simulate", "--omega", "133", "--init", "x_r=5"],
-            "`init x_r`: 5",
-        ),
-        (
-            vec!["ensemble", "--omega", "133", "--init", "y_s=-5"],
-            "`init y_s`: -5",
-        ),
-        (
-            vec!["lyapunov", "--omega", "133", "--init", "x_r=5"],
-            "`init x_r`: 5",
-        ),
-        (
-            [
-                &["basin", "--omega", "133", "--fix", "y_r=3"][..],
-                &axes[..],
-            ]
-            .concat(),
+            "basin --omega 133 --fix y_r=3 --x x_r:-0.006:0.006:4 --y vx_r:-1:1:4",
             "`fix y_r`: 3",
         ),
         (
-            vec![
-                "basin",
-                "--omega",
-                "133",
-                "--x",
-                "x_r:-2:2:4",
-                "--y",
-                "vx_r:-1:1:4",
-            ],
+            "basin --omega 133 --x x_r:-2:2:4 --y vx_r:-1:1:4",
             "`x x_r`: -2",
         ),
     ];
-    for (mut args, needle) in cases {
-        args.extend(bound);
-        args.extend(["--out", out]);
-        assert_refused(
-            &jeffcott(&args),
-            &[needle, "--divergence-bound 1 m", "-1..=1 m"],
-        );
-        assert!(!Path::new(out).exists(), "{args:?}");
+    for (line, needle) in cases {
+        let args = [words(line), bound.to_vec()].concat();
+        let needles = [needle, "--divergence-bound 1 m", "-1..=1 m"];
+        assert_refused_before_output(&args, &needles);
     }
 }
 
@@ -487,8 +311,7 @@ fn gpu_runs_leave_stderr_free_of_xdg_runtime_dir_noise() {
     if !gpu_present() {
         return;
     }
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("ens");
+    let (_dir, out) = temp_out("ens");
     let runs: [&[&str]; 2] = [
         &["info"],
         &[
@@ -562,28 +385,14 @@ fn frozen_lanes_record_nan_from_the_period_they_froze_in_identically_on_both_bac
     let mut files = Vec::new();
     for (backend, lyapunov) in runs {
         let out = dir.path().join(format!("{backend}-{lyapunov}"));
-        let mut args = vec![
-            "ensemble",
-            "--omega",
-            "130:140:10",
-            "--transient",
-            "0",
-            "--periods",
-            "32",
-            "--divergence-bound",
-            "0.0065",
-            "--backend",
-            backend,
-            "--precision",
-            "f64",
-            "--quiet",
-            "--out",
-            out.to_str().unwrap(),
-        ];
+        let mut line = format!(
+            "ensemble --omega 130:140:10 --transient 0 --periods 32 --divergence-bound 0.0065 \
+             --backend {backend} --precision f64 --quiet"
+        );
         if lyapunov {
-            args.push("--lyapunov");
+            line += " --lyapunov";
         }
-        let o = jeffcott(&args);
+        let o = jeffcott_out(&line, &out);
         assert!(o.status.success(), "{}", stderr(&o));
         let (shape, p) = npy::<f64>(&out.join("poincare.npy"));
         assert_eq!(shape, vec![10, 32, 8]);
@@ -613,23 +422,12 @@ fn frozen_lanes_record_nan_from_the_period_they_froze_in_identically_on_both_bac
 
 #[test]
 fn a_simulation_that_diverges_writes_nan_rows_and_no_infinite_distances() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("sim");
+    let (_dir, out) = temp_out("sim");
     // Thrown out of the 1 m bound in the transient: no Poincare point at all.
-    let o = jeffcott(&[
-        "simulate",
-        "--omega",
-        "133",
-        "--init",
-        "vx_r=1e6",
-        "--transient",
-        "10",
-        "--periods",
-        "4",
-        "--no-plot",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let o = jeffcott_out(
+        "simulate --omega 133 --init vx_r=1e6 --transient 10 --periods 4 --no-plot",
+        &out,
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(stdout.contains("no recorded points"), "{stdout}");
@@ -642,23 +440,12 @@ fn a_simulation_that_diverges_writes_nan_rows_and_no_infinite_distances() {
     assert_eq!(s["class"], "diverged");
     assert_eq!(s["recorded_poincare_points"], 0);
     // Diverging during the recording: the periods reached are real, the rest NaN.
-    let o = jeffcott(&[
-        "simulate",
-        "--omega",
-        "140",
-        "--transient",
-        "0",
-        "--periods",
-        "32",
-        "--divergence-bound",
-        "0.0065",
-        "--no-plot",
-        "--quiet",
-        // Another run into the same directory: --overwrite replaces the first.
-        "--overwrite",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    // Another run into the same directory: --overwrite replaces the first.
+    let o = jeffcott_out(
+        "simulate --omega 140 --transient 0 --periods 32 --divergence-bound 0.0065 --no-plot \
+         --quiet --overwrite",
+        &out,
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     let (shape, p) = npy::<f64>(&out.join("poincare.npy"));
     assert_eq!(shape, vec![32, 8]);
@@ -673,30 +460,22 @@ fn a_simulation_that_diverges_writes_nan_rows_and_no_infinite_distances() {
 
 #[test]
 fn absurd_speeds_are_refused_with_the_range_and_without_a_301_digit_number() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("run");
+    let (_dir, out) = temp_out("run");
     let out = out.to_str().unwrap();
     let e = assert_refused(
-        &jeffcott(&["simulate", "--omega", "1e300", "--out", out]),
+        &jeffcott_out("simulate --omega 1e300", out),
         &["`omega`: 1e300", "<= 1e5 rad/s"],
     );
     assert!(e.len() < 200, "{e}");
     assert_refused(
-        &jeffcott(&["ensemble", "--omega", "100:2e5:2", "--out", out]),
+        &jeffcott_out("ensemble --omega 100:2e5:2", out),
         &["`omega (lane 1)`: 200000", "<= 1e5 rad/s"],
     );
     assert_refused(
-        &jeffcott(&[
-            "basin",
-            "--omega",
-            "1e6",
-            "--x",
-            "x_r:-0.006:0.006:4",
-            "--y",
-            "vx_r:-1:1:4",
-            "--out",
+        &jeffcott_out(
+            "basin --omega 1e6 --x x_r:-0.006:0.006:4 --y vx_r:-1:1:4",
             out,
-        ]),
+        ),
         &["`omega`", "<= 1e5 rad/s"],
     );
     assert!(!Path::new(out).exists());
@@ -704,20 +483,10 @@ fn absurd_speeds_are_refused_with_the_range_and_without_a_301_digit_number() {
 
 #[test]
 fn one_recorded_period_is_unclassified_not_aperiodic() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("sim");
-    let o = jeffcott(&[
-        "simulate",
-        "--omega",
-        "131.7",
-        "--transient",
-        "10",
-        "--periods",
-        "1",
-        "--no-plot",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let (_dir, out, o) = jeffcott_temp(
+        "sim",
+        "simulate --omega 131.7 --transient 10 --periods 1 --no-plot",
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(

@@ -37,11 +37,10 @@ fn read(path: &Path) -> Vec<u8> {
 
 #[test]
 fn the_lanes_npy_of_a_run_fed_back_reproduces_its_files() {
-    let tmp = tempfile::tempdir().unwrap();
-    let (a, b) = (tmp.path().join("a"), tmp.path().join("b"));
+    let (_tmp, [a, b]) = temp_outs(["a", "b"]);
     ok(&ensemble(
         &a,
-        &["--omega", "131:135:7", "--init", "x_r=0.004,vy_r=0.2"],
+        &words("--omega 131:135:7 --init x_r=0.004,vy_r=0.2"),
     ));
     ok(&ensemble(&b, &["--lanes", p(&a.join("lanes.npy"))]));
     for f in ["poincare.npy", "status.npy", "lanes.npy", "params.npy"] {
@@ -73,7 +72,7 @@ fn a_csv_row_with_its_own_parameters_is_the_lane_of_a_plain_run_with_them() {
     let plain = tmp.path().join("plain");
     ok(&ensemble(
         &plain,
-        &["--omega", "133", "--param", "mu=0.2", "--init", "x_r=0.004"],
+        &words("--omega 133 --param mu=0.2 --init x_r=0.004"),
     ));
     let rows = |dir: &Path| -> Vec<f64> {
         let b = read(&dir.join("poincare.npy"));

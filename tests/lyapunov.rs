@@ -10,7 +10,7 @@ use jeffcott_core::lyapunov::{Spectrum, SpectrumConfig, spectrum};
 use jeffcott_core::model::{Params, STATE_DIM, State};
 
 mod common;
-use common::{jeffcott, json};
+use common::{jeffcott, jeffcott_out, json, ok, words};
 
 /// -2 (2 xi_r w_r + 2 xi_s w_s) for Table 1 (MODEL.md 6) [1/s].
 const TABLE1_TRACE: f64 = -2.0 * (2.0 * 0.02 * 140.0 + 2.0 * 0.05 * 540.0);
@@ -268,18 +268,10 @@ fn is_png(path: &std::path::Path) -> bool {
 fn lyapunov_command_writes_the_spectrum_for_one_speed_and_a_range() {
     let dir = tempfile::tempdir().unwrap();
     let one = dir.path().join("one");
-    let o = jeffcott(&[
-        "lyapunov",
-        "--omega",
-        "131.7",
-        "--transient",
-        "300",
-        "--time",
-        "5",
-        "--out",
-        one.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    ok(&jeffcott_out(
+        "lyapunov --omega 131.7 --transient 300 --time 5",
+        &one,
+    ));
     let s = json(&one.join("spectrum.json"));
     assert_eq!(s["omega"], 131.7);
     let exps = s["exponents"].as_array().unwrap();
@@ -300,20 +292,10 @@ fn lyapunov_command_writes_the_spectrum_for_one_speed_and_a_range() {
     assert!(is_png(&one.join("convergence.png")));
 
     let range = dir.path().join("range");
-    let o = jeffcott(&[
-        "lyapunov",
-        "--omega",
-        "131:133:3",
-        "--transient",
-        "200",
-        "--time",
-        "3",
-        "--param",
-        "c_c=1e4",
-        "--out",
-        range.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    ok(&jeffcott_out(
+        "lyapunov --omega 131:133:3 --transient 200 --time 3 --param c_c=1e4",
+        &range,
+    ));
     let bytes = std::fs::read(range.join("lyapunov.npy")).unwrap();
     let header = String::from_utf8_lossy(&bytes[..128]).replace(' ', "");
     assert!(header.contains("'shape':(3,8)") || header.contains("'shape':(3,8,)"));
@@ -323,10 +305,10 @@ fn lyapunov_command_writes_the_spectrum_for_one_speed_and_a_range() {
     assert_eq!(j["run"]["params"]["c_c"], 1e4);
 
     // Bad input: a clear error naming the option, exit code 2.
-    let o = jeffcott(&["lyapunov", "--omega", "131.7", "--time", "-1"]);
+    let o = jeffcott(&words("lyapunov --omega 131.7 --time -1"));
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("`time`"));
-    let o = jeffcott(&["lyapunov", "--omega", "131.7", "--param", "c_c=-1"]);
+    let o = jeffcott(&words("lyapunov --omega 131.7 --param c_c=-1"));
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("c_c"));
 }
@@ -389,15 +371,25 @@ fn cpu_lambda1_of_a_lane_agrees_with_the_first_exponent_of_the_full_spectrum() {
     }
 }
 
-#[test]
-fn gpu_lambda1_matches_cpu_lambda1_within_1e_3_per_second() {
-    let Some(runner) = common::gpu_f64_device().map(jeffcott_gpu::GpuRunner::new) else {
-        return;
-    };
-    let damped = Params {
+/// A GPU runner on an f64 device, or `None` (after saying so) without one.
+fn f64_runner() -> Option<jeffcott_gpu::GpuRunner> {
+    common::gpu_f64_device().map(jeffcott_gpu::GpuRunner::new)
+}
+
+/// The default parameters with contact damping (saltation matrices != I).
+fn damped() -> Params {
+    Params {
         c_c: 3e4,
         ..Params::default()
+    }
+}
+
+#[test]
+fn gpu_lambda1_matches_cpu_lambda1_within_1e_3_per_second() {
+    let Some(runner) = f64_runner() else {
+        return;
     };
+    let damped = damped();
     // Periodic, quasiperiodic and chaotic speeds, with and without contact damping
     // (saltation matrices != I), and one lane that never touches.
     let mut lanes: Vec<(f64, Params)> = Vec::new();
@@ -452,7 +444,7 @@ fn gpu_lambda1_matches_cpu_lambda1_within_1e_3_per_second() {
 #[test]
 fn damped_contact_force_is_kelvin_voigt_along_the_normal_and_its_jacobian_is_exact() {
     use jeffcott_core::model::{
-        VX_R, VX_S, VY_R, VY_S, X_R, X_S, Y_R, Y_S, contact_force, jacobian, penetration, rhs,
+        VX_R, VX_S, VY_R, VY_S, X_R, X_S, Y_R, Y_S, contact_force, penetration,
     };
     for mu in [0.0, 0.2] {
         let p = Params {
@@ -488,23 +480,7 @@ fn damped_contact_force_is_kelvin_voigt_along_the_normal_and_its_jacobian_is_exa
         out[X_R] = 0.003;
         assert_eq!(contact_force(&p, &out), (0.0, 0.0));
         // Analytic Jacobian (contact_partials) against central differences.
-        let jac = jacobian(&p, &x);
-        for j in 0..STATE_DIM {
-            let h = if j % 2 == 0 { 1e-9 } else { 1e-6 };
-            let (mut xp, mut xm) = (x, x);
-            xp[j] += h;
-            xm[j] -= h;
-            let (fp, fm) = (rhs(&p, 133.0, 0.01, &xp), rhs(&p, 133.0, 0.01, &xm));
-            for i in 0..STATE_DIM {
-                let fd = (fp[i] - fm[i]) / (2.0 * h);
-                let tol = 1e-6 * jac[i][j].abs().max(1.0) + 1e-3;
-                assert!(
-                    (fd - jac[i][j]).abs() <= tol,
-                    "J[{i}][{j}] = {} vs FD {fd} (mu {mu})",
-                    jac[i][j]
-                );
-            }
-        }
+        let jac = common::assert_jacobian_matches_central_differences(&p, &x, 1e-3);
         // The dashpot's share of the trace: -(c_c/m_r + c_c/m_s) in contact.
         let trace: f64 = (0..STATE_DIM).map(|i| jac[i][i]).sum();
         let want = -2.0 * (2.0 * p.xi_r * p.omega_r + 2.0 * p.xi_s * p.omega_s)
@@ -520,17 +496,14 @@ fn damped_contact_force_is_kelvin_voigt_along_the_normal_and_its_jacobian_is_exa
 #[test]
 fn gpu_lambda1_does_not_depend_on_time_slices_or_chunks() {
     use jeffcott_gpu::Schedule;
-    let Some(runner) = common::gpu_f64_device().map(jeffcott_gpu::GpuRunner::new) else {
+    let Some(runner) = f64_runner() else {
         return;
     };
     let cfg = StepperConfig {
         steps_per_period: 200,
         ..StepperConfig::default()
     };
-    let damped = Params {
-        c_c: 3e4,
-        ..Params::default()
-    };
+    let damped = damped();
     let mut consts = Vec::new();
     let mut init = Vec::new();
     for i in 0..12 {

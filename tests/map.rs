@@ -28,41 +28,17 @@ fn map(out: &Path, extra: &[&str]) -> Output {
 
 #[test]
 fn a_map_row_over_omega_reproduces_the_brute_force_classes_at_the_same_speeds() {
-    let tmp = tempfile::tempdir().unwrap();
-    let (m, b) = (tmp.path().join("map"), tmp.path().join("bif"));
+    let (_tmp, [m, b]) = temp_outs(["map", "bif"]);
     // Row 0 has e = 1 mm (Table 1), row 1 a larger unbalance.
     ok(&map(
         &m,
-        &[
-            "--x",
-            "omega:131.5:133.5:5",
-            "--y",
-            "e:0.001:0.0012:2",
-            "--backend",
-            "cpu",
-        ],
+        &words("--x omega:131.5:133.5:5 --y e:0.001:0.0012:2 --backend cpu"),
     ));
-    ok(&jeffcott(&[
-        "bifurcation",
-        "--omega",
-        "131.5:133.5:5",
-        "--sweep",
-        "none",
-        "--ics",
-        "1",
-        "--max-seeds",
-        "0",
-        "--brute-transient",
-        "300",
-        "--periods",
-        "32",
-        "--backend",
-        "cpu",
-        "--no-plot",
-        "--quiet",
-        "--out",
-        b.to_str().unwrap(),
-    ]));
+    ok(&jeffcott_out(
+        "bifurcation --omega 131.5:133.5:5 --sweep none --ics 1 --max-seeds 0 \
+         --brute-transient 300 --periods 32 --backend cpu --no-plot --quiet",
+        &b,
+    ));
     let mj = json(&m.join("map.json"));
     let bj = json(&b.join("summary.json"));
     let (_, period) = npy::<i32>(&m.join("period.npy"));
@@ -105,15 +81,7 @@ fn without_unbalance_no_cell_rubs_and_with_it_the_rotor_does() {
     let m = tmp.path().join("map");
     ok(&map(
         &m,
-        &[
-            "--x",
-            "omega:120:145:6",
-            "--y",
-            "e:0:0.001:2",
-            "--backend",
-            "cpu",
-            "--no-lyapunov",
-        ],
+        &words("--x omega:120:145:6 --y e:0:0.001:2 --backend cpu --no-lyapunov"),
     ));
     let (shape, contact) = npy::<f64>(&m.join("contact.npy"));
     assert_eq!(shape, vec![2, 6]);
@@ -161,7 +129,7 @@ fn cells_alone_equal_cells_in_a_map(backend: &str, precision: &str) {
     let tmp = tempfile::tempdir().unwrap();
     let big = tmp.path().join("big");
     let common = ["--ics", "3", "--backend", backend, "--precision", precision];
-    let mut a = vec!["--x", "omega:132:134:3", "--y", "mu:0:0.2:2"];
+    let mut a = words("--x omega:132:134:3 --y mu:0:0.2:2");
     a.extend_from_slice(&common);
     ok(&map(&big, &a));
     let mu = ["0", "0.2"];
@@ -200,21 +168,13 @@ fn a_gpu_f64_map_equals_the_cpu_map_bit_for_bit_but_lambda1_within_1e_9() {
     if !gpu_f64_present() {
         return;
     }
-    let tmp = tempfile::tempdir().unwrap();
-    let (c, g) = (tmp.path().join("cpu"), tmp.path().join("gpu"));
-    let axes = [
-        "--x",
-        "omega:131:135:4",
-        "--y",
-        "delta:0.0055:0.0065:2",
-        "--ics",
-        "2",
-    ];
+    let (_tmp, [c, g]) = temp_outs(["cpu", "gpu"]);
+    let axes = words("--x omega:131:135:4 --y delta:0.0055:0.0065:2 --ics 2");
     let mut a = axes.to_vec();
     a.extend_from_slice(&["--backend", "cpu"]);
     ok(&map(&c, &a));
     let mut a = axes.to_vec();
-    a.extend_from_slice(&["--backend", "gpu", "--precision", "f64"]);
+    a.extend_from_slice(&words("--backend gpu --precision f64"));
     ok(&map(&g, &a));
     // The lanes are bit-identical (f64 on lavapipe), so is everything computed from
     // their records and final states. lambda_1 comes from per-period growth factors that
@@ -307,19 +267,8 @@ fn per_lane_parameters_on_the_gpu_equal_the_cpu_lanes_bit_for_bit_in_f64() {
 
 #[test]
 fn a_killed_map_resumes_to_the_files_of_an_uninterrupted_run() {
-    let tmp = tempfile::tempdir().unwrap();
-    let (r, k) = (tmp.path().join("ref"), tmp.path().join("killed"));
-    let axes = [
-        "--x",
-        "omega:131:135:8",
-        "--y",
-        "e:0.0009:0.0011:3",
-        "--backend",
-        "cpu",
-        "--chunk",
-        "2",
-        "--no-plot",
-    ];
+    let (_tmp, [r, k]) = temp_outs(["ref", "killed"]);
+    let axes = words("--x omega:131:135:8 --y e:0.0009:0.0011:3 --backend cpu --chunk 2 --no-plot");
     ok(&map(&r, &axes));
     // Kill once the first units are committed, then resume.
     let mut a = vec!["map", "--out", k.to_str().unwrap()];
@@ -345,15 +294,7 @@ fn a_killed_map_resumes_to_the_files_of_an_uninterrupted_run() {
     let _ = child.kill();
     let _ = child.wait();
     ok(&jeffcott(&a));
-    for f in [
-        "period.npy",
-        "class.npy",
-        "lambda1.npy",
-        "attractors.npy",
-        "contact.npy",
-        "peak_force.npy",
-        "map.json",
-    ] {
+    for f in MAP_FILES {
         assert_eq!(
             std::fs::read(r.join(f)).unwrap(),
             std::fs::read(k.join(f)).unwrap(),
@@ -366,43 +307,26 @@ fn a_killed_map_resumes_to_the_files_of_an_uninterrupted_run() {
 fn bad_axes_are_refused_naming_the_option_and_range() {
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("m");
-    let cases: &[(&[&str], &[&str])] = &[
+    let cases: &[(&str, &[&str])] = &[
         (
-            &["--x", "speed:1:2:3", "--y", "e:0:1e-3:2"],
+            "--x speed:1:2:3 --y e:0:1e-3:2",
             &["x", "unknown axis", "omega"],
         ),
+        ("--x omega:130:140:3 --y omega:1:2:2", &["y", "different"]),
+        ("--x e:0:1e-3:3 --y mu:0:0.1:2", &["omega", "--omega"]),
         (
-            &["--x", "omega:130:140:3", "--y", "omega:1:2:2"],
-            &["y", "different"],
-        ),
-        (
-            &["--x", "e:0:1e-3:3", "--y", "mu:0:0.1:2"],
-            &["omega", "--omega"],
-        ),
-        (
-            &["--x", "omega:130:140:3", "--y", "delta:-1e-3:1e-3:2"],
+            "--x omega:130:140:3 --y delta:-1e-3:1e-3:2",
             &["x, y", "delta"],
         ),
         (
-            &["--x", "omega:130:140:3", "--y", "e:0:1e-3:2", "--log-y"],
+            "--x omega:130:140:3 --y e:0:1e-3:2 --log-y",
             &["y", "lo > 0"],
         ),
-        (
-            &["--x", "omega:140:130:3", "--y", "e:0:1e-3:2"],
-            &["x", "lo < hi"],
-        ),
-        (
-            &["--x", "omega:130:140:3", "--y", "e:0:1e-3:2", "--ics", "0"],
-            &["ics"],
-        ),
+        ("--x omega:140:130:3 --y e:0:1e-3:2", &["x", "lo < hi"]),
+        ("--x omega:130:140:3 --y e:0:1e-3:2 --ics 0", &["ics"]),
     ];
     for (args, needles) in cases {
-        let o = map(&out, args);
-        assert_eq!(o.status.code(), Some(2), "{args:?}");
-        let e = String::from_utf8_lossy(&o.stderr);
-        for n in *needles {
-            assert!(e.contains(n), "{args:?}: `{n}` not in {e}");
-        }
+        assert_refused_naming(&map(&out, &words(args)), args, needles);
         assert!(!out.join("map.json").exists());
     }
 }

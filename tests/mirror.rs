@@ -29,7 +29,7 @@ use jeffcott_gpu::{GpuReal, GpuRunner};
 use std::fmt::Write;
 
 mod common;
-use common::gpu::runner_for;
+use common::gpu::in_both_precisions;
 use common::unit;
 
 /// Buffers and readers shared by the probe entry points. Each invocation handles one
@@ -560,16 +560,6 @@ fn assert_mirrors<R: GpuReal>(runner: &GpuRunner, name: &str, rows: &[Row<R>]) -
         rows.len()
     );
     rows.len()
-}
-
-/// Runs `check` in f64 and in f32 where the adapter allows.
-fn in_both_precisions(check32: fn(&GpuRunner), check64: fn(&GpuRunner)) {
-    if let Some(r) = runner_for::<f64>() {
-        check64(r);
-    }
-    if let Some(r) = runner_for::<f32>() {
-        check32(r);
-    }
 }
 
 // ---- inputs around contact ---------------------------------------------------------

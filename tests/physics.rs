@@ -5,6 +5,8 @@ use jeffcott_core::integrate::article::{ArticleConfig, ArticleStepper, ErrorNorm
 use jeffcott_core::integrate::lane::{Lane, LaneConsts, StepperConfig, advance_period, macro_step};
 use jeffcott_core::model::*;
 
+mod common;
+
 fn lane_run(p: &Params, omega: f64, x0: State, n: u32, periods: u32) -> Vec<State> {
     lane_run_r(
         p,
@@ -324,25 +326,8 @@ fn analytic_jacobian_matches_central_differences_in_and_out_of_contact() {
         inside[X_S] = 1e-5;
         assert!(penetration(p.delta, &outside) < 0.0 && penetration(p.delta, &inside) > 1e-5);
         for x in [outside, inside] {
-            let jac = jacobian(&p, &x);
-            for j in 0..STATE_DIM {
-                // Steps well below the penetration so the difference stays on one side.
-                let h = if j % 2 == 0 { 1e-9 } else { 1e-6 };
-                let (mut xp, mut xm) = (x, x);
-                xp[j] += h;
-                xm[j] -= h;
-                let fp = rhs(&p, 133.0, 0.01, &xp);
-                let fm = rhs(&p, 133.0, 0.01, &xm);
-                for i in 0..STATE_DIM {
-                    let fd = (fp[i] - fm[i]) / (2.0 * h);
-                    let tol = 1e-6 * jac[i][j].abs().max(1.0) + 1e-6 * p.k_c / p.m_r * 1e-3;
-                    assert!(
-                        (fd - jac[i][j]).abs() <= tol,
-                        "J[{i}][{j}] = {} vs FD {fd} (mu {mu})",
-                        jac[i][j]
-                    );
-                }
-            }
+            let abs_tol = 1e-6 * p.k_c / p.m_r * 1e-3;
+            common::assert_jacobian_matches_central_differences(&p, &x, abs_tol);
         }
     }
 }

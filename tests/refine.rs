@@ -30,41 +30,20 @@ fn classes(dir: &Path) -> Vec<String> {
 
 #[test]
 fn a_refined_basin_has_the_fine_grids_labels_where_it_integrated_and_at_99_percent_overall() {
-    let tmp = tempfile::tempdir().unwrap();
-    let (r, f) = (tmp.path().join("refined"), tmp.path().join("fine"));
-    let common = [
-        "basin",
-        "--omega",
-        "133",
-        "--y",
-        "vx_r:-1:1:15",
-        "--transient",
-        "250",
-        "--steps-per-period",
-        "250",
-        "--periods",
-        "32",
-        "--backend",
-        "cpu",
-        "--quiet",
-        "--no-plot",
-        "--uncertainty-samples",
-        "0",
-    ];
-    let mut a = common.to_vec();
-    a.extend_from_slice(&[
-        "--x",
-        "x_r:-0.006:0.006:15",
-        "--refine",
-        "2",
-        "--out",
-        r.to_str().unwrap(),
-    ]);
-    ok(&jeffcott(&a));
-    let mut a: Vec<&str> = common.to_vec();
-    a[4] = "vx_r:-1:1:57";
-    a.extend_from_slice(&["--x", "x_r:-0.006:0.006:57", "--out", f.to_str().unwrap()]);
-    ok(&jeffcott(&a));
+    let (_tmp, [r, f]) = temp_outs(["refined", "fine"]);
+    // The two runs differ in their grids only.
+    let basin = |y: &str, x: &str| {
+        format!(
+            "basin --omega 133 --y {y} --transient 250 --steps-per-period 250 --periods 32 \
+             --backend cpu --quiet --no-plot --uncertainty-samples 0 --x {x}"
+        )
+    };
+    let coarse = basin("vx_r:-1:1:15", "x_r:-0.006:0.006:15");
+    ok(&jeffcott_out(&format!("{coarse} --refine 2"), &r));
+    ok(&jeffcott_out(
+        &basin("vx_r:-1:1:57", "x_r:-0.006:0.006:57"),
+        &f,
+    ));
     let (shape, computed) = npy::<u8>(&r.join("refined.npy"));
     assert_eq!(shape, vec![57, 57]);
     let (rl, fl) = (classes(&r), classes(&f));

@@ -69,16 +69,7 @@ fn free_flight_never_rubs_and_its_spectrum_is_the_linear_unbalance_response() {
     let w = 100.0;
     let s = simulate(
         &tmp.path().join("free"),
-        &[
-            "--omega",
-            "100",
-            "--param",
-            "delta=0.5",
-            "--transient",
-            "1000",
-            "--periods",
-            "24",
-        ],
+        &words("--omega 100 --param delta=0.5 --transient 1000 --periods 24"),
     );
     assert_eq!(s["rub"]["regime"], "no_contact");
     assert_eq!(s["rub"]["figures"]["contact_fraction"], 0.0);
@@ -159,14 +150,7 @@ fn full_annular_rub_and_backward_whirl_are_found_and_stable_under_doubling_the_r
     // Table 1 at 155 rad/s: the orbit outgrows the gap and stays on the stator all round.
     let annular = ["--omega", "155"];
     // Soft contact and friction, the rotor thrown backward into the stator (docs/rub.md).
-    let backward = [
-        "--omega",
-        "140",
-        "--param",
-        "mu=0.25,k_c=1e6",
-        "--init",
-        "x_r=0.0065,vy_r=-1",
-    ];
+    let backward = words("--omega 140 --param mu=0.25,k_c=1e6 --init x_r=0.0065,vy_r=-1");
     for (name, args, expect) in [
         ("annular", &annular[..], "full_annular_rub"),
         ("backward", &backward[..], "backward_whirl"),
@@ -191,17 +175,7 @@ fn contact_statistics_equal_those_integrated_from_the_time_series() {
     // recorded periods, so the time series gives the same statistics.
     let s = simulate(
         &dir,
-        &[
-            "--omega",
-            "131.7",
-            "--periods",
-            "24",
-            "--timeseries-periods",
-            "24",
-            "--spectrum-periods",
-            "24",
-            "--csv",
-        ],
+        &words("--omega 131.7 --periods 24 --timeseries-periods 24 --spectrum-periods 24 --csv"),
     );
     let (shape, ts) = npy::<f64>(&dir.join("timeseries.npy"));
     assert_eq!(shape[1], 9);
@@ -261,18 +235,10 @@ fn contact_statistics_equal_those_integrated_from_the_time_series() {
 fn a_cascade_shows_no_contact_below_the_rub_band_and_hysteresis_above_it() {
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("c");
-    ok(&jeffcott(&[
-        "cascade",
-        "--omega",
-        "120:170:26",
-        "--transient",
-        "100",
-        "--periods",
-        "12",
-        "--quiet",
-        "--out",
-        out.to_str().unwrap(),
-    ]));
+    ok(&jeffcott_out(
+        "cascade --omega 120:170:26 --transient 100 --periods 12 --quiet",
+        &out,
+    ));
     let (shape, amp) = npy::<f64>(&out.join("cascade.npy"));
     assert_eq!(shape[..2], [2, 26]);
     let bins = shape[2] as usize;

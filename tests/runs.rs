@@ -11,10 +11,20 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 mod common;
-use common::{jeffcott, ok};
+use common::{jeffcott, ok, temp_out, words};
 
 fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_jeffcott"))
+}
+
+/// Starts the binary with `a`, its stdout discarded and its stderr as `stderr` says.
+fn spawn(a: &[String], stderr: Stdio) -> std::process::Child {
+    bin()
+        .args(a)
+        .stdout(Stdio::null())
+        .stderr(stderr)
+        .spawn()
+        .unwrap()
 }
 
 fn args(list: &[&str], out: &Path) -> Vec<String> {
@@ -22,6 +32,15 @@ fn args(list: &[&str], out: &Path) -> Vec<String> {
     v.push("--out".into());
     v.push(out.to_str().unwrap().into());
     v
+}
+
+/// Runs `list` into `out`, demanding a refusal (exit code 2) whose stderr contains every
+/// one of `needles`.
+fn assert_refused(list: &[&str], out: &Path, needles: &[&str]) {
+    let o = jeffcott(&args(list, out));
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(needles.iter().all(|n| err.contains(n)), "{err}");
 }
 
 fn units(dir: &Path) -> usize {
@@ -40,12 +59,7 @@ fn units(dir: &Path) -> usize {
 /// late (a loaded machine) and the kill landed after the run had written its files and
 /// marked itself complete, interrupting nothing.
 fn kill_after_units(a: &[String], out: &Path, k: usize) -> Option<usize> {
-    let mut child = bin()
-        .args(a)
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
+    let mut child = spawn(a, Stdio::null());
     let t = Instant::now();
     loop {
         if let Some(_status) = child.try_wait().unwrap() {
@@ -151,11 +165,12 @@ fn no_temporaries(dir: &Path) {
 
 /// Kills the command after 1, a few and most units, resumes each time, and compares
 /// with an uninterrupted run.
-fn killed_and_resumed_equals_uninterrupted(cmd: &[&str], kill_at: &[usize]) {
+fn killed_and_resumed_equals_uninterrupted(cmd: &str, kill_at: &[usize]) {
     killed_and_resumed_equals_uninterrupted_but(cmd, kill_at, &[]);
 }
 
-fn killed_and_resumed_equals_uninterrupted_but(cmd: &[&str], kill_at: &[usize], skip: &[&str]) {
+fn killed_and_resumed_equals_uninterrupted_but(cmd: &str, kill_at: &[usize], skip: &[&str]) {
+    let cmd = &words(cmd);
     let dir = tempfile::tempdir().unwrap();
     let reference = dir.path().join("reference");
     ok(&jeffcott(&args(cmd, &reference)));
@@ -190,22 +205,15 @@ fn killed_and_resumed_equals_uninterrupted_but(cmd: &[&str], kill_at: &[usize], 
     no_temporaries(&out);
 }
 
-const BASIN: &[&str] = &[
-    "basin",
-    "--omega",
-    "133",
-    "--x",
-    "x_r:-0.006:0.006:24",
-    "--y",
-    "vx_r:-1:1:20",
-    "--transient",
-    "60",
-    "--periods",
-    "16",
-    "--backend",
-    "cpu",
-    "--quiet",
-];
+const BASIN: &str = "basin --omega 133 --x x_r:-0.006:0.006:24 --y vx_r:-1:1:20 --transient 60 \
+                     --periods 16 --backend cpu --quiet";
+
+/// [`BASIN`] at W = 134: another specification for the same directory.
+fn basin_at_134() -> Vec<&'static str> {
+    let mut b = words(BASIN);
+    b[2] = "134";
+    b
+}
 
 #[test]
 fn basin_killed_with_sigkill_and_resumed_has_the_files_of_an_uninterrupted_run() {
@@ -215,26 +223,8 @@ fn basin_killed_with_sigkill_and_resumed_has_the_files_of_an_uninterrupted_run()
 #[test]
 fn bifurcation_sweeps_and_brute_force_killed_and_resumed_equal_an_uninterrupted_run() {
     killed_and_resumed_equals_uninterrupted(
-        &[
-            "bifurcation",
-            "--omega",
-            "131:134:24",
-            "--ics",
-            "2",
-            "--transient",
-            "40",
-            "--transient-first",
-            "100",
-            "--brute-transient",
-            "60",
-            "--periods",
-            "16",
-            "--portraits",
-            "133",
-            "--backend",
-            "cpu",
-            "--quiet",
-        ],
+        "bifurcation --omega 131:134:24 --ics 2 --transient 40 --transient-first 100 \
+         --brute-transient 60 --periods 16 --portraits 133 --backend cpu --quiet",
         // Sweep units (up and down), then the two brute-force passes.
         &[2, 25, 45],
     );
@@ -243,19 +233,7 @@ fn bifurcation_sweeps_and_brute_force_killed_and_resumed_equal_an_uninterrupted_
 #[test]
 fn ensemble_killed_and_resumed_equals_an_uninterrupted_run() {
     killed_and_resumed_equals_uninterrupted(
-        &[
-            "ensemble",
-            "--omega",
-            "130:141:200",
-            "--transient",
-            "60",
-            "--periods",
-            "8",
-            "--lyapunov",
-            "--backend",
-            "cpu",
-            "--quiet",
-        ],
+        "ensemble --omega 130:141:200 --transient 60 --periods 8 --lyapunov --backend cpu --quiet",
         &[2, 11],
     );
 }
@@ -263,18 +241,7 @@ fn ensemble_killed_and_resumed_equals_an_uninterrupted_run() {
 #[test]
 fn lyapunov_range_killed_and_resumed_equals_an_uninterrupted_run() {
     killed_and_resumed_equals_uninterrupted(
-        &[
-            "lyapunov",
-            "--omega",
-            "131:135:24",
-            "--time",
-            "8",
-            "--min-time",
-            "4",
-            "--transient",
-            "200",
-            "--quiet",
-        ],
+        "lyapunov --omega 131:135:24 --time 8 --min-time 4 --transient 200 --quiet",
         &[3, 12],
     );
 }
@@ -285,19 +252,8 @@ fn cascade_killed_and_resumed_keeps_its_committed_units_and_equals_an_uninterrup
     // resumed cascade computed everything again (issue 27, item 1): the harness fails
     // when a unit committed before the kill is computed again.
     killed_and_resumed_equals_uninterrupted(
-        &[
-            "cascade",
-            "--omega",
-            "120:150:100",
-            "--transient",
-            "200",
-            "--transient-first",
-            "200",
-            "--periods",
-            "48",
-            "--no-plot",
-            "--quiet",
-        ],
+        "cascade --omega 120:150:100 --transient 200 --transient-first 200 --periods 48 \
+         --no-plot --quiet",
         &[2, 5],
     );
 }
@@ -306,21 +262,8 @@ fn cascade_killed_and_resumed_keeps_its_committed_units_and_equals_an_uninterrup
 fn continuation_killed_and_resumed_keeps_its_ramp_units_and_equals_an_uninterrupted_run() {
     // Its ramp steps were committed under an empty key like cascade's.
     killed_and_resumed_equals_uninterrupted(
-        &[
-            "continuation",
-            "--vary",
-            "omega:131:134:16",
-            "--ics",
-            "6",
-            "--transient",
-            "150",
-            "--periods",
-            "16",
-            "--backend",
-            "cpu",
-            "--no-plot",
-            "--quiet",
-        ],
+        "continuation --vary omega:131:134:16 --ics 6 --transient 150 --periods 16 \
+         --backend cpu --no-plot --quiet",
         &[3, 22],
     );
 }
@@ -330,7 +273,7 @@ fn reproduce_killed_and_resumed_redraws_the_same_figures() {
     // REPORT.md states the wall times of this session's studies; everything else
     // (every figure, every array and JSON file of the studies) is bit-identical.
     killed_and_resumed_equals_uninterrupted_but(
-        &["reproduce", "--smoke", "--backend", "cpu", "--quiet"],
+        "reproduce --smoke --backend cpu --quiet",
         &[4, 30],
         &["REPORT.md"],
     );
@@ -342,8 +285,8 @@ fn gpu_basin_killed_and_resumed_equals_an_uninterrupted_cpu_run_bit_for_bit() {
         return;
     }
     let dir = tempfile::tempdir().unwrap();
-    let cpu: Vec<&str> = BASIN.to_vec();
-    let mut gpu: Vec<&str> = BASIN.to_vec();
+    let cpu: Vec<&str> = words(BASIN);
+    let mut gpu: Vec<&str> = words(BASIN);
     let b = gpu.iter().position(|a| *a == "cpu").unwrap();
     gpu[b] = "gpu";
     gpu.extend(["--precision", "f64"]);
@@ -366,15 +309,9 @@ fn gpu_basin_killed_and_resumed_equals_an_uninterrupted_cpu_run_bit_for_bit() {
 #[test]
 fn sigint_and_sigterm_stop_cleanly_and_print_the_command_that_resumes() {
     for sig in ["INT", "TERM"] {
-        let dir = tempfile::tempdir().unwrap();
-        let out = dir.path().join("b");
-        let a = args(BASIN, &out);
-        let child = bin()
-            .args(&a)
-            .stdout(Stdio::null())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap();
+        let (_dir, out) = temp_out("b");
+        let a = args(&words(BASIN), &out);
+        let child = spawn(&a, Stdio::piped());
         let t = Instant::now();
         while units(&out) < 2 {
             assert!(t.elapsed() < Duration::from_secs(300));
@@ -401,11 +338,10 @@ fn sigint_and_sigterm_stop_cleanly_and_print_the_command_that_resumes() {
 
 #[test]
 fn a_different_specification_is_refused_and_overwrite_leaves_no_file_of_the_old_run() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("b");
-    let small: Vec<&str> = BASIN
-        .iter()
-        .map(|a| match *a {
+    let (_dir, out) = temp_out("b");
+    let small: Vec<&str> = words(BASIN)
+        .into_iter()
+        .map(|a| match a {
             "x_r:-0.006:0.006:24" => "x_r:-0.006:0.006:6",
             "vx_r:-1:1:20" => "vx_r:-1:1:5",
             a => a,
@@ -418,13 +354,7 @@ fn a_different_specification_is_refused_and_overwrite_leaves_no_file_of_the_old_
     std::fs::write(out.join("notes.txt"), "mine").unwrap();
     let mut other = small.clone();
     other[2] = "134";
-    let o = jeffcott(&args(&other, &out));
-    assert_eq!(o.status.code(), Some(2));
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(
-        err.contains("--overwrite") && err.contains("omega"),
-        "{err}"
-    );
+    assert_refused(&other, &out, &["--overwrite", "omega"]);
     assert!(
         out.join("lambda1.npy").exists(),
         "the refused run touched nothing"
@@ -445,43 +375,17 @@ fn a_different_specification_is_refused_and_overwrite_leaves_no_file_of_the_old_
         serde_json::from_slice(&std::fs::read(out.join("attractors.json")).unwrap()).unwrap();
     assert_eq!(j["omega"], 134.0);
     // A different command into the directory is refused too.
-    let o = jeffcott(&args(
-        &[
-            "ensemble",
-            "--omega",
-            "133",
-            "--transient",
-            "1",
-            "--periods",
-            "2",
-            "--quiet",
-        ],
-        &out,
-    ));
-    assert_eq!(o.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&o.stderr).contains("`basin` run"));
+    let ensemble = words("ensemble --omega 133 --transient 1 --periods 2 --quiet");
+    assert_refused(&ensemble, &out, &["`basin` run"]);
 }
 
 #[test]
 fn two_concurrent_runs_into_one_directory_never_mix_their_files() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("b");
-    let a = args(BASIN, &out);
-    let mut other: Vec<&str> = BASIN.to_vec();
-    other[2] = "134";
+    let (_dir, out) = temp_out("b");
+    let a = args(&words(BASIN), &out);
+    let other = basin_at_134();
     let b = args(&other, &out);
-    let ca = bin()
-        .args(&a)
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let cb = bin()
-        .args(&b)
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let (ca, cb) = (spawn(&a, Stdio::piped()), spawn(&b, Stdio::piped()));
     let (oa, ob) = (
         ca.wait_with_output().unwrap(),
         cb.wait_with_output().unwrap(),
@@ -508,12 +412,7 @@ fn two_concurrent_runs_into_one_directory_never_mix_their_files() {
 
 /// Starts `a`, waits for `k` committed units, deletes the lock file under it.
 fn delete_lock_after_units(a: &[String], out: &Path, k: usize) -> std::process::Child {
-    let mut child = bin()
-        .args(a)
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let mut child = spawn(a, Stdio::piped());
     let t = Instant::now();
     while units(out) < k {
         assert!(
@@ -529,9 +428,8 @@ fn delete_lock_after_units(a: &[String], out: &Path, k: usize) -> std::process::
 
 #[test]
 fn a_run_whose_lock_file_is_deleted_stops_and_is_never_marked_complete() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("b");
-    let a = args(BASIN, &out);
+    let (dir, out) = temp_out("b");
+    let a = args(&words(BASIN), &out);
     let o = delete_lock_after_units(&a, &out, 2)
         .wait_with_output()
         .unwrap();
@@ -544,7 +442,7 @@ fn a_run_whose_lock_file_is_deleted_stops_and_is_never_marked_complete() {
     assert_eq!(state(&out), "running");
     // The same command then resumes under a new lock and ends as an uninterrupted run.
     let reference = dir.path().join("reference");
-    ok(&jeffcott(&args(BASIN, &reference)));
+    ok(&jeffcott(&args(&words(BASIN), &reference)));
     ok(&jeffcott(&a));
     assert_same_files(&reference, &out);
 }
@@ -553,11 +451,9 @@ fn a_run_whose_lock_file_is_deleted_stops_and_is_never_marked_complete() {
 fn a_second_run_let_in_by_a_deleted_lock_file_never_mixes_its_files_with_the_first() {
     // Run A loses its lock file mid-run; run B (another specification, --overwrite)
     // takes the directory. A stops at its next commit; B's files are B's alone.
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("b");
-    let a = args(BASIN, &out);
-    let mut other: Vec<&str> = BASIN.to_vec();
-    other[2] = "134";
+    let (dir, out) = temp_out("b");
+    let a = args(&words(BASIN), &out);
+    let other = basin_at_134();
     let mut b = args(&other, &out);
     b.push("--overwrite".into());
     let ca = delete_lock_after_units(&a, &out, 2);
@@ -580,22 +476,15 @@ fn an_unwritable_out_is_refused_before_any_computing() {
     let file = dir.path().join("plain-file");
     std::fs::write(&file, "x").unwrap();
     let t = Instant::now();
-    let mut big: Vec<&str> = BASIN.to_vec();
+    let mut big: Vec<&str> = words(BASIN);
     big[4] = "x_r:-0.006:0.006:2000";
-    let o = jeffcott(&args(&big, &file));
-    assert_eq!(o.status.code(), Some(2));
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(
-        err.contains("plain-file") && err.contains("not a directory"),
-        "{err}"
-    );
+    assert_refused(&big, &file, &["plain-file", "not a directory"]);
     assert!(
         t.elapsed() < Duration::from_secs(20),
         "refused before computing"
     );
-    let o = jeffcott(&args(&big, Path::new("/proc/jeffcott-cannot-write-here")));
-    assert_eq!(o.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&o.stderr).contains("/proc/jeffcott-cannot-write-here"));
+    let unwritable = "/proc/jeffcott-cannot-write-here";
+    assert_refused(&big, Path::new(unwritable), &[unwritable]);
 }
 
 /// A small tmpfs (mounted here; the test runs as root in CI) fills during the run: the
@@ -605,7 +494,7 @@ fn an_unwritable_out_is_refused_before_any_computing() {
 fn a_full_disk_leaves_no_partial_file_and_the_run_resumes_after_space_is_freed() {
     let dir = tempfile::tempdir().unwrap();
     let reference = dir.path().join("reference");
-    ok(&jeffcott(&args(BASIN, &reference)));
+    ok(&jeffcott(&args(&words(BASIN), &reference)));
     let units_bytes: u64 = std::fs::read_dir(reference.join("units"))
         .unwrap()
         .flatten()
@@ -641,7 +530,7 @@ fn a_full_disk_leaves_no_partial_file_and_the_run_resumes_after_space_is_freed()
     }
     let _guard = Unmount(mnt.clone());
     let out = mnt.join("b");
-    let a = args(BASIN, &out);
+    let a = args(&words(BASIN), &out);
     let o = jeffcott(&a);
     assert_eq!(o.status.code(), Some(2), "the run must fail on a full disk");
     let err = String::from_utf8_lossy(&o.stderr);
@@ -681,20 +570,11 @@ fn a_full_disk_leaves_no_partial_file_and_the_run_resumes_after_space_is_freed()
 #[test]
 fn basin_labels_do_not_depend_on_the_unit_size() {
     use jeffcott_analysis::basin::{Axis, BasinSpec, basin};
-    use jeffcott_analysis::settings::LaneSettings;
-    use jeffcott_core::ensemble::{Backend, Precision};
     use jeffcott_core::model::{Params, VX_R, X_R};
     let p = Params::default();
     let mut spec = BasinSpec {
         base: p.static_equilibrium(),
-        lane: LaneSettings {
-            params: p,
-            stepper: Default::default(),
-            precision: Precision::F64,
-            backend: Backend::Cpu,
-            catalogue: Default::default(),
-            lyapunov: false,
-        },
+        lane: common::cpu_f64_lane(p, false),
         omega: 133.0,
         x: Axis {
             coord: X_R,

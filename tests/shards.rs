@@ -9,7 +9,7 @@ use jeffcott_core::model::{STATE_DIM, State};
 use std::path::{Path, PathBuf};
 
 mod common;
-use common::{jeffcott, ok};
+use common::{MAP_FILES, jeffcott, ok, words};
 
 fn with(list: &[&str], extra: &[&str]) -> Vec<String> {
     list.iter().chain(extra).map(|s| s.to_string()).collect()
@@ -19,20 +19,8 @@ fn p(path: &Path) -> &str {
     path.to_str().unwrap()
 }
 
-const BASIN: &[&str] = &[
-    "basin",
-    "--omega",
-    "133",
-    "--x",
-    "x_r:-0.006:0.006:24",
-    "--y",
-    "vx_r:-1:1:20",
-    "--transient",
-    "60",
-    "--periods",
-    "16",
-    "--quiet",
-];
+const BASIN: &str = "basin --omega 133 --x x_r:-0.006:0.006:24 --y vx_r:-1:1:20 --transient 60 \
+                     --periods 16 --quiet";
 
 fn same_files(a: &Path, b: &Path, files: &[&str]) {
     for f in files {
@@ -45,6 +33,35 @@ fn same_files(a: &Path, b: &Path, files: &[&str]) {
             b.display()
         );
     }
+}
+
+/// The arguments of `jeffcott merge --out OUT DIRS...`, with `first` before `--out`.
+fn merge_args<D: AsRef<Path>>(first: &[&str], out: &Path, dirs: &[D]) -> Vec<String> {
+    let mut a = with(&["merge"], first);
+    a.extend(["--out".into(), p(out).into()]);
+    a.extend(dirs.iter().map(|d| p(d.as_ref()).to_string()));
+    a
+}
+
+/// Runs `cmd` whole and, for each n of `ns` (the k-th merged in shuffled order
+/// `first_seed + k`), as n shards merged, demanding `files` identical to the whole run's;
+/// returns the last merged directory.
+fn sharded_equals_whole(
+    root: &Path,
+    cmd: &str,
+    ns: &[usize],
+    first_seed: usize,
+    files: &[&str],
+) -> PathBuf {
+    let cmd = words(cmd);
+    let reference = root.join("reference");
+    ok(&jeffcott(&with(&cmd, &["--out", p(&reference)])));
+    let mut merged = PathBuf::new();
+    for (k, &n) in ns.iter().enumerate() {
+        merged = sharded(root, &cmd, n, first_seed + k);
+        same_files(&reference, &merged, files);
+    }
+    merged
 }
 
 /// Runs `cmd` as n shards, merges them in a shuffled order, and returns the merged dir.
@@ -67,14 +84,7 @@ fn sharded(root: &Path, cmd: &[&str], n: usize, order_seed: usize) -> PathBuf {
     dirs.rotate_left(order_seed % n);
     dirs.reverse();
     let out = root.join(format!("n{n}-merged"));
-    let mut a: Vec<String> = vec![
-        "merge".into(),
-        "--quiet".into(),
-        "--out".into(),
-        p(&out).into(),
-    ];
-    a.extend(dirs.iter().map(|d| p(d).to_string()));
-    ok(&jeffcott(&a));
+    ok(&jeffcott(&merge_args(&["--quiet"], &out, &dirs)));
     out
 }
 
@@ -90,14 +100,8 @@ const BASIN_FILES: &[&str] = &[
 #[test]
 fn a_basin_sharded_in_1_2_3_and_7_and_merged_in_any_order_equals_the_unsharded_run() {
     let dir = tempfile::tempdir().unwrap();
-    let cpu = with(BASIN, &["--backend", "cpu"]);
-    let cpu: Vec<&str> = cpu.iter().map(|s| s.as_str()).collect();
-    let reference = dir.path().join("reference");
-    ok(&jeffcott(&with(&cpu, &["--out", p(&reference)])));
-    for (k, n) in [1, 2, 3, 7].into_iter().enumerate() {
-        let merged = sharded(dir.path(), &cpu, n, k + 1);
-        same_files(&reference, &merged, BASIN_FILES);
-    }
+    let cpu = format!("{BASIN} --backend cpu");
+    sharded_equals_whole(dir.path(), &cpu, &[1, 2, 3, 7], 1, BASIN_FILES);
 }
 
 #[test]
@@ -108,10 +112,10 @@ fn a_basin_sharded_on_the_gpu_in_f64_merges_to_the_cpu_run() {
     let dir = tempfile::tempdir().unwrap();
     let reference = dir.path().join("reference");
     ok(&jeffcott(&with(
-        BASIN,
+        &words(BASIN),
         &["--backend", "cpu", "--out", p(&reference)],
     )));
-    let gpu = with(BASIN, &["--backend", "gpu", "--precision", "f64"]);
+    let gpu = with(&words(BASIN), &words("--backend gpu --precision f64"));
     let gpu: Vec<&str> = gpu.iter().map(|s| s.as_str()).collect();
     let merged = sharded(dir.path(), &gpu, 2, 0);
     same_files(&reference, &merged, &["labels.npy", "attractors.json"]);
@@ -120,32 +124,18 @@ fn a_basin_sharded_on_the_gpu_in_f64_merges_to_the_cpu_run() {
 #[test]
 fn an_ensemble_sharded_and_merged_equals_the_unsharded_run() {
     let dir = tempfile::tempdir().unwrap();
-    let cmd = [
-        "ensemble",
-        "--omega",
-        "130:141:90",
-        "--transient",
-        "40",
-        "--periods",
-        "8",
-        "--lyapunov",
-        "--backend",
-        "cpu",
-        "--quiet",
-    ];
-    let reference = dir.path().join("reference");
-    ok(&jeffcott(&with(&cmd, &["--out", p(&reference)])));
-    let merged = sharded(dir.path(), &cmd, 3, 1);
-    same_files(
-        &reference,
-        &merged,
+    sharded_equals_whole(
+        dir.path(),
+        "ensemble --omega 130:141:90 --transient 40 --periods 8 --lyapunov --backend cpu --quiet",
+        &[3],
+        1,
         &["poincare.npy", "status.npy", "lanes.npy", "lambda1.npy"],
     );
 }
 
 /// [`BASIN`] on the CPU over a 6 x 5 grid (15 units): quick shards for refusals.
 fn small_basin() -> Vec<String> {
-    with(BASIN, &["--backend", "cpu"])
+    with(&words(BASIN), &["--backend", "cpu"])
         .into_iter()
         .map(|a| match a.as_str() {
             "x_r:-0.006:0.006:24" => "x_r:-0.006:0.006:6".into(),
@@ -174,9 +164,7 @@ fn merge_refuses_a_missing_a_duplicated_and_a_foreign_shard() {
     let foreign = s(2, &other, "b");
     let merge = |dirs: &[&PathBuf]| {
         let out = dir.path().join("m");
-        let mut a: Vec<String> = vec!["merge".into(), "--out".into(), p(&out).into()];
-        a.extend(dirs.iter().map(|d| p(d).to_string()));
-        let o = jeffcott(&a);
+        let o = jeffcott(&merge_args(&[], &out, dirs));
         assert_eq!(o.status.code(), Some(2));
         assert!(!out.join("labels.npy").exists());
         String::from_utf8_lossy(&o.stderr).to_string()
@@ -239,9 +227,7 @@ fn merge_names_a_corrupt_truncated_or_swapped_unit_with_its_shard_and_writes_not
     for (what, bytes) in damage {
         std::fs::write(&victim, &bytes).unwrap();
         let out = dir.path().join("m");
-        let mut a: Vec<String> = vec!["merge".into(), "--out".into(), p(&out).into()];
-        a.extend(shards.iter().map(|d| p(d).to_string()));
-        let o = jeffcott(&a);
+        let o = jeffcott(&merge_args(&[], &out, &shards));
         let e = String::from_utf8_lossy(&o.stderr);
         assert_eq!(o.status.code(), Some(2), "{what}: {e}");
         assert!(e.contains("is corrupt"), "{what}: {e}");
@@ -254,9 +240,7 @@ fn merge_names_a_corrupt_truncated_or_swapped_unit_with_its_shard_and_writes_not
     std::fs::write(&victim, &good).unwrap();
     assert!(!u0.is_empty());
     let out = dir.path().join("m");
-    let mut a: Vec<String> = vec!["merge".into(), "--out".into(), p(&out).into()];
-    a.extend(shards.iter().map(|d| p(d).to_string()));
-    ok(&jeffcott(&a));
+    ok(&jeffcott(&merge_args(&[], &out, &shards)));
 }
 
 fn cycle(n: usize, scale: f64) -> Vec<State> {
@@ -352,35 +336,12 @@ fn attractors_found_in_some_or_all_shards_and_a_split_cloud_get_one_id_each() {
 #[test]
 fn a_brute_force_bifurcation_sharded_over_speeds_and_merged_equals_the_unsharded_one() {
     let dir = tempfile::tempdir().unwrap();
-    let cmd = [
-        "bifurcation",
-        "--omega",
-        "131:134:24",
-        "--ics",
-        "3",
-        "--transient",
-        "40",
-        "--transient-first",
-        "100",
-        "--brute-transient",
-        "60",
-        "--periods",
-        "16",
-        "--portraits",
-        "133",
-        "--backend",
-        "cpu",
-        "--quiet",
-    ];
-    let reference = dir.path().join("reference");
-    ok(&jeffcott(&with(&cmd, &["--out", p(&reference)])));
-    let merged = sharded(dir.path(), &cmd, 3, 2);
-    let j: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(merged.join("run.json")).unwrap()).unwrap();
-    assert_eq!(j["state"], "complete");
-    same_files(
-        &reference,
-        &merged,
+    let merged = sharded_equals_whole(
+        dir.path(),
+        "bifurcation --omega 131:134:24 --ics 3 --transient 40 --transient-first 100 \
+         --brute-transient 60 --periods 16 --portraits 133 --backend cpu --quiet",
+        &[3],
+        2,
         &[
             "omega.npy",
             "bifurcation.npy",
@@ -391,73 +352,33 @@ fn a_brute_force_bifurcation_sharded_over_speeds_and_merged_equals_the_unsharded
             "attractors_132.9565.png",
         ],
     );
+    let j: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(merged.join("run.json")).unwrap()).unwrap();
+    assert_eq!(j["state"], "complete");
 }
 
 #[test]
 fn a_map_sharded_in_2_and_5_and_merged_in_any_order_equals_the_unsharded_run() {
     let dir = tempfile::tempdir().unwrap();
-    let cmd = [
-        "map",
-        "--x",
-        "omega:131:135:5",
-        "--y",
-        "e:0.0008:0.0012:3",
-        "--ics",
-        "2",
-        "--transient",
-        "60",
-        "--periods",
-        "16",
-        "--chunk",
-        "1",
-        "--backend",
-        "cpu",
-        "--quiet",
-    ];
-    let reference = dir.path().join("reference");
-    ok(&jeffcott(&with(&cmd, &["--out", p(&reference)])));
-    for (k, n) in [2, 5].into_iter().enumerate() {
-        let merged = sharded(dir.path(), &cmd, n, k + 2);
-        same_files(
-            &reference,
-            &merged,
-            &[
-                "period.npy",
-                "class.npy",
-                "lambda1.npy",
-                "attractors.npy",
-                "contact.npy",
-                "peak_force.npy",
-                "map.json",
-                "map_period.png",
-            ],
-        );
-    }
+    sharded_equals_whole(
+        dir.path(),
+        "map --x omega:131:135:5 --y e:0.0008:0.0012:3 --ics 2 --transient 60 --periods 16 \
+         --chunk 1 --backend cpu --quiet",
+        &[2, 5],
+        2,
+        &[MAP_FILES, &["map_period.png"]].concat(),
+    );
 }
 
 #[test]
 fn a_continuation_sharded_in_3_and_merged_equals_the_unsharded_run() {
     let dir = tempfile::tempdir().unwrap();
-    let cmd = [
-        "continuation",
-        "--vary",
-        "omega:132.6:133.4:9",
-        "--ics",
-        "8",
-        "--transient",
-        "60",
-        "--periods",
-        "16",
-        "--backend",
-        "cpu",
-        "--quiet",
-    ];
-    let reference = dir.path().join("reference");
-    ok(&jeffcott(&with(&cmd, &["--out", p(&reference)])));
-    let merged = sharded(dir.path(), &cmd, 3, 1);
-    same_files(
-        &reference,
-        &merged,
+    sharded_equals_whole(
+        dir.path(),
+        "continuation --vary omega:132.6:133.4:9 --ics 8 --transient 60 --periods 16 \
+         --backend cpu --quiet",
+        &[3],
+        1,
         &[
             "values.npy",
             "fractions_up.npy",

@@ -29,6 +29,20 @@ def cli(*args):
     assert out.returncode == 0, out.stderr
 
 
+def assert_arrays_and_summary_equal_the_cli(r, out, summary, names, same="shape"):
+    """Each array `names` of `r` has the `same` (shape or dtype) and the bytes of the CLI's
+    NAME.npy in `out`, and r["summary"] is the CLI's `summary` file less "files" and
+    "jeffcott_version"."""
+    for name in names:
+        want = np.load(out / f"{name}.npy")
+        assert getattr(r[name], same) == getattr(want, same), name
+        assert r[name].tobytes() == want.tobytes(), name
+    s = json.loads((out / summary).read_text())
+    for k in ("files", "jeffcott_version"):
+        s.pop(k)
+    assert r["summary"] == s
+
+
 def test_simulate_131_7_is_period_1_and_132_2_is_period_2():
     a = jeffcott.simulate(131.7)
     assert a["class"] == "period-1" and a["period"] == 1
@@ -177,13 +191,8 @@ def test_cascade_arrays_and_summary_equal_the_cli_cascade(tmp_path):
     cli("cascade", "--omega", "131:134:5", "--transient-first", "100", "--transient", "40",
         "--periods", "16", "--no-plot", "--out", str(out))
     r = jeffcott.cascade("131:134:5", transient_first=100, transient=40, periods=16)
-    for name in ("omega", "orders", "cascade", "cascade_stator", "regime"):
-        want = np.load(out / f"{name}.npy")
-        assert r[name].shape == want.shape and r[name].tobytes() == want.tobytes(), name
-    c = json.loads((out / "cascade.json").read_text())
-    for k in ("files", "jeffcott_version"):
-        c.pop(k)
-    assert r["summary"] == c
+    assert_arrays_and_summary_equal_the_cli(
+        r, out, "cascade.json", ("omega", "orders", "cascade", "cascade_stator", "regime"))
     assert r["summary"]["sweeps"] == ["up", "down"]
     # The 1X line: every spectrum of a rubbing or free rotor has its largest line at
     # order +1 somewhere along the sweep.
@@ -197,14 +206,9 @@ def test_map_arrays_and_summary_equal_the_cli_map(tmp_path):
         "--periods", "16", "--ics", "2", "--backend", "cpu", "--no-plot", "--out", str(out))
     r = jeffcott.map(("omega", 131, 134, 4), "e:0.0005:0.001:3", transient=200, periods=16,
                      ics=2, backend="cpu")
-    for name in ("period", "class", "attractors", "regime", "lambda1", "contact",
-                 "peak_force", "x", "y"):
-        want = np.load(out / f"{name}.npy")
-        assert r[name].dtype == want.dtype and r[name].tobytes() == want.tobytes(), name
-    m = json.loads((out / "map.json").read_text())
-    for k in ("files", "jeffcott_version"):
-        m.pop(k)
-    assert r["summary"] == m
+    assert_arrays_and_summary_equal_the_cli(
+        r, out, "map.json", ("period", "class", "attractors", "regime", "lambda1", "contact",
+                             "peak_force", "x", "y"), same="dtype")
 
 
 def test_continuation_arrays_and_summary_equal_the_cli_continuation(tmp_path):
@@ -213,14 +217,9 @@ def test_continuation_arrays_and_summary_equal_the_cli_continuation(tmp_path):
         "--periods", "16", "--backend", "cpu", "--no-plot", "--out", str(out))
     r = jeffcott.continuation(("omega", 131.5, 132.5, 3), ics=6, transient=200, periods=16,
                               backend="cpu")
-    for name in ("values", "fractions_up", "fraction_errors_up", "tipping_up",
-                 "fractions_down", "fraction_errors_down", "tipping_down"):
-        want = np.load(out / f"{name}.npy")
-        assert r[name].shape == want.shape and r[name].tobytes() == want.tobytes(), name
-    c = json.loads((out / "continuation.json").read_text())
-    for k in ("files", "jeffcott_version"):
-        c.pop(k)
-    assert r["summary"] == c
+    assert_arrays_and_summary_equal_the_cli(
+        r, out, "continuation.json", ("values", "fractions_up", "fraction_errors_up", "tipping_up",
+                                      "fractions_down", "fraction_errors_down", "tipping_down"))
     # Every row of a tipping matrix with a basin sums to one (Kaszas et al. 2019).
     t = r["tipping_up"]
     rows = t[~np.isnan(t[:, :, 0])]
@@ -234,13 +233,8 @@ def test_basin_stability_equals_the_cli_and_its_intervals_cover_the_fractions(tm
         "--backend", "cpu", "--no-plot", "--out", str(out))
     r = jeffcott.basin_stability(133, "x_r:-0.006:0.006,vx_r:-1:1", sample=40,
                                  transient=250, periods=32, backend="cpu")
-    for name in ("omega", "fractions", "ci_low", "ci_high"):
-        want = np.load(out / f"{name}.npy")
-        assert r[name].shape == want.shape and r[name].tobytes() == want.tobytes(), name
-    b = json.loads((out / "basin_stability.json").read_text())
-    for k in ("files", "jeffcott_version"):
-        b.pop(k)
-    assert r["summary"] == b
+    assert_arrays_and_summary_equal_the_cli(
+        r, out, "basin_stability.json", ("omega", "fractions", "ci_low", "ci_high"))
     f = r["fractions"]
     assert np.allclose(f.sum(axis=1), 1.0)
     assert np.all(r["ci_low"] <= f) and np.all(f <= r["ci_high"])

@@ -47,3 +47,14 @@ pub fn runner_for<R: GpuReal>() -> Option<&'static GpuRunner> {
     }
     Some(r)
 }
+
+/// Runs `check64` on the f64 runner and `check32` on the f32 runner, each where the
+/// adapter allows.
+pub fn in_both_precisions(check32: fn(&GpuRunner), check64: fn(&GpuRunner)) {
+    if let Some(r) = runner_for::<f64>() {
+        check64(r);
+    }
+    if let Some(r) = runner_for::<f32>() {
+        check32(r);
+    }
+}

@@ -7,7 +7,7 @@
 
 pub mod gpu;
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 /// Runs the jeffcott binary with `args` (`&str`s or `String`s).
@@ -16,6 +16,72 @@ pub fn jeffcott<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> Output {
         .args(args)
         .output()
         .expect("run jeffcott")
+}
+
+/// The files of a `map` run but its figures.
+pub const MAP_FILES: &[&str] = &[
+    "period.npy",
+    "class.npy",
+    "lambda1.npy",
+    "attractors.npy",
+    "contact.npy",
+    "peak_force.npy",
+    "map.json",
+];
+
+/// A command line's arguments, split at white space (for lines whose arguments hold none),
+/// `''` standing for an empty argument.
+pub fn words(line: &str) -> Vec<&str> {
+    line.split_whitespace()
+        .map(|w| if w == "''" { "" } else { w })
+        .collect()
+}
+
+/// Runs the jeffcott binary with the words of `line` and `--out out`.
+pub fn jeffcott_out(line: &str, out: impl AsRef<Path>) -> Output {
+    let out = out.as_ref().to_str().expect("UTF-8 path");
+    jeffcott(&[words(line), vec!["--out", out]].concat())
+}
+
+/// The entry of the JSON array `list` (of attractors) whose "class" is `class`.
+pub fn of_class<'a>(list: &'a serde_json::Value, class: &str) -> Option<&'a serde_json::Value> {
+    list.as_array()
+        .expect("an array")
+        .iter()
+        .find(|a| a["class"] == class)
+}
+
+/// A fresh temporary directory and the path `name` in it, not yet made (the directory
+/// goes when the first is dropped).
+pub fn temp_out(name: &str) -> (tempfile::TempDir, PathBuf) {
+    let dir = tempfile::tempdir().expect("temporary directory");
+    let out = dir.path().join(name);
+    (dir, out)
+}
+
+/// A fresh temporary directory and the paths `names` in it, not yet made.
+pub fn temp_outs<const N: usize>(names: [&str; N]) -> (tempfile::TempDir, [PathBuf; N]) {
+    let dir = tempfile::tempdir().expect("temporary directory");
+    let outs = names.map(|n| dir.path().join(n));
+    (dir, outs)
+}
+
+/// Runs the words of `line` with `--out` a fresh temporary path `name` ([`temp_out`]):
+/// the directory (it lasts while held), the path and the run's output.
+pub fn jeffcott_temp(name: &str, line: &str) -> (tempfile::TempDir, PathBuf, Output) {
+    let (dir, out) = temp_out(name);
+    let o = jeffcott_out(line, &out);
+    (dir, out, o)
+}
+
+/// Asserts that a run of `input` was refused: exit code 2, every one of `needles` in its
+/// stderr.
+pub fn assert_refused_naming(o: &Output, input: impl std::fmt::Debug, needles: &[&str]) {
+    assert_eq!(o.status.code(), Some(2), "{input:?}");
+    let e = String::from_utf8_lossy(&o.stderr);
+    for n in needles {
+        assert!(e.contains(n), "{input:?}: `{n}` not in {e}");
+    }
 }
 
 /// Asserts a run succeeded, showing its exit code, stdout and stderr otherwise.
@@ -122,6 +188,51 @@ pub fn gpu_f64_device() -> Option<jeffcott_gpu::GpuDevice> {
 /// required.
 pub fn gpu_f64_present() -> bool {
     gpu_f64_device().is_some()
+}
+
+/// f64 lane settings on the CPU for `params`, with the default stepper and tolerances.
+pub fn cpu_f64_lane(
+    params: jeffcott_core::model::Params,
+    lyapunov: bool,
+) -> jeffcott_analysis::settings::LaneSettings {
+    jeffcott_analysis::settings::LaneSettings {
+        params,
+        stepper: Default::default(),
+        precision: jeffcott_core::ensemble::Precision::F64,
+        backend: jeffcott_core::ensemble::Backend::Cpu,
+        catalogue: Default::default(),
+        lyapunov,
+    }
+}
+
+/// Asserts that the analytic Jacobian at `x` (W = 133, phase 0.01) matches central
+/// differences of the right-hand side entry by entry within 1e-6 max(|J|, 1) + `abs_tol`;
+/// returns it. Steps of 1e-9 m and 1e-6 m/s stay on one side of a contact.
+pub fn assert_jacobian_matches_central_differences(
+    p: &jeffcott_core::model::Params,
+    x: &jeffcott_core::model::State,
+    abs_tol: f64,
+) -> [[f64; jeffcott_core::model::STATE_DIM]; jeffcott_core::model::STATE_DIM] {
+    use jeffcott_core::model::{STATE_DIM, jacobian, rhs};
+    let jac = jacobian(p, x);
+    for j in 0..STATE_DIM {
+        let h = if j % 2 == 0 { 1e-9 } else { 1e-6 };
+        let (mut xp, mut xm) = (*x, *x);
+        xp[j] += h;
+        xm[j] -= h;
+        let (fp, fm) = (rhs(p, 133.0, 0.01, &xp), rhs(p, 133.0, 0.01, &xm));
+        for i in 0..STATE_DIM {
+            let fd = (fp[i] - fm[i]) / (2.0 * h);
+            let tol = 1e-6 * jac[i][j].abs().max(1.0) + abs_tol;
+            assert!(
+                (fd - jac[i][j]).abs() <= tol,
+                "J[{i}][{j}] = {} vs FD {fd} (mu {})",
+                jac[i][j],
+                p.mu
+            );
+        }
+    }
+    jac
 }
 
 /// A small deterministic hash of (`i`, `salt`) in [-1, 1).
