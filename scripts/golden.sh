@@ -122,6 +122,7 @@ run_set() {
   step cascade "$bin" cascade --omega 130:140:4 --transient-first 40 --transient 20 --periods 24 --csv --quiet --out "$out/cascade"
   step basin-stability "$bin" basin-stability --omega 132:134:2 --sample 12 --box x_r:-0.004:0.004,vx_r:-0.5:0.5 --transient 60 --periods 12 "${j[@]}" --out "$out/basin-stability"
   step lyapunov "$bin" lyapunov --omega 135 --transient 40 --time 3 --min-time 3 --quiet --out "$out/lyapunov"
+  step lyapunov-range "$bin" lyapunov --omega 131:135:6 --transient 40 --time 2 --min-time 2 --quiet --out "$out/lyapunov-range"
   if [ -n "$py" ]; then
     step python "$py" "$here/golden_python.py" "$out/python"
     step python-example env MPLBACKEND=Agg "$py" "$here/../python/examples/article_figures.py" --quick --out "$out/python-example"

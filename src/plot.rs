@@ -64,10 +64,22 @@ pub(crate) fn render_png(
     jeffcott_analysis::output::write_png(path, size, &buf)
 }
 
+/// Drawing a picture failed.
+#[derive(Debug, thiserror::Error)]
+#[error("cannot draw {path}: {message}")]
+pub struct PlotError {
+    /// The picture being drawn.
+    pub path: std::path::PathBuf,
+    /// What went wrong.
+    pub message: String,
+}
+
 fn plot_err(path: &Path) -> impl Fn(String) -> Error + '_ {
-    move |message| Error::Plot {
-        path: path.to_path_buf(),
-        message,
+    move |message| {
+        Error::layer(PlotError {
+            path: path.to_path_buf(),
+            message,
+        })
     }
 }
 

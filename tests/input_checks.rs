@@ -251,7 +251,7 @@ fn a_key_given_twice_is_refused_naming_the_key() {
 fn lyapunov_min_time_above_time_is_refused_and_the_default_follows_a_short_time() {
     assert_refused_before_output(
         &words("lyapunov --omega 133 --min-time 5 --time 1"),
-        &["`min-time`: 5", "0..=--time (1 s)"],
+        &["`min-time`: 5", "0..=time (1 s)"],
     );
     // Without --min-time a --time under the default 20 s is fine.
     let (_dir, _, o) = jeffcott_temp(

@@ -133,6 +133,36 @@ fn an_ensemble_sharded_and_merged_equals_the_unsharded_run() {
     );
 }
 
+#[test]
+fn a_lyapunov_range_sharded_in_2_and_5_and_merged_equals_the_unsharded_run() {
+    let dir = tempfile::tempdir().unwrap();
+    sharded_equals_whole(
+        dir.path(),
+        "lyapunov --omega 131:135:24 --time 8 --min-time 4 --transient 200 --quiet",
+        &[2, 5],
+        3,
+        &[
+            "lyapunov.npy",
+            "lyapunov_errors.npy",
+            "lyapunov.json",
+            "lyapunov.png",
+        ],
+    );
+    // One speed is one piece of work: its shards would each compute it whole.
+    let one = dir.path().join("one");
+    let o = jeffcott(&with(
+        &words("lyapunov --omega 133 --time 2 --shard 0/2 --quiet"),
+        &["--out", p(&one)],
+    ));
+    assert_eq!(o.status.code(), Some(2));
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        e.contains("`shard`") && e.contains("range of speeds"),
+        "{e}"
+    );
+    assert!(!one.exists(), "a refused shard made its directory");
+}
+
 /// [`BASIN`] on the CPU over a 6 x 5 grid (15 units): quick shards for refusals.
 fn small_basin() -> Vec<String> {
     with(&words(BASIN), &["--backend", "cpu"])

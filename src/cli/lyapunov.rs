@@ -1,21 +1,23 @@
 //! `jeffcott lyapunov`: the full Lyapunov spectrum at one speed (`spectrum.json`,
 //! `convergence.png`) or over a range of speeds (`lyapunov.npy`, `lyapunov.json`,
-//! `lyapunov.png`). The numerics are in [`jeffcott_core::lyapunov`].
+//! `lyapunov.png`): the study is [`jeffcott_analysis::lyapunov`], the numerics
+//! [`jeffcott_core::lyapunov`]; a range shards and merges like the other studies.
 
+use super::rundir::{CommandHost, Execution, WallTime};
+use super::study::StudyCommand;
 use super::{ModelArgs, StepperArgs, apply_init, check_start_within_bound};
 use crate::plot;
 use clap::Args;
-use jeffcott_analysis::output;
-use jeffcott_analysis::record::Span;
-use jeffcott_analysis::run::{Array, Unit};
-use jeffcott_core::error::{Error, Result};
-use jeffcott_core::lyapunov::{
-    Spectrum, SpectrumConfig, SpectrumRecord, StopReason, SweepStart, spectrum, sweep_starts,
+use jeffcott_analysis::lyapunov::{
+    self, LyapunovOutcome, LyapunovStudy, SpectrumOptions, SpeedSpectrum,
 };
+use jeffcott_analysis::output;
+use jeffcott_analysis::run::RunDir;
+use jeffcott_core::ensemble::Backend;
+use jeffcott_core::error::{Error, Result};
+use jeffcott_core::lyapunov::{Spectrum, SpectrumConfig, SpectrumRecord, StopReason, SweepStart};
 use jeffcott_core::model::{Params, STATE_DIM, State};
-use rayon::prelude::*;
 use serde::Serialize;
-use std::path::PathBuf;
 
 /// The settings both files record under `run`.
 #[derive(Serialize)]
@@ -27,16 +29,6 @@ struct Settings<'a> {
     /// How the error of each exponent is estimated.
     error_estimate: &'static str,
     jeffcott_version: &'static str,
-}
-
-/// The specification `run.json` records.
-#[derive(Serialize)]
-struct RunSpec<'a> {
-    omegas: Span,
-    config: &'a SpectrumConfig,
-    start: SweepStart,
-    initial_state: State,
-    params: &'a Params,
 }
 
 /// `spectrum.json`: the spectrum, the settings and the units.
@@ -112,13 +104,19 @@ pub struct LyapunovArgs {
     pub model: ModelArgs,
     #[command(flatten)]
     pub stepper: StepperArgs,
-    /// Output directory (created if missing). An unfinished range of the same command
-    /// there is resumed (speeds already computed are kept).
-    #[arg(long, value_name = "DIR", default_value = "jeffcott-out/lyapunov")]
-    pub out: PathBuf,
     #[command(flatten)]
-    pub run: super::rundir::RunArgs,
+    pub exec: super::rundir::StudyRunArgs,
 }
+
+/// The files of one speed and of a range (a run writes the one set or the other).
+pub const OUTPUTS: &[&str] = &[
+    "spectrum.json",
+    "convergence.png",
+    "lyapunov.npy",
+    "lyapunov_errors.npy",
+    "lyapunov.json",
+    "lyapunov.png",
+];
 
 /// Runs `jeffcott lyapunov`.
 pub fn run_lyapunov(a: &LyapunovArgs) -> Result<()> {
@@ -127,115 +125,133 @@ pub fn run_lyapunov(a: &LyapunovArgs) -> Result<()> {
     apply_init(&mut x0, &a.init)?;
     check_start_within_bound("init", &x0, a.stepper.divergence_bound)?;
     let range = jeffcott_core::ensemble::RangeSpec::parse("omega", &a.omega)?;
-    let min_time = match a.min_time {
-        Some(m) => m,
-        None => SpectrumConfig::default().min_time.min(a.time),
-    };
-    if min_time.is_finite() && a.time.is_finite() && min_time > a.time {
-        return Err(Error::invalid(
-            "min-time",
-            min_time,
-            format!(
-                "must be in 0..=--time ({} s): the stopping rule may act only within the maximum time",
-                a.time
-            ),
-        ));
-    }
-    let cfg = SpectrumConfig {
+    let config = SpectrumOptions {
         transient: a.transient,
         tangent_transient: a.tangent_transient,
-        min_time,
         max_time: a.time,
-        window: a.window,
+        min_time: a.min_time,
         tol: a.tol,
+        window: a.window,
         saltation: !a.no_saltation,
         stepper: a.stepper.config(),
-        ..SpectrumConfig::default()
-    };
-    cfg.validate()?;
-    // The accumulation is counted in forcing periods like every transient: the same cap.
-    cfg.check_size("omega", &a.omega, range.len(), range.a.max(range.b))?;
-    let omegas = range.values();
-    let dir = &a.out;
-    let settings = Settings {
-        config: &cfg,
-        start: a.start,
-        initial_state: x0,
-        params: &params,
+    }
+    .config()?;
+    let study = LyapunovStudy::new(("omega", &a.omega), range, x0, a.start, params, config)?;
+    if range.n == 1 && a.exec.shard.is_some() {
+        return Err(Error::invalid(
+            "shard",
+            a.exec.shard.as_deref().unwrap_or_default(),
+            "one speed's spectrum is one piece of work: shard a range of speeds (--omega a:b:n)",
+        ));
+    }
+    super::study::execute_args::<Lyapunov>(&study, &super::NoOptions {}, &a.exec, Backend::Cpu)
+}
+
+/// `jeffcott lyapunov` as a study command.
+pub struct Lyapunov;
+
+impl StudyCommand for Lyapunov {
+    const COMMAND: &'static str = "lyapunov";
+    const OUTPUTS: &'static [&'static str] = OUTPUTS;
+    type Spec = LyapunovStudy;
+    type Write = super::NoOptions;
+    type Outcome = LyapunovOutcome;
+    fn run(
+        study: &LyapunovStudy,
+        _: &super::NoOptions,
+        host: &CommandHost,
+    ) -> Result<LyapunovOutcome> {
+        lyapunov::run(study, host)
+    }
+    fn finish(
+        study: &LyapunovStudy,
+        _: &super::NoOptions,
+        outcome: LyapunovOutcome,
+        run_dir: &RunDir,
+        exec: &Execution,
+    ) -> Result<()> {
+        match outcome {
+            LyapunovOutcome::One(s) => write_spectrum(study, &s, run_dir, exec),
+            LyapunovOutcome::Range(rows, wall) => write_range(study, &rows, wall, run_dir, exec),
+        }
+    }
+}
+
+/// The settings both kinds of files record under `run`.
+fn settings(study: &LyapunovStudy) -> Settings<'_> {
+    Settings {
+        config: &study.config,
+        start: study.start,
+        initial_state: study.initial_state,
+        params: &study.params,
         error_estimate: "per exponent, max of the batch-means standard error (10 blocks) \
                          and the change of the running estimate over the last window",
         jeffcott_version: env!("CARGO_PKG_VERSION"),
-    };
-    let run_spec = RunSpec {
-        omegas: Span::of(&omegas),
-        config: &cfg,
-        start: a.start,
-        initial_state: x0,
-        params: &params,
-    };
-    if let [omega] = omegas[..] {
-        let run_dir = super::rundir::open(
-            dir,
-            "lyapunov",
-            &run_spec,
-            &["spectrum.json", "convergence.png"],
-            a.run,
-        )?;
-        let s = spectrum(&params, omega, &x0, &cfg)?;
-        plot::lyapunov::convergence(
-            &dir.join("convergence.png"),
-            &format!("Lyapunov spectrum at W = {omega} rad/s: running estimates"),
-            &s.history,
-        )?;
-        let j = SpectrumFile {
-            spectrum: s.record(),
-            run: &settings,
-            units: Units {
-                exponents: "1/s",
-                exponents_bits: "bits/s",
-            },
-        };
-        output::write_json(&dir.join("spectrum.json"), &j)?;
-        run_dir.finish(
-            &super::rundir::WallTime {
-                wall_time_s: s.wall_time_s,
-            },
-            &["spectrum.json".into(), "convergence.png".into()],
-        )?;
-        if !a.run.quiet {
-            println!(
-                "W = {omega} rad/s: exponents [1/s] {}; sum {:.4} (= <tr J> {:.4} + saltation {:.1e}); \
-                 {:.1} s accumulated ({:?}) in {:.2} s wall; files in {}",
-                s.exponents
-                    .iter()
-                    .zip(&s.errors)
-                    .map(|(l, e)| format!("{l:.4} +- {e:.1e}"))
-                    .collect::<Vec<_>>()
-                    .join(", "),
-                s.sum,
-                s.trace_average,
-                s.saltation_log_det_rate,
-                s.integration_time,
-                s.stop,
-                s.wall_time_s,
-                dir.display()
-            );
-        }
-        return Ok(());
     }
-    if omegas.is_empty() {
-        return Err(Error::invalid("omega", &a.omega, "no speeds"));
+}
+
+/// One speed's files: `spectrum.json`, `convergence.png`.
+fn write_spectrum(
+    study: &LyapunovStudy,
+    s: &Spectrum,
+    run_dir: &RunDir,
+    exec: &Execution,
+) -> Result<()> {
+    let dir = &exec.out;
+    let omega = study.omegas.first;
+    plot::lyapunov::convergence(
+        &dir.join("convergence.png"),
+        &format!("Lyapunov spectrum at W = {omega} rad/s: running estimates"),
+        &s.history,
+    )?;
+    let j = SpectrumFile {
+        spectrum: s.record(),
+        run: &settings(study),
+        units: Units {
+            exponents: "1/s",
+            exponents_bits: "bits/s",
+        },
+    };
+    output::write_json(&dir.join("spectrum.json"), &j)?;
+    run_dir.finish(
+        &WallTime {
+            wall_time_s: s.wall_time_s,
+        },
+        &["spectrum.json".into(), "convergence.png".into()],
+    )?;
+    if !exec.run.quiet {
+        println!(
+            "W = {omega} rad/s: exponents [1/s] {}; sum {:.4} (= <tr J> {:.4} + saltation {:.1e}); \
+             {:.1} s accumulated ({:?}) in {:.2} s wall; files in {}",
+            s.exponents
+                .iter()
+                .zip(&s.errors)
+                .map(|(l, e)| format!("{l:.4} +- {e:.1e}"))
+                .collect::<Vec<_>>()
+                .join(", "),
+            s.sum,
+            s.trace_average,
+            s.saltation_log_det_rate,
+            s.integration_time,
+            s.stop,
+            s.wall_time_s,
+            dir.display()
+        );
     }
-    let outputs = [
-        "lyapunov.npy",
-        "lyapunov_errors.npy",
-        "lyapunov.json",
-        "lyapunov.png",
-    ];
-    let run_dir = super::rundir::open(dir, "lyapunov", &run_spec, &outputs, a.run)?;
-    let start = std::time::Instant::now();
-    let all = range_units(&run_dir, &params, &omegas, &x0, a.start, &cfg)?;
-    let wall = start.elapsed().as_secs_f64();
+    Ok(())
+}
+
+/// A range's files: `lyapunov.npy`, `lyapunov_errors.npy`, `lyapunov.json`,
+/// `lyapunov.png`.
+fn write_range(
+    study: &LyapunovStudy,
+    all: &[SpeedSpectrum],
+    wall: f64,
+    run_dir: &RunDir,
+    exec: &Execution,
+) -> Result<()> {
+    let dir = &exec.out;
+    let omegas: Vec<f64> = all.iter().map(|s| s.omega).collect();
     let n = omegas.len();
     let flat: Vec<f64> = all.iter().flat_map(|s| s.exponents).collect();
     output::write_npy(&dir.join("lyapunov.npy"), &[n, STATE_DIM], &flat)?;
@@ -248,12 +264,12 @@ pub fn run_lyapunov(a: &LyapunovArgs) -> Result<()> {
             "Lyapunov spectrum, W = {} .. {} rad/s ({:?} start)",
             omegas[0],
             omegas[n - 1],
-            a.start
+            study.start
         ),
         &omegas,
         &exps,
     )?;
-    let of = |f: fn(&Row) -> f64| all.iter().map(f).collect::<Vec<_>>();
+    let of = |f: fn(&SpeedSpectrum) -> f64| all.iter().map(f).collect::<Vec<_>>();
     let j = RangeFile {
         omega: &omegas,
         sum: of(|s| s.sum),
@@ -262,7 +278,7 @@ pub fn run_lyapunov(a: &LyapunovArgs) -> Result<()> {
         integration_time: of(|s| s.integration_time),
         stop: all.iter().map(|s| s.stop).collect(),
         status: all.iter().map(|s| s.status).collect(),
-        run: &settings,
+        run: &settings(study),
         files: [
             ("lyapunov.npy", "f64 [n_omega, 8], exponents [1/s] in QR order (descending), rows in the order of omega"),
             ("lyapunov_errors.npy", "f64 [n_omega, 8], error estimates [1/s]"),
@@ -272,12 +288,15 @@ pub fn run_lyapunov(a: &LyapunovArgs) -> Result<()> {
         .collect(),
     };
     output::write_json(&dir.join("lyapunov.json"), &j)?;
-    run_dir.finish(
-        &super::rundir::WallTime { wall_time_s: wall },
-        &outputs.map(String::from),
-    )?;
-    if !a.run.quiet {
-        for s in &all {
+    let outputs = [
+        "lyapunov.npy",
+        "lyapunov_errors.npy",
+        "lyapunov.json",
+        "lyapunov.png",
+    ];
+    run_dir.finish(&WallTime { wall_time_s: wall }, &outputs.map(String::from))?;
+    if !exec.run.quiet {
+        for s in all {
             println!(
                 "W = {:.4}: lambda_1 = {:.4} +- {:.1e} 1/s, sum {:.3}",
                 s.omega, s.exponents[0], s.errors[0], s.sum
@@ -289,103 +308,4 @@ pub fn run_lyapunov(a: &LyapunovArgs) -> Result<()> {
         );
     }
     Ok(())
-}
-
-/// What a range keeps of each speed's spectrum.
-struct Row {
-    omega: f64,
-    exponents: [f64; STATE_DIM],
-    errors: [f64; STATE_DIM],
-    sum: f64,
-    trace_average: f64,
-    saltation_log_det_rate: f64,
-    integration_time: f64,
-    stop: StopReason,
-    status: jeffcott_core::integrate::lane::Status,
-}
-
-const STOPS: [StopReason; 3] = [
-    StopReason::Converged,
-    StopReason::MaxTime,
-    StopReason::LaneFrozen,
-];
-
-/// The spectra of a range, unit by unit into the run directory (a unit: consecutive
-/// speeds, at most 1/20 of them, computed in parallel). The quasistatic transients that
-/// give every speed its start state run first, in sequence, and are cheap beside the
-/// spectra; they are recomputed on resume (deterministic).
-fn range_units(
-    run_dir: &jeffcott_analysis::run::RunDir,
-    params: &jeffcott_core::model::Params,
-    omegas: &[f64],
-    x0: &jeffcott_core::model::State,
-    start: SweepStart,
-    cfg: &SpectrumConfig,
-) -> Result<Vec<Row>> {
-    let (starts, per_cfg) = sweep_starts(params, omegas, x0, start, cfg)?;
-    let n = omegas.len();
-    let per = jeffcott_analysis::run::unit_lanes(n, 1).min(rayon::current_num_threads().max(1) * 4);
-    let count = jeffcott_analysis::run::unit_count(n, per);
-    let done = run_dir.committed("lyapunov", count)?;
-    for (u, _) in done.iter().enumerate().filter(|(_, d)| !**d) {
-        let range = u * per..((u + 1) * per).min(n);
-        let spectra: Vec<Spectrum> = range
-            .clone()
-            .into_par_iter()
-            .map(|i| spectrum(params, omegas[i], &starts[i], &per_cfg))
-            .collect::<Result<_>>()?;
-        let f = |g: &dyn Fn(&Spectrum) -> f64| Array::F64(spectra.iter().map(g).collect());
-        let unit = Unit::new(jeffcott_analysis::run::dir::unit_key("lyapunov", u))
-            .with(
-                "exponents",
-                Array::F64(spectra.iter().flat_map(|s| s.exponents).collect()),
-            )
-            .with(
-                "errors",
-                Array::F64(spectra.iter().flat_map(|s| s.errors).collect()),
-            )
-            .with("sum", f(&|s| s.sum))
-            .with("trace_average", f(&|s| s.trace_average))
-            .with("saltation_log_det_rate", f(&|s| s.saltation_log_det_rate))
-            .with("integration_time", f(&|s| s.integration_time))
-            .with(
-                "stop",
-                Array::U32(
-                    spectra
-                        .iter()
-                        .map(|s| STOPS.iter().position(|x| *x == s.stop).unwrap_or(0) as u32)
-                        .collect(),
-                ),
-            )
-            .with(
-                "status",
-                Array::U32(spectra.iter().map(|s| s.status.code()).collect()),
-            );
-        run_dir.commit("lyapunov", u, &unit)?;
-    }
-    let mut rows = Vec::with_capacity(n);
-    for u in 0..count {
-        let unit = run_dir.load("lyapunov", u)?;
-        let (e, r) = (unit.f64s("exponents")?, unit.f64s("errors")?);
-        for (j, i) in (u * per..((u + 1) * per).min(n)).enumerate() {
-            let eight = |v: &[f64]| -> [f64; STATE_DIM] {
-                v[j * STATE_DIM..(j + 1) * STATE_DIM]
-                    .try_into()
-                    .unwrap_or([f64::NAN; STATE_DIM])
-            };
-            rows.push(Row {
-                omega: omegas[i],
-                exponents: eight(e),
-                errors: eight(r),
-                sum: unit.f64s("sum")?[j],
-                trace_average: unit.f64s("trace_average")?[j],
-                saltation_log_det_rate: unit.f64s("saltation_log_det_rate")?[j],
-                integration_time: unit.f64s("integration_time")?[j],
-                stop: STOPS[(unit.u32s("stop")?[j] as usize).min(2)],
-                status: jeffcott_core::integrate::lane::Status::from_code(unit.u32s("status")?[j])
-                    .unwrap_or(jeffcott_core::integrate::lane::Status::NonFinite),
-            });
-        }
-    }
-    Ok(rows)
 }

@@ -212,6 +212,7 @@ pub fn run_merge(a: &MergeArgs) -> Result<()> {
         "map" => super::map::OUTPUTS,
         "continuation" => super::continuation::OUTPUTS,
         "basin-stability" => super::stability::OUTPUTS,
+        "lyapunov" => super::lyapunov::OUTPUTS,
         c => {
             return Err(Error::invalid(
                 "SHARD_DIR",
@@ -255,6 +256,7 @@ pub fn run_merge(a: &MergeArgs) -> Result<()> {
         "bifurcation" => {
             execute_recorded::<super::bifurcation::Bifurcation>(spec, write, dir, &exec)
         }
+        "lyapunov" => execute_recorded::<super::lyapunov::Lyapunov>(spec, write, dir, &exec),
         // The ensemble, the one other command the check above lets through.
         _ => execute_recorded::<super::Ensemble>(spec, write, dir, &exec),
     };

@@ -5,7 +5,7 @@
 
 use super::rundir::{CommandHost, Execution, StudyRunArgs, finish_shard};
 use jeffcott_analysis::record::StudySpec;
-use jeffcott_analysis::run::{RunDir, RunHeader};
+use jeffcott_analysis::run::{RunDir, RunHeader, ShardDone};
 use jeffcott_core::ensemble::Backend;
 use jeffcott_core::error::{Error, Result};
 use serde::{Serialize, de::DeserializeOwned};
@@ -26,7 +26,7 @@ pub trait StudyCommand {
     /// What the study computes.
     type Outcome;
     /// Runs every stage of the study on `host` (a shard's end is
-    /// [`Error::NotInShard`]).
+    /// [`ShardDone`]).
     fn run(spec: &Self::Spec, write: &Self::Write, host: &CommandHost) -> Result<Self::Outcome>;
     /// Writes the files, marks the run complete and says what it found.
     fn finish(
@@ -61,7 +61,7 @@ pub fn execute<C: StudyCommand>(spec: &C::Spec, write: &C::Write, exec: &Executi
     };
     let run_dir = exec.open(header, C::OUTPUTS)?;
     match C::run(spec, write, &CommandHost::new(&run_dir, exec.run.quiet)) {
-        Err(Error::NotInShard) => finish_shard(&run_dir, exec.run.quiet),
+        Err(e) if e.layer_error::<ShardDone>().is_some() => finish_shard(&run_dir, exec.run.quiet),
         r => C::finish(spec, write, r?, &run_dir, exec),
     }
 }

@@ -16,7 +16,7 @@ use std::path::Path;
 /// A drawing area of an in-memory figure.
 pub(crate) type Area<'b> = DrawingArea<BitMapBackend<'b>, Shift>;
 
-/// The result of drawing; [`figure`] turns a failure into `Error::Plot`.
+/// The result of drawing; [`figure`] turns a failure into a [`super::PlotError`].
 pub(crate) type Drawn<T = ()> = std::result::Result<T, Box<dyn std::error::Error>>;
 
 /// A chart on an in-memory figure over `X` and `Y` coordinates.
@@ -32,7 +32,7 @@ pub(crate) fn figure(
     draw: impl for<'b> FnOnce(&Area<'b>) -> Drawn,
 ) -> Result<()> {
     register_font();
-    // Every failure while drawing becomes one Error::Plot naming the file.
+    // Every failure while drawing becomes one PlotError naming the file.
     let err = plot_err(path);
     render_png(path, size, |root| {
         root.fill(&WHITE).map_err(|e| err(e.to_string()))?;

@@ -194,7 +194,7 @@ pub fn run(
         },
     )?;
     // A shard's work ends here: the assembly, which reads the units, is the merge's
-    // (a shard's store answers NotInShard).
+    // (a shard's store answers ShardDone).
     store.load(STAGE, 0)?;
     Ok(ran.unwrap_or(RunInfo {
         backend: if engine.runner().is_some() {

@@ -16,6 +16,7 @@ pub mod classify;
 pub mod continuation;
 pub mod defaults;
 pub mod ensemble;
+pub mod lyapunov;
 pub mod map;
 pub mod measures;
 pub mod output;

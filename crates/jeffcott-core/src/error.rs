@@ -35,14 +35,6 @@ pub enum Error {
         #[source]
         source: std::io::Error,
     },
-    /// Drawing a plot failed.
-    #[error("cannot draw {path}: {message}")]
-    Plot {
-        /// The picture being drawn.
-        path: PathBuf,
-        /// What went wrong.
-        message: String,
-    },
     /// No usable GPU adapter (none found, or none with what the run needs).
     #[error("no usable GPU adapter: {reason}")]
     NoAdapter {
@@ -58,38 +50,6 @@ pub enum Error {
     /// The GPU device was lost (driver reset, watchdog, unplugged) during a run.
     #[error("the GPU device was lost")]
     DeviceLost,
-    /// Another run holds the output directory's lock.
-    #[error(
-        "another jeffcott run is writing into {path}; wait for it to end or choose another --out"
-    )]
-    Busy {
-        /// The output directory.
-        path: PathBuf,
-    },
-    /// The output directory's lock file was removed or replaced while this run held it:
-    /// another run may have taken the directory, so this one writes nothing more and is
-    /// not marked complete.
-    #[error(
-        "the lock file {path}/.jeffcott.lock was removed or replaced while this run was writing; another run may have written into {path}, so this run stopped and is not marked complete (its committed units are kept): rerun the same command when no other run writes there, or choose another --out"
-    )]
-    LockLost {
-        /// The output directory.
-        path: PathBuf,
-    },
-    /// The output directory holds another run.
-    #[error(
-        "{path} holds {reason}; choose another --out, or give --overwrite to remove that run's files first"
-    )]
-    Occupied {
-        /// The output directory.
-        path: PathBuf,
-        /// What it holds.
-        reason: String,
-    },
-    /// A shard reached the assembly: its own share is done (the command line turns this
-    /// into a finished shard directory, not an error).
-    #[error("a shard computes units only; `jeffcott merge` assembles them")]
-    NotInShard,
     /// The run was asked to stop (a signal, a cancel flag); committed units are kept.
     #[error("interrupted after {committed} of {total} work units were committed")]
     Interrupted {
@@ -98,9 +58,27 @@ pub enum Error {
         /// Units of the run.
         total: usize,
     },
+    /// An error of a layer above this crate (the run directory's locks and occupants, a
+    /// shard's end, a picture): its own type, which callers may ask for with
+    /// [`Error::layer_error`], and its own message.
+    #[error(transparent)]
+    Layer(Box<dyn std::error::Error + Send + Sync>),
 }
 
 impl Error {
+    /// `e`, an error of a layer above this crate, as the library's error.
+    pub fn layer(e: impl std::error::Error + Send + Sync + 'static) -> Self {
+        Error::Layer(Box::new(e))
+    }
+
+    /// The layer's error of type `T` this is, if it is one.
+    pub fn layer_error<T: std::error::Error + 'static>(&self) -> Option<&T> {
+        match self {
+            Error::Layer(e) => e.downcast_ref::<T>(),
+            _ => None,
+        }
+    }
+
     /// Shorthand for [`Error::InvalidParameter`].
     pub fn invalid(name: &str, value: impl ToString, reason: impl Into<String>) -> Self {
         Error::InvalidParameter {

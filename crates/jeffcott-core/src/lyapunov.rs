@@ -40,12 +40,12 @@ use crate::integrate::lane::{
 use crate::model::{Params, STATE_DIM, State, validate_omega};
 use nalgebra::SMatrix;
 use rayon::prelude::*;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 type Mat8 = SMatrix<f64, STATE_DIM, STATE_DIM>;
 
 /// Settings of a spectrum computation.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SpectrumConfig {
     /// Forcing periods of the state alone, discarded (the attractor's transient).
     pub transient: u32,
@@ -449,7 +449,7 @@ fn batch_means_stderr(
 }
 
 /// Where each speed of a sweep starts.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "snake_case")]
 pub enum SweepStart {

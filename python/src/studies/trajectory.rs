@@ -5,10 +5,13 @@ use crate::convert::{array2, json_to_py, model_params, start_state};
 use crate::run;
 use jeffcott_analysis::classify::ClassifyConfig;
 use jeffcott_analysis::defaults;
+use jeffcott_analysis::lyapunov::{LyapunovOutcome, LyapunovStudy, SpectrumOptions};
+use jeffcott_analysis::run::MemoryHost;
 use jeffcott_analysis::simulate::{Integrator, SimulateOutcome, SimulateSpec, SimulateStudy};
 use jeffcott_core::Error;
+use jeffcott_core::ensemble::RangeSpec;
 use jeffcott_core::integrate::article::ArticleConfig;
-use jeffcott_core::lyapunov::SpectrumConfig;
+use jeffcott_core::lyapunov::{SpectrumConfig, SweepStart};
 use jeffcott_core::model::STATE_DIM;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -160,33 +163,40 @@ pub(crate) fn lyapunov<'py>(
     let stepper = args::stepper("lyapunov", stepper)?;
     let params = model_params(params)?;
     let x0 = start_state(&params, init)?;
-    jeffcott_core::inputs::check_start_within_bound("init", &x0, stepper.divergence_bound)
-        .map_err(run::to_py_err)?;
-    jeffcott_core::model::validate_omega(omega).map_err(run::to_py_err)?;
-    let min_time = min_time.unwrap_or(SpectrumConfig::DEFAULT.min_time.min(time));
-    if min_time.is_finite() && time.is_finite() && min_time > time {
-        return Err(run::to_py_err(Error::invalid(
-            "min_time",
-            min_time,
-            format!("must be at most time ({time} s)"),
-        )));
-    }
-    let cfg = SpectrumConfig {
+    let config = SpectrumOptions {
         transient,
         tangent_transient,
-        min_time,
         max_time: time,
-        window,
+        min_time,
         tol,
+        window,
+        saltation: true,
         stepper,
-        ..SpectrumConfig::DEFAULT
+    }
+    .config()
+    .map_err(run::to_py_err)?;
+    // One speed; its accumulation is capped like `time`'s.
+    let speed = RangeSpec {
+        a: omega,
+        b: omega,
+        n: 1,
     };
-    cfg.validate().map_err(run::to_py_err)?;
-    cfg.check_size("time", &time.to_string(), 1, omega)
-        .map_err(run::to_py_err)?;
-    let s = run::detached(py, None, |ctl| {
-        jeffcott_core::lyapunov::spectrum_with(&params, omega, &x0, &cfg, ctl.cancel)
-    })?;
+    let time_text = time.to_string();
+    let study = LyapunovStudy::new(
+        ("time", &time_text),
+        speed,
+        x0,
+        SweepStart::Given,
+        params,
+        config,
+    )
+    .map_err(run::to_py_err)?;
+    let s = match run::detached(py, None, |ctl| {
+        jeffcott_analysis::lyapunov::run(&study, &MemoryHost::new(ctl))
+    })? {
+        LyapunovOutcome::One(s) => s,
+        LyapunovOutcome::Range(..) => unreachable!("one speed gives one spectrum"),
+    };
     let d = json_to_py(py, &s.record())?.cast_into::<PyDict>()?;
     let history: Vec<f64> = s
         .history

@@ -121,7 +121,7 @@ impl BasinOutcome {
 /// Runs every stage of `study` on `engine`, each committing its units to the host's
 /// store (stages `basin`, `refine`, `uncertainty`) under the host's progress display:
 /// an interrupted study resumes stage by stage. A shard's run ends with
-/// [`jeffcott_core::Error::NotInShard`] after its basin units (the merge assembles).
+/// [`crate::run::ShardDone`] after its basin units (the merge assembles).
 pub fn run(study: &BasinStudy, engine: &Engine, host: &impl Host) -> Result<BasinOutcome> {
     study.validate()?;
     let coarse = &study.basin;

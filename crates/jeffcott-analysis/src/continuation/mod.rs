@@ -139,7 +139,7 @@ pub fn continuation_with(
         .lanes_per_item(k)
         .lambda1(spec.lane.lyapunov)
         .run(store, engine, ctl)?;
-    // A shard's work ends here: reading the fresh pass is the merge's (NotInShard), and
+    // A shard's work ends here: reading the fresh pass is the merge's (ShardDone), and
     // the ramps' stages must not be asked about before, so a shard never lists them.
     fresh_value(spec, store, 0)?;
     let mut ramps = Vec::new();

@@ -17,7 +17,7 @@
 //!   checks before every commit and before it marks itself complete that the file at
 //!   that path is still the one it locked (and that `run.json` is still its own): a lock
 //!   file deleted mid-run would let a second run in, so the first stops instead of
-//!   mixing its files with the second's ([`Error::LockLost`]).
+//!   mixing its files with the second's ([`RunDirError::LockLost`]).
 
 use super::unit::Unit;
 use crate::output;
@@ -164,9 +164,9 @@ impl RunDir {
         match lock.try_lock() {
             Ok(()) => {}
             Err(std::fs::TryLockError::WouldBlock) => {
-                return Err(Error::Busy {
+                return Err(Error::layer(RunDirError::Busy {
                     path: dir.to_path_buf(),
-                });
+                }));
             }
             Err(std::fs::TryLockError::Error(e)) => return Err(io(&lock_path)(e)),
         }
@@ -220,13 +220,13 @@ impl RunDir {
                     (Some(c), Some(_)) => format!("a `{c}` run"),
                     _ => "files of an earlier run this version cannot resume".into(),
                 };
-                return Err(Error::Occupied {
+                return Err(Error::layer(RunDirError::Occupied {
                     path: dir.to_path_buf(),
                     reason: what,
-                });
+                }));
             }
             None => {
-                return Err(Error::Occupied {
+                return Err(Error::layer(RunDirError::Occupied {
                     path: dir.to_path_buf(),
                     reason: format!(
                         "files of another run ({}) without a run.json",
@@ -236,7 +236,7 @@ impl RunDir {
                             outputs_exist.join(", ")
                         }
                     ),
-                });
+                }));
             }
         };
         // A merge in progress (or done) in this directory stays one.
@@ -442,12 +442,14 @@ impl RunDir {
     /// Checks that the lock file is still the one this run locked: a lock file removed
     /// mid-run (by hand, by a cleaning script) lets a second run take a lock of its own
     /// and write into the directory, so a run that finds its lock gone or replaced stops
-    /// writing ([`Error::LockLost`]). Called before every commit and before the run is
+    /// writing ([`RunDirError::LockLost`]). Called before every commit and before the run is
     /// marked complete.
     pub fn check_lock(&self) -> Result<()> {
         let path = self.dir.join(LOCK);
-        let lost = || Error::LockLost {
-            path: self.dir.clone(),
+        let lost = || {
+            Error::layer(RunDirError::LockLost {
+                path: self.dir.clone(),
+            })
         };
         let on_disk = std::fs::metadata(&path).map_err(|_| lost())?;
         let held = self._lock.metadata().map_err(io(&path))?;
@@ -487,9 +489,9 @@ impl RunDir {
                     == serde_json::to_value(self.shard).unwrap_or_default()
         });
         if !ours {
-            return Err(Error::LockLost {
+            return Err(Error::layer(RunDirError::LockLost {
                 path: self.dir.clone(),
-            });
+            }));
         }
         self.write_state("complete", &map, outputs)
     }
@@ -606,4 +608,37 @@ mod tests {
         }
         assert_eq!(d.stages_asked(), ["basin", "refine"]);
     }
+}
+
+/// What keeps a run from its output directory, or stops it there.
+#[derive(Debug, thiserror::Error)]
+pub enum RunDirError {
+    /// Another run holds the output directory's lock.
+    #[error(
+        "another jeffcott run is writing into {path}; wait for it to end or choose another --out"
+    )]
+    Busy {
+        /// The output directory.
+        path: PathBuf,
+    },
+    /// The output directory's lock file was removed or replaced while this run held it:
+    /// another run may have taken the directory, so this one writes nothing more and is
+    /// not marked complete.
+    #[error(
+        "the lock file {path}/.jeffcott.lock was removed or replaced while this run was writing; another run may have written into {path}, so this run stopped and is not marked complete (its committed units are kept): rerun the same command when no other run writes there, or choose another --out"
+    )]
+    LockLost {
+        /// The output directory.
+        path: PathBuf,
+    },
+    /// The output directory holds another run.
+    #[error(
+        "{path} holds {reason}; choose another --out, or give --overwrite to remove that run's files first"
+    )]
+    Occupied {
+        /// The output directory.
+        path: PathBuf,
+        /// What it holds.
+        reason: String,
+    },
 }

@@ -164,8 +164,14 @@ impl Shard {
     }
 }
 
+/// A shard reached the assembly: its own share is done (the command line turns this
+/// into a finished shard directory, not an error).
+#[derive(Debug, thiserror::Error)]
+#[error("a shard computes units only; `jeffcott merge` assembles them")]
+pub struct ShardDone;
+
 /// A store seen by one shard: the units of other shards count as committed (so the
-/// engine skips them), and reading any unit is [`Error::NotInShard`]: a shard's work
+/// engine skips them), and reading any unit is [`ShardDone`]: a shard's work
 /// ends where the assembly would begin (the merge assembles).
 pub struct ShardStore<'a> {
     /// The shard's own store (its directory).
@@ -186,7 +192,7 @@ impl UnitStore for ShardStore<'_> {
         self.inner.commit(stage, index, unit)
     }
     fn load(&self, _stage: &str, _index: usize) -> Result<Unit> {
-        Err(Error::NotInShard)
+        Err(Error::layer(ShardDone))
     }
 }
 
