@@ -1,13 +1,17 @@
-//! The work-precision diagram of issue 12 (`bash benches/baseline/run.sh`): the lane
-//! stepper against the strong hand-written baseline (`benches/baseline/rk4_switch.c`:
-//! fixed-step RK4, steps whose contact state changes redone as 8 sub-steps, OpenMP) and
-//! the event-free loop, on the standard job (1024 lanes at W = 133, x_r0 evenly over
+//! The work-precision diagram of issues 12 and 28 (`bash benches/baseline/run.sh`): the
+//! lane stepper against the strongest simple peer (`benches/peer/rk4_numba.py`: numba
+//! RK4, steps whose stages disagree on the contact state redone as 8 sub-steps, prange),
+//! the C loop (`benches/baseline/rk4_switch.c`: steps whose contact state changes redone
+//! as 8 sub-steps, OpenMP) and the event-free loop, on the standard job (1024 lanes at W = 133, x_r0 evenly over
 //! [-4, 4] mm, 200 periods from t = 0). Error: per lane, the largest position error of
 //! the final state against the lane stepper at N = 8000 (two references, N = 4000 and
 //! 8000, say how converged that is). Writes docs/work-precision.png and .csv and prints
 //! the table and the speed ratios at equal worst-lane and 99th-percentile accuracy.
 //!
-//! Usage: work_precision PATH_TO_rk4_switch [LANES] [PERIODS]
+//! Each program's own timing of its work is used (numba's compilation and the process
+//! start are not part of it).
+//!
+//! Usage: work_precision PATH_TO_rk4_switch [LANES] [PERIODS] [PYTHON_WITH_NUMBA]
 
 use jeffcott_analysis::backend::run;
 use jeffcott_analysis::bench::{quantile, sorted_position_errors};
@@ -62,16 +66,20 @@ fn lane_stepper(
     Ok((res.final_state, wall, per_lane_period))
 }
 
+/// Runs a hand-written loop, `program` (its command words: the C binary, or a Python
+/// interpreter and the numba script), in `mode` (`plain` or `substep`) at N = `n`: the
+/// final states it wrote and the wall time it printed (`wall=SECONDS`).
 fn baseline(
-    exe: &str,
+    program: &[&str],
     mode: &str,
     n: u32,
     lanes: usize,
     periods: u32,
 ) -> anyhow::Result<(Vec<State>, f64)> {
-    let out = std::env::temp_dir().join(format!("rk4_switch_{}.bin", std::process::id()));
-    let t = Instant::now();
-    let o = Command::new(exe)
+    let out = std::env::temp_dir().join(format!("rk4_baseline_{}.bin", std::process::id()));
+    let exe = program.join(" ");
+    let o = Command::new(program[0])
+        .args(&program[1..])
         .args([
             mode,
             &n.to_string(),
@@ -80,8 +88,13 @@ fn baseline(
         ])
         .arg(&out)
         .output()?;
-    let wall = t.elapsed().as_secs_f64();
     anyhow::ensure!(o.status.success(), "{exe} failed: {o:?}");
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    let wall: f64 = stdout
+        .split_whitespace()
+        .find_map(|w| w.strip_prefix("wall="))
+        .ok_or_else(|| anyhow::anyhow!("{exe} printed no wall=: {stdout}"))?
+        .parse()?;
     let bytes = std::fs::read(&out)?;
     std::fs::remove_file(&out).ok();
     let states: Vec<State> = bytes
@@ -120,9 +133,10 @@ fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     anyhow::ensure!(
         !args.is_empty(),
-        "usage: work_precision PATH_TO_rk4_switch [LANES] [PERIODS]"
+        "usage: work_precision PATH_TO_rk4_switch [LANES] [PERIODS] [PYTHON_WITH_NUMBA]"
     );
-    let exe = &args[0];
+    let exe = args[0].as_str();
+    let python = args.get(3).map(String::as_str);
     let lanes: usize = args.get(1).map_or(Ok(1024), |s| s.parse())?;
     let periods: u32 = args.get(2).map_or(Ok(200), |s| s.parse())?;
     let lp = lanes as f64 * periods as f64;
@@ -166,12 +180,25 @@ fn main() -> anyhow::Result<()> {
             record(&name(r), n, Some(steps), &s, w);
         }
     }
+    let peer = "RK4 + switch sub-steps (numba, prange)";
+    if let Some(py) = python {
+        for n in [3072u32, 4096, 6144, 8192] {
+            let (s, w) = baseline(
+                &[py, "benches/peer/rk4_numba.py"],
+                "substep",
+                n,
+                lanes,
+                periods,
+            )?;
+            record(peer, n, None, &s, w);
+        }
+    }
     for n in [1536u32, 3072, 6144] {
-        let (s, w) = baseline(exe, "substep", n, lanes, periods)?;
+        let (s, w) = baseline(&[exe], "substep", n, lanes, periods)?;
         record("RK4 + switch sub-steps (C, OpenMP)", n, None, &s, w);
     }
     for n in [2000u32, 8000] {
-        let (s, w) = baseline(exe, "plain", n, lanes, periods)?;
+        let (s, w) = baseline(&[exe], "plain", n, lanes, periods)?;
         record("RK4 event-free (C, OpenMP)", n, None, &s, w);
     }
     let curve = |name: &str, q: f64| -> Vec<(f64, f64)> {
@@ -183,26 +210,33 @@ fn main() -> anyhow::Result<()> {
     let ours = &name(DEFAULT_CONTACT_SUBSTEPS);
     let strong = "RK4 + switch sub-steps (C, OpenMP)";
     let plain = "RK4 event-free (C, OpenMP)";
+    let baselines: &[&str] = if python.is_some() {
+        &[peer, strong]
+    } else {
+        &[strong]
+    };
     for (what, q, target) in [
         ("worst lane", 1.0, 1e-7),
         ("99th percentile", 0.99, 1e-7),
         ("99th percentile", 0.99, 2e-9),
     ] {
-        let (ours_c, strong_c) = (curve(ours, q), curve(strong, q));
-        match (cheapest(&ours_c, target), cheapest(&strong_c, target)) {
-            (Some(a), Some(b)) => println!(
-                "{what} <= {target:e} m, fastest measured point: jeffcott {a:.3e} lane-periods/s, strong baseline {b:.3e}: ratio {:.2}",
-                a / b
-            ),
-            (a, b) => println!(
-                "{what} <= {target:e} m: jeffcott {a:?}, strong baseline {b:?} (no measured point reaches it)"
-            ),
-        }
-        if let (Some(a), Some(b)) = (at_error(&ours_c, target), at_error(&strong_c, target)) {
-            println!(
-                "  interpolated (log-log) to equal {what} error {target:e} m: {a:.3e} vs {b:.3e}: ratio {:.2}",
-                a / b
-            );
+        for &other in baselines {
+            let (ours_c, other_c) = (curve(ours, q), curve(other, q));
+            match (cheapest(&ours_c, target), cheapest(&other_c, target)) {
+                (Some(a), Some(b)) => println!(
+                    "{what} <= {target:e} m, fastest measured point: jeffcott {a:.3e} lane-periods/s, {other} {b:.3e}: ratio {:.2}",
+                    a / b
+                ),
+                (a, b) => println!(
+                    "{what} <= {target:e} m: jeffcott {a:?}, {other} {b:?} (no measured point reaches it)"
+                ),
+            }
+            if let (Some(a), Some(b)) = (at_error(&ours_c, target), at_error(&other_c, target)) {
+                println!(
+                    "  interpolated (log-log) to equal {what} error {target:e} m: {a:.3e} vs {b:.3e}: ratio {:.2}",
+                    a / b
+                );
+            }
         }
     }
     let mut csv = String::from("integrator,n,lane_periods_per_s,median_m,p99_m,worst_m\n");
@@ -219,49 +253,53 @@ fn main() -> anyhow::Result<()> {
     }
     std::fs::write("docs/work-precision.csv", csv)?;
     let p = jeffcott::plot::PALETTE;
+    let mut series = vec![
+        (format!("{ours}, worst lane"), p[0], false, curve(ours, 1.0)),
+        (format!("{ours}, 99th pct"), p[0], true, curve(ours, 0.99)),
+        (
+            format!("{}, worst lane", name(1)),
+            p[2],
+            false,
+            curve(&name(1), 1.0),
+        ),
+        (
+            format!("{}, 99th pct", name(1)),
+            p[2],
+            true,
+            curve(&name(1), 0.99),
+        ),
+        (
+            format!("{}, worst lane", name(4)),
+            p[4],
+            false,
+            curve(&name(4), 1.0),
+        ),
+        (format!("{peer}, worst lane"), p[5], false, curve(peer, 1.0)),
+        (
+            format!("{strong}, worst lane"),
+            p[1],
+            false,
+            curve(strong, 1.0),
+        ),
+        (
+            format!("{strong}, 99th pct"),
+            p[1],
+            true,
+            curve(strong, 0.99),
+        ),
+        (
+            format!("{plain}, worst lane"),
+            p[3],
+            false,
+            curve(plain, 1.0),
+        ),
+    ];
+    // Without a Python with numba the peer has no points.
+    series.retain(|s| !s.3.is_empty());
     jeffcott::plot::work_precision(
         std::path::Path::new("docs/work-precision.png"),
         &format!("Work-precision at W = 133: {lanes} lanes x {periods} periods, 2-core CPU"),
-        &[
-            (format!("{ours}, worst lane"), p[0], false, curve(ours, 1.0)),
-            (format!("{ours}, 99th pct"), p[0], true, curve(ours, 0.99)),
-            (
-                format!("{}, worst lane", name(1)),
-                p[2],
-                false,
-                curve(&name(1), 1.0),
-            ),
-            (
-                format!("{}, 99th pct", name(1)),
-                p[2],
-                true,
-                curve(&name(1), 0.99),
-            ),
-            (
-                format!("{}, worst lane", name(4)),
-                p[4],
-                false,
-                curve(&name(4), 1.0),
-            ),
-            (
-                format!("{strong}, worst lane"),
-                p[1],
-                false,
-                curve(strong, 1.0),
-            ),
-            (
-                format!("{strong}, 99th pct"),
-                p[1],
-                true,
-                curve(strong, 0.99),
-            ),
-            (
-                format!("{plain}, worst lane"),
-                p[3],
-                false,
-                curve(plain, 1.0),
-            ),
-        ],
+        &series,
         1e-7,
     )?;
     println!("wrote docs/work-precision.png and docs/work-precision.csv");

@@ -4,8 +4,8 @@
  * step whose contact state changes between its start and its end redone as SUB sub-steps
  * of h/SUB (so a switch costs the step its order only inside one short sub-step), lanes
  * shared among threads by OpenMP. The unbalance forcing at the stage times of a regular
- * step (multiples of h/2 within the period) comes from a table computed once, as a
- * careful user would (libm cos/sin only in redone sub-steps). `plain` mode skips the redo
+ * step (multiples of h/2 within the period) comes from a table computed once and indexed
+ * by the step's number, as a careful user would (libm cos/sin only in redone sub-steps). `plain` mode skips the redo
  * (the event-free loop of benches/handwritten).
  *
  * The lanes are the standard job of issue 12: W = 133 rad/s, x_r0 evenly spread over
@@ -13,7 +13,9 @@
  *
  * Usage: rk4_switch plain|substep N PERIODS LANES OUT.bin -> LANES x 8 f64 final states
  * (little endian), prints the wall time.
- * Build: gcc -O3 -march=native -fopenmp rk4_switch.c -o rk4_switch -lm
+ * Build: gcc -O3 -march=native -fno-tree-vectorize -fopenmp rk4_switch.c -o rk4_switch -lm
+ * (without -fno-tree-vectorize gcc 12 packs the 8-element loops into AVX-512 shuffles
+ * and the loop runs 1.9x slower: benches/baseline/run.sh)
  */
 #include <math.h>
 #include <stdio.h>
@@ -31,20 +33,11 @@ static int contact(const double *x) {
     return sqrt(dx * dx + dy * dy) > DELTA;
 }
 
-/* Forcing (cos, sin) of W t, from the table when t is a multiple of h/2 in the period. */
-static const double *TAB_C, *TAB_S;
-static double HALF_H;
-
+/* Forcing (cos, sin) of W t by libm: only the redone sub-steps need it. */
 static void rhs_cs(double c, double sn, const double *x, double *f);
 
 static void rhs(double t, const double *x, double *f) {
-    double q = t / HALF_H;
-    long j = lround(q);
-    if (TAB_C && fabs(q - (double)j) < 1e-9) {
-        rhs_cs(TAB_C[j], TAB_S[j], x, f);
-    } else {
-        rhs_cs(cos(OMEGA * t), sin(OMEGA * t), x, f);
-    }
+    rhs_cs(cos(OMEGA * t), sin(OMEGA * t), x, f);
 }
 
 static void rhs_cs(double c, double sn, const double *x, double *f) {
@@ -78,6 +71,21 @@ static void rk4(double t, double h, const double *x, double *out) {
     for (int d = 0; d < 8; d++) out[d] = x[d] + h / 6.0 * (k1[d] + 2.0 * k2[d] + 2.0 * k3[d] + k4[d]);
 }
 
+/* A regular step s of the period: its stage times are the table's entries 2s, 2s + 1
+ * (twice) and 2s + 2, indexed directly (no division, rounding or test per stage). */
+static void rk4_tab(const double *tc, const double *ts, long s, double h, const double *x,
+                    double *out) {
+    double k1[8], k2[8], k3[8], k4[8], y[8];
+    rhs_cs(tc[2 * s], ts[2 * s], x, k1);
+    for (int d = 0; d < 8; d++) y[d] = x[d] + 0.5 * h * k1[d];
+    rhs_cs(tc[2 * s + 1], ts[2 * s + 1], y, k2);
+    for (int d = 0; d < 8; d++) y[d] = x[d] + 0.5 * h * k2[d];
+    rhs_cs(tc[2 * s + 1], ts[2 * s + 1], y, k3);
+    for (int d = 0; d < 8; d++) y[d] = x[d] + h * k3[d];
+    rhs_cs(tc[2 * s + 2], ts[2 * s + 2], y, k4);
+    for (int d = 0; d < 8; d++) out[d] = x[d] + h / 6.0 * (k1[d] + 2.0 * k2[d] + 2.0 * k3[d] + k4[d]);
+}
+
 int main(int argc, char **argv) {
     if (argc != 6 || (strcmp(argv[1], "plain") && strcmp(argv[1], "substep"))) {
         fprintf(stderr, "usage: %s plain|substep N PERIODS LANES OUT.bin\n", argv[0]);
@@ -92,13 +100,10 @@ int main(int argc, char **argv) {
     clock_gettime(CLOCK_MONOTONIC, &t0);
     /* The table is part of the timed work (it is negligible: 2N + 1 entries). */
     double *tc = malloc(sizeof(double) * (2 * n + 1)), *ts = malloc(sizeof(double) * (2 * n + 1));
-    HALF_H = 0.5 * h;
     for (long j = 0; j <= 2 * n; j++) {
-        tc[j] = cos(OMEGA * HALF_H * (double)j);
-        ts[j] = sin(OMEGA * HALF_H * (double)j);
+        tc[j] = cos(OMEGA * (0.5 * h) * (double)j);
+        ts[j] = sin(OMEGA * (0.5 * h) * (double)j);
     }
-    TAB_C = tc;
-    TAB_S = ts;
 #pragma omp parallel for schedule(dynamic, 16) reduction(+ : redone)
     for (long i = 0; i < lanes; i++) {
         double x[8] = {0}, y[8];
@@ -109,7 +114,7 @@ int main(int argc, char **argv) {
             for (long s = 0; s < n; s++) {
                 /* Time within the period, as the forcing only needs its phase. */
                 double t = (double)s * h;
-                rk4(t, h, x, y);
+                rk4_tab(tc, ts, s, h, x, y);
                 if (redo && contact(x) != contact(y)) {
                     redone++;
                     double z[8];

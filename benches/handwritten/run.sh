@@ -7,8 +7,8 @@ cd "$(dirname "$0")/../.."
 lanes=${1:-256}
 periods=${2:-20}
 dir=$(mktemp -d)
-gcc -O3 -march=native benches/handwritten/rk4_loop.c -o "$dir/rk4_loop_1thread" -lm -Wno-unknown-pragmas
-gcc -O3 -march=native -fopenmp benches/handwritten/rk4_loop.c -o "$dir/rk4_loop_openmp" -lm
+gcc -O3 -march=native -fno-tree-vectorize benches/handwritten/rk4_loop.c -o "$dir/rk4_loop_1thread" -lm -Wno-unknown-pragmas
+gcc -O3 -march=native -fno-tree-vectorize -fopenmp benches/handwritten/rk4_loop.c -o "$dir/rk4_loop_openmp" -lm
 cargo build --release --example handwritten
 ex=${CARGO_TARGET_DIR:-target}/release/examples/handwritten
 "$ex" "$dir/rk4_loop_1thread" "$lanes" "$periods" 500 2000 8000 32000
