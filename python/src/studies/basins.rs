@@ -128,78 +128,63 @@ pub(crate) fn basin<'py>(
     Ok(d)
 }
 
-/// Basin stability (Menck et al. 2013): the command line's `basin-stability`.
-///
-/// `omega` is a speed or `"a:b:n"`; `start_box` the box of start coordinates drawn
-/// from uniformly, e.g. `"x_r:-0.006:0.006,vx_r:-1:1"`. Returns `omega` `[n]`,
-/// `fractions` `[n, ids + 1]` (last column diverged), `ci_low` and `ci_high` (95 %
-/// Wilson intervals) and `summary`, the dictionary of `basin_stability.json`.
-#[pyfunction]
-#[pyo3(signature = (
-    omega, start_box, *, sample=defaults::stability::SAMPLE, seed=defaults::stability::SEED,
-    transient=defaults::stability::TRANSIENT, periods=defaults::stability::PERIODS,
-    params=None, backend="auto", precision=None, lyapunov=true,
-    progress=None,
-    **stepper,
-))]
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn basin_stability<'py>(
-    py: Python<'py>,
-    omega: Bound<'py, PyAny>,
-    #[pyo3(from_py_with = kw::start_box)] start_box: String,
-    #[pyo3(from_py_with = kw::sample)] sample: u32,
-    #[pyo3(from_py_with = kw::seed)] seed: u64,
-    #[pyo3(from_py_with = kw::transient)] transient: u32,
-    #[pyo3(from_py_with = kw::periods)] periods: u32,
-    #[pyo3(from_py_with = kw::params)] params: Option<HashMap<String, f64>>,
-    #[pyo3(from_py_with = kw::backend)] backend: &str,
-    #[pyo3(from_py_with = kw::precision)] precision: Option<&str>,
-    #[pyo3(from_py_with = kw::lyapunov)] lyapunov: bool,
-    #[pyo3(from_py_with = kw::progress)] progress: Option<Callback<'py>>,
-    stepper: Option<&Bound<'py, PyDict>>,
-) -> PyResult<Bound<'py, PyDict>> {
-    let lane = lane_settings(
-        "basin_stability",
-        params,
-        backend,
-        precision,
-        lyapunov,
-        stepper,
-    )?;
-    use jeffcott_analysis::stability::{StabilityRequest, fractions_with_intervals};
-    let omega = match omega.extract::<f64>() {
-        Ok(w) => format!("{w:e}"),
-        Err(_) => omega.extract::<String>().map_err(|_| {
-            pyo3::exceptions::PyTypeError::new_err(format!(
-                "invalid value for `omega`: {} (expected a speed in rad/s or a range \"a:b:n\")",
-                args::shown(&omega)
-            ))
-        })?,
-    };
-    let spec = jeffcott_analysis::stability::spec(&StabilityRequest {
-        lane,
-        omega: &omega,
-        sample,
-        start_box: &start_box,
-        seed,
-        transient,
-        periods,
-    })
-    .map_err(run::to_py_err)?;
-    let res = run::detached(py, progress.as_ref().map(|c| &c.0), |ctl| {
-        jeffcott_analysis::continuation::continuation(&spec, ctl)
-    })?;
-    let ramp = &res.ramps[0];
-    let g = ramp.ids + 1;
-    let (f, lo, hi) = fractions_with_intervals(&spec, ramp);
-    let d = PyDict::new(py);
-    d.set_item("omega", array1(py, res.values.clone()))?;
-    d.set_item("fractions", array2(py, f, g)?)?;
-    d.set_item("ci_low", array2(py, lo, g)?)?;
-    d.set_item("ci_high", array2(py, hi, g)?)?;
-    let summary = jeffcott_analysis::stability::summary(&spec, &res);
-    d.set_item("summary", json_to_py(py, &summary)?)?;
-    Ok(d)
+lane_study! {
+    /// Basin stability (Menck et al. 2013): the command line's `basin-stability`.
+    ///
+    /// `omega` is a speed or `"a:b:n"`; `start_box` the box of start coordinates drawn
+    /// from uniformly, e.g. `"x_r:-0.006:0.006,vx_r:-1:1"`. Returns `omega` `[n]`,
+    /// `fractions` `[n, ids + 1]` (last column diverged), `ci_low` and `ci_high` (95 %
+    /// Wilson intervals) and `summary`, the dictionary of `basin_stability.json`.
+    signature = (
+        omega, start_box, *, sample=defaults::stability::SAMPLE, seed=defaults::stability::SEED,
+        transient=defaults::stability::TRANSIENT, periods=defaults::stability::PERIODS,
+    );
+    fn basin_stability<'py>(
+        py: Python<'py>,
+        omega: Bound<'py, PyAny>,
+        #[pyo3(from_py_with = kw::start_box)] start_box: String,
+        #[pyo3(from_py_with = kw::sample)] sample: u32,
+        #[pyo3(from_py_with = kw::seed)] seed: u64,
+        #[pyo3(from_py_with = kw::transient)] transient: u32,
+        #[pyo3(from_py_with = kw::periods)] periods: u32,
+    )
+    with (lane: lane, progress: progress)
+    {
+        use jeffcott_analysis::stability::{StabilityRequest, fractions_with_intervals};
+        let omega = match omega.extract::<f64>() {
+            Ok(w) => format!("{w:e}"),
+            Err(_) => omega.extract::<String>().map_err(|_| {
+                pyo3::exceptions::PyTypeError::new_err(format!(
+                    "invalid value for `omega`: {} (expected a speed in rad/s or a range \"a:b:n\")",
+                    args::shown(&omega)
+                ))
+            })?,
+        };
+        let spec = jeffcott_analysis::stability::spec(&StabilityRequest {
+            lane,
+            omega: &omega,
+            sample,
+            start_box: &start_box,
+            seed,
+            transient,
+            periods,
+        })
+        .map_err(run::to_py_err)?;
+        let res = run::detached(py, progress.as_ref().map(|c| &c.0), |ctl| {
+            jeffcott_analysis::continuation::continuation(&spec, ctl)
+        })?;
+        let ramp = &res.ramps[0];
+        let g = ramp.ids + 1;
+        let (f, lo, hi) = fractions_with_intervals(&spec, ramp);
+        let d = PyDict::new(py);
+        d.set_item("omega", array1(py, res.values.clone()))?;
+        d.set_item("fractions", array2(py, f, g)?)?;
+        d.set_item("ci_low", array2(py, lo, g)?)?;
+        d.set_item("ci_high", array2(py, hi, g)?)?;
+        let summary = jeffcott_analysis::stability::summary(&spec, &res);
+        d.set_item("summary", json_to_py(py, &summary)?)?;
+        Ok(d)
+    }
 }
 
 /// The basin measures of any 2-D integer label array (`basin_metrics.json` of the

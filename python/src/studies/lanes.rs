@@ -3,7 +3,7 @@
 use crate::args::{self, Callback, Table, kw};
 use crate::convert::{self, array1, array2, array3, json_to_py, lane_specs, model_params};
 use crate::run;
-use crate::{backend_precision, lane_settings, speeds};
+use crate::{backend_precision, speeds};
 use jeffcott_analysis::bifurcation::{BifurcationSpec, Sweep};
 use jeffcott_analysis::defaults;
 use jeffcott_core::Error;
@@ -122,102 +122,94 @@ pub(crate) fn ensemble<'py>(
     Ok(d)
 }
 
-/// Quasistatic sweeps up and down in W and a brute-force ensemble per W: the command
-/// line's `bifurcation`.
-///
-/// Returns `omega` `[W]`, `rows` `[rows, 4]` (W, sweep 0 up / 1 down / 2 brute force,
-/// lane, attractor id), `points` `[rows, periods, 8]` (each row's Poincare points),
-/// `lambda1` `[rows]` and `summary`, the dictionary of `summary.json`.
-#[pyfunction]
-#[pyo3(signature = (
-    omega, *, sweep="both", ics=defaults::bifurcation::ICS, seed=defaults::bifurcation::SEED,
-    transient=defaults::bifurcation::TRANSIENT,
-    transient_first=defaults::bifurcation::TRANSIENT_FIRST,
-    brute_transient=defaults::bifurcation::BRUTE_TRANSIENT,
-    periods=defaults::bifurcation::PERIODS, max_seeds=defaults::bifurcation::MAX_SEEDS,
-    params=None, backend="auto", precision=None, lyapunov=true,
-    progress=None,
-    **stepper,
-))]
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn bifurcation<'py>(
-    py: Python<'py>,
-    omega: Bound<'py, PyAny>,
-    #[pyo3(from_py_with = kw::sweep)] sweep: &str,
-    #[pyo3(from_py_with = kw::ics)] ics: u32,
-    #[pyo3(from_py_with = kw::seed)] seed: u64,
-    #[pyo3(from_py_with = kw::transient)] transient: u32,
-    #[pyo3(from_py_with = kw::transient_first)] transient_first: u32,
-    #[pyo3(from_py_with = kw::brute_transient)] brute_transient: u32,
-    #[pyo3(from_py_with = kw::periods)] periods: u32,
-    #[pyo3(from_py_with = kw::max_seeds)] max_seeds: usize,
-    #[pyo3(from_py_with = kw::params)] params: Option<HashMap<String, f64>>,
-    #[pyo3(from_py_with = kw::backend)] backend: &str,
-    #[pyo3(from_py_with = kw::precision)] precision: Option<&str>,
-    #[pyo3(from_py_with = kw::lyapunov)] lyapunov: bool,
-    #[pyo3(from_py_with = kw::progress)] progress: Option<Callback<'py>>,
-    stepper: Option<&Bound<'py, PyDict>>,
-) -> PyResult<Bound<'py, PyDict>> {
-    let lane = lane_settings("bifurcation", params, backend, precision, lyapunov, stepper)?;
-    let sweep = match sweep {
-        "up" => Some(Sweep::Up),
-        "down" => Some(Sweep::Down),
-        "both" => Some(Sweep::Both),
-        "none" => None,
-        other => {
-            return Err(run::to_py_err(Error::invalid(
-                "sweep",
-                other,
-                "must be up, down, both or none",
-            )));
+lane_study! {
+    /// Quasistatic sweeps up and down in W and a brute-force ensemble per W: the command
+    /// line's `bifurcation`.
+    ///
+    /// Returns `omega` `[W]`, `rows` `[rows, 4]` (W, sweep 0 up / 1 down / 2 brute force,
+    /// lane, attractor id), `points` `[rows, periods, 8]` (each row's Poincare points),
+    /// `lambda1` `[rows]` and `summary`, the dictionary of `summary.json`.
+    signature = (
+        omega, *, sweep="both", ics=defaults::bifurcation::ICS, seed=defaults::bifurcation::SEED,
+        transient=defaults::bifurcation::TRANSIENT,
+        transient_first=defaults::bifurcation::TRANSIENT_FIRST,
+        brute_transient=defaults::bifurcation::BRUTE_TRANSIENT,
+        periods=defaults::bifurcation::PERIODS, max_seeds=defaults::bifurcation::MAX_SEEDS,
+    );
+    fn bifurcation<'py>(
+        py: Python<'py>,
+        omega: Bound<'py, PyAny>,
+        #[pyo3(from_py_with = kw::sweep)] sweep: &str,
+        #[pyo3(from_py_with = kw::ics)] ics: u32,
+        #[pyo3(from_py_with = kw::seed)] seed: u64,
+        #[pyo3(from_py_with = kw::transient)] transient: u32,
+        #[pyo3(from_py_with = kw::transient_first)] transient_first: u32,
+        #[pyo3(from_py_with = kw::brute_transient)] brute_transient: u32,
+        #[pyo3(from_py_with = kw::periods)] periods: u32,
+        #[pyo3(from_py_with = kw::max_seeds)] max_seeds: usize,
+    )
+    with (lane: lane, progress: progress)
+    {
+        let sweep = match sweep {
+            "up" => Some(Sweep::Up),
+            "down" => Some(Sweep::Down),
+            "both" => Some(Sweep::Both),
+            "none" => None,
+            other => {
+                return Err(run::to_py_err(Error::invalid(
+                    "sweep",
+                    other,
+                    "must be up, down, both or none",
+                )));
+            }
+        };
+        for (name, v, min) in [
+            ("transient_first", transient_first, 0),
+            ("transient", transient, 0),
+            ("brute_transient", brute_transient, 0),
+            ("periods", periods, 2),
+        ] {
+            jeffcott_core::limits::check_periods(name, v, min).map_err(run::to_py_err)?;
         }
-    };
-    for (name, v, min) in [
-        ("transient_first", transient_first, 0),
-        ("transient", transient, 0),
-        ("brute_transient", brute_transient, 0),
-        ("periods", periods, 2),
-    ] {
-        jeffcott_core::limits::check_periods(name, v, min).map_err(run::to_py_err)?;
+        let sweeps = match sweep {
+            None => 0,
+            Some(Sweep::Both) => 2,
+            Some(_) => 1,
+        };
+        let omegas = speeds("omega", &omega, |text, n| {
+            BifurcationSpec::check_size(text, n, sweeps, ics, max_seeds, periods)
+        })?;
+        let spec = BifurcationSpec {
+            lane,
+            omegas,
+            sweep,
+            transient_first,
+            transient,
+            ics,
+            brute_transient,
+            periods,
+            seed,
+            max_seeds,
+        };
+        spec.validate().map_err(run::to_py_err)?;
+        let (res, summary) = run::detached(py, progress.as_ref().map(|c| &c.0), |ctl| {
+            let res = jeffcott_analysis::bifurcation::bifurcation(&spec, ctl)?;
+            // The summary borrows the result: held as the file's JSON value.
+            let summary = jeffcott_analysis::bifurcation::summary(&spec, &res)?;
+            let summary = serde_json::to_value(summary)
+                .map_err(|e| jeffcott_core::Error::invalid("summary", "", e.to_string()))?;
+            Ok((res, summary))
+        })?;
+        let a = jeffcott_analysis::bifurcation::arrays(&res);
+        let rows = a.rows.len() / 4;
+        let d = PyDict::new(py);
+        d.set_item("omega", array1(py, spec.omegas.clone()))?;
+        d.set_item("rows", array2(py, a.rows, 4)?)?;
+        d.set_item("points", array3(py, a.points, rows, periods as usize)?)?;
+        d.set_item("lambda1", array1(py, a.lambda1))?;
+        d.set_item("summary", json_to_py(py, &summary)?)?;
+        Ok(d)
     }
-    let sweeps = match sweep {
-        None => 0,
-        Some(Sweep::Both) => 2,
-        Some(_) => 1,
-    };
-    let omegas = speeds("omega", &omega, |text, n| {
-        BifurcationSpec::check_size(text, n, sweeps, ics, max_seeds, periods)
-    })?;
-    let spec = BifurcationSpec {
-        lane,
-        omegas,
-        sweep,
-        transient_first,
-        transient,
-        ics,
-        brute_transient,
-        periods,
-        seed,
-        max_seeds,
-    };
-    spec.validate().map_err(run::to_py_err)?;
-    let (res, summary) = run::detached(py, progress.as_ref().map(|c| &c.0), |ctl| {
-        let res = jeffcott_analysis::bifurcation::bifurcation(&spec, ctl)?;
-        // The summary borrows the result: held as the file's JSON value.
-        let summary = jeffcott_analysis::bifurcation::summary(&spec, &res)?;
-        let summary = serde_json::to_value(summary)
-            .map_err(|e| jeffcott_core::Error::invalid("summary", "", e.to_string()))?;
-        Ok((res, summary))
-    })?;
-    let a = jeffcott_analysis::bifurcation::arrays(&res);
-    let rows = a.rows.len() / 4;
-    let d = PyDict::new(py);
-    d.set_item("omega", array1(py, spec.omegas.clone()))?;
-    d.set_item("rows", array2(py, a.rows, 4)?)?;
-    d.set_item("points", array3(py, a.points, rows, periods as usize)?)?;
-    d.set_item("lambda1", array1(py, a.lambda1))?;
-    d.set_item("summary", json_to_py(py, &summary)?)?;
-    Ok(d)
 }
 
 /// Full-spectrum cascade of a quasistatic run-up and run-down: the command line's

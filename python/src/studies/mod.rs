@@ -3,6 +3,60 @@
 //! ([`crate::run`]) and returns the command line's files as numpy arrays and
 //! dictionaries ([`crate::convert`]).
 
+/// Declares a lane study's package function (`bifurcation`, `map`, `continuation`,
+/// `basin_stability`): those whose keywords end alike, `params=None, backend="auto",
+/// precision=None, lyapunov=True, progress=None, **stepper`, read alike into the lane
+/// settings. Written once here, the shared tail cannot drift between the functions (a
+/// default, a reader or the order of the keywords, which the type stub mirrors).
+///
+/// The invocation gives the function's own signature up to that tail (ending in a
+/// comma), its own arguments, the names under which the body sees the lane settings
+/// ([`crate::lane_settings`], read first: an unknown stepper keyword is named before
+/// anything else) and the `progress` callback, and the body; the function returns the
+/// result dictionary.
+macro_rules! lane_study {
+    (
+        $(#[$($attr:tt)*])*
+        signature = ($($sig:tt)*);
+        fn $name:ident<$py:lifetime>($($arg:tt)*)
+        with (lane: $lane:ident, progress: $progress:ident)
+        { $($body:tt)* }
+    ) => {
+        $(#[$($attr)*])*
+        #[pyo3::pyfunction]
+        #[pyo3(signature = (
+            $($sig)*
+            params=None, backend="auto", precision=None, lyapunov=true,
+            progress=None,
+            **stepper,
+        ))]
+        #[allow(clippy::too_many_arguments)]
+        pub(crate) fn $name<$py>(
+            $($arg)*
+            #[pyo3(from_py_with = crate::args::kw::params)] params: Option<
+                std::collections::HashMap<String, f64>,
+            >,
+            #[pyo3(from_py_with = crate::args::kw::backend)] backend: &str,
+            #[pyo3(from_py_with = crate::args::kw::precision)] precision: Option<&str>,
+            #[pyo3(from_py_with = crate::args::kw::lyapunov)] lyapunov: bool,
+            #[pyo3(from_py_with = crate::args::kw::progress)] $progress: Option<
+                crate::args::Callback<$py>,
+            >,
+            stepper: Option<&pyo3::Bound<$py, pyo3::types::PyDict>>,
+        ) -> pyo3::PyResult<pyo3::Bound<$py, pyo3::types::PyDict>> {
+            let $lane = crate::lane_settings(
+                stringify!($name),
+                params,
+                backend,
+                precision,
+                lyapunov,
+                stepper,
+            )?;
+            $($body)*
+        }
+    };
+}
+
 pub mod basins;
 pub mod lanes;
 pub mod maps;
