@@ -503,21 +503,19 @@ pub fn diagram_series(
             points: v,
         });
     }
-    if up && !res.up.is_empty() {
-        series.push(DotSeries {
-            label: "quasistatic sweep, W increasing".into(),
-            color: RGBColor(31, 90, 200),
-            radius: r_up,
-            points: dots(&res.up),
-        });
-    }
-    if down && !res.down.is_empty() {
-        series.push(DotSeries {
-            label: "quasistatic sweep, W decreasing".into(),
-            color: RGBColor(220, 40, 30),
-            radius: r_down,
-            points: dots(&res.down),
-        });
+    let sweeps = [
+        (up, "increasing", RGBColor(31, 90, 200), r_up, &res.up),
+        (down, "decreasing", RGBColor(220, 40, 30), r_down, &res.down),
+    ];
+    for (wanted, direction, color, radius, sw) in sweeps {
+        if wanted && !sw.is_empty() {
+            series.push(DotSeries {
+                label: format!("quasistatic sweep, W {direction}"),
+                color,
+                radius,
+                points: dots(sw),
+            });
+        }
     }
     series
 }

@@ -645,18 +645,33 @@ pub fn unit_parts(
         diverged,
     } = unit.meta_as::<PartsMeta<Vec<PartAttractor>>>()?;
     let flat = unit.f64s("points")?;
-    if counts.len() != parts.len() || counts.iter().sum::<usize>() * STATE_DIM != flat.len() {
+    if !fill_points(flat, &counts, parts.iter_mut().map(|p| &mut p.points)) {
         return Err(bad("partial catalogue points do not match"));
     }
+    Ok((parts, diverged))
+}
+
+/// Fills each of `targets` with its share of `flat`, the states of several attractors
+/// stored one after another (`counts[i]` states for the i-th), as a unit keeps them;
+/// `false`, with nothing filled, when the counts match neither the targets nor the
+/// states stored.
+pub(crate) fn fill_points<'a>(
+    flat: &[f64],
+    counts: &[usize],
+    targets: impl ExactSizeIterator<Item = &'a mut Vec<State>>,
+) -> bool {
+    if counts.len() != targets.len() || counts.iter().sum::<usize>() * STATE_DIM != flat.len() {
+        return false;
+    }
     let mut at = 0;
-    for (p, &n) in parts.iter_mut().zip(&counts) {
-        p.points = flat[at * STATE_DIM..(at + n) * STATE_DIM]
+    for (points, &n) in targets.zip(counts) {
+        *points = flat[at * STATE_DIM..(at + n) * STATE_DIM]
             .chunks_exact(STATE_DIM)
             .map(|c| c.try_into().unwrap_or([f64::NAN; STATE_DIM]))
             .collect();
         at += n;
     }
-    Ok((parts, diverged))
+    true
 }
 
 /// The catalogue of a set of lanes at one W.

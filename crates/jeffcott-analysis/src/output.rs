@@ -121,23 +121,13 @@ pub fn write_npy<T>(path: &Path, shape: &[usize], data: &[T]) -> Result<()>
 where
     T: npyz::AutoSerialize + npyz::Serialize + Copy,
 {
-    use npyz::WriterBuilder;
     let count: usize = shape.iter().product();
     assert_eq!(
         count,
         data.len(),
         "npy shape does not match the data length"
     );
-    let shape: Vec<u64> = shape.iter().map(|&s| s as u64).collect();
-    write_atomically(path, |w| {
-        let mut npy = npyz::WriteOptions::<T>::new()
-            .default_dtype()
-            .shape(&shape)
-            .writer(w)
-            .begin_nd()?;
-        npy.extend(data.iter().copied())?;
-        npy.finish()
-    })
+    write_npy_with(path, shape, |npy| npy.extend(data.iter().copied()))
 }
 
 /// Writes an n-dimensional array (C order) as `.npy` from consecutive parts (e.g. one
@@ -148,15 +138,8 @@ where
     T: npyz::AutoSerialize + npyz::Serialize + Copy,
     I: Iterator<Item = Result<Vec<T>>>,
 {
-    use npyz::WriterBuilder;
     let count: usize = shape.iter().product();
-    let dims: Vec<u64> = shape.iter().map(|&s| s as u64).collect();
-    write_atomically(path, |w| {
-        let mut npy = npyz::WriteOptions::<T>::new()
-            .default_dtype()
-            .shape(&dims)
-            .writer(w)
-            .begin_nd()?;
+    write_npy_with(path, shape, |npy| {
         let mut n = 0usize;
         for part in parts {
             let part = part.map_err(std::io::Error::other)?;
@@ -168,6 +151,30 @@ where
                 "{n} values for a shape of {count}"
             )));
         }
+        Ok(())
+    })
+}
+
+/// The writer of a `.npy` array of `shape` (C order, the element type's default dtype):
+/// writes the header, lets `body` push the elements, then finishes the file, all inside
+/// one atomic write (nothing is left behind when `body` fails).
+fn write_npy_with<T>(
+    path: &Path,
+    shape: &[usize],
+    body: impl FnOnce(&mut npyz::NpyWriter<T, &mut BufWriter<std::fs::File>>) -> std::io::Result<()>,
+) -> Result<()>
+where
+    T: npyz::AutoSerialize + npyz::Serialize + Copy,
+{
+    use npyz::WriterBuilder;
+    let dims: Vec<u64> = shape.iter().map(|&s| s as u64).collect();
+    write_atomically(path, |w| {
+        let mut npy = npyz::WriteOptions::<T>::new()
+            .default_dtype()
+            .shape(&dims)
+            .writer(w)
+            .begin_nd()?;
+        body(&mut npy)?;
         npy.finish()
     })
 }

@@ -4,10 +4,10 @@
 //! [`LaneSettings`], flattened: run.json keeps its flat keys (`params`, `stepper`, ...).
 
 use crate::catalogue::CatalogueConfig;
-use jeffcott_core::ensemble::{Backend, Precision};
+use jeffcott_core::ensemble::{Backend, EnsembleSpec, LaneSpec, Precision};
 use jeffcott_core::error::Result;
 use jeffcott_core::integrate::lane::StepperConfig;
-use jeffcott_core::model::Params;
+use jeffcott_core::model::{Params, State};
 use serde::{Deserialize, Serialize};
 
 /// The lane settings of a study.
@@ -49,5 +49,33 @@ impl LaneSettings {
         self.params.validate()?;
         self.stepper.validate()?;
         self.catalogue.validate()
+    }
+
+    /// The ensemble of one parameter set `params` at one speed `omega`, a lane from each
+    /// of `starts`, integrated with these settings' stepper and precision: what a basin
+    /// grid and a continuation step integrate (one speed, many start states).
+    pub fn ensemble_at(
+        &self,
+        params: Params,
+        omega: f64,
+        starts: impl IntoIterator<Item = State>,
+        transient: u32,
+        recorded: u32,
+    ) -> EnsembleSpec {
+        EnsembleSpec {
+            param_sets: vec![params],
+            lanes: starts
+                .into_iter()
+                .map(|x0| LaneSpec {
+                    omega,
+                    x0,
+                    param_set: 0,
+                })
+                .collect(),
+            transient,
+            recorded,
+            stepper: self.stepper,
+            precision: self.precision,
+        }
     }
 }

@@ -261,65 +261,63 @@ pub fn simulate_with(spec: &SimulateSpec, cancel: &Cancel) -> Result<SimulateRes
             in_contact += (penetration(p.delta, x) > 0.0) as u64;
         }
     };
+    // The periods of either integrator: `n` steps a period from `x0`, `step` advancing
+    // one step (`None` once the lane froze: the run stops there, that step unrecorded).
+    let mut integrate =
+        |n: u32, x0: State, step: &mut dyn FnMut() -> Option<State>| -> Result<()> {
+            let mut x = x0;
+            'periods: for q in 0..total {
+                if cancel.is_set() {
+                    return Err(stopped());
+                }
+                for k in 0..n {
+                    if k == 0 && q == ts_from {
+                        record(q, 0, n, &x, &mut timeseries);
+                    }
+                    match step() {
+                        Some(next) => x = next,
+                        None => break 'periods,
+                    }
+                    record(q, k + 1, n, &x, &mut timeseries);
+                }
+                if q >= spec.transient {
+                    poincare.push(x);
+                }
+            }
+            Ok(())
+        };
     let (final_state, status, counters) = match spec.integrator {
         Integrator::Lane => {
             let lc = LaneConsts::<f64>::new(p, spec.omega, &spec.stepper);
             let mut lane = Lane::<f64>::new(&spec.x0, p.delta);
-            let n = lc.n;
-            'periods: for q in 0..total {
-                if cancel.is_set() {
-                    return Err(stopped());
-                }
-                for k in 0..n {
-                    if k == 0 && q == ts_from {
-                        record(q, 0, n, &lane.x, &mut timeseries);
-                    }
-                    macro_step(&lc, &mut lane);
-                    if lane.status.is_frozen() {
-                        break 'periods;
-                    }
-                    record(q, k + 1, n, &lane.x, &mut timeseries);
-                }
-                if q >= spec.transient {
-                    poincare.push(lane.x);
-                }
-            }
+            integrate(lc.n, lane.x, &mut || {
+                macro_step(&lc, &mut lane);
+                (!lane.status.is_frozen()).then_some(lane.x)
+            })?;
             (lane.x, lane.status, RunCounters::Lane(lane.counters))
         }
         Integrator::Article => {
             let mut st = ArticleStepper::new(p, spec.omega, spec.article, spec.x0);
-            let n = spec.article.steps_per_period;
             let mut status = Status::Ok;
-            'periods: for q in 0..total {
-                if cancel.is_set() {
-                    return Err(stopped());
+            integrate(spec.article.steps_per_period, st.x, &mut || {
+                let before = st.x;
+                st.advance_grid_step();
+                if st.x.iter().any(|v| !v.is_finite()) {
+                    st.x = before;
+                    status = Status::NonFinite;
+                    return None;
                 }
-                for k in 0..n {
-                    if k == 0 && q == ts_from {
-                        record(q, 0, n, &st.x, &mut timeseries);
-                    }
-                    let before = st.x;
-                    st.advance_grid_step();
-                    if st.x.iter().any(|v| !v.is_finite()) {
-                        st.x = before;
-                        status = Status::NonFinite;
-                        break 'periods;
-                    }
-                    let reach = [0, 2, 4, 6]
-                        .iter()
-                        .map(|&i| st.x[i].abs())
-                        .fold(0.0, f64::max);
-                    if reach > spec.stepper.divergence_bound {
-                        st.x = before;
-                        status = Status::Diverged;
-                        break 'periods;
-                    }
-                    record(q, k + 1, n, &st.x, &mut timeseries);
+                let reach = [0, 2, 4, 6]
+                    .iter()
+                    .map(|&i| st.x[i].abs())
+                    .fold(0.0, f64::max);
+                if reach > spec.stepper.divergence_bound {
+                    st.x = before;
+                    status = Status::Diverged;
+                    return None;
                 }
-                if q >= spec.transient {
-                    poincare.push(st.x);
-                }
-            }
+                Some(st.x)
+            })?;
             if status == Status::Ok && st.counters.capped > 0 {
                 status = Status::RefinementCap;
             }

@@ -237,10 +237,18 @@ mod tests {
         }
     }
 
+    /// The size of `$t` and the (name, offset) of each listed member, in the order
+    /// given: what `check` compares with the WGSL struct of the same members.
+    macro_rules! members {
+        ($t:ty { $($f:ident),+ $(,)? }) => {
+            (size_of::<$t>(), &[$((stringify!($f), offset_of!($t, $f))),+])
+        };
+    }
+
     macro_rules! check_layout {
         ($r:ty, $m:ident) => {{
             let module = shader::parse::<$r>(true).expect("shader parses");
-            let check = |name: &str, size: usize, offsets: &[(&str, usize)]| {
+            let check = |name: &str, (size, offsets): (usize, &[(&str, usize)])| {
                 let (span, members) = wgsl_struct(&module, name);
                 assert_eq!(span as usize, size, "{name} size ({})", stringify!($r));
                 assert_eq!(members.len(), offsets.len(), "{name} member count");
@@ -252,72 +260,41 @@ mod tests {
             use $m::*;
             check(
                 "Coeffs",
-                size_of::<Coeffs<$r>>(),
-                &[
-                    ("wr2", offset_of!(Coeffs<$r>, wr2)),
-                    ("dr", offset_of!(Coeffs<$r>, dr)),
-                    ("ws2", offset_of!(Coeffs<$r>, ws2)),
-                    ("ds", offset_of!(Coeffs<$r>, ds)),
-                    ("unbalance", offset_of!(Coeffs<$r>, unbalance)),
-                    ("a_g", offset_of!(Coeffs<$r>, a_g)),
-                    ("kc_mr", offset_of!(Coeffs<$r>, kc_mr)),
-                    ("kc_ms", offset_of!(Coeffs<$r>, kc_ms)),
-                    ("mu", offset_of!(Coeffs<$r>, mu)),
-                    ("delta", offset_of!(Coeffs<$r>, delta)),
-                    ("tau_c", offset_of!(Coeffs<$r>, tau_c)),
-                ],
+                members!(Coeffs<$r> {
+                    wr2, dr, ws2, ds, unbalance, a_g, kc_mr, kc_ms, mu, delta, tau_c
+                }),
             );
             check(
                 "LaneConsts",
-                size_of::<GpuLaneConsts>(),
-                &[
-                    ("c", offset_of!(GpuLaneConsts, c)),
-                    ("h", offset_of!(GpuLaneConsts, h)),
-                    ("inv_n", offset_of!(GpuLaneConsts, inv_n)),
-                    ("phase0", offset_of!(GpuLaneConsts, phase0)),
-                    ("bound", offset_of!(GpuLaneConsts, bound)),
-                    ("root_tol", offset_of!(GpuLaneConsts, root_tol)),
-                    ("inv_r", offset_of!(GpuLaneConsts, inv_r)),
-                    ("n", offset_of!(GpuLaneConsts, n)),
-                    ("max_segments", offset_of!(GpuLaneConsts, max_segments)),
-                ],
+                members!(GpuLaneConsts {
+                    c, h, inv_n, phase0, bound, root_tol, inv_r, n, max_segments
+                }),
             );
             check(
                 "Counters",
-                size_of::<GpuCounters>(),
-                &[
-                    ("macro_steps", offset_of!(GpuCounters, macro_steps)),
-                    ("contact_steps", offset_of!(GpuCounters, contact_steps)),
-                    ("switches", offset_of!(GpuCounters, switches)),
-                    ("extra_substeps", offset_of!(GpuCounters, extra_substeps)),
-                    ("max_penetration", offset_of!(GpuCounters, max_penetration)),
-                ],
+                members!(GpuCounters {
+                    macro_steps, contact_steps, switches, extra_substeps, max_penetration
+                }),
             );
             check(
                 "Lane",
-                size_of::<GpuLane>(),
-                &[
-                    ("x", offset_of!(GpuLane, x)),
-                    ("contact", offset_of!(GpuLane, contact)),
-                    ("k", offset_of!(GpuLane, k)),
-                    ("status", offset_of!(GpuLane, status)),
-                    ("period", offset_of!(GpuLane, period)),
-                    ("counters", offset_of!(GpuLane, counters)),
-                ],
+                members!(GpuLane { x, contact, k, status, period, counters }),
             );
             check(
                 "Params",
-                size_of::<Params>(),
-                &[
-                    ("n_lanes", offset_of!(Params, n_lanes)),
-                    ("period_begin", offset_of!(Params, period_begin)),
-                    ("period_end", offset_of!(Params, period_end)),
-                    ("record_from", offset_of!(Params, record_from)),
-                    ("probe", offset_of!(Params, probe)),
-                    ("pad0", offset_of!(Params, pad)),
-                    ("pad1", offset_of!(Params, pad) + 4),
-                    ("pad2", offset_of!(Params, pad) + 8),
-                ],
+                (
+                    size_of::<Params>(),
+                    &[
+                        ("n_lanes", offset_of!(Params, n_lanes)),
+                        ("period_begin", offset_of!(Params, period_begin)),
+                        ("period_end", offset_of!(Params, period_end)),
+                        ("record_from", offset_of!(Params, record_from)),
+                        ("probe", offset_of!(Params, probe)),
+                        ("pad0", offset_of!(Params, pad)),
+                        ("pad1", offset_of!(Params, pad) + 4),
+                        ("pad2", offset_of!(Params, pad) + 8),
+                    ],
+                ),
             );
             assert_eq!(
                 global_stride(&module, "consts") as usize,

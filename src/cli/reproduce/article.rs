@@ -11,10 +11,9 @@ use jeffcott_analysis::basin::study::BasinOutcome;
 use jeffcott_analysis::bifurcation::{BifurcationResult, BifurcationSpec};
 use jeffcott_analysis::classify::Class;
 use jeffcott_analysis::reproduce::{
-    ARTICLE_SPEEDS, BruteCounts, Lambda1Row, Survey, ZOOMS, leaves_period1, periods_seen,
+    ARTICLE_SPEEDS, AtSpeed, BruteCounts, Lambda1Row, Survey, ZOOMS, leaves_period1, periods_seen,
     up_down_differ,
 };
-use jeffcott_analysis::simulate::SimulateResult;
 use jeffcott_core::error::Result;
 use jeffcott_core::model::{VX_R, VX_S, X_R, X_S, Y_R, Y_S};
 
@@ -25,13 +24,8 @@ pub(super) fn bifurcation_figures(
     spec: &BifurcationSpec,
     res: &BifurcationResult,
 ) -> Result<()> {
-    let Ctx {
-        dir,
-        ref backend,
-        ref mut rep,
-        ..
-    } = *c;
-    let (p, cfg) = (c.spec.preset, c.spec.catalogue);
+    let (dir, backend, p, rep) = (c.dir, c.backend.as_str(), c.spec.preset, &mut c.rep);
+    let cfg = c.spec.catalogue;
     write_bifurcation(&dir.join("bifurcation"), spec, res, &[VX_S, VX_R], true)?;
     let bif_cmd = format!(
         "jeffcott bifurcation --omega 130:141:{} --coord vx_s,vx_r --sweep both --ics {} --transient {} --transient-first {} --brute-transient {} --periods {} --max-seeds {} --backend {backend} --out {}/bifurcation",
@@ -168,10 +162,7 @@ pub(super) fn enlargement(
     zres: &BifurcationResult,
     seconds: f64,
 ) -> Result<()> {
-    let Ctx {
-        dir, ref mut rep, ..
-    } = *c;
-    let p = c.spec.preset;
+    let (dir, p, rep) = (c.dir, c.spec.preset, &mut c.rep);
     let (lo, hi) = ZOOMS[k];
     {
         let fig = format!("fig03{}_zoom_{lo}-{hi}.png", ["b", "c"][k]);
@@ -206,40 +197,30 @@ pub(super) fn enlargement(
 }
 
 /// Fig. 5 or 6: the phase portrait at 131.7 or 132.2 rad/s from the static equilibrium.
-pub(super) fn portrait(
-    c: &mut Ctx,
-    figure: usize,
-    omega: f64,
-    r: &SimulateResult,
-    class: Class,
-    survey: &Survey,
-    seconds: f64,
-) -> Result<()> {
-    let Ctx {
-        dir, ref mut rep, ..
-    } = *c;
-    let p = c.spec.preset;
+pub(super) fn portrait(c: &mut Ctx, figure: usize, at: &AtSpeed) -> Result<()> {
+    let (dir, p, rep) = (c.dir, c.spec.preset, &mut c.rep);
+    let omega = at.omega;
     let i = figure - 5;
     let fig = ["fig05_phase_131.7.png", "fig06_phase_132.2.png"][i];
-    let class = class.label();
+    let class = at.class.label();
     plot::phase_portraits(
         &dir.join(fig),
         &format!("Fig. {figure}: W = {omega} rad/s from the static equilibrium: {class}"),
-        &r.timeseries,
-        &r.poincare,
+        &at.res.timeseries,
+        &at.res.poincare,
     )?;
     rep.figure(
         &format!("Fig. {figure}: phase spaces and Poincare section at W = {omega} rad/s"),
         fig,
         &format!(
             "From the static equilibrium after 1000 periods: **{class}**, lambda_1 = {} (full spectrum in the table at the top) (the article: {}). Survey of {} start states: {}.",
-            l1_text(survey.spectrum(omega)),
+            l1_text(at.survey.spectrum(omega)),
             ARTICLE_SPEEDS[i].1,
             p.survey_ics,
-            describe(&survey.catalogues[i])
+            describe(&at.survey.catalogues[i])
         ),
         &format!("jeffcott simulate --omega {omega} --transient 1000 --periods 64 --timeseries-periods 4"),
-        seconds,
+        at.seconds,
     );
     Ok(())
 }
@@ -255,13 +236,7 @@ pub(super) struct BasinFigures<'a> {
 /// Figs. 7 and 8: the basin at 133 rad/s (refined at its boundary), its coexisting
 /// attractors and its measures.
 pub(super) fn basin_section(c: &mut Ctx, f: &BasinFigures) -> Result<()> {
-    let Ctx {
-        dir,
-        ref backend,
-        ref mut rep,
-        ..
-    } = *c;
-    let p = c.spec.preset;
+    let (dir, backend, p, rep) = (c.dir, c.backend.as_str(), c.spec.preset, &mut c.rep);
     let o = f.outcome;
     let (bres, refined, reint) = (&o.result, o.refined.as_ref(), o.reintegration.as_ref());
     let n = o.coarse.x.n;
@@ -383,21 +358,11 @@ const SECTIONS_140: [SectionFigure; 2] = [
 ];
 
 /// Figs. 9 to 12: the phase portrait and Poincare sections at 135 or 140 rad/s.
-pub(super) fn section_figures(
-    c: &mut Ctx,
-    i: usize,
-    omega: f64,
-    r: &SimulateResult,
-    class: Class,
-    sv: &Survey,
-    seconds: f64,
-) -> Result<()> {
-    let Ctx {
-        dir, ref mut rep, ..
-    } = *c;
-    let (p, cfg) = (c.spec.preset, c.spec.catalogue);
+pub(super) fn section_figures(c: &mut Ctx, i: usize, at: &AtSpeed) -> Result<()> {
+    let (dir, p, cfg, rep) = (c.dir, c.spec.preset, c.spec.catalogue, &mut c.rep);
+    let (omega, r, sv, seconds) = (at.omega, &at.res, at.survey, at.seconds);
     {
-        let class = class.label();
+        let class = at.class.label();
         let found = format!(
             "From the static equilibrium, {} Poincare points after {} periods: **{class}** (no period up to 32; lambda_1 = {} from the full spectrum, quasiperiodic when |lambda_1| < {} 1/s, chaotic above) (the article: {}). Survey of {} start states (lambda_1 per lane): {}.",
             p.section_points,

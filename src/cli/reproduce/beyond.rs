@@ -19,13 +19,7 @@ pub(super) fn design_chart(
     f: &MapFindings,
     seconds: f64,
 ) -> Result<()> {
-    let Ctx {
-        dir,
-        ref backend,
-        ref mut rep,
-        ..
-    } = *c;
-    let p = c.spec.preset;
+    let (dir, backend, p, rep) = (c.dir, c.backend.as_str(), c.spec.preset, &mut c.rep);
     let mdir = dir.join("map_w_e");
     crate::cli::map::write_map(&mdir, mspec, mres, true)?;
     copy(dir, &mdir.join("map_period.png"), "map_w_e_period.png")?;
@@ -79,13 +73,7 @@ pub(super) fn continuation_section(
     ramps: &[RampFindings],
     seconds: f64,
 ) -> Result<()> {
-    let Ctx {
-        dir,
-        ref backend,
-        ref mut rep,
-        ..
-    } = *c;
-    let p = c.spec.preset;
+    let (dir, backend, p, rep) = (c.dir, c.backend.as_str(), c.spec.preset, &mut c.rep);
     let cdir = dir.join("continuation");
     crate::cli::continuation::write_continuation(&cdir, cspec, cres, true)?;
     copy(dir, &cdir.join("continuation.png"), "continuation.png")?;
@@ -144,13 +132,7 @@ pub(super) fn rub_map(
     soft_modes: &[(String, f64)],
     seconds: f64,
 ) -> Result<()> {
-    let Ctx {
-        dir,
-        ref backend,
-        ref mut rep,
-        ..
-    } = *c;
-    let p = c.spec.preset;
+    let (dir, backend, p, rep) = (c.dir, c.backend.as_str(), c.spec.preset, &mut c.rep);
     let rdir = dir.join("map_w_mu");
     crate::cli::map::write_map(&rdir, rspec, rres, true)?;
     copy(dir, &rdir.join("map_regime.png"), "rub_regimes_w_mu.png")?;
@@ -221,10 +203,7 @@ pub(super) fn cascade_section(
     cres: &CascadeResult,
     seconds: f64,
 ) -> Result<()> {
-    let Ctx {
-        dir, ref mut rep, ..
-    } = *c;
-    let p = c.spec.preset;
+    let (dir, p, rep) = (c.dir, c.spec.preset, &mut c.rep);
     let kdir = dir.join("cascade");
     crate::cli::cascade::write_cascade(&kdir, cspec, cres, true, false)?;
     copy(dir, &kdir.join("cascade_up.png"), "cascade_up.png")?;
@@ -255,9 +234,7 @@ pub(super) fn spectrum_section(
     rub: Option<&RubOutputs>,
     seconds: f64,
 ) -> Result<()> {
-    let Ctx {
-        dir, ref mut rep, ..
-    } = *c;
+    let (dir, rep) = (c.dir, &mut c.rep);
     let Some(o) = rub else { return Ok(()) };
     let fdir = dir.join(format!("spectrum_{omega}"));
     jeffcott_analysis::output::ensure_dir(&fdir)?;

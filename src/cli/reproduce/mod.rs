@@ -161,14 +161,7 @@ impl Host for Ctx<'_> {
                 res,
                 seconds,
             } => enlargement(self, k, spec, res, seconds),
-            Section::Portrait {
-                figure,
-                omega,
-                res,
-                class,
-                survey,
-                seconds,
-            } => portrait(self, figure, omega, res, class, survey, seconds),
+            Section::Portrait { figure, at } => portrait(self, figure, at),
             Section::Basin {
                 outcome,
                 class,
@@ -183,14 +176,7 @@ impl Host for Ctx<'_> {
                     seconds,
                 },
             ),
-            Section::PoincareSection {
-                index,
-                omega,
-                res,
-                class,
-                survey,
-                seconds,
-            } => section_figures(self, index, omega, res, class, survey, seconds),
+            Section::PoincareSection { index, at } => section_figures(self, index, at),
             Section::DesignChart {
                 spec,
                 res,

@@ -21,7 +21,7 @@ use super::catalogue::{Catalogue, CatalogueBuilder, part_unit, unit_parts};
 use crate::run::lanes::{Control, LaneUnits, Split};
 use crate::run::{Array, UnitStore};
 use crate::settings::LaneSettings;
-use jeffcott_core::ensemble::{EnsembleSpec, LaneSpec, RunInfo};
+use jeffcott_core::ensemble::{EnsembleSpec, RunInfo};
 use jeffcott_core::error::{Error, Result};
 use jeffcott_core::model::{COORD_NAMES, Params, State};
 use serde::{Deserialize, Serialize};
@@ -219,21 +219,13 @@ impl BasinSpec {
 
     /// The lanes from `starts` at the basin's speed, with its periods and lane settings.
     pub fn ensemble(&self, starts: impl IntoIterator<Item = State>) -> EnsembleSpec {
-        EnsembleSpec {
-            param_sets: vec![self.lane.params.clone()],
-            lanes: starts
-                .into_iter()
-                .map(|x0| LaneSpec {
-                    omega: self.omega,
-                    x0,
-                    param_set: 0,
-                })
-                .collect(),
-            transient: self.transient,
-            recorded: self.periods,
-            stepper: self.lane.stepper,
-            precision: self.lane.precision,
-        }
+        self.lane.ensemble_at(
+            self.lane.params.clone(),
+            self.omega,
+            starts,
+            self.transient,
+            self.periods,
+        )
     }
 
     /// The start state of cell (ix, iy).

@@ -3,11 +3,11 @@
 //! units a step is stored in.
 
 use super::{ContinuationSpec, Direction, Ramp, Step, Tracked, fresh_value, match_attractors};
-use crate::catalogue::{CatalogueBuilder, PartAttractor, classify_lane};
+use crate::catalogue::{CatalogueBuilder, PartAttractor, classify_lane, fill_points};
 use crate::run::lanes::Control;
 use crate::run::{Array, Unit, UnitStore};
 use jeffcott_core::error::{Error, Result};
-use jeffcott_core::model::{STATE_DIM, State};
+use jeffcott_core::model::State;
 use serde::{Deserialize, Serialize};
 
 /// Unit of step `s` of a ramp: the step and the next free id.
@@ -53,18 +53,9 @@ fn unit_step(unit: &Unit) -> Result<(Step, u32)> {
     } = unit.meta_as::<StepMeta<Step>>()?;
     step.labels = unit.i32s("labels")?.to_vec();
     let flat = unit.f64s("points")?;
-    if counts.len() != step.attractors.len()
-        || counts.iter().sum::<usize>() * STATE_DIM != flat.len()
-    {
+    let targets = step.attractors.iter_mut().map(|a| &mut a.points);
+    if !fill_points(flat, &counts, targets) {
         return Err(bad("points do not match".into()));
-    }
-    let mut at = 0;
-    for (a, &c) in step.attractors.iter_mut().zip(&counts) {
-        a.points = flat[at * STATE_DIM..(at + c) * STATE_DIM]
-            .chunks_exact(STATE_DIM)
-            .map(|x| x.try_into().unwrap_or([f64::NAN; STATE_DIM]))
-            .collect();
-        at += c;
     }
     Ok((step, next))
 }

@@ -4,7 +4,7 @@
 
 use crate::map::{MapAxis, MapVar};
 use crate::settings::LaneSettings;
-use jeffcott_core::ensemble::{EnsembleSpec, LaneSpec};
+use jeffcott_core::ensemble::EnsembleSpec;
 use jeffcott_core::error::{Error, Result};
 use jeffcott_core::model::{Params, State};
 use serde::{Deserialize, Serialize};
@@ -280,21 +280,8 @@ impl ContinuationSpec {
 
     pub(super) fn ensemble(&self, i: usize, starts: Vec<State>) -> EnsembleSpec {
         let (p, w) = self.value_params(i);
-        EnsembleSpec {
-            param_sets: vec![p],
-            lanes: starts
-                .into_iter()
-                .map(|x0| LaneSpec {
-                    omega: w,
-                    x0,
-                    param_set: 0,
-                })
-                .collect(),
-            transient: self.transient,
-            recorded: self.periods,
-            stepper: self.lane.stepper,
-            precision: self.lane.precision,
-        }
+        self.lane
+            .ensemble_at(p, w, starts, self.transient, self.periods)
     }
 }
 

@@ -218,53 +218,37 @@ impl LabelGrid {
 /// the path between two cells of a rectangle stays in it, so clipping changes nothing.
 fn chebyshev_distance(nx: usize, ny: usize, set: &[bool]) -> Vec<u32> {
     let mut d: Vec<u32> = set.iter().map(|&s| if s { 0 } else { u32::MAX }).collect();
-    let step = |v: u32| v.saturating_add(1);
-    for iy in 0..ny {
-        for ix in 0..nx {
+    // Each pass takes, cell by cell in its order, the least of the cell's own distance
+    // and one step from each of its neighbours the pass has already visited.
+    let pass = |d: &mut [u32],
+                cells: &mut dyn Iterator<Item = (usize, usize)>,
+                visited: [(isize, isize); 4]| {
+        for (ix, iy) in cells {
             let i = iy * nx + ix;
-            let mut m = d[i];
-            if m == 0 {
+            if d[i] == 0 {
                 continue;
             }
-            if ix > 0 {
-                m = m.min(step(d[i - 1]));
-            }
-            if iy > 0 {
-                let up = i - nx;
-                m = m.min(step(d[up]));
-                if ix > 0 {
-                    m = m.min(step(d[up - 1]));
-                }
-                if ix + 1 < nx {
-                    m = m.min(step(d[up + 1]));
+            let mut m = d[i];
+            for (dx, dy) in visited {
+                let (jx, jy) = (ix.checked_add_signed(dx), iy.checked_add_signed(dy));
+                if let (Some(jx), Some(jy)) = (jx, jy)
+                    && jx < nx
+                    && jy < ny
+                {
+                    m = m.min(d[jy * nx + jx].saturating_add(1));
                 }
             }
             d[i] = m;
         }
-    }
-    for iy in (0..ny).rev() {
-        for ix in (0..nx).rev() {
-            let i = iy * nx + ix;
-            let mut m = d[i];
-            if m == 0 {
-                continue;
-            }
-            if ix + 1 < nx {
-                m = m.min(step(d[i + 1]));
-            }
-            if iy + 1 < ny {
-                let down = i + nx;
-                m = m.min(step(d[down]));
-                if ix > 0 {
-                    m = m.min(step(d[down - 1]));
-                }
-                if ix + 1 < nx {
-                    m = m.min(step(d[down + 1]));
-                }
-            }
-            d[i] = m;
-        }
-    }
+    };
+    // Forward: rows top to bottom, each left to right (the left and the row above).
+    let mut forward = (0..ny).flat_map(|iy| (0..nx).map(move |ix| (ix, iy)));
+    pass(&mut d, &mut forward, [(-1, 0), (-1, -1), (0, -1), (1, -1)]);
+    // Backward: rows bottom to top, each right to left (the right and the row below).
+    let mut backward = (0..ny)
+        .rev()
+        .flat_map(|iy| (0..nx).rev().map(move |ix| (ix, iy)));
+    pass(&mut d, &mut backward, [(1, 0), (-1, 1), (0, 1), (1, 1)]);
     d
 }
 

@@ -217,7 +217,7 @@ mod tests {
                     format!("bifurcation {:?}", SweepCounts::of(&res.up))
                 }
                 Section::Zoom { k, res, .. } => format!("zoom {k} {:?}", periods_seen(&res.up)),
-                Section::Portrait { figure, class, .. } => format!("fig{figure} {class:?}"),
+                Section::Portrait { figure, at } => format!("fig{figure} {:?}", at.class),
                 Section::Basin { outcome, class, .. } => {
                     let (coarse, spec, res) = (&outcome.coarse, &outcome.spec, &outcome.result);
                     let refined = &outcome.refined;
@@ -227,8 +227,8 @@ mod tests {
                     assert!(refined.is_some());
                     format!("basin {:?} {class:?}", res.labels)
                 }
-                Section::PoincareSection { omega, class, .. } => {
-                    format!("section {omega} {class:?}")
+                Section::PoincareSection { at, .. } => {
+                    format!("section {} {:?}", at.omega, at.class)
                 }
                 Section::DesignChart { res, findings, .. } => {
                     assert!(findings.rubbing <= res.class.len());

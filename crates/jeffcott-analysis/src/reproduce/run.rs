@@ -49,20 +49,13 @@ pub enum Section<'a> {
         /// Wall time [s].
         seconds: f64,
     },
-    /// Fig. 5 or 6: the response from the static equilibrium at `omega`.
+    /// Fig. 5 or 6: the response from the static equilibrium at `at.omega`
+    /// ([`ReproduceSpec::portrait`]).
     Portrait {
         /// 5 or 6.
         figure: usize,
-        /// Rotor speed [rad/s].
-        omega: f64,
-        /// The trajectory ([`ReproduceSpec::portrait`]).
-        res: &'a SimulateResult,
-        /// Its class, refined by the full spectrum's lambda_1.
-        class: Class,
-        /// The survey, for the text.
-        survey: &'a Survey,
-        /// Wall time [s].
-        seconds: f64,
+        /// The response.
+        at: &'a AtSpeed<'a>,
     },
     /// Figs. 7-8: the basin at 133 rad/s at its finest resolution, with the refinement
     /// and the re-integration, and the class from the static equilibrium there.
@@ -77,20 +70,13 @@ pub enum Section<'a> {
         /// Wall time of the basin study, all its stages [s].
         seconds: f64,
     },
-    /// Figs. 9-12: the section from the static equilibrium at 135 or 140 rad/s.
+    /// Figs. 9-12: the section from the static equilibrium at 135 or 140 rad/s
+    /// ([`ReproduceSpec::section`]).
     PoincareSection {
         /// Index in [`ARTICLE_SPEEDS`].
         index: usize,
-        /// Rotor speed [rad/s].
-        omega: f64,
-        /// The trajectory ([`ReproduceSpec::section`]).
-        res: &'a SimulateResult,
-        /// Its class, refined by lambda_1.
-        class: Class,
-        /// The survey, for the text.
-        survey: &'a Survey,
-        /// Wall time [s].
-        seconds: f64,
+        /// The response.
+        at: &'a AtSpeed<'a>,
     },
     /// The design chart over rotor speed and unbalance.
     DesignChart {
@@ -149,6 +135,46 @@ pub enum Section<'a> {
         /// Wall time [s].
         seconds: f64,
     },
+}
+
+/// The response from the static equilibrium at one of the article's speeds, as the
+/// portraits and sections (Figs. 5, 6 and 9 to 12) and the basin's text quote it.
+pub struct AtSpeed<'a> {
+    /// Rotor speed [rad/s].
+    pub omega: f64,
+    /// The trajectory.
+    pub res: SimulateResult,
+    /// Its class, refined by the full spectrum's lambda_1.
+    pub class: Class,
+    /// The survey, for the text.
+    pub survey: &'a Survey,
+    /// Wall time [s].
+    pub seconds: f64,
+}
+
+impl<'a> AtSpeed<'a> {
+    /// Simulates `sim` (from the static equilibrium at `omega`), refines its class by
+    /// the survey's lambda_1 (`lambda_tol`) and records that class in `static_class`,
+    /// which the report's head quotes.
+    fn run(
+        sim: &SimulateSpec,
+        omega: f64,
+        survey: &'a Survey,
+        lambda_tol: f64,
+        static_class: &mut Vec<(f64, Class)>,
+    ) -> Result<AtSpeed<'a>> {
+        let t = std::time::Instant::now();
+        let res = simulate(sim)?;
+        let class = survey.refine(res.classification.class, omega, lambda_tol);
+        static_class.push((omega, class));
+        Ok(AtSpeed {
+            omega,
+            res,
+            class,
+            survey,
+            seconds: t.elapsed().as_secs_f64(),
+        })
+    }
 }
 
 /// What the report's head quotes once every section is done.
@@ -213,18 +239,9 @@ pub fn reproduce<H: Host>(spec: &ReproduceSpec, host: &mut H) -> Result<Reproduc
 
     host.begin(5, "phase portraits at 131.7 and 132.2 rad/s");
     for (figure, omega) in [(5, 131.7), (6, 132.2)] {
-        let t = Instant::now();
-        let res = simulate(&spec.portrait(omega))?;
-        let class = survey.refine(res.classification.class, omega, lambda_tol);
-        static_class.push((omega, class));
-        host.section(Section::Portrait {
-            figure,
-            omega,
-            res: &res,
-            class,
-            survey: &survey,
-            seconds: t.elapsed().as_secs_f64(),
-        })?;
+        let sim = spec.portrait(omega);
+        let at = AtSpeed::run(&sim, omega, &survey, lambda_tol, &mut static_class)?;
+        host.section(Section::Portrait { figure, at: &at })?;
     }
 
     host.begin(6, "basin of attraction at 133 rad/s");
@@ -234,9 +251,8 @@ pub fn reproduce<H: Host>(spec: &ReproduceSpec, host: &mut H) -> Result<Reproduc
         &engine,
         &crate::run::PrefixedHost::new(&*host, "basin_133"),
     )?;
-    let r133 = simulate(&spec.portrait(133.0))?;
-    let class = survey.refine(r133.classification.class, 133.0, lambda_tol);
-    static_class.push((133.0, class));
+    let sim = spec.portrait(133.0);
+    let class = AtSpeed::run(&sim, 133.0, &survey, lambda_tol, &mut static_class)?.class;
     host.section(Section::Basin {
         outcome: &outcome,
         class,
@@ -250,18 +266,9 @@ pub fn reproduce<H: Host>(spec: &ReproduceSpec, host: &mut H) -> Result<Reproduc
         "phase portraits and Poincare sections at 135 and 140 rad/s",
     );
     for (index, omega) in [(3, 135.0), (4, 140.0)] {
-        let t = Instant::now();
-        let res = simulate(&spec.section(omega))?;
-        let class = survey.refine(res.classification.class, omega, lambda_tol);
-        static_class.push((omega, class));
-        host.section(Section::PoincareSection {
-            index,
-            omega,
-            res: &res,
-            class,
-            survey: &survey,
-            seconds: t.elapsed().as_secs_f64(),
-        })?;
+        let sim = spec.section(omega);
+        let at = AtSpeed::run(&sim, omega, &survey, lambda_tol, &mut static_class)?;
+        host.section(Section::PoincareSection { index, at: &at })?;
     }
 
     host.begin(8, "design chart: speed against unbalance");

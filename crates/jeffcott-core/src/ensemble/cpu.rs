@@ -162,30 +162,38 @@ fn run_batch_inner<R: Real, const M: usize>(
         .collect()
 }
 
-/// The batch code compiled for AVX2 (no FMA: fusing would change the rounding).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn run_batch_avx2<R: Real, const M: usize>(
-    spec: &EnsembleSpec,
-    first: usize,
-    cancel: &Cancel,
-) -> Vec<Outcome> {
-    run_batch_inner::<R, M>(spec, first, cancel)
+/// `run_batch_inner` compiled again with `$features` enabled, as `$name` (its doc
+/// comment first): the same code for each instruction set, so the lanes' arithmetic
+/// cannot drift between them.
+macro_rules! batch_compiled_for {
+    ($(#[$doc:meta])* $name:ident, $features:literal) => {
+        $(#[$doc])*
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = $features)]
+        fn $name<R: Real, const M: usize>(
+            spec: &EnsembleSpec,
+            first: usize,
+            cancel: &Cancel,
+        ) -> Vec<Outcome> {
+            run_batch_inner::<R, M>(spec, first, cancel)
+        }
+    };
 }
 
-/// The batch code compiled for AVX-512 (one 512-bit register holds the 8 f64 lanes of a
-/// batch; still no FMA). Opt-in with `JEFFCOTT_AVX512=1`: on the 2-core Xeon it was
-/// measured on it was 8 % slower than AVX2 on `jeffcott bench`'s workload and on a W
-/// sweep (docs/performance.md), so AVX2 stays the default.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512dq,avx512vl")]
-fn run_batch_avx512<R: Real, const M: usize>(
-    spec: &EnsembleSpec,
-    first: usize,
-    cancel: &Cancel,
-) -> Vec<Outcome> {
-    run_batch_inner::<R, M>(spec, first, cancel)
-}
+batch_compiled_for!(
+    /// The batch code compiled for AVX2 (no FMA: fusing would change the rounding).
+    run_batch_avx2,
+    "avx2"
+);
+
+batch_compiled_for!(
+    /// The batch code compiled for AVX-512 (one 512-bit register holds the 8 f64 lanes
+    /// of a batch; still no FMA). Opt-in with `JEFFCOTT_AVX512=1`: on the 2-core Xeon it
+    /// was measured on it was 8 % slower than AVX2 on `jeffcott bench`'s workload and
+    /// on a W sweep (docs/performance.md), so AVX2 stays the default.
+    run_batch_avx512,
+    "avx512f,avx512dq,avx512vl"
+);
 
 /// Whether the AVX-512 batch code runs: asked for, and the CPU has it.
 #[cfg(target_arch = "x86_64")]
