@@ -25,7 +25,7 @@ mod bifurcation;
 mod cascade;
 mod continuation;
 pub mod files;
-mod map;
+pub mod map;
 mod merge;
 mod reproduce;
 pub mod rubout;

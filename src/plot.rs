@@ -15,7 +15,7 @@ mod phase;
 pub mod rub;
 
 pub use bifurcation::{DotSeries, Lambda1Series, bifurcation_diagram};
-pub use maps::{basin_map, category_map, lambda1_color, lambda1_map};
+pub use maps::{MapGrid, basin_map, category_map, lambda1_color, lambda1_map};
 pub use measure::{
     StackedPanel, WorkPrecisionSeries, stacked_fractions, uncertainty, work_precision,
 };
@@ -85,11 +85,10 @@ fn plot_err(path: &Path) -> impl Fn(String) -> Error + '_ {
 
 /// Range of values padded by 5 % (and widened if degenerate).
 fn padded_range(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
-    let (lo, hi) = values
-        .filter(|v| v.is_finite())
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
-            (lo.min(v), hi.max(v))
-        });
+    let (lo, hi) = frame::extent(
+        values.filter(|v| v.is_finite()),
+        (f64::INFINITY, f64::NEG_INFINITY),
+    );
     if !lo.is_finite() {
         return -1.0..1.0;
     }

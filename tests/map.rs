@@ -294,7 +294,7 @@ fn a_killed_map_resumes_to_the_files_of_an_uninterrupted_run() {
     let _ = child.kill();
     let _ = child.wait();
     ok(&jeffcott(&a));
-    for f in MAP_FILES {
+    for f in map_files() {
         assert_eq!(
             std::fs::read(r.join(f)).unwrap(),
             std::fs::read(k.join(f)).unwrap(),

@@ -9,7 +9,7 @@ use jeffcott_core::model::{STATE_DIM, State};
 use std::path::{Path, PathBuf};
 
 mod common;
-use common::{MAP_FILES, jeffcott, ok, words};
+use common::{jeffcott, map_files, ok, words};
 
 fn with(list: &[&str], extra: &[&str]) -> Vec<String> {
     list.iter().chain(extra).map(|s| s.to_string()).collect()
@@ -396,7 +396,7 @@ fn a_map_sharded_in_2_and_5_and_merged_in_any_order_equals_the_unsharded_run() {
          --chunk 1 --backend cpu --quiet",
         &[2, 5],
         2,
-        &[MAP_FILES, &["map_period.png"]].concat(),
+        &[&map_files()[..], &["map_period.png"]].concat(),
     );
 }
 

@@ -17,58 +17,16 @@
  * (without -fno-tree-vectorize gcc 12 packs the 8-element loops into AVX-512 shuffles
  * and the loop runs 1.9x slower: benches/baseline/run.sh)
  */
-#include <math.h>
-#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
-static const double W_R = 140.0, W_S = 540.0, XI_R = 0.02, XI_S = 0.05;
-static const double DELTA = 0.006, MU = 0.0, M_R = 50.0, M_S = 50.0, E = 0.001;
-static const double K_C = 1e8, A_G = 9.81, OMEGA = 133.0;
+#include "../common/rotor.h"
+
 enum { SUB = 8 };
 
 static int contact(const double *x) {
     double dx = x[0] - x[4], dy = x[2] - x[6];
     return sqrt(dx * dx + dy * dy) > DELTA;
-}
-
-/* Forcing (cos, sin) of W t by libm: only the redone sub-steps need it. */
-static void rhs_cs(double c, double sn, const double *x, double *f);
-
-static void rhs(double t, const double *x, double *f) {
-    rhs_cs(cos(OMEGA * t), sin(OMEGA * t), x, f);
-}
-
-static void rhs_cs(double c, double sn, const double *x, double *f) {
-    double dx = x[0] - x[4], dy = x[2] - x[6];
-    double r = sqrt(dx * dx + dy * dy);
-    double fx = 0.0, fy = 0.0;
-    if (r - DELTA > 0.0) {
-        double s = K_C * (r - DELTA) / r;
-        fx = -s * dx + MU * s * dy;
-        fy = -s * dy - MU * s * dx;
-    }
-    f[0] = x[1];
-    f[1] = -W_R * W_R * x[0] - 2 * XI_R * W_R * x[1] + E * OMEGA * OMEGA * c + fx / M_R;
-    f[2] = x[3];
-    f[3] = -W_R * W_R * x[2] - 2 * XI_R * W_R * x[3] + E * OMEGA * OMEGA * sn - A_G + fy / M_R;
-    f[4] = x[5];
-    f[5] = -W_S * W_S * x[4] - 2 * XI_S * W_S * x[5] - fx / M_S;
-    f[6] = x[7];
-    f[7] = -W_S * W_S * x[6] - 2 * XI_S * W_S * x[7] - A_G - fy / M_S;
-}
-
-static void rk4(double t, double h, const double *x, double *out) {
-    double k1[8], k2[8], k3[8], k4[8], y[8];
-    rhs(t, x, k1);
-    for (int d = 0; d < 8; d++) y[d] = x[d] + 0.5 * h * k1[d];
-    rhs(t + 0.5 * h, y, k2);
-    for (int d = 0; d < 8; d++) y[d] = x[d] + 0.5 * h * k2[d];
-    rhs(t + 0.5 * h, y, k3);
-    for (int d = 0; d < 8; d++) y[d] = x[d] + h * k3[d];
-    rhs(t + h, y, k4);
-    for (int d = 0; d < 8; d++) out[d] = x[d] + h / 6.0 * (k1[d] + 2.0 * k2[d] + 2.0 * k3[d] + k4[d]);
 }
 
 /* A regular step s of the period: its stage times are the table's entries 2s, 2s + 1
@@ -96,7 +54,7 @@ int main(int argc, char **argv) {
     double *out = malloc(sizeof(double) * 8 * lanes);
     double period = 2.0 * M_PI / OMEGA, h = period / (double)n;
     long redone = 0;
-    struct timespec t0, t1;
+    struct timespec t0;
     clock_gettime(CLOCK_MONOTONIC, &t0);
     /* The table is part of the timed work (it is negligible: 2N + 1 entries). */
     double *tc = malloc(sizeof(double) * (2 * n + 1)), *ts = malloc(sizeof(double) * (2 * n + 1));
@@ -129,14 +87,8 @@ int main(int argc, char **argv) {
         }
         for (int d = 0; d < 8; d++) out[i * 8 + d] = x[d];
     }
-    clock_gettime(CLOCK_MONOTONIC, &t1);
-    double secs = (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);
-    FILE *f = fopen(argv[5], "wb");
-    if (!f || fwrite(out, sizeof(double), 8 * lanes, f) != (size_t)(8 * lanes)) {
-        fprintf(stderr, "cannot write %s\n", argv[5]);
-        return 1;
-    }
-    fclose(f);
+    double secs = seconds_since(&t0);
+    if (write_states(argv[5], out, lanes)) return 1;
     printf("mode=%s N=%ld periods=%ld lanes=%ld wall=%.3f s redone_steps=%ld\n", argv[1], n,
            periods, lanes, secs, redone);
     free(out);

@@ -14,34 +14,10 @@
  * prints the wall time and lane-steps per second.
  * Build: gcc -O3 -march=native [-fopenmp] rk4_loop.c -o rk4_loop -lm
  */
-#include <math.h>
-#include <stdio.h>
 #include <stdlib.h>
-#include <time.h>
+#include <string.h>
 
-static const double W_R = 140.0, W_S = 540.0, XI_R = 0.02, XI_S = 0.05;
-static const double DELTA = 0.006, MU = 0.0, M_R = 50.0, M_S = 50.0, E = 0.001;
-static const double K_C = 1e8, A_G = 9.81, OMEGA = 133.0;
-
-static void rhs(double t, const double *x, double *f) {
-    double dx = x[0] - x[4], dy = x[2] - x[6];
-    double r = sqrt(dx * dx + dy * dy);
-    double fx = 0.0, fy = 0.0;
-    if (r - DELTA > 0.0) {
-        double s = K_C * (r - DELTA) / r;
-        fx = -s * dx + MU * s * dy;
-        fy = -s * dy - MU * s * dx;
-    }
-    double ph = OMEGA * t;
-    f[0] = x[1];
-    f[1] = -W_R * W_R * x[0] - 2 * XI_R * W_R * x[1] + E * OMEGA * OMEGA * cos(ph) + fx / M_R;
-    f[2] = x[3];
-    f[3] = -W_R * W_R * x[2] - 2 * XI_R * W_R * x[3] + E * OMEGA * OMEGA * sin(ph) - A_G + fy / M_R;
-    f[4] = x[5];
-    f[5] = -W_S * W_S * x[4] - 2 * XI_S * W_S * x[5] - fx / M_S;
-    f[6] = x[7];
-    f[7] = -W_S * W_S * x[6] - 2 * XI_S * W_S * x[7] - A_G - fy / M_S;
-}
+#include "../common/rotor.h"
 
 /* Start state of lane i (must match `bench_lane` in src/bench.rs). */
 static void init(long i, double *x) {
@@ -62,34 +38,20 @@ int main(int argc, char **argv) {
     long n = atol(argv[1]), periods = atol(argv[2]), lanes = atol(argv[3]);
     double *out = malloc(sizeof(double) * 8 * lanes);
     double h = 2.0 * M_PI / OMEGA / (double)n;
-    struct timespec t0, t1;
+    struct timespec t0;
     clock_gettime(CLOCK_MONOTONIC, &t0);
 #pragma omp parallel for schedule(dynamic, 16)
     for (long i = 0; i < lanes; i++) {
-        double x[8], k1[8], k2[8], k3[8], k4[8], y[8];
+        double x[8], y[8];
         init(i, x);
         for (long s = 0; s < n * periods; s++) {
-            double t = (double)s * h;
-            rhs(t, x, k1);
-            for (int d = 0; d < 8; d++) y[d] = x[d] + 0.5 * h * k1[d];
-            rhs(t + 0.5 * h, y, k2);
-            for (int d = 0; d < 8; d++) y[d] = x[d] + 0.5 * h * k2[d];
-            rhs(t + 0.5 * h, y, k3);
-            for (int d = 0; d < 8; d++) y[d] = x[d] + h * k3[d];
-            rhs(t + h, y, k4);
-            for (int d = 0; d < 8; d++)
-                x[d] += h / 6.0 * (k1[d] + 2.0 * k2[d] + 2.0 * k3[d] + k4[d]);
+            rk4((double)s * h, h, x, y);
+            memcpy(x, y, sizeof x);
         }
         for (int d = 0; d < 8; d++) out[i * 8 + d] = x[d];
     }
-    clock_gettime(CLOCK_MONOTONIC, &t1);
-    double secs = (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);
-    FILE *f = fopen(argv[4], "wb");
-    if (!f || fwrite(out, sizeof(double), 8 * lanes, f) != (size_t)(8 * lanes)) {
-        fprintf(stderr, "cannot write %s\n", argv[4]);
-        return 1;
-    }
-    fclose(f);
+    double secs = seconds_since(&t0);
+    if (write_states(argv[4], out, lanes)) return 1;
     printf("N=%ld periods=%ld lanes=%ld wall=%.3f s lane_steps_per_s=%.4e\n", n, periods,
            lanes, secs, (double)lanes * (double)n * (double)periods / secs);
     free(out);

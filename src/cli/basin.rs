@@ -6,7 +6,8 @@ use super::parse_assignment_lists;
 use super::rundir::{self, CommandHost, Execution};
 use super::study::{self, StudyCommand};
 use crate::plot::{
-    AttractorTrace, attractor_color, basin_map, coexisting_attractors, coord_axis, lambda1_map,
+    AttractorTrace, MapGrid, attractor_color, basin_map, coexisting_attractors, coord_axis,
+    lambda1_map,
 };
 use clap::Args;
 use jeffcott_analysis::backend::Engine;
@@ -285,6 +286,19 @@ pub fn write_basin_files(
 }
 
 /// The basin with its boundary points (a 4-neighbour of another label) in dark grey.
+/// The grid of a basin's maps: its axes in plot units (mm, m/s), a one-value axis
+/// widened by 1e-12 so its range is not empty.
+fn map_grid(spec: &BasinSpec) -> MapGrid {
+    let (sx, lx) = coord_axis(spec.x.coord);
+    let (sy, ly) = coord_axis(spec.y.coord);
+    MapGrid {
+        cells: (spec.x.n, spec.y.n),
+        x_range: (spec.x.lo * sx, spec.x.hi.max(spec.x.lo + 1e-12) * sx),
+        y_range: (spec.y.lo * sy, spec.y.hi.max(spec.y.lo + 1e-12) * sy),
+        axes: (lx, ly),
+    }
+}
+
 fn boundary_picture(path: &Path, spec: &BasinSpec, res: &BasinResult) -> Result<()> {
     const BOUNDARY: i32 = -3;
     let (nx, ny) = (spec.x.n, spec.y.n);
@@ -314,8 +328,6 @@ fn boundary_picture(path: &Path, spec: &BasinSpec, res: &BasinResult) -> Result<
             100.0 * boundary as f64 / labels.len() as f64
         ),
     ));
-    let (sx, lx) = coord_axis(spec.x.coord);
-    let (sy, ly) = coord_axis(spec.y.coord);
     crate::plot::category_map(
         path,
         &format!(
@@ -323,12 +335,7 @@ fn boundary_picture(path: &Path, spec: &BasinSpec, res: &BasinResult) -> Result<
             spec.omega, nx, ny
         ),
         &labels,
-        (nx, ny),
-        (
-            (spec.x.lo * sx, spec.x.hi.max(spec.x.lo + 1e-12) * sx),
-            (spec.y.lo * sy, spec.y.hi.max(spec.y.lo + 1e-12) * sy),
-        ),
-        (&lx, &ly),
+        &map_grid(spec),
         &legend,
         &|l| {
             if l == BOUNDARY {
@@ -454,8 +461,7 @@ fn write_basin(dir: &Path, o: &BasinOutcome, plot_it: bool) -> Result<String> {
                 )
             }))
             .collect();
-        let (sx, lx) = coord_axis(spec.x.coord);
-        let (sy, ly) = coord_axis(spec.y.coord);
+        let grid = map_grid(spec);
         let title = format!(
             "Basin of attraction at W = {} rad/s ({} x {} start states, {} attractor{})",
             spec.omega,
@@ -464,18 +470,7 @@ fn write_basin(dir: &Path, o: &BasinOutcome, plot_it: bool) -> Result<String> {
             cat.attractors.len(),
             if cat.attractors.len() == 1 { "" } else { "s" }
         );
-        let (x0, x1) = (spec.x.lo * sx, spec.x.hi.max(spec.x.lo + 1e-12) * sx);
-        let (y0, y1) = (spec.y.lo * sy, spec.y.hi.max(spec.y.lo + 1e-12) * sy);
-        basin_map(
-            &dir.join("basin.png"),
-            &title,
-            &res.labels,
-            (nx, ny),
-            (x0, x1),
-            (y0, y1),
-            (&lx, &ly),
-            &legend,
-        )?;
+        basin_map(&dir.join("basin.png"), &title, &res.labels, &grid, &legend)?;
         if let Some(l1) = &res.lambda1 {
             lambda1_map(
                 &dir.join("basin_lambda1.png"),
@@ -484,10 +479,7 @@ fn write_basin(dir: &Path, o: &BasinOutcome, plot_it: bool) -> Result<String> {
                     spec.omega, nx, ny
                 ),
                 l1,
-                (nx, ny),
-                (x0, x1),
-                (y0, y1),
-                (&lx, &ly),
+                &grid,
             )?;
         }
         if !o.traces.is_empty() {

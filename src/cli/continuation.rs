@@ -135,13 +135,8 @@ pub const OUTPUTS: &[&str] = &[
 
 study::plot_study! {
     Continuation, "continuation", ContinuationArgs => run_continuation,
-    jeffcott_analysis::continuation::run, ContinuationSpec, ContinuationResult
-}
-
-/// Writes a continuation's files; returns its summary line.
-fn write_study(out: &Path, spec: &Spec, res: &Outcome, plot: bool) -> Result<String> {
-    write_continuation(out, spec, res, plot)?;
-    Ok(human_summary(spec, res, out))
+    jeffcott_analysis::continuation::run, ContinuationSpec, ContinuationResult,
+    write: write_continuation, summary: human_summary
 }
 
 /// Writes the arrays, continuation.json and continuation.png.

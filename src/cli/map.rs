@@ -4,7 +4,7 @@
 //! peak_force.npy, map.json and three pictures.
 
 use super::study::{self};
-use crate::plot::{basin_map, category_map, lambda1_map};
+use crate::plot::{MapGrid, basin_map, category_map, lambda1_map};
 use clap::Args;
 use jeffcott_analysis::defaults;
 use jeffcott_analysis::map::{MapAxis, MapResult, MapSpec, MapVar, code};
@@ -105,13 +105,8 @@ pub const OUTPUTS: &[&str] = &[
 
 study::plot_study! {
     Map, "map", MapArgs => run_map,
-    jeffcott_analysis::map::run, MapSpec, MapResult
-}
-
-/// Writes a map's files; returns its summary line.
-fn write_study(out: &Path, spec: &Spec, res: &Outcome, plot: bool) -> Result<String> {
-    write_map(out, spec, res, plot)?;
-    Ok(human_summary(spec, res, out))
+    jeffcott_analysis::map::run, MapSpec, MapResult,
+    write: write_map, summary: human_summary
 }
 
 /// Axis label with unit, and the plotted range (log10 of the values on a log axis).
@@ -224,40 +219,57 @@ pub fn write_map(dir: &Path, spec: &MapSpec, res: &MapResult, plot_it: bool) -> 
     output::write_npy(&dir.join("x.npy"), &[nx], &spec.x.values())?;
     output::write_npy(&dir.join("y.npy"), &[ny], &spec.y.values())?;
     if plot_it {
-        let (lx, rx) = axis_label(&spec.x);
-        let (ly, ry) = axis_label(&spec.y);
+        let (lx, x_range) = axis_label(&spec.x);
+        let (ly, y_range) = axis_label(&spec.y);
+        let grid = MapGrid {
+            cells: (nx, ny),
+            x_range,
+            y_range,
+            axes: (lx, ly),
+        };
         let what = format!("{} x {} cells, {} start state(s) each", nx, ny, spec.ics);
-        category_map(
-            &dir.join("map_period.png"),
-            &format!("Response from the static equilibrium ({what})"),
-            &res.class,
-            (nx, ny),
-            (rx, ry),
-            (&lx, &ly),
-            &class_legend(&res.class),
-            &class_colour,
-        )?;
+        // A category map: file, quantity, codes, legend, colour of a code.
+        type Category<'a> = (
+            &'a str,
+            &'a str,
+            &'a [i32],
+            Vec<(i32, String)>,
+            fn(i32) -> plotters::style::RGBColor,
+        );
+        let categories: [Category; 2] = [
+            (
+                "map_period.png",
+                "Response",
+                &res.class,
+                class_legend(&res.class),
+                class_colour,
+            ),
+            (
+                "map_regime.png",
+                "Rub regime",
+                &res.regime,
+                regime_legend(&res.regime),
+                regime_colour,
+            ),
+        ];
+        for (file, quantity, codes, legend, colour) in categories {
+            category_map(
+                &dir.join(file),
+                &format!("{quantity} from the static equilibrium ({what})"),
+                codes,
+                &grid,
+                &legend,
+                &colour,
+            )?;
+        }
         if spec.lane.lyapunov {
             lambda1_map(
                 &dir.join("map_lambda1.png"),
                 &format!("Largest Lyapunov exponent from the static equilibrium ({what})"),
                 &res.lambda1,
-                (nx, ny),
-                rx,
-                ry,
-                (&lx, &ly),
+                &grid,
             )?;
         }
-        category_map(
-            &dir.join("map_regime.png"),
-            &format!("Rub regime from the static equilibrium ({what})"),
-            &res.regime,
-            (nx, ny),
-            (rx, ry),
-            (&lx, &ly),
-            &regime_legend(&res.regime),
-            &regime_colour,
-        )?;
         let most = res.attractors.iter().copied().max().unwrap_or(0).max(1);
         let counts: Vec<i32> = res.attractors.iter().map(|&n| n - 1).collect();
         let legend: Vec<(i32, String)> = (1..=most)
@@ -278,10 +290,7 @@ pub fn write_map(dir: &Path, spec: &MapSpec, res: &MapResult, plot_it: bool) -> 
             &dir.join("map_multistability.png"),
             &format!("Coexisting attractors ({what})"),
             &counts,
-            (nx, ny),
-            rx,
-            ry,
-            (&lx, &ly),
+            &grid,
             &legend,
         )?;
     }

@@ -98,8 +98,27 @@ pub fn execute_recorded<C: StudyCommand>(
 /// as the command line asks. The study is computed by `$study(spec, engine, host)` (an
 /// analysis crate's `run`) and written by the invoking module's
 /// `write_study(out, spec, outcome, plot)` (returns the line printed unless `--quiet`),
-/// with its `OUTPUTS`; the module gets the aliases `Spec` and `Outcome`.
+/// or, with `write: w, summary: s`, by `w(out, spec, outcome, plot)` and the line
+/// `s(spec, outcome, out)`; with its `OUTPUTS`; the module gets the aliases `Spec` and
+/// `Outcome`.
 macro_rules! plot_study {
+    // A writer `$write(out, spec, outcome, plot)` and a summary line
+    // `$summary(spec, outcome, out)` printed after it.
+    ($cmd:ident, $name:literal, $args:ty => $run_cmd:ident, $study:path, $spec:ty, $outcome:ty,
+     write: $write:path, summary: $summary:path) => {
+        /// Writes the study's files; returns its summary line.
+        fn write_study(
+            out: &std::path::Path,
+            spec: &Spec,
+            res: &Outcome,
+            plot: bool,
+        ) -> jeffcott_core::error::Result<String> {
+            $write(out, spec, res, plot)?;
+            Ok($summary(spec, res, out))
+        }
+        $crate::cli::study::plot_study!($cmd, $name, $args => $run_cmd, $study, $spec, $outcome);
+    };
+    // The module's own `write_study(out, spec, outcome, plot)`, which returns the line.
     ($cmd:ident, $name:literal, $args:ty => $run_cmd:ident, $study:path, $spec:ty, $outcome:ty) => {
         #[doc = concat!("The spec of `jeffcott ", $name, "`.")]
         type Spec = $spec;

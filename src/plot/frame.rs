@@ -156,3 +156,11 @@ pub(crate) fn line_key(c: RGBColor) -> impl Fn((i32, i32)) -> PathElement<(i32, 
 pub(crate) fn dot_key(c: RGBColor, r: u32) -> impl Fn((i32, i32)) -> Circle<(i32, i32), u32> {
     move |(x, y)| Circle::new((x + 9, y), r, c.filled())
 }
+
+/// The smallest and the largest of `start`'s two values and `values`: a plot's extent
+/// that always includes `start` (its minimum candidate and its maximum candidate).
+pub(crate) fn extent(values: impl IntoIterator<Item = f64>, start: (f64, f64)) -> (f64, f64) {
+    values
+        .into_iter()
+        .fold(start, |(lo, hi), v| (lo.min(v), hi.max(v)))
+}

@@ -2,56 +2,34 @@
 //! maps with a legend, and lambda_1 maps with a diverging colour bar.
 
 use super::attractor_color;
-use super::frame::{Area, Drawn, Mesh, chart, figure};
+use super::frame::{Area, Drawn, Mesh, chart, extent, figure};
 use jeffcott_core::error::Result;
 use plotters::prelude::*;
 use std::path::Path;
 
-/// Draws a basin of attraction: `labels` is [ny, nx] (row 0 at y = y_range.0), each cell
-/// coloured by its attractor id (black: diverged); `legend` names the ids.
-#[allow(clippy::too_many_arguments)]
+/// Draws a basin of attraction: `labels` is [ny, nx] (row 0 at the grid's lowest y),
+/// each cell coloured by its attractor id (black: diverged); `legend` names the ids.
 pub fn basin_map(
     path: &Path,
     title: &str,
     labels: &[i32],
-    cells: (usize, usize),
-    x_range: (f64, f64),
-    y_range: (f64, f64),
-    axes: (&str, &str),
+    grid: &MapGrid,
     legend: &[(i32, String)],
 ) -> Result<()> {
-    category_map(
-        path,
-        title,
-        labels,
-        cells,
-        (x_range, y_range),
-        axes,
-        legend,
-        &attractor_color,
-    )
+    category_map(path, title, labels, grid, legend, &attractor_color)
 }
 
-/// Draws a map of categories: `labels` is [ny, nx] (row 0 at y = ranges.1 .0), each cell
-/// in `colour(label)`; `legend` names the labels shown in the side panel.
-#[allow(clippy::too_many_arguments)]
+/// Draws a map of categories: `labels` is [ny, nx] (row 0 at the grid's lowest y), each
+/// cell in `colour(label)`; `legend` names the labels shown in the side panel.
 pub fn category_map(
     path: &Path,
     title: &str,
     labels: &[i32],
-    cells: (usize, usize),
-    ranges: ((f64, f64), (f64, f64)),
-    axes: (&str, &str),
+    grid: &MapGrid,
     legend: &[(i32, String)],
     colour: &dyn Fn(i32) -> RGBColor,
 ) -> Result<()> {
-    let grid = Grid {
-        cells,
-        x_range: ranges.0,
-        y_range: ranges.1,
-        axes,
-    };
-    grid_map(path, title, &grid, &|i| colour(labels[i]), &|side| {
+    grid_map(path, title, grid, &|i| colour(labels[i]), &|side| {
         for (k, (id, name)) in legend.iter().enumerate() {
             let y = 80 + 36 * k as i32;
             side.draw(&Rectangle::new(
@@ -68,13 +46,17 @@ pub fn category_map(
     })
 }
 
-/// A map over a grid of start states: [ny, nx] cells (row 0 at y = y_range.0), the
-/// ranges of the two start coordinates and their axis labels.
-struct Grid<'a> {
-    cells: (usize, usize),
-    x_range: (f64, f64),
-    y_range: (f64, f64),
-    axes: (&'a str, &'a str),
+/// A map's grid: [nx, ny] cells (row 0 at y = y_range.0), the plotted ranges of the two
+/// axes and their labels.
+pub struct MapGrid {
+    /// Cells along x and along y.
+    pub cells: (usize, usize),
+    /// Plotted range of x.
+    pub x_range: (f64, f64),
+    /// Plotted range of y.
+    pub y_range: (f64, f64),
+    /// Axis labels (x, y).
+    pub axes: (String, String),
 }
 
 /// The side panel of a grid map (legend or colour bar), drawn by the caller.
@@ -85,7 +67,7 @@ type SidePanel<'a> = dyn Fn(&Area<'_>) -> Drawn + 'a;
 fn grid_map(
     path: &Path,
     title: &str,
-    grid: &Grid,
+    grid: &MapGrid,
     colour: &dyn Fn(usize) -> RGBColor,
     side: &SidePanel,
 ) -> Result<()> {
@@ -101,7 +83,7 @@ fn grid_map(
             x_range.0..x_range.1,
             y_range.0..y_range.1,
         )?;
-        Mesh::new(grid.axes.0, grid.axes.1)
+        Mesh::new(&grid.axes.0, &grid.axes.1)
             .no_grid()
             .fonts(16, 19)
             .ticks(&|v| format!("{v:.4}"), &|v| format!("{v:.4}"))
@@ -145,32 +127,14 @@ pub fn lambda1_color(v: f64, lo: f64, hi: f64) -> RGBColor {
 }
 
 /// Draws a map of the largest Lyapunov exponent per start state: `values` is [ny, nx]
-/// (row 0 at y = y_range.0) in 1/s, on the diverging scale of [`lambda1_color`] with a
+/// (row 0 at the grid's lowest y) in 1/s, on the diverging scale of [`lambda1_color`] with a
 /// colour bar; NaN cells (diverged) black.
-#[allow(clippy::too_many_arguments)]
-pub fn lambda1_map(
-    path: &Path,
-    title: &str,
-    values: &[f64],
-    cells: (usize, usize),
-    x_range: (f64, f64),
-    y_range: (f64, f64),
-    axes: (&str, &str),
-) -> Result<()> {
-    let (lo, hi) = values
-        .iter()
-        .filter(|v| v.is_finite())
-        .fold((0.0f64, 0.0f64), |(a, b), &v| (a.min(v), b.max(v)));
-    let grid = Grid {
-        cells,
-        x_range,
-        y_range,
-        axes,
-    };
+pub fn lambda1_map(path: &Path, title: &str, values: &[f64], grid: &MapGrid) -> Result<()> {
+    let (lo, hi) = extent(values.iter().copied().filter(|v| v.is_finite()), (0.0, 0.0));
     grid_map(
         path,
         title,
-        &grid,
+        grid,
         &|i| lambda1_color(values[i], lo, hi),
         &|bar_area| {
             // Colour bar: hi at the top, lo at the bottom.

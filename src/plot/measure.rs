@@ -1,7 +1,7 @@
 //! Measure and uncertainty plots: stacked basin fractions, the uncertain fraction
 //! f(eps) on log-log axes, and work-precision diagrams.
 
-use super::frame::{Area, Chart, Drawn, Mesh, chart, dot_key, figure, line_key};
+use super::frame::{Area, Chart, Drawn, Mesh, chart, dot_key, extent, figure, line_key};
 use super::{PALETTE, legend};
 use jeffcott_core::error::Result;
 use plotters::prelude::*;
@@ -97,12 +97,8 @@ pub fn uncertainty(
         .copied()
         .filter(|p| p.0 > 0.0 && p.1 > 0.0)
         .collect();
-    let (x0, x1) = all
-        .iter()
-        .fold((1e-7f64, 1.0f64), |(a, b), p| (a.min(p.0), b.max(p.0)));
-    let (y0, y1) = all
-        .iter()
-        .fold((1e-4f64, 1.0f64), |(a, b), p| (a.min(p.1), b.max(p.1)));
+    let (x0, x1) = extent(all.iter().map(|p| p.0), (1e-7, 1.0));
+    let (y0, y1) = extent(all.iter().map(|p| p.1), (1e-4, 1.0));
     figure(path, (1100, 800), |root| {
         let mut chart = log_log_chart(
             root,
@@ -138,9 +134,7 @@ pub fn uncertainty(
                 let n = used.len() as f64;
                 let mx = used.iter().map(|p| p.0.ln()).sum::<f64>() / n;
                 let my = used.iter().map(|p| p.1.ln()).sum::<f64>() / n;
-                let (lo, hi) = used.iter().fold((f64::INFINITY, 0.0f64), |(l, h), p| {
-                    (l.min(p.0), h.max(p.0))
-                });
+                let (lo, hi) = extent(used.iter().map(|p| p.0), (f64::INFINITY, 0.0));
                 let line = [lo, hi].map(|x| (x, (my + a * (x.ln() - mx)).exp()));
                 chart.draw_series(std::iter::once(PathElement::new(
                     line.to_vec(),
@@ -170,12 +164,8 @@ pub fn work_precision(
         .flat_map(|s| s.3.iter().copied())
         .filter(|p| p.0 > 0.0 && p.1 > 0.0)
         .collect();
-    let (x0, x1) = pts.iter().fold((f64::INFINITY, 0.0f64), |(a, b), p| {
-        (a.min(p.0), b.max(p.0))
-    });
-    let (y0, y1) = pts
-        .iter()
-        .fold((target, target), |(a, b), p| (a.min(p.1), b.max(p.1)));
+    let (x0, x1) = extent(pts.iter().map(|p| p.0), (f64::INFINITY, 0.0));
+    let (y0, y1) = extent(pts.iter().map(|p| p.1), (target, target));
     figure(path, (1200, 850), |root| {
         let mut chart = log_log_chart(
             root,

@@ -18,16 +18,15 @@ pub fn jeffcott<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> Output {
         .expect("run jeffcott")
 }
 
-/// The files of a `map` run but its figures.
-pub const MAP_FILES: &[&str] = &[
-    "period.npy",
-    "class.npy",
-    "lambda1.npy",
-    "attractors.npy",
-    "contact.npy",
-    "peak_force.npy",
-    "map.json",
-];
+/// The files of a `map` run but its figures (the command's own list, so a new file is
+/// compared too).
+pub fn map_files() -> Vec<&'static str> {
+    jeffcott::cli::map::OUTPUTS
+        .iter()
+        .copied()
+        .filter(|f| !f.ends_with(".png"))
+        .collect()
+}
 
 /// A command line's arguments, split at white space (for lines whose arguments hold none),
 /// `''` standing for an empty argument.
