@@ -501,6 +501,15 @@ pub struct StepperArgs {
     /// (1, 2, 4, 8 or 16; 1 turns it off; docs/performance.md).
     #[arg(long, default_value_t = StepperConfig::DEFAULT.contact_substeps, value_name = "R")]
     pub contact_substeps: u32,
+    /// Early exit: periods a lane integrates before it may retire on a known attractor
+    /// (attractor-labelling studies; docs/early-exit.md).
+    #[arg(long, default_value_t = StepperConfig::DEFAULT.early_exit_after, value_name = "PERIODS")]
+    pub early_exit_after: u32,
+    /// Early exit: Poincare points in a row on a known attractor that retire a lane
+    /// (basin; 16 was measured in docs/early-exit.md); 0 turns early exit off (every lane
+    /// runs its whole transient and record).
+    #[arg(long, default_value_t = StepperConfig::DEFAULT.early_exit_streak, value_name = "M")]
+    pub early_exit_streak: u32,
 }
 
 impl StepperArgs {
@@ -511,6 +520,8 @@ impl StepperArgs {
             max_segments: self.max_segments,
             divergence_bound: self.divergence_bound,
             contact_substeps: self.contact_substeps,
+            early_exit_after: self.early_exit_after,
+            early_exit_streak: self.early_exit_streak,
         }
     }
 }

@@ -23,6 +23,8 @@ class StepperOptions(TypedDict, total=False):
     max_segments: int  # cap on contact switches per macro step
     divergence_bound: float  # |position| [m] beyond which a lane has diverged
     contact_substeps: int  # contact refinement R: 1, 2, 4, 8 or 16
+    early_exit_after: int  # periods before a lane may retire on a known attractor
+    early_exit_streak: int  # points in a row on a known attractor that retire a lane; 0: off
 
 # Bad input raises ValueError (a value out of range; a request too large for memory,
 # refused before anything is allocated) or TypeError (the wrong kind of value), naming

@@ -160,6 +160,9 @@ struct RunResult<'a> {
     run: rundir::BackendTime<'a>,
     #[serde(skip_serializing_if = "Option::is_none")]
     refinement: Option<RefinementRecord<'a>>,
+    /// Lanes of the grid retired early and periods integrated (with early exit).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    early_exit: Option<jeffcott_analysis::early::EarlySaved>,
 }
 
 /// Runs `jeffcott basin`: the study's units committed to --out, then its files.
@@ -232,6 +235,7 @@ fn report_basin(
             wall_time_s: res.seconds,
         },
         refinement: o.refined.as_ref().map(|f| refinement_record(f, spec)),
+        early_exit: res.early_exit,
     };
     run_dir.finish(&run_result, &rundir::written(run_dir, OUTPUTS))?;
     if !quiet {

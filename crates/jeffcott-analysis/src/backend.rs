@@ -5,6 +5,7 @@
 
 use jeffcott_core::Result;
 use jeffcott_core::control::Control;
+use jeffcott_core::ensemble::early::{self, EarlyExit, EarlyResult};
 use jeffcott_core::ensemble::{
     Backend, EnsembleResult, EnsembleSpec, Precision, RunInfo, cpu, lane_lambda1,
     mask_frozen_records,
@@ -75,16 +76,94 @@ impl Engine {
             Some(runner) => (run_on_gpu(spec, runner, lambda1, ctl)?, "gpu"),
             None => (cpu::run(spec, lambda1, ctl)?, "cpu"),
         };
+        Ok((res, self.info(backend, spec.precision, start)))
+    }
+}
+
+impl Engine {
+    /// Runs one ensemble with early exit (`jeffcott_core::ensemble::early`). The CPU
+    /// retires recognised lanes and refills their slots; a GPU runs every lane to the end
+    /// recording the periods from `early.after` on, and the same rule is replayed over
+    /// those records, so both backends reach the same decisions and the same records
+    /// (the GPU saves no time yet).
+    pub fn run_early(
+        &self,
+        spec: &EnsembleSpec,
+        early: &EarlyExit,
+        ctl: Control,
+    ) -> Result<(EarlyResult, RunInfo)> {
+        let Some(runner) = &self.gpu else {
+            let start = std::time::Instant::now();
+            let r = cpu::run_early(spec, early, ctl)?;
+            return Ok((r, self.info("cpu", spec.precision, start)));
+        };
+        let start = std::time::Instant::now();
+        let full = spec.transient + spec.recorded;
+        let first = early.after.max(1);
+        if first > full {
+            let res = run_on_gpu(spec, runner, false, ctl)?;
+            let retired = vec![None; spec.lanes.len()];
+            let r = EarlyResult {
+                result: res,
+                retired,
+            };
+            return Ok((r, self.info("gpu", spec.precision, start)));
+        }
+        // Record from period `first` on; the original record is the last rows.
+        let long = EnsembleSpec {
+            transient: first - 1,
+            recorded: full - first + 1,
+            ..spec.clone()
+        };
+        let res = run_on_gpu(&long, runner, false, ctl)?;
+        let rows = long.recorded as usize;
+        let keep = spec.recorded as usize;
+        let mut out = EnsembleResult {
+            poincare: Vec::with_capacity(spec.lanes.len() * keep * STATE_DIM),
+            recorded: keep,
+            final_state: res.final_state.clone(),
+            status: res.status.clone(),
+            counters: res.counters.clone(),
+            lambda1: None,
+        };
+        let mut retired = Vec::with_capacity(spec.lanes.len());
+        for i in 0..spec.lanes.len() {
+            let lane = &res.poincare[i * rows * STATE_DIM..(i + 1) * rows * STATE_DIM];
+            let r = early::replay(early.recognise, lane, first);
+            match r {
+                Some(_) => out
+                    .poincare
+                    .extend(std::iter::repeat_n(f64::NAN, keep * STATE_DIM)),
+                None => out
+                    .poincare
+                    .extend_from_slice(&lane[(rows - keep) * STATE_DIM..]),
+            }
+            retired.push(r);
+        }
         Ok((
-            res,
-            RunInfo {
-                backend,
-                device: self.device.clone(),
-                reason: self.reason.clone(),
-                precision: spec.precision,
-                elapsed_s: start.elapsed().as_secs_f64(),
+            EarlyResult {
+                result: out,
+                retired,
             },
+            self.info("gpu", spec.precision, start),
         ))
+    }
+
+    /// How a run went: the backend, this engine's device and reason, the precision and
+    /// the time since `start`.
+    fn info(
+        &self,
+        backend: &'static str,
+        precision: Precision,
+        start: std::time::Instant,
+    ) -> RunInfo {
+        RunInfo {
+            backend,
+            device: self.device.clone(),
+            reason: self.reason.clone(),
+            precision,
+            elapsed_s: start.elapsed().as_secs_f64(),
+        }
     }
 }
 

@@ -286,6 +286,16 @@ fn same(cfg: &CatalogueConfig, w: f64, l: &LaneClass, a: &Attractor) -> bool {
 /// Fraction of an aperiodic lane's points that must lie near an attractor's cloud.
 const CLOUD_COVERAGE: f64 = 0.6;
 
+/// Early exit's cycle tolerance relative to the cycle's diameter: 10 times the identity
+/// tolerance's (a lane that close to a stable cycle for the streak's periods, in its
+/// order, is on its way there; at W = 133 the 100 x 100 basin's labels were identical
+/// with 10 times and 3 % off with 30 times, docs/early-exit.md).
+pub const RECOGNISE_REL: f64 = 0.1;
+
+/// Early exit's cycle tolerance at most this fraction of the cycle's distance to the
+/// nearest point of another catalogued attractor, so no point can match two of them.
+pub const RECOGNISE_SEPARATION: f64 = 0.25;
+
 /// Points kept in an aperiodic attractor's reference cloud, at most.
 const CLOUD_POINTS: usize = 512;
 
@@ -318,7 +328,12 @@ impl CatalogueBuilder {
 
     /// Adds a classified lane; returns its attractor id, or -1 for a diverged lane.
     pub fn add(&mut self, l: LaneClass) -> i32 {
-        let lane = self.total;
+        self.add_at(l, self.total)
+    }
+
+    /// [`CatalogueBuilder::add`] for a lane whose index (the attractor's `first_lane`
+    /// if it is new) is `lane`: lanes added out of order, as early exit's rounds do.
+    pub fn add_at(&mut self, l: LaneClass, lane: u64) -> i32 {
         self.total += 1;
         if l.class == Class::Diverged {
             self.diverged += 1;
@@ -355,6 +370,55 @@ impl CatalogueBuilder {
         id as i32
     }
 
+    /// Adds a lane recognised on attractor `id` of this catalogue (early exit: it has no
+    /// record of its own, so the attractor's points and lambda_1 stay as they are).
+    pub fn add_recognised(&mut self, id: u32) -> i32 {
+        self.total += 1;
+        self.attractors[id as usize].lanes += 1;
+        id as i32
+    }
+
+    /// What early exit recognises lanes on: every periodic and aperiodic attractor so
+    /// far. A cycle point matches within [`RECOGNISE_REL`] of the cycle's diameter, but
+    /// never more than [`RECOGNISE_SEPARATION`] of its distance to the nearest point of
+    /// another attractor and never less than the identity tolerance
+    /// `max(match_rel * size, match_abs)` (module docs). Aperiodic attractors are not
+    /// recognised.
+    pub fn recogniser(&self, streak: u32) -> crate::early::Recogniser {
+        let w = self.omega;
+        let separation = |a: &Attractor| {
+            self.attractors
+                .iter()
+                .filter(|b| b.id != a.id && !b.points.is_empty())
+                .flat_map(|b| {
+                    a.points
+                        .iter()
+                        .flat_map(move |p| b.points.iter().map(move |q| distance(p, q, w)))
+                })
+                .fold(f64::INFINITY, f64::min)
+        };
+        let known = self
+            .attractors
+            .iter()
+            .map(|a| match a.kind {
+                Class::Periodic(_) => {
+                    let identity = (self.cfg.match_rel * a.size_m).max(self.cfg.match_abs);
+                    let wide = (RECOGNISE_REL * a.size_m).min(RECOGNISE_SEPARATION * separation(a));
+                    crate::early::Known::Cycle {
+                        points: a.points.clone(),
+                        tol: identity.max(wide),
+                    }
+                }
+                // Aperiodic entries are never recognised: at 137.25 rad/s lanes still in
+                // a long transient form clouds of their own, and lanes crossing them were
+                // retired on them although they settle on a cycle later
+                // (docs/early-exit.md); such lanes run their whole record.
+                _ => crate::early::Known::Never,
+            })
+            .collect();
+        crate::early::Recogniser::new(self.omega, streak, known)
+    }
+
     /// Classifies (in parallel) and adds a block of lanes: `points` is
     /// [lanes, recorded, 8] flat, `frozen[i]` says lane i was flagged. Returns the labels.
     pub fn add_block(
@@ -364,8 +428,23 @@ impl CatalogueBuilder {
         frozen: &[bool],
         lambda1: Option<&[f64]>,
     ) -> Vec<i32> {
+        self.classify_block(points, recorded, frozen, lambda1)
+            .into_iter()
+            .map(|c| self.add(c))
+            .collect()
+    }
+
+    /// Classifies a block of lanes (in parallel) as [`CatalogueBuilder::add_block`]
+    /// does, without adding them.
+    pub fn classify_block(
+        &self,
+        points: &[f64],
+        recorded: usize,
+        frozen: &[bool],
+        lambda1: Option<&[f64]>,
+    ) -> Vec<LaneClass> {
         let (omega, cfg) = (self.omega, self.cfg);
-        let classes: Vec<LaneClass> = frozen
+        frozen
             .par_iter()
             .enumerate()
             .map(|(i, &f)| {
@@ -376,8 +455,7 @@ impl CatalogueBuilder {
                     .collect();
                 classify_lane(&states, omega, f, lambda1.map(|l| l[i]), &cfg)
             })
-            .collect();
-        classes.into_iter().map(|c| self.add(c)).collect()
+            .collect()
     }
 
     /// Merges aperiodic entries that are one attractor; returns old id -> new id.

@@ -15,6 +15,7 @@ pub mod catalogue;
 pub mod classify;
 pub mod continuation;
 pub mod defaults;
+pub mod early;
 pub mod ensemble;
 pub mod lyapunov;
 pub mod map;

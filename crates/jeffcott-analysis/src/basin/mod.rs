@@ -228,6 +228,12 @@ impl BasinSpec {
         )
     }
 
+    /// Whether the basin's lanes exit early: asked for (`early_exit_streak` > 0) and
+    /// without lambda_1 (whose per-lane exponent needs every lane's whole record).
+    pub fn early_exit(&self) -> bool {
+        self.lane.stepper.early_exit_streak > 0 && !self.lane.lyapunov
+    }
+
     /// The start state of cell (ix, iy).
     pub fn start(&self, ix: usize, iy: usize) -> State {
         let mut x = self.base;
@@ -250,6 +256,8 @@ pub struct BasinResult {
     /// Backend information (wall time: the last batch's; `None` when every unit was
     /// already committed).
     pub info: Option<RunInfo>,
+    /// What early exit saved (`None` when it was off).
+    pub early_exit: Option<crate::early::EarlySaved>,
     /// Wall time [s].
     pub seconds: f64,
 }
@@ -359,15 +367,30 @@ pub fn basin_with(
         }
         Ok(unit)
     };
+    // Early exit (crate::early): the unit's lanes in rounds, recognised lanes retired.
+    // Not with lambda_1, whose per-lane exponent needs every lane's whole record.
+    let early = |_u: usize, e: &EnsembleSpec, engine: &crate::backend::Engine, c: Control| {
+        let r = crate::early::catalogue_lanes(e, spec.omega, spec.lane.catalogue, engine, c)?;
+        let (parts, labels, diverged) = r.builder.finish_part(r.labels);
+        let unit =
+            part_unit(labels, &parts, diverged).with("early", Array::F64(r.saved.to_array()));
+        Ok((unit, r.info))
+    };
+    let early_on = spec.early_exit();
     let info = LaneUnits::new(STAGE, split, &ensemble, &reduce)
         .lambda1(spec.lane.lyapunov)
+        .computed_by(early_on.then_some(&early as &crate::run::lanes::ComputeUnit))
         .run(store, engine, ctl)?;
     // Assembly, in unit order.
     let mut labels = Vec::with_capacity(cells);
     let mut lambda1 = spec.lane.lyapunov.then(|| Vec::with_capacity(cells));
     let mut builder = CatalogueBuilder::new(spec.omega, spec.lane.catalogue);
+    let mut saved = early_on.then(crate::early::EarlySaved::default);
     for u in 0..count {
         let unit = store.load(STAGE, u)?;
+        if let Some(s) = saved.as_mut() {
+            s.add(&crate::early::EarlySaved::from_array(unit.f64s("early")?));
+        }
         let (parts, diverged) = unit_parts(&unit)?;
         let ids: Vec<i32> = parts
             .iter()
@@ -391,6 +414,7 @@ pub fn basin_with(
         catalogue,
         lambda1,
         info,
+        early_exit: saved,
         seconds: t0.elapsed().as_secs_f64(),
     })
 }

@@ -75,7 +75,15 @@ pub struct LaneUnits<'a> {
     /// Turns unit `i`'s ensemble and result into what is committed (its key is set by
     /// the engine).
     reduce: &'a (dyn Fn(usize, &EnsembleSpec, EnsembleResult) -> Result<Unit> + Sync),
+    /// Computes unit `i` whole from its ensemble instead (early exit's rounds), one
+    /// unit at a time.
+    computed_by: Option<&'a ComputeUnit<'a>>,
 }
+
+/// A unit computed whole from its index and ensemble on an engine: the unit and how
+/// its last run went.
+pub type ComputeUnit<'a> =
+    dyn Fn(usize, &EnsembleSpec, &Engine, Control) -> Result<(Unit, Option<RunInfo>)> + Sync + 'a;
 
 impl<'a> LaneUnits<'a> {
     /// Stage `stage` over `split`'s units: unit `i` runs `ensemble(i)` and commits
@@ -93,7 +101,15 @@ impl<'a> LaneUnits<'a> {
             lanes: UnitLanes::PerItem(1),
             lambda1: false,
             reduce,
+            computed_by: None,
         }
+    }
+
+    /// Each unit is computed by `compute` from its ensemble (instead of one run of the
+    /// ensemble and `reduce`), when `Some`.
+    pub fn computed_by(mut self, compute: Option<&'a ComputeUnit<'a>>) -> Self {
+        self.computed_by = compute;
+        self
     }
 
     /// Each item runs `k` lanes.
@@ -225,6 +241,33 @@ fn run_units(
             bw += work(j);
             lanes += lanes_of[j];
             batch.push(j);
+        }
+        if let Some(compute) = units.computed_by {
+            let i = pending[next];
+            let spec = (units.ensemble)(i);
+            let b = base;
+            let report = |d: u64, _t: u64| (ctl.progress)(b + d, total);
+            let c = Control {
+                progress: &report,
+                cancel: ctl.cancel,
+            };
+            let (mut unit, i_info) = match compute(i, &spec, engine, c) {
+                Err(Error::Interrupted { .. }) => {
+                    return Err(Error::Interrupted {
+                        committed,
+                        total: count,
+                    });
+                }
+                r => r?,
+            };
+            info = i_info.or(info);
+            unit.key = super::dir::unit_key(units.stage, i);
+            store.commit(units.stage, i, &unit)?;
+            committed += 1;
+            base += work(i);
+            (ctl.progress)(base, total);
+            next += 1;
+            continue;
         }
         let specs: Vec<EnsembleSpec> = batch.iter().map(|&i| (units.ensemble)(i)).collect();
         let counts: Vec<usize> = specs.iter().map(|s| s.lanes.len()).collect();

@@ -5,10 +5,11 @@
 //! end, so the result is bit-identical for any number of threads. Where the CPU has
 //! AVX2 the batch code is compiled a second time for it and chosen at run time.
 
+use super::early::{EarlyExit, EarlyResult, Retired, Track};
 use super::{EnsembleResult, EnsembleSpec, Precision};
 use crate::control::{Cancel, Control};
 use crate::error::{Error, Result};
-use crate::integrate::batch::{BATCH, BatchConsts, batch_macro_step_tangent};
+use crate::integrate::batch::{BATCH, BatchConsts, batch_macro_step, batch_macro_step_tangent};
 use crate::integrate::lane::{
     Counters, LAMBDA1_START, Lane, LaneConsts, Status, Tangent, advance_period,
     advance_period_tangent, renormalise,
@@ -303,4 +304,225 @@ pub fn run(spec: &EnsembleSpec, lambda1: bool, ctl: Control) -> Result<EnsembleR
     }
     super::mask_frozen_records(spec, &mut res);
     Ok(res)
+}
+
+/// What a refilled batch returns per lane: its index, outcome and retirement.
+type Ended = (usize, Outcome, Option<Retired>);
+
+/// A slot of a refilled batch: the lane in it and what that lane has gathered.
+struct SlotLane {
+    /// Index of the lane in the ensemble.
+    lane: usize,
+    /// Periods integrated.
+    periods: u32,
+    /// Its recognition so far.
+    track: Track,
+    /// Its recorded points.
+    points: Vec<f64>,
+}
+
+/// Lanes `lanes` of `spec` through one batch of [`BATCH`] slots, each slot refilled
+/// with the next lane as soon as its lane retires (recognised by `early`), froze, or
+/// finished its periods; empty slots hold a frozen placeholder, which the batch
+/// stepper skips. Every lane starts at a period boundary (`Lane::k` = 0), so each
+/// lane's arithmetic is that of `run_batch_inner` and `run_lane` to the bit.
+#[inline(always)]
+fn run_refill_inner<R: Real>(
+    spec: &EnsembleSpec,
+    early: &EarlyExit,
+    lanes: std::ops::Range<usize>,
+    cancel: &Cancel,
+) -> Option<Vec<Ended>> {
+    let total = spec.transient + spec.recorded;
+    let row = STATE_DIM;
+    let mut queue = lanes.clone();
+    let placeholder = || Lane::<R>::new(&[f64::NAN; STATE_DIM], 0.0);
+    let mut lc: [LaneConsts<R>; BATCH] = std::array::from_fn(|_| spec.lane_consts(lanes.start));
+    let mut state: [Lane<R>; BATCH] = std::array::from_fn(|_| placeholder());
+    let mut slot: [Option<SlotLane>; BATCH] = std::array::from_fn(|_| None);
+    let mut load = |l: usize,
+                    lc: &mut [LaneConsts<R>; BATCH],
+                    state: &mut [Lane<R>; BATCH],
+                    slot: &mut [Option<SlotLane>; BATCH]| {
+        slot[l] = queue.next().map(|i| {
+            lc[l] = spec.lane_consts(i);
+            state[l] = spec.initial_lane(i);
+            SlotLane {
+                lane: i,
+                periods: 0,
+                track: Track::default(),
+                points: Vec::with_capacity(spec.recorded as usize * row),
+            }
+        });
+        if slot[l].is_none() {
+            state[l] = placeholder();
+        }
+    };
+    for l in 0..BATCH {
+        load(l, &mut lc, &mut state, &mut slot);
+    }
+    let mut bc = BatchConsts::new(&lc);
+    let mut out = Vec::with_capacity(lanes.len());
+    let n = spec.stepper.steps_per_period;
+    while slot.iter().any(Option::is_some) {
+        if cancel.is_set() {
+            return None;
+        }
+        for _ in 0..n {
+            batch_macro_step(&bc, &lc, &mut state);
+        }
+        let mut refilled = false;
+        for l in 0..BATCH {
+            let Some(s) = slot[l].as_mut() else {
+                continue;
+            };
+            s.periods += 1;
+            let lane = &state[l];
+            let x = lane.state_f64();
+            if s.periods > spec.transient {
+                s.points.extend_from_slice(&x);
+            }
+            let ended = if lane.status.is_frozen() {
+                // A frozen lane repeats the state it froze at in every later record, as
+                // in `run_lane` (the host masks those rows afterwards).
+                while s.points.len() < spec.recorded as usize * row {
+                    s.points.extend_from_slice(&x);
+                }
+                Some(None)
+            } else if let Some(a) = (s.periods >= early.after)
+                .then(|| early.recognise.observe(&mut s.track, &x))
+                .flatten()
+            {
+                Some(Some(Retired {
+                    attractor: a,
+                    periods: s.periods,
+                }))
+            } else {
+                (s.periods == total).then_some(None)
+            };
+            if let Some(retired) = ended {
+                let s = slot[l].take().expect("occupied slot");
+                let points = if retired.is_some() {
+                    vec![f64::NAN; spec.recorded as usize * row]
+                } else {
+                    s.points
+                };
+                out.push((
+                    s.lane,
+                    Outcome {
+                        points,
+                        final_state: x,
+                        status: lane.status,
+                        counters: lane.counters,
+                        lambda1: f64::NAN,
+                    },
+                    retired,
+                ));
+                load(l, &mut lc, &mut state, &mut slot);
+                refilled = true;
+            }
+        }
+        if refilled {
+            bc = BatchConsts::new(&lc);
+        }
+    }
+    Some(out)
+}
+
+/// `run_refill_inner` compiled for AVX2 (no FMA), as the batch code.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn run_refill_avx2<R: Real>(
+    spec: &EnsembleSpec,
+    early: &EarlyExit,
+    lanes: std::ops::Range<usize>,
+    cancel: &Cancel,
+) -> Option<Vec<Ended>> {
+    run_refill_inner::<R>(spec, early, lanes, cancel)
+}
+
+/// Lanes `lanes` through a refilled batch, with AVX2 where the CPU has it.
+fn run_refill<R: Real>(
+    spec: &EnsembleSpec,
+    early: &EarlyExit,
+    lanes: std::ops::Range<usize>,
+    cancel: &Cancel,
+) -> Option<Vec<Ended>> {
+    #[cfg(target_arch = "x86_64")]
+    if std::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU has just been found to support AVX2.
+        return unsafe { run_refill_avx2::<R>(spec, early, lanes, cancel) };
+    }
+    run_refill_inner::<R>(spec, early, lanes, cancel)
+}
+
+/// Runs the ensemble on the CPU with early exit (`super::early`): lanes recognised by
+/// `early` retire and their slots take the next lanes. Lanes are dealt to rayon's
+/// threads in runs of consecutive lanes, each run through one refilled batch, so the
+/// result is bit-identical for any number of threads; a lane that is not recognised
+/// gets exactly the record [`run`] gives it. `ctl.progress` counts a finished lane as
+/// its full periods, so the total is the run without early exit; cancellation as in
+/// [`run`]. No lambda_1 (its lanes need their whole record).
+pub fn run_early(spec: &EnsembleSpec, early: &EarlyExit, ctl: Control) -> Result<EarlyResult> {
+    spec.validate()?;
+    let n = spec.lanes.len();
+    let per_lane = (spec.transient + spec.recorded) as u64;
+    let total = n as u64 * per_lane;
+    // Long runs keep a batch's slots full (its slots empty only when its run is used up),
+    // short ones share the lanes evenly: twice as many runs as threads, at least a batch.
+    let threads = rayon::current_num_threads().max(1);
+    let run_len = n.div_ceil(2 * threads).max(BATCH);
+    let runs: Vec<std::ops::Range<usize>> = (0..n.div_ceil(run_len))
+        .map(|r| r * run_len..((r + 1) * run_len).min(n))
+        .collect();
+    let done = std::sync::atomic::AtomicUsize::new(0);
+    let outcomes: Vec<Option<Vec<Ended>>> = runs
+        .into_par_iter()
+        .map(|lanes| {
+            let c = ctl.cancel;
+            if c.is_set() {
+                return None;
+            }
+            let o = match spec.precision {
+                Precision::F32 => run_refill::<f32>(spec, early, lanes, c),
+                Precision::F64 => run_refill::<f64>(spec, early, lanes, c),
+            }?;
+            let k = o.len();
+            let lanes = done.fetch_add(k, std::sync::atomic::Ordering::Relaxed) + k;
+            (ctl.progress)(lanes as u64 * per_lane, total);
+            Some(o)
+        })
+        .collect();
+    let mut all: Vec<Ended> = Vec::with_capacity(n);
+    for o in outcomes {
+        let Some(o) = o else {
+            return Err(Error::Interrupted {
+                committed: 0,
+                total: 1,
+            });
+        };
+        all.extend(o);
+    }
+    all.sort_unstable_by_key(|(i, _, _)| *i);
+    let mut res = EnsembleResult {
+        poincare: Vec::with_capacity(n * spec.recorded as usize * STATE_DIM),
+        recorded: spec.recorded as usize,
+        final_state: Vec::with_capacity(n),
+        status: Vec::with_capacity(n),
+        counters: Vec::with_capacity(n),
+        lambda1: None,
+    };
+    let mut retired = Vec::with_capacity(n);
+    for (_, o, r) in all {
+        res.poincare.extend_from_slice(&o.points);
+        res.final_state.push(o.final_state);
+        res.status.push(o.status);
+        res.counters.push(o.counters);
+        retired.push(r);
+    }
+    super::mask_frozen_records(spec, &mut res);
+    Ok(EarlyResult {
+        result: res,
+        retired,
+    })
 }

@@ -3,6 +3,7 @@
 //! Bifurcation sweeps, basins and parameter-plane maps are all ensembles (DESIGN.md 1).
 
 pub mod cpu;
+pub mod early;
 pub mod table;
 
 use crate::error::{Error, Result};

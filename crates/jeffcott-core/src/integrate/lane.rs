@@ -158,6 +158,15 @@ pub struct StepperConfig {
     /// step (see the module docs). Runs recorded before R existed used R = 1.
     #[serde(default = "no_contact_refinement")]
     pub contact_substeps: u32,
+    /// Early exit (`ensemble::early`): periods a lane integrates before it may retire
+    /// on a known attractor. Only the attractor-labelling studies use it.
+    #[serde(default)]
+    pub early_exit_after: u32,
+    /// Early exit: Poincare points in a row on a known attractor (at least two of its
+    /// cycles) that retire a lane; 0 (the default) turns early exit off. Runs recorded
+    /// before early exit existed had it off.
+    #[serde(default)]
+    pub early_exit_streak: u32,
 }
 
 fn no_contact_refinement() -> u32 {
@@ -172,6 +181,10 @@ impl StepperConfig {
         max_segments: 16,
         divergence_bound: 1.0,
         contact_substeps: DEFAULT_CONTACT_SUBSTEPS,
+        early_exit_after: 100,
+        // Off until the rule agrees with full-length runs at multistable speeds
+        // (docs/early-exit.md); 16 is the value measured there.
+        early_exit_streak: 0,
     };
 }
 
@@ -228,6 +241,14 @@ impl StepperConfig {
                 "contact-substeps",
                 self.contact_substeps,
                 "must be one of 1, 2, 4, 8, 16",
+            ));
+        }
+        crate::limits::check_periods("early-exit-after", self.early_exit_after, 0)?;
+        if self.early_exit_streak > 100_000 {
+            return Err(Error::invalid(
+                "early-exit-streak",
+                self.early_exit_streak,
+                "must be in 0..=100000 (0 turns early exit off)",
             ));
         }
         Ok(())

@@ -1,0 +1,342 @@
+//! Early exit for the attractor-labelling studies (issue 24): lanes that are recognised
+//! on an attractor already catalogued retire, the rest run their whole transient and
+//! record and are classified as without it (`jeffcott_core::ensemble::early`).
+//!
+//! **The rule** ([`Recogniser`]): from period `early_exit_after` on, a lane's Poincare
+//! point at the end of every period is compared with the catalogue. A periodic attractor
+//! is recognised when `early_exit_streak` points in a row, and at least two whole cycles,
+//! each lie within the recognition tolerance
+//! ([`CatalogueBuilder::recogniser`]: a tenth of the cycle's diameter, at most a quarter
+//! of its distance to any other attractor, at least the identity tolerance) of the cycle
+//! point expected next, in its cyclic order (the analogue of the
+//! recurrence cells of Datseris and Wagemakers, Chaos 32, 023104 (2022)). Aperiodic
+//! attractors are not recognised: lanes still in a long transient form clouds that look
+//! like them (docs/early-exit.md), so their lanes run whole. A miss starts the count
+//! again. Only attractors are catalogued, never saddles, so a lane that lingers near an
+//! unstable orbit is not matched by it; a lane that passes close to an attractor and
+//! leaves it again breaks its streak.
+//!
+//! **Rounds** ([`catalogue_lanes`]): a unit's lanes run in rounds spread over the unit:
+//! every 64th lane first (no catalogue yet: these run full length and make the first
+//! catalogue), then every 8th of the others, then the rest, each round seeing the
+//! attractors of the rounds before it (an attractor with a small basin missed by the
+//! first rounds costs its lanes their early exit, never their label). Each round's
+//! recogniser is fixed while it runs, so the labels depend on the unit's lanes alone, not
+//! on threads, backends or other units: resumable and shardable as before.
+
+use crate::backend::Engine;
+use crate::catalogue::{CatalogueBuilder, CatalogueConfig};
+use crate::classify::distance;
+use jeffcott_core::control::Control;
+use jeffcott_core::ensemble::early::{EarlyExit, Recognise, Track};
+use jeffcott_core::ensemble::{EnsembleSpec, RunInfo};
+use jeffcott_core::error::Result;
+use jeffcott_core::model::State;
+use serde::{Deserialize, Serialize};
+
+/// An attractor as early exit sees it.
+#[derive(Clone, Debug)]
+pub enum Known {
+    /// A cycle (canonical rotation) and the distance within which a point matches.
+    Cycle {
+        /// The cycle's points in order.
+        points: Vec<State>,
+        /// Match tolerance (the metric of [`distance`]).
+        tol: f64,
+    },
+    /// Never recognised (aperiodic and unclassified entries).
+    Never,
+}
+
+impl Known {
+    /// Whether `x` matches point `j` of a cycle.
+    fn matches(&self, x: &State, j: usize, w: f64) -> bool {
+        match self {
+            Known::Cycle { points, tol } => distance(x, &points[j], w) <= *tol,
+            Known::Never => false,
+        }
+    }
+
+    /// Points in a row that recognise a lane: `streak`, and two whole cycles at least.
+    fn needs(&self, streak: u32) -> u32 {
+        match self {
+            Known::Cycle { points, .. } => streak.max(2 * points.len() as u32),
+            _ => streak,
+        }
+    }
+}
+
+/// Recognises lanes on a catalogue's attractors (module docs); built by
+/// [`CatalogueBuilder::recogniser`].
+#[derive(Clone, Debug)]
+pub struct Recogniser {
+    omega: f64,
+    streak: u32,
+    known: Vec<Known>,
+}
+
+impl Recogniser {
+    /// Recognises on `known` (ids are their indices) at speed `omega` after `streak`
+    /// points in a row.
+    pub fn new(omega: f64, streak: u32, known: Vec<Known>) -> Self {
+        Recogniser {
+            omega,
+            streak: streak.max(1),
+            known,
+        }
+    }
+
+    /// Starts a streak at `x`: the first attractor (and cycle point) it matches.
+    fn start(&self, x: &State) -> Track {
+        for (id, k) in self.known.iter().enumerate() {
+            let Known::Cycle { points, .. } = k else {
+                continue;
+            };
+            if let Some(j) = (0..points.len()).find(|&j| k.matches(x, j, self.omega)) {
+                return Track {
+                    attractor: id as u32,
+                    next: ((j + 1) % points.len()) as u32,
+                    streak: 1,
+                };
+            }
+        }
+        Track::default()
+    }
+}
+
+impl Recognise for Recogniser {
+    fn observe(&self, t: &mut Track, x: &State) -> Option<u32> {
+        if t.streak > 0 {
+            let k = &self.known[t.attractor as usize];
+            if k.matches(x, t.next as usize, self.omega) {
+                t.streak += 1;
+                if let Known::Cycle { points, .. } = k {
+                    t.next = (t.next + 1) % points.len() as u32;
+                }
+            } else {
+                t.streak = 0;
+            }
+        }
+        if t.streak == 0 {
+            *t = self.start(x);
+        }
+        let k = self.known.get(t.attractor as usize)?;
+        (t.streak > 0 && t.streak >= k.needs(self.streak)).then_some(t.attractor)
+    }
+}
+
+/// The lanes (indices into `0..n`) of each round, in order: every 64th lane, then every
+/// 8th of the others, then the rest. Every lane is in exactly one round.
+pub fn rounds(n: usize) -> Vec<Vec<usize>> {
+    let mut out: Vec<Vec<usize>> = Vec::new();
+    for (k, &stride) in ROUND_STRIDES.iter().enumerate() {
+        let earlier = &ROUND_STRIDES[..k];
+        out.push(
+            (0..n)
+                .step_by(stride)
+                .filter(|i| earlier.iter().all(|s| i % s != 0))
+                .collect(),
+        );
+    }
+    out.retain(|r| !r.is_empty());
+    out
+}
+
+/// Strides of the rounds: 1/64 of a unit's lanes make its first catalogue (they run full
+/// length), 1/8 see that catalogue and add to it, the rest see both. Few rounds keep the
+/// rounds large: a round waits for its slowest lane, and the batches of a small round
+/// run mostly empty.
+const ROUND_STRIDES: [usize; 3] = [64, 8, 1];
+
+/// What early exit saved, per unit or summed over a study (run.json's `early_exit`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct EarlySaved {
+    /// Lanes run.
+    pub lanes: u64,
+    /// Lanes that retired early.
+    pub retired: u64,
+    /// Periods integrated by all lanes.
+    pub periods_run: u64,
+    /// Periods the same lanes integrate without early exit.
+    pub periods_full: u64,
+}
+
+impl EarlySaved {
+    /// Adds another count.
+    pub fn add(&mut self, o: &EarlySaved) {
+        self.lanes += o.lanes;
+        self.retired += o.retired;
+        self.periods_run += o.periods_run;
+        self.periods_full += o.periods_full;
+    }
+
+    /// As four numbers (a unit's `early` array).
+    pub fn to_array(self) -> Vec<f64> {
+        [
+            self.lanes,
+            self.retired,
+            self.periods_run,
+            self.periods_full,
+        ]
+        .map(|v| v as f64)
+        .to_vec()
+    }
+
+    /// From a unit's `early` array.
+    pub fn from_array(a: &[f64]) -> EarlySaved {
+        let v = |i: usize| a.get(i).copied().unwrap_or(0.0) as u64;
+        EarlySaved {
+            lanes: v(0),
+            retired: v(1),
+            periods_run: v(2),
+            periods_full: v(3),
+        }
+    }
+}
+
+/// Lanes catalogued with early exit ([`catalogue_lanes`]).
+pub struct EarlyLanes {
+    /// The catalogue with every lane added.
+    pub builder: CatalogueBuilder,
+    /// Each lane's label as the builder gave it.
+    pub labels: Vec<i32>,
+    /// What early exit saved.
+    pub saved: EarlySaved,
+    /// How the last round ran.
+    pub info: Option<RunInfo>,
+}
+
+/// Catalogues the lanes of `ens` at speed `omega` with early exit, in [`rounds`].
+/// `ctl.progress` counts a lane as its full periods when it ends.
+pub fn catalogue_lanes(
+    ens: &EnsembleSpec,
+    omega: f64,
+    cfg: CatalogueConfig,
+    engine: &Engine,
+    ctl: Control,
+) -> Result<EarlyLanes> {
+    let n = ens.lanes.len();
+    let full = ens.transient + ens.recorded;
+    let per_lane = full as u64;
+    let mut b = CatalogueBuilder::new(omega, cfg);
+    let mut labels = vec![-1i32; n];
+    let mut saved = EarlySaved::default();
+    let mut base = 0u64;
+    let mut info = None;
+    for round in rounds(n) {
+        let sub = EnsembleSpec {
+            lanes: round.iter().map(|&i| ens.lanes[i]).collect(),
+            ..ens.clone()
+        };
+        let rec = b.recogniser(ens.stepper.early_exit_streak);
+        let early = EarlyExit {
+            recognise: &rec,
+            after: ens.stepper.early_exit_after,
+        };
+        let b0 = base;
+        let report = |d: u64, _: u64| (ctl.progress)(b0 + d, n as u64 * per_lane);
+        let (r, i) = engine.run_early(
+            &sub,
+            &early,
+            Control {
+                progress: &report,
+                cancel: ctl.cancel,
+            },
+        )?;
+        info = Some(i);
+        let frozen: Vec<bool> = r.result.status.iter().map(|s| s.is_frozen()).collect();
+        let classes = b.classify_block(&r.result.poincare, r.result.recorded, &frozen, None);
+        for ((&i, class), retired) in round.iter().zip(classes).zip(&r.retired) {
+            labels[i] = match retired {
+                Some(ret) => b.add_recognised(ret.attractor),
+                None => b.add_at(class, i as u64),
+            };
+        }
+        saved.add(&EarlySaved {
+            lanes: round.len() as u64,
+            retired: r.retired.iter().filter(|r| r.is_some()).count() as u64,
+            periods_run: r.periods_run(full),
+            periods_full: round.len() as u64 * per_lane,
+        });
+        base += round.len() as u64 * per_lane;
+    }
+    Ok(EarlyLanes {
+        builder: b,
+        labels,
+        saved,
+        info,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pt(v: f64) -> State {
+        [v, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+    }
+
+    #[test]
+    fn the_rounds_cover_every_lane_once_and_start_with_every_64th() {
+        for n in [1, 7, 64, 65, 500, 1773] {
+            let r = rounds(n);
+            let mut all: Vec<usize> = r.concat();
+            all.sort_unstable();
+            assert_eq!(all, (0..n).collect::<Vec<_>>(), "n = {n}");
+            assert_eq!(r[0], (0..n).step_by(64).collect::<Vec<_>>());
+        }
+    }
+
+    #[test]
+    fn a_cycle_is_recognised_only_in_its_order_after_two_cycles_and_the_streak() {
+        let cycle = Known::Cycle {
+            points: vec![pt(0.0), pt(1.0), pt(2.0)],
+            tol: 0.1,
+        };
+        let r = Recogniser::new(100.0, 4, vec![cycle]);
+        // In order: recognised at the 6th point (two cycles of 3 > streak 4).
+        let mut t = Track::default();
+        let seq = [0.0, 1.0, 2.0, 0.0, 1.0, 2.0];
+        let got: Vec<Option<u32>> = seq.iter().map(|&v| r.observe(&mut t, &pt(v))).collect();
+        assert_eq!(got[..5], [None; 5]);
+        assert_eq!(got[5], Some(0));
+        // Near the cycle's points but out of order: never.
+        let mut t = Track::default();
+        for v in [0.0, 2.0, 1.0, 0.0, 2.0, 1.0, 0.0, 2.0, 1.0] {
+            assert_eq!(r.observe(&mut t, &pt(v)), None);
+        }
+    }
+
+    #[test]
+    fn a_lane_that_passes_close_to_an_attractor_and_leaves_is_not_retired() {
+        // A synthetic transient: five points on a period-1 attractor (fewer than the
+        // streak of 8), then away, then back on it for good.
+        let r = Recogniser::new(
+            100.0,
+            8,
+            vec![Known::Cycle {
+                points: vec![pt(0.0)],
+                tol: 1e-3,
+            }],
+        );
+        let mut t = Track::default();
+        let mut first = None;
+        let seq: Vec<f64> = [vec![0.0; 5], vec![0.5; 3], vec![0.0; 20]].concat();
+        for (k, &v) in seq.iter().enumerate() {
+            if r.observe(&mut t, &pt(v)).is_some() && first.is_none() {
+                first = Some(k);
+            }
+        }
+        // The visit of 5 points did not retire it; 8 in a row after its return did.
+        assert_eq!(first, Some(8 + 7));
+    }
+
+    #[test]
+    fn aperiodic_and_unclassified_entries_are_never_recognised() {
+        let r = Recogniser::new(100.0, 1, vec![Known::Never]);
+        let mut t = Track::default();
+        for v in [0.0, 0.5, 1.0] {
+            assert_eq!(r.observe(&mut t, &pt(v)), None);
+        }
+    }
+}

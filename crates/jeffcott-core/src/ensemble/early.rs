@@ -1,0 +1,101 @@
+//! Early exit: lanes that retire once they are recognised on a known attractor, their
+//! slots refilled with the next lanes (issue 24). The core knows nothing of attractors:
+//! a study gives a [`Recognise`] (the analysis crate builds one from its catalogue) and
+//! the runner shows it each live lane's Poincare point at the end of every period from
+//! [`EarlyExit::after`] on; a lane it recognises ends there with that attractor's id.
+//! A lane that is never recognised runs its whole transient and record exactly as
+//! without early exit, and its record is bit-identical to that run's: lanes are
+//! independent and a refilled slot starts at a period boundary, where the lane stepper
+//! holds no state but the lane's own (`Lane::k` = 0).
+//!
+//! The rule is a function of the lane's sequence of Poincare points alone, so a backend
+//! that cannot stop a lane early (the GPU kernel today) reaches the same decisions by
+//! recording the periods from `after` on and replaying them ([`replay`]).
+//!
+//! Literature: Datseris and Wagemakers, "Effortless estimation of basins of attraction",
+//! Chaos 32, 023104 (2022) (`AttractorsViaRecurrences`: a trajectory stops once it has
+//! visited cells of a known attractor often enough in a row).
+
+use super::EnsembleResult;
+use crate::model::{STATE_DIM, State};
+
+/// A lane's progress towards recognition, kept by the runner and updated by
+/// [`Recognise::observe`] once a period.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Track {
+    /// The attractor the lane's last points matched.
+    pub attractor: u32,
+    /// The index of the point of that attractor's cycle expected next (0 for clouds).
+    pub next: u32,
+    /// How many points in a row matched (0: none; the lane is looking).
+    pub streak: u32,
+}
+
+/// Recognises lanes on known attractors from their Poincare points.
+pub trait Recognise: Sync {
+    /// Takes a live lane's Poincare point at the end of a period and its track so far;
+    /// returns the attractor's id once the lane is recognised on it.
+    fn observe(&self, track: &mut Track, point: &State) -> Option<u32>;
+}
+
+/// Early exit for one run: the recogniser and the first period it looks at.
+#[derive(Clone, Copy)]
+pub struct EarlyExit<'a> {
+    /// Recognises the lanes.
+    pub recognise: &'a dyn Recognise,
+    /// Periods a lane integrates before its points are looked at (its first point seen
+    /// is the one after period `after`, counted from 1).
+    pub after: u32,
+}
+
+/// A lane that retired early.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Retired {
+    /// The attractor it was recognised on (the recogniser's id).
+    pub attractor: u32,
+    /// The periods it integrated (counted from 1).
+    pub periods: u32,
+}
+
+/// An ensemble run with early exit: the result in the usual shape (a retired lane's
+/// record rows are NaN, its final state the state it retired at) and, per lane, whether
+/// and where it retired.
+#[derive(Clone, Debug)]
+pub struct EarlyResult {
+    /// The lanes' results.
+    pub result: EnsembleResult,
+    /// `Some` for each lane that retired early.
+    pub retired: Vec<Option<Retired>>,
+}
+
+impl EarlyResult {
+    /// Periods integrated by all lanes (a frozen lane counts the periods it was run).
+    pub fn periods_run(&self, full: u32) -> u64 {
+        self.retired
+            .iter()
+            .map(|r| r.map_or(full, |r| r.periods) as u64)
+            .sum()
+    }
+}
+
+/// The decision of the rule over one lane's points after periods `after`, `after + 1`,
+/// ... (`rows`, flat, 8 values each; NaN rows, as a frozen lane's records, never
+/// match): the same calls of [`Recognise::observe`] as the runner makes, stopping at the
+/// first recognition. `first` is the period of the first row.
+pub fn replay(recognise: &dyn Recognise, rows: &[f64], first: u32) -> Option<Retired> {
+    let mut track = Track::default();
+    for (k, row) in rows.chunks_exact(STATE_DIM).enumerate() {
+        let x: State = row.try_into().ok()?;
+        if x.iter().any(|v| !v.is_finite()) {
+            // The lane froze: the runner stops looking at it.
+            return None;
+        }
+        if let Some(a) = recognise.observe(&mut track, &x) {
+            return Some(Retired {
+                attractor: a,
+                periods: first + k as u32,
+            });
+        }
+    }
+    None
+}

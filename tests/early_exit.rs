@@ -1,0 +1,202 @@
+//! Early exit (issue 24): lanes recognised on a catalogued attractor retire and their
+//! slots are refilled. What must hold: refill changes no lane's arithmetic (a lane not
+//! retired has the record of the run without early exit, to the bit, in both
+//! precisions, whatever the thread count); a GPU reaches the same decisions by replay;
+//! a basin's labels agree with the full-length run's.
+
+mod common;
+
+use common::*;
+use jeffcott_analysis::backend::Engine;
+use jeffcott_core::control::Control;
+use jeffcott_core::ensemble::early::{EarlyExit, Recognise, Track};
+use jeffcott_core::ensemble::{Backend, EnsembleResult, EnsembleSpec, LaneSpec, Precision, cpu};
+use jeffcott_core::integrate::lane::StepperConfig;
+use jeffcott_core::model::{Params, State, VX_R, X_R};
+
+/// Lanes at 133 rad/s scattered over (x_r, vx_r), some far enough out to diverge with a
+/// small divergence bound, a lane count that leaves a batch partly empty.
+fn spec(precision: Precision, lanes: usize) -> EnsembleSpec {
+    let p = Params::default();
+    let lanes = (0..lanes)
+        .map(|i| {
+            let mut x0 = p.static_equilibrium();
+            x0[X_R] = -0.006 + 0.012 * unit(i, 1);
+            x0[VX_R] = -1.0 + 2.0 * unit(i, 2);
+            LaneSpec {
+                omega: 133.0,
+                x0,
+                param_set: 0,
+            }
+        })
+        .collect();
+    EnsembleSpec {
+        param_sets: vec![p],
+        lanes,
+        transient: 30,
+        recorded: 6,
+        stepper: StepperConfig {
+            steps_per_period: 200,
+            divergence_bound: 0.0065,
+            ..StepperConfig::default()
+        },
+        precision,
+    }
+}
+
+/// Never recognises anything.
+struct Never;
+impl Recognise for Never {
+    fn observe(&self, _: &mut Track, _: &State) -> Option<u32> {
+        None
+    }
+}
+
+/// Recognises a lane once its x_r has been above 0 for 3 points in a row: a rule that
+/// retires some lanes and not others, at different periods.
+struct XrPositive;
+impl Recognise for XrPositive {
+    fn observe(&self, t: &mut Track, x: &State) -> Option<u32> {
+        t.streak = if x[X_R] > 0.0 { t.streak + 1 } else { 0 };
+        (t.streak >= 3).then_some(7)
+    }
+}
+
+fn bits(v: &[f64]) -> Vec<u64> {
+    v.iter().map(|x| x.to_bits()).collect()
+}
+
+fn assert_same_lane(a: &EnsembleResult, b: &EnsembleResult, i: usize) {
+    assert_eq!(bits(a.lane_points(i)), bits(b.lane_points(i)), "lane {i}");
+    assert_eq!(a.status[i], b.status[i], "lane {i}");
+}
+
+fn in_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+        .install(f)
+}
+
+#[test]
+fn refilled_batches_give_every_lane_not_retired_the_record_of_the_plain_run_to_the_bit() {
+    for precision in [Precision::F64, Precision::F32] {
+        let s = spec(precision, 45);
+        let plain = cpu::run(&s, false, Control::none()).unwrap();
+        assert!(
+            plain.status.iter().any(|s| s.is_frozen()),
+            "some lanes diverge"
+        );
+        // Nothing recognised: the whole result equals the plain run's.
+        let never = EarlyExit {
+            recognise: &Never,
+            after: 0,
+        };
+        let r = cpu::run_early(&s, &never, Control::none()).unwrap();
+        assert!(r.retired.iter().all(Option::is_none));
+        assert_eq!(bits(&r.result.poincare), bits(&plain.poincare));
+        assert_eq!(r.result.counters, plain.counters);
+        assert_eq!(
+            bits(&r.result.final_state.concat()),
+            bits(&plain.final_state.concat())
+        );
+        // Some lanes retired, their slots refilled: the others are untouched, and the
+        // result does not depend on the number of threads.
+        let early = EarlyExit {
+            recognise: &XrPositive,
+            after: 5,
+        };
+        let one = in_threads(1, || cpu::run_early(&s, &early, Control::none()).unwrap());
+        let three = in_threads(3, || cpu::run_early(&s, &early, Control::none()).unwrap());
+        assert_eq!(one.retired, three.retired);
+        assert_eq!(bits(&one.result.poincare), bits(&three.result.poincare));
+        let retired = one.retired.iter().filter(|r| r.is_some()).count();
+        assert!(retired > 0 && retired < s.lanes.len(), "{retired} retired");
+        for (i, r) in one.retired.iter().enumerate() {
+            match r {
+                None => assert_same_lane(&one.result, &plain, i),
+                Some(r) => {
+                    assert_eq!(r.attractor, 7);
+                    assert!(r.periods >= 5 + 2 && r.periods <= 36, "{r:?}");
+                    assert!(one.result.lane_points(i).iter().all(|v| v.is_nan()));
+                    // It retired where its own points first met the rule.
+                    let replay = jeffcott_core::ensemble::early::replay(
+                        &XrPositive,
+                        &plain_points_from(&s, i, early.after),
+                        early.after,
+                    );
+                    assert_eq!(replay, Some(*r), "lane {i}");
+                }
+            }
+        }
+    }
+}
+
+/// Lane `i`'s Poincare points from period `first` to the end, from a plain run.
+fn plain_points_from(s: &EnsembleSpec, i: usize, first: u32) -> Vec<f64> {
+    let long = EnsembleSpec {
+        lanes: vec![s.lanes[i]],
+        transient: first - 1,
+        recorded: s.transient + s.recorded - first + 1,
+        ..s.clone()
+    };
+    cpu::run(&long, false, Control::none()).unwrap().poincare
+}
+
+#[test]
+fn a_gpu_reaches_the_cpus_early_exit_decisions_and_records_by_replay() {
+    let Some(_) = gpu_f64_device() else {
+        return;
+    };
+    let s = spec(Precision::F64, 29);
+    let early = EarlyExit {
+        recognise: &XrPositive,
+        after: 4,
+    };
+    let run = |backend| {
+        Engine::new(backend, Precision::F64)
+            .unwrap()
+            .run_early(&s, &early, Control::none())
+            .unwrap()
+            .0
+    };
+    let (c, g) = (run(Backend::Cpu), run(Backend::Gpu));
+    assert_eq!(c.retired, g.retired);
+    assert!(c.retired.iter().any(Option::is_some));
+    assert_eq!(bits(&c.result.poincare), bits(&g.result.poincare));
+    assert_eq!(c.result.status, g.result.status);
+}
+
+/// Labels of a basin at `omega` with and without early exit, and run.json's count.
+fn basin_pair(omega: f64, n: usize, extra: &str) -> (Vec<i32>, Vec<i32>, serde_json::Value) {
+    let tmp = tempfile::tempdir().unwrap();
+    let line = |streak: u32, name: &str| {
+        format!(
+            "basin --omega {omega} --x x_r:-0.006:0.006:{n} --y vx_r:-1:1:{n} --transient 250 \
+             --periods 32 --uncertainty-samples 0 --backend cpu --no-plot --quiet \
+             --early-exit-streak {streak} {extra} --out {}",
+            tmp.path().join(name).display()
+        )
+    };
+    ok(&jeffcott(&words(&line(0, "full"))));
+    ok(&jeffcott(&words(&line(16, "early"))));
+    let labels = |name: &str| npy::<i32>(&tmp.path().join(name).join("labels.npy")).1;
+    let run = json(&tmp.path().join("early").join("run.json"));
+    (labels("full"), labels("early"), run["early_exit"].clone())
+}
+
+#[test]
+fn a_basin_at_133_with_early_exit_has_the_labels_of_the_full_length_run() {
+    let (full, early, saved) = basin_pair(133.0, 24, "");
+    assert_eq!(full, early);
+    assert!(full.contains(&0) && full.contains(&1), "two attractors");
+    eprintln!("early exit: {saved}");
+    let (run, all) = (
+        saved["periods_run"].as_u64().unwrap(),
+        saved["periods_full"].as_u64().unwrap(),
+    );
+    assert_eq!(saved["lanes"].as_u64(), Some(576));
+    assert!(saved["retired"].as_u64().unwrap() > 400);
+    assert!(run < all * 2 / 3, "{run} of {all} periods");
+}
