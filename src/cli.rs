@@ -506,8 +506,8 @@ pub struct StepperArgs {
     #[arg(long, default_value_t = StepperConfig::DEFAULT.early_exit_after, value_name = "PERIODS")]
     pub early_exit_after: u32,
     /// Early exit: Poincare points in a row on a known attractor that retire a lane
-    /// (basin; 16 was measured in docs/early-exit.md); 0 turns early exit off (every lane
-    /// runs its whole transient and record).
+    /// (basin; docs/early-exit.md); 0 turns early exit off (every lane runs its whole
+    /// transient and record, as before early exit existed).
     #[arg(long, default_value_t = StepperConfig::DEFAULT.early_exit_streak, value_name = "M")]
     pub early_exit_streak: u32,
 }

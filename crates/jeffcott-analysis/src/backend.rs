@@ -201,11 +201,6 @@ fn run_gpu<R: jeffcott_gpu::GpuReal>(
         )
     };
     let mut res = EnsembleResult {
-        poincare: Vec::with_capacity(n * spec.recorded as usize * STATE_DIM),
-        recorded: spec.recorded as usize,
-        final_state: Vec::with_capacity(n),
-        status: Vec::with_capacity(n),
-        counters: Vec::with_capacity(n),
         lambda1: norms.map(|all| {
             all.iter()
                 .zip(&outs)
@@ -213,6 +208,7 @@ fn run_gpu<R: jeffcott_gpu::GpuReal>(
                 .map(|((nm, o), l)| lane_lambda1(nm, l.omega, o.lane.status))
                 .collect()
         }),
+        ..EnsembleResult::with_capacity(n, spec.recorded, false)
     };
     for o in outs {
         for p in &o.poincare {

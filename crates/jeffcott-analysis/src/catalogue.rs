@@ -23,7 +23,7 @@
 //! family on one cloud are one attractor whatever their own short-time lambda1, and the
 //! attractor's class follows the mean lambda1 of its lanes.
 
-use super::classify::{Class, ClassifyConfig, classify, distance};
+use super::classify::{Class, Classification, ClassifyConfig, classify, distance};
 use jeffcott_core::error::{Error, Result};
 use jeffcott_core::model::{STATE_DIM, State, X_R};
 use rayon::prelude::*;
@@ -207,6 +207,23 @@ pub fn classify_lane(
     cfg: &CatalogueConfig,
 ) -> LaneClass {
     let c = classify(points, omega, frozen, &cfg.classify);
+    // A lane whose whole record lies within the catalogue's identity floor `match_abs`
+    // is at a fixed point at the catalogue's resolution, whatever finer structure the
+    // classifier's tighter repeat tolerance sees: a lane still spiralling into a period-1
+    // response repeats after n periods (the spiral's rotation) or not at all. At 137.25
+    // rad/s such lanes made "period-4", "period-5" and "aperiodic" entries 0.2-0.9 um
+    // across beside the period-1 attractor they converge to (docs/early-exit.md).
+    let c = match c.class {
+        Class::Periodic(n) if n > 1 && c.size <= cfg.match_abs => Classification {
+            class: Class::Periodic(1),
+            ..c
+        },
+        Class::Aperiodic if c.size <= cfg.match_abs => Classification {
+            class: Class::Periodic(1),
+            ..c
+        },
+        _ => c,
+    };
     let class = match (c.class, lambda1) {
         (Class::Aperiodic, Some(l)) if l.is_finite() && l.abs() < cfg.lambda_tol => {
             Class::Quasiperiodic
@@ -368,6 +385,39 @@ impl CatalogueBuilder {
         });
         self.attractors[id as usize].add_lambda1(l.lambda1);
         id as i32
+    }
+
+    /// Renumbers the attractors in the order of the first lane (smallest index) that
+    /// reached each, `labels[i]` being lane i's label, and makes that lane each one's
+    /// `first_lane`: the order lanes added in one pass get, whatever the order they were
+    /// added in (early exit's rounds). `labels` are remapped.
+    pub fn renumber_by_first_lane(&mut self, labels: &mut [i32]) {
+        let n = self.attractors.len();
+        let mut first = vec![u64::MAX; n];
+        for (i, &l) in labels.iter().enumerate() {
+            if l >= 0 {
+                first[l as usize] = first[l as usize].min(i as u64);
+            }
+        }
+        let mut order: Vec<usize> = (0..n).collect();
+        order.sort_by_key(|&k| (first[k], k));
+        let mut new_id = vec![0i32; n];
+        let mut old = std::mem::take(&mut self.attractors)
+            .into_iter()
+            .map(Some)
+            .collect::<Vec<_>>();
+        for (new, &k) in order.iter().enumerate() {
+            new_id[k] = new as i32;
+            let mut a = old[k].take().expect("each attractor once");
+            a.id = new as u32;
+            if first[k] != u64::MAX {
+                a.first_lane = first[k];
+            }
+            self.attractors.push(a);
+        }
+        for l in labels.iter_mut().filter(|l| **l >= 0) {
+            *l = new_id[*l as usize];
+        }
     }
 
     /// Adds a lane recognised on attractor `id` of this catalogue (early exit: it has no

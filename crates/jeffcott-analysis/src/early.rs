@@ -260,6 +260,10 @@ pub fn catalogue_lanes(
         });
         base += round.len() as u64 * per_lane;
     }
+    // Ids in the order of each attractor's first lane, as a pass without rounds gives
+    // them: the ids, lanes and first lanes then do not depend on how the grid is cut
+    // into units (the representative cycle is the first-found lane's, which may).
+    b.renumber_by_first_lane(&mut labels);
     Ok(EarlyLanes {
         builder: b,
         labels,

@@ -243,30 +243,60 @@ fn run_units(
             batch.push(j);
         }
         if let Some(compute) = units.computed_by {
-            let i = pending[next];
-            let spec = (units.ensemble)(i);
+            // Units computed whole run several at a time (their lanes in rounds that
+            // leave threads idle at a round's end), committed in order.
+            let group: Vec<usize> = pending[next..]
+                .iter()
+                .copied()
+                .take(2 * rayon::current_num_threads().max(1))
+                .collect();
+            let done_in: Vec<std::sync::atomic::AtomicU64> =
+                group.iter().map(|_| Default::default()).collect();
             let b = base;
-            let report = |d: u64, _t: u64| (ctl.progress)(b + d, total);
-            let c = Control {
-                progress: &report,
-                cancel: ctl.cancel,
+            let report = |k: usize, d: u64| {
+                done_in[k].store(d, std::sync::atomic::Ordering::Relaxed);
+                let sum: u64 = done_in
+                    .iter()
+                    .map(|a| a.load(std::sync::atomic::Ordering::Relaxed))
+                    .sum();
+                (ctl.progress)(b + sum, total);
             };
-            let (mut unit, i_info) = match compute(i, &spec, engine, c) {
-                Err(Error::Interrupted { .. }) => {
-                    return Err(Error::Interrupted {
-                        committed,
-                        total: count,
-                    });
-                }
-                r => r?,
-            };
-            info = i_info.or(info);
-            unit.key = super::dir::unit_key(units.stage, i);
-            store.commit(units.stage, i, &unit)?;
-            committed += 1;
-            base += work(i);
+            use rayon::prelude::*;
+            let results: Vec<Result<(Unit, Option<RunInfo>)>> = group
+                .par_iter()
+                .enumerate()
+                .map(|(k, &i)| {
+                    let spec = (units.ensemble)(i);
+                    let r = |d: u64, _t: u64| report(k, d);
+                    compute(
+                        i,
+                        &spec,
+                        engine,
+                        Control {
+                            progress: &r,
+                            cancel: ctl.cancel,
+                        },
+                    )
+                })
+                .collect();
+            for (&i, r) in group.iter().zip(results) {
+                let (mut unit, i_info) = match r {
+                    Err(Error::Interrupted { .. }) => {
+                        return Err(Error::Interrupted {
+                            committed,
+                            total: count,
+                        });
+                    }
+                    r => r?,
+                };
+                info = i_info.or(info);
+                unit.key = super::dir::unit_key(units.stage, i);
+                store.commit(units.stage, i, &unit)?;
+                committed += 1;
+                base += work(i);
+            }
             (ctl.progress)(base, total);
-            next += 1;
+            next += group.len();
             continue;
         }
         let specs: Vec<EnsembleSpec> = batch.iter().map(|&i| (units.ensemble)(i)).collect();
@@ -277,14 +307,7 @@ fn run_units(
         let report = |d: u64, _t: u64| (ctl.progress)(b + d, total);
         let res = if spec.lanes.is_empty() {
             // A unit may have no lanes (a speed group without seeds): nothing to run.
-            EnsembleResult {
-                poincare: Vec::new(),
-                recorded: spec.recorded as usize,
-                final_state: Vec::new(),
-                status: Vec::new(),
-                counters: Vec::new(),
-                lambda1: units.lambda1.then(Vec::new),
-            }
+            EnsembleResult::with_capacity(0, spec.recorded, units.lambda1)
         } else {
             let ctl_batch = Control {
                 progress: &report,

@@ -285,14 +285,7 @@ pub fn run(spec: &EnsembleSpec, lambda1: bool, ctl: Control) -> Result<EnsembleR
         });
     }
     let outcomes = outcomes.into_iter().flatten();
-    let mut res = EnsembleResult {
-        poincare: Vec::with_capacity(spec.lanes.len() * spec.recorded as usize * STATE_DIM),
-        recorded: spec.recorded as usize,
-        final_state: Vec::with_capacity(spec.lanes.len()),
-        status: Vec::with_capacity(spec.lanes.len()),
-        counters: Vec::with_capacity(spec.lanes.len()),
-        lambda1: lambda1.then(Vec::new),
-    };
+    let mut res = EnsembleResult::with_capacity(spec.lanes.len(), spec.recorded, lambda1);
     for o in outcomes {
         if let Some(l) = res.lambda1.as_mut() {
             l.push(o.lambda1);
@@ -504,14 +497,7 @@ pub fn run_early(spec: &EnsembleSpec, early: &EarlyExit, ctl: Control) -> Result
         all.extend(o);
     }
     all.sort_unstable_by_key(|(i, _, _)| *i);
-    let mut res = EnsembleResult {
-        poincare: Vec::with_capacity(n * spec.recorded as usize * STATE_DIM),
-        recorded: spec.recorded as usize,
-        final_state: Vec::with_capacity(n),
-        status: Vec::with_capacity(n),
-        counters: Vec::with_capacity(n),
-        lambda1: None,
-    };
+    let mut res = EnsembleResult::with_capacity(n, spec.recorded, false);
     let mut retired = Vec::with_capacity(n);
     for (_, o, r) in all {
         res.poincare.extend_from_slice(&o.points);

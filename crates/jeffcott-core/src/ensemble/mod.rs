@@ -157,6 +157,19 @@ pub fn lane_lambda1(norms: &[f64], omega: f64, status: Status) -> f64 {
 }
 
 impl EnsembleResult {
+    /// An empty result with room for `lanes` lanes recording `recorded` periods each,
+    /// with an empty lambda_1 list when `lambda1`.
+    pub fn with_capacity(lanes: usize, recorded: u32, lambda1: bool) -> Self {
+        EnsembleResult {
+            poincare: Vec::with_capacity(lanes * recorded as usize * STATE_DIM),
+            recorded: recorded as usize,
+            final_state: Vec::with_capacity(lanes),
+            status: Vec::with_capacity(lanes),
+            counters: Vec::with_capacity(lanes),
+            lambda1: lambda1.then(|| Vec::with_capacity(lanes)),
+        }
+    }
+
     /// The recorded Poincare points of lane `i`.
     pub fn lane_points(&self, i: usize) -> &[f64] {
         let n = self.recorded * STATE_DIM;

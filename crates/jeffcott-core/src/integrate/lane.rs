@@ -163,8 +163,8 @@ pub struct StepperConfig {
     #[serde(default)]
     pub early_exit_after: u32,
     /// Early exit: Poincare points in a row on a known attractor (at least two of its
-    /// cycles) that retire a lane; 0 (the default) turns early exit off. Runs recorded
-    /// before early exit existed had it off.
+    /// cycles) that retire a lane; 0 turns early exit off. Runs recorded before early
+    /// exit existed had it off (0).
     #[serde(default)]
     pub early_exit_streak: u32,
 }
@@ -182,9 +182,7 @@ impl StepperConfig {
         divergence_bound: 1.0,
         contact_substeps: DEFAULT_CONTACT_SUBSTEPS,
         early_exit_after: 100,
-        // Off until the rule agrees with full-length runs at multistable speeds
-        // (docs/early-exit.md); 16 is the value measured there.
-        early_exit_streak: 0,
+        early_exit_streak: 16,
     };
 }
 
