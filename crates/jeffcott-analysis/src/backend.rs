@@ -115,20 +115,25 @@ impl Engine {
             recorded: full - first + 1,
             ..spec.clone()
         };
-        let res = run_on_gpu(&long, runner, false, ctl)?;
+        let EnsembleResult {
+            poincare: rows_all,
+            final_state,
+            status,
+            counters,
+            ..
+        } = run_on_gpu(&long, runner, false, ctl)?;
         let rows = long.recorded as usize;
         let keep = spec.recorded as usize;
         let mut out = EnsembleResult {
             poincare: Vec::with_capacity(spec.lanes.len() * keep * STATE_DIM),
             recorded: keep,
-            final_state: res.final_state.clone(),
-            status: res.status.clone(),
-            counters: res.counters.clone(),
+            final_state,
+            status,
+            counters,
             lambda1: None,
         };
         let mut retired = Vec::with_capacity(spec.lanes.len());
-        for i in 0..spec.lanes.len() {
-            let lane = &res.poincare[i * rows * STATE_DIM..(i + 1) * rows * STATE_DIM];
+        for lane in rows_all.chunks_exact(rows * STATE_DIM) {
             let r = early::replay(early.recognise, lane, first);
             match r {
                 Some(_) => out

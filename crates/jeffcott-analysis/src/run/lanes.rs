@@ -228,28 +228,16 @@ fn run_units(
                 total: count,
             });
         }
-        // Consecutive pending units up to the batch target (at least one).
-        let mut batch = vec![pending[next]];
-        let mut bw = work(pending[next]);
-        let mut lanes = lanes_of[pending[next]];
-        while gpu && next + batch.len() < pending.len() {
-            let j = pending[next + batch.len()];
-            let rec_bytes = (lanes + lanes_of[j]) * record_bytes;
-            if bw + work(j) > batch_work_target || rec_bytes > GPU_BATCH_RECORD_BYTES {
-                break;
-            }
-            bw += work(j);
-            lanes += lanes_of[j];
-            batch.push(j);
-        }
         if let Some(compute) = units.computed_by {
-            // Units computed whole run several at a time (their lanes in rounds that
-            // leave threads idle at a round's end), committed in order.
-            let group: Vec<usize> = pending[next..]
-                .iter()
-                .copied()
-                .take(2 * rayon::current_num_threads().max(1))
-                .collect();
+            // On the CPU, units computed whole run several at a time (their lanes in
+            // rounds that leave threads idle at a round's end), committed in order; a
+            // GPU takes one at a time.
+            let width = if gpu {
+                1
+            } else {
+                2 * rayon::current_num_threads().max(1)
+            };
+            let group: Vec<usize> = pending[next..].iter().copied().take(width).collect();
             let done_in: Vec<std::sync::atomic::AtomicU64> =
                 group.iter().map(|_| Default::default()).collect();
             let b = base;
@@ -298,6 +286,20 @@ fn run_units(
             (ctl.progress)(base, total);
             next += group.len();
             continue;
+        }
+        // Consecutive pending units up to the batch target (at least one).
+        let mut batch = vec![pending[next]];
+        let mut bw = work(pending[next]);
+        let mut lanes = lanes_of[pending[next]];
+        while gpu && next + batch.len() < pending.len() {
+            let j = pending[next + batch.len()];
+            let rec_bytes = (lanes + lanes_of[j]) * record_bytes;
+            if bw + work(j) > batch_work_target || rec_bytes > GPU_BATCH_RECORD_BYTES {
+                break;
+            }
+            bw += work(j);
+            lanes += lanes_of[j];
+            batch.push(j);
         }
         let specs: Vec<EnsembleSpec> = batch.iter().map(|&i| (units.ensemble)(i)).collect();
         let counts: Vec<usize> = specs.iter().map(|s| s.lanes.len()).collect();

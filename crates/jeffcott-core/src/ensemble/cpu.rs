@@ -163,40 +163,44 @@ fn run_batch_inner<R: Real, const M: usize>(
         .collect()
 }
 
-/// `run_batch_inner` compiled again with `$features` enabled, as `$name` (its doc
-/// comment first): the same code for each instruction set, so the lanes' arithmetic
-/// cannot drift between them.
-macro_rules! batch_compiled_for {
-    ($(#[$doc:meta])* $name:ident, $features:literal) => {
+/// Declares `$name`, which runs `$inner` compiled for AVX-512 where asked for and the CPU
+/// has it ([`use_avx512`]), else for AVX2 where the CPU has it, else as built: the same
+/// code for each instruction set (no FMA: fusing would change the rounding), so the
+/// lanes' arithmetic cannot drift between them. `[$gen]` are the generic parameters,
+/// `[$arg]` the arguments `$inner` is instantiated with.
+macro_rules! per_instruction_set {
+    ($(#[$doc:meta])* fn $name:ident [$($gen:tt)*] [$($garg:tt)*]
+     ($($arg:ident: $ty:ty),* $(,)?) -> $ret:ty = $inner:ident) => {
         $(#[$doc])*
-        #[cfg(target_arch = "x86_64")]
-        #[target_feature(enable = $features)]
-        fn $name<R: Real, const M: usize>(
-            spec: &EnsembleSpec,
-            first: usize,
-            cancel: &Cancel,
-        ) -> Vec<Outcome> {
-            run_batch_inner::<R, M>(spec, first, cancel)
+        fn $name<$($gen)*>($($arg: $ty),*) -> $ret {
+            #[cfg(target_arch = "x86_64")]
+            {
+                #[target_feature(enable = "avx512f,avx512dq,avx512vl")]
+                fn avx512<$($gen)*>($($arg: $ty),*) -> $ret {
+                    $inner::<$($garg)*>($($arg),*)
+                }
+                #[target_feature(enable = "avx2")]
+                fn avx2<$($gen)*>($($arg: $ty),*) -> $ret {
+                    $inner::<$($garg)*>($($arg),*)
+                }
+                if use_avx512() {
+                    // SAFETY: the CPU has been found to support AVX-512 F, DQ and VL.
+                    return unsafe { avx512::<$($garg)*>($($arg),*) };
+                }
+                if std::is_x86_feature_detected!("avx2") {
+                    // SAFETY: the CPU has just been found to support AVX2.
+                    return unsafe { avx2::<$($garg)*>($($arg),*) };
+                }
+            }
+            $inner::<$($garg)*>($($arg),*)
         }
     };
 }
 
-batch_compiled_for!(
-    /// The batch code compiled for AVX2 (no FMA: fusing would change the rounding).
-    run_batch_avx2,
-    "avx2"
-);
-
-batch_compiled_for!(
-    /// The batch code compiled for AVX-512 (one 512-bit register holds the 8 f64 lanes
-    /// of a batch; still no FMA). Opt-in with `JEFFCOTT_AVX512=1`: on the 2-core Xeon it
-    /// was measured on it was 8 % slower than AVX2 on `jeffcott bench`'s workload and
-    /// on a W sweep (docs/performance.md), so AVX2 stays the default.
-    run_batch_avx512,
-    "avx512f,avx512dq,avx512vl"
-);
-
-/// Whether the AVX-512 batch code runs: asked for, and the CPU has it.
+/// Whether the AVX-512 batch code runs: asked for with `JEFFCOTT_AVX512=1`, and the CPU
+/// has it. One 512-bit register then holds the 8 f64 lanes of a batch; on the 2-core
+/// Xeon it was measured on it was 8 % slower than AVX2 on `jeffcott bench`'s workload
+/// and on a W sweep (docs/performance.md), so AVX2 stays the default.
 #[cfg(target_arch = "x86_64")]
 fn use_avx512() -> bool {
     static USE: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
@@ -208,23 +212,13 @@ fn use_avx512() -> bool {
     })
 }
 
-/// Lanes `first..first + BATCH`, with AVX2 where the CPU has it (AVX-512 on request).
-fn run_batch<R: Real, const M: usize>(
-    spec: &EnsembleSpec,
-    first: usize,
-    cancel: &Cancel,
-) -> Vec<Outcome> {
-    #[cfg(target_arch = "x86_64")]
-    if use_avx512() {
-        // SAFETY: the CPU has been found to support AVX-512 F, DQ and VL.
-        return unsafe { run_batch_avx512::<R, M>(spec, first, cancel) };
-    }
-    #[cfg(target_arch = "x86_64")]
-    if std::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU has just been found to support AVX2.
-        return unsafe { run_batch_avx2::<R, M>(spec, first, cancel) };
-    }
-    run_batch_inner::<R, M>(spec, first, cancel)
+per_instruction_set! {
+    /// Lanes `first..first + BATCH`, with AVX2 where the CPU has it (AVX-512 on request).
+    fn run_batch[R: Real, const M: usize][R, M](
+        spec: &EnsembleSpec,
+        first: usize,
+        cancel: &Cancel,
+    ) -> Vec<Outcome> = run_batch_inner
 }
 
 /// Runs the ensemble on the CPU with rayon's global pool, with each lane's largest
@@ -327,7 +321,7 @@ fn run_refill_inner<R: Real>(
     cancel: &Cancel,
 ) -> Option<Vec<Ended>> {
     let total = spec.transient + spec.recorded;
-    let row = STATE_DIM;
+    let record_len = spec.recorded as usize * STATE_DIM;
     let mut queue = lanes.clone();
     let placeholder = || Lane::<R>::new(&[f64::NAN; STATE_DIM], 0.0);
     let mut lc: [LaneConsts<R>; BATCH] = std::array::from_fn(|_| spec.lane_consts(lanes.start));
@@ -344,7 +338,7 @@ fn run_refill_inner<R: Real>(
                 lane: i,
                 periods: 0,
                 track: Track::default(),
-                points: Vec::with_capacity(spec.recorded as usize * row),
+                points: Vec::with_capacity(record_len),
             }
         });
         if slot[l].is_none() {
@@ -378,7 +372,7 @@ fn run_refill_inner<R: Real>(
             let ended = if lane.status.is_frozen() {
                 // A frozen lane repeats the state it froze at in every later record, as
                 // in `run_lane` (the host masks those rows afterwards).
-                while s.points.len() < spec.recorded as usize * row {
+                while s.points.len() < record_len {
                     s.points.extend_from_slice(&x);
                 }
                 Some(None)
@@ -396,7 +390,7 @@ fn run_refill_inner<R: Real>(
             if let Some(retired) = ended {
                 let s = slot[l].take().expect("occupied slot");
                 let points = if retired.is_some() {
-                    vec![f64::NAN; spec.recorded as usize * row]
+                    vec![f64::NAN; record_len]
                 } else {
                     s.points
                 };
@@ -422,31 +416,15 @@ fn run_refill_inner<R: Real>(
     Some(out)
 }
 
-/// `run_refill_inner` compiled for AVX2 (no FMA), as the batch code.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn run_refill_avx2<R: Real>(
-    spec: &EnsembleSpec,
-    early: &EarlyExit,
-    lanes: std::ops::Range<usize>,
-    cancel: &Cancel,
-) -> Option<Vec<Ended>> {
-    run_refill_inner::<R>(spec, early, lanes, cancel)
-}
-
-/// Lanes `lanes` through a refilled batch, with AVX2 where the CPU has it.
-fn run_refill<R: Real>(
-    spec: &EnsembleSpec,
-    early: &EarlyExit,
-    lanes: std::ops::Range<usize>,
-    cancel: &Cancel,
-) -> Option<Vec<Ended>> {
-    #[cfg(target_arch = "x86_64")]
-    if std::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU has just been found to support AVX2.
-        return unsafe { run_refill_avx2::<R>(spec, early, lanes, cancel) };
-    }
-    run_refill_inner::<R>(spec, early, lanes, cancel)
+per_instruction_set! {
+    /// Lanes `lanes` through a refilled batch, with AVX2 where the CPU has it (AVX-512 on
+    /// request), as the batch code.
+    fn run_refill[R: Real][R](
+        spec: &EnsembleSpec,
+        early: &EarlyExit,
+        lanes: std::ops::Range<usize>,
+        cancel: &Cancel,
+    ) -> Option<Vec<Ended>> = run_refill_inner
 }
 
 /// Runs the ensemble on the CPU with early exit (`super::early`): lanes recognised by
