@@ -2,7 +2,8 @@
 # Runs jeffcott's test suite in release mode (the physics tests integrate many periods),
 # then the Python package's (scripts/python-test.sh: builds the wheel with maturin in a
 # virtual environment python/.venv, installing maturin, numpy, pytest and matplotlib
-# there when absent, and runs pytest and the example), then the refactoring check's
+# there when absent, and runs pytest and the example), then the GPU campaign's local
+# mode (scripts/gpu-campaign.sh --local --small), then the refactoring check's
 # self-test (scripts/golden.sh selftest: its command set runs twice to identical
 # outputs), then the real-Slurm test of the
 # cluster recipe (scripts/slurm-test.sh: a single-node
@@ -30,6 +31,9 @@ fi
 
 cargo test --release "$@"
 bash scripts/python-test.sh target/release/jeffcott
+# The GPU campaign's local mode (issue 25): every step of what a lent H100 runs, at small
+# sizes on the adapter at hand, so the campaign cannot rot between the rare GPU sessions.
+bash scripts/gpu-campaign.sh --local --small --out target/campaign-small
 # The refactoring check (scripts/golden.sh: a fixed command set, every study and every
 # Python function, hashed) runs, and two runs give identical outputs.
 bash scripts/golden.sh selftest target/release/jeffcott python/.venv/bin/python

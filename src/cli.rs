@@ -313,7 +313,8 @@ impl study::StudyCommand for Ensemble {
     const OUTPUTS: &'static [&'static str] = ENSEMBLE_OUTPUTS;
     type Spec = EnsembleStudy;
     type Write = NoOptions;
-    type Outcome = (jeffcott_core::ensemble::RunInfo, f64);
+    /// How the run went, its wall time and the device set-up's part of it [s].
+    type Outcome = (jeffcott_core::ensemble::RunInfo, f64, f64);
     fn run(
         study: &EnsembleStudy,
         _: &NoOptions,
@@ -321,13 +322,14 @@ impl study::StudyCommand for Ensemble {
     ) -> Result<Self::Outcome> {
         let start = std::time::Instant::now();
         let engine = jeffcott_analysis::backend::Engine::new(study.backend, study.precision)?;
+        let setup = start.elapsed().as_secs_f64();
         let info = jeffcott_analysis::ensemble::run(study, &engine, host)?;
-        Ok((info, start.elapsed().as_secs_f64()))
+        Ok((info, start.elapsed().as_secs_f64(), setup))
     }
     fn finish(
         study: &EnsembleStudy,
         _: &NoOptions,
-        (info, elapsed): Self::Outcome,
+        (info, elapsed, setup): Self::Outcome,
         run_dir: &jeffcott_analysis::run::RunDir,
         exec: &rundir::Execution,
     ) -> Result<()> {
@@ -339,6 +341,7 @@ impl study::StudyCommand for Ensemble {
         }
         let info = jeffcott_core::ensemble::RunInfo {
             elapsed_s: elapsed,
+            setup_s: setup,
             ..info
         };
         write_ensemble(study, &info, run_dir, exec.run.quiet)
@@ -438,7 +441,7 @@ pub fn run_info() -> Result<()> {
     }
     for s in adapters {
         println!(
-            "GPU: {} [{} {}{}], driver {}, f64 {}, max storage binding {} MiB, max buffer {} MiB, workgroups/dim {}, invocations/workgroup {}",
+            "GPU: {} [{} {}{}], driver {}, f64 {}, max storage binding {} MiB, max buffer {} MiB, workgroups/dim {}, invocations/workgroup {}, kernel as {}",
             s.name,
             s.backend,
             s.device_type,
@@ -448,7 +451,12 @@ pub fn run_info() -> Result<()> {
             s.max_storage_buffer_binding_size >> 20,
             s.max_buffer_size >> 20,
             s.max_compute_workgroups_per_dimension,
-            s.max_compute_invocations_per_workgroup
+            s.max_compute_invocations_per_workgroup,
+            if s.spirv_passthrough {
+                "exact SPIR-V (NoContraction; JEFFCOTT_GPU_SHADER=wgsl for WGSL)"
+            } else {
+                "WGSL (no SPIR-V passthrough: the driver may contract a*b+c)"
+            }
         );
     }
     Ok(())

@@ -381,20 +381,25 @@ fn run_probe<R: GpuReal>(runner: &GpuRunner, name: &str, rows: &[R]) -> Vec<R> {
     let dev = runner.gpu().device();
     let n = rows.len() / p.inputs;
     let src = probe_source::<R>();
-    let scope = dev.push_error_scope(wgpu::ErrorFilter::Validation);
-    let module = dev.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some("mirror probes"),
-        source: wgpu::ShaderSource::Wgsl(src.into()),
-    });
     let entry = format!("mirror_{name}");
-    let pipeline = dev.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some(&entry),
-        layout: None,
-        module: &module,
-        entry_point: Some(&entry),
-        compilation_options: Default::default(),
-        cache: None,
-    });
+    // The device's shader path (exact SPIR-V where the adapter takes it): the probes
+    // must see what the kernel sees.
+    let (pipeline, layout) = runner
+        .gpu()
+        .compute_pipeline(
+            "mirror probes",
+            &src,
+            jeffcott_gpu::shader::capabilities::<R>(),
+            &entry,
+            (64, 1, 1),
+            &[
+                (0, wgpu::BufferBindingType::Uniform),
+                (10, wgpu::BufferBindingType::Storage { read_only: true }),
+                (11, wgpu::BufferBindingType::Storage { read_only: false }),
+            ],
+        )
+        .unwrap_or_else(|e| panic!("probe {name}: {e}"));
+    let scope = dev.push_error_scope(wgpu::ErrorFilter::Validation);
     // `keep` reads params.n_lanes, which is never 0 in a real dispatch.
     let params = jeffcott_gpu::layout::Params {
         n_lanes: 1,
@@ -429,7 +434,7 @@ fn run_probe<R: GpuReal>(runner: &GpuRunner, name: &str, rows: &[R]) -> Vec<R> {
     }
     let group = dev.create_bind_group(&wgpu::BindGroupDescriptor {
         label: None,
-        layout: &pipeline.get_bind_group_layout(0),
+        layout: &layout,
         entries: &[bind(0, &pbuf), bind(10, &inp), bind(11, &out)],
     });
     if let Some(e) = pollster::block_on(scope.pop()) {

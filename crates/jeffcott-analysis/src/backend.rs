@@ -168,6 +168,7 @@ impl Engine {
             reason: self.reason.clone(),
             precision,
             elapsed_s: start.elapsed().as_secs_f64(),
+            setup_s: 0.0,
         }
     }
 }
@@ -271,7 +272,9 @@ pub fn run(
     spec.validate()?;
     let start = std::time::Instant::now();
     let engine = Engine::new(backend, spec.precision)?;
+    let setup_s = start.elapsed().as_secs_f64();
     let (res, mut info) = engine.run(spec, lambda1, ctl)?;
     info.elapsed_s = start.elapsed().as_secs_f64();
+    info.setup_s = setup_s;
     Ok((res, info))
 }

@@ -206,6 +206,7 @@ pub fn run(
         reason: "every unit was already committed".into(),
         precision: study.precision,
         elapsed_s: 0.0,
+        setup_s: 0.0,
     }))
 }
 
@@ -299,6 +300,8 @@ pub struct RunRecord<'a> {
     pub steps_per_period: u32,
     /// Wall time [s].
     pub wall_time_s: f64,
+    /// The part of the wall time spent opening the device and building its pipelines [s].
+    pub setup_time_s: f64,
     /// Macro steps per second, summed over lanes.
     pub lane_steps_per_s: f64,
     /// Forcing periods per second, summed over lanes.
@@ -361,6 +364,7 @@ pub fn run_record<'a>(
         periods: spec.periods,
         steps_per_period: spec.steps_per_period,
         wall_time_s: info.elapsed_s,
+        setup_time_s: info.setup_s,
         lane_steps_per_s: totals.macro_steps as f64 / info.elapsed_s,
         forcing_periods_per_s: (n as f64 * (spec.transient + spec.periods) as f64) / info.elapsed_s,
         counters: *totals,

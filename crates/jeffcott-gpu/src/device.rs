@@ -37,6 +37,9 @@ pub struct AdapterSummary {
     pub max_compute_workgroups_per_dimension: u32,
     /// Invocations per workgroup.
     pub max_compute_invocations_per_workgroup: u32,
+    /// True when the adapter takes SPIR-V as it is (`PASSTHROUGH_SHADERS`, Vulkan), so
+    /// the kernel can carry `NoContraction` (see [`crate::spirv`]).
+    pub spirv_passthrough: bool,
 }
 
 impl AdapterSummary {
@@ -60,6 +63,10 @@ impl AdapterSummary {
             max_buffer_size: limits.max_buffer_size,
             max_compute_workgroups_per_dimension: limits.max_compute_workgroups_per_dimension,
             max_compute_invocations_per_workgroup: limits.max_compute_invocations_per_workgroup,
+            spirv_passthrough: info.backend == wgpu::Backend::Vulkan
+                && adapter
+                    .features()
+                    .contains(wgpu::Features::PASSTHROUGH_SHADERS),
         }
     }
 }
@@ -109,11 +116,62 @@ fn rank(s: &AdapterSummary) -> (u8, u8) {
     (kind, api)
 }
 
+/// How the device receives compute shaders.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ShaderPath {
+    /// SPIR-V from naga with every float operation `NoContraction`, through wgpu's
+    /// passthrough: the driver may not fuse or reassociate (the parity path).
+    ExactSpirv,
+    /// WGSL through wgpu: the driver may contract `a * b + c` into an FMA.
+    Wgsl,
+}
+
+impl ShaderPath {
+    /// The name `JEFFCOTT_GPU_SHADER` takes and `jeffcott info` shows.
+    pub fn name(self) -> &'static str {
+        match self {
+            ShaderPath::ExactSpirv => "spirv",
+            ShaderPath::Wgsl => "wgsl",
+        }
+    }
+}
+
+/// The environment variable that picks the shader path: `spirv` (the default where the
+/// adapter has SPIR-V passthrough) or `wgsl` (to measure what contraction changes).
+pub const SHADER_PATH_VAR: &str = "JEFFCOTT_GPU_SHADER";
+
+/// The shader path for an adapter: `JEFFCOTT_GPU_SHADER` if set, else the exact path
+/// where the adapter offers it.
+fn shader_path(summary: &AdapterSummary) -> Result<ShaderPath> {
+    match std::env::var(SHADER_PATH_VAR).ok().as_deref() {
+        None | Some("") => Ok(if summary.spirv_passthrough {
+            ShaderPath::ExactSpirv
+        } else {
+            ShaderPath::Wgsl
+        }),
+        Some("wgsl") => Ok(ShaderPath::Wgsl),
+        Some("spirv") if summary.spirv_passthrough => Ok(ShaderPath::ExactSpirv),
+        Some("spirv") => Err(Error::NoAdapter {
+            reason: format!(
+                "{SHADER_PATH_VAR}=spirv, but adapter {} ({}) has no SPIR-V passthrough",
+                summary.name, summary.backend
+            ),
+        }),
+        Some(other) => Err(Error::invalid(
+            SHADER_PATH_VAR,
+            other,
+            "must be spirv or wgsl",
+        )),
+    }
+}
+
 /// A wgpu device and queue with what the runner needs to know about them.
 pub struct GpuDevice {
     device: wgpu::Device,
     queue: wgpu::Queue,
     summary: AdapterSummary,
+    shader_path: ShaderPath,
     lost: Arc<AtomicBool>,
     errors: Arc<Mutex<Vec<String>>>,
 }
@@ -171,11 +229,14 @@ impl GpuDevice {
     /// Opens a device on `adapter`, with its limits and, when offered, `SHADER_F64`.
     pub fn from_adapter(adapter: &wgpu::Adapter) -> Result<GpuDevice> {
         let summary = AdapterSummary::of(adapter);
-        let required_features = if summary.f64 {
-            wgpu::Features::SHADER_F64
-        } else {
-            wgpu::Features::empty()
-        };
+        let shader_path = shader_path(&summary)?;
+        let mut required_features = wgpu::Features::empty();
+        if summary.f64 {
+            required_features |= wgpu::Features::SHADER_F64;
+        }
+        if shader_path == ShaderPath::ExactSpirv {
+            required_features |= wgpu::Features::PASSTHROUGH_SHADERS;
+        }
         let desc = wgpu::DeviceDescriptor {
             label: Some("jeffcott"),
             required_features,
@@ -204,6 +265,7 @@ impl GpuDevice {
             device,
             queue,
             summary,
+            shader_path,
             lost,
             errors,
         })
@@ -222,6 +284,104 @@ impl GpuDevice {
     /// What the adapter is (name, backend, limits...).
     pub fn adapter(&self) -> &AdapterSummary {
         &self.summary
+    }
+
+    /// How this device receives the kernel.
+    pub fn shader_path(&self) -> ShaderPath {
+        self.shader_path
+    }
+
+    /// A compute pipeline for entry point `entry` (workgroup size `workgroup`) of the
+    /// WGSL module `wgsl`, with an explicit layout of one bind group holding the buffer
+    /// bindings `bindings`. On [`ShaderPath::ExactSpirv`] the module is validated by
+    /// naga with `caps` and compiled to SPIR-V with every float operation exact
+    /// ([`crate::spirv`]); on [`ShaderPath::Wgsl`] wgpu compiles it.
+    pub fn compute_pipeline(
+        &self,
+        label: &str,
+        wgsl: &str,
+        caps: wgpu::naga::valid::Capabilities,
+        entry: &str,
+        workgroup: (u32, u32, u32),
+        bindings: &[(u32, wgpu::BufferBindingType)],
+    ) -> Result<(wgpu::ComputePipeline, wgpu::BindGroupLayout)> {
+        let gpu_err = |what: &str, e: &dyn std::fmt::Display| Error::Gpu {
+            message: format!("{label}: {what}: {e}"),
+        };
+        let device = &self.device;
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let module = match self.shader_path {
+            ShaderPath::Wgsl => device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(label),
+                source: wgpu::ShaderSource::Wgsl(wgsl.into()),
+            }),
+            ShaderPath::ExactSpirv => {
+                let module = wgpu::naga::front::wgsl::parse_str(wgsl)
+                    .map_err(|e| gpu_err("WGSL", &e.emit_to_string(wgsl)))?;
+                let info = wgpu::naga::valid::Validator::new(
+                    wgpu::naga::valid::ValidationFlags::all(),
+                    caps,
+                )
+                .validate(&module)
+                .map_err(|e| gpu_err("validation", &e.emit_to_string(wgsl)))?;
+                let numbers: Vec<u32> = bindings.iter().map(|&(b, _)| b).collect();
+                let words = crate::spirv::exact_compute_words(&module, &info, entry, &numbers)
+                    .map_err(|e| gpu_err("SPIR-V", &e))?;
+                let entry_points = [wgpu::PassthroughShaderEntryPoint {
+                    name: entry.into(),
+                    workgroup_size: workgroup,
+                }];
+                // SAFETY: the words are naga's output for a module naga validated, with
+                // decorations added where the SPIR-V layout rules put them
+                // (spirv::decorate_no_contraction); wgpu's own Vulkan path hands the
+                // driver the same writer's output.
+                unsafe {
+                    device.create_shader_module_passthrough(
+                        wgpu::ShaderModuleDescriptorPassthrough {
+                            label: Some(label),
+                            entry_points: entry_points[..].into(),
+                            spirv: Some(words.into()),
+                            ..Default::default()
+                        },
+                    )
+                }
+            }
+        };
+        let entries: Vec<wgpu::BindGroupLayoutEntry> = bindings
+            .iter()
+            .map(|&(binding, ty)| wgpu::BindGroupLayoutEntry {
+                binding,
+                visibility: wgpu::ShaderStages::COMPUTE,
+                ty: wgpu::BindingType::Buffer {
+                    ty,
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                count: None,
+            })
+            .collect();
+        let bgl = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some(label),
+            entries: &entries,
+        });
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some(label),
+            bind_group_layouts: &[Some(&bgl)],
+            immediate_size: 0,
+        });
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some(label),
+            layout: Some(&layout),
+            module: &module,
+            entry_point: Some(entry),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(gpu_err("cannot build the pipeline", &e));
+        }
+        self.check()?;
+        Ok((pipeline, bgl))
     }
 
     /// True when the device was created with `SHADER_F64`.

@@ -28,8 +28,11 @@
 pub mod device;
 pub mod layout;
 pub mod shader;
+pub mod spirv;
 
-pub use device::{AdapterSummary, DeviceRequest, GpuDevice, list_adapters};
+pub use device::{
+    AdapterSummary, DeviceRequest, GpuDevice, SHADER_PATH_VAR, ShaderPath, list_adapters,
+};
 pub use layout::GpuReal;
 
 use jeffcott_core::error::{Error, Result};
@@ -176,53 +179,24 @@ impl GpuRunner {
         // Fail early with naga's readable report rather than wgpu's summary.
         shader::validate::<R>(lyapunov, shader::capabilities::<R>())
             .map_err(|e| gpu_err("lane kernel does not validate", e))?;
-        let device = self.gpu.device();
-        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("lane kernel"),
-            source: wgpu::ShaderSource::Wgsl(shader::source::<R>(lyapunov).into()),
-        });
         // An explicit layout, the same for both variants: the plain kernel never touches
         // `tangents` (binding 5), and an automatic layout might or might not list it.
-        let entry = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty,
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
         let rw = wgpu::BufferBindingType::Storage { read_only: false };
-        let bgl = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("lanes"),
-            entries: &[
-                entry(0, wgpu::BufferBindingType::Uniform),
-                entry(1, wgpu::BufferBindingType::Storage { read_only: true }),
-                entry(2, rw),
-                entry(3, rw),
-                entry(4, rw),
-                entry(5, rw),
+        let (pipeline, _) = self.gpu.compute_pipeline(
+            "lane kernel",
+            &shader::source::<R>(lyapunov),
+            shader::capabilities::<R>(),
+            shader::ENTRY_POINT,
+            (shader::WORKGROUP_SIZE, 1, 1),
+            &[
+                (0, wgpu::BufferBindingType::Uniform),
+                (1, wgpu::BufferBindingType::Storage { read_only: true }),
+                (2, rw),
+                (3, rw),
+                (4, rw),
+                (5, rw),
             ],
-        });
-        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("lanes"),
-            bind_group_layouts: &[Some(&bgl)],
-            immediate_size: 0,
-        });
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("advance_lanes"),
-            layout: Some(&layout),
-            module: &module,
-            entry_point: Some(shader::ENTRY_POINT),
-            compilation_options: Default::default(),
-            cache: None,
-        });
-        if let Some(e) = pollster::block_on(scope.pop()) {
-            return Err(gpu_err("cannot build the lane pipeline", e));
-        }
-        self.gpu.check()?;
+        )?;
         Ok(pipeline)
     }
 

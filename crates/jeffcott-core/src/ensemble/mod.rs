@@ -345,6 +345,9 @@ pub struct RunInfo {
     pub precision: Precision,
     /// Wall time of the integration [s] (device set-up included).
     pub elapsed_s: f64,
+    /// The part of `elapsed_s` spent opening the device and building its pipelines
+    /// [s] (0 on the CPU and where not measured), so a benchmark can leave it out.
+    pub setup_s: f64,
 }
 
 /// A range of the CLI syntax `a:b:n` (n values from a to b inclusive, evenly spaced)

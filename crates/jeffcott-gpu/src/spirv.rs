@@ -1,0 +1,270 @@
+//! The kernel as SPIR-V in which every floating-point operation is exact as written: the
+//! parity path for hardware drivers (issue 25, DESIGN.md 3).
+//!
+//! naga's SPIR-V carries no `NoContraction` decoration, so a Vulkan driver may fuse
+//! `a * b + c` into one FMA (one rounding instead of two) and reassociate sums. NVIDIA's
+//! compiler does: on an H100 the f64 kernel left the CPU's lanes by 4e-14 m in the first
+//! forcing period (docs/gpu.md). SPIR-V 1.0 section 3.20 defines `NoContraction` as
+//! "apply to an arithmetic instruction to indicate the operation cannot be combined with
+//! another instruction to form a single operation", the decoration GLSL's `precise`
+//! compiles to, which drivers must honour. So the kernel is compiled here with naga (the
+//! same front end and validator as wgpu's WGSL path, and wgpu's own bounds-check and
+//! loop-bounding options for Vulkan), every result of a floating-point arithmetic
+//! instruction is decorated `NoContraction`, and the words go to the driver through
+//! wgpu's SPIR-V passthrough (`Features::PASSTHROUGH_SHADERS`, Vulkan only).
+//!
+//! What the decoration cannot reach: the precision of `OpFDiv` and `sqrt` is the
+//! driver's (Vulkan requires correct rounding only for + - *), so bit-identity with
+//! the CPU holds by construction only where the driver divides and takes square roots
+//! correctly rounded; `tests/mirror.rs` checks each function on the adapter at hand.
+
+use wgpu::naga;
+use wgpu::naga::back::spv;
+
+/// SPIR-V opcodes (SPIR-V 1.6 specification, section 3.52) this module reads or writes.
+mod op {
+    pub const DECORATE: u16 = 71;
+    /// Opcodes of floating-point arithmetic instructions whose result id is word 2
+    /// (section 3.52.13, "Arithmetic Instructions", the float ones). The integer
+    /// instructions have opcodes of their own, so every one of these is a float operation.
+    pub const FLOAT_ARITHMETIC: [u16; 14] = [
+        127, // OpFNegate
+        129, // OpFAdd
+        131, // OpFSub
+        133, // OpFMul
+        136, // OpFDiv
+        140, // OpFRem
+        141, // OpFMod
+        142, // OpVectorTimesScalar
+        143, // OpMatrixTimesScalar
+        144, // OpVectorTimesMatrix
+        145, // OpMatrixTimesVector
+        146, // OpMatrixTimesMatrix
+        147, // OpOuterProduct
+        148, // OpDot
+    ];
+    /// Instructions of the module's layout sections 1-9 (section 2.4) that come before
+    /// the annotations' end: capabilities, extensions, imports, memory model, entry
+    /// points, execution modes, debug instructions and the annotations themselves.
+    pub const PREAMBLE: [u16; 21] = [
+        17,   // OpCapability
+        10,   // OpExtension
+        11,   // OpExtInstImport
+        14,   // OpMemoryModel
+        15,   // OpEntryPoint
+        16,   // OpExecutionMode
+        331,  // OpExecutionModeId
+        7,    // OpString
+        4,    // OpSourceExtension
+        3,    // OpSource
+        2,    // OpSourceContinued
+        5,    // OpName
+        6,    // OpMemberName
+        330,  // OpModuleProcessed
+        71,   // OpDecorate
+        72,   // OpMemberDecorate
+        332,  // OpDecorateId
+        73,   // OpDecorationGroup
+        74,   // OpGroupDecorate
+        75,   // OpGroupMemberDecorate
+        5632, // OpDecorateString
+    ];
+}
+
+/// `Decoration` operand of `NoContraction` (section 3.20).
+const NO_CONTRACTION: u32 = 42;
+
+/// Words of the module header (magic, version, generator, id bound, schema).
+const HEADER_WORDS: usize = 5;
+
+/// The SPIR-V magic number, in the module's first word.
+const MAGIC: u32 = 0x0723_0203;
+
+/// Compiles a validated naga module's compute entry point `entry` to SPIR-V 1.3 with
+/// wgpu's Vulkan options (index and buffer accesses clamped, loops bounded), then marks
+/// every floating-point arithmetic result `NoContraction` (see the module docs).
+///
+/// `bindings` are the WGSL binding numbers of group 0 in the pipeline's layout. wgpu's
+/// Vulkan backend numbers a bind group's descriptors 0, 1, 2... in the order of their
+/// WGSL bindings (wgpu-hal `create_bind_group_layout`, after wgpu-core sorts the entries)
+/// and rewrites the shader to match; passthrough SPIR-V is not rewritten, so the same
+/// numbering is written here.
+pub fn exact_compute_words(
+    module: &naga::Module,
+    info: &naga::valid::ModuleInfo,
+    entry: &str,
+    bindings: &[u32],
+) -> Result<Vec<u32>, String> {
+    let mut sorted = bindings.to_vec();
+    sorted.sort_unstable();
+    sorted.dedup();
+    let binding_map = sorted
+        .iter()
+        .enumerate()
+        .map(|(vk, &b)| {
+            (
+                naga::ResourceBinding {
+                    group: 0,
+                    binding: b,
+                },
+                spv::BindingInfo {
+                    descriptor_set: 0,
+                    binding: vk as u32,
+                    binding_array_size: None,
+                },
+            )
+        })
+        .collect();
+    let restrict = naga::proc::BoundsCheckPolicy::Restrict;
+    let options = spv::Options {
+        lang_version: (1, 3),
+        flags: spv::WriterFlags::empty(),
+        bounds_check_policies: naga::proc::BoundsCheckPolicies {
+            index: restrict,
+            buffer: restrict,
+            image_load: restrict,
+            binding_array: naga::proc::BoundsCheckPolicy::Unchecked,
+        },
+        force_loop_bounding: true,
+        binding_map,
+        ..Default::default()
+    };
+    let pipeline = spv::PipelineOptions {
+        shader_stage: naga::ShaderStage::Compute,
+        entry_point: entry.to_string(),
+    };
+    let mut words = spv::write_vec(module, info, &options, Some(&pipeline))
+        .map_err(|e| format!("naga cannot write SPIR-V for {entry}: {e}"))?;
+    decorate_no_contraction(&mut words)?;
+    Ok(words)
+}
+
+/// The instructions of a module after its header, as (offset, opcode, word count).
+fn instructions(words: &[u32]) -> Result<Vec<(usize, u16, usize)>, String> {
+    if words.len() < HEADER_WORDS || words[0] != MAGIC {
+        return Err("not a SPIR-V module (bad magic number)".into());
+    }
+    let mut out = Vec::new();
+    let mut at = HEADER_WORDS;
+    while at < words.len() {
+        let count = (words[at] >> 16) as usize;
+        let opcode = (words[at] & 0xffff) as u16;
+        if count == 0 || at + count > words.len() {
+            return Err(format!("malformed SPIR-V instruction at word {at}"));
+        }
+        out.push((at, opcode, count));
+        at += count;
+    }
+    Ok(out)
+}
+
+/// Adds `OpDecorate %r NoContraction` for the result `%r` of every floating-point
+/// arithmetic instruction, at the end of the annotation section (where the layout rules
+/// of section 2.4 put decorations). Returns how many results were decorated.
+pub fn decorate_no_contraction(words: &mut Vec<u32>) -> Result<usize, String> {
+    let insts = instructions(words)?;
+    let already: std::collections::HashSet<u32> = insts
+        .iter()
+        .filter(|&&(at, opcode, count)| {
+            opcode == op::DECORATE && count == 3 && words[at + 2] == NO_CONTRACTION
+        })
+        .map(|&(at, _, _)| words[at + 1])
+        .collect();
+    let mut ids: Vec<u32> = insts
+        .iter()
+        .filter(|&&(_, opcode, count)| op::FLOAT_ARITHMETIC.contains(&opcode) && count >= 3)
+        .map(|&(at, _, _)| words[at + 2])
+        .filter(|id| !already.contains(id))
+        .collect();
+    ids.sort_unstable();
+    ids.dedup();
+    let insert_at = insts
+        .iter()
+        .find(|&&(_, opcode, _)| !op::PREAMBLE.contains(&opcode))
+        .map_or(words.len(), |&(at, _, _)| at);
+    let decorations = ids
+        .iter()
+        .flat_map(|&id| [(3u32 << 16) | op::DECORATE as u32, id, NO_CONTRACTION]);
+    words.splice(insert_at..insert_at, decorations);
+    Ok(ids.len())
+}
+
+/// Counts (float arithmetic results, of them decorated `NoContraction`) in a module.
+pub fn contraction_census(words: &[u32]) -> Result<(usize, usize), String> {
+    let insts = instructions(words)?;
+    let decorated: std::collections::HashSet<u32> = insts
+        .iter()
+        .filter(|&&(at, opcode, count)| {
+            opcode == op::DECORATE && count == 3 && words[at + 2] == NO_CONTRACTION
+        })
+        .map(|&(at, _, _)| words[at + 1])
+        .collect();
+    let results: Vec<u32> = insts
+        .iter()
+        .filter(|&&(_, opcode, count)| op::FLOAT_ARITHMETIC.contains(&opcode) && count >= 3)
+        .map(|&(at, _, _)| words[at + 2])
+        .collect();
+    let n = results.iter().filter(|id| decorated.contains(id)).count();
+    Ok((results.len(), n))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::shader;
+
+    fn kernel_words<R: jeffcott_core::real::Real>(lyapunov: bool) -> Vec<u32> {
+        let (module, info) = shader::validate::<R>(lyapunov, shader::capabilities::<R>())
+            .unwrap_or_else(|e| panic!("{e}"));
+        exact_compute_words(&module, &info, shader::ENTRY_POINT, &[0, 1, 2, 3, 4, 5]).unwrap()
+    }
+
+    #[test]
+    fn every_float_operation_of_the_kernel_is_marked_no_contraction() {
+        for (words, what) in [
+            (kernel_words::<f64>(false), "f64"),
+            (kernel_words::<f32>(false), "f32"),
+            (kernel_words::<f64>(true), "f64 lyapunov"),
+        ] {
+            let (ops, marked) = contraction_census(&words).unwrap();
+            // The kernel has hundreds of float operations (RK4, the switch search...).
+            assert!(ops > 200, "{what}: only {ops} float operations found");
+            assert_eq!(marked, ops, "{what}: {marked} of {ops} marked");
+        }
+    }
+
+    #[test]
+    fn decorated_module_is_valid_spirv_that_naga_reads_back() {
+        // naga's SPIR-V front end checks the layout (decorations before types, ids
+        // defined) and reads the decoration; it must find the same entry point.
+        let words = kernel_words::<f64>(false);
+        let module = naga::front::spv::parse_u8_slice(
+            bytemuck::cast_slice(&words),
+            &naga::front::spv::Options::default(),
+        );
+        let module = match module {
+            Ok(m) => m,
+            Err(e) => panic!("naga cannot read the decorated SPIR-V back: {e}"),
+        };
+        assert!(
+            module
+                .entry_points
+                .iter()
+                .any(|e| e.name == shader::ENTRY_POINT)
+        );
+    }
+
+    #[test]
+    fn decorating_twice_adds_nothing_and_a_bad_module_is_refused() {
+        let mut words = kernel_words::<f32>(false);
+        let before = words.clone();
+        assert_eq!(decorate_no_contraction(&mut words).unwrap(), 0);
+        assert_eq!(words, before);
+        let mut bad = vec![0u32; 8];
+        assert!(decorate_no_contraction(&mut bad).is_err());
+        // An instruction that claims more words than the module has left.
+        let mut cut = before;
+        cut.push((5 << 16) | 129);
+        assert!(decorate_no_contraction(&mut cut).is_err());
+    }
+}
