@@ -464,6 +464,52 @@ fn one_dispatch_and_many_slices_and_chunks_are_bit_identical() {
     );
 }
 
+/// Scale (issue 25): a device whose limits admit only a few lanes per dispatch and per
+/// buffer (2 workgroups of 64, 4 KiB bindings: 16 f64 lanes of 4-period slices, 32 f32)
+/// runs a 700-lane ensemble in 44 or 22 chunks one after the other, bit-identical to the
+/// device's own plan. The same planning cuts 10M lanes on an H100 (plan.rs tests).
+fn small_device_limits_plan_many_chunks_with_identical_results<R: GpuReal>(runner: &GpuRunner) {
+    let n = 700;
+    let (consts, init, _) = ensemble::<R>(n);
+    let schedule = Schedule::new(6, 6, 4);
+    let full = runner
+        .run(&consts, &init, &schedule)
+        .expect("full-size run");
+    // A second device on the adapter the shared runner uses (the best one).
+    let gpu = jeffcott_gpu::GpuDevice::new(&jeffcott_gpu::DeviceRequest::default())
+        .expect("a second device");
+    assert_eq!(gpu.adapter().name, runner.gpu().adapter().name);
+    let small = jeffcott_gpu::plan::PlanLimits {
+        max_storage_buffer_binding_size: 4096,
+        max_buffer_size: 4096,
+        max_compute_workgroups_per_dimension: 2,
+    };
+    let tiny = GpuRunner::with_limits(gpu, small);
+    let plan = tiny.plan::<R>(n, &schedule, false).expect("plan");
+    let record_bytes = 4 * 8 * std::mem::size_of::<R>();
+    assert_eq!(plan.lanes_per_chunk, 4096 / record_bytes, "{plan:?}");
+    assert_eq!(plan.chunks, n.div_ceil(4096 / record_bytes), "{plan:?}");
+    let mut reports = 0;
+    let cut = tiny
+        .run_with_progress(&consts, &init, &schedule, &mut |_| {
+            reports += 1;
+            true
+        })
+        .expect("run on small limits");
+    assert!(reports >= plan.chunks * 3, "{reports} slices for {plan:?}");
+    for (i, (a, b)) in full.iter().zip(&cut).enumerate() {
+        assert!(identical(a, b), "{}: lane {i} differs", R::WGSL_NAME);
+    }
+}
+
+#[test]
+fn small_device_limits_cut_a_run_into_many_chunks_without_changing_a_bit() {
+    in_both_precisions(
+        small_device_limits_plan_many_chunks_with_identical_results::<f32>,
+        small_device_limits_plan_many_chunks_with_identical_results::<f64>,
+    );
+}
+
 /// Poisons lanes 3, 4, 5 and 6 of a small ensemble and checks they are flagged as the CPU
 /// flags them while every other lane is identical to the clean run.
 fn poisoned_lanes_are_frozen_and_isolated<R: GpuReal>(runner: &GpuRunner) {

@@ -27,6 +27,7 @@
 
 pub mod device;
 pub mod layout;
+pub mod plan;
 pub mod shader;
 pub mod spirv;
 
@@ -99,10 +100,6 @@ pub struct SliceReport {
 /// makes progress, so only a broken driver gets here.
 const MAX_PASSES_PER_SLICE: u32 = 1_000_000;
 
-/// Largest buffer the runner allocates, whatever the device allows: keeps host staging
-/// memory sane on devices with multi-GiB limits.
-const MAX_CHUNK_BUFFER_BYTES: u64 = 256 << 20;
-
 /// Buffers for one chunk of up to `lanes_cap` lanes and `slots_cap` periods per slice.
 struct Buffers {
     lanes_cap: usize,
@@ -130,6 +127,9 @@ struct Kernel {
 /// later run.
 pub struct GpuRunner {
     gpu: GpuDevice,
+    /// The limits runs are planned for: the device's, or smaller ones
+    /// ([`GpuRunner::with_limits`]).
+    limits: plan::PlanLimits,
     /// [f32 plain, f32 lambda_1, f64 plain, f64 lambda_1].
     kernels: [Mutex<Option<Kernel>>; 4],
 }
@@ -152,9 +152,24 @@ impl GpuRunner {
     /// A runner on `gpu`. Nothing is compiled until the first run of each precision.
     pub fn new(gpu: GpuDevice) -> Self {
         GpuRunner {
+            limits: plan::PlanLimits::of(&gpu.limits()),
             gpu,
             kernels: Default::default(),
         }
+    }
+
+    /// A runner on `gpu` that plans its chunks for `limits` where they are smaller than
+    /// the device's: to run a small share of a large GPU, or to exercise the cutting of
+    /// a huge run on a small device (tests/gpu.rs plans many chunks on lavapipe).
+    pub fn with_limits(gpu: GpuDevice, limits: plan::PlanLimits) -> Self {
+        let mut r = GpuRunner::new(gpu);
+        r.limits = r.limits.min(limits);
+        r
+    }
+
+    /// The limits this runner plans for.
+    pub fn limits(&self) -> plan::PlanLimits {
+        self.limits
     }
 
     /// The device this runner uses.
@@ -200,41 +215,32 @@ impl GpuRunner {
         Ok(pipeline)
     }
 
-    /// Lanes per chunk for this precision and slice length on this device.
-    pub fn chunk_lanes<R: GpuReal>(&self, schedule: &Schedule) -> Result<usize> {
-        self.chunk_lanes_variant::<R>(schedule, false)
-    }
-
-    fn chunk_lanes_variant<R: GpuReal>(
+    /// How a run of `lanes` lanes of this precision is cut on this runner's limits.
+    pub fn plan<R: GpuReal>(
         &self,
+        lanes: usize,
         schedule: &Schedule,
         lyapunov: bool,
-    ) -> Result<usize> {
+    ) -> Result<plan::ChunkPlan> {
         let rec_dim = shader::record_dim(lyapunov);
-        let limits = self.gpu.limits();
-        let max_bytes = limits
-            .max_storage_buffer_binding_size
-            .min(limits.max_buffer_size)
-            .min(MAX_CHUNK_BUFFER_BYTES);
-        let record_bytes = schedule.periods_per_slice as u64 * (rec_dim * size_of::<R>()) as u64;
-        let per_lane = record_bytes
-            .max(size_of::<R::Consts>() as u64)
-            .max(size_of::<R::Lane>() as u64);
-        let by_bytes = (max_bytes / per_lane) as usize;
-        if by_bytes == 0 {
-            return Err(Error::invalid(
-                "periods_per_slice",
-                schedule.periods_per_slice,
-                "one lane's records of a slice exceed the device's buffer limit",
-            ));
-        }
-        let by_dispatch =
-            limits.max_compute_workgroups_per_dimension as usize * shader::WORKGROUP_SIZE as usize;
-        let mut n = by_bytes.min(by_dispatch);
-        if let Some(cap) = schedule.max_lanes_per_chunk {
-            n = n.min(cap.max(1));
-        }
-        Ok(n)
+        let bytes = plan::LaneBytes {
+            consts: size_of::<R::Consts>() as u64,
+            lane: size_of::<R::Lane>() as u64,
+            records_per_slice: schedule.periods_per_slice as u64
+                * (rec_dim * size_of::<R>()) as u64,
+            tangent: if lyapunov {
+                (STATE_DIM * size_of::<R>()) as u64
+            } else {
+                0
+            },
+        };
+        plan::chunk_plan(
+            lanes,
+            bytes,
+            shader::WORKGROUP_SIZE,
+            self.limits,
+            schedule.max_lanes_per_chunk,
+        )
     }
 
     fn buffers<R: GpuReal>(
@@ -605,7 +611,7 @@ impl GpuRunner {
         if n_total == 0 || total == 0 {
             return Ok((out, norms));
         }
-        let chunk = self.chunk_lanes_variant::<R>(schedule, lyapunov)?;
+        let chunk = self.plan::<R>(n_total, schedule, lyapunov)?.lanes_per_chunk;
         let slots = schedule.periods_per_slice.min(total);
 
         let mut guard = self.slot::<R>(lyapunov).lock().map_err(|_| Error::Gpu {
