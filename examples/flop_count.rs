@@ -87,6 +87,7 @@ impl AddAssign for Counted {
 }
 impl Real for Counted {
     const WGSL_NAME: &'static str = "f64";
+    const EPSILON: f64 = f64::EPSILON;
     fn lit(x: f64) -> Self {
         Counted(x)
     }

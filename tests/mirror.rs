@@ -16,9 +16,9 @@
 
 use jeffcott_core::integrate::forcing::phasor_turns;
 use jeffcott_core::integrate::lane::{
-    Lane, LaneConsts, Status, StepperConfig, Tangent, find_switch, forcing_phasor, hermite_gap,
-    macro_step, macro_step_tangent, renormalise, rk4_substep, rk4_tangent_substep, saltation,
-    stage_partials, tangent_rhs, trial_extent, wrong_side,
+    Lane, LaneConsts, Status, StepperConfig, Tangent, find_switch, forcing_phasor,
+    free_flight_certain, hermite_gap, macro_step, macro_step_tangent, renormalise, rk4_substep,
+    rk4_tangent_substep, saltation, stage_partials, tangent_rhs, trial_extent, wrong_side,
 };
 use jeffcott_core::model::{
     Coeffs, Params, STATE_DIM, VX_R, VX_S, VY_R, VY_S, X_R, X_S, Y_R, Y_S, contact_force_per_kc,
@@ -139,7 +139,7 @@ const CONSTS: usize = 19;
 const COEFFS: usize = 11;
 const S: usize = STATE_DIM;
 
-const PROBES: [Probe; 17] = [
+const PROBES: [Probe; 18] = [
     Probe {
         name: "phasor_turns",
         inputs: 1,
@@ -287,6 +287,16 @@ const PROBES: [Probe; 17] = [
         body: "let g = in_real();
     let contact = in_bool();
     out_bool(wrong_side(g, contact));",
+    },
+    Probe {
+        name: "free_flight_certain",
+        inputs: 1 + 2 * S + 1,
+        outputs: 1,
+        body: "let delta = in_real();
+    let x0 = in_state();
+    let x1 = in_state();
+    let hs = in_real();
+    out_bool(free_flight_certain(delta, x0, x1, hs));",
     },
     Probe {
         name: "find_switch",
@@ -1098,6 +1108,44 @@ fn check_find_switch<R: GpuReal>(runner: &GpuRunner) {
 #[test]
 fn find_switch_on_the_gpu_equals_the_rust_function_bit_for_bit() {
     in_both_precisions(check_find_switch::<f32>, check_find_switch::<f64>);
+}
+
+fn check_free_flight_certain<R: GpuReal>(runner: &GpuRunner) {
+    let mut rows = Vec::new();
+    let (mut certain, mut searched) = (0, 0);
+    for (lc, x0, x1, hs, _) in switch_inputs::<R>() {
+        let c = free_flight_certain(lc.c.delta, &x0, &x1, hs);
+        if c {
+            certain += 1;
+            // The certificate's promise, on the inputs around contact.
+            let sw = find_switch(&lc, &x0, &x1, hs, false);
+            assert!(sw.theta.to_f64() > 1.0, "certified step switches");
+        } else {
+            searched += 1;
+        }
+        rows.push(
+            Row::new()
+                .real(lc.c.delta)
+                .state(&x0)
+                .state(&x1)
+                .real(hs)
+                .expect(&[flag(c)]),
+        );
+    }
+    eprintln!(
+        "free_flight_certain ({}): {certain} certain, {searched} not",
+        R::WGSL_NAME
+    );
+    assert!(certain > 50 && searched > 50, "{certain} {searched}");
+    assert_mirrors(runner, "free_flight_certain", &rows);
+}
+
+#[test]
+fn free_flight_certain_on_the_gpu_equals_the_rust_function_bit_for_bit() {
+    in_both_precisions(
+        check_free_flight_certain::<f32>,
+        check_free_flight_certain::<f64>,
+    );
 }
 
 /// hermite_gap rows: at the samples j/8 that find_switch evaluates (`samples`), or at the

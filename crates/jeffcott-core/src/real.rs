@@ -27,6 +27,8 @@ pub trait Real:
 {
     /// Name of the type as WGSL spells it.
     const WGSL_NAME: &'static str;
+    /// Machine epsilon (the distance from 1 to the next larger value), as `f64`.
+    const EPSILON: f64;
     /// Converts an `f64` constant (rounding to nearest for `f32`).
     fn lit(x: f64) -> Self;
     /// Widens to `f64` (exact for both types).
@@ -53,6 +55,7 @@ macro_rules! impl_real {
     ($t:ty, $name:literal) => {
         impl Real for $t {
             const WGSL_NAME: &'static str = $name;
+            const EPSILON: f64 = <$t>::EPSILON as f64;
             #[inline(always)]
             fn lit(x: f64) -> Self {
                 x as $t

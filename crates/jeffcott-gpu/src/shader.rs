@@ -54,6 +54,14 @@ pub fn float_constants<R: Real>() -> Vec<(String, f64)> {
         ("REAL_MAX".to_string(), real_max::<R>()),
         ("TAU".to_string(), std::f64::consts::TAU),
         ("SIXTH".to_string(), 1.0 / 6.0),
+        (
+            "HERMITE_SLOPE_BOUND".to_string(),
+            jeffcott_core::integrate::lane::HERMITE_SLOPE_BOUND,
+        ),
+        (
+            "FREE_FLIGHT_SAFETY".to_string(),
+            jeffcott_core::integrate::lane::free_flight_safety::<R>(),
+        ),
     ];
     for n in 0..9 {
         v.push((format!("SIN_C{n}"), sin[n]));
@@ -398,7 +406,12 @@ mod tests {
                     "integrate/switch.rs",
                     include_str!("../../jeffcott-core/src/integrate/switch.rs"),
                 )),
-                mirrored: &["hermite_gap", "wrong_side", "find_switch"],
+                mirrored: &[
+                    "hermite_gap",
+                    "wrong_side",
+                    "free_flight_certain",
+                    "find_switch",
+                ],
                 kernel_only: &["scan_sample"],
             },
             Mirror {

@@ -21,7 +21,7 @@ use crate::integrate::lane::{
     Lane, LaneConsts, MacroStep, finish_macro_step, macro_step_begin, macro_step_end,
     macro_step_tangent, trial_extent,
 };
-use crate::integrate::switch::{GRAZE_SAMPLES, hermite_gap, wrong_side};
+use crate::integrate::switch::{GRAZE_SAMPLES, free_flight_certain, hermite_gap, wrong_side};
 use crate::integrate::tangent::{Tangent, jacobian_trace, stage_partials};
 use crate::model::{
     Coeffs, STATE_DIM, VX_R, VX_S, VY_R, VY_S, X_R, X_S, Y_R, Y_S, contact_force_per_kc,
@@ -254,6 +254,8 @@ fn tangent_step<R: Real, const M: usize>(
 }
 
 /// `lane::hermite_gap` at `theta` for every lane (x0 -> x1 over each lane's ds h).
+/// All lanes, also those that need no search: the loop vectorises across the batch, and
+/// skipping lanes in it (tried) made the W = 133 bench 5-10 % slower.
 #[inline(always)]
 fn gaps<R: Real>(
     bc: &BatchConsts<R>,
@@ -322,13 +324,34 @@ pub fn batch_macro_step_tangent<R: Real, const M: usize>(
         let extent: [(R, R); BATCH] = lanes(|l| trial_extent(&lc[l], s0[l], contact[l]));
         let ds: V<R> = lanes(|l| extent[l].0);
         let (x1, stages) = rk4_step(bc, &x, k, &s0, &ds, &contact);
+        // Lanes whose macro step is untouched and whose trial step certainly stays
+        // clear of the stator need no search (`lane::finish_macro_step`, the same test);
+        // when every live lane is such, the samples are not computed at all.
+        let certain: [bool; BATCH] = lanes(|l| {
+            active[l]
+                && !part[l].touched
+                && free_flight_certain(
+                    bc.c.delta[l],
+                    &lane_of(&x, l),
+                    &lane_of(&x1, l),
+                    ds[l] * bc.h[l],
+                )
+        });
+        let search = (0..BATCH).any(|l| active[l] && !certain[l]);
         // The switch search of `lane::find_switch`, kept only as far as deciding that
         // there is no switch: any sample on the wrong side, or an extremum heading
         // there, sends the lane to the scalar path.
-        let (g0, mut rate_lo) = gaps(bc, &x, &x1, &ds, zero);
+        let (g0, mut rate_lo) = if search {
+            gaps(bc, &x, &x1, &ds, zero)
+        } else {
+            ([zero; BATCH], [zero; BATCH])
+        };
         let mut max_g = g0;
         let mut switch = [false; BATCH];
         for j in 1..=GRAZE_SAMPLES {
+            if !search {
+                break;
+            }
             let th = R::lit(j as f64 / GRAZE_SAMPLES as f64);
             let (g_th, rate_th) = gaps(bc, &x, &x1, &ds, th);
             for l in 0..BATCH {
@@ -337,7 +360,7 @@ pub fn batch_macro_step_tangent<R: Real, const M: usize>(
                 } else {
                     rate_lo[l] > zero && rate_th[l] < zero
                 };
-                switch[l] |= wrong_side(g_th[l], contact[l]) || toward;
+                switch[l] |= !certain[l] && (wrong_side(g_th[l], contact[l]) || toward);
                 max_g[l] = max_g[l].max(g_th[l]);
             }
             rate_lo = rate_th;
@@ -358,7 +381,9 @@ pub fn batch_macro_step_tangent<R: Real, const M: usize>(
             }
             let p = &mut part[l];
             p.substeps += 1;
-            p.max_g = p.max_g.max(max_g[l]);
+            if !certain[l] {
+                p.max_g = p.max_g.max(max_g[l]);
+            }
             p.x = std::array::from_fn(|i| x1[i][l]);
             p.s = extent[l].1;
             active[l] = p.s < one;

@@ -74,7 +74,8 @@ use crate::real::Real;
 use serde::Serialize;
 
 pub use super::switch::{
-    GRAZE_SAMPLES, ROOT_MAX_ITERS, Switch, find_switch, hermite_gap, wrong_side,
+    GRAZE_SAMPLES, HERMITE_SLOPE_BOUND, ROOT_MAX_ITERS, Switch, find_switch, free_flight_certain,
+    free_flight_safety, hermite_gap, wrong_side,
 };
 pub use super::tangent::{
     LAMBDA1_START, Tangent, renormalise, rk4_tangent_substep, saltation, stage_partials,
@@ -465,7 +466,17 @@ pub(crate) fn finish_macro_step<R: Real, const M: usize>(
         let (ds, end) = trial_extent(lc, p.s, p.contact);
         let x1 = rk4_substep(lc, &p.x, k, p.s, ds, p.contact);
         p.substeps += 1;
-        let sw = find_switch(lc, &p.x, &x1, ds * lc.h, p.contact);
+        // A macro step untouched so far is in free flight from its start (s = 0, ds = 1):
+        // where the trial step certainly stays clear of the stator the search would find
+        // nothing, and its max_g is never used (the step ends untouched).
+        let sw = if !p.touched && free_flight_certain(lc.c.delta, &p.x, &x1, ds * lc.h) {
+            Switch {
+                theta: R::lit(2.0),
+                max_g: p.max_g,
+            }
+        } else {
+            find_switch(lc, &p.x, &x1, ds * lc.h, p.contact)
+        };
         p.max_g = p.max_g.max(sw.max_g);
         if sw.theta > one {
             if M > 0 {

@@ -148,7 +148,12 @@ fn macro_step(
     var done = false;
     var next_part = part;
     if part == MS_TRIAL {
-        let sw = find_switch(lc, x, x1, ds * lc.h, contact);
+        // lane.rs: no search in an untouched macro step whose trial step certainly stays
+        // clear of the stator (its max_g is never used).
+        var sw = Switch(Real(2.0), (*ms).max_g);
+        if (*ms).touched || !free_flight_certain(lc.c.delta, x, x1, ds * lc.h) {
+            sw = find_switch(lc, x, x1, ds * lc.h, contact);
+        }
         (*ms).max_g = rmax((*ms).max_g, sw.max_g);
         if sw.theta > one {
             // No switch: the macro step is done, or a contact sub-step of 1/R is (and

@@ -24,7 +24,7 @@
 // generated header that defines
 //   alias Real = f32 | f64;                 the precision (DESIGN.md 1)
 //   WORKGROUP_SIZE, STATE_DIM, X_R .. VY_S, GRAZE_SAMPLES, ROOT_MAX_ITERS, STATUS_*
-//   REAL_MAX, TAU, SIXTH, SIN_C0 .. SIN_C8, COS_C0 .. COS_C8
+//   REAL_MAX, TAU, SIXTH, HERMITE_SLOPE_BOUND, FREE_FLIGHT_SAFETY, SIN_C0 .. SIN_C8, COS_C0 .. COS_C8
 //   LYAPUNOV (bool), RECORD_DIM                the pipeline variant (below)
 // from the Rust constants. Every non-dyadic floating constant lives in that header as
 // an abstract-float literal holding the exact f64 value Rust uses; naga converts it to

@@ -14,6 +14,17 @@ pub const GRAZE_SAMPLES: u32 = 8;
 /// Iteration cap of the crossing search.
 pub const ROOT_MAX_ITERS: u32 = 60;
 
+/// Largest |h10| and |h11| of the cubic Hermite basis on [0, 1] per unit of `hs`:
+/// theta (1 - theta)^2 and theta^2 (1 - theta) peak at 4/27 (theta = 1/3, 2/3).
+pub const HERMITE_SLOPE_BOUND: f64 = 4.0 / 27.0;
+
+/// Relative safety factor of [`free_flight_certain`] over its bound, 64 ulp: covers the
+/// roundings of the bound and of every g the search computes (fewer than 25 of them
+/// compound in either, see its docs), with room for drivers whose sqrt is a few ulp off.
+pub fn free_flight_safety<R: Real>() -> f64 {
+    1.0 + 64.0 * R::EPSILON
+}
+
 /// Penetration g and its rate dg/dtheta at fraction `theta` of a sub-step of duration
 /// `hs`, on the cubic Hermite interpolant of the relative displacement between the
 /// sub-step's end states (exact at theta = 0 and 1).
@@ -65,6 +76,49 @@ pub fn wrong_side<R: Real>(g: R, contact: bool) -> bool {
     } else {
         g > R::lit(0.0)
     }
+}
+
+/// True when the free-flight trial sub-step x0 -> x1 (duration hs) certainly stays
+/// clear of the stator, so that [`find_switch`] in free flight would find no switch
+/// (issue 28: no switch search where no switch can happen).
+///
+/// The search evaluates g only on the cubic Hermite interpolant d(theta) = h00 p0 +
+/// h10 v0 + h01 p1 + h11 v1 of the relative displacement (see [`hermite_gap`]), at
+/// fractions theta in [0, 1]. There h00, h01 >= 0 with h00 + h01 = 1, and |h10|,
+/// |h11| <= (4/27) |hs|, so by the triangle inequality (on the vectors p0, v0, ...)
+///
+///   |d(theta)| <= max(|p0|, |p1|) + (4/27) |hs| (|v0| + |v1|) =: reach.
+///
+/// In floating point each computed basis value and each computed g carries fewer than
+/// 25 roundings of relative size eps (the basis 4, the two sums of four products 7,
+/// the norm 3, and the bound's own norms, sums and products 8), so computed |d| <=
+/// reach_computed (1 + 25 eps) < reach_computed * (1 + 64 eps). When that is below
+/// delta, every g the search computes (samples, extremum estimates, Illinois iterates,
+/// all at theta in [0, 1]) is r - delta with r < delta, so g <= 0, which is never the
+/// wrong side in free flight: the search returns "no switch". A NaN anywhere makes the
+/// comparison false and the search runs. Tested against the full search on thousands
+/// of steps around grazing (here and in tests/mirror.rs).
+///
+/// The caller uses it only in a macro step not touched by contact so far, where the
+/// search's `max_g` is never used (lane.rs, `finish_macro_step`), so a skipped search
+/// changes no output bit.
+#[inline(always)]
+pub fn free_flight_certain<R: Real>(
+    delta: R,
+    x0: &[R; STATE_DIM],
+    x1: &[R; STATE_DIM],
+    hs: R,
+) -> bool {
+    let (px0, py0) = (x0[X_R] - x0[X_S], x0[Y_R] - x0[Y_S]);
+    let (vx0, vy0) = (x0[VX_R] - x0[VX_S], x0[VY_R] - x0[VY_S]);
+    let (px1, py1) = (x1[X_R] - x1[X_S], x1[Y_R] - x1[Y_S]);
+    let (vx1, vy1) = (x1[VX_R] - x1[VX_S], x1[VY_R] - x1[VY_S]);
+    let a0 = (px0 * px0 + py0 * py0).sqrt();
+    let a1 = (px1 * px1 + py1 * py1).sqrt();
+    let w0 = (vx0 * vx0 + vy0 * vy0).sqrt();
+    let w1 = (vx1 * vx1 + vy1 * vy1).sqrt();
+    let reach = a0.max(a1) + R::lit(HERMITE_SLOPE_BOUND) * hs.abs() * (w0 + w1);
+    reach * R::lit(free_flight_safety::<R>()) < delta
 }
 
 /// Result of the switch search over one trial sub-step.

@@ -60,6 +60,31 @@ fn wrong_side(g: Real, contact: bool) -> bool {
     return g > Real(0.0);
 }
 
+// True when the free-flight trial sub-step x0 -> x1 (duration hs) certainly stays
+// clear of the stator: the Hermite interpolant's reach bound, with a 64-ulp margin,
+// below delta (switch.rs has the proof). Then find_switch would find no switch.
+fn free_flight_certain(
+    delta: Real,
+    x0: array<Real, STATE_DIM>,
+    x1: array<Real, STATE_DIM>,
+    hs: Real,
+) -> bool {
+    let px0 = x0[X_R] - x0[X_S];
+    let py0 = x0[Y_R] - x0[Y_S];
+    let vx0 = x0[VX_R] - x0[VX_S];
+    let vy0 = x0[VY_R] - x0[VY_S];
+    let px1 = x1[X_R] - x1[X_S];
+    let py1 = x1[Y_R] - x1[Y_S];
+    let vx1 = x1[VX_R] - x1[VX_S];
+    let vy1 = x1[VY_R] - x1[VY_S];
+    let a0 = sqrt(px0 * px0 + py0 * py0);
+    let a1 = sqrt(px1 * px1 + py1 * py1);
+    let w0 = sqrt(vx0 * vx0 + vy0 * vy0);
+    let w1 = sqrt(vx1 * vx1 + vy1 * vy1);
+    let reach = rmax(a0, a1) + HERMITE_SLOPE_BOUND * abs(hs) * (w0 + w1);
+    return reach * FREE_FLIGHT_SAFETY < delta;
+}
+
 // Result of the switch search over one trial sub-step.
 struct Switch {
     // Fraction of the sub-step at which the mode must flip, or a value > 1 for none.
