@@ -71,7 +71,7 @@ fn certificate_never_hides_a_switch<R: Real>() {
     let delta = lc.c.delta;
     let (mut certain, mut uncertain, mut near) = (0, 0, 0);
     for (x0, x1, hs) in synthetic::<R>(40_000) {
-        if !free_flight_certain(delta, &x0, &x1, hs) {
+        if !free_flight_certain(&lc, &x0, &x1, hs) {
             uncertain += 1;
             continue;
         }
@@ -128,7 +128,7 @@ fn certified_share_on_runs(p: &Params, omega: f64, x0s: &[[f64; STATE_DIM]], per
             if !lane.contact && !lane.status.is_frozen() {
                 free += 1;
                 let x1 = rk4_substep(&lc, &lane.x, lane.k, 0.0, 1.0, false);
-                if free_flight_certain(lc.c.delta, &lane.x, &x1, lc.h) {
+                if free_flight_certain(&lc, &lane.x, &x1, lc.h) {
                     certified += 1;
                     let sw = find_switch(&lc, &lane.x, &x1, lc.h, false);
                     assert!(sw.theta > 1.0, "W = {omega}: certified step switches");

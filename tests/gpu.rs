@@ -13,7 +13,7 @@ use jeffcott_gpu::{GpuReal, GpuRunner, LaneOutcome, Schedule};
 use rayon::prelude::*;
 
 mod common;
-use common::gpu::{in_both_precisions, runner_for};
+use common::gpu::runner_for;
 use common::unit;
 
 /// Macro steps per period in these tests: small enough for lavapipe on two cores,
@@ -458,10 +458,7 @@ fn slicing_does_not_change_results<R: GpuReal>(runner: &GpuRunner) {
 
 #[test]
 fn one_dispatch_and_many_slices_and_chunks_are_bit_identical() {
-    in_both_precisions(
-        slicing_does_not_change_results::<f32>,
-        slicing_does_not_change_results::<f64>,
-    );
+    both_precisions!(slicing_does_not_change_results);
 }
 
 /// Scale (issue 25): a device whose limits admit only a few lanes per dispatch and per
@@ -504,10 +501,7 @@ fn small_device_limits_plan_many_chunks_with_identical_results<R: GpuReal>(runne
 
 #[test]
 fn small_device_limits_cut_a_run_into_many_chunks_without_changing_a_bit() {
-    in_both_precisions(
-        small_device_limits_plan_many_chunks_with_identical_results::<f32>,
-        small_device_limits_plan_many_chunks_with_identical_results::<f64>,
-    );
+    both_precisions!(small_device_limits_plan_many_chunks_with_identical_results);
 }
 
 /// Poisons lanes 3, 4, 5 and 6 of a small ensemble and checks they are flagged as the CPU
@@ -572,10 +566,7 @@ fn poisoned_lanes_are_frozen_and_isolated<R: GpuReal>(runner: &GpuRunner) {
 
 #[test]
 fn poisoned_lanes_are_flagged_and_do_not_touch_their_neighbours() {
-    in_both_precisions(
-        poisoned_lanes_are_frozen_and_isolated::<f32>,
-        poisoned_lanes_are_frozen_and_isolated::<f64>,
-    );
+    both_precisions!(poisoned_lanes_are_frozen_and_isolated);
 }
 
 /// f32 on the GPU against the f64 CPU reference in periodic regimes, through the public

@@ -22,14 +22,13 @@ use jeffcott_core::integrate::lane::{
 };
 use jeffcott_core::model::{
     Coeffs, Params, STATE_DIM, VX_R, VX_S, VY_R, VY_S, X_R, X_S, Y_R, Y_S, contact_force_per_kc,
-    contact_partials, penetration, rhs_frozen,
+    contact_partials, penetration, relative_motion, rhs_frozen,
 };
 use jeffcott_core::real::Real;
 use jeffcott_gpu::{GpuReal, GpuRunner};
 use std::fmt::Write;
 
 mod common;
-use common::gpu::in_both_precisions;
 use common::unit;
 
 /// Buffers and readers shared by the probe entry points. Each invocation handles one
@@ -139,7 +138,7 @@ const CONSTS: usize = 19;
 const COEFFS: usize = 11;
 const S: usize = STATE_DIM;
 
-const PROBES: [Probe; 18] = [
+const PROBES: [Probe; 19] = [
     Probe {
         name: "phasor_turns",
         inputs: 1,
@@ -147,6 +146,16 @@ const PROBES: [Probe; 18] = [
         body: "let p = phasor_turns(in_real());
     out_real(p.x);
     out_real(p.y);",
+    },
+    Probe {
+        name: "relative_motion",
+        inputs: S,
+        outputs: 4,
+        body: "let m = relative_motion(in_state());
+    out_real(m.x);
+    out_real(m.y);
+    out_real(m.z);
+    out_real(m.w);",
     },
     Probe {
         name: "penetration",
@@ -290,13 +299,13 @@ const PROBES: [Probe; 18] = [
     },
     Probe {
         name: "free_flight_certain",
-        inputs: 1 + 2 * S + 1,
+        inputs: CONSTS + 2 * S + 1,
         outputs: 1,
-        body: "let delta = in_real();
+        body: "let lc = in_consts();
     let x0 = in_state();
     let x1 = in_state();
     let hs = in_real();
-    out_bool(free_flight_certain(delta, x0, x1, hs));",
+    out_bool(free_flight_certain(lc, x0, x1, hs));",
     },
     Probe {
         name: "find_switch",
@@ -832,7 +841,7 @@ fn check_rhs_frozen<R: GpuReal>(runner: &GpuRunner) {
 /// Where Mesa's add-chain reassociation bit before `keep` (the stator's y row).
 #[test]
 fn rhs_frozen_on_the_gpu_equals_the_rust_function_bit_for_bit() {
-    in_both_precisions(check_rhs_frozen::<f32>, check_rhs_frozen::<f64>);
+    both_precisions!(check_rhs_frozen);
 }
 
 fn check_phasor_turns<R: GpuReal>(runner: &GpuRunner) {
@@ -854,7 +863,7 @@ fn check_phasor_turns<R: GpuReal>(runner: &GpuRunner) {
 
 #[test]
 fn phasor_turns_on_the_gpu_equals_the_rust_function_bit_for_bit() {
-    in_both_precisions(check_phasor_turns::<f32>, check_phasor_turns::<f64>);
+    both_precisions!(check_phasor_turns);
 }
 
 fn check_forcing_phasor<R: GpuReal>(runner: &GpuRunner) {
@@ -884,10 +893,11 @@ fn check_forcing_phasor<R: GpuReal>(runner: &GpuRunner) {
 
 #[test]
 fn forcing_phasor_on_the_gpu_equals_the_rust_function_bit_for_bit() {
-    in_both_precisions(check_forcing_phasor::<f32>, check_forcing_phasor::<f64>);
+    both_precisions!(check_forcing_phasor);
 }
 
 fn check_penetration_and_contact_force<R: GpuReal>(runner: &GpuRunner) {
+    let mut motion = Vec::new();
     let mut pen = Vec::new();
     let mut force = Vec::new();
     let mut partials = Vec::new();
@@ -901,12 +911,8 @@ fn check_penetration_and_contact_force<R: GpuReal>(runner: &GpuRunner) {
                     .state(&x)
                     .expect(&[penetration(cc.delta, &x)]),
             );
-            let d = [
-                x[X_R] - x[X_S],
-                x[Y_R] - x[Y_S],
-                x[VX_R] - x[VX_S],
-                x[VY_R] - x[VY_S],
-            ];
+            let d = relative_motion(&x);
+            motion.push(Row::new().state(&x).expect(&d));
             let (fx, fy) = contact_force_per_kc(cc.delta, cc.mu, cc.tau_c, d[0], d[1], d[2], d[3]);
             force.push(
                 Row::new()
@@ -941,19 +947,17 @@ fn check_penetration_and_contact_force<R: GpuReal>(runner: &GpuRunner) {
             .state(&[z; STATE_DIM])
             .expect(&contact_partials(&c, &[z; STATE_DIM])),
     );
+    assert_mirrors(runner, "relative_motion", &motion);
     assert_mirrors(runner, "penetration", &pen);
     assert_mirrors(runner, "contact_force_per_kc", &force);
     assert_mirrors(runner, "contact_partials", &partials);
 }
 
-/// penetration, contact_force_per_kc and contact_partials (model.wgsl).
+/// relative_motion, penetration, contact_force_per_kc and contact_partials (model.wgsl).
 #[test]
 fn penetration_and_contact_force_and_its_partials_on_the_gpu_equal_the_rust_functions_bit_for_bit()
 {
-    in_both_precisions(
-        check_penetration_and_contact_force::<f32>,
-        check_penetration_and_contact_force::<f64>,
-    );
+    both_precisions!(check_penetration_and_contact_force);
 }
 
 fn check_rk4_substep<R: GpuReal>(runner: &GpuRunner) {
@@ -979,7 +983,7 @@ fn check_rk4_substep<R: GpuReal>(runner: &GpuRunner) {
 
 #[test]
 fn rk4_substep_on_the_gpu_equals_the_rust_function_bit_for_bit() {
-    in_both_precisions(check_rk4_substep::<f32>, check_rk4_substep::<f64>);
+    both_precisions!(check_rk4_substep);
 }
 
 fn check_tangent_functions<R: GpuReal>(runner: &GpuRunner) {
@@ -1028,10 +1032,7 @@ fn check_tangent_functions<R: GpuReal>(runner: &GpuRunner) {
 /// stage_partials, tangent_rhs and rk4_tangent_substep (the variational equations).
 #[test]
 fn tangent_rhs_and_rk4_tangent_substep_on_the_gpu_equal_the_rust_functions_bit_for_bit() {
-    in_both_precisions(
-        check_tangent_functions::<f32>,
-        check_tangent_functions::<f64>,
-    );
+    both_precisions!(check_tangent_functions);
 }
 
 /// find_switch's rows: (lane constants, x0, x1, hs, mode) of trial sub-steps.
@@ -1107,14 +1108,14 @@ fn check_find_switch<R: GpuReal>(runner: &GpuRunner) {
 /// none) and the largest g sampled.
 #[test]
 fn find_switch_on_the_gpu_equals_the_rust_function_bit_for_bit() {
-    in_both_precisions(check_find_switch::<f32>, check_find_switch::<f64>);
+    both_precisions!(check_find_switch);
 }
 
 fn check_free_flight_certain<R: GpuReal>(runner: &GpuRunner) {
     let mut rows = Vec::new();
     let (mut certain, mut searched) = (0, 0);
     for (lc, x0, x1, hs, _) in switch_inputs::<R>() {
-        let c = free_flight_certain(lc.c.delta, &x0, &x1, hs);
+        let c = free_flight_certain(&lc, &x0, &x1, hs);
         if c {
             certain += 1;
             // The certificate's promise, on the inputs around contact.
@@ -1125,7 +1126,7 @@ fn check_free_flight_certain<R: GpuReal>(runner: &GpuRunner) {
         }
         rows.push(
             Row::new()
-                .real(lc.c.delta)
+                .consts(&lc)
                 .state(&x0)
                 .state(&x1)
                 .real(hs)
@@ -1142,10 +1143,7 @@ fn check_free_flight_certain<R: GpuReal>(runner: &GpuRunner) {
 
 #[test]
 fn free_flight_certain_on_the_gpu_equals_the_rust_function_bit_for_bit() {
-    in_both_precisions(
-        check_free_flight_certain::<f32>,
-        check_free_flight_certain::<f64>,
-    );
+    both_precisions!(check_free_flight_certain);
 }
 
 /// hermite_gap rows: at the samples j/8 that find_switch evaluates (`samples`), or at the
@@ -1214,10 +1212,7 @@ fn check_hermite_gap_and_wrong_side<R: GpuReal>(runner: &GpuRunner) {
 /// Illinois iterates) is checked through find_switch.
 #[test]
 fn hermite_gap_samples_and_wrong_side_on_the_gpu_equal_the_rust_functions_bit_for_bit() {
-    in_both_precisions(
-        check_hermite_gap_and_wrong_side::<f32>,
-        check_hermite_gap_and_wrong_side::<f64>,
-    );
+    both_precisions!(check_hermite_gap_and_wrong_side);
 }
 
 fn check_hermite_gap_between_samples<R: GpuReal>(runner: &GpuRunner) {
@@ -1278,10 +1273,7 @@ fn check_hermite_gap_between_samples<R: GpuReal>(runner: &GpuRunner) {
 /// of dx or dy anywhere upstream shows as several ulp. docs/mirror.md lists it.
 #[test]
 fn hermite_gap_between_samples_has_the_rust_g_to_the_bit_and_the_rate_within_256_ulp() {
-    in_both_precisions(
-        check_hermite_gap_between_samples::<f32>,
-        check_hermite_gap_between_samples::<f64>,
-    );
+    both_precisions!(check_hermite_gap_between_samples);
 }
 
 fn check_saltation<R: GpuReal>(runner: &GpuRunner) {
@@ -1337,7 +1329,7 @@ fn check_saltation<R: GpuReal>(runner: &GpuRunner) {
 /// The saltation update of the tangent vector at a switch.
 #[test]
 fn saltation_on_the_gpu_equals_the_rust_function_bit_for_bit() {
-    in_both_precisions(check_saltation::<f32>, check_saltation::<f64>);
+    both_precisions!(check_saltation);
 }
 
 fn check_renormalise_and_trial_extent<R: GpuReal>(runner: &GpuRunner) {
@@ -1382,10 +1374,7 @@ fn check_renormalise_and_trial_extent<R: GpuReal>(runner: &GpuRunner) {
 /// renormalise (the tangent's growth per period) and trial_extent (contact refinement).
 #[test]
 fn renormalise_and_trial_extent_on_the_gpu_equal_the_rust_functions_bit_for_bit() {
-    in_both_precisions(
-        check_renormalise_and_trial_extent::<f32>,
-        check_renormalise_and_trial_extent::<f64>,
-    );
+    both_precisions!(check_renormalise_and_trial_extent);
 }
 
 fn check_macro_step<R: GpuReal>(runner: &GpuRunner) {
@@ -1445,7 +1434,7 @@ fn check_macro_step<R: GpuReal>(runner: &GpuRunner) {
 /// macro_step_tangent; state, mode, k, status, counters and the tangent vector.
 #[test]
 fn macro_step_on_the_gpu_equals_the_rust_function_bit_for_bit() {
-    in_both_precisions(check_macro_step::<f32>, check_macro_step::<f64>);
+    both_precisions!(check_macro_step);
 }
 
 /// Every function of the mirrored parts of the kernel (forcing.wgsl, model.wgsl,

@@ -58,3 +58,11 @@ pub fn in_both_precisions(check32: fn(&GpuRunner), check64: fn(&GpuRunner)) {
         check32(r);
     }
 }
+
+/// `in_both_precisions(check::<f32>, check::<f64>)` for a check generic over the precision.
+#[macro_export]
+macro_rules! both_precisions {
+    ($check:ident) => {
+        common::gpu::in_both_precisions($check::<f32>, $check::<f64>)
+    };
+}

@@ -371,12 +371,23 @@ impl<R: Copy, const B: usize> Coeffs<[R; B]> {
     }
 }
 
+/// The rotor's displacement and velocity relative to the stator, [dx, dy, dvx, dvy]
+/// (MODEL.md 2).
+#[inline(always)]
+pub fn relative_motion<R: Real>(x: &[R; STATE_DIM]) -> [R; 4] {
+    [
+        x[X_R] - x[X_S],
+        x[Y_R] - x[Y_S],
+        x[VX_R] - x[VX_S],
+        x[VY_R] - x[VY_S],
+    ]
+}
+
 /// Penetration g = |d| - delta with d the rotor centre relative to the stator centre
 /// (MODEL.md 2). Contact is `g > 0`.
 #[inline(always)]
 pub fn penetration<R: Real>(delta: R, x: &[R; STATE_DIM]) -> R {
-    let dx = x[X_R] - x[X_S];
-    let dy = x[Y_R] - x[Y_S];
+    let [dx, dy, _, _] = relative_motion(x);
     (dx * dx + dy * dy).sqrt() - delta
 }
 
@@ -421,10 +432,7 @@ pub fn contact_force_per_kc<R: Real>(
 /// Keep in sync with `contact_partials` in `model.wgsl`.
 #[inline(always)]
 pub fn contact_partials<R: Real>(c: &Coeffs<R>, x: &[R; STATE_DIM]) -> [R; 8] {
-    let dx = x[X_R] - x[X_S];
-    let dy = x[Y_R] - x[Y_S];
-    let dvx = x[VX_R] - x[VX_S];
-    let dvy = x[VY_R] - x[VY_S];
+    let [dx, dy, dvx, dvy] = relative_motion(x);
     let r2 = dx * dx + dy * dy;
     let r = r2.sqrt();
     if r <= R::lit(0.0) {
@@ -469,15 +477,8 @@ pub fn rhs_frozen<R: Real>(
 ) -> [R; STATE_DIM] {
     let (mut fx, mut fy) = (R::lit(0.0), R::lit(0.0));
     if contact {
-        (fx, fy) = contact_force_per_kc(
-            c.delta,
-            c.mu,
-            c.tau_c,
-            x[X_R] - x[X_S],
-            x[Y_R] - x[Y_S],
-            x[VX_R] - x[VX_S],
-            x[VY_R] - x[VY_S],
-        );
+        let [dx, dy, dvx, dvy] = relative_motion(x);
+        (fx, fy) = contact_force_per_kc(c.delta, c.mu, c.tau_c, dx, dy, dvx, dvy);
     }
     rhs_with_force(c, x, cos_phase, sin_phase, fx, fy)
 }
@@ -521,15 +522,8 @@ pub fn rhs(p: &Params, omega: f64, t: f64, x: &State) -> State {
 pub fn contact_force(p: &Params, x: &State) -> (f64, f64) {
     if penetration(p.delta, x) > 0.0 {
         let c = Coeffs::<f64>::new(p, 0.0);
-        let (fx, fy) = contact_force_per_kc(
-            c.delta,
-            c.mu,
-            c.tau_c,
-            x[X_R] - x[X_S],
-            x[Y_R] - x[Y_S],
-            x[VX_R] - x[VX_S],
-            x[VY_R] - x[VY_S],
-        );
+        let [dx, dy, dvx, dvy] = relative_motion(x);
+        let (fx, fy) = contact_force_per_kc(c.delta, c.mu, c.tau_c, dx, dy, dvx, dvy);
         (p.k_c * fx, p.k_c * fy)
     } else {
         (0.0, 0.0)

@@ -1,12 +1,17 @@
 // The lane kernel, part 3 of 7 (see integrate/lane_buffers.wgsl for the whole): the
 // contact force and the right-hand side. Keep in sync with model.rs, beside this file:
-// the functions below are penetration, contact_force_per_kc, contact_partials and
-// rhs_frozen of model.rs, in the same order, doing the same arithmetic in the same order.
+// the functions below are relative_motion, penetration, contact_force_per_kc,
+// contact_partials and rhs_frozen of model.rs, in the same order, doing the same
+// arithmetic in the same order.
+
+// (dx, dy, dvx, dvy): the rotor's displacement and velocity relative to the stator.
+fn relative_motion(x: array<Real, STATE_DIM>) -> vec4<Real> {
+    return vec4<Real>(x[X_R] - x[X_S], x[Y_R] - x[Y_S], x[VX_R] - x[VX_S], x[VY_R] - x[VY_S]);
+}
 
 fn penetration(delta: Real, x: array<Real, STATE_DIM>) -> Real {
-    let dx = x[X_R] - x[X_S];
-    let dy = x[Y_R] - x[Y_S];
-    return sqrt(dx * dx + dy * dy) - delta;
+    let m = relative_motion(x);
+    return sqrt(m.x * m.x + m.y * m.y) - delta;
 }
 
 fn contact_force_per_kc(
@@ -38,10 +43,11 @@ struct Partials {
 }
 
 fn contact_partials(c: Coeffs, x: array<Real, STATE_DIM>) -> Partials {
-    let dx = x[X_R] - x[X_S];
-    let dy = x[Y_R] - x[Y_S];
-    let dvx = x[VX_R] - x[VX_S];
-    let dvy = x[VY_R] - x[VY_S];
+    let m = relative_motion(x);
+    let dx = m.x;
+    let dy = m.y;
+    let dvx = m.z;
+    let dvy = m.w;
     let r2 = dx * dx + dy * dy;
     let r = sqrt(r2);
     let z = Real(0.0);
@@ -86,15 +92,8 @@ fn rhs_frozen(
     var fx = Real(0.0);
     var fy = Real(0.0);
     if contact {
-        let kf = contact_force_per_kc(
-            c.delta,
-            c.mu,
-            c.tau_c,
-            x[X_R] - x[X_S],
-            x[Y_R] - x[Y_S],
-            x[VX_R] - x[VX_S],
-            x[VY_R] - x[VY_S],
-        );
+        let m = relative_motion(x);
+        let kf = contact_force_per_kc(c.delta, c.mu, c.tau_c, m.x, m.y, m.z, m.w);
         fx = kf.x;
         fy = kf.y;
     }

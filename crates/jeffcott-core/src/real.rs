@@ -51,6 +51,18 @@ pub trait Real:
     }
 }
 
+/// The inherent methods of `$t` named `$f`, as trait methods of the same name.
+macro_rules! forward {
+    ($t:ty: $($f:ident),*) => {
+        $(
+            #[inline(always)]
+            fn $f(self) -> Self {
+                <$t>::$f(self)
+            }
+        )*
+    };
+}
+
 macro_rules! impl_real {
     ($t:ty, $name:literal) => {
         impl Real for $t {
@@ -64,18 +76,7 @@ macro_rules! impl_real {
             fn to_f64(self) -> f64 {
                 self as f64
             }
-            #[inline(always)]
-            fn sqrt(self) -> Self {
-                <$t>::sqrt(self)
-            }
-            #[inline(always)]
-            fn floor(self) -> Self {
-                <$t>::floor(self)
-            }
-            #[inline(always)]
-            fn abs(self) -> Self {
-                <$t>::abs(self)
-            }
+            forward!($t: sqrt, floor, abs);
             #[inline(always)]
             fn is_finite(self) -> bool {
                 <$t>::is_finite(self)

@@ -142,6 +142,18 @@ impl std::fmt::Debug for GpuRunner {
     }
 }
 
+/// Checks that `field` has as many entries (`got`) as there are `what` (`want`).
+fn same_count(field: &str, want: usize, what: &str, got: usize) -> Result<()> {
+    if got == want {
+        return Ok(());
+    }
+    Err(Error::invalid(
+        field,
+        got,
+        format!("{want} {what} but {got} {field}"),
+    ))
+}
+
 fn gpu_err(what: &str, e: impl std::fmt::Display) -> Error {
     Error::Gpu {
         message: format!("{what}: {e}"),
@@ -416,17 +428,7 @@ impl GpuRunner {
         schedule: &Schedule,
         progress: &mut dyn FnMut(SliceReport) -> bool,
     ) -> Result<LyapunovOutcomes<R>> {
-        if tangents.len() != init.len() {
-            return Err(Error::invalid(
-                "tangents",
-                tangents.len(),
-                format!(
-                    "{} initial lanes but {} tangents",
-                    init.len(),
-                    tangents.len()
-                ),
-            ));
-        }
+        same_count("tangents", init.len(), "initial lanes", tangents.len())?;
         self.run_inner(consts, init, Some(tangents), schedule, progress)
     }
 
@@ -571,17 +573,7 @@ impl GpuRunner {
     ) -> Result<LyapunovOutcomes<R>> {
         let lyapunov = tangents.is_some();
         let rec_dim = shader::record_dim(lyapunov);
-        if consts.len() != init.len() {
-            return Err(Error::invalid(
-                "lanes",
-                init.len(),
-                format!(
-                    "{} lane constants but {} initial lanes",
-                    consts.len(),
-                    init.len()
-                ),
-            ));
-        }
+        same_count("lanes", consts.len(), "lane constants", init.len())?;
         if schedule.periods_per_slice == 0 {
             return Err(Error::invalid("periods_per_slice", 0, "must be >= 1"));
         }

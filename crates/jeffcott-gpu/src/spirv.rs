@@ -158,22 +158,37 @@ fn instructions(words: &[u32]) -> Result<Vec<(usize, u16, usize)>, String> {
     Ok(out)
 }
 
-/// Adds `OpDecorate %r NoContraction` for the result `%r` of every floating-point
-/// arithmetic instruction, at the end of the annotation section (where the layout rules
-/// of section 2.4 put decorations). Returns how many results were decorated.
-pub fn decorate_no_contraction(words: &mut Vec<u32>) -> Result<usize, String> {
-    let insts = instructions(words)?;
-    let already: std::collections::HashSet<u32> = insts
+/// Ids that an `OpDecorate %id NoContraction` names.
+fn no_contraction_targets(
+    words: &[u32],
+    insts: &[(usize, u16, usize)],
+) -> std::collections::HashSet<u32> {
+    insts
         .iter()
         .filter(|&&(at, opcode, count)| {
             opcode == op::DECORATE && count == 3 && words[at + 2] == NO_CONTRACTION
         })
         .map(|&(at, _, _)| words[at + 1])
-        .collect();
-    let mut ids: Vec<u32> = insts
+        .collect()
+}
+
+/// Result ids of the floating-point arithmetic instructions, in module order.
+fn float_results(words: &[u32], insts: &[(usize, u16, usize)]) -> Vec<u32> {
+    insts
         .iter()
         .filter(|&&(_, opcode, count)| op::FLOAT_ARITHMETIC.contains(&opcode) && count >= 3)
         .map(|&(at, _, _)| words[at + 2])
+        .collect()
+}
+
+/// Adds `OpDecorate %r NoContraction` for the result `%r` of every floating-point
+/// arithmetic instruction, at the end of the annotation section (where the layout rules
+/// of section 2.4 put decorations). Returns how many results were decorated.
+pub fn decorate_no_contraction(words: &mut Vec<u32>) -> Result<usize, String> {
+    let insts = instructions(words)?;
+    let already = no_contraction_targets(words, &insts);
+    let mut ids: Vec<u32> = float_results(words, &insts)
+        .into_iter()
         .filter(|id| !already.contains(id))
         .collect();
     ids.sort_unstable();
@@ -192,18 +207,8 @@ pub fn decorate_no_contraction(words: &mut Vec<u32>) -> Result<usize, String> {
 /// Counts (float arithmetic results, of them decorated `NoContraction`) in a module.
 pub fn contraction_census(words: &[u32]) -> Result<(usize, usize), String> {
     let insts = instructions(words)?;
-    let decorated: std::collections::HashSet<u32> = insts
-        .iter()
-        .filter(|&&(at, opcode, count)| {
-            opcode == op::DECORATE && count == 3 && words[at + 2] == NO_CONTRACTION
-        })
-        .map(|&(at, _, _)| words[at + 1])
-        .collect();
-    let results: Vec<u32> = insts
-        .iter()
-        .filter(|&&(_, opcode, count)| op::FLOAT_ARITHMETIC.contains(&opcode) && count >= 3)
-        .map(|&(at, _, _)| words[at + 2])
-        .collect();
+    let decorated = no_contraction_targets(words, &insts);
+    let results = float_results(words, &insts);
     let n = results.iter().filter(|id| decorated.contains(id)).count();
     Ok((results.len(), n))
 }

@@ -330,12 +330,7 @@ pub fn batch_macro_step_tangent<R: Real, const M: usize>(
         let certain: [bool; BATCH] = lanes(|l| {
             active[l]
                 && !part[l].touched
-                && free_flight_certain(
-                    bc.c.delta[l],
-                    &lane_of(&x, l),
-                    &lane_of(&x1, l),
-                    ds[l] * bc.h[l],
-                )
+                && free_flight_certain(&lc[l], &lane_of(&x, l), &lane_of(&x1, l), ds[l] * bc.h[l])
         });
         let search = (0..BATCH).any(|l| active[l] && !certain[l]);
         // The switch search of `lane::find_switch`, kept only as far as deciding that

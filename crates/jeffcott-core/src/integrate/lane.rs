@@ -469,7 +469,7 @@ pub(crate) fn finish_macro_step<R: Real, const M: usize>(
         // A macro step untouched so far is in free flight from its start (s = 0, ds = 1):
         // where the trial step certainly stays clear of the stator the search would find
         // nothing, and its max_g is never used (the step ends untouched).
-        let sw = if !p.touched && free_flight_certain(lc.c.delta, &p.x, &x1, ds * lc.h) {
+        let sw = if !p.touched && free_flight_certain(lc, &p.x, &x1, ds * lc.h) {
             Switch {
                 theta: R::lit(2.0),
                 max_g: p.max_g,

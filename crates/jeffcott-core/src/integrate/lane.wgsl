@@ -151,7 +151,7 @@ fn macro_step(
         // lane.rs: no search in an untouched macro step whose trial step certainly stays
         // clear of the stator (its max_g is never used).
         var sw = Switch(Real(2.0), (*ms).max_g);
-        if (*ms).touched || !free_flight_certain(lc.c.delta, x, x1, ds * lc.h) {
+        if (*ms).touched || !free_flight_certain(lc, x, x1, ds * lc.h) {
             sw = find_switch(lc, x, x1, ds * lc.h, contact);
         }
         (*ms).max_g = rmax((*ms).max_g, sw.max_g);

@@ -6,7 +6,7 @@
 //! mirrors this file function by function: keep in sync with it.
 
 use super::lane::LaneConsts;
-use crate::model::{STATE_DIM, VX_R, VX_S, VY_R, VY_S, X_R, X_S, Y_R, Y_S};
+use crate::model::{STATE_DIM, relative_motion};
 use crate::real::Real;
 
 /// Number of interior samples of g per trial step (the grazing check).
@@ -50,10 +50,8 @@ pub fn hermite_gap<R: Real>(
     let d10 = (three * theta * theta - R::lit(4.0) * theta + one) * hs;
     let d01 = -d00;
     let d11 = (three * theta * theta - two * theta) * hs;
-    let (px0, py0) = (x0[X_R] - x0[X_S], x0[Y_R] - x0[Y_S]);
-    let (vx0, vy0) = (x0[VX_R] - x0[VX_S], x0[VY_R] - x0[VY_S]);
-    let (px1, py1) = (x1[X_R] - x1[X_S], x1[Y_R] - x1[Y_S]);
-    let (vx1, vy1) = (x1[VX_R] - x1[VX_S], x1[VY_R] - x1[VY_S]);
+    let [px0, py0, vx0, vy0] = relative_motion(x0);
+    let [px1, py1, vx1, vy1] = relative_motion(x1);
     let dx = h00 * px0 + h10 * vx0 + h01 * px1 + h11 * vx1;
     let dy = h00 * py0 + h10 * vy0 + h01 * py1 + h11 * vy1;
     let ddx = d00 * px0 + d10 * vx0 + d01 * px1 + d11 * vx1;
@@ -104,21 +102,19 @@ pub fn wrong_side<R: Real>(g: R, contact: bool) -> bool {
 /// changes no output bit.
 #[inline(always)]
 pub fn free_flight_certain<R: Real>(
-    delta: R,
+    lc: &LaneConsts<R>,
     x0: &[R; STATE_DIM],
     x1: &[R; STATE_DIM],
     hs: R,
 ) -> bool {
-    let (px0, py0) = (x0[X_R] - x0[X_S], x0[Y_R] - x0[Y_S]);
-    let (vx0, vy0) = (x0[VX_R] - x0[VX_S], x0[VY_R] - x0[VY_S]);
-    let (px1, py1) = (x1[X_R] - x1[X_S], x1[Y_R] - x1[Y_S]);
-    let (vx1, vy1) = (x1[VX_R] - x1[VX_S], x1[VY_R] - x1[VY_S]);
+    let [px0, py0, vx0, vy0] = relative_motion(x0);
+    let [px1, py1, vx1, vy1] = relative_motion(x1);
     let a0 = (px0 * px0 + py0 * py0).sqrt();
     let a1 = (px1 * px1 + py1 * py1).sqrt();
     let w0 = (vx0 * vx0 + vy0 * vy0).sqrt();
     let w1 = (vx1 * vx1 + vy1 * vy1).sqrt();
     let reach = a0.max(a1) + R::lit(HERMITE_SLOPE_BOUND) * hs.abs() * (w0 + w1);
-    reach * R::lit(free_flight_safety::<R>()) < delta
+    reach * R::lit(free_flight_safety::<R>()) < lc.c.delta
 }
 
 /// Result of the switch search over one trial sub-step.

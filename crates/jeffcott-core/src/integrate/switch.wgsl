@@ -31,18 +31,12 @@ fn hermite_gap(
     let d10 = (keep(three * theta * theta - Real(4.0) * theta) + one) * hs;
     let d01 = -d00;
     let d11 = (three * theta * theta - two * theta) * hs;
-    let px0 = x0[X_R] - x0[X_S];
-    let py0 = x0[Y_R] - x0[Y_S];
-    let vx0 = x0[VX_R] - x0[VX_S];
-    let vy0 = x0[VY_R] - x0[VY_S];
-    let px1 = x1[X_R] - x1[X_S];
-    let py1 = x1[Y_R] - x1[Y_S];
-    let vx1 = x1[VX_R] - x1[VX_S];
-    let vy1 = x1[VY_R] - x1[VY_S];
-    let dx = h00 * px0 + h10 * vx0 + h01 * px1 + h11 * vx1;
-    let dy = h00 * py0 + h10 * vy0 + h01 * py1 + h11 * vy1;
-    let ddx = d00 * px0 + d10 * vx0 + d01 * px1 + d11 * vx1;
-    let ddy = d00 * py0 + d10 * vy0 + d01 * py1 + d11 * vy1;
+    let m0 = relative_motion(x0);
+    let m1 = relative_motion(x1);
+    let dx = h00 * m0.x + h10 * m0.z + h01 * m1.x + h11 * m1.z;
+    let dy = h00 * m0.y + h10 * m0.w + h01 * m1.y + h11 * m1.w;
+    let ddx = d00 * m0.x + d10 * m0.z + d01 * m1.x + d11 * m1.z;
+    let ddy = d00 * m0.y + d10 * m0.w + d01 * m1.y + d11 * m1.w;
     let r = sqrt(dx * dx + dy * dy);
     // r > 0 whenever g is near 0 (r ~ delta); the rate is only used there.
     var rate = Real(0.0);
@@ -64,25 +58,19 @@ fn wrong_side(g: Real, contact: bool) -> bool {
 // clear of the stator: the Hermite interpolant's reach bound, with a 64-ulp margin,
 // below delta (switch.rs has the proof). Then find_switch would find no switch.
 fn free_flight_certain(
-    delta: Real,
+    lc: LaneConsts,
     x0: array<Real, STATE_DIM>,
     x1: array<Real, STATE_DIM>,
     hs: Real,
 ) -> bool {
-    let px0 = x0[X_R] - x0[X_S];
-    let py0 = x0[Y_R] - x0[Y_S];
-    let vx0 = x0[VX_R] - x0[VX_S];
-    let vy0 = x0[VY_R] - x0[VY_S];
-    let px1 = x1[X_R] - x1[X_S];
-    let py1 = x1[Y_R] - x1[Y_S];
-    let vx1 = x1[VX_R] - x1[VX_S];
-    let vy1 = x1[VY_R] - x1[VY_S];
-    let a0 = sqrt(px0 * px0 + py0 * py0);
-    let a1 = sqrt(px1 * px1 + py1 * py1);
-    let w0 = sqrt(vx0 * vx0 + vy0 * vy0);
-    let w1 = sqrt(vx1 * vx1 + vy1 * vy1);
+    let m0 = relative_motion(x0);
+    let m1 = relative_motion(x1);
+    let a0 = sqrt(m0.x * m0.x + m0.y * m0.y);
+    let a1 = sqrt(m1.x * m1.x + m1.y * m1.y);
+    let w0 = sqrt(m0.z * m0.z + m0.w * m0.w);
+    let w1 = sqrt(m1.z * m1.z + m1.w * m1.w);
     let reach = rmax(a0, a1) + HERMITE_SLOPE_BOUND * abs(hs) * (w0 + w1);
-    return reach * FREE_FLIGHT_SAFETY < delta;
+    return reach * FREE_FLIGHT_SAFETY < lc.c.delta;
 }
 
 // Result of the switch search over one trial sub-step.
