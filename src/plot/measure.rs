@@ -80,6 +80,20 @@ fn log_log_chart<'a, 'b>(
     Ok(chart)
 }
 
+/// The x and y extents of the points with both coordinates positive (those a log-log
+/// chart can show), each starting from its `start` range.
+fn positive_extents<'a>(
+    points: impl Iterator<Item = &'a (f64, f64)>,
+    x_start: (f64, f64),
+    y_start: (f64, f64),
+) -> ((f64, f64), (f64, f64)) {
+    let pts: Vec<(f64, f64)> = points.copied().filter(|p| p.0 > 0.0 && p.1 > 0.0).collect();
+    (
+        extent(pts.iter().map(|p| p.0), x_start),
+        extent(pts.iter().map(|p| p.1), y_start),
+    )
+}
+
 /// The uncertain fraction f(eps) against eps (a fraction of the box side), log-log: the
 /// grid estimate and the re-integration estimate as points, each with its fitted slope
 /// drawn through the mean of its fitted points (where a least-squares line passes).
@@ -91,14 +105,7 @@ pub fn uncertainty(
     reint: &[(f64, f64)],
     reint_alpha: Option<f64>,
 ) -> Result<()> {
-    let all: Vec<(f64, f64)> = grid
-        .iter()
-        .chain(reint)
-        .copied()
-        .filter(|p| p.0 > 0.0 && p.1 > 0.0)
-        .collect();
-    let (x0, x1) = extent(all.iter().map(|p| p.0), (1e-7, 1.0));
-    let (y0, y1) = extent(all.iter().map(|p| p.1), (1e-4, 1.0));
+    let ((x0, x1), (y0, y1)) = positive_extents(grid.iter().chain(reint), (1e-7, 1.0), (1e-4, 1.0));
     figure(path, (1100, 800), |root| {
         let mut chart = log_log_chart(
             root,
@@ -159,13 +166,11 @@ pub fn work_precision(
     series: &[WorkPrecisionSeries],
     target: f64,
 ) -> Result<()> {
-    let pts: Vec<(f64, f64)> = series
-        .iter()
-        .flat_map(|s| s.3.iter().copied())
-        .filter(|p| p.0 > 0.0 && p.1 > 0.0)
-        .collect();
-    let (x0, x1) = extent(pts.iter().map(|p| p.0), (f64::INFINITY, 0.0));
-    let (y0, y1) = extent(pts.iter().map(|p| p.1), (target, target));
+    let ((x0, x1), (y0, y1)) = positive_extents(
+        series.iter().flat_map(|s| s.3.iter()),
+        (f64::INFINITY, 0.0),
+        (target, target),
+    );
     figure(path, (1200, 850), |root| {
         let mut chart = log_log_chart(
             root,
