@@ -261,3 +261,55 @@ fn simd_batches_with_lambda1_equal_the_scalar_tangent_stepper_to_the_bit() {
     }
     assert!(l1.iter().filter(|v| v.is_finite()).count() >= 18);
 }
+
+/// Groups of batches (`batch::group_macro_step_tangent`): lanes still in their macro
+/// step after a first pass are packed across the group's batches into full batches, so
+/// a lane shares SIMD passes with lanes of other batches. 263 lanes (32 batches and 7
+/// single lanes) in one thread make groups of 8 batches, in 3 threads of 2: both equal
+/// the scalar lane stepper to the bit, with and without contact refinement, and the
+/// lambda_1 lanes agree between the two groupings to the bit.
+#[test]
+fn grouped_batches_packing_lanes_across_batches_equal_the_scalar_stepper_to_the_bit() {
+    let pool = |threads| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+    };
+    for (precision, refine) in [
+        (Precision::F64, None),
+        (Precision::F32, None),
+        (Precision::F64, Some(8)),
+    ] {
+        let mut s = spec(precision, 263);
+        if let Some(r) = refine {
+            s.stepper.contact_substeps = r;
+        }
+        s.lanes[70].x0[X_R] = f64::NAN;
+        let reference = match precision {
+            Precision::F64 => scalar_reference::<f64>(&s),
+            Precision::F32 => scalar_reference::<f32>(&s),
+        };
+        for threads in [1, 3] {
+            let r = pool(threads).install(|| cpu::run(&s, false, Control::none()).unwrap());
+            for (i, (bits, status, counters)) in reference.iter().enumerate() {
+                let got: Vec<u64> = r.lane_points(i).iter().map(|v| v.to_bits()).collect();
+                let what = format!("{precision:?} R {refine:?} {threads} threads lane {i}");
+                assert_eq!(&got, bits, "{what} points");
+                assert_eq!(r.status[i], *status, "{what} status");
+                assert_eq!(r.counters[i], *counters, "{what} counters");
+            }
+            let contact: u64 = r.counters.iter().map(|c| c.contact_steps).sum();
+            assert!(contact > 10_000, "the lanes must rub: {contact}");
+        }
+    }
+    let s = spec(Precision::F64, 263);
+    let a = pool(1).install(|| cpu::run(&s, true, Control::none()).unwrap());
+    let b = pool(3).install(|| cpu::run(&s, true, Control::none()).unwrap());
+    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    assert_eq!(bits(&a.poincare), bits(&b.poincare));
+    assert_eq!(
+        bits(a.lambda1.as_ref().unwrap()),
+        bits(b.lambda1.as_ref().unwrap())
+    );
+}

@@ -9,7 +9,9 @@ use super::early::{EarlyExit, EarlyResult, Retired, Track};
 use super::{EnsembleResult, EnsembleSpec, Precision};
 use crate::control::{Cancel, Control};
 use crate::error::{Error, Result};
-use crate::integrate::batch::{BATCH, BatchConsts, batch_macro_step, batch_macro_step_tangent};
+use crate::integrate::batch::{
+    BATCH, BatchConsts, GroupScratch, batch_macro_step, group_macro_step_tangent,
+};
 use crate::integrate::lane::{
     Counters, LAMBDA1_START, Lane, LaneConsts, Status, Tangent, advance_period,
     advance_period_tangent, renormalise,
@@ -93,75 +95,95 @@ fn run_lane_lambda1<R: Real>(spec: &EnsembleSpec, i: usize, cancel: &Cancel) -> 
     })
 }
 
-/// Lanes `first..first + BATCH` through the batch stepper; with `M = 1` also a tangent
-/// vector per lane for lambda_1, renormalised after every period exactly as
-/// `run_lane_lambda1` does (same bits: `tests/ensemble_cpu.rs`).
+/// Lanes `first..first + batches * BATCH` through the batch stepper, `batches` batches
+/// stepped as one group (`group_macro_step_tangent`: full batches for the sub-steps
+/// after the first); with `M = 1` also a tangent vector per lane for lambda_1,
+/// renormalised after every period exactly as `run_lane_lambda1` does (same bits:
+/// `tests/ensemble_cpu.rs`).
 #[inline(always)]
 fn run_batch_inner<R: Real, const M: usize>(
     spec: &EnsembleSpec,
     first: usize,
+    batches: usize,
     cancel: &Cancel,
 ) -> Vec<Outcome> {
-    let lc: [LaneConsts<R>; BATCH] = std::array::from_fn(|l| spec.lane_consts(first + l));
-    let bc = BatchConsts::new(&lc);
-    let mut lanes: [Lane<R>; BATCH] = std::array::from_fn(|l| spec.initial_lane(first + l));
-    let mut tan: [Tangent<R, M>; BATCH] =
-        std::array::from_fn(|_| Tangent::new([[R::lit(LAMBDA1_START); STATE_DIM]; M]));
+    let lane_of = |b: usize, l: usize| first + b * BATCH + l;
+    let lc: Vec<[LaneConsts<R>; BATCH]> = (0..batches)
+        .map(|b| std::array::from_fn(|l| spec.lane_consts(lane_of(b, l))))
+        .collect();
+    let bc: Vec<BatchConsts<R>> = lc.iter().map(BatchConsts::new).collect();
+    let mut lanes: Vec<[Lane<R>; BATCH]> = (0..batches)
+        .map(|b| std::array::from_fn(|l| spec.initial_lane(lane_of(b, l))))
+        .collect();
+    let mut tan: Vec<[Tangent<R, M>; BATCH]> = (0..batches)
+        .map(|_| std::array::from_fn(|_| Tangent::new([[R::lit(LAMBDA1_START); STATE_DIM]; M])))
+        .collect();
+    let mut scratch = GroupScratch::default();
     let n = spec.stepper.steps_per_period;
-    let mut points: Vec<Vec<f64>> = (0..BATCH)
+    let count = batches * BATCH;
+    let mut points: Vec<Vec<f64>> = (0..count)
         .map(|_| Vec::with_capacity(spec.recorded as usize * STATE_DIM))
         .collect();
-    let mut norms: Vec<Vec<f64>> = vec![Vec::new(); BATCH];
+    let mut norms: Vec<Vec<f64>> = vec![Vec::new(); count];
     for p in 0..spec.transient + spec.recorded {
         let recording = p >= spec.transient;
-        if !recording && lanes.iter().all(|l| l.status.is_frozen()) {
+        if !recording && lanes.iter().flatten().all(|l| l.status.is_frozen()) {
             continue;
         }
-        // Once per period (500 macro steps of 8 lanes): a cancelled batch stops within
-        // a period and returns nothing.
+        // Once per period (500 macro steps of the group's lanes): a cancelled group
+        // stops within a period and returns nothing.
         if cancel.is_set() {
             return Vec::new();
         }
         for _ in 0..n {
-            batch_macro_step_tangent(&bc, &lc, &mut lanes, &mut tan);
+            group_macro_step_tangent(&bc, &lc, &mut lanes, &mut tan, &mut scratch);
         }
-        for l in 0..BATCH {
+        for (i, (lane, t)) in lanes
+            .iter()
+            .flatten()
+            .zip(tan.iter_mut().flatten())
+            .enumerate()
+        {
             if M > 0 {
                 // A lane frozen before this period is skipped by `run_lane_lambda1` in
                 // the transient; it is frozen now too, so it is not renormalised here
                 // either, and its 1.0 is kept only when recording, as there.
-                let norm = if lanes[l].status.is_frozen() {
+                let norm = if lane.status.is_frozen() {
                     1.0
                 } else {
-                    renormalise(&mut tan[l].v[0]).to_f64()
+                    renormalise(&mut t.v[0]).to_f64()
                 };
                 if recording {
-                    norms[l].push(norm);
+                    norms[i].push(norm);
                 }
             }
             if recording {
-                points[l].extend(lanes[l].x.iter().map(|v| v.to_f64()));
+                points[i].extend(lane.x.iter().map(|v| v.to_f64()));
             }
         }
     }
     points
         .into_iter()
-        .zip(lanes)
+        .zip(lanes.into_iter().flatten())
         .zip(norms)
         .enumerate()
-        .map(|(l, ((points, lane), norms))| Outcome {
+        .map(|(i, ((points, lane), norms))| Outcome {
             points,
             final_state: lane.state_f64(),
             status: lane.status,
             counters: lane.counters,
             lambda1: if M > 0 {
-                super::lane_lambda1(&norms, spec.lanes[first + l].omega, lane.status)
+                super::lane_lambda1(&norms, spec.lanes[first + i].omega, lane.status)
             } else {
                 f64::NAN
             },
         })
         .collect()
 }
+
+/// Batches stepped together at most (`group_macro_step_tangent`): 8 x 8 lanes, so that
+/// the lanes still in contact after a first pass fill whole batches.
+const GROUP_BATCHES: usize = 8;
 
 /// Declares `$name`, which runs `$inner` compiled for AVX-512 where asked for and the CPU
 /// has it ([`use_avx512`]), else for AVX2 where the CPU has it, else as built: the same
@@ -213,10 +235,12 @@ fn use_avx512() -> bool {
 }
 
 per_instruction_set! {
-    /// Lanes `first..first + BATCH`, with AVX2 where the CPU has it (AVX-512 on request).
+    /// Lanes `first..first + batches * BATCH`, with AVX2 where the CPU has it (AVX-512
+    /// on request).
     fn run_batch[R: Real, const M: usize][R, M](
         spec: &EnsembleSpec,
         first: usize,
+        batches: usize,
         cancel: &Cancel,
     ) -> Vec<Outcome> = run_batch_inner
 }
@@ -234,26 +258,29 @@ pub fn run(spec: &EnsembleSpec, lambda1: bool, ctl: Control) -> Result<EnsembleR
     let n = spec.lanes.len();
     let per_lane = (spec.transient + spec.recorded) as u64;
     let total = n as u64 * per_lane;
-    // Whole batches through the batch stepper, the remainder lane by lane.
+    // Whole batches through the batch stepper in groups (at most GROUP_BATCHES, fewer
+    // when that would leave threads idle), the remainder lane by lane (0 batches).
     let batches = n / BATCH;
-    let tasks: Vec<(usize, bool)> = (0..batches)
-        .map(|b| (b * BATCH, true))
-        .chain((batches * BATCH..n).map(|i| (i, false)))
+    let group = (batches / (4 * rayon::current_num_threads())).clamp(1, GROUP_BATCHES);
+    let tasks: Vec<(usize, usize)> = (0..batches)
+        .step_by(group)
+        .map(|b| (b * BATCH, group.min(batches - b)))
+        .chain((batches * BATCH..n).map(|i| (i, 0)))
         .collect();
     let task_count = tasks.len();
     let outcomes: Vec<Vec<Outcome>> = tasks
         .into_par_iter()
         .with_min_len(2)
-        .map(|(first, batched)| {
+        .map(|(first, batches)| {
             let c = ctl.cancel;
             if c.is_set() {
                 return Vec::new();
             }
-            let o = match (spec.precision, batched, lambda1) {
-                (Precision::F32, true, false) => run_batch::<f32, 0>(spec, first, c),
-                (Precision::F64, true, false) => run_batch::<f64, 0>(spec, first, c),
-                (Precision::F32, true, true) => run_batch::<f32, 1>(spec, first, c),
-                (Precision::F64, true, true) => run_batch::<f64, 1>(spec, first, c),
+            let o = match (spec.precision, batches > 0, lambda1) {
+                (Precision::F32, true, false) => run_batch::<f32, 0>(spec, first, batches, c),
+                (Precision::F64, true, false) => run_batch::<f64, 0>(spec, first, batches, c),
+                (Precision::F32, true, true) => run_batch::<f32, 1>(spec, first, batches, c),
+                (Precision::F64, true, true) => run_batch::<f64, 1>(spec, first, batches, c),
                 (Precision::F32, _, false) => run_lane::<f32>(spec, first, c).into_iter().collect(),
                 (Precision::F64, _, false) => run_lane::<f64>(spec, first, c).into_iter().collect(),
                 (Precision::F32, _, true) => run_lane_lambda1::<f32>(spec, first, c)

@@ -304,13 +304,9 @@ pub fn batch_macro_step_tangent<R: Real, const M: usize>(
     lane: &mut [Lane<R>; BATCH],
     tan: &mut [Tangent<R, M>; BATCH],
 ) {
-    // Live lanes advance in lock step (they all start at k = 0); frozen ones keep the
-    // index they froze at and are skipped.
-    let Some(k) = lane.iter().find(|l| !l.status.is_frozen()).map(|l| l.k) else {
+    let Some(k) = batch_k(lane) else {
         return;
     };
-    let zero = R::lit(0.0);
-    let one = R::lit(1.0);
     let mut part: [MacroStep<R>; BATCH] = lanes(|l| macro_step_begin(&lane[l]));
     // Lanes the batch still advances; a lane leaves when its macro step is done (s = 1)
     // or when its trial sub-step needs the scalar switch search.
@@ -318,72 +314,109 @@ pub fn batch_macro_step_tangent<R: Real, const M: usize>(
     // One pass per sub-step: a lane in free flight needs one, a lane in contact R
     // (contact refinement, `lane::trial_extent`); every pass computes all lanes.
     while active.iter().any(|&a| a) {
-        let x: [V<R>; STATE_DIM] = std::array::from_fn(|i| lanes(|l| part[l].x[i]));
-        let contact: [bool; BATCH] = lanes(|l| part[l].contact);
-        let s0: V<R> = lanes(|l| part[l].s);
-        let extent: [(R, R); BATCH] = lanes(|l| trial_extent(&lc[l], s0[l], contact[l]));
-        let ds: V<R> = lanes(|l| extent[l].0);
-        let (x1, stages) = rk4_step(bc, &x, k, &s0, &ds, &contact);
-        // Lanes whose macro step is untouched and whose trial step certainly stays
-        // clear of the stator need no search (`lane::finish_macro_step`, the same test);
-        // when every live lane is such, the samples are not computed at all.
-        let certain: [bool; BATCH] = lanes(|l| {
-            active[l]
-                && !part[l].touched
-                && free_flight_certain(&lc[l], &lane_of(&x, l), &lane_of(&x1, l), ds[l] * bc.h[l])
-        });
-        let search = (0..BATCH).any(|l| active[l] && !certain[l]);
-        // The switch search of `lane::find_switch`, kept only as far as deciding that
-        // there is no switch: any sample on the wrong side, or an extremum heading
-        // there, sends the lane to the scalar path.
-        let (g0, mut rate_lo) = if search {
-            gaps(bc, &x, &x1, &ds, zero)
-        } else {
-            ([zero; BATCH], [zero; BATCH])
-        };
-        let mut max_g = g0;
-        let mut switch = [false; BATCH];
-        for j in 1..=GRAZE_SAMPLES {
-            if !search {
-                break;
-            }
-            let th = R::lit(j as f64 / GRAZE_SAMPLES as f64);
-            let (g_th, rate_th) = gaps(bc, &x, &x1, &ds, th);
-            for l in 0..BATCH {
-                let toward = if contact[l] {
-                    rate_lo[l] < zero && rate_th[l] > zero
-                } else {
-                    rate_lo[l] > zero && rate_th[l] < zero
-                };
-                switch[l] |= !certain[l] && (wrong_side(g_th[l], contact[l]) || toward);
-                max_g[l] = max_g[l].max(g_th[l]);
-            }
-            rate_lo = rate_th;
-        }
-        // No switch: accept the trial sub-step as `finish_macro_step` does.
-        let accept: [bool; BATCH] = lanes(|l| active[l] && !switch[l]);
-        if M > 0 && accept.iter().any(|&a| a) {
-            let hs: V<R> = lanes(|l| ds[l] * bc.h[l]);
-            tangent_step(bc, lc, &stages, &hs, &contact, &accept, tan);
-        }
-        for l in 0..BATCH {
-            if !active[l] {
-                continue;
-            }
-            if switch[l] {
-                active[l] = false;
-                continue;
-            }
-            let p = &mut part[l];
-            p.substeps += 1;
-            if !certain[l] {
-                p.max_g = p.max_g.max(max_g[l]);
-            }
-            p.x = std::array::from_fn(|i| x1[i][l]);
-            p.s = extent[l].1;
-            active[l] = p.s < one;
-        }
+        batch_pass(bc, lc, k, &mut part, &mut active, tan);
     }
+    batch_finish(lc, lane, tan, k, &part);
+}
+
+/// The macro-step index of a batch's live lanes (they advance in lock step from k = 0;
+/// frozen ones keep the index they froze at and are skipped), `None` when all froze.
+#[inline(always)]
+fn batch_k<R: Real>(lane: &[Lane<R>; BATCH]) -> Option<u32> {
+    lane.iter().find(|l| !l.status.is_frozen()).map(|l| l.k)
+}
+
+/// One pass of a batch: every lane takes its next trial sub-step (all lanes computed,
+/// the `active` ones kept); a lane whose step ends its macro step, or that needs the
+/// scalar switch search, leaves `active`.
+#[inline(always)]
+fn batch_pass<R: Real, const M: usize>(
+    bc: &BatchConsts<R>,
+    lc: &[LaneConsts<R>; BATCH],
+    k: u32,
+    part: &mut [MacroStep<R>; BATCH],
+    active: &mut [bool; BATCH],
+    tan: &mut [Tangent<R, M>; BATCH],
+) {
+    let zero = R::lit(0.0);
+    let one = R::lit(1.0);
+    let x: [V<R>; STATE_DIM] = std::array::from_fn(|i| lanes(|l| part[l].x[i]));
+    let contact: [bool; BATCH] = lanes(|l| part[l].contact);
+    let s0: V<R> = lanes(|l| part[l].s);
+    let extent: [(R, R); BATCH] = lanes(|l| trial_extent(&lc[l], s0[l], contact[l]));
+    let ds: V<R> = lanes(|l| extent[l].0);
+    let (x1, stages) = rk4_step(bc, &x, k, &s0, &ds, &contact);
+    // Lanes whose macro step is untouched and whose trial step certainly stays
+    // clear of the stator need no search (`lane::finish_macro_step`, the same test);
+    // when every live lane is such, the samples are not computed at all.
+    let certain: [bool; BATCH] = lanes(|l| {
+        active[l]
+            && !part[l].touched
+            && free_flight_certain(&lc[l], &lane_of(&x, l), &lane_of(&x1, l), ds[l] * bc.h[l])
+    });
+    let search = (0..BATCH).any(|l| active[l] && !certain[l]);
+    // The switch search of `lane::find_switch`, kept only as far as deciding that
+    // there is no switch: any sample on the wrong side, or an extremum heading
+    // there, sends the lane to the scalar path.
+    let (g0, mut rate_lo) = if search {
+        gaps(bc, &x, &x1, &ds, zero)
+    } else {
+        ([zero; BATCH], [zero; BATCH])
+    };
+    let mut max_g = g0;
+    let mut switch = [false; BATCH];
+    for j in 1..=GRAZE_SAMPLES {
+        if !search {
+            break;
+        }
+        let th = R::lit(j as f64 / GRAZE_SAMPLES as f64);
+        let (g_th, rate_th) = gaps(bc, &x, &x1, &ds, th);
+        for l in 0..BATCH {
+            let toward = if contact[l] {
+                rate_lo[l] < zero && rate_th[l] > zero
+            } else {
+                rate_lo[l] > zero && rate_th[l] < zero
+            };
+            switch[l] |= !certain[l] && (wrong_side(g_th[l], contact[l]) || toward);
+            max_g[l] = max_g[l].max(g_th[l]);
+        }
+        rate_lo = rate_th;
+    }
+    // No switch: accept the trial sub-step as `finish_macro_step` does.
+    let accept: [bool; BATCH] = lanes(|l| active[l] && !switch[l]);
+    if M > 0 && accept.iter().any(|&a| a) {
+        let hs: V<R> = lanes(|l| ds[l] * bc.h[l]);
+        tangent_step(bc, lc, &stages, &hs, &contact, &accept, tan);
+    }
+    for l in 0..BATCH {
+        if !active[l] {
+            continue;
+        }
+        if switch[l] {
+            active[l] = false;
+            continue;
+        }
+        let p = &mut part[l];
+        p.substeps += 1;
+        if !certain[l] {
+            p.max_g = p.max_g.max(max_g[l]);
+        }
+        p.x = std::array::from_fn(|i| x1[i][l]);
+        p.s = extent[l].1;
+        active[l] = p.s < one;
+    }
+}
+
+/// The end of a batch's macro step: lanes done go through the checks and counters, lanes
+/// handed over finish in the scalar stepper, lanes behind (frozen earlier) step alone.
+#[inline(always)]
+fn batch_finish<R: Real, const M: usize>(
+    lc: &[LaneConsts<R>; BATCH],
+    lane: &mut [Lane<R>; BATCH],
+    tan: &mut [Tangent<R, M>; BATCH],
+    k: u32,
+    part: &[MacroStep<R>; BATCH],
+) {
     for l in 0..BATCH {
         if lane[l].status.is_frozen() {
             continue;
@@ -399,6 +432,119 @@ pub fn batch_macro_step_tangent<R: Real, const M: usize>(
             // Handed over: the scalar stepper redoes the trial sub-step at s bit for bit
             // and locates the switch.
             finish_macro_step(&lc[l], &mut lane[l], &mut tan[l], part[l]);
+        }
+    }
+}
+
+/// What [`group_macro_step_tangent`] keeps between macro steps so that it allocates
+/// nothing per step: each batch's macro step in progress and lock-step index, and the
+/// queues of lanes still in their macro step.
+pub struct GroupScratch<R> {
+    ks: Vec<Option<u32>>,
+    parts: Vec<[MacroStep<R>; BATCH]>,
+    /// (k, batch, lane) of the lanes still in their macro step after a pass.
+    queue: Vec<(u32, usize, usize)>,
+    next: Vec<(u32, usize, usize)>,
+}
+
+impl<R> Default for GroupScratch<R> {
+    fn default() -> Self {
+        GroupScratch {
+            ks: Vec::new(),
+            parts: Vec::new(),
+            queue: Vec::new(),
+            next: Vec::new(),
+        }
+    }
+}
+
+/// [`batch_macro_step_tangent`] for a group of batches at once, with full batches for
+/// the sub-steps after the first (issue 28, item 4): every batch takes its first pass,
+/// then the lanes still in their macro step (in contact: R sub-steps; the rest are done)
+/// are packed into batches of [`BATCH`] for each further pass, so a pass never computes
+/// 8 lanes for one. Each lane's arithmetic is that of the single-batch stepper (lanes
+/// never mix in a SIMD operation), so the result is the same to the bit
+/// (tests/ensemble_cpu.rs compares with the scalar stepper). Inlined, like the batch
+/// stepper, into the caller compiled for the CPU's instruction set.
+#[inline(always)]
+pub fn group_macro_step_tangent<R: Real, const M: usize>(
+    bcs: &[BatchConsts<R>],
+    lcs: &[[LaneConsts<R>; BATCH]],
+    lane: &mut [[Lane<R>; BATCH]],
+    tan: &mut [[Tangent<R, M>; BATCH]],
+    scratch: &mut GroupScratch<R>,
+) {
+    let g = lane.len();
+    let GroupScratch {
+        ks,
+        parts,
+        queue,
+        next,
+    } = scratch;
+    ks.clear();
+    ks.extend(lane.iter().map(batch_k));
+    parts.clear();
+    parts.extend(lane.iter().map(|b| lanes(|l| macro_step_begin(&b[l]))));
+    queue.clear();
+    for b in 0..g {
+        let Some(k) = ks[b] else { continue };
+        let mut active: [bool; BATCH] =
+            lanes(|l| !lane[b][l].status.is_frozen() && lane[b][l].k == k);
+        batch_pass(&bcs[b], &lcs[b], k, &mut parts[b], &mut active, &mut tan[b]);
+        queue.extend((0..BATCH).filter(|&l| active[l]).map(|l| (k, b, l)));
+    }
+    while !queue.is_empty() {
+        // Same k together (live lanes share one; this only guards the packing).
+        if queue.iter().any(|q| q.0 != queue[0].0) {
+            queue.sort_unstable();
+        }
+        next.clear();
+        let mut at = 0;
+        while at < queue.len() {
+            let k = queue[at].0;
+            let end = (at..queue.len())
+                .take(BATCH)
+                .take_while(|&i| queue[i].0 == k)
+                .last()
+                .map_or(at + 1, |i| i + 1);
+            let pack = &queue[at..end];
+            // Slots past the pack repeat its last lane, inactive (computed, not kept).
+            let slot = |i: usize| pack[i.min(pack.len() - 1)];
+            let lc: [LaneConsts<R>; BATCH] = lanes(|i| {
+                let (_, b, l) = slot(i);
+                lcs[b][l]
+            });
+            let mut part: [MacroStep<R>; BATCH] = lanes(|i| {
+                let (_, b, l) = slot(i);
+                parts[b][l]
+            });
+            let mut tn: [Tangent<R, M>; BATCH] = lanes(|i| {
+                let (_, b, l) = slot(i);
+                tan[b][l]
+            });
+            let mut active: [bool; BATCH] = lanes(|i| i < pack.len());
+            batch_pass(
+                &BatchConsts::new(&lc),
+                &lc,
+                k,
+                &mut part,
+                &mut active,
+                &mut tn,
+            );
+            for (i, &(_, b, l)) in pack.iter().enumerate() {
+                parts[b][l] = part[i];
+                tan[b][l] = tn[i];
+                if active[i] {
+                    next.push((k, b, l));
+                }
+            }
+            at = end;
+        }
+        std::mem::swap(queue, next);
+    }
+    for b in 0..g {
+        if let Some(k) = ks[b] {
+            batch_finish(&lcs[b], &mut lane[b], &mut tan[b], k, &parts[b]);
         }
     }
 }
