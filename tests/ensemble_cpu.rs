@@ -265,7 +265,7 @@ fn simd_batches_with_lambda1_equal_the_scalar_tangent_stepper_to_the_bit() {
 /// Groups of batches (`batch::group_macro_step_tangent`): lanes still in their macro
 /// step after a first pass are packed across the group's batches into full batches, so
 /// a lane shares SIMD passes with lanes of other batches. 263 lanes (32 batches and 7
-/// single lanes) in one thread make groups of 8 batches, in 3 threads of 2: both equal
+/// single lanes) in one thread make groups of 4 batches, in 3 threads of 1: both equal
 /// the scalar lane stepper to the bit, with and without contact refinement, and the
 /// lambda_1 lanes agree between the two groupings to the bit.
 #[test]
