@@ -346,15 +346,26 @@ fn batch_pass<R: Real, const M: usize>(
     let extent: [(R, R); BATCH] = lanes(|l| trial_extent(&lc[l], s0[l], contact[l]));
     let ds: V<R> = lanes(|l| extent[l].0);
     let (x1, stages) = rk4_step(bc, &x, k, &s0, &ds, &contact);
-    // Lanes whose macro step is untouched and whose trial step certainly stays
-    // clear of the stator need no search (`lane::finish_macro_step`, the same test);
-    // when every live lane is such, the samples are not computed at all.
-    let certain: [bool; BATCH] = lanes(|l| {
-        active[l]
-            && !part[l].touched
-            && free_flight_certain(&lc[l], &lane_of(&x, l), &lane_of(&x1, l), ds[l] * bc.h[l])
-    });
-    let search = (0..BATCH).any(|l| active[l] && !certain[l]);
+    // When every live lane's macro step is untouched and its trial step certainly stays
+    // clear of the stator (`lane::finish_macro_step`, the same test), the samples are
+    // not computed at all. The test stops at the first live lane that fails it (the
+    // search runs then, for all lanes, and a lane's outcome does not depend on it):
+    // computed for all 8 lanes in contact-heavy batches it cost 5 % at W = 133.
+    let mut certain = [false; BATCH];
+    let mut search = false;
+    for l in 0..BATCH {
+        if !active[l] {
+            continue;
+        }
+        if part[l].touched
+            || !free_flight_certain(&lc[l], &lane_of(&x, l), &lane_of(&x1, l), ds[l] * bc.h[l])
+        {
+            search = true;
+            certain = [false; BATCH];
+            break;
+        }
+        certain[l] = true;
+    }
     // The switch search of `lane::find_switch`, kept only as far as deciding that
     // there is no switch: any sample on the wrong side, or an extremum heading
     // there, sends the lane to the scalar path.
@@ -474,6 +485,11 @@ pub fn group_macro_step_tangent<R: Real, const M: usize>(
     tan: &mut [[Tangent<R, M>; BATCH]],
     scratch: &mut GroupScratch<R>,
 ) {
+    if let ([bc], [lc], [lane], [tan]) = (bcs, lcs, &mut *lane, &mut *tan) {
+        // One batch: nothing to pack across, and no gathering.
+        batch_macro_step_tangent(bc, lc, lane, tan);
+        return;
+    }
     let g = lane.len();
     let GroupScratch {
         ks,
