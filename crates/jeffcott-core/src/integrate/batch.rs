@@ -351,47 +351,33 @@ fn batch_pass<R: Real, const M: usize>(
     // not computed at all. The test stops at the first live lane that fails it (the
     // search runs then, for all lanes, and a lane's outcome does not depend on it):
     // computed for all 8 lanes in contact-heavy batches it cost 5 % at W = 133.
-    let mut certain = [false; BATCH];
-    let mut search = false;
-    for l in 0..BATCH {
-        if !active[l] {
-            continue;
-        }
-        if part[l].touched
-            || !free_flight_certain(&lc[l], &lane_of(&x, l), &lane_of(&x1, l), ds[l] * bc.h[l])
-        {
-            search = true;
-            certain = [false; BATCH];
-            break;
-        }
-        certain[l] = true;
-    }
+    let search = (0..BATCH).any(|l| {
+        active[l]
+            && (part[l].touched
+                || !free_flight_certain(&lc[l], &lane_of(&x, l), &lane_of(&x1, l), ds[l] * bc.h[l]))
+    });
     // The switch search of `lane::find_switch`, kept only as far as deciding that
     // there is no switch: any sample on the wrong side, or an extremum heading
     // there, sends the lane to the scalar path.
-    let (g0, mut rate_lo) = if search {
-        gaps(bc, &x, &x1, &ds, zero)
-    } else {
-        ([zero; BATCH], [zero; BATCH])
-    };
-    let mut max_g = g0;
+    let mut max_g = [zero; BATCH];
     let mut switch = [false; BATCH];
-    for j in 1..=GRAZE_SAMPLES {
-        if !search {
-            break;
+    if search {
+        let (g0, mut rate_lo) = gaps(bc, &x, &x1, &ds, zero);
+        max_g = g0;
+        for j in 1..=GRAZE_SAMPLES {
+            let th = R::lit(j as f64 / GRAZE_SAMPLES as f64);
+            let (g_th, rate_th) = gaps(bc, &x, &x1, &ds, th);
+            for l in 0..BATCH {
+                let toward = if contact[l] {
+                    rate_lo[l] < zero && rate_th[l] > zero
+                } else {
+                    rate_lo[l] > zero && rate_th[l] < zero
+                };
+                switch[l] |= wrong_side(g_th[l], contact[l]) || toward;
+                max_g[l] = max_g[l].max(g_th[l]);
+            }
+            rate_lo = rate_th;
         }
-        let th = R::lit(j as f64 / GRAZE_SAMPLES as f64);
-        let (g_th, rate_th) = gaps(bc, &x, &x1, &ds, th);
-        for l in 0..BATCH {
-            let toward = if contact[l] {
-                rate_lo[l] < zero && rate_th[l] > zero
-            } else {
-                rate_lo[l] > zero && rate_th[l] < zero
-            };
-            switch[l] |= !certain[l] && (wrong_side(g_th[l], contact[l]) || toward);
-            max_g[l] = max_g[l].max(g_th[l]);
-        }
-        rate_lo = rate_th;
     }
     // No switch: accept the trial sub-step as `finish_macro_step` does.
     let accept: [bool; BATCH] = lanes(|l| active[l] && !switch[l]);
@@ -409,7 +395,8 @@ fn batch_pass<R: Real, const M: usize>(
         }
         let p = &mut part[l];
         p.substeps += 1;
-        if !certain[l] {
+        // Without a search every live lane is certified and untouched: no max_g.
+        if search {
             p.max_g = p.max_g.max(max_g[l]);
         }
         p.x = std::array::from_fn(|i| x1[i][l]);
@@ -518,11 +505,12 @@ pub fn group_macro_step_tangent<R: Real, const M: usize>(
         let mut at = 0;
         while at < queue.len() {
             let k = queue[at].0;
-            let end = (at..queue.len())
-                .take(BATCH)
-                .take_while(|&i| queue[i].0 == k)
-                .last()
-                .map_or(at + 1, |i| i + 1);
+            let end = at
+                + queue[at..]
+                    .iter()
+                    .take(BATCH)
+                    .take_while(|q| q.0 == k)
+                    .count();
             let pack = &queue[at..end];
             // Slots past the pack repeat its last lane, inactive (computed, not kept).
             let slot = |i: usize| pack[i.min(pack.len() - 1)];
