@@ -170,20 +170,34 @@ fn a_gpu_reaches_the_cpus_early_exit_decisions_and_records_by_replay() {
 
 /// Labels of a basin at `omega` with and without early exit, and run.json's count.
 fn basin_pair(omega: f64, n: usize, extra: &str) -> (Vec<i32>, Vec<i32>, serde_json::Value) {
-    let tmp = tempfile::tempdir().unwrap();
-    let line = |streak: u32, name: &str| {
-        format!(
+    let (full, early) = basin_runs(omega, n, &format!("--uncertainty-samples 0 {extra}"));
+    let labels = |dir: &std::path::Path| npy::<i32>(&dir.join("labels.npy")).1;
+    let run = json(&early.1.join("run.json"));
+    (labels(&full.1), labels(&early.1), run["early_exit"].clone())
+}
+
+/// A basin at `omega` run without and with early exit (`extra`: more options); each
+/// run's temporary directory (kept alive) and output directory.
+fn basin_runs(
+    omega: f64,
+    n: usize,
+    extra: &str,
+) -> (
+    (tempfile::TempDir, std::path::PathBuf),
+    (tempfile::TempDir, std::path::PathBuf),
+) {
+    let run = |streak: u32| {
+        let tmp = tempfile::tempdir().unwrap();
+        let out = tmp.path().join("out");
+        ok(&jeffcott(&words(&format!(
             "basin --omega {omega} --x x_r:-0.006:0.006:{n} --y vx_r:-1:1:{n} --transient 250 \
-             --periods 32 --uncertainty-samples 0 --backend cpu --no-plot --quiet \
-             --early-exit-streak {streak} {extra} --out {}",
-            tmp.path().join(name).display()
-        )
+             --periods 32 --backend cpu --no-plot --quiet --early-exit-streak {streak} {extra} \
+             --out {}",
+            out.display()
+        ))));
+        (tmp, out)
     };
-    ok(&jeffcott(&words(&line(0, "full"))));
-    ok(&jeffcott(&words(&line(16, "early"))));
-    let labels = |name: &str| npy::<i32>(&tmp.path().join(name).join("labels.npy")).1;
-    let run = json(&tmp.path().join("early").join("run.json"));
-    (labels("full"), labels("early"), run["early_exit"].clone())
+    (run(0), run(16))
 }
 
 #[test]
@@ -199,4 +213,75 @@ fn a_basin_at_133_with_early_exit_has_the_labels_of_the_full_length_run() {
     assert_eq!(saved["lanes"].as_u64(), Some(576));
     assert!(saved["retired"].as_u64().unwrap() > 400);
     assert!(run < all * 2 / 3, "{run} of {all} periods");
+}
+
+#[test]
+fn a_refined_and_reintegrated_basin_with_early_exit_has_the_labels_and_f_eps_of_the_full_length_run()
+ {
+    // The re-integrated points (the refinement's and the uncertainty draws') are
+    // labelled against the coarse basin's whole catalogue, recognised lanes retiring.
+    let (full, early) = basin_runs(133.0, 12, "--refine 1 --uncertainty-samples 12");
+    let labels = |dir: &std::path::Path| npy::<i32>(&dir.join("labels.npy")).1;
+    assert_eq!(labels(&full.1), labels(&early.1));
+    assert_eq!(labels(&full.1).len(), 23 * 23);
+    let metrics = |dir: &std::path::Path| json(&dir.join("basin_metrics.json"));
+    let f = |dir: &std::path::Path| metrics(dir)["uncertainty_reintegration"]["points"].clone();
+    assert_eq!(f(&full.1), f(&early.1));
+    assert!(f(&full.1).as_array().unwrap().len() == 7);
+    let run = json(&early.1.join("run.json"));
+    let level = &run["refinement"]["levels"][0]["early_exit"];
+    let draws = &run["uncertainty_early_exit"];
+    eprintln!("refinement: {level}, draws: {draws}");
+    for (saved, lanes) in [
+        (
+            level,
+            run["refinement"]["levels"][0]["lanes"].as_u64().unwrap(),
+        ),
+        (draws, 12 * 29),
+    ] {
+        assert_eq!(saved["lanes"].as_u64(), Some(lanes));
+        assert!(saved["retired"].as_u64().unwrap() > lanes / 2, "{saved}");
+        assert!(saved["periods_run"].as_u64() < saved["periods_full"].as_u64());
+    }
+    // Without early exit neither stage records a count.
+    let plain = json(&full.1.join("run.json"));
+    assert!(plain["refinement"]["levels"][0].get("early_exit").is_none());
+    assert!(plain.get("uncertainty_early_exit").is_none());
+}
+
+#[test]
+fn a_refined_and_reintegrated_basin_with_early_exit_has_the_cpus_labels_on_a_gpu() {
+    if !gpu_f64_present() {
+        return;
+    }
+    // Recognition on the GPU replays the recorded periods from `--early-exit-after`
+    // on: the same decisions, so the same labels at every stage (every refined and
+    // re-integrated lane retires here).
+    let run = |backend: &str| {
+        let tmp = tempfile::tempdir().unwrap();
+        let out = tmp.path().join("out");
+        ok(&jeffcott(&words(&format!(
+            "basin --omega 133 --x x_r:-0.006:0.006:5 --y vx_r:-1:1:5 --transient 250 \
+             --periods 16 --steps-per-period 200 --refine 1 \
+             --uncertainty-samples 3 --backend {backend} --precision f64 --no-plot --quiet \
+             --out {}",
+            out.display()
+        ))));
+        let run = json(&out.join("run.json"));
+        let f =
+            json(&out.join("basin_metrics.json"))["uncertainty_reintegration"]["points"].clone();
+        (npy::<i32>(&out.join("labels.npy")).1, f, run, tmp)
+    };
+    let (cpu, gpu) = (run("cpu"), run("gpu"));
+    assert_eq!(gpu.2["backend"]["backend"], "gpu", "{}", gpu.2);
+    assert_eq!(cpu.0, gpu.0);
+    assert_eq!(cpu.1, gpu.1);
+    for r in [&cpu.2, &gpu.2] {
+        let level = &r["refinement"]["levels"][0];
+        assert_eq!(level["early_exit"]["retired"], level["lanes"], "{level}");
+    }
+    assert_eq!(
+        cpu.2["uncertainty_early_exit"],
+        gpu.2["uncertainty_early_exit"]
+    );
 }

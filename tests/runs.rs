@@ -221,6 +221,18 @@ fn basin_killed_with_sigkill_and_resumed_has_the_files_of_an_uninterrupted_run()
 }
 
 #[test]
+fn a_refined_and_reintegrated_basin_with_early_exit_killed_and_resumed_equals_an_uninterrupted_run()
+{
+    // Long enough for lanes to retire early at every stage (grid, refinement, draws).
+    killed_and_resumed_equals_uninterrupted(
+        "basin --omega 133 --x x_r:-0.006:0.006:16 --y vx_r:-1:1:16 --transient 250 \
+         --periods 16 --steps-per-period 200 --refine 1 --uncertainty-samples 12 \
+         --backend cpu --quiet",
+        &[5, 25, 45],
+    );
+}
+
+#[test]
 fn bifurcation_sweeps_and_brute_force_killed_and_resumed_equal_an_uninterrupted_run() {
     killed_and_resumed_equals_uninterrupted(
         "bifurcation --omega 131:134:24 --ics 2 --transient 40 --transient-first 100 \

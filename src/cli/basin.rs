@@ -163,6 +163,10 @@ struct RunResult<'a> {
     /// Lanes of the grid retired early and periods integrated (with early exit).
     #[serde(skip_serializing_if = "Option::is_none")]
     early_exit: Option<jeffcott_analysis::early::EarlySaved>,
+    /// The same for the uncertainty exponent's re-integrated draws (the refinement's
+    /// are in `refinement.levels`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    uncertainty_early_exit: Option<jeffcott_analysis::early::EarlySaved>,
 }
 
 /// Runs `jeffcott basin`: the study's units committed to --out, then its files.
@@ -236,6 +240,7 @@ fn report_basin(
         },
         refinement: o.refined.as_ref().map(|f| refinement_record(f, spec)),
         early_exit: res.early_exit,
+        uncertainty_early_exit: o.reintegration.as_ref().and_then(|r| r.early_exit),
     };
     run_dir.finish(&run_result, &rundir::written(run_dir, OUTPUTS))?;
     if !quiet {

@@ -321,6 +321,51 @@ fn find(cfg: &CatalogueConfig, w: f64, attractors: &[Attractor], l: &LaneClass) 
     attractors.iter().position(|a| same(cfg, w, l, a))
 }
 
+/// What early exit recognises lanes on at speed `omega`: the periodic attractors of
+/// `attractors`. A cycle point matches within [`RECOGNISE_REL`] of the cycle's diameter,
+/// but never more than [`RECOGNISE_SEPARATION`] of its distance to the nearest point of
+/// another attractor and never less than the identity tolerance
+/// `max(match_rel * size, match_abs)` (module docs). Aperiodic attractors are not
+/// recognised.
+pub fn recogniser_of(
+    attractors: &[Attractor],
+    cfg: &CatalogueConfig,
+    omega: f64,
+    streak: u32,
+) -> crate::early::Recogniser {
+    let w = omega;
+    let separation = |a: &Attractor| {
+        attractors
+            .iter()
+            .filter(|b| b.id != a.id && !b.points.is_empty())
+            .flat_map(|b| {
+                a.points
+                    .iter()
+                    .flat_map(move |p| b.points.iter().map(move |q| distance(p, q, w)))
+            })
+            .fold(f64::INFINITY, f64::min)
+    };
+    let known = attractors
+        .iter()
+        .map(|a| match a.kind {
+            Class::Periodic(_) => {
+                let identity = (cfg.match_rel * a.size_m).max(cfg.match_abs);
+                let wide = (RECOGNISE_REL * a.size_m).min(RECOGNISE_SEPARATION * separation(a));
+                crate::early::Known::Cycle {
+                    points: a.points.clone(),
+                    tol: identity.max(wide),
+                }
+            }
+            // Aperiodic entries are never recognised: at 137.25 rad/s lanes still in
+            // a long transient form clouds of their own, and lanes crossing them were
+            // retired on them although they settle on a cycle later
+            // (docs/early-exit.md); such lanes run their whole record.
+            _ => crate::early::Known::Never,
+        })
+        .collect();
+    crate::early::Recogniser::new(omega, streak, known)
+}
+
 /// Builds a catalogue lane by lane (so basins can stream chunks with bounded memory).
 #[derive(Clone, Debug)]
 pub struct CatalogueBuilder {
@@ -428,45 +473,9 @@ impl CatalogueBuilder {
         id as i32
     }
 
-    /// What early exit recognises lanes on: every periodic and aperiodic attractor so
-    /// far. A cycle point matches within [`RECOGNISE_REL`] of the cycle's diameter, but
-    /// never more than [`RECOGNISE_SEPARATION`] of its distance to the nearest point of
-    /// another attractor and never less than the identity tolerance
-    /// `max(match_rel * size, match_abs)` (module docs). Aperiodic attractors are not
-    /// recognised.
+    /// What early exit recognises lanes on: the attractors so far ([`recogniser_of`]).
     pub fn recogniser(&self, streak: u32) -> crate::early::Recogniser {
-        let w = self.omega;
-        let separation = |a: &Attractor| {
-            self.attractors
-                .iter()
-                .filter(|b| b.id != a.id && !b.points.is_empty())
-                .flat_map(|b| {
-                    a.points
-                        .iter()
-                        .flat_map(move |p| b.points.iter().map(move |q| distance(p, q, w)))
-                })
-                .fold(f64::INFINITY, f64::min)
-        };
-        let known = self
-            .attractors
-            .iter()
-            .map(|a| match a.kind {
-                Class::Periodic(_) => {
-                    let identity = (self.cfg.match_rel * a.size_m).max(self.cfg.match_abs);
-                    let wide = (RECOGNISE_REL * a.size_m).min(RECOGNISE_SEPARATION * separation(a));
-                    crate::early::Known::Cycle {
-                        points: a.points.clone(),
-                        tol: identity.max(wide),
-                    }
-                }
-                // Aperiodic entries are never recognised: at 137.25 rad/s lanes still in
-                // a long transient form clouds of their own, and lanes crossing them were
-                // retired on them although they settle on a cycle later
-                // (docs/early-exit.md); such lanes run their whole record.
-                _ => crate::early::Known::Never,
-            })
-            .collect();
-        crate::early::Recogniser::new(self.omega, streak, known)
+        recogniser_of(&self.attractors, &self.cfg, self.omega, streak)
     }
 
     /// Classifies (in parallel) and adds a block of lanes: `points` is
@@ -833,21 +842,27 @@ impl Catalogue {
     /// catalogued attractor. The labelling of the basin's re-integrated points
     /// (refinement, uncertainty exponent).
     pub fn label_lanes(&self, r: &jeffcott_core::ensemble::EnsembleResult) -> Vec<i32> {
-        (0..r.status.len())
-            .map(|i| {
-                if r.status[i].is_frozen() {
-                    return -1;
-                }
-                let lc = classify_lane(
-                    &r.lane_states(i),
-                    self.omega,
-                    false,
-                    r.lambda1.as_ref().map(|l| l[i]),
-                    &self.config,
-                );
-                self.identify(&lc).map(|id| id as i32).unwrap_or(-2)
-            })
-            .collect()
+        (0..r.status.len()).map(|i| self.label_lane(r, i)).collect()
+    }
+
+    /// Lane `i` of `r` labelled as [`Catalogue::label_lanes`] does.
+    pub fn label_lane(&self, r: &jeffcott_core::ensemble::EnsembleResult, i: usize) -> i32 {
+        if r.status[i].is_frozen() {
+            return -1;
+        }
+        let lc = classify_lane(
+            &r.lane_states(i),
+            self.omega,
+            false,
+            r.lambda1.as_ref().map(|l| l[i]),
+            &self.config,
+        );
+        self.identify(&lc).map(|id| id as i32).unwrap_or(-2)
+    }
+
+    /// What early exit recognises lanes on against this catalogue ([`recogniser_of`]).
+    pub fn recogniser(&self, streak: u32) -> crate::early::Recogniser {
+        recogniser_of(&self.attractors, &self.config, self.omega, streak)
     }
 }
 

@@ -272,6 +272,67 @@ pub fn catalogue_lanes(
     })
 }
 
+/// The lanes of `ens` labelled against a finished `catalogue` (at the lanes' speed)
+/// with early exit: a lane recognised on one of its cycles takes that attractor's id,
+/// every other lane runs whole and is labelled from its record as
+/// [`crate::catalogue::Catalogue::label_lanes`] labels it (-1 diverged, -2 on no
+/// catalogued attractor). The catalogue is complete before the lanes start (the
+/// re-integrated points of a basin: its refinement and uncertainty draws), so there are
+/// no rounds: the recogniser is the whole catalogue's.
+pub fn label_lanes(
+    ens: &EnsembleSpec,
+    catalogue: &crate::catalogue::Catalogue,
+    engine: &Engine,
+    ctl: Control,
+) -> Result<(Vec<i32>, EarlySaved, RunInfo)> {
+    let rec = catalogue.recogniser(ens.stepper.early_exit_streak);
+    let early = EarlyExit {
+        recognise: &rec,
+        after: ens.stepper.early_exit_after,
+    };
+    let (r, info) = engine.run_early(ens, &early, ctl)?;
+    let labels = r
+        .retired
+        .iter()
+        .enumerate()
+        .map(|(i, ret)| match ret {
+            Some(ret) => ret.attractor as i32,
+            None => catalogue.label_lane(&r.result, i),
+        })
+        .collect();
+    let full = ens.transient + ens.recorded;
+    let saved = EarlySaved {
+        lanes: ens.lanes.len() as u64,
+        retired: r.retired.iter().filter(|r| r.is_some()).count() as u64,
+        periods_run: r.periods_run(full),
+        periods_full: ens.lanes.len() as u64 * full as u64,
+    };
+    Ok((labels, saved, info))
+}
+
+/// A unit of lanes labelled against `catalogue` ([`label_lanes`]): its `labels` and
+/// what early exit saved (`early`), as the re-integration stages commit them.
+pub fn labelled_unit(
+    ens: &EnsembleSpec,
+    catalogue: &crate::catalogue::Catalogue,
+    engine: &Engine,
+    ctl: Control,
+) -> Result<(crate::run::Unit, Option<RunInfo>)> {
+    let (labels, saved, info) = label_lanes(ens, catalogue, engine, ctl)?;
+    let unit = crate::run::Unit::new("")
+        .with("labels", crate::run::Array::I32(labels))
+        .with("early", crate::run::Array::F64(saved.to_array()));
+    Ok((unit, Some(info)))
+}
+
+/// What early exit saved in a committed unit (nothing when it ran without: no `early`).
+pub fn unit_saved(unit: &crate::run::Unit) -> Result<Option<EarlySaved>> {
+    if !unit.has("early") {
+        return Ok(None);
+    }
+    Ok(Some(EarlySaved::from_array(unit.f64s("early")?)))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -9,7 +9,9 @@
 //! k - 1 (a point with a 4-neighbour of another label); every other new point takes the
 //! label of its parent (the level k - 1 point at half its index, rounded down). Each
 //! level's lanes run on the run engine (stage `refine<k>`, resumable) and are labelled
-//! with the coarse basin's catalogue (`-2`: an attractor the coarse grid did not find).
+//! with the coarse basin's catalogue (`-2`: an attractor the coarse grid did not find);
+//! with early exit a lane recognised on one of its cycles retires with that label
+//! ([`crate::early::label_lanes`]).
 
 use super::basin::BasinSpec;
 use super::catalogue::Catalogue;
@@ -50,6 +52,9 @@ pub struct Level {
     pub lanes: usize,
     /// Boundary points of the previous level that were refined around.
     pub boundary_points: usize,
+    /// What early exit saved at this level (`None`: it ran without, or nothing ran).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub early_exit: Option<crate::early::EarlySaved>,
 }
 
 /// Whether point (i, j) of a [ny, nx] label grid has a 4-neighbour of another label.
@@ -195,13 +200,27 @@ pub fn refine(
             let labels = catalogue.label_lanes(&r);
             Ok(Unit::new("").with("labels", Array::I32(labels)))
         };
+        let early = |_u: usize, e: &EnsembleSpec, engine: &crate::backend::Engine, c: Control| {
+            crate::early::labelled_unit(e, catalogue, engine, c)
+        };
+        let mut saved = None;
         if n > 0 {
             LaneUnits::new(&stage, split, &ensemble, &reduce)
                 .lambda1(spec.lane.lyapunov)
+                .computed_by(
+                    spec.early_exit()
+                        .then_some(&early as &crate::run::lanes::ComputeUnit),
+                )
                 .run(store, engine, ctl)?;
             let mut at = 0;
             for u in 0..count {
-                for &l in store.load(&stage, u)?.i32s("labels")? {
+                let unit = store.load(&stage, u)?;
+                if let Some(s) = crate::early::unit_saved(&unit)? {
+                    saved
+                        .get_or_insert_with(crate::early::EarlySaved::default)
+                        .add(&s);
+                }
+                for &l in unit.i32s("labels")? {
                     next[points[at]] = l;
                     comp[points[at]] = 1;
                     at += 1;
@@ -214,6 +233,7 @@ pub fn refine(
             ny: fy,
             lanes: n,
             boundary_points: boundary,
+            early_exit: saved,
         });
         cur = next;
         computed = comp;

@@ -8,7 +8,8 @@
 //! decades), so it sees the boundary's fine structure; its floor is 1/M for M draws.
 //!
 //! The lanes run on the run engine (stage `uncertainty`, resumable) after the basin is
-//! assembled, since they are labelled by its catalogue.
+//! assembled, since they are labelled by its catalogue; with early exit a lane
+//! recognised on one of its cycles retires with that label ([`crate::early::label_lanes`]).
 
 use super::basin::BasinSpec;
 use super::catalogue::Catalogue;
@@ -62,6 +63,9 @@ pub struct Reintegration {
     pub fit_range: Option<(f64, f64, usize)>,
     /// Why there is no fit (fewer than 3 eps with an uncertain draw).
     pub not_fitted: Option<String>,
+    /// What early exit saved (`None`: it ran without); run.json records it.
+    #[serde(skip)]
+    pub early_exit: Option<crate::early::EarlySaved>,
 }
 
 impl Reintegration {
@@ -132,14 +136,31 @@ pub fn reintegration(
         let labels = catalogue.label_lanes(&r);
         Ok(Unit::new("").with("labels", Array::I32(labels)))
     };
+    let early = |_u: usize, e: &EnsembleSpec, engine: &crate::backend::Engine, c: Control| {
+        crate::early::labelled_unit(e, catalogue, engine, c)
+    };
     LaneUnits::new(STAGE, split, &ensemble, &reduce)
         .lambda1(spec.lane.lyapunov)
+        .computed_by(
+            spec.early_exit()
+                .then_some(&early as &crate::run::lanes::ComputeUnit),
+        )
         .run(store, engine, ctl)?;
     let mut labels = Vec::with_capacity(lanes);
+    let mut saved = None;
     for u in 0..count {
-        labels.extend_from_slice(store.load(STAGE, u)?.i32s("labels")?);
+        let unit = store.load(STAGE, u)?;
+        if let Some(s) = crate::early::unit_saved(&unit)? {
+            saved
+                .get_or_insert_with(crate::early::EarlySaved::default)
+                .add(&s);
+        }
+        labels.extend_from_slice(unit.i32s("labels")?);
     }
-    Ok(fit(&labels, samples))
+    Ok(Reintegration {
+        early_exit: saved,
+        ..fit(&labels, samples)
+    })
 }
 
 /// f(eps) and the fit from the labels of `samples` draws (PER_DRAW lanes each).
@@ -169,6 +190,7 @@ pub fn fit(labels: &[i32], samples: usize) -> Reintegration {
             dimension: Some(2.0 - slope),
             fit_range: Some((x[x.len() - 1], x[0], x.len())),
             not_fitted: None,
+            early_exit: None,
         },
         None => Reintegration {
             samples,
@@ -182,6 +204,7 @@ pub fn fit(labels: &[i32], samples: usize) -> Reintegration {
                 used.len(),
                 EPS.len()
             )),
+            early_exit: None,
         },
     }
 }
