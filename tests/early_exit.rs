@@ -9,7 +9,7 @@ mod common;
 use common::*;
 use jeffcott_analysis::backend::Engine;
 use jeffcott_core::control::Control;
-use jeffcott_core::ensemble::early::{EarlyExit, Recognise, Track};
+use jeffcott_core::ensemble::early::{EarlyExit, Recognise, Then, Track};
 use jeffcott_core::ensemble::{Backend, EnsembleResult, EnsembleSpec, LaneSpec, Precision, cpu};
 use jeffcott_core::integrate::lane::StepperConfig;
 use jeffcott_core::model::{Params, State, VX_R, X_R};
@@ -47,7 +47,7 @@ fn spec(precision: Precision, lanes: usize) -> EnsembleSpec {
 /// Never recognises anything.
 struct Never;
 impl Recognise for Never {
-    fn observe(&self, _: &mut Track, _: &State) -> Option<u32> {
+    fn observe(&self, _: usize, _: &mut Track, _: &State) -> Option<u32> {
         None
     }
 }
@@ -56,7 +56,7 @@ impl Recognise for Never {
 /// retires some lanes and not others, at different periods.
 struct XrPositive;
 impl Recognise for XrPositive {
-    fn observe(&self, t: &mut Track, x: &State) -> Option<u32> {
+    fn observe(&self, _: usize, t: &mut Track, x: &State) -> Option<u32> {
         t.streak = if x[X_R] > 0.0 { t.streak + 1 } else { 0 };
         (t.streak >= 3).then_some(7)
     }
@@ -92,6 +92,7 @@ fn refilled_batches_give_every_lane_not_retired_the_record_of_the_plain_run_to_t
         let never = EarlyExit {
             recognise: &Never,
             after: 0,
+            then: Then::Retire,
         };
         let r = cpu::run_early(&s, &never, Control::none()).unwrap();
         assert!(r.retired.iter().all(Option::is_none));
@@ -106,6 +107,7 @@ fn refilled_batches_give_every_lane_not_retired_the_record_of_the_plain_run_to_t
         let early = EarlyExit {
             recognise: &XrPositive,
             after: 5,
+            then: Then::Retire,
         };
         let one = in_threads(1, || cpu::run_early(&s, &early, Control::none()).unwrap());
         let three = in_threads(3, || cpu::run_early(&s, &early, Control::none()).unwrap());
@@ -122,9 +124,11 @@ fn refilled_batches_give_every_lane_not_retired_the_record_of_the_plain_run_to_t
                     assert!(one.result.lane_points(i).iter().all(|v| v.is_nan()));
                     // It retired where its own points first met the rule.
                     let replay = jeffcott_core::ensemble::early::replay(
-                        &XrPositive,
+                        &early,
+                        i,
                         &plain_points_from(&s, i, early.after),
                         early.after,
+                        (s.transient, s.recorded),
                     );
                     assert_eq!(replay, Some(*r), "lane {i}");
                 }
@@ -145,27 +149,94 @@ fn plain_points_from(s: &EnsembleSpec, i: usize, first: u32) -> Vec<f64> {
 }
 
 #[test]
+fn a_lane_recorded_early_has_its_own_record_from_where_it_was_recognised_to_the_bit() {
+    for precision in [Precision::F64, Precision::F32] {
+        let s = spec(precision, 45);
+        let plain = cpu::run(&s, false, Control::none()).unwrap();
+        let early = EarlyExit {
+            recognise: &XrPositive,
+            after: 5,
+            then: Then::Record,
+        };
+        let one = in_threads(1, || cpu::run_early(&s, &early, Control::none()).unwrap());
+        let three = in_threads(3, || cpu::run_early(&s, &early, Control::none()).unwrap());
+        assert_eq!(one.retired, three.retired);
+        assert_eq!(bits(&one.result.poincare), bits(&three.result.poincare));
+        let (rec, per) = (s.recorded as usize, s.recorded as usize * 8);
+        let mut early_records = 0;
+        for (i, r) in one.retired.iter().enumerate() {
+            let Some(r) = r else {
+                assert_same_lane(&one.result, &plain, i);
+                continue;
+            };
+            // Recognised in the transient only; it ran its record from there.
+            let at = r.periods - s.recorded;
+            assert!(at >= 5 + 2 && at <= s.transient, "{r:?}");
+            let own = plain_points_from(&s, i, early.after);
+            let replay = jeffcott_core::ensemble::early::replay(
+                &early,
+                i,
+                &own,
+                early.after,
+                (s.transient, s.recorded),
+            );
+            assert_eq!(replay, Some(*r), "lane {i}");
+            // Its record: its own points of periods at + 1 ..= at + recorded, masked
+            // from the period it froze in as a plain run masks them.
+            let from = (at + 1 - early.after) as usize * 8;
+            let got = one.result.lane_points(i);
+            let want = &own[from..from + per];
+            for k in 0..rec {
+                let (g, w) = (&got[k * 8..k * 8 + 8], &want[k * 8..k * 8 + 8]);
+                if !g[0].is_nan() {
+                    assert_eq!(bits(g), bits(w), "lane {i} row {k}");
+                }
+            }
+            if !one.result.status[i].is_frozen() {
+                assert_eq!(bits(got), bits(want), "lane {i}");
+                assert_eq!(bits(&one.result.final_state[i]), bits(&want[per - 8..]));
+            }
+            if at < s.transient {
+                early_records += 1;
+            }
+        }
+        assert!(early_records > 0, "some lanes were recorded early");
+    }
+}
+
+#[test]
 fn a_gpu_reaches_the_cpus_early_exit_decisions_and_records_by_replay() {
     let Some(_) = gpu_f64_device() else {
         return;
     };
     let s = spec(Precision::F64, 29);
-    let early = EarlyExit {
-        recognise: &XrPositive,
-        after: 4,
-    };
-    let run = |backend| {
-        Engine::new(backend, Precision::F64)
-            .unwrap()
-            .run_early(&s, &early, Control::none())
-            .unwrap()
-            .0
-    };
-    let (c, g) = (run(Backend::Cpu), run(Backend::Gpu));
-    assert_eq!(c.retired, g.retired);
-    assert!(c.retired.iter().any(Option::is_some));
-    assert_eq!(bits(&c.result.poincare), bits(&g.result.poincare));
-    assert_eq!(c.result.status, g.result.status);
+    for then in [Then::Retire, Then::Record] {
+        let early = EarlyExit {
+            recognise: &XrPositive,
+            after: 4,
+            then,
+        };
+        let run = |backend| {
+            Engine::new(backend, Precision::F64)
+                .unwrap()
+                .run_early(&s, &early, Control::none())
+                .unwrap()
+                .0
+        };
+        let (c, g) = (run(Backend::Cpu), run(Backend::Gpu));
+        assert_eq!(c.retired, g.retired, "{then:?}");
+        assert!(c.retired.iter().any(Option::is_some));
+        assert_eq!(
+            bits(&c.result.poincare),
+            bits(&g.result.poincare),
+            "{then:?}"
+        );
+        assert_eq!(c.result.status, g.result.status, "{then:?}");
+        if then == Then::Record {
+            let final_states = |r: &EnsembleResult| bits(&r.final_state.concat());
+            assert_eq!(final_states(&c.result), final_states(&g.result));
+        }
+    }
 }
 
 /// Labels of a basin at `omega` with and without early exit, and run.json's count.
@@ -283,5 +354,85 @@ fn a_refined_and_reintegrated_basin_with_early_exit_has_the_cpus_labels_on_a_gpu
     assert_eq!(
         cpu.2["uncertainty_early_exit"],
         gpu.2["uncertainty_early_exit"]
+    );
+}
+
+/// A brute force over 131..134.5 rad/s (periodic and aperiodic speeds) on `backend`
+/// with early exit at `streak` (0: off): its output directory (kept alive).
+fn brute_force(backend: &str, streak: u32) -> (tempfile::TempDir, std::path::PathBuf) {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("out");
+    ok(&jeffcott(&words(&format!(
+        "bifurcation --omega 131:134.5:12 --ics 4 --brute-transient 300 --periods 24 \
+         --max-seeds 4 --steps-per-period 200 --no-lyapunov --no-plot --quiet \
+         --precision f64 --backend {backend} --early-exit-streak {streak} --out {}",
+        out.display()
+    ))));
+    (tmp, out)
+}
+
+/// Per speed: each brute-force attractor's class and lane count, sorted.
+fn brute_classes(dir: &std::path::Path) -> Vec<Vec<(String, u64)>> {
+    json(&dir.join("summary.json"))["per_omega"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|w| {
+            let mut c: Vec<(String, u64)> = w["brute_force"]["attractors"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|a| {
+                    (
+                        a["class"].as_str().unwrap().into(),
+                        a["lanes"].as_u64().unwrap(),
+                    )
+                })
+                .collect();
+            c.sort();
+            c
+        })
+        .collect()
+}
+
+#[test]
+fn a_brute_force_with_early_exit_records_lanes_that_classify_as_in_the_full_length_run() {
+    // A lane recognised on a cycle of its speed during its transient records from
+    // there; its record must classify as the full-length lane's does (it is recognised
+    // only within half the classifier's repeat tolerance).
+    let (full, early) = (brute_force("cpu", 0), brute_force("cpu", 16));
+    let classes = brute_classes(&full.1);
+    assert_eq!(classes, brute_classes(&early.1));
+    let kinds: Vec<String> = classes.concat().into_iter().map(|c| c.0).collect();
+    assert!(kinds.iter().any(|k| k.starts_with("period")));
+    assert!(kinds.iter().any(|k| k == "aperiodic"));
+    let saved = &json(&early.1.join("run.json"))["brute_force_early_exit"];
+    eprintln!("{saved}");
+    assert!(saved["retired"].as_u64() > Some(10), "{saved}");
+    assert!(saved["periods_run"].as_u64() < saved["periods_full"].as_u64());
+    assert!(
+        json(&full.1.join("run.json"))
+            .get("brute_force_early_exit")
+            .is_none()
+    );
+}
+
+#[test]
+fn a_brute_force_with_early_exit_has_the_cpus_records_on_a_gpu() {
+    if !gpu_f64_present() {
+        return;
+    }
+    let (cpu, gpu) = (brute_force("cpu", 16), brute_force("gpu", 16));
+    assert_eq!(
+        json(&gpu.1.join("run.json"))["brute_force_backend"]["backend"],
+        "gpu"
+    );
+    for file in ["bifurcation.npy", "bifurcation_rows.npy"] {
+        let read = |d: &std::path::Path| bits(&npy::<f64>(&d.join(file)).1);
+        assert_eq!(read(&cpu.1), read(&gpu.1), "{file}");
+    }
+    assert_eq!(
+        json(&cpu.1.join("run.json"))["brute_force_early_exit"],
+        json(&gpu.1.join("run.json"))["brute_force_early_exit"]
     );
 }

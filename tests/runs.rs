@@ -243,6 +243,17 @@ fn bifurcation_sweeps_and_brute_force_killed_and_resumed_equal_an_uninterrupted_
 }
 
 #[test]
+fn a_brute_force_with_early_exit_killed_and_resumed_equals_an_uninterrupted_run() {
+    // Without lambda_1 and with a transient long enough for lanes to record early.
+    killed_and_resumed_equals_uninterrupted(
+        "bifurcation --omega 131:134.5:24 --ics 4 --no-sweep --brute-transient 300 \
+         --periods 24 --max-seeds 4 --steps-per-period 200 --no-lyapunov --backend cpu \
+         --quiet",
+        &[3, 15, 30],
+    );
+}
+
+#[test]
 fn ensemble_killed_and_resumed_equals_an_uninterrupted_run() {
     killed_and_resumed_equals_uninterrupted(
         "ensemble --omega 130:141:200 --transient 60 --periods 8 --lyapunov --backend cpu --quiet",

@@ -315,6 +315,9 @@ struct RunResult<'a> {
     brute_force_backend: Option<&'a jeffcott_core::ensemble::RunInfo>,
     sweep_wall_time_s: f64,
     brute_force_wall_time_s: f64,
+    /// Brute-force lanes recorded early and periods integrated (with early exit).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    brute_force_early_exit: Option<jeffcott_analysis::early::EarlySaved>,
 }
 
 impl<'a> RunResult<'a> {
@@ -323,6 +326,7 @@ impl<'a> RunResult<'a> {
             brute_force_backend: res.brute_info.as_ref(),
             sweep_wall_time_s: res.sweep_seconds,
             brute_force_wall_time_s: res.brute_seconds,
+            brute_force_early_exit: res.brute_early_exit,
         }
     }
 }

@@ -5,7 +5,7 @@
 
 use jeffcott_core::Result;
 use jeffcott_core::control::Control;
-use jeffcott_core::ensemble::early::{self, EarlyExit, EarlyResult};
+use jeffcott_core::ensemble::early::{self, EarlyExit, EarlyResult, Then};
 use jeffcott_core::ensemble::{
     Backend, EnsembleResult, EnsembleSpec, Precision, RunInfo, cpu, lane_lambda1,
     mask_frozen_records,
@@ -100,7 +100,7 @@ impl Engine {
         let start = std::time::Instant::now();
         let full = spec.transient + spec.recorded;
         let first = early.after.max(1);
-        if first > full {
+        if first > full || !early.looks_at(first, spec.transient) {
             let res = run_on_gpu(spec, runner, false, ctl)?;
             let retired = vec![None; spec.lanes.len()];
             let r = EarlyResult {
@@ -133,13 +133,27 @@ impl Engine {
             lambda1: None,
         };
         let mut retired = Vec::with_capacity(spec.lanes.len());
-        for lane in rows_all.chunks_exact(rows * STATE_DIM) {
-            let r = early::replay(early.recognise, lane, first);
-            match r {
-                Some(_) => out
+        let periods = (spec.transient, spec.recorded);
+        for (i, lane) in rows_all.chunks_exact(rows * STATE_DIM).enumerate() {
+            let r = early::replay(early, i, lane, first, periods);
+            match (r, early.then) {
+                (Some(_), Then::Retire) => out
                     .poincare
                     .extend(std::iter::repeat_n(f64::NAN, keep * STATE_DIM)),
-                None => out
+                // Recorded early: the `keep` rows up to the period it ends at, and the
+                // state it ends in (a lane that froze in them keeps its frozen state;
+                // one the GPU saw freeze only after them keeps that status, where the
+                // CPU, which stopped the lane, does not see it).
+                (Some(r), Then::Record) => {
+                    let end = (r.periods - first + 1) as usize;
+                    let window = &lane[(end - keep) * STATE_DIM..end * STATE_DIM];
+                    out.poincare.extend_from_slice(window);
+                    let last = &window[window.len() - STATE_DIM..];
+                    if last.iter().all(|v| v.is_finite()) {
+                        out.final_state[i] = last.try_into().expect("a state");
+                    }
+                }
+                (None, _) => out
                     .poincare
                     .extend_from_slice(&lane[(rows - keep) * STATE_DIM..]),
             }

@@ -321,17 +321,30 @@ fn find(cfg: &CatalogueConfig, w: f64, attractors: &[Attractor], l: &LaneClass) 
     attractors.iter().position(|a| same(cfg, w, l, a))
 }
 
+/// How close to a catalogued cycle a recognised lane must be.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Closeness {
+    /// Close enough to take its label (a lane that retires): within [`RECOGNISE_REL`] of
+    /// the cycle's diameter, never more than [`RECOGNISE_SEPARATION`] of its distance to
+    /// the nearest point of another attractor, never less than the identity tolerance
+    /// `max(match_rel * size, match_abs)`.
+    Label,
+    /// Close enough that a record taken from there classifies as the cycle (a lane that
+    /// records early): within half the classifier's repeat tolerance
+    /// `max(rel_tol * size, abs_tol)`, so points a period apart already repeat within it,
+    /// and the lane, contracting onto the attractor, stays so.
+    Record,
+}
+
 /// What early exit recognises lanes on at speed `omega`: the periodic attractors of
-/// `attractors`. A cycle point matches within [`RECOGNISE_REL`] of the cycle's diameter,
-/// but never more than [`RECOGNISE_SEPARATION`] of its distance to the nearest point of
-/// another attractor and never less than the identity tolerance
-/// `max(match_rel * size, match_abs)` (module docs). Aperiodic attractors are not
-/// recognised.
+/// `attractors`, a cycle point matching as `closeness` says (module docs). Aperiodic
+/// attractors are not recognised.
 pub fn recogniser_of(
     attractors: &[Attractor],
     cfg: &CatalogueConfig,
     omega: f64,
     streak: u32,
+    closeness: Closeness,
 ) -> crate::early::Recogniser {
     let w = omega;
     let separation = |a: &Attractor| {
@@ -349,11 +362,20 @@ pub fn recogniser_of(
         .iter()
         .map(|a| match a.kind {
             Class::Periodic(_) => {
-                let identity = (cfg.match_rel * a.size_m).max(cfg.match_abs);
-                let wide = (RECOGNISE_REL * a.size_m).min(RECOGNISE_SEPARATION * separation(a));
+                let tol = match closeness {
+                    Closeness::Label => {
+                        let identity = (cfg.match_rel * a.size_m).max(cfg.match_abs);
+                        let wide =
+                            (RECOGNISE_REL * a.size_m).min(RECOGNISE_SEPARATION * separation(a));
+                        identity.max(wide)
+                    }
+                    Closeness::Record => {
+                        0.5 * (cfg.classify.rel_tol * a.size_m).max(cfg.classify.abs_tol)
+                    }
+                };
                 crate::early::Known::Cycle {
                     points: a.points.clone(),
-                    tol: identity.max(wide),
+                    tol,
                 }
             }
             // Aperiodic entries are never recognised: at 137.25 rad/s lanes still in
@@ -475,7 +497,24 @@ impl CatalogueBuilder {
 
     /// What early exit recognises lanes on: the attractors so far ([`recogniser_of`]).
     pub fn recogniser(&self, streak: u32) -> crate::early::Recogniser {
-        recogniser_of(&self.attractors, &self.cfg, self.omega, streak)
+        recogniser_of(
+            &self.attractors,
+            &self.cfg,
+            self.omega,
+            streak,
+            Closeness::Label,
+        )
+    }
+
+    /// What early exit recognises lanes on before they record ([`Closeness::Record`]).
+    pub fn recogniser_to_record(&self, streak: u32) -> crate::early::Recogniser {
+        recogniser_of(
+            &self.attractors,
+            &self.cfg,
+            self.omega,
+            streak,
+            Closeness::Record,
+        )
     }
 
     /// Classifies (in parallel) and adds a block of lanes: `points` is
@@ -862,7 +901,13 @@ impl Catalogue {
 
     /// What early exit recognises lanes on against this catalogue ([`recogniser_of`]).
     pub fn recogniser(&self, streak: u32) -> crate::early::Recogniser {
-        recogniser_of(&self.attractors, &self.config, self.omega, streak)
+        recogniser_of(
+            &self.attractors,
+            &self.config,
+            self.omega,
+            streak,
+            Closeness::Label,
+        )
     }
 }
 

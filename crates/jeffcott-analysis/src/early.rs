@@ -28,7 +28,7 @@ use crate::backend::Engine;
 use crate::catalogue::{CatalogueBuilder, CatalogueConfig};
 use crate::classify::distance;
 use jeffcott_core::control::Control;
-use jeffcott_core::ensemble::early::{EarlyExit, Recognise, Track};
+use jeffcott_core::ensemble::early::{EarlyExit, Recognise, Then, Track};
 use jeffcott_core::ensemble::{EnsembleSpec, RunInfo};
 use jeffcott_core::error::Result;
 use jeffcott_core::model::State;
@@ -105,7 +105,7 @@ impl Recogniser {
 }
 
 impl Recognise for Recogniser {
-    fn observe(&self, t: &mut Track, x: &State) -> Option<u32> {
+    fn observe(&self, _lane: usize, t: &mut Track, x: &State) -> Option<u32> {
         if t.streak > 0 {
             let k = &self.known[t.attractor as usize];
             if k.matches(x, t.next as usize, self.omega) {
@@ -232,6 +232,7 @@ pub fn catalogue_lanes(
         let early = EarlyExit {
             recognise: &rec,
             after: ens.stepper.early_exit_after,
+            then: Then::Retire,
         };
         let b0 = base;
         let report = |d: u64, _: u64| (ctl.progress)(b0 + d, n as u64 * per_lane);
@@ -289,6 +290,7 @@ pub fn label_lanes(
     let early = EarlyExit {
         recognise: &rec,
         after: ens.stepper.early_exit_after,
+        then: Then::Retire,
     };
     let (r, info) = engine.run_early(ens, &early, ctl)?;
     let labels = r
@@ -333,6 +335,53 @@ pub fn unit_saved(unit: &crate::run::Unit) -> Result<Option<EarlySaved>> {
     Ok(Some(EarlySaved::from_array(unit.f64s("early")?)))
 }
 
+/// Recognises each lane on the catalogue of its group (in a brute force, its speed):
+/// lane i on `recognisers[group[i]]`.
+pub struct ByGroup<'a> {
+    /// One recogniser per group.
+    pub recognisers: &'a [Recogniser],
+    /// Each lane's group.
+    pub group: &'a [usize],
+}
+
+impl Recognise for ByGroup<'_> {
+    fn observe(&self, lane: usize, t: &mut Track, x: &State) -> Option<u32> {
+        self.recognisers[self.group[lane]].observe(lane, t, x)
+    }
+}
+
+/// Runs `ens` with early exit, each lane recognised by `rec` during its transient and
+/// then recording its own `recorded` periods from there ([`Then::Record`]): for studies
+/// that classify or draw every lane's record (the brute force). What early exit saved
+/// comes with the result.
+pub fn record_lanes(
+    ens: &EnsembleSpec,
+    rec: &dyn Recognise,
+    engine: &Engine,
+    ctl: Control,
+) -> Result<(jeffcott_core::ensemble::EnsembleResult, EarlySaved, RunInfo)> {
+    let early = EarlyExit {
+        recognise: rec,
+        after: ens.stepper.early_exit_after,
+        then: Then::Record,
+    };
+    let (r, info) = engine.run_early(ens, &early, ctl)?;
+    let full = ens.transient + ens.recorded;
+    let saved = EarlySaved {
+        lanes: ens.lanes.len() as u64,
+        // Lanes recognised before the transient's end (one recognised at its last
+        // period has the plain run's record and saved nothing).
+        retired: r
+            .retired
+            .iter()
+            .filter(|r| r.is_some_and(|r| r.periods < full))
+            .count() as u64,
+        periods_run: r.periods_run(full),
+        periods_full: ens.lanes.len() as u64 * full as u64,
+    };
+    Ok((r.result, saved, info))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -362,13 +411,13 @@ mod tests {
         // In order: recognised at the 6th point (two cycles of 3 > streak 4).
         let mut t = Track::default();
         let seq = [0.0, 1.0, 2.0, 0.0, 1.0, 2.0];
-        let got: Vec<Option<u32>> = seq.iter().map(|&v| r.observe(&mut t, &pt(v))).collect();
+        let got: Vec<Option<u32>> = seq.iter().map(|&v| r.observe(0, &mut t, &pt(v))).collect();
         assert_eq!(got[..5], [None; 5]);
         assert_eq!(got[5], Some(0));
         // Near the cycle's points but out of order: never.
         let mut t = Track::default();
         for v in [0.0, 2.0, 1.0, 0.0, 2.0, 1.0, 0.0, 2.0, 1.0] {
-            assert_eq!(r.observe(&mut t, &pt(v)), None);
+            assert_eq!(r.observe(0, &mut t, &pt(v)), None);
         }
     }
 
@@ -388,7 +437,7 @@ mod tests {
         let mut first = None;
         let seq: Vec<f64> = [vec![0.0; 5], vec![0.5; 3], vec![0.0; 20]].concat();
         for (k, &v) in seq.iter().enumerate() {
-            if r.observe(&mut t, &pt(v)).is_some() && first.is_none() {
+            if r.observe(0, &mut t, &pt(v)).is_some() && first.is_none() {
                 first = Some(k);
             }
         }
@@ -401,7 +450,7 @@ mod tests {
         let r = Recogniser::new(100.0, 1, vec![Known::Never]);
         let mut t = Track::default();
         for v in [0.0, 0.5, 1.0] {
-            assert_eq!(r.observe(&mut t, &pt(v)), None);
+            assert_eq!(r.observe(0, &mut t, &pt(v)), None);
         }
     }
 }

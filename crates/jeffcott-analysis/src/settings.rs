@@ -51,6 +51,12 @@ impl LaneSettings {
         self.catalogue.validate()
     }
 
+    /// Whether the lanes exit early (`crate::early`): asked for (`early_exit_streak` >
+    /// 0) and without lambda_1 (whose per-lane exponent needs every lane's whole record).
+    pub fn early_exit(&self) -> bool {
+        self.stepper.early_exit_streak > 0 && !self.lyapunov
+    }
+
     /// The ensemble of one parameter set `params` at one speed `omega`, a lane from each
     /// of `starts`, integrated with these settings' stepper and precision: what a basin
     /// grid and a continuation step integrate (one speed, many start states).

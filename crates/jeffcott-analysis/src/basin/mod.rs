@@ -228,10 +228,9 @@ impl BasinSpec {
         )
     }
 
-    /// Whether the basin's lanes exit early: asked for (`early_exit_streak` > 0) and
-    /// without lambda_1 (whose per-lane exponent needs every lane's whole record).
+    /// Whether the basin's lanes exit early ([`LaneSettings::early_exit`]).
     pub fn early_exit(&self) -> bool {
-        self.lane.stepper.early_exit_streak > 0 && !self.lane.lyapunov
+        self.lane.early_exit()
     }
 
     /// The start state of cell (ix, iy).

@@ -4,6 +4,7 @@
 
 use super::{BifurcationSpec, BrutePoint, SweepPoint};
 use crate::catalogue::CatalogueBuilder;
+use crate::early::EarlySaved;
 use crate::run::lanes::{Control, LaneUnits, Split};
 use crate::run::{Array, Unit, UnitStore};
 use jeffcott_core::ensemble::{EnsembleSpec, LaneSpec, RunInfo};
@@ -47,15 +48,136 @@ pub(super) struct StageResult {
     poincare: Vec<f64>,
     status: Vec<Status>,
     lambda1: Option<Vec<f64>>,
+    /// What early exit saved (`None`: it ran without).
+    pub(super) early: Option<EarlySaved>,
+}
+
+/// How a brute-force stage's lanes exit early (`crate::early`, [`Then::Record`]: a lane
+/// recognised on an attractor of its speed during its transient records its periods
+/// from there, and is classified from that record as any lane).
+///
+/// [`Then::Record`]: jeffcott_core::ensemble::early::Then::Record
+pub(super) enum BruteEarly<'a> {
+    /// Each speed's first lane runs whole and catalogues the speed for its other lanes
+    /// (the first pass: nothing is known of a speed before it).
+    FirstLane,
+    /// Lanes are recognised by this recogniser of their speed (index) from the start
+    /// (the second pass: the first pass's catalogues').
+    Known(&'a (dyn Fn(usize) -> crate::early::Recogniser + Sync)),
+}
+
+/// Unit `lanes`' records as a brute-force unit holds them.
+fn stage_unit(r: jeffcott_core::ensemble::EnsembleResult) -> Unit {
+    let mut unit = Unit::new("").with("poincare", Array::F64(r.poincare)).with(
+        "status",
+        Array::U32(r.status.iter().map(|s| s.code()).collect()),
+    );
+    if let Some(l) = r.lambda1 {
+        unit = unit.with("lambda1", Array::F64(l));
+    }
+    unit
+}
+
+/// The lanes `pick` of `e` as an ensemble of their own.
+fn sub_ensemble(e: &EnsembleSpec, pick: &[usize]) -> EnsembleSpec {
+    EnsembleSpec {
+        lanes: pick.iter().map(|&i| e.lanes[i]).collect(),
+        ..e.clone()
+    }
+}
+
+/// Computes one brute-force unit with early exit: `e`'s lanes, lane i at the speed of
+/// group `group[i]`, `omegas[g]` each group's speed.
+fn early_unit(
+    spec: &BifurcationSpec,
+    how: &BruteEarly,
+    e: &EnsembleSpec,
+    ws: &[usize],
+    group: &[usize],
+    engine: &crate::backend::Engine,
+    ctl: Control,
+) -> Result<(Unit, Option<RunInfo>)> {
+    use crate::early::{ByGroup, record_lanes};
+    let streak = spec.lane.stepper.early_exit_streak;
+    let n = e.lanes.len();
+    let full = (e.transient + e.recorded) as u64;
+    let builder = |g: usize| CatalogueBuilder::new(spec.omegas[ws[g]], spec.lane.catalogue);
+    let (known, first, mut saved, base) = match how {
+        BruteEarly::Known(recogniser) => {
+            let rec: Vec<_> = ws.iter().map(|&wi| recogniser(wi)).collect();
+            (rec, None, EarlySaved::default(), 0)
+        }
+        BruteEarly::FirstLane => {
+            // Round 1: each speed's first lane, whole; its catalogue recognises the rest.
+            let firsts: Vec<usize> = (0..n)
+                .filter(|&i| i == 0 || group[i] != group[i - 1])
+                .collect();
+            let r1 = engine.run(&sub_ensemble(e, &firsts), false, ctl)?.0;
+            let mut builders: Vec<CatalogueBuilder> = (0..ws.len()).map(builder).collect();
+            for (k, &i) in firsts.iter().enumerate() {
+                let frozen = [r1.status[k].is_frozen()];
+                builders[group[i]].add_block(r1.lane_points(k), r1.recorded, &frozen, None);
+            }
+            let rec = builders
+                .iter()
+                .map(|b| b.recogniser_to_record(streak))
+                .collect();
+            let saved = EarlySaved {
+                lanes: firsts.len() as u64,
+                retired: 0,
+                periods_run: firsts.len() as u64 * full,
+                periods_full: firsts.len() as u64 * full,
+            };
+            (rec, Some((firsts, r1)), saved, saved.periods_full)
+        }
+    };
+    let rest: Vec<usize> = match &first {
+        Some((firsts, _)) => (0..n)
+            .filter(|i| firsts.binary_search(i).is_err())
+            .collect(),
+        None => (0..n).collect(),
+    };
+    let rest_group: Vec<usize> = rest.iter().map(|&i| group[i]).collect();
+    let report = |d: u64, _: u64| (ctl.progress)(base + d, n as u64 * full);
+    let (r2, s2, info) = record_lanes(
+        &sub_ensemble(e, &rest),
+        &ByGroup {
+            recognisers: &known,
+            group: &rest_group,
+        },
+        engine,
+        Control {
+            progress: &report,
+            cancel: ctl.cancel,
+        },
+    )?;
+    saved.add(&s2);
+    // The records back in the unit's lane order.
+    let mut out = jeffcott_core::ensemble::EnsembleResult::with_capacity(n, e.recorded, false);
+    let mut from: Vec<(usize, &jeffcott_core::ensemble::EnsembleResult, usize)> =
+        rest.iter().enumerate().map(|(k, &i)| (i, &r2, k)).collect();
+    if let Some((firsts, r1)) = &first {
+        from.extend(firsts.iter().enumerate().map(|(k, &i)| (i, r1, k)));
+    }
+    from.sort_unstable_by_key(|f| f.0);
+    for (_, r, k) in from {
+        out.poincare.extend_from_slice(r.lane_points(k));
+        out.status.push(r.status[k]);
+    }
+    let unit = stage_unit(out).with("early", Array::F64(saved.to_array()));
+    Ok((unit, Some(info)))
 }
 
 /// Runs (or resumes) one brute-force stage: `lanes_of(wi)` are the lanes at speed index
-/// wi; a unit holds consecutive speeds (at most 1/20 of them and ~25 s of work).
+/// wi; a unit holds consecutive speeds (at most 1/20 of them and ~25 s of work). With
+/// `early` (and the study's early exit on) lanes exit early as it says.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn brute_stage(
     spec: &BifurcationSpec,
     engine: &crate::backend::Engine,
     stage: &str,
     lanes_of: &(dyn Fn(usize) -> Vec<State> + Sync),
+    early: Option<BruteEarly>,
     store: &dyn UnitStore,
     ctl: Control,
     base: u64,
@@ -87,14 +209,16 @@ pub(super) fn brute_stage(
         precision: spec.lane.precision,
     };
     let reduce = |_u: usize, _e: &EnsembleSpec, r: jeffcott_core::ensemble::EnsembleResult| {
-        let mut unit = Unit::new("").with("poincare", Array::F64(r.poincare)).with(
-            "status",
-            Array::U32(r.status.iter().map(|s| s.code()).collect()),
-        );
-        if let Some(l) = r.lambda1 {
-            unit = unit.with("lambda1", Array::F64(l));
-        }
-        Ok(unit)
+        Ok(stage_unit(r))
+    };
+    let early = early.filter(|_| spec.lane.early_exit());
+    let compute = |u: usize, e: &EnsembleSpec, engine: &crate::backend::Engine, c: Control| {
+        let ws: Vec<usize> = split.range(u).collect();
+        let group: Vec<usize> = (0..ws.len())
+            .flat_map(|g| std::iter::repeat_n(g, lanes_of(ws[g]).len()))
+            .collect();
+        let how = early.as_ref().expect("computed with early exit only");
+        early_unit(spec, how, e, &ws, &group, engine, c)
     };
     let progress = |d: u64, _t: u64| (ctl.progress)(base + d, 0);
     let lanes = |u: usize| split.range(u).map(|wi| lanes_of(wi).len()).sum();
@@ -105,14 +229,23 @@ pub(super) fn brute_stage(
     let info = LaneUnits::new(stage, split, &ensemble, &reduce)
         .lanes_of(&lanes)
         .lambda1(spec.lane.lyapunov)
+        .computed_by(
+            early
+                .is_some()
+                .then_some(&compute as &crate::run::lanes::ComputeUnit),
+        )
         .run(store, engine, ctl)?;
     let mut out = StageResult {
         poincare: Vec::new(),
         status: Vec::new(),
         lambda1: spec.lane.lyapunov.then(Vec::new),
+        early: None,
     };
     for u in 0..count {
         let unit = store.load(stage, u)?;
+        if let Some(s) = crate::early::unit_saved(&unit)? {
+            out.early.get_or_insert_with(EarlySaved::default).add(&s);
+        }
         out.poincare.extend_from_slice(unit.f64s("poincare")?);
         out.status.extend(
             unit.u32s("status")?
@@ -142,7 +275,7 @@ pub(super) fn brute_force(
     first: FirstPass,
     store: &dyn UnitStore,
     ctl: Control,
-) -> Result<(Vec<BrutePoint>, Option<RunInfo>)> {
+) -> Result<(Vec<BrutePoint>, Option<RunInfo>, Option<EarlySaved>)> {
     let (engine, common, res1, info1) = first;
     let n = spec.omegas.len();
     let k = spec.ics as usize;
@@ -195,7 +328,18 @@ pub(super) fn brute_force(
     let (res2, info2) = if seeds.iter().all(|s| s.is_empty()) {
         (None, None)
     } else {
-        let (r, i) = brute_stage(spec, &engine, "bf2", &|wi| seeds[wi].clone(), store, ctl, 0)?;
+        let streak = spec.lane.stepper.early_exit_streak;
+        let known = |wi: usize| builders[wi].recogniser_to_record(streak);
+        let (r, i) = brute_stage(
+            spec,
+            &engine,
+            "bf2",
+            &|wi| seeds[wi].clone(),
+            Some(BruteEarly::Known(&known)),
+            store,
+            ctl,
+            0,
+        )?;
         (Some(r), i)
     };
     let mut out = Vec::with_capacity(n);
@@ -231,5 +375,9 @@ pub(super) fn brute_force(
             lambda1,
         });
     }
-    Ok((out, info2.or(info1)))
+    let mut saved = res1.early;
+    if let Some(s2) = res2.as_ref().and_then(|r| r.early) {
+        saved.get_or_insert_with(EarlySaved::default).add(&s2);
+    }
+    Ok((out, info2.or(info1), saved))
 }

@@ -247,6 +247,8 @@ pub struct BifurcationResult {
     pub brute_seconds: f64,
     /// Backend information of the brute-force ensembles.
     pub brute_info: Option<RunInfo>,
+    /// What early exit saved in the brute force (`None`: it ran without).
+    pub brute_early_exit: Option<crate::early::EarlySaved>,
 }
 
 /// Lane-periods a study integrates (for progress bars): each sweep exactly (its first
@@ -307,8 +309,16 @@ pub fn bifurcation_with(
         let engine = crate::backend::Engine::new(spec.lane.backend, spec.lane.precision)?;
         let w_mid = 0.5 * (spec.omegas[0] + spec.omegas[spec.omegas.len() - 1]);
         let common = start_states(&spec.lane.params, spec.ics, w_mid, spec.seed);
-        let (res1, info1) =
-            brute_stage(spec, &engine, "bf1", &|_| common.clone(), store, ctl_bf1, 0)?;
+        let (res1, info1) = brute_stage(
+            spec,
+            &engine,
+            "bf1",
+            &|_| common.clone(),
+            Some(brute::BruteEarly::FirstLane),
+            store,
+            ctl_bf1,
+            0,
+        )?;
         Some((engine, common, res1, info1))
     } else {
         None
@@ -340,6 +350,7 @@ pub fn bifurcation_with(
     let t1 = std::time::Instant::now();
     let mut brute = Vec::new();
     let mut brute_info = None;
+    let mut brute_early_exit = None;
     if let Some(first) = first_pass {
         let offset = done_work.load(std::sync::atomic::Ordering::Relaxed);
         let progress = |d: u64, _t: u64| (ctl.progress)(offset + d, total);
@@ -347,9 +358,10 @@ pub fn bifurcation_with(
             progress: &progress,
             cancel: ctl.cancel,
         };
-        let (b, info) = brute_force(spec, &up, &down, first, store, ctl2)?;
+        let (b, info, saved) = brute_force(spec, &up, &down, first, store, ctl2)?;
         brute = b;
         brute_info = info;
+        brute_early_exit = saved;
     }
     Ok(BifurcationResult {
         up,
@@ -358,5 +370,6 @@ pub fn bifurcation_with(
         sweep_seconds,
         brute_seconds: t1.elapsed().as_secs_f64(),
         brute_info,
+        brute_early_exit,
     })
 }

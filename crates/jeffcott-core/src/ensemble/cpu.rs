@@ -5,7 +5,7 @@
 //! end, so the result is bit-identical for any number of threads. Where the CPU has
 //! AVX2 the batch code is compiled a second time for it and chosen at run time.
 
-use super::early::{EarlyExit, EarlyResult, Retired, Track};
+use super::early::{EarlyExit, EarlyResult, Retired, Then, Track};
 use super::{EnsembleResult, EnsembleSpec, Precision};
 use crate::control::{Cancel, Control};
 use crate::error::{Error, Result};
@@ -324,7 +324,9 @@ pub fn run(spec: &EnsembleSpec, lambda1: bool, ctl: Control) -> Result<EnsembleR
 }
 
 /// What a refilled batch returns per lane: its index, outcome and retirement.
-type Ended = (usize, Outcome, Option<Retired>);
+/// A lane that ended: its index, its outcome, whether it was recognised, and the periods
+/// before its record (the transient, or fewer when recorded early).
+type Ended = (usize, Outcome, Option<Retired>, u32);
 
 /// A slot of a refilled batch: the lane in it and what that lane has gathered.
 struct SlotLane {
@@ -336,6 +338,11 @@ struct SlotLane {
     track: Track,
     /// Its recorded points.
     points: Vec<f64>,
+    /// Periods before its record: the transient, or the period it was recognised at
+    /// ([`Then::Record`]).
+    record_from: u32,
+    /// The attractor it was recognised on ([`Then::Record`]: it is recording).
+    recognised: Option<u32>,
 }
 
 /// Lanes `lanes` of `spec` through one batch of [`BATCH`] slots, each slot refilled
@@ -350,7 +357,6 @@ fn run_refill_inner<R: Real>(
     lanes: std::ops::Range<usize>,
     cancel: &Cancel,
 ) -> Option<Vec<Ended>> {
-    let total = spec.transient + spec.recorded;
     let record_len = spec.recorded as usize * STATE_DIM;
     let mut queue = lanes.clone();
     let placeholder = || Lane::<R>::new(&[f64::NAN; STATE_DIM], 0.0);
@@ -369,6 +375,8 @@ fn run_refill_inner<R: Real>(
                 periods: 0,
                 track: Track::default(),
                 points: Vec::with_capacity(record_len),
+                record_from: spec.transient,
+                recognised: None,
             }
         });
         if slot[l].is_none() {
@@ -396,30 +404,45 @@ fn run_refill_inner<R: Real>(
             s.periods += 1;
             let lane = &state[l];
             let x = lane.state_f64();
-            if s.periods > spec.transient {
+            if s.periods > s.record_from {
                 s.points.extend_from_slice(&x);
             }
+            // Recognised at this period: retire now, or record from here on.
+            let now = (s.recognised.is_none()
+                && !lane.status.is_frozen()
+                && early.looks_at(s.periods, spec.transient))
+            .then(|| early.recognise.observe(s.lane, &mut s.track, &x))
+            .flatten();
+            if let (Some(a), Then::Record) = (now, early.then) {
+                s.record_from = s.periods;
+                s.recognised = Some(a);
+            }
+            // A lane recorded early counts the periods of its whole record, also when it
+            // froze during it (as the replay of a GPU's records counts it).
+            let recorded_early = |s: &SlotLane| {
+                s.recognised.map(|a| Retired {
+                    attractor: a,
+                    periods: s.record_from + spec.recorded,
+                })
+            };
             let ended = if lane.status.is_frozen() {
                 // A frozen lane repeats the state it froze at in every later record, as
                 // in `run_lane` (the host masks those rows afterwards).
                 while s.points.len() < record_len {
                     s.points.extend_from_slice(&x);
                 }
-                Some(None)
-            } else if let Some(a) = (s.periods >= early.after)
-                .then(|| early.recognise.observe(&mut s.track, &x))
-                .flatten()
-            {
+                Some(recorded_early(s))
+            } else if let (Some(a), Then::Retire) = (now, early.then) {
                 Some(Some(Retired {
                     attractor: a,
                     periods: s.periods,
                 }))
             } else {
-                (s.periods == total).then_some(None)
+                (s.periods == s.record_from + spec.recorded).then(|| recorded_early(s))
             };
             if let Some(retired) = ended {
                 let s = slot[l].take().expect("occupied slot");
-                let points = if retired.is_some() {
+                let points = if retired.is_some() && early.then == Then::Retire {
                     vec![f64::NAN; record_len]
                 } else {
                     s.points
@@ -434,6 +457,7 @@ fn run_refill_inner<R: Real>(
                         lambda1: f64::NAN,
                     },
                     retired,
+                    s.record_from,
                 ));
                 load(l, &mut lc, &mut state, &mut slot);
                 refilled = true;
@@ -504,17 +528,19 @@ pub fn run_early(spec: &EnsembleSpec, early: &EarlyExit, ctl: Control) -> Result
         };
         all.extend(o);
     }
-    all.sort_unstable_by_key(|(i, _, _)| *i);
+    all.sort_unstable_by_key(|(i, _, _, _)| *i);
     let mut res = EnsembleResult::with_capacity(n, spec.recorded, false);
     let mut retired = Vec::with_capacity(n);
-    for (_, o, r) in all {
+    let mut record_from = Vec::with_capacity(n);
+    for (_, o, r, from) in all {
         res.poincare.extend_from_slice(&o.points);
         res.final_state.push(o.final_state);
         res.status.push(o.status);
         res.counters.push(o.counters);
         retired.push(r);
+        record_from.push(from);
     }
-    super::mask_frozen_records(spec, &mut res);
+    super::mask_frozen_records_from(spec, &mut res, |i| record_from[i]);
     Ok(EarlyResult {
         result: res,
         retired,

@@ -33,12 +33,28 @@ pub struct Track {
 
 /// Recognises lanes on known attractors from their Poincare points.
 pub trait Recognise: Sync {
-    /// Takes a live lane's Poincare point at the end of a period and its track so far;
-    /// returns the attractor's id once the lane is recognised on it.
-    fn observe(&self, track: &mut Track, point: &State) -> Option<u32>;
+    /// Takes live lane `lane`'s (its index in the ensemble) Poincare point at the end of
+    /// a period and its track so far; returns the attractor's id once the lane is
+    /// recognised on it.
+    fn observe(&self, lane: usize, track: &mut Track, point: &State) -> Option<u32>;
 }
 
-/// Early exit for one run: the recogniser and the first period it looks at.
+/// What a recognised lane does.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Then {
+    /// It retires: no record (NaN rows), its final state the state it was recognised at.
+    /// For studies that need its label only (a basin's cells).
+    Retire,
+    /// It skips the rest of its transient and records its `recorded` periods from there:
+    /// a record of its own on the attractor, for studies that classify or draw each
+    /// lane's record (the brute force). Recognition looks at the transient only; a lane
+    /// recognised at the transient's last period has the record of the run without
+    /// early exit.
+    Record,
+}
+
+/// Early exit for one run: the recogniser, the first period it looks at and what a
+/// recognised lane does.
 #[derive(Clone, Copy)]
 pub struct EarlyExit<'a> {
     /// Recognises the lanes.
@@ -46,20 +62,37 @@ pub struct EarlyExit<'a> {
     /// Periods a lane integrates before its points are looked at (its first point seen
     /// is the one after period `after`, counted from 1).
     pub after: u32,
+    /// What a recognised lane does.
+    pub then: Then,
 }
 
-/// A lane that retired early.
+impl EarlyExit<'_> {
+    /// Whether a lane's point after period `period` (counted from 1) is looked at, in a
+    /// run of `transient` periods of transient.
+    pub fn looks_at(&self, period: u32, transient: u32) -> bool {
+        period >= self.after
+            && match self.then {
+                Then::Retire => true,
+                Then::Record => period <= transient,
+            }
+    }
+}
+
+/// A lane that was recognised early: retired ([`Then::Retire`]) or recorded from there
+/// ([`Then::Record`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Retired {
     /// The attractor it was recognised on (the recogniser's id).
     pub attractor: u32,
-    /// The periods it integrated (counted from 1).
+    /// The periods it integrated (counted from 1; with [`Then::Record`] its record is the
+    /// last `recorded` of them).
     pub periods: u32,
 }
 
 /// An ensemble run with early exit: the result in the usual shape (a retired lane's
-/// record rows are NaN, its final state the state it retired at) and, per lane, whether
-/// and where it retired.
+/// record rows are NaN, its final state the state it retired at; a lane recorded early
+/// has its own record and final state) and, per lane, whether and where it was
+/// recognised.
 #[derive(Clone, Debug)]
 pub struct EarlyResult {
     /// The lanes' results.
@@ -78,22 +111,37 @@ impl EarlyResult {
     }
 }
 
-/// The decision of the rule over one lane's points after periods `after`, `after + 1`,
-/// ... (`rows`, flat, 8 values each; NaN rows, as a frozen lane's records, never
-/// match): the same calls of [`Recognise::observe`] as the runner makes, stopping at the
-/// first recognition. `first` is the period of the first row.
-pub fn replay(recognise: &dyn Recognise, rows: &[f64], first: u32) -> Option<Retired> {
+/// The decision of the rule over lane `lane`'s points after periods `first`,
+/// `first + 1`, ... (`rows`, flat, 8 values each; NaN rows, as a frozen lane's records,
+/// never match) in a run of `transient` periods of transient and `recorded` recorded:
+/// the same calls of [`Recognise::observe`] as the runner makes, stopping at the first
+/// recognition (`first` is `early.after`, at least 1). With [`Then::Record`] the lane's
+/// record is then the `recorded` rows before the returned period's end.
+pub fn replay(
+    early: &EarlyExit,
+    lane: usize,
+    rows: &[f64],
+    first: u32,
+    (transient, recorded): (u32, u32),
+) -> Option<Retired> {
     let mut track = Track::default();
     for (k, row) in rows.chunks_exact(STATE_DIM).enumerate() {
+        let period = first + k as u32;
+        if !early.looks_at(period, transient) {
+            return None;
+        }
         let x: State = row.try_into().ok()?;
         if x.iter().any(|v| !v.is_finite()) {
             // The lane froze: the runner stops looking at it.
             return None;
         }
-        if let Some(a) = recognise.observe(&mut track, &x) {
+        if let Some(a) = early.recognise.observe(lane, &mut track, &x) {
             return Some(Retired {
                 attractor: a,
-                periods: first + k as u32,
+                periods: match early.then {
+                    Then::Retire => period,
+                    Then::Record => period + recorded,
+                },
             });
         }
     }

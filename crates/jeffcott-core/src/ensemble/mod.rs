@@ -241,6 +241,16 @@ pub fn freeze_period(macro_steps: u64, steps_per_period: u32) -> Option<u64> {
 /// (a GPU counter saturated after 4.29e9 steps), every trailing row bit-identical to the
 /// frozen final state is NaN. Rows before the freeze are untouched.
 pub fn mask_frozen_records(spec: &EnsembleSpec, res: &mut EnsembleResult) {
+    mask_frozen_records_from(spec, res, |_| spec.transient);
+}
+
+/// [`mask_frozen_records`] where lane i's record starts after `record_from(i)` periods
+/// (the transient, or fewer for a lane recorded early: `early::Then::Record`).
+pub fn mask_frozen_records_from(
+    spec: &EnsembleSpec,
+    res: &mut EnsembleResult,
+    record_from: impl Fn(usize) -> u32,
+) {
     let rec = res.recorded;
     let len = rec * STATE_DIM;
     for i in 0..res.status.len() {
@@ -250,7 +260,7 @@ pub fn mask_frozen_records(spec: &EnsembleSpec, res: &mut EnsembleResult) {
         let rows = &mut res.poincare[i * len..(i + 1) * len];
         let first = match freeze_period(res.counters[i].macro_steps, spec.stepper.steps_per_period)
         {
-            Some(p) => p.saturating_sub(spec.transient as u64).min(rec as u64) as usize,
+            Some(p) => p.saturating_sub(record_from(i) as u64).min(rec as u64) as usize,
             None => {
                 let fin = res.final_state[i].map(f64::to_bits);
                 let mut first = rec;
