@@ -62,6 +62,17 @@ impl Recognise for XrPositive {
     }
 }
 
+/// [`XrPositive`] for the even lanes only: the odd ones always run whole.
+struct XrPositiveEven;
+impl Recognise for XrPositiveEven {
+    fn observe(&self, lane: usize, t: &mut Track, x: &State) -> Option<u32> {
+        if lane % 2 == 1 {
+            return None;
+        }
+        XrPositive.observe(lane, t, x)
+    }
+}
+
 fn bits(v: &[f64]) -> Vec<u64> {
     v.iter().map(|x| x.to_bits()).collect()
 }
@@ -94,7 +105,7 @@ fn refilled_batches_give_every_lane_not_retired_the_record_of_the_plain_run_to_t
             after: 0,
             then: Then::Retire,
         };
-        let r = cpu::run_early(&s, &never, Control::none()).unwrap();
+        let r = cpu::run_early(&s, &never, false, Control::none()).unwrap();
         assert!(r.retired.iter().all(Option::is_none));
         assert_eq!(bits(&r.result.poincare), bits(&plain.poincare));
         assert_eq!(r.result.counters, plain.counters);
@@ -109,8 +120,12 @@ fn refilled_batches_give_every_lane_not_retired_the_record_of_the_plain_run_to_t
             after: 5,
             then: Then::Retire,
         };
-        let one = in_threads(1, || cpu::run_early(&s, &early, Control::none()).unwrap());
-        let three = in_threads(3, || cpu::run_early(&s, &early, Control::none()).unwrap());
+        let one = in_threads(1, || {
+            cpu::run_early(&s, &early, false, Control::none()).unwrap()
+        });
+        let three = in_threads(3, || {
+            cpu::run_early(&s, &early, false, Control::none()).unwrap()
+        });
         assert_eq!(one.retired, three.retired);
         assert_eq!(bits(&one.result.poincare), bits(&three.result.poincare));
         let retired = one.retired.iter().filter(|r| r.is_some()).count();
@@ -158,8 +173,12 @@ fn a_lane_recorded_early_has_its_own_record_from_where_it_was_recognised_to_the_
             after: 5,
             then: Then::Record,
         };
-        let one = in_threads(1, || cpu::run_early(&s, &early, Control::none()).unwrap());
-        let three = in_threads(3, || cpu::run_early(&s, &early, Control::none()).unwrap());
+        let one = in_threads(1, || {
+            cpu::run_early(&s, &early, false, Control::none()).unwrap()
+        });
+        let three = in_threads(3, || {
+            cpu::run_early(&s, &early, false, Control::none()).unwrap()
+        });
         assert_eq!(one.retired, three.retired);
         assert_eq!(bits(&one.result.poincare), bits(&three.result.poincare));
         let (rec, per) = (s.recorded as usize, s.recorded as usize * 8);
@@ -212,29 +231,81 @@ fn a_gpu_reaches_the_cpus_early_exit_decisions_and_records_by_replay() {
     let s = spec(Precision::F64, 29);
     for then in [Then::Retire, Then::Record] {
         let early = EarlyExit {
-            recognise: &XrPositive,
+            recognise: &XrPositiveEven,
             after: 4,
             then,
         };
-        let run = |backend| {
-            Engine::new(backend, Precision::F64)
-                .unwrap()
-                .run_early(&s, &early, Control::none())
-                .unwrap()
-                .0
+        for lambda1 in [false, true] {
+            let run = |backend| {
+                Engine::new(backend, Precision::F64)
+                    .unwrap()
+                    .run_early(&s, &early, lambda1, Control::none())
+                    .unwrap()
+                    .0
+            };
+            let (c, g) = (run(Backend::Cpu), run(Backend::Gpu));
+            let case = format!("{then:?}, lambda1 {lambda1}");
+            assert_eq!(c.retired, g.retired, "{case}");
+            assert!(c.retired.iter().any(Option::is_some));
+            assert_eq!(bits(&c.result.poincare), bits(&g.result.poincare), "{case}");
+            assert_eq!(c.result.status, g.result.status, "{case}");
+            if then == Then::Record {
+                let final_states = |r: &EnsembleResult| bits(&r.final_state.concat());
+                assert_eq!(final_states(&c.result), final_states(&g.result));
+            }
+            // lambda_1 of every lane that ran whole or recorded early (the same
+            // arithmetic on both backends in f64, as the plain lambda_1 variant).
+            if lambda1 {
+                let (lc, lg) = (c.result.lambda1.unwrap(), g.result.lambda1.unwrap());
+                assert!(lc.iter().any(|l| l.is_finite()));
+                for (i, (a, b)) in lc.iter().zip(&lg).enumerate() {
+                    assert!(
+                        (a.is_nan() && b.is_nan()) || (a - b).abs() < 1e-9,
+                        "{case}: lane {i} cpu {a} gpu {b}"
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn with_lambda1_every_lane_not_retired_has_the_plain_runs_exponent_to_the_bit() {
+    for precision in [Precision::F64, Precision::F32] {
+        let s = spec(precision, 45);
+        let plain = cpu::run(&s, true, Control::none()).unwrap();
+        let plain_l1 = plain.lambda1.as_ref().unwrap();
+        let early = EarlyExit {
+            recognise: &XrPositiveEven,
+            after: 5,
+            then: Then::Retire,
         };
-        let (c, g) = (run(Backend::Cpu), run(Backend::Gpu));
-        assert_eq!(c.retired, g.retired, "{then:?}");
-        assert!(c.retired.iter().any(Option::is_some));
-        assert_eq!(
-            bits(&c.result.poincare),
-            bits(&g.result.poincare),
-            "{then:?}"
-        );
-        assert_eq!(c.result.status, g.result.status, "{then:?}");
-        if then == Then::Record {
-            let final_states = |r: &EnsembleResult| bits(&r.final_state.concat());
-            assert_eq!(final_states(&c.result), final_states(&g.result));
+        let r = cpu::run_early(&s, &early, true, Control::none()).unwrap();
+        let l1 = r.result.lambda1.as_ref().unwrap();
+        let mut whole = 0;
+        for (i, ret) in r.retired.iter().enumerate() {
+            match ret {
+                Some(_) => assert!(l1[i].is_nan(), "a retired lane has no exponent"),
+                None => {
+                    assert_eq!(l1[i].to_bits(), plain_l1[i].to_bits(), "lane {i}");
+                    assert_same_lane(&r.result, &plain, i);
+                    whole += l1[i].is_finite() as usize;
+                }
+            }
+        }
+        assert!(whole > 0 && r.retired.iter().any(Option::is_some));
+        // A lane recorded at the transient's end (recognised then or never) has the
+        // plain run's exponent too.
+        let record = EarlyExit {
+            then: Then::Record,
+            ..early
+        };
+        let r = cpu::run_early(&s, &record, true, Control::none()).unwrap();
+        let l1 = r.result.lambda1.as_ref().unwrap();
+        for (i, ret) in r.retired.iter().enumerate() {
+            if ret.is_none_or(|ret| ret.periods == s.transient + s.recorded) {
+                assert_eq!(l1[i].to_bits(), plain_l1[i].to_bits(), "lane {i}");
+            }
         }
     }
 }
@@ -435,4 +506,64 @@ fn a_brute_force_with_early_exit_has_the_cpus_records_on_a_gpu() {
         json(&cpu.1.join("run.json"))["brute_force_early_exit"],
         json(&gpu.1.join("run.json"))["brute_force_early_exit"]
     );
+}
+
+/// Basin stability at 133 (two cycles) and 137.25 rad/s (a cycle and aperiodic clouds),
+/// 128 draws per speed, on `backend` with early exit at `streak` (0: off).
+fn stability(backend: &str, streak: u32) -> (tempfile::TempDir, std::path::PathBuf) {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("out");
+    ok(&jeffcott(&words(&format!(
+        "basin-stability --omega 133:137.25:2 --sample 128 --box x_r:-0.006:0.006,vx_r:-1:1 \
+         --transient 250 --periods 16 --no-plot --quiet --precision f64 --backend {backend} \
+         --early-exit-streak {streak} --out {}",
+        out.display()
+    ))));
+    (tmp, out)
+}
+
+/// Per speed: each attractor's class and fraction, and the diverged fraction.
+fn stability_fractions(dir: &std::path::Path) -> Vec<(Vec<(String, f64)>, f64)> {
+    json(&dir.join("basin_stability.json"))["per_omega"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|w| {
+            let a = w["attractors"].as_array().unwrap().iter();
+            let classes = a
+                .map(|a| {
+                    (
+                        a["class"].as_str().unwrap().into(),
+                        a["fraction"].as_f64().unwrap(),
+                    )
+                })
+                .collect();
+            (classes, w["diverged_fraction"].as_f64().unwrap())
+        })
+        .collect()
+}
+
+#[test]
+fn basin_stability_with_early_exit_has_the_fractions_of_the_full_length_run() {
+    // The continuation's fresh lanes (basin stability's draws) in rounds per speed,
+    // with lambda_1 (aperiodic lanes run whole and are told apart by it as before).
+    let (full, early) = (stability("cpu", 0), stability("cpu", 16));
+    assert_eq!(stability_fractions(&full.1), stability_fractions(&early.1));
+    let saved = &json(&early.1.join("run.json"))["early_exit"];
+    eprintln!("{saved}");
+    assert_eq!(saved["lanes"].as_u64(), Some(256));
+    assert!(saved["retired"].as_u64() > Some(100), "{saved}");
+    assert!(json(&full.1.join("run.json")).get("early_exit").is_none());
+}
+
+#[test]
+fn basin_stability_with_early_exit_has_the_cpus_fractions_on_a_gpu() {
+    if !gpu_f64_present() {
+        return;
+    }
+    let (cpu, gpu) = (stability("cpu", 16), stability("gpu", 16));
+    let run = |d: &std::path::Path| json(&d.join("run.json"));
+    assert_eq!(run(&gpu.1)["backend"]["backend"], "gpu");
+    assert_eq!(run(&cpu.1)["early_exit"], run(&gpu.1)["early_exit"]);
+    assert_eq!(stability_fractions(&cpu.1), stability_fractions(&gpu.1));
 }

@@ -254,6 +254,16 @@ fn a_brute_force_with_early_exit_killed_and_resumed_equals_an_uninterrupted_run(
 }
 
 #[test]
+fn basin_stability_with_early_exit_killed_and_resumed_equals_an_uninterrupted_run() {
+    killed_and_resumed_equals_uninterrupted(
+        "basin-stability --omega 133:137.25:4 --sample 64 --box x_r:-0.006:0.006,vx_r:-1:1 \
+         --transient 250 --periods 16 --backend cpu --quiet",
+        // Fresh units (lanes retire at 133 and 137.25), then the seeded ramp's.
+        &[1, 3, 6],
+    );
+}
+
+#[test]
 fn ensemble_killed_and_resumed_equals_an_uninterrupted_run() {
     killed_and_resumed_equals_uninterrupted(
         "ensemble --omega 130:141:200 --transient 60 --periods 8 --lyapunov --backend cpu --quiet",

@@ -160,9 +160,6 @@ struct RunResult<'a> {
     run: rundir::BackendTime<'a>,
     #[serde(skip_serializing_if = "Option::is_none")]
     refinement: Option<RefinementRecord<'a>>,
-    /// Lanes of the grid retired early and periods integrated (with early exit).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    early_exit: Option<jeffcott_analysis::early::EarlySaved>,
     /// The same for the uncertainty exponent's re-integrated draws (the refinement's
     /// are in `refinement.levels`).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -237,9 +234,10 @@ fn report_basin(
         run: rundir::BackendTime {
             backend: res.info.as_ref(),
             wall_time_s: res.seconds,
+            // The grid's lanes (the refinement's are in `refinement.levels`).
+            early_exit: res.early_exit,
         },
         refinement: o.refined.as_ref().map(|f| refinement_record(f, spec)),
-        early_exit: res.early_exit,
         uncertainty_early_exit: o.reintegration.as_ref().and_then(|r| r.early_exit),
     };
     run_dir.finish(&run_result, &rundir::written(run_dir, OUTPUTS))?;

@@ -187,6 +187,9 @@ pub struct BackendTime<'a> {
     pub backend: Option<&'a jeffcott_core::ensemble::RunInfo>,
     /// Wall time [s].
     pub wall_time_s: f64,
+    /// Lanes retired early and periods integrated, where the study's lanes exit early.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub early_exit: Option<jeffcott_analysis::early::EarlySaved>,
 }
 
 /// What a shard's `run.json` adds once its units are committed: their keys, and the
@@ -387,11 +390,13 @@ pub fn finish_study(
     outputs: &[&str],
     backend: Option<&jeffcott_core::ensemble::RunInfo>,
     wall_time_s: f64,
+    early_exit: Option<jeffcott_analysis::early::EarlySaved>,
 ) -> Result<()> {
     run_dir.finish(
         &BackendTime {
             backend,
             wall_time_s,
+            early_exit,
         },
         &written(run_dir, outputs),
     )

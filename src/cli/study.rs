@@ -169,6 +169,7 @@ macro_rules! plot_study {
                     OUTPUTS,
                     res.info.as_ref(),
                     res.seconds,
+                    $crate::cli::study::EarlyExitRecord::early_exit(&res),
                 )?;
                 if !exec.run.quiet {
                     println!("{line}");
@@ -179,6 +180,24 @@ macro_rules! plot_study {
     };
 }
 pub(crate) use plot_study;
+
+/// What early exit saved in a study's outcome, for its run.json (none by default).
+pub trait EarlyExitRecord {
+    /// Lanes retired early and periods integrated, when the lanes exited early.
+    fn early_exit(&self) -> Option<jeffcott_analysis::early::EarlySaved> {
+        None
+    }
+}
+
+impl EarlyExitRecord for jeffcott_analysis::continuation::ContinuationResult {
+    fn early_exit(&self) -> Option<jeffcott_analysis::early::EarlySaved> {
+        self.early_exit
+    }
+}
+
+/// Maps run every lane whole (a cell's K lanes are too few for rounds at the default
+/// K = 1; docs/early-exit.md).
+impl EarlyExitRecord for jeffcott_analysis::map::MapResult {}
 
 /// The writer options of the commands whose only file option is `--no-plot`.
 #[derive(Clone, Copy, Debug, Serialize, serde::Deserialize)]

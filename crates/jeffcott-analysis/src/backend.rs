@@ -90,18 +90,19 @@ impl Engine {
         &self,
         spec: &EnsembleSpec,
         early: &EarlyExit,
+        lambda1: bool,
         ctl: Control,
     ) -> Result<(EarlyResult, RunInfo)> {
         let Some(runner) = &self.gpu else {
             let start = std::time::Instant::now();
-            let r = cpu::run_early(spec, early, ctl)?;
+            let r = cpu::run_early(spec, early, lambda1, ctl)?;
             return Ok((r, self.info("cpu", spec.precision, start)));
         };
         let start = std::time::Instant::now();
         let full = spec.transient + spec.recorded;
         let first = early.after.max(1);
         if first > full || !early.looks_at(first, spec.transient) {
-            let res = run_on_gpu(spec, runner, false, ctl)?;
+            let res = run_on_gpu(spec, runner, lambda1, ctl)?;
             let retired = vec![None; spec.lanes.len()];
             let r = EarlyResult {
                 result: res,
@@ -115,13 +116,16 @@ impl Engine {
             recorded: full - first + 1,
             ..spec.clone()
         };
-        let EnsembleResult {
-            poincare: rows_all,
-            final_state,
-            status,
-            counters,
-            ..
-        } = run_on_gpu(&long, runner, false, ctl)?;
+        let (
+            EnsembleResult {
+                poincare: rows_all,
+                final_state,
+                status,
+                counters,
+                ..
+            },
+            norms,
+        ) = run_on_gpu_norms(&long, runner, lambda1, ctl)?;
         let rows = long.recorded as usize;
         let keep = spec.recorded as usize;
         let mut out = EnsembleResult {
@@ -130,12 +134,27 @@ impl Engine {
             final_state,
             status,
             counters,
-            lambda1: None,
+            lambda1: lambda1.then(|| Vec::with_capacity(spec.lanes.len())),
         };
         let mut retired = Vec::with_capacity(spec.lanes.len());
         let periods = (spec.transient, spec.recorded);
         for (i, lane) in rows_all.chunks_exact(rows * STATE_DIM).enumerate() {
             let r = early::replay(early, i, lane, first, periods);
+            // The rows (and tangent growths) the lane's record ends at.
+            let end = match (r, early.then) {
+                (Some(r), Then::Record) => (r.periods - first + 1) as usize,
+                _ => rows,
+            };
+            if let (Some(l), Some(norms)) = (out.lambda1.as_mut(), norms.as_ref()) {
+                l.push(match (r, early.then) {
+                    (Some(_), Then::Retire) => f64::NAN,
+                    _ => lane_lambda1(
+                        &norms[i][end - keep..end],
+                        spec.lanes[i].omega,
+                        out.status[i],
+                    ),
+                });
+            }
             match (r, early.then) {
                 (Some(_), Then::Retire) => out
                     .poincare
@@ -144,8 +163,7 @@ impl Engine {
                 // state it ends in (a lane that froze in them keeps its frozen state;
                 // one the GPU saw freeze only after them keeps that status, where the
                 // CPU, which stopped the lane, does not see it).
-                (Some(r), Then::Record) => {
-                    let end = (r.periods - first + 1) as usize;
+                (Some(_), Then::Record) => {
                     let window = &lane[(end - keep) * STATE_DIM..end * STATE_DIM];
                     out.poincare.extend_from_slice(window);
                     let last = &window[window.len() - STATE_DIM..];
@@ -191,12 +209,14 @@ impl Engine {
 /// long enough to amortise the dispatch.
 const LANE_STEPS_PER_SLICE: u64 = 50_000_000;
 
+/// The ensemble on the GPU, with each lane's tangent growth over every recorded period
+/// when `lambda1` (whose lambda_1 the result holds).
 fn run_gpu<R: jeffcott_gpu::GpuReal>(
     spec: &EnsembleSpec,
     runner: &jeffcott_gpu::GpuRunner,
     lambda1: bool,
     ctl: Control,
-) -> Result<EnsembleResult> {
+) -> Result<(EnsembleResult, Option<Vec<Vec<f64>>>)> {
     let n = spec.lanes.len();
     let consts: Vec<LaneConsts<R>> = (0..n).map(|i| spec.lane_consts(i)).collect();
     let init: Vec<Lane<R>> = (0..n).map(|i| spec.initial_lane(i)).collect();
@@ -221,7 +241,7 @@ fn run_gpu<R: jeffcott_gpu::GpuReal>(
         )
     };
     let mut res = EnsembleResult {
-        lambda1: norms.map(|all| {
+        lambda1: norms.as_ref().map(|all| {
             all.iter()
                 .zip(&outs)
                 .zip(&spec.lanes)
@@ -239,7 +259,7 @@ fn run_gpu<R: jeffcott_gpu::GpuReal>(
         res.counters.push(o.lane.counters);
     }
     mask_frozen_records(spec, &mut res);
-    Ok(res)
+    Ok((res, norms))
 }
 
 /// Runs an ensemble on an existing GPU runner, so repeated runs (chunks of a basin,
@@ -252,6 +272,17 @@ pub fn run_on_gpu(
     lambda1: bool,
     ctl: Control,
 ) -> Result<EnsembleResult> {
+    Ok(run_on_gpu_norms(spec, runner, lambda1, ctl)?.0)
+}
+
+/// [`run_on_gpu`] with each lane's tangent growth over every recorded period when
+/// `lambda1` (early exit's replay takes lambda_1 over the window a lane records).
+fn run_on_gpu_norms(
+    spec: &EnsembleSpec,
+    runner: &jeffcott_gpu::GpuRunner,
+    lambda1: bool,
+    ctl: Control,
+) -> Result<(EnsembleResult, Option<Vec<Vec<f64>>>)> {
     spec.validate()?;
     match spec.precision {
         Precision::F32 => run_gpu::<f32>(spec, runner, lambda1, ctl),

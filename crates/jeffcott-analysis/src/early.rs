@@ -142,6 +142,14 @@ pub fn rounds(n: usize) -> Vec<Vec<usize>> {
     out
 }
 
+/// Lanes a group (a continuation's value) needs for its lanes to exit early: the first
+/// round's stride, so that round has a lane per 64 and the later rounds fill batches.
+/// Measured: a continuation over 45 speeds with 16 lanes each (`reproduce --quick`'s)
+/// took 21.9 s with early exit against 20.9 s without (its rounds of 2-3 lanes per unit
+/// ran mostly empty batches full length); basin stability at 1000 lanes per speed took
+/// 50.8 s against 68.2 s (docs/early-exit.md).
+pub const MIN_GROUP: usize = ROUND_STRIDES[0];
+
 /// Strides of the rounds: 1/64 of a unit's lanes make its first catalogue (they run full
 /// length), 1/8 see that catalogue and add to it, the rest see both. Few rounds keep the
 /// rounds large: a round waits for its slowest lane, and the batches of a small round
@@ -216,61 +224,136 @@ pub fn catalogue_lanes(
     ctl: Control,
 ) -> Result<EarlyLanes> {
     let n = ens.lanes.len();
+    let whole = std::iter::once(0..n).collect::<Vec<_>>();
+    let mut all = catalogue_groups(ens, &whole, &[omega], cfg, false, engine, ctl)?;
+    Ok(all.pop().expect("one group"))
+}
+
+/// Catalogues each group of lanes of `ens` on its own with early exit, in [`rounds`]:
+/// group g is the lanes `groups[g]` (consecutive), at speed `omegas[g]` (the groups of a
+/// continuation's unit are its parameter values, each with its own catalogue). A round
+/// runs the same round of every group as one ensemble, each lane recognised on its
+/// group's catalogue ([`ByGroup`]), so a group's labels are those it gets run alone.
+/// With `lambda1` the lanes that run whole also give their lambda_1, so an attractor's
+/// is the mean over those lanes (retired ones have none) and aperiodic lanes are told
+/// apart as quasiperiodic or chaotic as without early exit.
+/// `ctl.progress` counts a lane as its full periods when it ends. The last round's run
+/// information is in every group's `info`.
+pub fn catalogue_groups(
+    ens: &EnsembleSpec,
+    groups: &[std::ops::Range<usize>],
+    omegas: &[f64],
+    cfg: CatalogueConfig,
+    lambda1: bool,
+    engine: &Engine,
+    ctl: Control,
+) -> Result<Vec<EarlyLanes>> {
+    let n = ens.lanes.len();
     let full = ens.transient + ens.recorded;
     let per_lane = full as u64;
-    let mut b = CatalogueBuilder::new(omega, cfg);
-    let mut labels = vec![-1i32; n];
-    let mut saved = EarlySaved::default();
+    let mut out: Vec<EarlyLanes> = groups
+        .iter()
+        .zip(omegas)
+        .map(|(g, &w)| EarlyLanes {
+            builder: CatalogueBuilder::new(w, cfg),
+            labels: vec![-1i32; g.len()],
+            saved: EarlySaved::default(),
+            info: None,
+        })
+        .collect();
+    let group_rounds: Vec<Vec<Vec<usize>>> = groups.iter().map(|g| rounds(g.len())).collect();
+    let count = group_rounds.iter().map(Vec::len).max().unwrap_or(0);
     let mut base = 0u64;
-    let mut info = None;
-    for round in rounds(n) {
+    for r in 0..count {
+        // The round's lanes, group by group: (group, index in the group).
+        let picks: Vec<(usize, usize)> = group_rounds
+            .iter()
+            .enumerate()
+            .flat_map(|(g, rs)| rs.get(r).into_iter().flatten().map(move |&i| (g, i)))
+            .collect();
+        if picks.is_empty() {
+            continue;
+        }
         let sub = EnsembleSpec {
-            lanes: round.iter().map(|&i| ens.lanes[i]).collect(),
+            lanes: picks
+                .iter()
+                .map(|&(g, i)| ens.lanes[groups[g].start + i])
+                .collect(),
             ..ens.clone()
         };
-        let rec = b.recogniser(ens.stepper.early_exit_streak);
+        let rec: Vec<Recogniser> = out
+            .iter()
+            .map(|e| e.builder.recogniser(ens.stepper.early_exit_streak))
+            .collect();
+        let group: Vec<usize> = picks.iter().map(|p| p.0).collect();
+        let by_group = ByGroup {
+            recognisers: &rec,
+            group: &group,
+        };
         let early = EarlyExit {
-            recognise: &rec,
+            recognise: &by_group,
             after: ens.stepper.early_exit_after,
             then: Then::Retire,
         };
         let b0 = base;
         let report = |d: u64, _: u64| (ctl.progress)(b0 + d, n as u64 * per_lane);
-        let (r, i) = engine.run_early(
+        let (res, info) = engine.run_early(
             &sub,
             &early,
+            lambda1,
             Control {
                 progress: &report,
                 cancel: ctl.cancel,
             },
         )?;
-        info = Some(i);
-        let frozen: Vec<bool> = r.result.status.iter().map(|s| s.is_frozen()).collect();
-        let classes = b.classify_block(&r.result.poincare, r.result.recorded, &frozen, None);
-        for ((&i, class), retired) in round.iter().zip(classes).zip(&r.retired) {
-            labels[i] = match retired {
-                Some(ret) => b.add_recognised(ret.attractor),
-                None => b.add_at(class, i as u64),
-            };
+        let frozen: Vec<bool> = res.result.status.iter().map(|s| s.is_frozen()).collect();
+        let len = res.result.recorded * jeffcott_core::model::STATE_DIM;
+        // Each group's lanes of the round are consecutive in `picks`.
+        let mut at = 0;
+        for (g, e) in out.iter_mut().enumerate() {
+            let m = picks[at..].iter().take_while(|p| p.0 == g).count();
+            let lanes = at..at + m;
+            at += m;
+            e.info = Some(info.clone());
+            if m == 0 {
+                continue;
+            }
+            let classes = e.builder.classify_block(
+                &res.result.poincare[lanes.start * len..lanes.end * len],
+                res.result.recorded,
+                &frozen[lanes.clone()],
+                res.result.lambda1.as_ref().map(|l| &l[lanes.clone()]),
+            );
+            for ((&(_, i), class), retired) in picks[lanes.clone()]
+                .iter()
+                .zip(classes)
+                .zip(&res.retired[lanes.clone()])
+            {
+                e.labels[i] = match retired {
+                    Some(ret) => e.builder.add_recognised(ret.attractor),
+                    None => e.builder.add_at(class, i as u64),
+                };
+            }
+            let retired = &res.retired[lanes];
+            e.saved.add(&EarlySaved {
+                lanes: m as u64,
+                retired: retired.iter().filter(|r| r.is_some()).count() as u64,
+                periods_run: retired
+                    .iter()
+                    .map(|r| r.map_or(full, |r| r.periods) as u64)
+                    .sum(),
+                periods_full: m as u64 * per_lane,
+            });
         }
-        saved.add(&EarlySaved {
-            lanes: round.len() as u64,
-            retired: r.retired.iter().filter(|r| r.is_some()).count() as u64,
-            periods_run: r.periods_run(full),
-            periods_full: round.len() as u64 * per_lane,
-        });
-        base += round.len() as u64 * per_lane;
+        base += picks.len() as u64 * per_lane;
     }
     // Ids in the order of each attractor's first lane, as a pass without rounds gives
     // them: the ids, lanes and first lanes then do not depend on how the grid is cut
     // into units (the representative cycle is the first-found lane's, which may).
-    b.renumber_by_first_lane(&mut labels);
-    Ok(EarlyLanes {
-        builder: b,
-        labels,
-        saved,
-        info,
-    })
+    for e in &mut out {
+        e.builder.renumber_by_first_lane(&mut e.labels);
+    }
+    Ok(out)
 }
 
 /// The lanes of `ens` labelled against a finished `catalogue` (at the lanes' speed)
@@ -292,7 +375,7 @@ pub fn label_lanes(
         after: ens.stepper.early_exit_after,
         then: Then::Retire,
     };
-    let (r, info) = engine.run_early(ens, &early, ctl)?;
+    let (r, info) = engine.run_early(ens, &early, false, ctl)?;
     let labels = r
         .retired
         .iter()
@@ -351,12 +434,13 @@ impl Recognise for ByGroup<'_> {
 }
 
 /// Runs `ens` with early exit, each lane recognised by `rec` during its transient and
-/// then recording its own `recorded` periods from there ([`Then::Record`]): for studies
-/// that classify or draw every lane's record (the brute force). What early exit saved
-/// comes with the result.
+/// then recording its own `recorded` periods from there ([`Then::Record`]), with its
+/// lambda_1 over that record when `lambda1`: for studies that classify or draw every
+/// lane's record (the brute force). What early exit saved comes with the result.
 pub fn record_lanes(
     ens: &EnsembleSpec,
     rec: &dyn Recognise,
+    lambda1: bool,
     engine: &Engine,
     ctl: Control,
 ) -> Result<(jeffcott_core::ensemble::EnsembleResult, EarlySaved, RunInfo)> {
@@ -365,7 +449,7 @@ pub fn record_lanes(
         after: ens.stepper.early_exit_after,
         then: Then::Record,
     };
-    let (r, info) = engine.run_early(ens, &early, ctl)?;
+    let (r, info) = engine.run_early(ens, &early, lambda1, ctl)?;
     let full = ens.transient + ens.recorded;
     let saved = EarlySaved {
         lanes: ens.lanes.len() as u64,

@@ -52,9 +52,10 @@ impl LaneSettings {
     }
 
     /// Whether the lanes exit early (`crate::early`): asked for (`early_exit_streak` >
-    /// 0) and without lambda_1 (whose per-lane exponent needs every lane's whole record).
+    /// 0). With lambda_1 the lanes that run whole give it (a study that needs every
+    /// lane's, a basin's lambda_1 map, runs without: `BasinSpec::early_exit`).
     pub fn early_exit(&self) -> bool {
-        self.stepper.early_exit_streak > 0 && !self.lyapunov
+        self.stepper.early_exit_streak > 0
     }
 
     /// The ensemble of one parameter set `params` at one speed `omega`, a lane from each

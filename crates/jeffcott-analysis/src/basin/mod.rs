@@ -228,9 +228,10 @@ impl BasinSpec {
         )
     }
 
-    /// Whether the basin's lanes exit early ([`LaneSettings::early_exit`]).
+    /// Whether the basin's lanes exit early ([`LaneSettings::early_exit`]), never with
+    /// lambda_1: its per-cell exponent map needs every lane's whole record.
     pub fn early_exit(&self) -> bool {
-        self.lane.early_exit()
+        self.lane.early_exit() && !self.lane.lyapunov
     }
 
     /// The start state of cell (ix, iy).

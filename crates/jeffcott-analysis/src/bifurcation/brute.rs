@@ -99,6 +99,7 @@ fn early_unit(
 ) -> Result<(Unit, Option<RunInfo>)> {
     use crate::early::{ByGroup, record_lanes};
     let streak = spec.lane.stepper.early_exit_streak;
+    let lambda1 = spec.lane.lyapunov;
     let n = e.lanes.len();
     let full = (e.transient + e.recorded) as u64;
     let builder = |g: usize| CatalogueBuilder::new(spec.omegas[ws[g]], spec.lane.catalogue);
@@ -112,11 +113,12 @@ fn early_unit(
             let firsts: Vec<usize> = (0..n)
                 .filter(|&i| i == 0 || group[i] != group[i - 1])
                 .collect();
-            let r1 = engine.run(&sub_ensemble(e, &firsts), false, ctl)?.0;
+            let r1 = engine.run(&sub_ensemble(e, &firsts), lambda1, ctl)?.0;
             let mut builders: Vec<CatalogueBuilder> = (0..ws.len()).map(builder).collect();
             for (k, &i) in firsts.iter().enumerate() {
                 let frozen = [r1.status[k].is_frozen()];
-                builders[group[i]].add_block(r1.lane_points(k), r1.recorded, &frozen, None);
+                let l1 = r1.lambda1.as_ref().map(|l| &l[k..k + 1]);
+                builders[group[i]].add_block(r1.lane_points(k), r1.recorded, &frozen, l1);
             }
             let rec = builders
                 .iter()
@@ -145,6 +147,7 @@ fn early_unit(
             recognisers: &known,
             group: &rest_group,
         },
+        lambda1,
         engine,
         Control {
             progress: &report,
@@ -153,7 +156,7 @@ fn early_unit(
     )?;
     saved.add(&s2);
     // The records back in the unit's lane order.
-    let mut out = jeffcott_core::ensemble::EnsembleResult::with_capacity(n, e.recorded, false);
+    let mut out = jeffcott_core::ensemble::EnsembleResult::with_capacity(n, e.recorded, lambda1);
     let mut from: Vec<(usize, &jeffcott_core::ensemble::EnsembleResult, usize)> =
         rest.iter().enumerate().map(|(k, &i)| (i, &r2, k)).collect();
     if let Some((firsts, r1)) = &first {
@@ -163,6 +166,9 @@ fn early_unit(
     for (_, r, k) in from {
         out.poincare.extend_from_slice(r.lane_points(k));
         out.status.push(r.status[k]);
+        if let (Some(l), Some(rl)) = (out.lambda1.as_mut(), r.lambda1.as_ref()) {
+            l.push(rl[k]);
+        }
     }
     let unit = stage_unit(out).with("early", Array::F64(saved.to_array()));
     Ok((unit, Some(info)))

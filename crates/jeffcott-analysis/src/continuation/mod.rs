@@ -53,6 +53,8 @@ pub struct ContinuationResult {
     pub ramps: Vec<Ramp>,
     /// Backend of the last batch of the fresh pass.
     pub info: Option<RunInfo>,
+    /// What early exit saved in the fresh pass (`None`: it ran without).
+    pub early_exit: Option<crate::early::EarlySaved>,
     /// Wall time [s].
     pub seconds: f64,
 }
@@ -106,13 +108,9 @@ pub fn continuation_with(
         }
         e
     };
-    // A unit keeps one partial catalogue per value: arrays `labels.j`, `points.j` and
-    // the j-th entry of `values` in its meta (see `fresh_value`).
     let reduce = |u: usize, _e: &EnsembleSpec, res: EnsembleResult| {
-        let mut unit = Unit::new("");
-        let mut metas = Vec::new();
         let rec = res.recorded * STATE_DIM;
-        for (j, i) in split.range(u).enumerate() {
+        let values = split.range(u).enumerate().map(|(j, i)| {
             let lanes = j * k..(j + 1) * k;
             let (_, w) = spec.value_params(i);
             let mut b = CatalogueBuilder::new(w, spec.lane.catalogue);
@@ -126,22 +124,53 @@ pub fn continuation_with(
                 &frozen,
                 res.lambda1.as_ref().map(|l| &l[lanes.clone()]),
             );
-            let (parts, labels, diverged) = b.finish_part(labels);
-            let part = super::catalogue::part_unit(labels, &parts, diverged);
-            for (name, a) in part.arrays {
-                unit = unit.with(&format!("{name}.{j}"), a);
-            }
-            metas.push(part.meta);
-        }
-        Ok(unit.with_meta(&FreshMeta { values: metas }))
+            (b, labels)
+        });
+        Ok(fresh_unit(values))
+    };
+    // Early exit (crate::early): each value's lanes catalogued in rounds, all values of
+    // the unit together; recognised lanes retire. Only with enough lanes per value for
+    // rounds to pay (`early::MIN_GROUP`).
+    let early_on = spec.lane.early_exit() && k >= crate::early::MIN_GROUP;
+    let early = |u: usize, e: &EnsembleSpec, engine: &crate::backend::Engine, c: Control| {
+        let values: Vec<usize> = split.range(u).collect();
+        let groups: Vec<std::ops::Range<usize>> =
+            (0..values.len()).map(|j| j * k..(j + 1) * k).collect();
+        let omegas: Vec<f64> = values.iter().map(|&i| spec.value_params(i).1).collect();
+        let all = crate::early::catalogue_groups(
+            e,
+            &groups,
+            &omegas,
+            spec.lane.catalogue,
+            spec.lane.lyapunov,
+            engine,
+            c,
+        )?;
+        let mut saved = crate::early::EarlySaved::default();
+        all.iter().for_each(|r| saved.add(&r.saved));
+        let info = all.first().and_then(|r| r.info.clone());
+        let unit = fresh_unit(all.into_iter().map(|r| (r.builder, r.labels)))
+            .with("early", crate::run::Array::F64(saved.to_array()));
+        Ok((unit, info))
     };
     let info = LaneUnits::new(FRESH, split, &ensemble, &reduce)
         .lanes_per_item(k)
         .lambda1(spec.lane.lyapunov)
+        .computed_by(early_on.then_some(&early as &crate::run::lanes::ComputeUnit))
         .run(store, engine, ctl)?;
     // A shard's work ends here: reading the fresh pass is the merge's (ShardDone), and
     // the ramps' stages must not be asked about before, so a shard never lists them.
     fresh_value(spec, store, 0)?;
+    let mut early_exit = None;
+    if early_on {
+        for u in 0..split.count() {
+            if let Some(s) = crate::early::unit_saved(&store.load(FRESH, u)?)? {
+                early_exit
+                    .get_or_insert_with(crate::early::EarlySaved::default)
+                    .add(&s);
+            }
+        }
+    }
     let mut ramps = Vec::new();
     for &d in &spec.directions {
         ramps.push(seeded::ramp(spec, engine, store, d, ctl)?);
@@ -150,8 +179,26 @@ pub fn continuation_with(
         values: spec.param.values(),
         ramps,
         info,
+        early_exit,
         seconds: t0.elapsed().as_secs_f64(),
     })
+}
+
+/// A fresh-pass unit from each of its values' catalogue and labels, in order: one
+/// partial catalogue per value, arrays `labels.j`, `points.j` and the j-th entry of
+/// `values` in its meta (see `fresh_value`).
+fn fresh_unit(values: impl Iterator<Item = (CatalogueBuilder, Vec<i32>)>) -> Unit {
+    let mut unit = Unit::new("");
+    let mut metas = Vec::new();
+    for (j, (b, labels)) in values.enumerate() {
+        let (parts, labels, diverged) = b.finish_part(labels);
+        let part = super::catalogue::part_unit(labels, &parts, diverged);
+        for (name, a) in part.arrays {
+            unit = unit.with(&format!("{name}.{j}"), a);
+        }
+        metas.push(part.meta);
+    }
+    unit.with_meta(&FreshMeta { values: metas })
 }
 
 /// The partial catalogue of the fresh lanes at value `i`, as a unit of its own.

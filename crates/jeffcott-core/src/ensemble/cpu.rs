@@ -10,7 +10,7 @@ use super::{EnsembleResult, EnsembleSpec, Precision};
 use crate::control::{Cancel, Control};
 use crate::error::{Error, Result};
 use crate::integrate::batch::{
-    BATCH, BatchConsts, GroupScratch, batch_macro_step, group_macro_step_tangent,
+    BATCH, BatchConsts, GroupScratch, batch_macro_step_tangent, group_macro_step_tangent,
 };
 use crate::integrate::lane::{
     Counters, LAMBDA1_START, Lane, LaneConsts, Status, Tangent, advance_period,
@@ -323,7 +323,6 @@ pub fn run(spec: &EnsembleSpec, lambda1: bool, ctl: Control) -> Result<EnsembleR
     Ok(res)
 }
 
-/// What a refilled batch returns per lane: its index, outcome and retirement.
 /// A lane that ended: its index, its outcome, whether it was recognised, and the periods
 /// before its record (the transient, or fewer when recorded early).
 type Ended = (usize, Outcome, Option<Retired>, u32);
@@ -343,15 +342,19 @@ struct SlotLane {
     record_from: u32,
     /// The attractor it was recognised on ([`Then::Record`]: it is recording).
     recognised: Option<u32>,
+    /// The tangent's growth over each recorded period (with lambda_1).
+    norms: Vec<f64>,
 }
 
 /// Lanes `lanes` of `spec` through one batch of [`BATCH`] slots, each slot refilled
 /// with the next lane as soon as its lane retires (recognised by `early`), froze, or
 /// finished its periods; empty slots hold a frozen placeholder, which the batch
 /// stepper skips. Every lane starts at a period boundary (`Lane::k` = 0), so each
-/// lane's arithmetic is that of `run_batch_inner` and `run_lane` to the bit.
+/// lane's arithmetic is that of `run_batch_inner` and `run_lane` to the bit; with
+/// `M = 1` a tangent vector per slot gives each lane's lambda_1 over its record, renormalised
+/// after every period as `run_lane_lambda1` does (a retired lane has none: NaN).
 #[inline(always)]
-fn run_refill_inner<R: Real>(
+fn run_refill_inner<R: Real, const M: usize>(
     spec: &EnsembleSpec,
     early: &EarlyExit,
     lanes: std::ops::Range<usize>,
@@ -363,13 +366,17 @@ fn run_refill_inner<R: Real>(
     let mut lc: [LaneConsts<R>; BATCH] = std::array::from_fn(|_| spec.lane_consts(lanes.start));
     let mut state: [Lane<R>; BATCH] = std::array::from_fn(|_| placeholder());
     let mut slot: [Option<SlotLane>; BATCH] = std::array::from_fn(|_| None);
+    let fresh = || Tangent::<R, M>::new([[R::lit(LAMBDA1_START); STATE_DIM]; M]);
+    let mut tan: [Tangent<R, M>; BATCH] = std::array::from_fn(|_| fresh());
     let mut load = |l: usize,
                     lc: &mut [LaneConsts<R>; BATCH],
                     state: &mut [Lane<R>; BATCH],
+                    tan: &mut [Tangent<R, M>; BATCH],
                     slot: &mut [Option<SlotLane>; BATCH]| {
         slot[l] = queue.next().map(|i| {
             lc[l] = spec.lane_consts(i);
             state[l] = spec.initial_lane(i);
+            tan[l] = fresh();
             SlotLane {
                 lane: i,
                 periods: 0,
@@ -377,6 +384,7 @@ fn run_refill_inner<R: Real>(
                 points: Vec::with_capacity(record_len),
                 record_from: spec.transient,
                 recognised: None,
+                norms: Vec::with_capacity(if M > 0 { spec.recorded as usize } else { 0 }),
             }
         });
         if slot[l].is_none() {
@@ -384,7 +392,7 @@ fn run_refill_inner<R: Real>(
         }
     };
     for l in 0..BATCH {
-        load(l, &mut lc, &mut state, &mut slot);
+        load(l, &mut lc, &mut state, &mut tan, &mut slot);
     }
     let mut bc = BatchConsts::new(&lc);
     let mut out = Vec::with_capacity(lanes.len());
@@ -394,7 +402,7 @@ fn run_refill_inner<R: Real>(
             return None;
         }
         for _ in 0..n {
-            batch_macro_step(&bc, &lc, &mut state);
+            batch_macro_step_tangent(&bc, &lc, &mut state, &mut tan);
         }
         let mut refilled = false;
         for l in 0..BATCH {
@@ -406,6 +414,17 @@ fn run_refill_inner<R: Real>(
             let x = lane.state_f64();
             if s.periods > s.record_from {
                 s.points.extend_from_slice(&x);
+            }
+            if M > 0 {
+                // As `run_batch_inner`: a frozen lane is not renormalised (it ends here).
+                let norm = if lane.status.is_frozen() {
+                    1.0
+                } else {
+                    renormalise(&mut tan[l].v[0]).to_f64()
+                };
+                if s.periods > s.record_from {
+                    s.norms.push(norm);
+                }
             }
             // Recognised at this period: retire now, or record from here on.
             let now = (s.recognised.is_none()
@@ -442,10 +461,16 @@ fn run_refill_inner<R: Real>(
             };
             if let Some(retired) = ended {
                 let s = slot[l].take().expect("occupied slot");
-                let points = if retired.is_some() && early.then == Then::Retire {
+                let gone = retired.is_some() && early.then == Then::Retire;
+                let points = if gone {
                     vec![f64::NAN; record_len]
                 } else {
                     s.points
+                };
+                let lambda1 = if M > 0 && !gone {
+                    super::lane_lambda1(&s.norms, spec.lanes[s.lane].omega, lane.status)
+                } else {
+                    f64::NAN
                 };
                 out.push((
                     s.lane,
@@ -454,12 +479,12 @@ fn run_refill_inner<R: Real>(
                         final_state: x,
                         status: lane.status,
                         counters: lane.counters,
-                        lambda1: f64::NAN,
+                        lambda1,
                     },
                     retired,
                     s.record_from,
                 ));
-                load(l, &mut lc, &mut state, &mut slot);
+                load(l, &mut lc, &mut state, &mut tan, &mut slot);
                 refilled = true;
             }
         }
@@ -473,7 +498,7 @@ fn run_refill_inner<R: Real>(
 per_instruction_set! {
     /// Lanes `lanes` through a refilled batch, with AVX2 where the CPU has it (AVX-512 on
     /// request), as the batch code.
-    fn run_refill[R: Real][R](
+    fn run_refill[R: Real, const M: usize][R, M](
         spec: &EnsembleSpec,
         early: &EarlyExit,
         lanes: std::ops::Range<usize>,
@@ -485,10 +510,16 @@ per_instruction_set! {
 /// `early` retire and their slots take the next lanes. Lanes are dealt to rayon's
 /// threads in runs of consecutive lanes, each run through one refilled batch, so the
 /// result is bit-identical for any number of threads; a lane that is not recognised
-/// gets exactly the record [`run`] gives it. `ctl.progress` counts a finished lane as
-/// its full periods, so the total is the run without early exit; cancellation as in
-/// [`run`]. No lambda_1 (its lanes need their whole record).
-pub fn run_early(spec: &EnsembleSpec, early: &EarlyExit, ctl: Control) -> Result<EarlyResult> {
+/// gets exactly the record [`run`] gives it, and with `lambda1` its lambda_1 (a lane
+/// recorded early, its lambda_1 over its own record; a retired lane, NaN).
+/// `ctl.progress` counts a finished lane as its full periods, so the total is the run
+/// without early exit; cancellation as in [`run`].
+pub fn run_early(
+    spec: &EnsembleSpec,
+    early: &EarlyExit,
+    lambda1: bool,
+    ctl: Control,
+) -> Result<EarlyResult> {
     spec.validate()?;
     let n = spec.lanes.len();
     let per_lane = (spec.transient + spec.recorded) as u64;
@@ -508,9 +539,11 @@ pub fn run_early(spec: &EnsembleSpec, early: &EarlyExit, ctl: Control) -> Result
             if c.is_set() {
                 return None;
             }
-            let o = match spec.precision {
-                Precision::F32 => run_refill::<f32>(spec, early, lanes, c),
-                Precision::F64 => run_refill::<f64>(spec, early, lanes, c),
+            let o = match (spec.precision, lambda1) {
+                (Precision::F32, false) => run_refill::<f32, 0>(spec, early, lanes, c),
+                (Precision::F64, false) => run_refill::<f64, 0>(spec, early, lanes, c),
+                (Precision::F32, true) => run_refill::<f32, 1>(spec, early, lanes, c),
+                (Precision::F64, true) => run_refill::<f64, 1>(spec, early, lanes, c),
             }?;
             let k = o.len();
             let lanes = done.fetch_add(k, std::sync::atomic::Ordering::Relaxed) + k;
@@ -529,10 +562,13 @@ pub fn run_early(spec: &EnsembleSpec, early: &EarlyExit, ctl: Control) -> Result
         all.extend(o);
     }
     all.sort_unstable_by_key(|(i, _, _, _)| *i);
-    let mut res = EnsembleResult::with_capacity(n, spec.recorded, false);
+    let mut res = EnsembleResult::with_capacity(n, spec.recorded, lambda1);
     let mut retired = Vec::with_capacity(n);
     let mut record_from = Vec::with_capacity(n);
     for (_, o, r, from) in all {
+        if let Some(l) = res.lambda1.as_mut() {
+            l.push(o.lambda1);
+        }
         res.poincare.extend_from_slice(&o.points);
         res.final_state.push(o.final_state);
         res.status.push(o.status);
