@@ -35,6 +35,7 @@ pub mod integrate;
 pub mod limits;
 pub mod lyapunov;
 pub mod model;
+pub mod orbit;
 pub mod real;
 
 pub use error::{Error, Result};

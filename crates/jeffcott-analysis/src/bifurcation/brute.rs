@@ -101,6 +101,12 @@ fn early_unit(
     let streak = spec.lane.stepper.early_exit_streak;
     let lambda1 = spec.lane.lyapunov;
     let n = e.lanes.len();
+    if n == 0 {
+        // Speeds without seeds: nothing to run.
+        let empty = jeffcott_core::ensemble::EnsembleResult::with_capacity(0, e.recorded, lambda1);
+        let saved = EarlySaved::default().to_array();
+        return Ok((stage_unit(empty).with("early", Array::F64(saved)), None));
+    }
     let full = (e.transient + e.recorded) as u64;
     let builder = |g: usize| CatalogueBuilder::new(spec.omegas[ws[g]], spec.lane.catalogue);
     let (known, first, mut saved, base) = match how {
@@ -141,19 +147,26 @@ fn early_unit(
     };
     let rest_group: Vec<usize> = rest.iter().map(|&i| group[i]).collect();
     let report = |d: u64, _: u64| (ctl.progress)(base + d, n as u64 * full);
-    let (r2, s2, info) = record_lanes(
-        &sub_ensemble(e, &rest),
-        &ByGroup {
-            recognisers: &known,
-            group: &rest_group,
-        },
-        lambda1,
-        engine,
-        Control {
-            progress: &report,
-            cancel: ctl.cancel,
-        },
-    )?;
+    // A unit may have no lanes left (one start state per speed, or speeds without seeds).
+    let (r2, s2, info) = if rest.is_empty() {
+        let empty = jeffcott_core::ensemble::EnsembleResult::with_capacity(0, e.recorded, lambda1);
+        (empty, EarlySaved::default(), None)
+    } else {
+        let (r, s, i) = record_lanes(
+            &sub_ensemble(e, &rest),
+            &ByGroup {
+                recognisers: &known,
+                group: &rest_group,
+            },
+            lambda1,
+            engine,
+            Control {
+                progress: &report,
+                cancel: ctl.cancel,
+            },
+        )?;
+        (r, s, Some(i))
+    };
     saved.add(&s2);
     // The records back in the unit's lane order.
     let mut out = jeffcott_core::ensemble::EnsembleResult::with_capacity(n, e.recorded, lambda1);
@@ -171,7 +184,7 @@ fn early_unit(
         }
     }
     let unit = stage_unit(out).with("early", Array::F64(saved.to_array()));
-    Ok((unit, Some(info)))
+    Ok((unit, info))
 }
 
 /// Runs (or resumes) one brute-force stage: `lanes_of(wi)` are the lanes at speed index

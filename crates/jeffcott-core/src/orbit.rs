@@ -1,0 +1,235 @@
+//! Periodic orbits by Newton shooting on the stroboscopic map, with their Floquet
+//! multipliers (issue 26, first part).
+//!
+//! A period-n orbit (n forcing periods T = 2 pi / W) is a fixed point of P^n, the map
+//! that advances a state at t = kT by n periods with the lane stepper (RK4 with switches
+//! located, MODEL.md 4): F(x) = P^n(x) - x = 0. Its Jacobian is M - I, with M the
+//! monodromy matrix dP^n/dx: the 8 tangent vectors e_1 .. e_8 advanced through the same
+//! steps, Mueller's saltation matrix applied at every switch (`integrate::tangent`), so M
+//! is the derivative of the nonsmooth flow and Newton converges quadratically also for
+//! orbits in contact (Leine and Nijmeijer, "Dynamics and Bifurcations of Non-Smooth
+//! Mechanical Systems", 2004, ch. 7). The Floquet multipliers are M's eigenvalues; the
+//! orbit is stable when all lie inside the unit circle.
+//!
+//! Checks that hold for every orbit (tests/orbits.rs): without contact the period-1
+//! orbit is the analytic unbalance response and the multipliers are exp(lambda T) of
+//! the linear system's eigenvalues; with contact the multipliers' product is
+//! exp(trace(A) nT) (the contact force depends on positions only, so it leaves the
+//! trace at -4 (xi_r w_r + xi_s w_s), and det S = 1 at every switch).
+
+use crate::error::{Error, Result};
+use crate::integrate::lane::{Lane, LaneConsts, StepperConfig, Tangent, macro_step_tangent};
+use crate::model::{Params, STATE_DIM, State, penetration};
+pub use nalgebra::Complex;
+use nalgebra::{SMatrix, SVector};
+
+/// How a periodic orbit is shot.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShootConfig {
+    /// The lane stepper (steps per period, contact refinement).
+    pub stepper: StepperConfig,
+    /// Convergence: |P^n(x) - x| below this in the classification metric (positions in
+    /// metres, velocities divided by W) [m].
+    pub tol: f64,
+    /// Newton iterations at most.
+    pub max_iter: u32,
+}
+
+impl Default for ShootConfig {
+    fn default() -> Self {
+        ShootConfig {
+            stepper: StepperConfig::default(),
+            tol: 1e-11,
+            max_iter: 40,
+        }
+    }
+}
+
+/// n periods of the flow from a state at t = 0 and their derivative.
+#[derive(Clone, Debug)]
+pub struct Flow {
+    /// The state after n periods.
+    pub end: State,
+    /// The monodromy matrix dP^n/dx, `m[i][j]` = d end_i / d x0_j.
+    pub monodromy: [[f64; STATE_DIM]; STATE_DIM],
+    /// The smallest clearance delta - |d| between rotor and stator over the macro-step
+    /// points of the n periods [m] (negative: in contact).
+    pub min_clearance: f64,
+    /// Whether the lane stayed finite and within the divergence bound.
+    pub finite: bool,
+}
+
+/// Advances `x0` (a state at t = 0) by `periods` forcing periods at speed `omega` with
+/// the 8 tangent vectors of the identity: the end state and the monodromy matrix.
+pub fn flow(p: &Params, omega: f64, x0: &State, periods: u32, stepper: &StepperConfig) -> Flow {
+    let lc = LaneConsts::<f64>::new(p, omega, stepper);
+    let mut lane = Lane::<f64>::new(x0, p.delta);
+    let mut identity = [[0.0; STATE_DIM]; STATE_DIM];
+    for (j, v) in identity.iter_mut().enumerate() {
+        v[j] = 1.0;
+    }
+    let mut tan = Tangent::<f64, STATE_DIM>::new(identity);
+    let mut min_clearance = -penetration(p.delta, &lane.x);
+    'periods: for _ in 0..periods {
+        for _ in 0..stepper.steps_per_period {
+            macro_step_tangent(&lc, &mut lane, &mut tan);
+            if lane.status.is_frozen() {
+                break 'periods;
+            }
+            min_clearance = min_clearance.min(-penetration(p.delta, &lane.x));
+        }
+    }
+    let mut monodromy = [[0.0; STATE_DIM]; STATE_DIM];
+    for (j, v) in tan.v.iter().enumerate() {
+        for (i, row) in monodromy.iter_mut().enumerate() {
+            row[j] = v[i];
+        }
+    }
+    Flow {
+        end: lane.x,
+        monodromy,
+        min_clearance,
+        finite: !lane.status.is_frozen(),
+    }
+}
+
+/// A periodic orbit.
+#[derive(Clone, Debug)]
+pub struct Orbit {
+    /// Rotor speed W [rad/s].
+    pub omega: f64,
+    /// Period in forcing periods.
+    pub period: u32,
+    /// The orbit's state at t = 0 (a fixed point of P^n).
+    pub x: State,
+    /// |P^n(x) - x| in the classification metric [m].
+    pub residual: f64,
+    /// Newton iterations taken.
+    pub iterations: u32,
+    /// The monodromy matrix at `x` (`m[i][j]` = d P^n(x)_i / d x_j).
+    pub monodromy: [[f64; STATE_DIM]; STATE_DIM],
+    /// Floquet multipliers (eigenvalues of the monodromy matrix), by decreasing modulus.
+    pub multipliers: Vec<Complex<f64>>,
+    /// The smallest rotor-stator clearance over the orbit [m] (negative: in contact).
+    pub min_clearance: f64,
+}
+
+impl Orbit {
+    /// Stable when every multiplier lies inside the unit circle.
+    pub fn stable(&self) -> bool {
+        self.multipliers.iter().all(|m| m.norm() < 1.0)
+    }
+
+    /// The largest multiplier modulus.
+    pub fn max_multiplier(&self) -> f64 {
+        self.multipliers.first().map_or(f64::NAN, |m| m.norm())
+    }
+
+    /// The Floquet exponents' real parts ln|mu| / (nT) [1/s], by decreasing value: the
+    /// orbit's Lyapunov spectrum.
+    pub fn exponents(&self) -> Vec<f64> {
+        let nt = self.period as f64 * std::f64::consts::TAU / self.omega;
+        self.multipliers
+            .iter()
+            .map(|m| m.norm().ln() / nt)
+            .collect()
+    }
+}
+
+/// The monodromy matrix's eigenvalues, by decreasing modulus.
+pub fn multipliers(m: &[[f64; STATE_DIM]; STATE_DIM]) -> Vec<Complex<f64>> {
+    let a = SMatrix::<f64, STATE_DIM, STATE_DIM>::from_fn(|i, j| m[i][j]);
+    let mut mu: Vec<Complex<f64>> = a.complex_eigenvalues().iter().copied().collect();
+    mu.sort_by(|a, b| b.norm().total_cmp(&a.norm()));
+    mu
+}
+
+/// The classification metric's norm of a state difference (positions in metres,
+/// velocities divided by W).
+fn metric(d: &State, omega: f64) -> f64 {
+    d.iter()
+        .enumerate()
+        .map(|(i, v)| if i % 2 == 1 { v.abs() / omega } else { v.abs() })
+        .fold(0.0, f64::max)
+}
+
+/// Shoots a period-`period` orbit at speed `omega` from the guess `x0` by Newton's
+/// method on P^n(x) - x, each step halved until the residual decreases (at most 12
+/// times). Errors name `period` or `start` when the input is refused, and say so when
+/// Newton does not converge within `cfg.max_iter` iterations.
+pub fn shoot(p: &Params, omega: f64, x0: &State, period: u32, cfg: &ShootConfig) -> Result<Orbit> {
+    if !(1..=64).contains(&period) {
+        return Err(Error::invalid(
+            "period",
+            period,
+            "must be in 1..=64 forcing periods",
+        ));
+    }
+    if x0.iter().any(|v| !v.is_finite()) {
+        return Err(Error::invalid("start", format!("{x0:?}"), "must be finite"));
+    }
+    let mut x = *x0;
+    let mut f = flow(p, omega, &x, period, &cfg.stepper);
+    let residual_of = |x: &State, f: &Flow| {
+        if !f.finite {
+            return f64::INFINITY;
+        }
+        let d: State = std::array::from_fn(|i| f.end[i] - x[i]);
+        metric(&d, omega)
+    };
+    let mut res = residual_of(&x, &f);
+    let mut it = 0;
+    while res > cfg.tol {
+        if it == cfg.max_iter || !res.is_finite() {
+            return Err(Error::invalid(
+                "start",
+                format!("{x0:?}"),
+                format!(
+                    "Newton shooting for a period-{period} orbit at W = {omega} rad/s did not \
+                     converge: |P^n(x) - x| = {res:.3e} m after {it} iterations (tolerance \
+                     {:.1e} m); start closer to the orbit (e.g. from an attractor)",
+                    cfg.tol
+                ),
+            ));
+        }
+        it += 1;
+        let j = SMatrix::<f64, STATE_DIM, STATE_DIM>::from_fn(|r, c| {
+            f.monodromy[r][c] - if r == c { 1.0 } else { 0.0 }
+        });
+        let rhs = SVector::<f64, STATE_DIM>::from_fn(|r, _| x[r] - f.end[r]);
+        let Some(dx) = j.lu().solve(&rhs) else {
+            return Err(Error::invalid(
+                "start",
+                format!("{x0:?}"),
+                format!(
+                    "M - I is singular at W = {omega} rad/s (a multiplier at +1: a fold); \
+                     shooting cannot converge here"
+                ),
+            ));
+        };
+        let mut step = 1.0;
+        loop {
+            let trial: State = std::array::from_fn(|i| x[i] + step * dx[i]);
+            let ft = flow(p, omega, &trial, period, &cfg.stepper);
+            let rt = residual_of(&trial, &ft);
+            if rt < res || step < 1.0 / 4096.0 {
+                x = trial;
+                f = ft;
+                res = rt;
+                break;
+            }
+            step *= 0.5;
+        }
+    }
+    let multipliers = multipliers(&f.monodromy);
+    Ok(Orbit {
+        omega,
+        period,
+        x,
+        residual: res,
+        iterations: it,
+        monodromy: f.monodromy,
+        multipliers,
+        min_clearance: f.min_clearance,
+    })
+}

@@ -1,0 +1,180 @@
+//! Periodic orbits by Newton shooting (issue 26): what must hold for the orbit and its
+//! Floquet multipliers. Without contact the system is linear: the period-1 orbit is the
+//! analytic unbalance response and the monodromy matrix is the RK4 map's, whose
+//! eigenvalues are known in closed form. With contact, Liouville's formula fixes the
+//! multipliers' product, and the orbit shot at a periodic speed is the attractor a plain
+//! run settles on.
+
+use jeffcott_core::integrate::lane::{Lane, LaneConsts, StepperConfig, advance_period};
+use jeffcott_core::model::{Params, STATE_DIM, State, VX_R, VY_R, X_R, Y_R, Y_S};
+use jeffcott_core::orbit::{Complex, ShootConfig, shoot};
+
+/// The default parameters with the gap opened to 1 m: no contact anywhere.
+fn contact_free() -> Params {
+    Params {
+        delta: 1.0,
+        ..Params::default()
+    }
+}
+
+/// The steady unbalance response at t = 0 (MODEL.md 2 without contact): the rotor on a
+/// circle of radius A = e W^2 / |w_r^2 - W^2 + 2 i xi_r w_r W| lagging the unbalance by
+/// psi, sagged by gravity; the stator at rest at its static deflection.
+fn analytic_response(p: &Params, w: f64) -> State {
+    let (wr, xi) = (p.omega_r, p.xi_r);
+    let (re, im) = (wr * wr - w * w, 2.0 * xi * wr * w);
+    let a = p.e * w * w / re.hypot(im);
+    let psi = im.atan2(re);
+    let mut x = p.static_equilibrium();
+    x[X_R] = a * psi.cos();
+    x[VX_R] = a * w * psi.sin();
+    x[Y_R] += -a * psi.sin();
+    x[VY_R] = a * w * psi.cos();
+    x
+}
+
+/// RK4's stability function R(z) = 1 + z + z^2/2 + z^3/6 + z^4/24.
+fn rk4(z: Complex<f64>) -> Complex<f64> {
+    Complex::new(1.0, 0.0) + z + z * z / 2.0 + z * z * z / 6.0 + z * z * z * z / 24.0
+}
+
+/// The linear system's eigenvalues: each body and axis an oscillator
+/// lambda = -xi w +- i w sqrt(1 - xi^2).
+fn linear_eigenvalues(p: &Params) -> Vec<Complex<f64>> {
+    let mut out = Vec::new();
+    for (w, xi) in [(p.omega_r, p.xi_r), (p.omega_s, p.xi_s)] {
+        for _axis in 0..2 {
+            for sign in [1.0, -1.0] {
+                out.push(Complex::new(-xi * w, sign * w * (1.0 - xi * xi).sqrt()));
+            }
+        }
+    }
+    out
+}
+
+/// Greedy match of two multiset of complex numbers: the largest distance between a value
+/// of `a` and the nearest unused value of `b`.
+fn multiset_distance(a: &[Complex<f64>], b: &[Complex<f64>]) -> f64 {
+    let mut used = vec![false; b.len()];
+    let mut worst: f64 = 0.0;
+    for x in a {
+        let (k, d) = b
+            .iter()
+            .enumerate()
+            .filter(|(k, _)| !used[*k])
+            .map(|(k, y)| (k, (x - y).norm()))
+            .min_by(|p, q| p.1.total_cmp(&q.1))
+            .unwrap();
+        used[k] = true;
+        worst = worst.max(d);
+    }
+    worst
+}
+
+#[test]
+fn without_contact_the_period1_orbit_is_the_analytic_unbalance_response() {
+    let p = contact_free();
+    let cfg = ShootConfig::default();
+    // Below and above the rotor's resonance (140 rad/s).
+    for w in [120.0, 131.7, 160.0] {
+        let orbit = shoot(&p, w, &p.static_equilibrium(), 1, &cfg).unwrap();
+        let exact = analytic_response(&p, w);
+        for (i, (got, want)) in orbit.x.iter().zip(&exact).enumerate() {
+            let scale = if i % 2 == 1 { w } else { 1.0 };
+            let err = (got - want).abs() / scale;
+            assert!(err < 1e-9, "W = {w}: coordinate {i} off by {err:e} m");
+        }
+        assert!(orbit.residual <= cfg.tol);
+        // A linear map: Newton lands in one step (a second confirms).
+        assert!(orbit.iterations <= 2, "{} iterations", orbit.iterations);
+        assert!(orbit.min_clearance > 0.99, "no contact");
+        assert!(orbit.stable());
+    }
+}
+
+#[test]
+fn without_contact_the_multipliers_are_those_of_the_linear_system() {
+    let p = contact_free();
+    let cfg = ShootConfig::default();
+    for w in [120.0, 160.0] {
+        let orbit = shoot(&p, w, &p.static_equilibrium(), 1, &cfg).unwrap();
+        let n = cfg.stepper.steps_per_period as i32;
+        let h = std::f64::consts::TAU / w / n as f64;
+        let lambda = linear_eigenvalues(&p);
+        // The monodromy matrix is the RK4 map's: R(lambda h)^N to roundoff.
+        let discrete: Vec<Complex<f64>> = lambda.iter().map(|&l| rk4(l * h).powi(n)).collect();
+        let d = multiset_distance(&orbit.multipliers, &discrete);
+        assert!(d < 1e-10, "W = {w}: multipliers off the RK4 map's by {d:e}");
+        // ... and the flow's exp(lambda T) to RK4's truncation error ((w h)^5 N / 120).
+        let flow: Vec<Complex<f64>> = lambda.iter().map(|&l| (l * h * n as f64).exp()).collect();
+        let d = multiset_distance(&orbit.multipliers, &flow);
+        let bound = (p.omega_s * h).powi(5) * n as f64 / 120.0;
+        assert!(
+            d < bound,
+            "W = {w}: multipliers off exp(lambda T) by {d:e} > {bound:e}"
+        );
+    }
+}
+
+/// The attractor a plain run from the static equilibrium settles on at `w` after
+/// `periods` periods (its state at t = kT).
+fn settled(p: &Params, w: f64, periods: u32) -> State {
+    let lc = LaneConsts::<f64>::new(p, w, &StepperConfig::default());
+    let mut lane = Lane::<f64>::new(&p.static_equilibrium(), p.delta);
+    for _ in 0..periods {
+        advance_period(&lc, &mut lane);
+    }
+    lane.state_f64()
+}
+
+#[test]
+fn in_contact_the_orbit_is_the_attractor_and_the_multipliers_product_is_liouvilles() {
+    let p = Params::default();
+    let cfg = ShootConfig::default();
+    let w = 131.7;
+    // From a state still far from the orbit (60 periods in): Newton does the work.
+    let start = settled(&p, w, 60);
+    let orbit = shoot(&p, w, &start, 1, &cfg).unwrap();
+    assert!(orbit.iterations >= 2, "{} iterations", orbit.iterations);
+    assert!(
+        orbit.min_clearance < 0.0,
+        "the period-1 orbit at 131.7 rubs"
+    );
+    assert!(orbit.stable(), "an attractor: {:?}", orbit.multipliers);
+    // The plain run converges onto it (at the slowest multiplier's rate).
+    let later = settled(&p, w, 1500);
+    let off = (0..STATE_DIM)
+        .map(|i| (later[i] - orbit.x[i]).abs() / if i % 2 == 1 { w } else { 1.0 })
+        .fold(0.0, f64::max);
+    assert!(off < 1e-9, "the plain run is {off:e} m from the orbit");
+    // det M = exp(trace(A) T): the contact force depends on positions only, so the
+    // trace is the damping's, -4 (xi_r w_r + xi_s w_s) = -119.2 1/s.
+    let trace = -2.0 * 2.0 * (p.xi_r * p.omega_r + p.xi_s * p.omega_s);
+    let t = std::f64::consts::TAU / w;
+    let log_det: f64 = orbit.multipliers.iter().map(|m| m.norm().ln()).sum();
+    let rel = (log_det - trace * t).abs() / (trace * t).abs();
+    eprintln!(
+        "131.7 rad/s: {} iterations, residual {:e} m, clearance {:e} m, multipliers {:?}, \
+         ln det M = {log_det}, trace T = {}",
+        orbit.iterations,
+        orbit.residual,
+        orbit.min_clearance,
+        orbit.multipliers,
+        trace * t
+    );
+    assert!(rel < 1e-5, "ln det M = {log_det}, trace T = {}", trace * t);
+    // The stator's own static sag is part of the orbit.
+    assert!(orbit.x[Y_S] < 0.0);
+}
+
+#[test]
+fn shooting_refuses_a_period_out_of_range_and_a_non_finite_start_naming_the_field() {
+    let p = Params::default();
+    let cfg = ShootConfig::default();
+    let e = shoot(&p, 133.0, &p.static_equilibrium(), 0, &cfg).unwrap_err();
+    assert!(e.to_string().contains("period"), "{e}");
+    let mut bad = p.static_equilibrium();
+    bad[0] = f64::NAN;
+    let e = shoot(&p, 133.0, &bad, 1, &cfg).unwrap_err();
+    assert!(e.to_string().contains("start"), "{e}");
+}
