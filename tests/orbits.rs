@@ -178,3 +178,26 @@ fn shooting_refuses_a_period_out_of_range_and_a_non_finite_start_naming_the_fiel
     let e = shoot(&p, 133.0, &bad, 1, &cfg).unwrap_err();
     assert!(e.to_string().contains("start"), "{e}");
 }
+
+#[test]
+fn in_contact_the_floquet_exponents_are_the_lyapunov_spectrum_within_its_error_bars() {
+    // Two independent routes to the same numbers: ln|mu_i| / T of the orbit shot at
+    // 131.7 rad/s, and the QR (Benettin) spectrum of a long run on the attractor.
+    let p = Params::default();
+    let w = 131.7;
+    let orbit = shoot(&p, w, &settled(&p, w, 60), 1, &ShootConfig::default()).unwrap();
+    let floquet = orbit.exponents();
+    let cfg = jeffcott_core::lyapunov::SpectrumConfig::default();
+    let s = jeffcott_core::lyapunov::spectrum(&p, w, &p.static_equilibrium(), &cfg).unwrap();
+    let mut qr: Vec<(f64, f64)> = s.exponents.iter().copied().zip(s.errors).collect();
+    qr.sort_by(|a, b| b.0.total_cmp(&a.0));
+    eprintln!("Floquet {floquet:?}\nQR {qr:?}");
+    for (k, (f, (l, err))) in floquet.iter().zip(&qr).enumerate() {
+        // Three of the spectrum's error bars (a complex pair's two QR exponents straddle
+        // their common real part until the pair's rotation averages out).
+        assert!(
+            (f - l).abs() <= 3.0 * err,
+            "exponent {k}: Floquet {f}, QR {l} +- {err}"
+        );
+    }
+}
