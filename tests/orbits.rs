@@ -201,3 +201,118 @@ fn in_contact_the_floquet_exponents_are_the_lyapunov_spectrum_within_its_error_b
         );
     }
 }
+
+/// A branch of period-1 orbits over W in [lo, hi] from `start_value` in `direction`.
+fn w_branch(
+    p: &Params,
+    start: State,
+    start_value: f64,
+    (lo, hi): (f64, f64),
+    direction: f64,
+) -> jeffcott_analysis::orbits::Branch {
+    use jeffcott_analysis::orbits::{BranchSpec, continue_branch};
+    continue_branch(&BranchSpec {
+        params: p.clone(),
+        omega: start_value,
+        var: jeffcott_analysis::map::MapVar::Omega,
+        lo,
+        hi,
+        start_value,
+        start,
+        period: 1,
+        direction,
+        max_points: 400,
+        ds: 2e-5,
+        ds_max: 2e-4,
+        shoot: ShootConfig::default(),
+    })
+    .unwrap()
+}
+
+/// Where the contact-free response grazes the stator: the rotor's circle of radius
+/// A(W), centred a_g / w_r^2 - a_g / w_s^2 below the stator's centre (the two sag by
+/// different amounts), reaches the gap: A(W) + offset = delta, by bisection in [a, b].
+fn analytic_grazing(p: &Params, a: f64, b: f64) -> f64 {
+    let offset = p.a_g / (p.omega_r * p.omega_r) - p.a_g / (p.omega_s * p.omega_s);
+    let f = |w: f64| {
+        let (re, im) = (p.omega_r * p.omega_r - w * w, 2.0 * p.xi_r * p.omega_r * w);
+        p.e * w * w / re.hypot(im) + offset - p.delta
+    };
+    let (mut lo, mut hi) = (a, b);
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if (f(mid) > 0.0) == (f(lo) > 0.0) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
+#[test]
+fn grazing_of_the_contact_free_orbit_is_located_where_the_analytic_response_reaches_the_gap() {
+    use jeffcott_analysis::orbits::Crossing;
+    let p = Params::default();
+    // Below the rotor's resonance, W increasing from 120; above it, decreasing from 170.
+    for (start, range, direction, bracket) in [
+        (120.0, (120.0, 129.5), 1.0, (120.0, 139.0)),
+        (170.0, (150.0, 170.0), -1.0, (141.0, 170.0)),
+    ] {
+        let b = w_branch(&p, p.static_equilibrium(), start, range, direction);
+        let want = analytic_grazing(&p, bracket.0, bracket.1);
+        let g: Vec<_> = b
+            .bifurcations
+            .iter()
+            .filter(|x| x.kind == Crossing::Grazing)
+            .collect();
+        eprintln!(
+            "from {start}: {} points, stop: {}, grazing {:?} (analytic {want})",
+            b.points.len(),
+            b.stop,
+            g.iter().map(|x| x.value).collect::<Vec<_>>()
+        );
+        assert_eq!(g.len(), 1, "one grazing in {range:?}");
+        assert!(
+            (g[0].value - want).abs() < 1e-6,
+            "grazing at {} rad/s, analytic {want}",
+            g[0].value
+        );
+        assert!(g[0].min_clearance.abs() < 1e-9);
+    }
+}
+
+#[test]
+fn a_period_doubling_is_found_where_the_brute_force_sees_period_1_turn_into_period_2() {
+    use jeffcott_analysis::orbits::Crossing;
+    let p = Params::default();
+    // The brute force: period 1 at 131.95 rad/s, period 2 at 132.27.
+    let b = w_branch(&p, settled(&p, 131.7, 60), 131.7, (131.7, 132.4), 1.0);
+    let pd: Vec<_> = b
+        .bifurcations
+        .iter()
+        .filter(|x| x.kind == Crossing::PeriodDoubling)
+        .collect();
+    eprintln!(
+        "{} points, stop: {}, bifurcations {:?}",
+        b.points.len(),
+        b.stop,
+        b.bifurcations
+            .iter()
+            .map(|x| (x.kind, x.value))
+            .collect::<Vec<_>>()
+    );
+    assert_eq!(pd.len(), 1);
+    let w = pd[0].value;
+    assert!((131.95..132.27).contains(&w), "period doubling at {w}");
+    // A multiplier at -1 there.
+    let near = pd[0]
+        .multipliers
+        .iter()
+        .map(|m| (m[0] + 1.0).hypot(m[1]))
+        .fold(f64::INFINITY, f64::min);
+    assert!(near < 1e-5, "closest multiplier to -1 is {near:e} away");
+    // Stable before, unstable after.
+    assert!(b.points[pd[0].after_point].stable);
+    assert!(!b.points.last().unwrap().stable);
+}

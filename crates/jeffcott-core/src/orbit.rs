@@ -19,7 +19,7 @@
 
 use crate::error::{Error, Result};
 use crate::integrate::lane::{Lane, LaneConsts, StepperConfig, Tangent, macro_step_tangent};
-use crate::model::{Params, STATE_DIM, State, penetration};
+use crate::model::{Params, STATE_DIM, State, penetration, relative_motion};
 pub use nalgebra::Complex;
 use nalgebra::{SMatrix, SVector};
 
@@ -52,8 +52,8 @@ pub struct Flow {
     pub end: State,
     /// The monodromy matrix dP^n/dx, `m[i][j]` = d end_i / d x0_j.
     pub monodromy: [[f64; STATE_DIM]; STATE_DIM],
-    /// The smallest clearance delta - |d| between rotor and stator over the macro-step
-    /// points of the n periods [m] (negative: in contact).
+    /// The smallest clearance delta - |d| between rotor and stator over the n periods
+    /// [m] (negative: in contact), within each macro step by [`max_distance`].
     pub min_clearance: f64,
     /// Whether the lane stayed finite and within the divergence bound.
     pub finite: bool,
@@ -70,13 +70,15 @@ pub fn flow(p: &Params, omega: f64, x0: &State, periods: u32, stepper: &StepperC
     }
     let mut tan = Tangent::<f64, STATE_DIM>::new(identity);
     let mut min_clearance = -penetration(p.delta, &lane.x);
+    let h = lc.h;
     'periods: for _ in 0..periods {
         for _ in 0..stepper.steps_per_period {
+            let before = lane.x;
             macro_step_tangent(&lc, &mut lane, &mut tan);
             if lane.status.is_frozen() {
                 break 'periods;
             }
-            min_clearance = min_clearance.min(-penetration(p.delta, &lane.x));
+            min_clearance = min_clearance.min(p.delta - max_distance(&before, &lane.x, h));
         }
     }
     let mut monodromy = [[0.0; STATE_DIM]; STATE_DIM];
@@ -91,6 +93,74 @@ pub fn flow(p: &Params, omega: f64, x0: &State, periods: u32, stepper: &StepperC
         min_clearance,
         finite: !lane.status.is_frozen(),
     }
+}
+
+/// The largest rotor-stator distance |d| over a macro step of length `h` from state `a`
+/// to state `b`: d(t) from the cubic Hermite interpolant of the relative displacement
+/// and velocity at the step's ends (error O(h^4), ~1e-11 m at the default steps), its
+/// maximum bracketed on 8 samples and refined by golden-section search. Grazing (the
+/// clearance reaching 0 between steps) is located with it to ~1e-7 rad/s.
+pub fn max_distance(a: &State, b: &State, h: f64) -> f64 {
+    let (ra, rb) = (relative_motion(a), relative_motion(b));
+    let at = |s: f64| -> f64 {
+        // Hermite basis on [0, 1] for value and derivative (derivative times h).
+        let (s2, s3) = (s * s, s * s * s);
+        let (h00, h10, h01, h11) = (
+            2.0 * s3 - 3.0 * s2 + 1.0,
+            s3 - 2.0 * s2 + s,
+            -2.0 * s3 + 3.0 * s2,
+            s3 - s2,
+        );
+        let c = |k: usize| h00 * ra[k] + h10 * h * ra[k + 2] + h01 * rb[k] + h11 * h * rb[k + 2];
+        c(0).hypot(c(1))
+    };
+    let samples = 8;
+    let (mut best, mut best_s) = (f64::NEG_INFINITY, 0.0);
+    for i in 0..=samples {
+        let s = i as f64 / samples as f64;
+        let v = at(s);
+        if v > best {
+            (best, best_s) = (v, s);
+        }
+    }
+    // Golden-section search on the bracket around the best sample.
+    let step = 1.0 / samples as f64;
+    let (mut lo, mut hi) = ((best_s - step).max(0.0), (best_s + step).min(1.0));
+    let g = 0.5 * (5f64.sqrt() - 1.0);
+    let (mut x1, mut x2) = (hi - g * (hi - lo), lo + g * (hi - lo));
+    let (mut f1, mut f2) = (at(x1), at(x2));
+    for _ in 0..40 {
+        if f1 > f2 {
+            hi = x2;
+            (x2, f2) = (x1, f1);
+            x1 = hi - g * (hi - lo);
+            f1 = at(x1);
+        } else {
+            lo = x1;
+            (x1, f1) = (x2, f2);
+            x2 = lo + g * (hi - lo);
+            f2 = at(x2);
+        }
+    }
+    best.max(f1).max(f2)
+}
+
+/// The state after `periods` forcing periods from `x0` at t = 0 (no tangent vectors;
+/// `None` when the lane froze): the map whose parameter derivative continuation takes
+/// by finite differences.
+pub fn advance(
+    p: &Params,
+    omega: f64,
+    x0: &State,
+    periods: u32,
+    stepper: &StepperConfig,
+) -> Option<State> {
+    let lc = LaneConsts::<f64>::new(p, omega, stepper);
+    let mut lane = Lane::<f64>::new(x0, p.delta);
+    for _ in 0..periods {
+        crate::integrate::lane::advance_period(&lc, &mut lane);
+    }
+    (!lane.status.is_frozen()).then_some(lane.x)
 }
 
 /// A periodic orbit.
@@ -146,7 +216,7 @@ pub fn multipliers(m: &[[f64; STATE_DIM]; STATE_DIM]) -> Vec<Complex<f64>> {
 
 /// The classification metric's norm of a state difference (positions in metres,
 /// velocities divided by W).
-fn metric(d: &State, omega: f64) -> f64 {
+pub fn metric(d: &State, omega: f64) -> f64 {
     d.iter()
         .enumerate()
         .map(|(i, v)| if i % 2 == 1 { v.abs() / omega } else { v.abs() })

@@ -1,0 +1,494 @@
+//! Branches of periodic orbits over W or a model parameter, continued by
+//! pseudo-arclength through folds, with their bifurcations located (issue 26).
+//!
+//! A branch point is (x, p): x a fixed point of P^n at parameter value p
+//! (`jeffcott_core::orbit`). From a converged point the tangent t of the solution curve
+//! spans the null space of [M - I | dF/dp] (dF/dp by a central difference of P^n); the
+//! next point is predicted at arclength ds along t and corrected by Newton on the
+//! bordered system [P^n(x; p) - x ; t . (u - u_prev) - ds] (Keller's pseudo-arclength,
+//! Seydel, "Practical Bifurcation and Stability Analysis", 2010, ch. 4), so the branch
+//! turns at folds instead of stopping. Arclength is measured in scaled coordinates:
+//! positions in metres, velocities divided by W, the parameter times 1 mm per its
+//! range, so a step weighs a change of the orbit and of the parameter alike.
+//!
+//! Test functions between consecutive points ([`Crossing`]): a fold where the tangent's
+//! parameter component changes sign; a period doubling where det(M + I) does (a real
+//! multiplier through -1); a Neimark-Sacker bifurcation where the number of complex
+//! multipliers outside the unit circle changes; a grazing where the orbit's smallest
+//! clearance changes sign (a contact begins or ends). Each is located by bisection of
+//! the arclength from the point before it, to 1e-8 in the parameter.
+
+use crate::map::MapVar;
+use jeffcott_core::error::{Error, Result};
+use jeffcott_core::model::{Params, STATE_DIM, State};
+use jeffcott_core::orbit::{Complex, Flow, ShootConfig, advance, flow, metric, multipliers, shoot};
+use nalgebra::{SMatrix, SVector};
+use serde::Serialize;
+
+/// What a branch continues.
+#[derive(Clone, Debug)]
+pub struct BranchSpec {
+    /// Model parameters (the continued one is overwritten at each point).
+    pub params: Params,
+    /// Rotor speed W [rad/s] when the continued parameter is not W.
+    pub omega: f64,
+    /// The continued parameter: W or a model parameter.
+    pub var: MapVar,
+    /// Its range: the branch stops when it leaves [lo, hi].
+    pub lo: f64,
+    /// See `lo`.
+    pub hi: f64,
+    /// The first point's parameter value.
+    pub start_value: f64,
+    /// A guess of the first orbit's state at t = 0.
+    pub start: State,
+    /// Period of the orbits in forcing periods.
+    pub period: u32,
+    /// +1: the parameter first increases; -1: decreases.
+    pub direction: f64,
+    /// Points at most.
+    pub max_points: usize,
+    /// First and largest arclength step (scaled coordinates, metres).
+    pub ds: f64,
+    /// See `ds`.
+    pub ds_max: f64,
+    /// Shooting settings (stepper, tolerance, iterations).
+    pub shoot: ShootConfig,
+}
+
+/// One point of a branch.
+#[derive(Clone, Debug, Serialize)]
+pub struct BranchPoint {
+    /// The parameter's value.
+    pub value: f64,
+    /// The orbit's state at t = 0.
+    pub x: State,
+    /// Floquet multipliers, by decreasing modulus, as [re, im].
+    pub multipliers: Vec<[f64; 2]>,
+    /// All multipliers inside the unit circle.
+    pub stable: bool,
+    /// The smallest rotor-stator clearance over the orbit [m] (negative: in contact).
+    pub min_clearance: f64,
+    /// The tangent's parameter component (scaled): its sign is the direction of travel.
+    #[serde(skip)]
+    tangent: [f64; STATE_DIM + 1],
+    #[serde(skip)]
+    mu: Vec<Complex<f64>>,
+}
+
+/// A bifurcation type.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Crossing {
+    /// A multiplier through +1: the branch turns back.
+    Fold,
+    /// A multiplier through -1: a period-2n branch is born.
+    PeriodDoubling,
+    /// A complex pair through the unit circle: a torus (quasiperiodic response) is born.
+    NeimarkSacker,
+    /// The orbit's smallest clearance through 0: a contact begins or ends.
+    Grazing,
+}
+
+/// A located bifurcation.
+#[derive(Clone, Debug, Serialize)]
+pub struct Bifurcation {
+    /// Its type.
+    #[serde(rename = "type")]
+    pub kind: Crossing,
+    /// The parameter's value.
+    pub value: f64,
+    /// The orbit's state there.
+    pub x: State,
+    /// The multipliers there, as [re, im].
+    pub multipliers: Vec<[f64; 2]>,
+    /// The smallest clearance there [m].
+    pub min_clearance: f64,
+    /// Index of the branch point before it.
+    pub after_point: usize,
+}
+
+/// A continued branch.
+#[derive(Clone, Debug, Serialize)]
+pub struct Branch {
+    /// Period in forcing periods.
+    pub period: u32,
+    /// Its points in the order continued.
+    pub points: Vec<BranchPoint>,
+    /// Its bifurcations in the order met.
+    pub bifurcations: Vec<Bifurcation>,
+    /// Why it ended.
+    pub stop: String,
+}
+
+/// Scale of the parameter in the arclength: 1 mm per the range.
+fn theta(spec: &BranchSpec) -> f64 {
+    1e-3 / (spec.hi - spec.lo).abs().max(f64::MIN_POSITIVE)
+}
+
+impl BranchSpec {
+    /// Parameters and speed at parameter value `v`.
+    fn at(&self, v: f64) -> (Params, f64) {
+        let mut p = self.params.clone();
+        let mut w = self.omega;
+        match self.var {
+            MapVar::Omega => w = v,
+            MapVar::Param(k) => p.set(k, v).expect("MapVar::Param holds a known key"),
+            MapVar::Coord(_) => unreachable!("validated: a branch continues W or a parameter"),
+        }
+        (p, w)
+    }
+
+    /// Checks the inputs; errors name the field and the allowed range.
+    pub fn validate(&self) -> Result<()> {
+        if matches!(self.var, MapVar::Coord(_)) {
+            return Err(Error::invalid(
+                "param",
+                self.var.name(),
+                "continue W (omega) or a model parameter, not a start coordinate",
+            ));
+        }
+        if !(self.lo.is_finite() && self.hi.is_finite() && self.lo < self.hi) {
+            return Err(Error::invalid(
+                "param",
+                format!("{}..{}", self.lo, self.hi),
+                "need finite lo < hi",
+            ));
+        }
+        if !(self.lo..=self.hi).contains(&self.start_value) {
+            return Err(Error::invalid(
+                "start-value",
+                self.start_value,
+                format!("must lie in the range {}..{}", self.lo, self.hi),
+            ));
+        }
+        if !(self.ds > 0.0 && self.ds_max >= self.ds && self.ds_max.is_finite()) {
+            return Err(Error::invalid(
+                "ds",
+                self.ds,
+                "need 0 < ds <= ds_max, finite",
+            ));
+        }
+        if self.max_points < 2 {
+            return Err(Error::invalid("max-points", self.max_points, "at least 2"));
+        }
+        self.params.validate()?;
+        self.shoot.stepper.validate()
+    }
+
+    /// Scales a state and value into arclength coordinates.
+    fn scaled(&self, x: &State, v: f64) -> [f64; STATE_DIM + 1] {
+        let w = self.at(v).1;
+        let mut z = [0.0; STATE_DIM + 1];
+        for i in 0..STATE_DIM {
+            z[i] = if i % 2 == 1 { x[i] / w } else { x[i] };
+        }
+        z[STATE_DIM] = v * theta(self);
+        z
+    }
+
+    /// The flow of n periods at value `v` with its monodromy matrix.
+    fn flow(&self, x: &State, v: f64) -> Flow {
+        let (p, w) = self.at(v);
+        flow(&p, w, x, self.period, &self.shoot.stepper)
+    }
+
+    /// dF/dp at (x, v) by a central difference of P^n.
+    fn d_dp(&self, x: &State, v: f64) -> Option<SVector<f64, STATE_DIM>> {
+        let e = 1e-7 * v.abs().max(1.0);
+        let step = |dv: f64| {
+            let (p, w) = self.at(v + dv);
+            advance(&p, w, x, self.period, &self.shoot.stepper)
+        };
+        let (a, b) = (step(e)?, step(-e)?);
+        Some(SVector::from_fn(|i, _| (a[i] - b[i]) / (2.0 * e)))
+    }
+}
+
+/// The point's tangent: the null vector of [M - I | F_p] (scaled), oriented along
+/// `prev` (a scaled tangent), unit length.
+fn tangent(
+    spec: &BranchSpec,
+    f: &Flow,
+    fp: &SVector<f64, STATE_DIM>,
+    v: f64,
+    prev: &[f64; STATE_DIM + 1],
+) -> Option<[f64; STATE_DIM + 1]> {
+    let w = spec.at(v).1;
+    let th = theta(spec);
+    // Unknowns in scaled coordinates: x_i = z_i * s_i, p = z_p / theta.
+    let s = |i: usize| if i % 2 == 1 { w } else { 1.0 };
+    let a = SMatrix::<f64, 9, 9>::from_fn(|r, c| {
+        if r < STATE_DIM {
+            if c < STATE_DIM {
+                (f.monodromy[r][c] - if r == c { 1.0 } else { 0.0 }) * s(c)
+            } else {
+                fp[r] / th
+            }
+        } else {
+            prev[c]
+        }
+    });
+    let mut rhs = SVector::<f64, 9>::zeros();
+    rhs[STATE_DIM] = 1.0;
+    let t = a.lu().solve(&rhs)?;
+    let n = t.norm();
+    let mut out = [0.0; STATE_DIM + 1];
+    for (o, v) in out.iter_mut().zip(t.iter()) {
+        *o = v / n;
+    }
+    Some(out)
+}
+
+/// A converged point: its flow, F_p and tangent, and the corrector's iterations.
+struct Solved {
+    x: State,
+    v: f64,
+    flow: Flow,
+    tangent: [f64; STATE_DIM + 1],
+    iterations: u32,
+}
+
+/// Steps are accepted when the tangent turns by less than this (cosine: 10 degrees), so a
+/// step cannot jump to another branch near a fold or a grazing.
+const MIN_TANGENT_COS: f64 = 0.985;
+
+/// Newton on the bordered system from the prediction at arclength `ds` along `t` from
+/// `(x0, v0)`. `None` when it does not converge in 10 iterations.
+fn correct(
+    spec: &BranchSpec,
+    x0: &State,
+    v0: f64,
+    t: &[f64; STATE_DIM + 1],
+    ds: f64,
+) -> Option<Solved> {
+    let z0 = spec.scaled(x0, v0);
+    let th = theta(spec);
+    // Prediction in scaled coordinates, back to (x, v).
+    let w0 = spec.at(v0).1;
+    let mut v = v0 + ds * t[STATE_DIM] / th;
+    let mut x: State = std::array::from_fn(|i| {
+        let s = if i % 2 == 1 { w0 } else { 1.0 };
+        x0[i] + ds * t[i] * s
+    });
+    for iterations in 0..10 {
+        let f = spec.flow(&x, v);
+        if !f.finite {
+            return None;
+        }
+        let fp = spec.d_dp(&x, v)?;
+        let z = spec.scaled(&x, v);
+        let g_arc: f64 = (0..=STATE_DIM).map(|i| t[i] * (z[i] - z0[i])).sum::<f64>() - ds;
+        let g: State = std::array::from_fn(|i| f.end[i] - x[i]);
+        let w = spec.at(v).1;
+        if metric(&g, w) <= spec.shoot.tol && g_arc.abs() <= spec.shoot.tol {
+            let tangent = tangent(spec, &f, &fp, v, t)?;
+            return Some(Solved {
+                x,
+                v,
+                flow: f,
+                tangent,
+                iterations,
+            });
+        }
+        let s = |i: usize| if i % 2 == 1 { 1.0 / w } else { 1.0 };
+        let j = SMatrix::<f64, 9, 9>::from_fn(|r, c| {
+            if r < STATE_DIM {
+                if c < STATE_DIM {
+                    f.monodromy[r][c] - if r == c { 1.0 } else { 0.0 }
+                } else {
+                    fp[r]
+                }
+            } else if c < STATE_DIM {
+                t[c] * s(c)
+            } else {
+                t[STATE_DIM] * th
+            }
+        });
+        let mut rhs = SVector::<f64, 9>::zeros();
+        for i in 0..STATE_DIM {
+            rhs[i] = -g[i];
+        }
+        rhs[STATE_DIM] = -g_arc;
+        let d = j.lu().solve(&rhs)?;
+        for i in 0..STATE_DIM {
+            x[i] += d[i];
+        }
+        v += d[STATE_DIM];
+    }
+    None
+}
+
+/// The point record of a solved point.
+fn point(s: &Solved) -> BranchPoint {
+    let mu = multipliers(&s.flow.monodromy);
+    BranchPoint {
+        value: s.v,
+        x: s.x,
+        multipliers: mu.iter().map(|m| [m.re, m.im]).collect(),
+        stable: mu.iter().all(|m| m.norm() < 1.0),
+        min_clearance: s.flow.min_clearance,
+        tangent: s.tangent,
+        mu,
+    }
+}
+
+/// The test function of `kind` at a point: a sign change (or, for Neimark-Sacker, a
+/// change of the count) between two points brackets the bifurcation.
+fn test_value(kind: Crossing, p: &BranchPoint) -> f64 {
+    match kind {
+        Crossing::Fold => p.tangent[STATE_DIM],
+        Crossing::PeriodDoubling => {
+            // det(M + I): complex pairs contribute |mu + 1|^2 > 0.
+            p.mu.iter()
+                .map(|m| m + Complex::new(1.0, 0.0))
+                .fold(Complex::new(1.0, 0.0), |a, b| a * b)
+                .re
+        }
+        Crossing::NeimarkSacker => {
+            p.mu.iter()
+                .filter(|m| m.im.abs() > 1e-9 * m.norm() && m.norm() > 1.0)
+                .count() as f64
+        }
+        Crossing::Grazing => p.min_clearance,
+    }
+}
+
+/// Whether the test function of `kind` changes between `a` and `b`.
+fn crosses(kind: Crossing, a: &BranchPoint, b: &BranchPoint) -> bool {
+    let (ta, tb) = (test_value(kind, a), test_value(kind, b));
+    match kind {
+        Crossing::NeimarkSacker => ta != tb,
+        _ => (ta > 0.0) != (tb > 0.0),
+    }
+}
+
+/// Locates a crossing of `kind` between point `a` (solved) and the point at arclength
+/// `ds` from it, by bisection of the arclength until the parameter is known to 1e-8.
+fn locate(spec: &BranchSpec, a: &BranchPoint, ds: f64, kind: Crossing) -> Option<BranchPoint> {
+    let (mut lo, mut hi) = (0.0, ds);
+    let mut best: Option<BranchPoint> = None;
+    let mut v_lo = a.value;
+    for _ in 0..80 {
+        let mid = 0.5 * (lo + hi);
+        let s = correct(spec, &a.x, a.value, &a.tangent, mid)?;
+        let p = point(&s);
+        if crosses(kind, a, &p) {
+            hi = mid;
+            let done = (p.value - v_lo).abs() < 1e-8;
+            best = Some(p);
+            if done {
+                break;
+            }
+        } else {
+            lo = mid;
+            v_lo = p.value;
+            if let Some(b) = &best
+                && (b.value - v_lo).abs() < 1e-8
+            {
+                break;
+            }
+        }
+    }
+    best
+}
+
+/// Continues the branch of `spec` (see the module docs).
+pub fn continue_branch(spec: &BranchSpec) -> Result<Branch> {
+    spec.validate()?;
+    let (p0, w0) = spec.at(spec.start_value);
+    let orbit = shoot(&p0, w0, &spec.start, spec.period, &spec.shoot)?;
+    let f0 = spec.flow(&orbit.x, spec.start_value);
+    let fp0 = spec.d_dp(&orbit.x, spec.start_value).ok_or_else(|| {
+        Error::invalid(
+            "start",
+            spec.start_value,
+            "the orbit leaves the divergence bound",
+        )
+    })?;
+    let mut along = [0.0; STATE_DIM + 1];
+    along[STATE_DIM] = spec.direction.signum();
+    let t0 = tangent(spec, &f0, &fp0, spec.start_value, &along).ok_or_else(|| {
+        Error::invalid(
+            "start-value",
+            spec.start_value,
+            "the start lies on a singular point of the branch (a fold or branch point)",
+        )
+    })?;
+    let mut points = vec![point(&Solved {
+        x: orbit.x,
+        v: spec.start_value,
+        flow: f0,
+        tangent: t0,
+        iterations: 0,
+    })];
+    let mut bifurcations = Vec::new();
+    let mut ds = spec.ds;
+    let stop;
+    loop {
+        let last = points.last().expect("a point");
+        if points.len() >= spec.max_points {
+            stop = format!("{} points", spec.max_points);
+            break;
+        }
+        let turn = |s: &Solved| {
+            (0..=STATE_DIM)
+                .map(|i| s.tangent[i] * last.tangent[i])
+                .sum::<f64>()
+        };
+        // At a grazing the branch has a corner (the orbit's Jacobian jumps as a contact
+        // begins): a sharp turn is accepted there once the step is small.
+        let corner = |s: &Solved| {
+            (s.flow.min_clearance > 0.0) != (last.min_clearance > 0.0) && ds <= 1e-2 * spec.ds
+        };
+        let solved = correct(spec, &last.x, last.value, &last.tangent, ds)
+            .filter(|s| turn(s) >= MIN_TANGENT_COS || corner(s));
+        let Some(s) = solved else {
+            ds *= 0.5;
+            if ds < spec.ds * 1e-4 {
+                stop = format!(
+                    "the corrector failed at {} = {} with steps down to {ds:.1e}",
+                    spec.var.name(),
+                    last.value
+                );
+                break;
+            }
+            continue;
+        };
+        let next = point(&s);
+        for kind in [
+            Crossing::Fold,
+            Crossing::PeriodDoubling,
+            Crossing::NeimarkSacker,
+            Crossing::Grazing,
+        ] {
+            if crosses(kind, last, &next)
+                && let Some(b) = locate(spec, last, ds, kind)
+            {
+                bifurcations.push(Bifurcation {
+                    kind,
+                    value: b.value,
+                    x: b.x,
+                    multipliers: b.multipliers.clone(),
+                    min_clearance: b.min_clearance,
+                    after_point: points.len() - 1,
+                });
+            }
+        }
+        let outside = !(spec.lo..=spec.hi).contains(&next.value);
+        points.push(next);
+        if outside {
+            stop = format!("left the range {}..{}", spec.lo, spec.hi);
+            break;
+        }
+        if s.iterations <= 3 {
+            ds = (ds * 1.5).min(spec.ds_max);
+        }
+    }
+    Ok(Branch {
+        period: spec.period,
+        points,
+        bifurcations,
+        stop,
+    })
+}
