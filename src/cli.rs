@@ -27,6 +27,7 @@ mod continuation;
 pub mod files;
 pub mod map;
 mod merge;
+pub mod orbits;
 mod reproduce;
 pub mod rubout;
 pub mod rundir;
@@ -116,6 +117,11 @@ pub enum Command {
     /// Merge the shard directories of a run computed with --shard i/n (e.g. a Slurm job
     /// array) into the files of the unsharded run, identical to the bit.
     Merge(MergeArgs),
+    /// Continue a branch of period-n orbits over W or a model parameter (Newton
+    /// shooting, pseudo-arclength) with Floquet multipliers and located fold, period
+    /// doubling, Neimark-Sacker and grazing bifurcations.
+    #[command(allow_negative_numbers = true)]
+    Orbits(orbits::OrbitsArgs),
 }
 
 /// Runs a parsed command.
@@ -134,6 +140,7 @@ pub fn dispatch(command: &Command) -> Result<()> {
         Command::Bench(a) => run_bench(a),
         Command::Lyapunov(a) => lyapunov::run_lyapunov(a),
         Command::Merge(a) => run_merge(a),
+        Command::Orbits(a) => orbits::run_orbits(a),
     }
 }
 

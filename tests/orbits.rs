@@ -5,6 +5,8 @@
 //! multipliers' product, and the orbit shot at a periodic speed is the attractor a plain
 //! run settles on.
 
+mod common;
+
 use jeffcott_core::integrate::lane::{Lane, LaneConsts, StepperConfig, advance_period};
 use jeffcott_core::model::{Params, STATE_DIM, State, VX_R, VY_R, X_R, Y_R, Y_S};
 use jeffcott_core::orbit::{Complex, ShootConfig, shoot};
@@ -315,4 +317,50 @@ fn a_period_doubling_is_found_where_the_brute_force_sees_period_1_turn_into_peri
     // Stable before, unstable after.
     assert!(b.points[pd[0].after_point].stable);
     assert!(!b.points.last().unwrap().stable);
+}
+
+#[test]
+fn the_orbits_command_writes_the_branch_and_names_the_period_doubling_under_omega() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("orbits");
+    common::ok(&common::jeffcott_out(
+        "orbits --param omega:131.7:132.4 --quiet",
+        &out,
+    ));
+    let b = common::json(&out.join("branches.json"));
+    assert_eq!(b["param"], "omega");
+    let branch = &b["branches"][0];
+    assert_eq!(branch["period"], 1);
+    let bif = branch["bifurcations"].as_array().unwrap();
+    assert_eq!(bif.len(), 1, "{bif:?}");
+    assert_eq!(bif[0]["type"], "period_doubling");
+    let w = bif[0]["omega"].as_f64().unwrap();
+    assert!((131.95..132.27).contains(&w), "{w}");
+    let (shape, rows) = common::npy::<f64>(&out.join("branch.npy"));
+    let n = branch["points"].as_array().unwrap().len();
+    assert_eq!(shape, vec![n as u64, 12]);
+    assert_eq!(rows[0], 131.7);
+    let (shape, _) = common::npy::<f64>(&out.join("multipliers.npy"));
+    assert_eq!(shape, vec![n as u64, 8, 2]);
+    assert_eq!(common::json(&out.join("run.json"))["state"], "complete");
+}
+
+#[test]
+fn the_orbits_command_refuses_bad_input_naming_the_option() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("orbits");
+    for (args, needle) in [
+        ("orbits --param x_r:0:1", "param"),
+        ("orbits --param omega:131", "param"),
+        ("orbits --param e:0.0008:0.0012", "omega"),
+        ("orbits --param omega:131.7:132.4 --omega 130", "omega"),
+        ("orbits --param omega:131.7:132.4 --period 0", "period"),
+        ("orbits --param omega:132.4:131.7", "param"),
+        ("orbits --param omega:131.7:132.4 --ds 0", "ds"),
+    ] {
+        let o = common::jeffcott_out(args, &out);
+        assert!(!o.status.success(), "{args} was accepted");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains(needle), "{args}: {err}");
+    }
 }

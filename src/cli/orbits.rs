@@ -1,0 +1,346 @@
+//! `jeffcott orbits`: a branch of period-n orbits continued over W or a model parameter
+//! by pseudo-arclength, with Floquet multipliers and located bifurcations
+//! ([`jeffcott_analysis::orbits`]; shooting in [`jeffcott_core::orbit`]).
+
+use super::{ModelArgs, StepperArgs, apply_init, rundir};
+use clap::{Args, ValueEnum};
+use jeffcott_analysis::map::MapVar;
+use jeffcott_analysis::orbits::{Branch, BranchSpec, continue_branch};
+use jeffcott_analysis::output;
+use jeffcott_core::error::{Error, Result};
+use jeffcott_core::integrate::lane::{Lane, LaneConsts, advance_period};
+use jeffcott_core::orbit::ShootConfig;
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+
+/// Which way the parameter first moves.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Direction {
+    /// Increasing.
+    Up,
+    /// Decreasing.
+    Down,
+}
+
+/// Arguments of `jeffcott orbits`.
+#[derive(Args, Debug)]
+pub struct OrbitsArgs {
+    /// The continued parameter and its range, NAME:lo:hi (NAME: omega or a model
+    /// parameter), e.g. `omega:131.7:132.4`.
+    #[arg(long, value_name = "NAME:lo:hi", allow_hyphen_values = true)]
+    pub param: String,
+    /// Rotor speed W [rad/s] when the continued parameter is not omega.
+    #[arg(long, value_name = "W")]
+    pub omega: Option<f64>,
+    /// Period of the orbits in forcing periods.
+    #[arg(long, default_value_t = 1, value_name = "N")]
+    pub period: u32,
+    /// Which way the parameter first moves; the branch starts at lo (up) or hi (down).
+    #[arg(long, value_enum, default_value_t = Direction::Up)]
+    pub direction: Direction,
+    /// Forcing periods integrated from the start state before shooting, so Newton
+    /// starts near the attractor there (0: shoot from the start state itself).
+    #[arg(long, default_value_t = 300, value_name = "P")]
+    pub settle: u32,
+    /// Override coordinates of the start state (default: static equilibrium), e.g.
+    /// `--init x_r=0.005,vx_r=-0.5`.
+    #[arg(long, value_name = "NAME=VALUE,...")]
+    pub init: Vec<String>,
+    /// Branch points at most.
+    #[arg(long, default_value_t = 400, value_name = "K")]
+    pub max_points: usize,
+    /// First arclength step (positions in metres, velocities over W, the parameter at
+    /// 1 mm per its range).
+    #[arg(long, default_value_t = 2e-5, value_name = "DS")]
+    pub ds: f64,
+    /// Largest arclength step.
+    #[arg(long, default_value_t = 2e-4, value_name = "DS")]
+    pub ds_max: f64,
+    #[command(flatten)]
+    pub model: ModelArgs,
+    #[command(flatten)]
+    pub stepper: StepperArgs,
+    /// Output directory.
+    #[arg(long, default_value = "jeffcott-out/orbits")]
+    pub out: PathBuf,
+    #[command(flatten)]
+    pub run: rundir::RunArgs,
+}
+
+/// `run.json`'s specification of a branch.
+#[derive(Serialize)]
+struct Record<'a> {
+    param: &'static str,
+    lo: f64,
+    hi: f64,
+    omega: Option<f64>,
+    period: u32,
+    direction: Direction,
+    settle: u32,
+    start: [f64; 8],
+    max_points: usize,
+    ds: f64,
+    ds_max: f64,
+    tol: f64,
+    params: &'a jeffcott_core::model::Params,
+    stepper: &'a jeffcott_core::integrate::lane::StepperConfig,
+}
+
+/// A bifurcation as `branches.json` lists it: its type, the parameter's value under the
+/// parameter's name (e.g. `"omega": 132.07`), the multipliers and the orbit there.
+#[derive(Serialize)]
+struct BifurcationRecord<'a> {
+    #[serde(rename = "type")]
+    kind: jeffcott_analysis::orbits::Crossing,
+    #[serde(flatten)]
+    value: std::collections::BTreeMap<&'static str, f64>,
+    multipliers: &'a [[f64; 2]],
+    min_clearance_m: f64,
+    state: [f64; 8],
+    after_point: usize,
+}
+
+/// `branches.json`.
+#[derive(Serialize)]
+struct BranchesFile<'a> {
+    param: &'static str,
+    branches: Vec<BranchRecord<'a>>,
+    files: std::collections::BTreeMap<&'static str, &'static str>,
+}
+
+#[derive(Serialize)]
+struct BranchRecord<'a> {
+    period: u32,
+    points: &'a [jeffcott_analysis::orbits::BranchPoint],
+    bifurcations: Vec<BifurcationRecord<'a>>,
+    stop: &'a str,
+}
+
+const OUTPUTS: &[&str] = &["branches.json", "branch.npy", "multipliers.npy"];
+
+/// Parses `NAME:lo:hi`.
+fn parse_param(text: &str) -> Result<(MapVar, f64, f64)> {
+    let parts: Vec<&str> = text.split(':').map(str::trim).collect();
+    let [name, lo, hi] = parts.as_slice() else {
+        return Err(Error::invalid(
+            "param",
+            text,
+            "expected NAME:lo:hi, e.g. omega:131.7:132.4",
+        ));
+    };
+    let num = |s: &str| {
+        s.parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite())
+            .ok_or_else(|| Error::invalid("param", text, format!("`{s}` is not a finite number")))
+    };
+    let var = MapVar::parse("param", name)?;
+    Ok((var, num(lo)?, num(hi)?))
+}
+
+/// Runs `jeffcott orbits`.
+pub fn run_orbits(a: &OrbitsArgs) -> Result<()> {
+    let params = a.model.params()?;
+    let (var, lo, hi) = parse_param(&a.param)?;
+    if let MapVar::Coord(_) = var {
+        return Err(Error::invalid(
+            "param",
+            var.name(),
+            "continue omega or a model parameter, not a start coordinate",
+        ));
+    }
+    let omega = match (var, a.omega) {
+        (MapVar::Omega, Some(_)) => {
+            return Err(Error::invalid(
+                "omega",
+                a.omega.unwrap_or_default(),
+                "W is the continued parameter here; leave --omega out",
+            ));
+        }
+        (MapVar::Omega, None) => f64::NAN,
+        (_, Some(w)) => {
+            jeffcott_core::model::validate_omega(w)?;
+            w
+        }
+        (_, None) => {
+            return Err(Error::invalid(
+                "omega",
+                "missing",
+                "give the rotor speed W with --omega when continuing a model parameter",
+            ));
+        }
+    };
+    let start_value = match a.direction {
+        Direction::Up => lo,
+        Direction::Down => hi,
+    };
+    if let MapVar::Omega = var {
+        for v in [lo, hi] {
+            jeffcott_core::model::validate_omega(v)?;
+        }
+    }
+    let mut start = params.static_equilibrium();
+    apply_init(&mut start, &a.init)?;
+    let stepper = a.stepper.config();
+    let spec = BranchSpec {
+        params: params.clone(),
+        omega,
+        var,
+        lo,
+        hi,
+        start_value,
+        start,
+        period: a.period,
+        direction: if a.direction == Direction::Up {
+            1.0
+        } else {
+            -1.0
+        },
+        max_points: a.max_points,
+        ds: a.ds,
+        ds_max: a.ds_max,
+        shoot: ShootConfig {
+            stepper,
+            ..ShootConfig::default()
+        },
+    };
+    spec.validate()?;
+    let run_dir = rundir::open(
+        &a.out,
+        "orbits",
+        &Record {
+            param: var.name(),
+            lo,
+            hi,
+            omega: a.omega,
+            period: a.period,
+            direction: a.direction,
+            settle: a.settle,
+            start,
+            max_points: a.max_points,
+            ds: a.ds,
+            ds_max: a.ds_max,
+            tol: spec.shoot.tol,
+            params: &params,
+            stepper: &stepper,
+        },
+        OUTPUTS,
+        a.run,
+    )?;
+    let t0 = std::time::Instant::now();
+    // Settle onto the attractor at the start value first, so Newton starts near it.
+    let settled = {
+        let (mut p, mut w) = (params.clone(), omega);
+        match var {
+            MapVar::Omega => w = start_value,
+            MapVar::Param(k) => p.set(k, start_value)?,
+            MapVar::Coord(_) => unreachable!("refused by validate"),
+        }
+        let lc = LaneConsts::<f64>::new(&p, w, &stepper);
+        let mut lane = Lane::<f64>::new(&start, p.delta);
+        for _ in 0..a.settle {
+            advance_period(&lc, &mut lane);
+        }
+        if lane.status.is_frozen() {
+            return Err(Error::invalid(
+                "settle",
+                a.settle,
+                "the start state diverged while settling; start elsewhere (--init) or settle less",
+            ));
+        }
+        lane.state_f64()
+    };
+    let branch = continue_branch(&BranchSpec {
+        start: settled,
+        ..spec
+    })?;
+    write_files(&a.out, var.name(), &branch)?;
+    run_dir.finish(
+        &rundir::WallTime {
+            wall_time_s: t0.elapsed().as_secs_f64(),
+        },
+        &rundir::written(&run_dir, OUTPUTS),
+    )?;
+    if !a.run.quiet {
+        println!("{}", summary(var.name(), &branch, &a.out));
+    }
+    Ok(())
+}
+
+/// Writes `branches.json`, `branch.npy` and `multipliers.npy`.
+fn write_files(dir: &Path, name: &'static str, b: &Branch) -> Result<()> {
+    output::ensure_dir(dir)?;
+    let n = b.points.len();
+    let mut rows = Vec::with_capacity(n * 12);
+    let mut mu = Vec::with_capacity(n * 16);
+    for p in &b.points {
+        rows.push(p.value);
+        rows.extend_from_slice(&p.x);
+        rows.push(p.multipliers.first().map_or(f64::NAN, |m| m[0].hypot(m[1])));
+        rows.push(p.min_clearance);
+        rows.push(if p.stable { 1.0 } else { 0.0 });
+        for m in &p.multipliers {
+            mu.extend_from_slice(m);
+        }
+    }
+    output::write_npy(&dir.join("branch.npy"), &[n, 12], &rows)?;
+    output::write_npy(&dir.join("multipliers.npy"), &[n, 8, 2], &mu)?;
+    let bifurcations = b
+        .bifurcations
+        .iter()
+        .map(|x| BifurcationRecord {
+            kind: x.kind,
+            value: [(name, x.value)].into_iter().collect(),
+            multipliers: &x.multipliers,
+            min_clearance_m: x.min_clearance,
+            state: x.x,
+            after_point: x.after_point,
+        })
+        .collect();
+    let files = [
+        ("branches.json", "every branch: its points (parameter value, orbit state at t = 0, Floquet multipliers [re, im] by decreasing modulus, stable, smallest clearance [m]), its bifurcations (type, the parameter's value under its name, multipliers, state) and why it ended"),
+        ("branch.npy", "f64 [points, 12]: parameter value, the orbit's state at t = 0 (8), largest multiplier modulus, smallest clearance [m], stable (1/0)"),
+        ("multipliers.npy", "f64 [points, 8, 2]: Floquet multipliers (re, im) by decreasing modulus"),
+    ]
+    .into_iter()
+    .collect();
+    output::write_json(
+        &dir.join("branches.json"),
+        &BranchesFile {
+            param: name,
+            branches: vec![BranchRecord {
+                period: b.period,
+                points: &b.points,
+                bifurcations,
+                stop: &b.stop,
+            }],
+            files,
+        },
+    )
+}
+
+/// What the command prints.
+fn summary(name: &str, b: &Branch, out: &Path) -> String {
+    let (first, last) = (
+        b.points.first().map_or(f64::NAN, |p| p.value),
+        b.points.last().map_or(f64::NAN, |p| p.value),
+    );
+    let found: Vec<String> = b
+        .bifurcations
+        .iter()
+        .map(|x| format!("{:?} at {name} = {:.8}", x.kind, x.value))
+        .collect();
+    format!(
+        "Period-{} branch: {} points from {name} = {first} to {last} ({}); bifurcations: {}. Files in {}.",
+        b.period,
+        b.points.len(),
+        b.stop,
+        if found.is_empty() {
+            "none".to_string()
+        } else {
+            found.join(", ")
+        },
+        out.display()
+    )
+}
