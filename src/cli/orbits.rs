@@ -5,10 +5,9 @@
 use super::{ModelArgs, StepperArgs, apply_init, rundir};
 use clap::{Args, ValueEnum};
 use jeffcott_analysis::map::MapVar;
-use jeffcott_analysis::orbits::{Branch, BranchSpec, continue_branch};
+use jeffcott_analysis::orbits::{Branch, BranchSpec, OrbitsStudy, parse_param, run};
 use jeffcott_analysis::output;
 use jeffcott_core::error::{Error, Result};
-use jeffcott_core::integrate::lane::{Lane, LaneConsts, advance_period};
 use jeffcott_core::orbit::ShootConfig;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -119,37 +118,10 @@ struct BranchRecord<'a> {
 
 const OUTPUTS: &[&str] = &["branches.json", "branch.npy", "multipliers.npy"];
 
-/// Parses `NAME:lo:hi`.
-fn parse_param(text: &str) -> Result<(MapVar, f64, f64)> {
-    let parts: Vec<&str> = text.split(':').map(str::trim).collect();
-    let [name, lo, hi] = parts.as_slice() else {
-        return Err(Error::invalid(
-            "param",
-            text,
-            "expected NAME:lo:hi, e.g. omega:131.7:132.4",
-        ));
-    };
-    let num = |s: &str| {
-        s.parse::<f64>()
-            .ok()
-            .filter(|v| v.is_finite())
-            .ok_or_else(|| Error::invalid("param", text, format!("`{s}` is not a finite number")))
-    };
-    let var = MapVar::parse("param", name)?;
-    Ok((var, num(lo)?, num(hi)?))
-}
-
 /// Runs `jeffcott orbits`.
 pub fn run_orbits(a: &OrbitsArgs) -> Result<()> {
     let params = a.model.params()?;
-    let (var, lo, hi) = parse_param(&a.param)?;
-    if let MapVar::Coord(_) = var {
-        return Err(Error::invalid(
-            "param",
-            var.name(),
-            "continue omega or a model parameter, not a start coordinate",
-        ));
-    }
+    let (var, lo, hi) = parse_param("param", &a.param)?;
     let omega = match (var, a.omega) {
         (MapVar::Omega, Some(_)) => {
             return Err(Error::invalid(
@@ -229,31 +201,9 @@ pub fn run_orbits(a: &OrbitsArgs) -> Result<()> {
         a.run,
     )?;
     let t0 = std::time::Instant::now();
-    // Settle onto the attractor at the start value first, so Newton starts near it.
-    let settled = {
-        let (mut p, mut w) = (params.clone(), omega);
-        match var {
-            MapVar::Omega => w = start_value,
-            MapVar::Param(k) => p.set(k, start_value)?,
-            MapVar::Coord(_) => unreachable!("refused by validate"),
-        }
-        let lc = LaneConsts::<f64>::new(&p, w, &stepper);
-        let mut lane = Lane::<f64>::new(&start, p.delta);
-        for _ in 0..a.settle {
-            advance_period(&lc, &mut lane);
-        }
-        if lane.status.is_frozen() {
-            return Err(Error::invalid(
-                "settle",
-                a.settle,
-                "the start state diverged while settling; start elsewhere (--init) or settle less",
-            ));
-        }
-        lane.state_f64()
-    };
-    let branch = continue_branch(&BranchSpec {
-        start: settled,
-        ..spec
+    let branch = run(&OrbitsStudy {
+        branch: spec,
+        settle: a.settle,
     })?;
     write_files(&a.out, var.name(), &branch)?;
     run_dir.finish(

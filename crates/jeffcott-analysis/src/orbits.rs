@@ -492,3 +492,66 @@ pub fn continue_branch(spec: &BranchSpec) -> Result<Branch> {
         stop,
     })
 }
+
+/// Parses the continued parameter and its range, `NAME:lo:hi` (`option` names it in
+/// errors): W (`omega`) or a model parameter, finite bounds.
+pub fn parse_param(option: &str, text: &str) -> Result<(MapVar, f64, f64)> {
+    let parts: Vec<&str> = text.split(':').map(str::trim).collect();
+    let [name, lo, hi] = parts.as_slice() else {
+        return Err(Error::invalid(
+            option,
+            text,
+            "expected NAME:lo:hi, e.g. omega:131.7:132.4",
+        ));
+    };
+    let num = |s: &str| {
+        s.parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite())
+            .ok_or_else(|| Error::invalid(option, text, format!("`{s}` is not a finite number")))
+    };
+    let var = MapVar::parse(option, name)?;
+    if let MapVar::Coord(_) = var {
+        return Err(Error::invalid(
+            option,
+            name,
+            "continue omega or a model parameter, not a start coordinate",
+        ));
+    }
+    Ok((var, num(lo)?, num(hi)?))
+}
+
+/// A branch study: `branch`, whose start state is first integrated `settle` periods at
+/// the branch's first value so Newton starts near the attractor there (0: shoot from
+/// the start state itself). The one way the front ends continue orbits.
+#[derive(Clone, Debug)]
+pub struct OrbitsStudy {
+    /// The branch.
+    pub branch: BranchSpec,
+    /// Periods integrated before shooting.
+    pub settle: u32,
+}
+
+/// Runs an orbits study: settle, shoot, continue. Errors name `settle` when the start
+/// state diverges while settling.
+pub fn run(study: &OrbitsStudy) -> Result<Branch> {
+    let spec = &study.branch;
+    spec.validate()?;
+    let (p, w) = spec.at(spec.start_value);
+    let lc = jeffcott_core::integrate::lane::LaneConsts::<f64>::new(&p, w, &spec.shoot.stepper);
+    let mut lane = jeffcott_core::integrate::lane::Lane::<f64>::new(&spec.start, p.delta);
+    for _ in 0..study.settle {
+        jeffcott_core::integrate::lane::advance_period(&lc, &mut lane);
+    }
+    if lane.status.is_frozen() {
+        return Err(Error::invalid(
+            "settle",
+            study.settle,
+            "the start state diverged while settling; start elsewhere (init) or settle less",
+        ));
+    }
+    continue_branch(&BranchSpec {
+        start: lane.state_f64(),
+        ..spec.clone()
+    })
+}
