@@ -15,6 +15,8 @@ dictionaries whose keys are those of the command line's JSON files:
 - :func:`continuation` attractors followed over a parameter (``jeffcott continuation``),
 - :func:`basin_stability` fractions of a box of start states (``jeffcott basin-stability``),
 - :func:`cascade` full spectra along a run-up and run-down (``jeffcott cascade``),
+- :func:`orbits` a branch of periodic orbits, stable and unstable, with its Floquet
+  multipliers and bifurcations (``jeffcott orbits``),
 - :func:`parameters` and :func:`adapters` the model's parameters and the GPU adapters.
 
 ``backend`` is ``"auto"`` (a hardware GPU if present, else all CPU cores), ``"cpu"`` or
@@ -58,6 +60,7 @@ from ._jeffcott import (  # noqa: E402
     ensemble,
     lyapunov,
     map,
+    orbits,
     parameters,
     simulate,
 )
@@ -79,6 +82,7 @@ __all__ = [
     "continuation",
     "ensemble",
     "lyapunov",
+    "orbits",
     "parameters",
     "simulate",
 ]

@@ -138,6 +138,23 @@ def lyapunov(
 ) -> Dict[str, Any]:
     """The full spectrum: spectrum.json's keys plus history [periods, 9]."""
 
+def orbits(
+    param: str,
+    *,
+    omega: Optional[float] = None,
+    period: int = 1,
+    direction: Literal["up", "down"] = "up",
+    settle: int = 300,
+    init: Optional[Mapping[str, float]] = None,
+    max_points: int = 400,
+    ds: float = 2e-5,
+    ds_max: float = 2e-4,
+    params: Optional[Mapping[str, float]] = None,
+    **stepper: Unpack[StepperOptions],
+) -> Dict[str, Any]:
+    """A branch of periodic orbits: branches.json's keys plus branch [points, 12] and
+    multipliers [points, 8, 2]."""
+
 def map(
     x: AxisSpec,
     y: AxisSpec,

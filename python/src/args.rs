@@ -403,6 +403,10 @@ pub mod kw {
     pub fn direction(o: &Bound<'_, PyAny>) -> PyResult<&'static str> {
         Ok(choice("direction", &["up", "down", "both"], false, o)?.unwrap_or_default())
     }
+    /// Reads the keyword `direction` of a branch (`orbits`): one way.
+    pub fn branch_direction(o: &Bound<'_, PyAny>) -> PyResult<&'static str> {
+        Ok(choice("direction", &["up", "down"], false, o)?.unwrap_or_default())
+    }
 
     keywords! {
         omega = "a speed in rad/s",
@@ -443,6 +447,12 @@ pub mod kw {
         match_threshold,
         sample,
         max_order,
+        param = "a parameter and its range \"NAME:lo:hi\" (NAME omega or a model parameter)",
+        period,
+        settle,
+        max_points,
+        ds,
+        ds_max,
     }
 }
 

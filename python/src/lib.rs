@@ -151,6 +151,7 @@ fn _jeffcott(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(studies::basins::basin, m)?)?;
     m.add_function(wrap_pyfunction!(studies::lanes::bifurcation, m)?)?;
     m.add_function(wrap_pyfunction!(studies::trajectory::lyapunov, m)?)?;
+    m.add_function(wrap_pyfunction!(studies::orbits::orbits, m)?)?;
     m.add_function(wrap_pyfunction!(studies::maps::map, m)?)?;
     m.add_function(wrap_pyfunction!(studies::maps::continuation, m)?)?;
     m.add_function(wrap_pyfunction!(studies::basins::basin_stability, m)?)?;

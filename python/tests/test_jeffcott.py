@@ -286,6 +286,22 @@ def test_lyapunov_spectrum_sums_to_the_damping_trace():
     assert max(s["exponents"]) < 0  # period-1: a stable cycle
 
 
+def test_orbits_finds_the_period_doubling_of_the_period_1_orbit_and_names_it_under_omega():
+    r = jeffcott.orbits("omega:131.7:132.4")
+    assert r["param"] == "omega"
+    (b,) = r["branches"]
+    (pd,) = b["bifurcations"]
+    assert pd["type"] == "period_doubling" and 131.95 < pd["omega"] < 132.27
+    n = len(b["points"])
+    assert r["branch"].shape == (n, 12) and r["multipliers"].shape == (n, 8, 2)
+    assert r["branch"][0, 0] == 131.7 and b["points"][0]["stable"]
+    # Over a model parameter W is needed, and named when missing.
+    with pytest.raises(ValueError, match="`omega`"):
+        jeffcott.orbits("e:0.0008:0.0012")
+    with pytest.raises(ValueError, match="`direction`"):
+        jeffcott.orbits("omega:131.7:132.4", direction="both")
+
+
 def test_bifurcation_sweeps_find_period_1_then_period_2():
     r = jeffcott.bifurcation([131.7, 132.2], ics=2, transient_first=600, transient=300,
                              brute_transient=300, periods=16, backend="cpu")

@@ -120,7 +120,7 @@ def test_the_stepper_keywords_are_exactly_the_stepper_settings_with_their_kinds(
         if any(p.kind is p.VAR_KEYWORD for p in inspect.signature(f).parameters.values())
     )
     assert takers == ["basin", "basin_stability", "bifurcation", "cascade", "continuation",
-                      "ensemble", "lyapunov", "map", "simulate"]
+                      "ensemble", "lyapunov", "map", "orbits", "simulate"]
 
 
 def test_a_stepper_keyword_reaches_the_stepper_and_an_unknown_keyword_is_refused():

@@ -4,11 +4,9 @@
 
 use super::{ModelArgs, StepperArgs, apply_init, rundir};
 use clap::{Args, ValueEnum};
-use jeffcott_analysis::map::MapVar;
-use jeffcott_analysis::orbits::{Branch, BranchSpec, OrbitsStudy, parse_param, run};
-use jeffcott_analysis::output;
-use jeffcott_core::error::{Error, Result};
-use jeffcott_core::orbit::ShootConfig;
+use jeffcott_analysis::orbits::{Branch, OrbitsRequest, run};
+use jeffcott_analysis::{defaults, output};
+use jeffcott_core::error::Result;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
@@ -33,28 +31,28 @@ pub struct OrbitsArgs {
     #[arg(long, value_name = "W")]
     pub omega: Option<f64>,
     /// Period of the orbits in forcing periods.
-    #[arg(long, default_value_t = 1, value_name = "N")]
+    #[arg(long, default_value_t = defaults::orbits::PERIOD, value_name = "N")]
     pub period: u32,
     /// Which way the parameter first moves; the branch starts at lo (up) or hi (down).
     #[arg(long, value_enum, default_value_t = Direction::Up)]
     pub direction: Direction,
     /// Forcing periods integrated from the start state before shooting, so Newton
     /// starts near the attractor there (0: shoot from the start state itself).
-    #[arg(long, default_value_t = 300, value_name = "P")]
+    #[arg(long, default_value_t = defaults::orbits::SETTLE, value_name = "P")]
     pub settle: u32,
     /// Override coordinates of the start state (default: static equilibrium), e.g.
     /// `--init x_r=0.005,vx_r=-0.5`.
     #[arg(long, value_name = "NAME=VALUE,...")]
     pub init: Vec<String>,
     /// Branch points at most.
-    #[arg(long, default_value_t = 400, value_name = "K")]
+    #[arg(long, default_value_t = defaults::orbits::MAX_POINTS, value_name = "K")]
     pub max_points: usize,
     /// First arclength step (positions in metres, velocities over W, the parameter at
     /// 1 mm per its range).
-    #[arg(long, default_value_t = 2e-5, value_name = "DS")]
+    #[arg(long, default_value_t = defaults::orbits::DS, value_name = "DS")]
     pub ds: f64,
     /// Largest arclength step.
-    #[arg(long, default_value_t = 2e-4, value_name = "DS")]
+    #[arg(long, default_value_t = defaults::orbits::DS_MAX, value_name = "DS")]
     pub ds_max: f64,
     #[command(flatten)]
     pub model: ModelArgs,
@@ -86,34 +84,12 @@ struct Record<'a> {
     stepper: &'a jeffcott_core::integrate::lane::StepperConfig,
 }
 
-/// A bifurcation as `branches.json` lists it: its type, the parameter's value under the
-/// parameter's name (e.g. `"omega": 132.07`), the multipliers and the orbit there.
-#[derive(Serialize)]
-struct BifurcationRecord<'a> {
-    #[serde(rename = "type")]
-    kind: jeffcott_analysis::orbits::Crossing,
-    #[serde(flatten)]
-    value: std::collections::BTreeMap<&'static str, f64>,
-    multipliers: &'a [[f64; 2]],
-    min_clearance_m: f64,
-    state: [f64; 8],
-    after_point: usize,
-}
-
-/// `branches.json`.
+/// `branches.json`: the branches and the list of files.
 #[derive(Serialize)]
 struct BranchesFile<'a> {
-    param: &'static str,
-    branches: Vec<BranchRecord<'a>>,
+    #[serde(flatten)]
+    record: jeffcott_analysis::orbits::BranchesRecord<'a>,
     files: std::collections::BTreeMap<&'static str, &'static str>,
-}
-
-#[derive(Serialize)]
-struct BranchRecord<'a> {
-    period: u32,
-    points: &'a [jeffcott_analysis::orbits::BranchPoint],
-    bifurcations: Vec<BifurcationRecord<'a>>,
-    stop: &'a str,
 }
 
 const OUTPUTS: &[&str] = &["branches.json", "branch.npy", "multipliers.npy"];
@@ -121,63 +97,26 @@ const OUTPUTS: &[&str] = &["branches.json", "branch.npy", "multipliers.npy"];
 /// Runs `jeffcott orbits`.
 pub fn run_orbits(a: &OrbitsArgs) -> Result<()> {
     let params = a.model.params()?;
-    let (var, lo, hi) = parse_param("param", &a.param)?;
-    let omega = match (var, a.omega) {
-        (MapVar::Omega, Some(_)) => {
-            return Err(Error::invalid(
-                "omega",
-                a.omega.unwrap_or_default(),
-                "W is the continued parameter here; leave --omega out",
-            ));
-        }
-        (MapVar::Omega, None) => f64::NAN,
-        (_, Some(w)) => {
-            jeffcott_core::model::validate_omega(w)?;
-            w
-        }
-        (_, None) => {
-            return Err(Error::invalid(
-                "omega",
-                "missing",
-                "give the rotor speed W with --omega when continuing a model parameter",
-            ));
-        }
-    };
-    let start_value = match a.direction {
-        Direction::Up => lo,
-        Direction::Down => hi,
-    };
-    if let MapVar::Omega = var {
-        for v in [lo, hi] {
-            jeffcott_core::model::validate_omega(v)?;
-        }
-    }
     let mut start = params.static_equilibrium();
     apply_init(&mut start, &a.init)?;
     let stepper = a.stepper.config();
-    let spec = BranchSpec {
+    let study = OrbitsRequest {
         params: params.clone(),
-        omega,
-        var,
-        lo,
-        hi,
-        start_value,
-        start,
+        param: &a.param,
+        omega: a.omega,
         period: a.period,
-        direction: if a.direction == Direction::Up {
-            1.0
-        } else {
-            -1.0
-        },
+        up: a.direction == Direction::Up,
+        settle: a.settle,
+        start,
         max_points: a.max_points,
         ds: a.ds,
         ds_max: a.ds_max,
-        shoot: ShootConfig {
-            stepper,
-            ..ShootConfig::default()
-        },
-    };
-    spec.validate()?;
+        stepper,
+    }
+    .study()?;
+    let spec = &study.branch;
+    let (lo, hi) = (spec.lo, spec.hi);
+    let var = spec.var;
     let run_dir = rundir::open(
         &a.out,
         "orbits",
@@ -201,10 +140,7 @@ pub fn run_orbits(a: &OrbitsArgs) -> Result<()> {
         a.run,
     )?;
     let t0 = std::time::Instant::now();
-    let branch = run(&OrbitsStudy {
-        branch: spec,
-        settle: a.settle,
-    })?;
+    let branch = run(&study)?;
     write_files(&a.out, var.name(), &branch)?;
     run_dir.finish(
         &rundir::WallTime {
@@ -222,32 +158,9 @@ pub fn run_orbits(a: &OrbitsArgs) -> Result<()> {
 fn write_files(dir: &Path, name: &'static str, b: &Branch) -> Result<()> {
     output::ensure_dir(dir)?;
     let n = b.points.len();
-    let mut rows = Vec::with_capacity(n * 12);
-    let mut mu = Vec::with_capacity(n * 16);
-    for p in &b.points {
-        rows.push(p.value);
-        rows.extend_from_slice(&p.x);
-        rows.push(p.multipliers.first().map_or(f64::NAN, |m| m[0].hypot(m[1])));
-        rows.push(p.min_clearance);
-        rows.push(if p.stable { 1.0 } else { 0.0 });
-        for m in &p.multipliers {
-            mu.extend_from_slice(m);
-        }
-    }
+    let (rows, mu) = jeffcott_analysis::orbits::arrays(b);
     output::write_npy(&dir.join("branch.npy"), &[n, 12], &rows)?;
     output::write_npy(&dir.join("multipliers.npy"), &[n, 8, 2], &mu)?;
-    let bifurcations = b
-        .bifurcations
-        .iter()
-        .map(|x| BifurcationRecord {
-            kind: x.kind,
-            value: [(name, x.value)].into_iter().collect(),
-            multipliers: &x.multipliers,
-            min_clearance_m: x.min_clearance,
-            state: x.x,
-            after_point: x.after_point,
-        })
-        .collect();
     let files = [
         ("branches.json", "every branch: its points (parameter value, orbit state at t = 0, Floquet multipliers [re, im] by decreasing modulus, stable, smallest clearance [m]), its bifurcations (type, the parameter's value under its name, multipliers, state) and why it ended"),
         ("branch.npy", "f64 [points, 12]: parameter value, the orbit's state at t = 0 (8), largest multiplier modulus, smallest clearance [m], stable (1/0)"),
@@ -258,13 +171,7 @@ fn write_files(dir: &Path, name: &'static str, b: &Branch) -> Result<()> {
     output::write_json(
         &dir.join("branches.json"),
         &BranchesFile {
-            param: name,
-            branches: vec![BranchRecord {
-                period: b.period,
-                points: &b.points,
-                bifurcations,
-                stop: &b.stop,
-            }],
+            record: jeffcott_analysis::orbits::record(name, b),
             files,
         },
     )

@@ -126,4 +126,19 @@ studies! {
         /// Neighbour seeds per W in the brute force's second pass, at most.
         MAX_SEEDS: usize = 8,
     }
+
+    /// `orbits`: a branch of periodic orbits continued over W or a parameter.
+    orbits {
+        /// Period of the orbits in forcing periods.
+        PERIOD: u32 = 1,
+        /// Forcing periods integrated from the start state before shooting.
+        SETTLE: u32 = 300,
+        /// Branch points at most.
+        MAX_POINTS: usize = 400,
+        /// First arclength step (positions in metres, velocities over W, the parameter
+        /// at 1 mm per its range).
+        DS: f64 = 2e-5,
+        /// Largest arclength step.
+        DS_MAX: f64 = 2e-4,
+    }
 }

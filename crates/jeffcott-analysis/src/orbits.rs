@@ -169,8 +169,12 @@ impl BranchSpec {
                 "need 0 < ds <= ds_max, finite",
             ));
         }
-        if self.max_points < 2 {
-            return Err(Error::invalid("max-points", self.max_points, "at least 2"));
+        if !(2..=MAX_POINTS).contains(&self.max_points) {
+            return Err(Error::invalid(
+                "max-points",
+                self.max_points,
+                format!("must be in 2..={MAX_POINTS}"),
+            ));
         }
         self.params.validate()?;
         self.shoot.stepper.validate()
@@ -532,6 +536,102 @@ pub struct OrbitsStudy {
     pub settle: u32,
 }
 
+/// Branch points at most (each costs a few shots: about a second per hundred points at
+/// the default steps).
+pub const MAX_POINTS: usize = 1_000_000;
+
+/// What a front end asks for: the continued parameter as `NAME:lo:hi`, W when it is
+/// not W, and the rest as the defaults of [`crate::defaults::orbits`].
+#[derive(Clone, Debug)]
+pub struct OrbitsRequest<'a> {
+    /// Model parameters.
+    pub params: Params,
+    /// `NAME:lo:hi` (field `param`).
+    pub param: &'a str,
+    /// W when the parameter is not W (field `omega`).
+    pub omega: Option<f64>,
+    /// Period in forcing periods.
+    pub period: u32,
+    /// The parameter first increases (from lo) or, when false, decreases (from hi).
+    pub up: bool,
+    /// Periods integrated before shooting.
+    pub settle: u32,
+    /// The start state before settling.
+    pub start: State,
+    /// Branch points at most.
+    pub max_points: usize,
+    /// First arclength step.
+    pub ds: f64,
+    /// Largest arclength step.
+    pub ds_max: f64,
+    /// The lane stepper.
+    pub stepper: jeffcott_core::integrate::lane::StepperConfig,
+}
+
+impl OrbitsRequest<'_> {
+    /// The study asked for, checked; errors name the field and the allowed range.
+    pub fn study(&self) -> Result<OrbitsStudy> {
+        let (var, lo, hi) = parse_param("param", self.param)?;
+        let omega = match (var, self.omega) {
+            (MapVar::Omega, Some(w)) => {
+                return Err(Error::invalid(
+                    "omega",
+                    w,
+                    "W is the continued parameter here; leave omega out",
+                ));
+            }
+            (MapVar::Omega, None) => {
+                for v in [lo, hi] {
+                    jeffcott_core::model::validate_omega(v)?;
+                }
+                f64::NAN
+            }
+            (_, Some(w)) => {
+                jeffcott_core::model::validate_omega(w)?;
+                w
+            }
+            (_, None) => {
+                return Err(Error::invalid(
+                    "omega",
+                    "missing",
+                    "give the rotor speed W (omega) when continuing a model parameter",
+                ));
+            }
+        };
+        let branch = BranchSpec {
+            params: self.params.clone(),
+            omega,
+            var,
+            lo,
+            hi,
+            start_value: if self.up { lo } else { hi },
+            start: self.start,
+            period: self.period,
+            direction: if self.up { 1.0 } else { -1.0 },
+            max_points: self.max_points,
+            ds: self.ds,
+            ds_max: self.ds_max,
+            shoot: ShootConfig {
+                stepper: self.stepper,
+                ..ShootConfig::default()
+            },
+        };
+        if !(1..=64).contains(&self.period) {
+            return Err(Error::invalid(
+                "period",
+                self.period,
+                "must be in 1..=64 forcing periods",
+            ));
+        }
+        jeffcott_core::limits::check_periods("settle", self.settle, 0)?;
+        branch.validate()?;
+        Ok(OrbitsStudy {
+            branch,
+            settle: self.settle,
+        })
+    }
+}
+
 /// Runs an orbits study: settle, shoot, continue. Errors name `settle` when the start
 /// state diverges while settling.
 pub fn run(study: &OrbitsStudy) -> Result<Branch> {
@@ -554,4 +654,80 @@ pub fn run(study: &OrbitsStudy) -> Result<Branch> {
         start: lane.state_f64(),
         ..spec.clone()
     })
+}
+
+/// A bifurcation as `branches.json` lists it: its type, the parameter's value under the
+/// parameter's name (e.g. `"omega": 132.07`), the multipliers and the orbit there.
+#[derive(Serialize)]
+pub struct BifurcationRecord<'a> {
+    #[serde(rename = "type")]
+    kind: Crossing,
+    #[serde(flatten)]
+    value: std::collections::BTreeMap<&'static str, f64>,
+    multipliers: &'a [[f64; 2]],
+    min_clearance_m: f64,
+    state: State,
+    after_point: usize,
+}
+
+/// A branch as `branches.json` lists it.
+#[derive(Serialize)]
+pub struct BranchRecord<'a> {
+    period: u32,
+    points: &'a [BranchPoint],
+    bifurcations: Vec<BifurcationRecord<'a>>,
+    stop: &'a str,
+}
+
+/// `branches.json` (and the Python function's dictionary): the parameter's name and the
+/// branches.
+#[derive(Serialize)]
+pub struct BranchesRecord<'a> {
+    param: &'static str,
+    branches: Vec<BranchRecord<'a>>,
+}
+
+/// The record of `branch`, a branch over the parameter `name`.
+pub fn record<'a>(name: &'static str, branch: &'a Branch) -> BranchesRecord<'a> {
+    let bifurcations = branch
+        .bifurcations
+        .iter()
+        .map(|x| BifurcationRecord {
+            kind: x.kind,
+            value: [(name, x.value)].into_iter().collect(),
+            multipliers: &x.multipliers,
+            min_clearance_m: x.min_clearance,
+            state: x.x,
+            after_point: x.after_point,
+        })
+        .collect();
+    BranchesRecord {
+        param: name,
+        branches: vec![BranchRecord {
+            period: branch.period,
+            points: &branch.points,
+            bifurcations,
+            stop: &branch.stop,
+        }],
+    }
+}
+
+/// The branch as flat arrays: `[points, 12]` rows (parameter value, the orbit's state at
+/// t = 0, largest multiplier modulus, smallest clearance [m], stable 1/0) and the
+/// multipliers `[points, 8, 2]` (re, im).
+pub fn arrays(branch: &Branch) -> (Vec<f64>, Vec<f64>) {
+    let n = branch.points.len();
+    let mut rows = Vec::with_capacity(n * 12);
+    let mut mu = Vec::with_capacity(n * 16);
+    for p in &branch.points {
+        rows.push(p.value);
+        rows.extend_from_slice(&p.x);
+        rows.push(p.multipliers.first().map_or(f64::NAN, |m| m[0].hypot(m[1])));
+        rows.push(p.min_clearance);
+        rows.push(if p.stable { 1.0 } else { 0.0 });
+        for m in &p.multipliers {
+            mu.extend_from_slice(m);
+        }
+    }
+    (rows, mu)
 }

@@ -60,4 +60,5 @@ macro_rules! lane_study {
 pub mod basins;
 pub mod lanes;
 pub mod maps;
+pub mod orbits;
 pub mod trajectory;

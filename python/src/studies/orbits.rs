@@ -1,0 +1,70 @@
+//! Periodic orbits: `orbits`.
+
+use crate::args::{self, kw};
+use crate::convert::{array_nd, array2, json_to_py, model_params, start_state};
+use crate::run;
+use jeffcott_analysis::defaults;
+use jeffcott_analysis::orbits::OrbitsRequest;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use std::collections::HashMap;
+
+/// A branch of period-`period` orbits continued over `param` (`"NAME:lo:hi"`, NAME
+/// `omega` or a model parameter; `omega` gives W when NAME is not omega) by Newton
+/// shooting and pseudo-arclength: the command line's `orbits`.
+///
+/// Returns the dictionary of `branches.json` (`param`; `branches`, each with its
+/// `points` (value, orbit state `x`, `multipliers` [re, im], `stable`,
+/// `min_clearance`), its `bifurcations` (`type`: fold, period_doubling, neimark_sacker
+/// or grazing, and the parameter's value under its name) and why it `stop`ped) with the
+/// arrays `branch` `[points, 12]` and `multipliers` `[points, 8, 2]`.
+#[pyfunction]
+#[pyo3(signature = (
+    param, *, omega=None, period=defaults::orbits::PERIOD, direction="up",
+    settle=defaults::orbits::SETTLE, init=None, max_points=defaults::orbits::MAX_POINTS,
+    ds=defaults::orbits::DS, ds_max=defaults::orbits::DS_MAX, params=None,
+    **stepper,
+))]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn orbits<'py>(
+    py: Python<'py>,
+    #[pyo3(from_py_with = kw::param)] param: String,
+    #[pyo3(from_py_with = kw::omega)] omega: Option<f64>,
+    #[pyo3(from_py_with = kw::period)] period: u32,
+    #[pyo3(from_py_with = kw::branch_direction)] direction: &str,
+    #[pyo3(from_py_with = kw::settle)] settle: u32,
+    #[pyo3(from_py_with = kw::init)] init: Option<HashMap<String, f64>>,
+    #[pyo3(from_py_with = kw::max_points)] max_points: usize,
+    #[pyo3(from_py_with = kw::ds)] ds: f64,
+    #[pyo3(from_py_with = kw::ds_max)] ds_max: f64,
+    #[pyo3(from_py_with = kw::params)] params: Option<HashMap<String, f64>>,
+    stepper: Option<&Bound<'py, PyDict>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let stepper = args::stepper("orbits", stepper)?;
+    let params = model_params(params)?;
+    let start = start_state(&params, init)?;
+    let study = OrbitsRequest {
+        params,
+        param: &param,
+        omega,
+        period,
+        up: direction == "up",
+        settle,
+        start,
+        max_points,
+        ds,
+        ds_max,
+        stepper,
+    }
+    .study()
+    .map_err(run::to_py_err)?;
+    let branch = run::detached(py, None, |_| jeffcott_analysis::orbits::run(&study))?;
+    let name = study.branch.var.name();
+    let d =
+        json_to_py(py, &jeffcott_analysis::orbits::record(name, &branch))?.cast_into::<PyDict>()?;
+    let n = branch.points.len();
+    let (rows, mu) = jeffcott_analysis::orbits::arrays(&branch);
+    d.set_item("branch", array2(py, rows, 12)?)?;
+    d.set_item("multipliers", array_nd(py, mu, &[n, 8, 2])?)?;
+    Ok(d)
+}
