@@ -120,14 +120,7 @@ fn refilled_batches_give_every_lane_not_retired_the_record_of_the_plain_run_to_t
             after: 5,
             then: Then::Retire,
         };
-        let one = in_threads(1, || {
-            cpu::run_early(&s, &early, false, Control::none()).unwrap()
-        });
-        let three = in_threads(3, || {
-            cpu::run_early(&s, &early, false, Control::none()).unwrap()
-        });
-        assert_eq!(one.retired, three.retired);
-        assert_eq!(bits(&one.result.poincare), bits(&three.result.poincare));
+        let one = in_one_and_three_threads(&s, &early);
         let retired = one.retired.iter().filter(|r| r.is_some()).count();
         assert!(retired > 0 && retired < s.lanes.len(), "{retired} retired");
         for (i, r) in one.retired.iter().enumerate() {
@@ -152,6 +145,23 @@ fn refilled_batches_give_every_lane_not_retired_the_record_of_the_plain_run_to_t
     }
 }
 
+/// `s` run with `early` on 1 and on 3 threads: the same decisions and records (the
+/// result does not depend on the number of threads); the 1-thread run.
+fn in_one_and_three_threads(
+    s: &EnsembleSpec,
+    early: &EarlyExit,
+) -> jeffcott_core::ensemble::early::EarlyResult {
+    let one = in_threads(1, || {
+        cpu::run_early(s, early, false, Control::none()).unwrap()
+    });
+    let three = in_threads(3, || {
+        cpu::run_early(s, early, false, Control::none()).unwrap()
+    });
+    assert_eq!(one.retired, three.retired);
+    assert_eq!(bits(&one.result.poincare), bits(&three.result.poincare));
+    one
+}
+
 /// Lane `i`'s Poincare points from period `first` to the end, from a plain run.
 fn plain_points_from(s: &EnsembleSpec, i: usize, first: u32) -> Vec<f64> {
     let long = EnsembleSpec {
@@ -173,14 +183,7 @@ fn a_lane_recorded_early_has_its_own_record_from_where_it_was_recognised_to_the_
             after: 5,
             then: Then::Record,
         };
-        let one = in_threads(1, || {
-            cpu::run_early(&s, &early, false, Control::none()).unwrap()
-        });
-        let three = in_threads(3, || {
-            cpu::run_early(&s, &early, false, Control::none()).unwrap()
-        });
-        assert_eq!(one.retired, three.retired);
-        assert_eq!(bits(&one.result.poincare), bits(&three.result.poincare));
+        let one = in_one_and_three_threads(&s, &early);
         let (rec, per) = (s.recorded as usize, s.recorded as usize * 8);
         let mut early_records = 0;
         for (i, r) in one.retired.iter().enumerate() {
