@@ -338,8 +338,8 @@ fn the_orbits_command_writes_the_branch_and_names_the_period_doubling_under_omeg
     assert!((131.95..132.27).contains(&w), "{w}");
     let (shape, rows) = common::npy::<f64>(&out.join("branch.npy"));
     let n = branch["points"].as_array().unwrap().len();
-    assert_eq!(shape, vec![n as u64, 12]);
-    assert_eq!(rows[0], 131.7);
+    assert_eq!(shape, vec![n as u64, 13]);
+    assert_eq!((rows[0], rows[1]), (0.0, 131.7));
     let (shape, _) = common::npy::<f64>(&out.join("multipliers.npy"));
     assert_eq!(shape, vec![n as u64, 8, 2]);
     assert_eq!(common::json(&out.join("run.json"))["state"], "complete");
@@ -363,4 +363,104 @@ fn the_orbits_command_refuses_bad_input_naming_the_option() {
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(err.contains(needle), "{args}: {err}");
     }
+}
+
+#[test]
+fn the_doubled_branch_born_at_the_period_doubling_holds_the_period_2_attractor_of_a_plain_run() {
+    use jeffcott_analysis::orbits::{Crossing, doubled_branch};
+    let p = Params::default();
+    let b = w_branch(&p, settled(&p, 131.7, 60), 131.7, (131.7, 132.4), 1.0);
+    let pd = b
+        .bifurcations
+        .iter()
+        .find(|x| x.kind == Crossing::PeriodDoubling)
+        .unwrap();
+    let spec = jeffcott_analysis::orbits::BranchSpec {
+        params: p.clone(),
+        omega: 131.7,
+        var: jeffcott_analysis::map::MapVar::Omega,
+        lo: 131.7,
+        hi: 132.4,
+        start_value: 131.7,
+        start: p.static_equilibrium(),
+        period: 1,
+        direction: 1.0,
+        max_points: 400,
+        ds: 2e-5,
+        ds_max: 2e-4,
+        shoot: ShootConfig::default(),
+    };
+    let d = doubled_branch(&spec, pd).unwrap();
+    assert_eq!(d.period, 2);
+    let first = d.points[0].value;
+    assert!(
+        first > pd.value && first - pd.value < 1e-2,
+        "starts at {first}"
+    );
+    assert!(
+        d.points[0].stable,
+        "the doubled orbit of a supercritical doubling is stable"
+    );
+    // At 132.2 rad/s: shoot the period-2 orbit from the branch's nearest point and
+    // compare with where a plain run settles (either of the orbit's two points).
+    let near = d
+        .points
+        .iter()
+        .min_by(|a, b| (a.value - 132.2).abs().total_cmp(&(b.value - 132.2).abs()))
+        .unwrap();
+    assert!(
+        (near.value - 132.2).abs() < 0.05,
+        "the branch reaches 132.2: {}",
+        near.value
+    );
+    let orbit = shoot(&p, 132.2, &near.x, 2, &ShootConfig::default()).unwrap();
+    let plain = settled(&p, 132.2, 2000);
+    let other =
+        jeffcott_core::orbit::advance(&p, 132.2, &orbit.x, 1, &StepperConfig::default()).unwrap();
+    let dist = |a: &State, b: &State| {
+        jeffcott_core::orbit::metric(&std::array::from_fn(|i| a[i] - b[i]), 132.2)
+    };
+    let off = dist(&plain, &orbit.x).min(dist(&plain, &other));
+    assert!(
+        off < 1e-8,
+        "the plain run's attractor is {off:e} m from the doubled orbit"
+    );
+    assert!(dist(&orbit.x, &other) > 1e-6, "a genuine period-2 orbit");
+}
+
+#[test]
+fn the_orbits_command_follows_the_doubled_branch_when_asked() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("orbits");
+    common::ok(&common::jeffcott_out(
+        "orbits --param omega:131.7:132.4 --follow-doublings --quiet",
+        &out,
+    ));
+    let b = common::json(&out.join("branches.json"));
+    let branches = b["branches"].as_array().unwrap();
+    assert_eq!(branches.len(), 2);
+    assert_eq!(
+        (
+            branches[0]["period"].as_u64(),
+            branches[1]["period"].as_u64()
+        ),
+        (Some(1), Some(2))
+    );
+    let pd = branches[0]["bifurcations"][0]["omega"].as_f64().unwrap();
+    let first = branches[1]["points"][0]["value"].as_f64().unwrap();
+    assert!(
+        first > pd && first - pd < 1e-2,
+        "the doubled branch starts at {first}"
+    );
+    let (shape, rows) = common::npy::<f64>(&out.join("branch.npy"));
+    let n: usize = branches
+        .iter()
+        .map(|b| b["points"].as_array().unwrap().len())
+        .sum();
+    assert_eq!(shape, vec![n as u64, 13]);
+    assert_eq!(
+        rows[(n - 1) * 13],
+        1.0,
+        "the last row is the doubled branch's"
+    );
 }

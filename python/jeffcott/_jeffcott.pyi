@@ -149,10 +149,11 @@ def orbits(
     max_points: int = 400,
     ds: float = 2e-5,
     ds_max: float = 2e-4,
+    follow_doublings: bool = False,
     params: Optional[Mapping[str, float]] = None,
     **stepper: Unpack[StepperOptions],
 ) -> Dict[str, Any]:
-    """A branch of periodic orbits: branches.json's keys plus branch [points, 12] and
+    """Branches of periodic orbits: branches.json's keys plus branch [points, 13] and
     multipliers [points, 8, 2]."""
 
 def map(

@@ -453,6 +453,7 @@ pub mod kw {
         max_points,
         ds,
         ds_max,
+        follow_doublings,
     }
 }
 

@@ -293,8 +293,11 @@ def test_orbits_finds_the_period_doubling_of_the_period_1_orbit_and_names_it_und
     (pd,) = b["bifurcations"]
     assert pd["type"] == "period_doubling" and 131.95 < pd["omega"] < 132.27
     n = len(b["points"])
-    assert r["branch"].shape == (n, 12) and r["multipliers"].shape == (n, 8, 2)
-    assert r["branch"][0, 0] == 131.7 and b["points"][0]["stable"]
+    assert r["branch"].shape == (n, 13) and r["multipliers"].shape == (n, 8, 2)
+    assert r["branch"][0, 1] == 131.7 and b["points"][0]["stable"]
+    # The doubled branch, when asked for.
+    two = jeffcott.orbits("omega:131.7:132.4", follow_doublings=True)
+    assert [b["period"] for b in two["branches"]] == [1, 2]
     # Over a model parameter W is needed, and named when missing.
     with pytest.raises(ValueError, match="`omega`"):
         jeffcott.orbits("e:0.0008:0.0012")

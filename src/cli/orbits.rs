@@ -54,6 +54,9 @@ pub struct OrbitsArgs {
     /// Largest arclength step.
     #[arg(long, default_value_t = defaults::orbits::DS_MAX, value_name = "DS")]
     pub ds_max: f64,
+    /// Also continue the period-2n branch born at each period doubling of the branch.
+    #[arg(long)]
+    pub follow_doublings: bool,
     #[command(flatten)]
     pub model: ModelArgs,
     #[command(flatten)]
@@ -112,6 +115,7 @@ pub fn run_orbits(a: &OrbitsArgs) -> Result<()> {
         ds: a.ds,
         ds_max: a.ds_max,
         stepper,
+        follow_doublings: a.follow_doublings,
     }
     .study()?;
     let spec = &study.branch;
@@ -140,8 +144,8 @@ pub fn run_orbits(a: &OrbitsArgs) -> Result<()> {
         a.run,
     )?;
     let t0 = std::time::Instant::now();
-    let branch = run(&study)?;
-    write_files(&a.out, var.name(), &branch)?;
+    let branches = run(&study)?;
+    write_files(&a.out, var.name(), &branches)?;
     run_dir.finish(
         &rundir::WallTime {
             wall_time_s: t0.elapsed().as_secs_f64(),
@@ -149,21 +153,28 @@ pub fn run_orbits(a: &OrbitsArgs) -> Result<()> {
         &rundir::written(&run_dir, OUTPUTS),
     )?;
     if !a.run.quiet {
-        println!("{}", summary(var.name(), &branch, &a.out));
+        for b in &branches {
+            println!("{}", summary(var.name(), b));
+        }
+        println!("Files in {}.", a.out.display());
     }
     Ok(())
 }
 
 /// Writes `branches.json`, `branch.npy` and `multipliers.npy`.
-fn write_files(dir: &Path, name: &'static str, b: &Branch) -> Result<()> {
+fn write_files(dir: &Path, name: &'static str, b: &[Branch]) -> Result<()> {
     output::ensure_dir(dir)?;
-    let n = b.points.len();
     let (rows, mu) = jeffcott_analysis::orbits::arrays(b);
-    output::write_npy(&dir.join("branch.npy"), &[n, 12], &rows)?;
+    let n = rows.len() / jeffcott_analysis::orbits::ROW;
+    output::write_npy(
+        &dir.join("branch.npy"),
+        &[n, jeffcott_analysis::orbits::ROW],
+        &rows,
+    )?;
     output::write_npy(&dir.join("multipliers.npy"), &[n, 8, 2], &mu)?;
     let files = [
         ("branches.json", "every branch: its points (parameter value, orbit state at t = 0, Floquet multipliers [re, im] by decreasing modulus, stable, smallest clearance [m]), its bifurcations (type, the parameter's value under its name, multipliers, state) and why it ended"),
-        ("branch.npy", "f64 [points, 12]: parameter value, the orbit's state at t = 0 (8), largest multiplier modulus, smallest clearance [m], stable (1/0)"),
+        ("branch.npy", "f64 [points, 13]: branch index (in branches.json), parameter value, the orbit's state at t = 0 (8), largest multiplier modulus, smallest clearance [m], stable (1/0); the branches' points in order"),
         ("multipliers.npy", "f64 [points, 8, 2]: Floquet multipliers (re, im) by decreasing modulus"),
     ]
     .into_iter()
@@ -177,8 +188,8 @@ fn write_files(dir: &Path, name: &'static str, b: &Branch) -> Result<()> {
     )
 }
 
-/// What the command prints.
-fn summary(name: &str, b: &Branch, out: &Path) -> String {
+/// What the command prints of a branch.
+fn summary(name: &str, b: &Branch) -> String {
     let (first, last) = (
         b.points.first().map_or(f64::NAN, |p| p.value),
         b.points.last().map_or(f64::NAN, |p| p.value),
@@ -189,7 +200,7 @@ fn summary(name: &str, b: &Branch, out: &Path) -> String {
         .map(|x| format!("{:?} at {name} = {:.8}", x.kind, x.value))
         .collect();
     format!(
-        "Period-{} branch: {} points from {name} = {first} to {last} ({}); bifurcations: {}. Files in {}.",
+        "Period-{} branch: {} points from {name} = {first} to {last} ({}); bifurcations: {}.",
         b.period,
         b.points.len(),
         b.stop,
@@ -197,7 +208,6 @@ fn summary(name: &str, b: &Branch, out: &Path) -> String {
             "none".to_string()
         } else {
             found.join(", ")
-        },
-        out.display()
+        }
     )
 }

@@ -497,6 +497,71 @@ pub fn continue_branch(spec: &BranchSpec) -> Result<Branch> {
     })
 }
 
+/// The branch of period-2n orbits born at the period doubling `b` of a period-n branch
+/// of `spec`, continued away from it over the same range. The critical eigenvector v
+/// (the null vector of M + I, by SVD) gives the start: the doubled orbit exists on one
+/// side of the bifurcation with an amplitude growing like the square root of the
+/// distance, so shots of period 2n from x + eps v at a small distance on either side
+/// are tried until one converges onto an orbit that is not the period-n one (which is a
+/// fixed point of P^2n too). Errors name `period` when none does.
+pub fn doubled_branch(spec: &BranchSpec, b: &Bifurcation) -> Result<Branch> {
+    let (p, w) = spec.at(b.value);
+    let f = flow(&p, w, &b.x, spec.period, &spec.shoot.stepper);
+    let a = SMatrix::<f64, STATE_DIM, STATE_DIM>::from_fn(|r, c| {
+        f.monodromy[r][c] + if r == c { 1.0 } else { 0.0 }
+    });
+    let svd = a.svd(false, true);
+    let v_t = svd.v_t.ok_or_else(|| {
+        Error::invalid(
+            "period",
+            spec.period,
+            "no singular vectors at the period doubling",
+        )
+    })?;
+    let k = svd.singular_values.imin();
+    let v: State = std::array::from_fn(|i| v_t[(k, i)]);
+    let v_size = metric(&v, w).max(f64::MIN_POSITIVE);
+    let doubled = spec.period * 2;
+    let step = 1e-3 * (spec.hi - spec.lo);
+    let collapsed = 1e3 * spec.shoot.tol;
+    for side in [1.0, -1.0] {
+        let value = b.value + side * step;
+        if !(spec.lo..=spec.hi).contains(&value) {
+            continue;
+        }
+        let (pp, ww) = spec.at(value);
+        for eps in [1e-7, 1e-6, 1e-5, 1e-4] {
+            let start: State = std::array::from_fn(|i| b.x[i] + eps / v_size * v[i]);
+            let Ok(o) = shoot(&pp, ww, &start, doubled, &spec.shoot) else {
+                continue;
+            };
+            // Not the period-n orbit: P^n(x) is another point.
+            let Some(half) = advance(&pp, ww, &o.x, spec.period, &spec.shoot.stepper) else {
+                continue;
+            };
+            let d: State = std::array::from_fn(|i| half[i] - o.x[i]);
+            if metric(&d, ww) > collapsed {
+                return continue_branch(&BranchSpec {
+                    start: o.x,
+                    start_value: value,
+                    period: doubled,
+                    direction: side,
+                    ..spec.clone()
+                });
+            }
+        }
+    }
+    Err(Error::invalid(
+        "period",
+        doubled,
+        format!(
+            "no period-{doubled} orbit was found next to the period doubling at {} = {}",
+            spec.var.name(),
+            b.value
+        ),
+    ))
+}
+
 /// Parses the continued parameter and its range, `NAME:lo:hi` (`option` names it in
 /// errors): W (`omega`) or a model parameter, finite bounds.
 pub fn parse_param(option: &str, text: &str) -> Result<(MapVar, f64, f64)> {
@@ -534,6 +599,9 @@ pub struct OrbitsStudy {
     pub branch: BranchSpec,
     /// Periods integrated before shooting.
     pub settle: u32,
+    /// Also continue the period-2n branch born at each period doubling of the branch
+    /// ([`doubled_branch`]; one level).
+    pub follow_doublings: bool,
 }
 
 /// Branch points at most (each costs a few shots: about a second per hundred points at
@@ -566,6 +634,8 @@ pub struct OrbitsRequest<'a> {
     pub ds_max: f64,
     /// The lane stepper.
     pub stepper: jeffcott_core::integrate::lane::StepperConfig,
+    /// Continue the doubled branches too.
+    pub follow_doublings: bool,
 }
 
 impl OrbitsRequest<'_> {
@@ -628,13 +698,35 @@ impl OrbitsRequest<'_> {
         Ok(OrbitsStudy {
             branch,
             settle: self.settle,
+            follow_doublings: self.follow_doublings,
         })
     }
 }
 
-/// Runs an orbits study: settle, shoot, continue. Errors name `settle` when the start
-/// state diverges while settling.
-pub fn run(study: &OrbitsStudy) -> Result<Branch> {
+/// Runs an orbits study: settle, shoot, continue; then, if asked, the doubled branch of
+/// every period doubling (a doubling whose doubled orbit is not found is skipped, its
+/// reason in that branch's place is not invented: the main branch still lists it).
+/// Errors name `settle` when the start state diverges while settling.
+pub fn run(study: &OrbitsStudy) -> Result<Vec<Branch>> {
+    let main = run_main(study)?;
+    let mut all = Vec::new();
+    if study.follow_doublings {
+        for b in main
+            .bifurcations
+            .iter()
+            .filter(|b| b.kind == Crossing::PeriodDoubling)
+        {
+            if let Ok(d) = doubled_branch(&study.branch, b) {
+                all.push(d);
+            }
+        }
+    }
+    all.insert(0, main);
+    Ok(all)
+}
+
+/// The main branch of [`run`].
+fn run_main(study: &OrbitsStudy) -> Result<Branch> {
     let spec = &study.branch;
     spec.validate()?;
     let (p, w) = spec.at(spec.start_value);
@@ -687,39 +779,50 @@ pub struct BranchesRecord<'a> {
     branches: Vec<BranchRecord<'a>>,
 }
 
-/// The record of `branch`, a branch over the parameter `name`.
-pub fn record<'a>(name: &'static str, branch: &'a Branch) -> BranchesRecord<'a> {
-    let bifurcations = branch
-        .bifurcations
-        .iter()
-        .map(|x| BifurcationRecord {
-            kind: x.kind,
-            value: [(name, x.value)].into_iter().collect(),
-            multipliers: &x.multipliers,
-            min_clearance_m: x.min_clearance,
-            state: x.x,
-            after_point: x.after_point,
-        })
-        .collect();
-    BranchesRecord {
-        param: name,
-        branches: vec![BranchRecord {
+/// The record of `branches`, over the parameter `name`.
+pub fn record<'a>(name: &'static str, branches: &'a [Branch]) -> BranchesRecord<'a> {
+    let one = |branch: &'a Branch| {
+        let bifurcations = branch
+            .bifurcations
+            .iter()
+            .map(|x| BifurcationRecord {
+                kind: x.kind,
+                value: [(name, x.value)].into_iter().collect(),
+                multipliers: &x.multipliers,
+                min_clearance_m: x.min_clearance,
+                state: x.x,
+                after_point: x.after_point,
+            })
+            .collect();
+        BranchRecord {
             period: branch.period,
             points: &branch.points,
             bifurcations,
             stop: &branch.stop,
-        }],
+        }
+    };
+    BranchesRecord {
+        param: name,
+        branches: branches.iter().map(one).collect(),
     }
 }
 
-/// The branch as flat arrays: `[points, 12]` rows (parameter value, the orbit's state at
-/// t = 0, largest multiplier modulus, smallest clearance [m], stable 1/0) and the
-/// multipliers `[points, 8, 2]` (re, im).
-pub fn arrays(branch: &Branch) -> (Vec<f64>, Vec<f64>) {
-    let n = branch.points.len();
-    let mut rows = Vec::with_capacity(n * 12);
+/// Columns of a branch point's row in [`arrays`].
+pub const ROW: usize = 13;
+
+/// The branches as flat arrays: `[points, 13]` rows (branch index, parameter value, the
+/// orbit's state at t = 0, largest multiplier modulus, smallest clearance [m], stable
+/// 1/0) and the multipliers `[points, 8, 2]` (re, im), the branches' points in order.
+pub fn arrays(branches: &[Branch]) -> (Vec<f64>, Vec<f64>) {
+    let n: usize = branches.iter().map(|b| b.points.len()).sum();
+    let mut rows = Vec::with_capacity(n * ROW);
     let mut mu = Vec::with_capacity(n * 16);
-    for p in &branch.points {
+    for (k, p) in branches
+        .iter()
+        .enumerate()
+        .flat_map(|(k, b)| b.points.iter().map(move |p| (k, p)))
+    {
+        rows.push(k as f64);
         rows.push(p.value);
         rows.extend_from_slice(&p.x);
         rows.push(p.multipliers.first().map_or(f64::NAN, |m| m[0].hypot(m[1])));

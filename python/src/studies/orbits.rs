@@ -16,13 +16,16 @@ use std::collections::HashMap;
 /// Returns the dictionary of `branches.json` (`param`; `branches`, each with its
 /// `points` (value, orbit state `x`, `multipliers` [re, im], `stable`,
 /// `min_clearance`), its `bifurcations` (`type`: fold, period_doubling, neimark_sacker
-/// or grazing, and the parameter's value under its name) and why it `stop`ped) with the
-/// arrays `branch` `[points, 12]` and `multipliers` `[points, 8, 2]`.
+/// or grazing, and the parameter's value under its name) and why it `stop`ped; with
+/// `follow_doublings` also the period-2n branch of each period doubling) with the arrays
+/// `branch` `[points, 13]` (branch index, value, state, largest |mu|, smallest
+/// clearance, stable) and `multipliers` `[points, 8, 2]`.
 #[pyfunction]
 #[pyo3(signature = (
     param, *, omega=None, period=defaults::orbits::PERIOD, direction="up",
     settle=defaults::orbits::SETTLE, init=None, max_points=defaults::orbits::MAX_POINTS,
-    ds=defaults::orbits::DS, ds_max=defaults::orbits::DS_MAX, params=None,
+    ds=defaults::orbits::DS, ds_max=defaults::orbits::DS_MAX, follow_doublings=false,
+    params=None,
     **stepper,
 ))]
 #[allow(clippy::too_many_arguments)]
@@ -37,6 +40,7 @@ pub(crate) fn orbits<'py>(
     #[pyo3(from_py_with = kw::max_points)] max_points: usize,
     #[pyo3(from_py_with = kw::ds)] ds: f64,
     #[pyo3(from_py_with = kw::ds_max)] ds_max: f64,
+    #[pyo3(from_py_with = kw::follow_doublings)] follow_doublings: bool,
     #[pyo3(from_py_with = kw::params)] params: Option<HashMap<String, f64>>,
     stepper: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
@@ -55,16 +59,17 @@ pub(crate) fn orbits<'py>(
         ds,
         ds_max,
         stepper,
+        follow_doublings,
     }
     .study()
     .map_err(run::to_py_err)?;
-    let branch = run::detached(py, None, |_| jeffcott_analysis::orbits::run(&study))?;
+    let branches = run::detached(py, None, |_| jeffcott_analysis::orbits::run(&study))?;
     let name = study.branch.var.name();
-    let d =
-        json_to_py(py, &jeffcott_analysis::orbits::record(name, &branch))?.cast_into::<PyDict>()?;
-    let n = branch.points.len();
-    let (rows, mu) = jeffcott_analysis::orbits::arrays(&branch);
-    d.set_item("branch", array2(py, rows, 12)?)?;
+    let d = json_to_py(py, &jeffcott_analysis::orbits::record(name, &branches))?
+        .cast_into::<PyDict>()?;
+    let (rows, mu) = jeffcott_analysis::orbits::arrays(&branches);
+    let n = rows.len() / jeffcott_analysis::orbits::ROW;
+    d.set_item("branch", array2(py, rows, jeffcott_analysis::orbits::ROW)?)?;
     d.set_item("multipliers", array_nd(py, mu, &[n, 8, 2])?)?;
     Ok(d)
 }
