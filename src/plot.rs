@@ -11,6 +11,7 @@ mod frame;
 pub mod lyapunov;
 mod maps;
 mod measure;
+pub mod orbits;
 mod phase;
 pub mod rub;
 

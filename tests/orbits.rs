@@ -464,3 +464,48 @@ fn the_orbits_command_follows_the_doubled_branch_when_asked() {
         "the last row is the doubled branch's"
     );
 }
+
+#[test]
+fn the_orbits_command_draws_its_branches_over_a_brute_force_and_refuses_a_wrong_one() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (bif, out) = (tmp.path().join("bif"), tmp.path().join("orbits"));
+    common::ok(&common::jeffcott_out(
+        "bifurcation --omega 131.7:132.4:8 --no-sweep --ics 2 --brute-transient 200 \
+         --periods 16 --no-lyapunov --no-plot --backend cpu --quiet",
+        &bif,
+    ));
+    let line = format!(
+        "orbits --param omega:131.7:132.4 --follow-doublings --coord vx_s --quiet --over {}",
+        bif.display()
+    );
+    common::ok(&common::jeffcott_out(&line, &out));
+    let png = std::fs::read(out.join("branch.png")).unwrap();
+    assert_eq!(&png[1..4], b"PNG");
+    let outputs = common::json(&out.join("run.json"))["outputs"].clone();
+    assert!(
+        outputs
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|o| o == "branch.png"),
+        "{outputs}"
+    );
+    // A brute force is drawn under a branch over omega only, and must be one.
+    let wrong = [
+        format!(
+            "orbits --param e:0.0008:0.0012 --omega 132.2 --over {}",
+            bif.display()
+        ),
+        format!(
+            "orbits --param omega:131.7:132.4 --over {}",
+            tmp.path().join("none").display()
+        ),
+        "orbits --param omega:131.7:132.4 --coord spin".to_string(),
+    ];
+    for (line, needle) in wrong.iter().zip(["over", "over", "coord"]) {
+        let o = common::jeffcott_out(line, tmp.path().join("refused"));
+        assert!(!o.status.success(), "{line} was accepted");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains(needle), "{line}: {err}");
+    }
+}

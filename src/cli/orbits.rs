@@ -57,6 +57,16 @@ pub struct OrbitsArgs {
     /// Also continue the period-2n branch born at each period doubling of the branch.
     #[arg(long)]
     pub follow_doublings: bool,
+    /// The coordinate `branch.png` shows (each orbit's Poincare points in it).
+    #[arg(long, default_value = "x_r", value_name = "NAME")]
+    pub coord: String,
+    /// A `jeffcott bifurcation` output directory over the same speeds: its brute-force
+    /// Poincare points are drawn under the branches (W continuation only).
+    #[arg(long, value_name = "DIR")]
+    pub over: Option<PathBuf>,
+    /// Do not draw `branch.png`.
+    #[arg(long)]
+    pub no_plot: bool,
     #[command(flatten)]
     pub model: ModelArgs,
     #[command(flatten)]
@@ -95,7 +105,12 @@ struct BranchesFile<'a> {
     files: std::collections::BTreeMap<&'static str, &'static str>,
 }
 
-const OUTPUTS: &[&str] = &["branches.json", "branch.npy", "multipliers.npy"];
+const OUTPUTS: &[&str] = &[
+    "branches.json",
+    "branch.npy",
+    "multipliers.npy",
+    "branch.png",
+];
 
 /// Runs `jeffcott orbits`.
 pub fn run_orbits(a: &OrbitsArgs) -> Result<()> {
@@ -121,6 +136,12 @@ pub fn run_orbits(a: &OrbitsArgs) -> Result<()> {
     let spec = &study.branch;
     let (lo, hi) = (spec.lo, spec.hi);
     let var = spec.var;
+    let coord = jeffcott_core::inputs::coord("coord", &a.coord)?;
+    // The brute force to draw under the branches, read (and refused) before any work.
+    let background = match &a.over {
+        Some(dir) if !a.no_plot => Some(brute_force_points(dir, var, coord)?),
+        _ => None,
+    };
     let run_dir = rundir::open(
         &a.out,
         "orbits",
@@ -146,6 +167,9 @@ pub fn run_orbits(a: &OrbitsArgs) -> Result<()> {
     let t0 = std::time::Instant::now();
     let branches = run(&study)?;
     write_files(&a.out, var.name(), &branches)?;
+    if !a.no_plot {
+        draw(a, &study, &branches, coord, background.as_deref())?;
+    }
     run_dir.finish(
         &rundir::WallTime {
             wall_time_s: t0.elapsed().as_secs_f64(),
@@ -197,7 +221,7 @@ fn summary(name: &str, b: &Branch) -> String {
     let found: Vec<String> = b
         .bifurcations
         .iter()
-        .map(|x| format!("{:?} at {name} = {:.8}", x.kind, x.value))
+        .map(|x| format!("{} at {name} = {:.8}", x.kind.label(), x.value))
         .collect();
     format!(
         "Period-{} branch: {} points from {name} = {first} to {last} ({}); bifurcations: {}.",
@@ -209,5 +233,95 @@ fn summary(name: &str, b: &Branch) -> String {
         } else {
             found.join(", ")
         }
+    )
+}
+
+/// The brute-force Poincare points (W, coordinate `coord`) of the `jeffcott bifurcation`
+/// run in `dir` (field `over`).
+fn brute_force_points(
+    dir: &Path,
+    var: jeffcott_analysis::map::MapVar,
+    coord: usize,
+) -> Result<Vec<(f64, f64)>> {
+    if !matches!(var, jeffcott_analysis::map::MapVar::Omega) {
+        return Err(jeffcott_core::error::Error::invalid(
+            "over",
+            dir.display(),
+            "a brute force is drawn under a branch over omega only",
+        ));
+    }
+    let read = |name: &str| output::read_npy_f64("over", &dir.join(name));
+    let (rs, rows) = read("bifurcation_rows.npy")?;
+    let (ps, points) = read("bifurcation.npy")?;
+    let bad = |what: &str| {
+        jeffcott_core::error::Error::invalid("over", dir.display(), format!("unexpected {what}"))
+    };
+    if rs.len() != 2 || rs[1] != 4 || ps.len() != 3 || ps[2] != 8 || ps[0] != rs[0] {
+        return Err(bad("array shapes"));
+    }
+    let recorded = ps[1] as usize;
+    let mut out = Vec::new();
+    for (r, row) in rows.chunks_exact(4).enumerate() {
+        if row[1] != 2.0 {
+            continue; // sweeps
+        }
+        let lane = &points[r * recorded * 8..(r + 1) * recorded * 8];
+        out.extend(lane.chunks_exact(8).map(|x| (row[0], x[coord])));
+    }
+    Ok(out)
+}
+
+/// Draws `branch.png`.
+fn draw(
+    a: &OrbitsArgs,
+    study: &jeffcott_analysis::orbits::OrbitsStudy,
+    branches: &[Branch],
+    coord: usize,
+    background: Option<&[(f64, f64)]>,
+) -> Result<()> {
+    use crate::plot::orbits::{BranchLine, Mark};
+    let spec = &study.branch;
+    // Each branch's points with its bifurcations in between (where the stability
+    // changes, the solid and dashed stretches meet at the bifurcation itself).
+    let lines: Vec<BranchLine> = branches
+        .iter()
+        .map(|b| {
+            let cycle = |v: f64, x: &jeffcott_core::model::State| -> Vec<f64> {
+                spec.cycle(v, x, b.period)
+                    .iter()
+                    .map(|x| x[coord])
+                    .collect()
+            };
+            let mut points = Vec::new();
+            for (k, p) in b.points.iter().enumerate() {
+                points.push((p.value, cycle(p.value, &p.x), p.stable));
+                for x in b.bifurcations.iter().filter(|x| x.after_point == k) {
+                    points.push((x.value, cycle(x.value, &x.x), p.stable));
+                }
+            }
+            BranchLine {
+                label: format!("period-{} orbits", b.period),
+                points,
+            }
+        })
+        .collect();
+    let marks: Vec<Mark> = branches
+        .iter()
+        .flat_map(|b| b.bifurcations.iter())
+        .map(|x| Mark {
+            value: x.value,
+            y: x.x[coord],
+            kind: x.kind.label().to_string(),
+        })
+        .collect();
+    let name = spec.var.name();
+    crate::plot::orbits::branches(
+        &a.out.join("branch.png"),
+        &format!("Periodic orbits over {name}: stable solid, unstable dashed"),
+        &format!("{name} [{}]", spec.var.unit()),
+        coord,
+        &lines,
+        &marks,
+        background.unwrap_or_default(),
     )
 }

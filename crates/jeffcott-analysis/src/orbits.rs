@@ -90,6 +90,18 @@ pub enum Crossing {
     Grazing,
 }
 
+impl Crossing {
+    /// The name in words ("period doubling").
+    pub fn label(self) -> &'static str {
+        match self {
+            Crossing::Fold => "fold",
+            Crossing::PeriodDoubling => "period doubling",
+            Crossing::NeimarkSacker => "Neimark-Sacker",
+            Crossing::Grazing => "grazing",
+        }
+    }
+}
+
 /// A located bifurcation.
 #[derive(Clone, Debug, Serialize)]
 pub struct Bifurcation {
@@ -137,6 +149,20 @@ impl BranchSpec {
             MapVar::Coord(_) => unreachable!("validated: a branch continues W or a parameter"),
         }
         (p, w)
+    }
+
+    /// The n Poincare points of the period-n orbit through `x` at value `v`: x, P(x),
+    /// ..., P^(n-1)(x) (fewer if the lane leaves the divergence bound).
+    pub fn cycle(&self, v: f64, x: &State, n: u32) -> Vec<State> {
+        let (p, w) = self.at(v);
+        let mut out = vec![*x];
+        for _ in 1..n {
+            match advance(&p, w, out.last().expect("a point"), 1, &self.shoot.stepper) {
+                Some(next) => out.push(next),
+                None => break,
+            }
+        }
+        out
     }
 
     /// Checks the inputs; errors name the field and the allowed range.

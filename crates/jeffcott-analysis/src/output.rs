@@ -179,6 +179,23 @@ where
     })
 }
 
+/// Reads an f64 `.npy` file (C order, as every file jeffcott writes) as its shape and
+/// values; errors name `option` and the file (missing, unreadable, another type or
+/// Fortran order).
+pub fn read_npy_f64(option: &str, path: &Path) -> Result<(Vec<u64>, Vec<f64>)> {
+    let bad = |why: String| Error::invalid(option, path.display(), why);
+    let bytes = std::fs::read(path).map_err(|e| bad(format!("cannot read it: {e}")))?;
+    let npy = npyz::NpyFile::new(&bytes[..]).map_err(|e| bad(format!("not a .npy file: {e}")))?;
+    if npy.order() == npyz::Order::Fortran {
+        return Err(bad("a Fortran-ordered array; save it in C order".into()));
+    }
+    let shape = npy.shape().to_vec();
+    let data = npy
+        .into_vec::<f64>()
+        .map_err(|e| bad(format!("not an f64 array: {e}")))?;
+    Ok((shape, data))
+}
+
 /// Writes a value as pretty-printed JSON with the keys of every object sorted: the value
 /// goes through [`serde_json::Value`], whose map is ordered by key, so a file is the
 /// same whatever order a record's struct declares its fields in (and equal to what the
