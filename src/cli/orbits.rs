@@ -168,7 +168,13 @@ pub fn run_orbits(a: &OrbitsArgs) -> Result<()> {
     let branches = run(&study)?;
     write_files(&a.out, var.name(), &branches)?;
     if !a.no_plot {
-        draw(a, &study, &branches, coord, background.as_deref())?;
+        draw(
+            &a.out.join("branch.png"),
+            &study,
+            &branches,
+            coord,
+            background.as_deref(),
+        )?;
     }
     run_dir.finish(
         &rundir::WallTime {
@@ -186,7 +192,7 @@ pub fn run_orbits(a: &OrbitsArgs) -> Result<()> {
 }
 
 /// Writes `branches.json`, `branch.npy` and `multipliers.npy`.
-fn write_files(dir: &Path, name: &'static str, b: &[Branch]) -> Result<()> {
+pub(crate) fn write_files(dir: &Path, name: &'static str, b: &[Branch]) -> Result<()> {
     output::ensure_dir(dir)?;
     let (rows, mu) = jeffcott_analysis::orbits::arrays(b);
     let n = rows.len() / jeffcott_analysis::orbits::ROW;
@@ -271,9 +277,10 @@ fn brute_force_points(
     Ok(out)
 }
 
-/// Draws `branch.png`.
-fn draw(
-    a: &OrbitsArgs,
+/// Draws the branches of `study` in coordinate `coord` to `path` over `background`
+/// (brute-force points: W and the coordinate).
+pub(crate) fn draw(
+    path: &Path,
     study: &jeffcott_analysis::orbits::OrbitsStudy,
     branches: &[Branch],
     coord: usize,
@@ -316,7 +323,7 @@ fn draw(
         .collect();
     let name = spec.var.name();
     crate::plot::orbits::branches(
-        &a.out.join("branch.png"),
+        path,
         &format!("Periodic orbits over {name}: stable solid, unstable dashed"),
         &format!("{name} [{}]", spec.var.unit()),
         coord,

@@ -155,6 +155,12 @@ impl Host for Ctx<'_> {
     fn section(&mut self, section: Section<'_>) -> Result<()> {
         match section {
             Section::Bifurcation { spec, res } => bifurcation_figures(self, spec, res),
+            Section::Orbits {
+                study,
+                branches,
+                background,
+                seconds,
+            } => beyond::orbits_section(self, study, branches, background, seconds),
             Section::Zoom {
                 k,
                 spec,

@@ -70,6 +70,8 @@ pub struct Preset {
     pub cascade_speeds: usize,
     /// Re-integration samples of the uncertainty exponent.
     pub uncertainty_samples: usize,
+    /// Points of the period-1 orbit branch over 130..141 rad/s, at most.
+    pub orbit_points: usize,
     /// Boundary refinement levels of the basin.
     pub basin_refine: u32,
 }
@@ -110,6 +112,7 @@ pub const QUICK: Preset = Preset {
     cascade_speeds: 101,
     uncertainty_samples: 100,
     basin_refine: 1,
+    orbit_points: 400,
 };
 
 /// Publication resolution (2000 speeds, a 1000 x 1000 basin): meant for a GPU.
@@ -148,6 +151,7 @@ pub const FULL: Preset = Preset {
     cascade_speeds: 1001,
     uncertainty_samples: 4000,
     basin_refine: 2,
+    orbit_points: 1500,
 };
 
 /// A tiny resolution that only checks the pipeline (for tests).
@@ -186,6 +190,7 @@ pub const SMOKE: Preset = Preset {
     cascade_speeds: 3,
     uncertainty_samples: 2,
     basin_refine: 1,
+    orbit_points: 12,
 };
 
 /// The article's speeds and what it reports there (MODEL.md 6).

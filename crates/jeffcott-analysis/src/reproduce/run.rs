@@ -38,6 +38,18 @@ pub enum Section<'a> {
         /// Its result.
         res: &'a BifurcationResult,
     },
+    /// The periodic orbits over the bifurcation diagram's range
+    /// ([`ReproduceSpec::orbits`]), drawn over its brute force.
+    Orbits {
+        /// The study.
+        study: &'a crate::orbits::OrbitsStudy,
+        /// Its branches (the period-1 one first).
+        branches: &'a [crate::orbits::Branch],
+        /// The brute force's Poincare points (W, state) of the bifurcation section.
+        background: &'a [(f64, jeffcott_core::model::State)],
+        /// Wall time [s].
+        seconds: f64,
+    },
     /// Enlargement `k` of Fig. 3, over [`ZOOMS`]`[k]`.
     Zoom {
         /// Which enlargement.
@@ -201,6 +213,25 @@ pub fn reproduce<H: Host>(spec: &ReproduceSpec, host: &mut H) -> Result<Reproduc
     host.section(Section::Bifurcation {
         spec: &b,
         res: &res,
+    })?;
+    // The periodic orbits behind the diagram, stable and unstable (issue 26).
+    let t = Instant::now();
+    let o = spec.orbits();
+    let branches = crate::orbits::run(&o)?;
+    let background: Vec<(f64, jeffcott_core::model::State)> = res
+        .brute
+        .iter()
+        .flat_map(|bp| {
+            bp.points
+                .chunks_exact(jeffcott_core::model::STATE_DIM)
+                .map(move |x| (bp.omega, x.try_into().expect("a state")))
+        })
+        .collect();
+    host.section(Section::Orbits {
+        study: &o,
+        branches: &branches,
+        background: &background,
+        seconds: t.elapsed().as_secs_f64(),
     })?;
     drop(res);
 

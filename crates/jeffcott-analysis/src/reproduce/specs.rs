@@ -65,6 +65,33 @@ impl ReproduceSpec {
         })
     }
 
+    /// The periodic orbits over the bifurcation diagram's range: the period-1 branch from
+    /// the attractor at 130 rad/s (settled from the static equilibrium), continued up to
+    /// 141 rad/s through its folds, with the period-2 branch of every period doubling.
+    pub fn orbits(&self) -> crate::orbits::OrbitsStudy {
+        use crate::defaults::orbits as d;
+        let branch = crate::orbits::BranchSpec {
+            params: self.params.clone(),
+            omega: f64::NAN,
+            var: MapVar::Omega,
+            lo: 130.0,
+            hi: 141.0,
+            start_value: 130.0,
+            start: self.params.static_equilibrium(),
+            period: 1,
+            direction: 1.0,
+            max_points: self.preset.orbit_points,
+            ds: d::DS,
+            ds_max: d::DS_MAX,
+            shoot: jeffcott_core::orbit::ShootConfig::default(),
+        };
+        crate::orbits::OrbitsStudy {
+            branch,
+            settle: d::SETTLE,
+            follow_doublings: true,
+        }
+    }
+
     /// Enlargement `k` of Fig. 3 over [`ZOOMS`]`[k]`: an up sweep alone.
     pub fn zoom(&self, k: usize) -> Result<BifurcationSpec> {
         let (lo, hi) = ZOOMS[k];
