@@ -216,6 +216,10 @@ mod tests {
                     assert_eq!(res.up.len(), spec.omegas.len());
                     format!("bifurcation {:?}", SweepCounts::of(&res.up))
                 }
+                Section::Orbits { branches, .. } => {
+                    assert!(!branches.is_empty() && branches[0].period == 1);
+                    format!("orbits {}", branches[0].points.len())
+                }
                 Section::Zoom { k, res, .. } => format!("zoom {k} {:?}", periods_seen(&res.up)),
                 Section::Portrait { figure, at } => format!("fig{figure} {:?}", at.class),
                 Section::Basin { outcome, class, .. } => {
@@ -268,6 +272,7 @@ mod tests {
             kinds,
             [
                 "bifurcation",
+                "orbits",
                 "zoom",
                 "zoom",
                 "fig5",
