@@ -175,6 +175,32 @@ const CASES: &[Case] = &[
     ("lyapunov --omega 130:130:4", &["`omega`", "a != b"]),
     ("lyapunov --omega 133 --time -1", &["`time`"]),
     ("lyapunov --omega 133 --param ''", &["`param`", "empty"]),
+    // orbits
+    ("orbits --param x_r:0:1", &["`param`", "start coordinate"]),
+    ("orbits --param omega:131", &["`param`", "NAME:lo:hi"]),
+    ("orbits --param omega:132.4:131.7", &["`param`", "lo < hi"]),
+    ("orbits --param omega:nan:132", &["`param`", "finite"]),
+    ("orbits --param e:0.0008:0.0012", &["`omega`"]),
+    ("orbits --param omega:131.7:132.4 --omega 130", &["`omega`"]),
+    (
+        "orbits --param omega:131.7:132.4 --period 0",
+        &["`period`", "1..=64"],
+    ),
+    ("orbits --param omega:131.7:132.4 --ds 0", &["`ds`"]),
+    (
+        "orbits --param omega:131.7:132.4 --max-points 1",
+        &["`max-points`"],
+    ),
+    (
+        "orbits --param omega:131.7:132.4 --settle -1",
+        &["`settle`"],
+    ),
+    ("orbits --param omega:131.7:132.4 --coord spin", &["spin"]),
+    (
+        "orbits --param omega:131.7:132.4 --over /no/such/bifurcation",
+        &["`over`"],
+    ),
+    ("orbits", &["--param"]),
     // merge
     ("merge --out m", &["SHARD_DIR"]),
     ("merge /no/such/shard --out m", &["/no/such/shard"]),
