@@ -509,3 +509,56 @@ fn the_orbits_command_draws_its_branches_over_a_brute_force_and_refuses_a_wrong_
         assert!(err.contains(needle), "{line}: {err}");
     }
 }
+
+#[test]
+fn two_folds_are_passed_by_pseudo_arclength_and_the_branch_between_them_is_unstable() {
+    use jeffcott_analysis::orbits::Crossing;
+    // Over 131.3..131.7 rad/s the period-1 branch turns back at a fold, runs down in W
+    // unstable, and turns forward again at a second fold (the hysteresis the up and
+    // down sweeps show near 131.5): a natural continuation in W would stop at the first.
+    let p = Params::default();
+    let b = w_branch(&p, settled(&p, 131.3, 300), 131.3, (131.3, 131.7), 1.0);
+    let folds: Vec<_> = b
+        .bifurcations
+        .iter()
+        .filter(|x| x.kind == Crossing::Fold)
+        .collect();
+    eprintln!(
+        "{} points, stop: {}, bifurcations {:?}",
+        b.points.len(),
+        b.stop,
+        b.bifurcations
+            .iter()
+            .map(|x| (x.kind, x.value))
+            .collect::<Vec<_>>()
+    );
+    assert_eq!(folds.len(), 2, "two folds");
+    let (upper, lower) = (folds[0].value, folds[1].value);
+    assert!(
+        upper > lower,
+        "the branch turns back at {upper}, forward at {lower}"
+    );
+    // W decreases between the folds, and the orbits there are unstable (a multiplier
+    // through +1 at each fold).
+    let between: Vec<_> = b.points[folds[0].after_point + 1..=folds[1].after_point]
+        .iter()
+        .collect();
+    assert!(!between.is_empty());
+    assert!(between.windows(2).all(|w| w[1].value < w[0].value));
+    assert!(between.iter().all(|pt| !pt.stable));
+    for f in &folds {
+        let near_one = f
+            .multipliers
+            .iter()
+            .map(|m| (m[0] - 1.0).hypot(m[1]))
+            .fold(f64::INFINITY, f64::min);
+        assert!(
+            near_one < 1e-4,
+            "a multiplier at +1 at the fold: {near_one:e} away"
+        );
+    }
+    assert!(
+        b.points.last().unwrap().value >= 131.7,
+        "continued past both folds"
+    );
+}

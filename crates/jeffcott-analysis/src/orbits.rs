@@ -399,25 +399,25 @@ fn locate(spec: &BranchSpec, a: &BranchPoint, ds: f64, kind: Crossing) -> Option
     let (mut lo, mut hi) = (0.0, ds);
     let mut best: Option<BranchPoint> = None;
     let mut v_lo = a.value;
+    // Until the parameter is known to 1e-8 and, at a fold (where the parameter is flat
+    // along the branch, so 1e-8 in it is ~1e-4 in arclength), the arclength too.
+    let known = |best: &Option<BranchPoint>, v_lo: f64, lo: f64, hi: f64| {
+        best.as_ref()
+            .is_some_and(|b| (b.value - v_lo).abs() < 1e-8 && (hi - lo) < 1e-9 * ds)
+    };
     for _ in 0..80 {
         let mid = 0.5 * (lo + hi);
         let s = correct(spec, &a.x, a.value, &a.tangent, mid)?;
         let p = point(&s);
         if crosses(kind, a, &p) {
             hi = mid;
-            let done = (p.value - v_lo).abs() < 1e-8;
             best = Some(p);
-            if done {
-                break;
-            }
         } else {
             lo = mid;
             v_lo = p.value;
-            if let Some(b) = &best
-                && (b.value - v_lo).abs() < 1e-8
-            {
-                break;
-            }
+        }
+        if known(&best, v_lo, lo, hi) {
+            break;
         }
     }
     best
