@@ -298,11 +298,7 @@ def test_orbits_finds_the_period_doubling_of_the_period_1_orbit_and_names_it_und
     # The doubled branch, when asked for.
     two = jeffcott.orbits("omega:131.7:132.4", follow_doublings=True)
     assert [b["period"] for b in two["branches"]] == [1, 2]
-    # Over a model parameter W is needed, and named when missing.
-    with pytest.raises(ValueError, match="`omega`"):
-        jeffcott.orbits("e:0.0008:0.0012")
-    with pytest.raises(ValueError, match="`direction`"):
-        jeffcott.orbits("omega:131.7:132.4", direction="both")
+    # Bad input (a missing W, a direction both ways, ...): test_bad_inputs.py's table.
 
 
 def test_bifurcation_sweeps_find_period_1_then_period_2():

@@ -220,15 +220,8 @@ pub(crate) fn write_files(dir: &Path, name: &'static str, b: &[Branch]) -> Resul
 
 /// What the command prints of a branch.
 fn summary(name: &str, b: &Branch) -> String {
-    let (first, last) = (
-        b.points.first().map_or(f64::NAN, |p| p.value),
-        b.points.last().map_or(f64::NAN, |p| p.value),
-    );
-    let found: Vec<String> = b
-        .bifurcations
-        .iter()
-        .map(|x| format!("{} at {name} = {:.8}", x.kind.label(), x.value))
-        .collect();
+    let (first, last) = b.span();
+    let found = b.found(&format!("{name} = "), 8);
     format!(
         "Period-{} branch: {} points from {name} = {first} to {last} ({}); bifurcations: {}.",
         b.period,

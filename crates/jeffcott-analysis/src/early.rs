@@ -28,7 +28,7 @@ use crate::backend::Engine;
 use crate::catalogue::{CatalogueBuilder, CatalogueConfig};
 use crate::classify::distance;
 use jeffcott_core::control::Control;
-use jeffcott_core::ensemble::early::{EarlyExit, Recognise, Then, Track};
+use jeffcott_core::ensemble::early::{EarlyExit, Recognise, Retired, Then, Track};
 use jeffcott_core::ensemble::{EnsembleSpec, RunInfo};
 use jeffcott_core::error::Result;
 use jeffcott_core::model::State;
@@ -170,6 +170,23 @@ pub struct EarlySaved {
 }
 
 impl EarlySaved {
+    /// The count of lanes that ran `full` periods each unless `retired` says otherwise.
+    pub fn of(retired: &[Option<Retired>], full: u32) -> EarlySaved {
+        EarlySaved {
+            lanes: retired.len() as u64,
+            retired: retired.iter().filter(|r| r.is_some()).count() as u64,
+            periods_run: jeffcott_core::ensemble::early::periods_run(retired, full),
+            periods_full: retired.len() as u64 * full as u64,
+        }
+    }
+
+    /// Adds `more` to `total` (`None`: nothing ran with early exit yet).
+    pub fn accumulate(total: &mut Option<EarlySaved>, more: Option<EarlySaved>) {
+        if let Some(m) = more {
+            total.get_or_insert_with(EarlySaved::default).add(&m);
+        }
+    }
+
     /// Adds another count.
     pub fn add(&mut self, o: &EarlySaved) {
         self.lanes += o.lanes;
@@ -334,16 +351,7 @@ pub fn catalogue_groups(
                     None => e.builder.add_at(class, i as u64),
                 };
             }
-            let retired = &res.retired[lanes];
-            e.saved.add(&EarlySaved {
-                lanes: m as u64,
-                retired: retired.iter().filter(|r| r.is_some()).count() as u64,
-                periods_run: retired
-                    .iter()
-                    .map(|r| r.map_or(full, |r| r.periods) as u64)
-                    .sum(),
-                periods_full: m as u64 * per_lane,
-            });
+            e.saved.add(&EarlySaved::of(&res.retired[lanes], full));
         }
         base += picks.len() as u64 * per_lane;
     }
@@ -386,13 +394,7 @@ pub fn label_lanes(
         })
         .collect();
     let full = ens.transient + ens.recorded;
-    let saved = EarlySaved {
-        lanes: ens.lanes.len() as u64,
-        retired: r.retired.iter().filter(|r| r.is_some()).count() as u64,
-        periods_run: r.periods_run(full),
-        periods_full: ens.lanes.len() as u64 * full as u64,
-    };
-    Ok((labels, saved, info))
+    Ok((labels, EarlySaved::of(&r.retired, full), info))
 }
 
 /// A unit of lanes labelled against `catalogue` ([`label_lanes`]): its `labels` and
@@ -452,7 +454,6 @@ pub fn record_lanes(
     let (r, info) = engine.run_early(ens, &early, lambda1, ctl)?;
     let full = ens.transient + ens.recorded;
     let saved = EarlySaved {
-        lanes: ens.lanes.len() as u64,
         // Lanes recognised before the transient's end (one recognised at its last
         // period has the plain run's record and saved nothing).
         retired: r
@@ -460,8 +461,7 @@ pub fn record_lanes(
             .iter()
             .filter(|r| r.is_some_and(|r| r.periods < full))
             .count() as u64,
-        periods_run: r.periods_run(full),
-        periods_full: ens.lanes.len() as u64 * full as u64,
+        ..EarlySaved::of(&r.retired, full)
     };
     Ok((r.result, saved, info))
 }

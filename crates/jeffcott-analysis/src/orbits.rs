@@ -133,6 +133,25 @@ pub struct Branch {
     pub stop: String,
 }
 
+impl Branch {
+    /// The parameter's values at its first and last points (NaN when it has none).
+    pub fn span(&self) -> (f64, f64) {
+        (
+            self.points.first().map_or(f64::NAN, |p| p.value),
+            self.points.last().map_or(f64::NAN, |p| p.value),
+        )
+    }
+
+    /// Its bifurcations in words, in the order met: "period doubling at {at}{value}",
+    /// the value to `decimals` places.
+    pub fn found(&self, at: &str, decimals: usize) -> Vec<String> {
+        self.bifurcations
+            .iter()
+            .map(|x| format!("{} at {at}{:.*}", x.kind.label(), decimals, x.value))
+            .collect()
+    }
+}
+
 /// Scale of the parameter in the arclength: 1 mm per the range.
 fn theta(spec: &BranchSpec) -> f64 {
     1e-3 / (spec.hi - spec.lo).abs().max(f64::MIN_POSITIVE)
@@ -195,6 +214,7 @@ impl BranchSpec {
                 "need 0 < ds <= ds_max, finite",
             ));
         }
+        jeffcott_core::orbit::check_period(self.period)?;
         if !(2..=MAX_POINTS).contains(&self.max_points) {
             return Err(Error::invalid(
                 "max-points",
@@ -599,12 +619,7 @@ pub fn parse_param(option: &str, text: &str) -> Result<(MapVar, f64, f64)> {
             "expected NAME:lo:hi, e.g. omega:131.7:132.4",
         ));
     };
-    let num = |s: &str| {
-        s.parse::<f64>()
-            .ok()
-            .filter(|v| v.is_finite())
-            .ok_or_else(|| Error::invalid(option, text, format!("`{s}` is not a finite number")))
-    };
+    let num = |s: &str| crate::basin::finite_number(option, text, s);
     let var = MapVar::parse(option, name)?;
     if let MapVar::Coord(_) = var {
         return Err(Error::invalid(
@@ -712,13 +727,6 @@ impl OrbitsRequest<'_> {
                 ..ShootConfig::default()
             },
         };
-        if !(1..=64).contains(&self.period) {
-            return Err(Error::invalid(
-                "period",
-                self.period,
-                "must be in 1..=64 forcing periods",
-            ));
-        }
         jeffcott_core::limits::check_periods("settle", self.settle, 0)?;
         branch.validate()?;
         Ok(OrbitsStudy {
@@ -756,20 +764,15 @@ fn run_main(study: &OrbitsStudy) -> Result<Branch> {
     let spec = &study.branch;
     spec.validate()?;
     let (p, w) = spec.at(spec.start_value);
-    let lc = jeffcott_core::integrate::lane::LaneConsts::<f64>::new(&p, w, &spec.shoot.stepper);
-    let mut lane = jeffcott_core::integrate::lane::Lane::<f64>::new(&spec.start, p.delta);
-    for _ in 0..study.settle {
-        jeffcott_core::integrate::lane::advance_period(&lc, &mut lane);
-    }
-    if lane.status.is_frozen() {
+    let Some(start) = advance(&p, w, &spec.start, study.settle, &spec.shoot.stepper) else {
         return Err(Error::invalid(
             "settle",
             study.settle,
             "the start state diverged while settling; start elsewhere (init) or settle less",
         ));
-    }
+    };
     continue_branch(&BranchSpec {
-        start: lane.state_f64(),
+        start,
         ..spec.clone()
     })
 }

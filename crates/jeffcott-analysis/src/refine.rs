@@ -215,11 +215,8 @@ pub fn refine(
             let mut at = 0;
             for u in 0..count {
                 let unit = store.load(&stage, u)?;
-                if let Some(s) = crate::early::unit_saved(&unit)? {
-                    saved
-                        .get_or_insert_with(crate::early::EarlySaved::default)
-                        .add(&s);
-                }
+                let s = crate::early::unit_saved(&unit)?;
+                crate::early::EarlySaved::accumulate(&mut saved, s);
                 for &l in unit.i32s("labels")? {
                     next[points[at]] = l;
                     comp[points[at]] = 1;

@@ -150,11 +150,7 @@ pub fn reintegration(
     let mut saved = None;
     for u in 0..count {
         let unit = store.load(STAGE, u)?;
-        if let Some(s) = crate::early::unit_saved(&unit)? {
-            saved
-                .get_or_insert_with(crate::early::EarlySaved::default)
-                .add(&s);
-        }
+        crate::early::EarlySaved::accumulate(&mut saved, crate::early::unit_saved(&unit)?);
         labels.extend_from_slice(unit.i32s("labels")?);
     }
     Ok(Reintegration {

@@ -223,18 +223,28 @@ pub fn metric(d: &State, omega: f64) -> f64 {
         .fold(0.0, f64::max)
 }
 
+/// Longest period shot, in forcing periods.
+pub const MAX_PERIOD: u32 = 64;
+
+/// Checks a period of orbits (field `period`): 1..=[`MAX_PERIOD`] forcing periods.
+pub fn check_period(period: u32) -> Result<()> {
+    if (1..=MAX_PERIOD).contains(&period) {
+        Ok(())
+    } else {
+        Err(Error::invalid(
+            "period",
+            period,
+            format!("must be in 1..={MAX_PERIOD} forcing periods"),
+        ))
+    }
+}
+
 /// Shoots a period-`period` orbit at speed `omega` from the guess `x0` by Newton's
 /// method on P^n(x) - x, each step halved until the residual decreases (at most 12
 /// times). Errors name `period` or `start` when the input is refused, and say so when
 /// Newton does not converge within `cfg.max_iter` iterations.
 pub fn shoot(p: &Params, omega: f64, x0: &State, period: u32, cfg: &ShootConfig) -> Result<Orbit> {
-    if !(1..=64).contains(&period) {
-        return Err(Error::invalid(
-            "period",
-            period,
-            "must be in 1..=64 forcing periods",
-        ));
-    }
+    check_period(period)?;
     if x0.iter().any(|v| !v.is_finite()) {
         return Err(Error::invalid("start", format!("{x0:?}"), "must be finite"));
     }

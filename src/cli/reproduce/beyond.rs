@@ -128,13 +128,20 @@ pub(super) fn orbits_section(
     c: &mut Ctx,
     study: &jeffcott_analysis::orbits::OrbitsStudy,
     branches: &[jeffcott_analysis::orbits::Branch],
-    background: &[(f64, jeffcott_core::model::State)],
+    background: &[jeffcott_analysis::bifurcation::BrutePoint],
     seconds: f64,
 ) -> Result<()> {
-    use jeffcott_core::model::VX_S;
+    use jeffcott_core::model::{STATE_DIM, VX_S};
     let (dir, rep) = (c.dir, &mut c.rep);
     crate::cli::orbits::write_files(&dir.join("orbits"), "omega", branches)?;
-    let under: Vec<(f64, f64)> = background.iter().map(|(w, x)| (*w, x[VX_S])).collect();
+    let under: Vec<(f64, f64)> = background
+        .iter()
+        .flat_map(|bp| {
+            bp.points
+                .chunks_exact(STATE_DIM)
+                .map(move |x| (bp.omega, x[VX_S]))
+        })
+        .collect();
     crate::cli::orbits::draw(
         &dir.join("fig_orbits.png"),
         study,
@@ -143,15 +150,8 @@ pub(super) fn orbits_section(
         Some(&under),
     )?;
     let found = |b: &jeffcott_analysis::orbits::Branch| -> String {
-        let list: Vec<String> = b
-            .bifurcations
-            .iter()
-            .map(|x| format!("{} at {:.4}", x.kind.label(), x.value))
-            .collect();
-        let (from, to) = (
-            b.points.first().map_or(f64::NAN, |p| p.value),
-            b.points.last().map_or(f64::NAN, |p| p.value),
-        );
+        let list = b.found("", 4);
+        let (from, to) = b.span();
         format!(
             "period-{} branch, {} points from {from:.3} to {to:.3} rad/s ({}): {}",
             b.period,

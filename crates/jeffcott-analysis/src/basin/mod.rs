@@ -41,16 +41,19 @@ pub fn parse_named_range<'a>(
             format!("expected NAME:lo:hi:n, e.g. {example}"),
         ));
     };
-    let num = |s: &str| -> Result<f64> {
-        s.parse::<f64>()
-            .ok()
-            .filter(|v| v.is_finite())
-            .ok_or_else(|| Error::invalid(option, text, format!("`{s}` is not a finite number")))
-    };
+    let num = |s: &str| finite_number(option, text, s);
     let n: usize = n
         .parse()
         .map_err(|_| Error::invalid(option, text, "the count n must be a positive integer"))?;
     Ok((name, num(lo)?, num(hi)?, n))
+}
+
+/// The finite number `s`, a part of option `option`'s text `text` (named in the error).
+pub fn finite_number(option: &str, text: &str, s: &str) -> Result<f64> {
+    s.parse::<f64>()
+        .ok()
+        .filter(|v| v.is_finite())
+        .ok_or_else(|| Error::invalid(option, text, format!("`{s}` is not a finite number")))
 }
 
 /// Checks an axis of `n` values from `lo` to `hi`: n in 1..=[`MAX_CELLS_PER_AXIS`],

@@ -262,9 +262,7 @@ pub(super) fn brute_stage(
     };
     for u in 0..count {
         let unit = store.load(stage, u)?;
-        if let Some(s) = crate::early::unit_saved(&unit)? {
-            out.early.get_or_insert_with(EarlySaved::default).add(&s);
-        }
+        EarlySaved::accumulate(&mut out.early, crate::early::unit_saved(&unit)?);
         out.poincare.extend_from_slice(unit.f64s("poincare")?);
         out.status.extend(
             unit.u32s("status")?
@@ -395,8 +393,6 @@ pub(super) fn brute_force(
         });
     }
     let mut saved = res1.early;
-    if let Some(s2) = res2.as_ref().and_then(|r| r.early) {
-        saved.get_or_insert_with(EarlySaved::default).add(&s2);
-    }
+    EarlySaved::accumulate(&mut saved, res2.as_ref().and_then(|r| r.early));
     Ok((out, info2.or(info1), saved))
 }

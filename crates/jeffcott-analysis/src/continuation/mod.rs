@@ -164,11 +164,8 @@ pub fn continuation_with(
     let mut early_exit = None;
     if early_on {
         for u in 0..split.count() {
-            if let Some(s) = crate::early::unit_saved(&store.load(FRESH, u)?)? {
-                early_exit
-                    .get_or_insert_with(crate::early::EarlySaved::default)
-                    .add(&s);
-            }
+            let s = crate::early::unit_saved(&store.load(FRESH, u)?)?;
+            crate::early::EarlySaved::accumulate(&mut early_exit, s);
         }
     }
     let mut ramps = Vec::new();

@@ -323,14 +323,7 @@ pub fn parse_box(option: &str, text: &str) -> Result<Vec<(usize, f64, f64)>> {
                 ),
             )
         })?;
-        let num = |s: &str| {
-            s.parse::<f64>()
-                .ok()
-                .filter(|v| v.is_finite())
-                .ok_or_else(|| {
-                    Error::invalid(option, part, format!("`{s}` is not a finite number"))
-                })
-        };
+        let num = |s: &str| crate::basin::finite_number(option, part, s);
         let (lo, hi) = (num(lo)?, num(hi)?);
         if lo > hi {
             return Err(Error::invalid(option, part, "need lo <= hi"));

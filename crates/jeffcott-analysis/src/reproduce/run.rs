@@ -45,8 +45,9 @@ pub enum Section<'a> {
         study: &'a crate::orbits::OrbitsStudy,
         /// Its branches (the period-1 one first).
         branches: &'a [crate::orbits::Branch],
-        /// The brute force's Poincare points (W, state) of the bifurcation section.
-        background: &'a [(f64, jeffcott_core::model::State)],
+        /// The brute force of the bifurcation section (its Poincare points are drawn
+        /// under the branches).
+        background: &'a [crate::bifurcation::BrutePoint],
         /// Wall time [s].
         seconds: f64,
     },
@@ -218,19 +219,10 @@ pub fn reproduce<H: Host>(spec: &ReproduceSpec, host: &mut H) -> Result<Reproduc
     let t = Instant::now();
     let o = spec.orbits();
     let branches = crate::orbits::run(&o)?;
-    let background: Vec<(f64, jeffcott_core::model::State)> = res
-        .brute
-        .iter()
-        .flat_map(|bp| {
-            bp.points
-                .chunks_exact(jeffcott_core::model::STATE_DIM)
-                .map(move |x| (bp.omega, x.try_into().expect("a state")))
-        })
-        .collect();
     host.section(Section::Orbits {
         study: &o,
         branches: &branches,
-        background: &background,
+        background: &res.brute,
         seconds: t.elapsed().as_secs_f64(),
     })?;
     drop(res);

@@ -102,13 +102,19 @@ pub struct EarlyResult {
 }
 
 impl EarlyResult {
-    /// Periods integrated by all lanes (a frozen lane counts the periods it was run).
+    /// Periods integrated by all lanes ([`periods_run`]).
     pub fn periods_run(&self, full: u32) -> u64 {
-        self.retired
-            .iter()
-            .map(|r| r.map_or(full, |r| r.periods) as u64)
-            .sum()
+        periods_run(&self.retired, full)
     }
+}
+
+/// Periods integrated by lanes of `full` periods each, `retired` saying where each
+/// stopped early (a frozen lane counts the periods it was run).
+pub fn periods_run(retired: &[Option<Retired>], full: u32) -> u64 {
+    retired
+        .iter()
+        .map(|r| r.map_or(full, |r| r.periods) as u64)
+        .sum()
 }
 
 /// The decision of the rule over lane `lane`'s points after periods `first`,
