@@ -27,7 +27,7 @@ strip -o "$dst/bin/jeffcott" target/release/jeffcott
 echo "$PWD/target/release/jeffcott" >"$dst/bin/exe-path"
 # The test targets that drive a GPU adapter (they fail, not skip, with
 # JEFFCOTT_REQUIRE_GPU=1) and the GPU crate's own unit tests.
-gpu_tests=(gpu mirror basin_gpu early_exit lyapunov map runs shards input_checks jeffcott_gpu)
+gpu_tests=(gpu mirror basin_gpu early_exit lyapunov orbits map runs shards input_checks jeffcott_gpu)
 cargo test --release --no-run --message-format=json 2>/dev/null |
   python3 -c '
 import json, sys

@@ -409,7 +409,7 @@ class Campaign:
         wanted = self.args.tests.split(",") if self.args.tests else None
         # Quick, parity-critical executables first: on the H100 (2026-11-25) three GPU
         # tests of `map` ran past 90 s and the executables after it were never reached.
-        first = ["mirror", "gpu", "input_checks", "lyapunov", "basin_gpu", "early_exit", "jeffcott_gpu"]
+        first = ["mirror", "gpu", "input_checks", "lyapunov", "orbits", "basin_gpu", "early_exit", "jeffcott_gpu"]
         rank = {name: i for i, name in enumerate(first)}
         for gz in sorted(os.listdir(src), key=lambda f: (rank.get(f.removesuffix(".gz"), len(first)), f)):
             name = gz.removesuffix(".gz")

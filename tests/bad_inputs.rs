@@ -196,6 +196,7 @@ const CASES: &[Case] = &[
         &["`settle`"],
     ),
     ("orbits --param omega:131.7:132.4 --coord spin", &["spin"]),
+    ("orbits --param omega:131.7:132.4 --backend tpu", &["tpu"]),
     (
         "orbits --param omega:131.7:132.4 --over /no/such/bifurcation",
         &["`over`"],

@@ -522,10 +522,16 @@ fn gpu_lambda1_does_not_depend_on_time_slices_or_chunks() {
             .run_lyapunov_with_progress(&consts, &init, &v, &schedule, &mut |_| true)
             .expect("GPU run")
     };
-    let (whole, norms) = run(Schedule::new(20, 30, 50));
+    let (whole, norms, ends) = run(Schedule::new(20, 30, 50));
     let mut sliced = Schedule::new(20, 30, 7);
     sliced.max_lanes_per_chunk = Some(5);
-    let (parts, norms_parts) = run(sliced);
+    let (parts, norms_parts, ends_parts) = run(sliced);
+    // The final tangent vectors too (each chunk reads its own back), unit length.
+    assert_eq!(ends, ends_parts);
+    for (i, v) in ends.iter().enumerate() {
+        let n = v.iter().map(|c| c * c).sum::<f64>().sqrt();
+        assert!((n - 1.0).abs() < 1e-12, "lane {i}: |v| = {n}");
+    }
     assert_eq!(norms.len(), 12);
     for (i, (a, b)) in norms.iter().zip(&norms_parts).enumerate() {
         assert_eq!(a.len(), 30);

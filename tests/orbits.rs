@@ -9,7 +9,7 @@ mod common;
 
 use jeffcott_core::integrate::lane::StepperConfig;
 use jeffcott_core::model::{Params, STATE_DIM, State, VX_R, VY_R, X_R, Y_R, Y_S};
-use jeffcott_core::orbit::{Complex, ShootConfig, shoot};
+use jeffcott_core::orbit::{Complex, CpuFlows, ShootConfig, shoot};
 
 /// The default parameters with the gap opened to 1 m: no contact anywhere.
 fn contact_free() -> Params {
@@ -235,7 +235,7 @@ fn w_branch(
     direction: f64,
 ) -> jeffcott_analysis::orbits::Branch {
     let spec = w_spec(p, start, start_value, range, direction);
-    jeffcott_analysis::orbits::continue_branch(&spec).unwrap()
+    jeffcott_analysis::orbits::continue_branch(&spec, &CpuFlows).unwrap()
 }
 
 /// The bifurcations of `kind` on `b` (the branch's summary printed for the log).
@@ -349,9 +349,9 @@ fn the_doubled_branch_born_at_the_period_doubling_holds_the_period_2_attractor_o
     use jeffcott_analysis::orbits::{Crossing, doubled_branch};
     let p = Params::default();
     let spec = w_spec(&p, settled(&p, 131.7, 60), 131.7, (131.7, 132.4), 1.0);
-    let b = jeffcott_analysis::orbits::continue_branch(&spec).unwrap();
+    let b = jeffcott_analysis::orbits::continue_branch(&spec, &CpuFlows).unwrap();
     let pd = of_kind(&b, Crossing::PeriodDoubling)[0];
-    let d = doubled_branch(&spec, pd).unwrap();
+    let d = doubled_branch(&spec, pd, &CpuFlows).unwrap();
     assert_eq!(d.period, 2);
     let first = d.points[0].value;
     assert!(
@@ -509,4 +509,145 @@ fn two_folds_are_passed_by_pseudo_arclength_and_the_branch_between_them_is_unsta
         b.points.last().unwrap().value >= 131.7,
         "continued past both folds"
     );
+}
+
+/// Every bit of a branch: each point's value, state, multipliers and clearance, each
+/// bifurcation's value and state.
+fn branch_bits(b: &jeffcott_analysis::orbits::Branch) -> Vec<u64> {
+    let mut bits = Vec::new();
+    for p in &b.points {
+        bits.push(p.value.to_bits());
+        bits.push(p.min_clearance.to_bits());
+        bits.extend(p.x.iter().map(|v| v.to_bits()));
+        bits.extend(p.multipliers.iter().flatten().map(|v| v.to_bits()));
+    }
+    for x in &b.bifurcations {
+        bits.push(x.value.to_bits());
+        bits.extend(x.x.iter().map(|v| v.to_bits()));
+    }
+    bits
+}
+
+/// Starts for many orbits at once: period-1 guesses at three speeds in contact, settled
+/// from the static equilibrium.
+fn many_starts(p: &Params) -> Vec<jeffcott_core::orbit::Start> {
+    [131.7, 131.95, 132.05]
+        .iter()
+        .map(|&w| jeffcott_core::orbit::Start {
+            params: p.clone(),
+            omega: w,
+            x0: settled(p, w, 60),
+        })
+        .collect()
+}
+
+#[test]
+fn many_orbits_shot_at_once_are_each_the_orbit_shot_alone() {
+    let p = Params::default();
+    let starts = many_starts(&p);
+    let cfg = ShootConfig::default();
+    let many = jeffcott_core::orbit::shoot_many(&CpuFlows, &starts, 1, &cfg).unwrap();
+    assert_eq!(many.len(), starts.len());
+    for (s, o) in starts.iter().zip(&many) {
+        let alone = shoot(&p, s.omega, &s.x0, 1, &cfg).unwrap();
+        let o = o.as_ref().unwrap();
+        assert_eq!(o.x, alone.x, "W = {}", s.omega);
+        assert_eq!(o.monodromy, alone.monodromy, "W = {}", s.omega);
+        assert_eq!(o.iterations, alone.iterations);
+        assert!(o.residual <= cfg.tol);
+    }
+    // A start that does not converge leaves the others alone and says why.
+    let mut with_bad = starts.clone();
+    with_bad.insert(
+        1,
+        jeffcott_core::orbit::Start {
+            x0: [0.5; STATE_DIM],
+            ..starts[0].clone()
+        },
+    );
+    let tight = ShootConfig { max_iter: 2, ..cfg };
+    let mixed = jeffcott_core::orbit::shoot_many(&CpuFlows, &with_bad, 1, &tight).unwrap();
+    let err = mixed[1].as_ref().unwrap_err().to_string();
+    assert!(err.contains("did not converge"), "{err}");
+    for (k, s) in [(0, &starts[0]), (2, &starts[1]), (3, &starts[2])] {
+        let alone = jeffcott_core::orbit::shoot_many(&CpuFlows, std::slice::from_ref(s), 1, &tight)
+            .unwrap()
+            .remove(0);
+        assert_eq!(
+            mixed[k].as_ref().map(|o| o.x).map_err(|e| e.to_string()),
+            alone.map(|o| o.x).map_err(|e| e.to_string()),
+            "start {k}"
+        );
+    }
+}
+
+#[test]
+fn gpu_and_cpu_give_the_same_orbits_and_branch_to_the_bit_in_f64() {
+    use jeffcott_analysis::backend::Engine;
+    use jeffcott_analysis::orbits::{Crossing, continue_branch};
+    use jeffcott_core::ensemble::{Backend, Precision};
+    if !common::gpu_f64_present() {
+        return;
+    }
+    let gpu = Engine::new(Backend::Gpu, Precision::F64).expect("an f64 adapter opened above");
+    let p = Params::default();
+    // Many orbits at once: the eight tangent lanes of every start side by side.
+    let starts = many_starts(&p);
+    let cfg = ShootConfig::default();
+    let on_gpu = jeffcott_core::orbit::shoot_many(&gpu, &starts, 1, &cfg).unwrap();
+    let on_cpu = jeffcott_core::orbit::shoot_many(&CpuFlows, &starts, 1, &cfg).unwrap();
+    for ((g, c), s) in on_gpu.iter().zip(&on_cpu).zip(&starts) {
+        let (g, c) = (g.as_ref().unwrap(), c.as_ref().unwrap());
+        assert_eq!(g.x, c.x, "W = {}", s.omega);
+        assert_eq!(g.monodromy, c.monodromy, "W = {}", s.omega);
+        assert_eq!(g.min_clearance.to_bits(), c.min_clearance.to_bits());
+        assert_eq!(g.iterations, c.iterations);
+    }
+    // A branch through the period doubling at 132.07 rad/s, located on both.
+    let spec = jeffcott_analysis::orbits::BranchSpec {
+        max_points: 8,
+        ds: 1e-4,
+        ds_max: 4e-4,
+        ..w_spec(&p, settled(&p, 132.0, 60), 132.0, (132.0, 132.2), 1.0)
+    };
+    let cpu_branch = continue_branch(&spec, &CpuFlows).unwrap();
+    let gpu_branch = continue_branch(&spec, &gpu).unwrap();
+    assert!(
+        !of_kind(&cpu_branch, Crossing::PeriodDoubling).is_empty(),
+        "the branch reaches the period doubling: {:?}",
+        cpu_branch.found("omega", 5)
+    );
+    assert_eq!(cpu_branch.points.len(), gpu_branch.points.len());
+    assert_eq!(branch_bits(&cpu_branch), branch_bits(&gpu_branch));
+}
+
+#[test]
+fn the_orbits_command_on_a_gpu_writes_the_cpus_branch_files_to_the_byte() {
+    if !common::gpu_f64_present() {
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let run = |backend: &str| {
+        let out = tmp.path().join(backend);
+        common::ok(&common::jeffcott_out(
+            &format!(
+                "orbits --param omega:132.0:132.2 --max-points 14 --follow-doublings \
+                 --backend {backend} --no-plot --quiet"
+            ),
+            &out,
+        ));
+        let run = common::json(&out.join("run.json"));
+        assert_eq!(run["spec"]["backend"], backend, "{run}");
+        out
+    };
+    let (cpu, gpu) = (run("cpu"), run("gpu"));
+    // The period-1 branch through the period doubling at 132.07 and the doubled branch.
+    let b = common::json(&cpu.join("branches.json"));
+    assert_eq!(b["branches"].as_array().unwrap().len(), 2, "{b}");
+    for f in ["branch.npy", "multipliers.npy", "branches.json"] {
+        assert!(
+            std::fs::read(cpu.join(f)).unwrap() == std::fs::read(gpu.join(f)).unwrap(),
+            "{f} differs"
+        );
+    }
 }

@@ -6,6 +6,7 @@ use super::{ModelArgs, StepperArgs, apply_init, rundir};
 use clap::{Args, ValueEnum};
 use jeffcott_analysis::orbits::{Branch, OrbitsRequest, run};
 use jeffcott_analysis::{defaults, output};
+use jeffcott_core::ensemble::{Backend, Precision};
 use jeffcott_core::error::Result;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -67,6 +68,12 @@ pub struct OrbitsArgs {
     /// Do not draw `branch.png`.
     #[arg(long)]
     pub no_plot: bool,
+    /// Where the flows run (always f64): cpu, gpu (the kernel's tangent variant, eight
+    /// lanes per monodromy matrix; any adapter with SHADER_F64, software included), or
+    /// auto (a hardware GPU if present). The CPU is the default: one branch asks for a
+    /// few lanes per Newton step, too few to fill a GPU. Both give the same bits.
+    #[arg(long, value_enum, default_value_t = Backend::Cpu)]
+    pub backend: Backend,
     #[command(flatten)]
     pub model: ModelArgs,
     #[command(flatten)]
@@ -93,6 +100,7 @@ struct Record<'a> {
     ds: f64,
     ds_max: f64,
     tol: f64,
+    backend: Backend,
     params: &'a jeffcott_core::model::Params,
     stepper: &'a jeffcott_core::integrate::lane::StepperConfig,
 }
@@ -158,6 +166,7 @@ pub fn run_orbits(a: &OrbitsArgs) -> Result<()> {
             ds: a.ds,
             ds_max: a.ds_max,
             tol: spec.shoot.tol,
+            backend: a.backend,
             params: &params,
             stepper: &stepper,
         },
@@ -165,7 +174,8 @@ pub fn run_orbits(a: &OrbitsArgs) -> Result<()> {
         a.run,
     )?;
     let t0 = std::time::Instant::now();
-    let branches = run(&study)?;
+    let engine = jeffcott_analysis::backend::Engine::new(a.backend, Precision::F64)?;
+    let branches = run(&study, &engine)?;
     write_files(&a.out, var.name(), &branches)?;
     if !a.no_plot {
         draw(

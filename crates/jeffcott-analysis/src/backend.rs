@@ -10,8 +10,9 @@ use jeffcott_core::ensemble::{
     Backend, EnsembleResult, EnsembleSpec, Precision, RunInfo, cpu, lane_lambda1,
     mask_frozen_records,
 };
-use jeffcott_core::integrate::lane::{Lane, LaneConsts};
+use jeffcott_core::integrate::lane::{Lane, LaneConsts, StepperConfig};
 use jeffcott_core::model::STATE_DIM;
+use jeffcott_core::orbit::{self, CpuFlows, Flow, FlowAsk, Flows as _, Want};
 use jeffcott_gpu::{DeviceRequest, GpuDevice, GpuRunner};
 
 /// A resolved backend.
@@ -231,7 +232,7 @@ fn run_gpu<R: jeffcott_gpu::GpuReal>(
     let (outs, norms) = if lambda1 {
         let v = [R::lit(jeffcott_core::integrate::lane::LAMBDA1_START); STATE_DIM];
         let tangents = vec![v; n];
-        let (outs, norms) =
+        let (outs, norms, _) =
             runner.run_lyapunov_with_progress(&consts, &init, &tangents, &schedule, &mut report)?;
         (outs, Some(norms))
     } else {
@@ -322,4 +323,99 @@ pub fn run(
     info.elapsed_s = start.elapsed().as_secs_f64();
     info.setup_s = setup_s;
     Ok((res, info))
+}
+
+/// Flows of periodic-orbit shooting and continuation (`jeffcott_core::orbit`) on the
+/// resolved backend: the CPU's [`CpuFlows`], or one GPU run of the kernel's lambda_1
+/// variant per period count, eight lanes per monodromy matrix (lane j starts its tangent
+/// at e_j; its growths times its final vector are column j, as [`orbit::flow`] computes
+/// it) and one lane per end state. The smallest clearance, which the kernel does not
+/// track, comes from the CPU ([`orbit::min_clearance`]: the same states, the same value).
+/// Both backends give the same bits in f64.
+impl orbit::Flows for Engine {
+    fn flows(&self, asks: &[FlowAsk], stepper: &StepperConfig) -> Result<Vec<Flow>> {
+        match &self.gpu {
+            Some(runner) => gpu_flows(runner, asks, stepper),
+            None => CpuFlows.flows(asks, stepper),
+        }
+    }
+}
+
+/// [`orbit::Flows::flows`] on a GPU.
+fn gpu_flows(runner: &GpuRunner, asks: &[FlowAsk], stepper: &StepperConfig) -> Result<Vec<Flow>> {
+    use rayon::prelude::*;
+    let mut out: Vec<Option<Flow>> = vec![None; asks.len()];
+    let mut counts: Vec<u32> = asks.iter().map(|a| a.periods).collect();
+    counts.sort_unstable();
+    counts.dedup();
+    for periods in counts {
+        let mine: Vec<usize> = (0..asks.len())
+            .filter(|&i| asks[i].periods == periods)
+            .collect();
+        if periods == 0 {
+            // Nothing to integrate: the CPU's answer is the start itself.
+            let cpu = CpuFlows.flows(
+                &mine.iter().map(|&i| asks[i].clone()).collect::<Vec<_>>(),
+                stepper,
+            )?;
+            for (&i, f) in mine.iter().zip(cpu) {
+                out[i] = Some(f);
+            }
+            continue;
+        }
+        let (mut consts, mut init, mut tangents, mut first) = (vec![], vec![], vec![], vec![]);
+        for &i in &mine {
+            let a = &asks[i];
+            let lc = LaneConsts::<f64>::new(&a.params, a.omega, stepper);
+            let lane = Lane::<f64>::new(&a.x0, a.params.delta);
+            first.push(consts.len());
+            let starts = match a.want {
+                Want::Monodromy => orbit::identity().to_vec(),
+                Want::End => vec![[jeffcott_core::integrate::lane::LAMBDA1_START; STATE_DIM]],
+            };
+            for v in starts {
+                consts.push(lc);
+                init.push(lane);
+                tangents.push(v);
+            }
+        }
+        let per_period = consts.len() as u64 * stepper.steps_per_period as u64;
+        let slice = (LANE_STEPS_PER_SLICE / per_period.max(1)).clamp(1, periods as u64) as u32;
+        let schedule = jeffcott_gpu::Schedule::new(0, periods, slice);
+        let (lanes, norms, ends) =
+            runner
+                .run_lyapunov_with_progress(&consts, &init, &tangents, &schedule, &mut |_| true)?;
+        let clearances: Vec<f64> = mine
+            .par_iter()
+            .map(|&i| {
+                let a = &asks[i];
+                match a.want {
+                    Want::Monodromy => {
+                        orbit::min_clearance(&a.params, a.omega, &a.x0, periods, stepper)
+                    }
+                    Want::End => f64::NAN,
+                }
+            })
+            .collect();
+        for ((&i, &k), min_clearance) in mine.iter().zip(&first).zip(clearances) {
+            let lane = &lanes[k].lane;
+            let finite = !lane.status.is_frozen();
+            let monodromy = (finite && asks[i].want == Want::Monodromy).then(|| {
+                let v: [[f64; STATE_DIM]; STATE_DIM] = std::array::from_fn(|j| ends[k + j]);
+                let growth: [f64; STATE_DIM] =
+                    std::array::from_fn(|j| norms[k + j].iter().fold(1.0, |a, g| a * g));
+                orbit::columns(&v, &growth)
+            });
+            out[i] = Some(Flow {
+                end: lane.x,
+                monodromy,
+                min_clearance,
+                finite,
+            });
+        }
+    }
+    Ok(out
+        .into_iter()
+        .map(|f| f.expect("every ask answered"))
+        .collect())
 }

@@ -21,7 +21,10 @@
 use crate::map::MapVar;
 use jeffcott_core::error::{Error, Result};
 use jeffcott_core::model::{Params, STATE_DIM, State};
-use jeffcott_core::orbit::{Complex, Flow, ShootConfig, advance, flow, metric, multipliers, shoot};
+use jeffcott_core::orbit::{
+    Complex, Flow, FlowAsk, Flows, ShootConfig, Start, Want, advance, metric, multipliers,
+    shoot_many,
+};
 use nalgebra::{SMatrix, SVector};
 use serde::Serialize;
 
@@ -237,21 +240,42 @@ impl BranchSpec {
         z
     }
 
-    /// The flow of n periods at value `v` with its monodromy matrix.
-    fn flow(&self, x: &State, v: f64) -> Flow {
-        let (p, w) = self.at(v);
-        flow(&p, w, x, self.period, &self.shoot.stepper)
+    /// The ask for `periods` periods from `x` at value `v`.
+    fn ask(&self, x: &State, v: f64, periods: u32, want: Want) -> FlowAsk {
+        let (params, omega) = self.at(v);
+        FlowAsk {
+            params,
+            omega,
+            x0: *x,
+            periods,
+            want,
+        }
     }
 
-    /// dF/dp at (x, v) by a central difference of P^n.
-    fn d_dp(&self, x: &State, v: f64) -> Option<SVector<f64, STATE_DIM>> {
+    /// The linearisation at (x, v) in one call of `engine`: the flow of n periods with
+    /// its monodromy matrix, and dF/dp by a central difference of P^n (`None` when a
+    /// lane leaves the divergence bound).
+    fn linearise(
+        &self,
+        engine: &dyn Flows,
+        x: &State,
+        v: f64,
+    ) -> Result<Option<(Flow, SVector<f64, STATE_DIM>)>> {
         let e = 1e-7 * v.abs().max(1.0);
-        let step = |dv: f64| {
-            let (p, w) = self.at(v + dv);
-            advance(&p, w, x, self.period, &self.shoot.stepper)
-        };
-        let (a, b) = (step(e)?, step(-e)?);
-        Some(SVector::from_fn(|i, _| (a[i] - b[i]) / (2.0 * e)))
+        let asks = [
+            self.ask(x, v, self.period, Want::Monodromy),
+            self.ask(x, v + e, self.period, Want::End),
+            self.ask(x, v - e, self.period, Want::End),
+        ];
+        let [f, a, b]: [Flow; 3] = engine
+            .flows(&asks, &self.shoot.stepper)?
+            .try_into()
+            .expect("three asks, three flows");
+        if !(f.finite && a.finite && b.finite) {
+            return Ok(None);
+        }
+        let fp = SVector::from_fn(|i, _| (a.end[i] - b.end[i]) / (2.0 * e));
+        Ok(Some((f, fp)))
     }
 }
 
@@ -264,6 +288,7 @@ fn tangent(
     v: f64,
     prev: &[f64; STATE_DIM + 1],
 ) -> Option<[f64; STATE_DIM + 1]> {
+    let m = f.jacobian()?;
     let w = spec.at(v).1;
     let th = theta(spec);
     // Unknowns in scaled coordinates: x_i = z_i * s_i, p = z_p / theta.
@@ -271,7 +296,7 @@ fn tangent(
     let a = SMatrix::<f64, 9, 9>::from_fn(|r, c| {
         if r < STATE_DIM {
             if c < STATE_DIM {
-                (f.monodromy[r][c] - if r == c { 1.0 } else { 0.0 }) * s(c)
+                (m[r][c] - if r == c { 1.0 } else { 0.0 }) * s(c)
             } else {
                 fp[r] / th
             }
@@ -304,14 +329,16 @@ struct Solved {
 const MIN_TANGENT_COS: f64 = 0.985;
 
 /// Newton on the bordered system from the prediction at arclength `ds` along `t` from
-/// `(x0, v0)`. `None` when it does not converge in 10 iterations.
+/// `(x0, v0)`. `None` when it does not converge in 10 iterations; an error when the
+/// engine fails.
 fn correct(
     spec: &BranchSpec,
+    engine: &dyn Flows,
     x0: &State,
     v0: f64,
     t: &[f64; STATE_DIM + 1],
     ds: f64,
-) -> Option<Solved> {
+) -> Result<Option<Solved>> {
     let z0 = spec.scaled(x0, v0);
     let th = theta(spec);
     // Prediction in scaled coordinates, back to (x, v).
@@ -322,30 +349,31 @@ fn correct(
         x0[i] + ds * t[i] * s
     });
     for iterations in 0..10 {
-        let f = spec.flow(&x, v);
-        if !f.finite {
-            return None;
-        }
-        let fp = spec.d_dp(&x, v)?;
+        let Some((f, fp)) = spec.linearise(engine, &x, v)? else {
+            return Ok(None);
+        };
+        let m = *f.jacobian().expect("a finite flow has its monodromy");
         let z = spec.scaled(&x, v);
         let g_arc: f64 = (0..=STATE_DIM).map(|i| t[i] * (z[i] - z0[i])).sum::<f64>() - ds;
         let g: State = std::array::from_fn(|i| f.end[i] - x[i]);
         let w = spec.at(v).1;
         if metric(&g, w) <= spec.shoot.tol && g_arc.abs() <= spec.shoot.tol {
-            let tangent = tangent(spec, &f, &fp, v, t)?;
-            return Some(Solved {
+            let Some(tangent) = tangent(spec, &f, &fp, v, t) else {
+                return Ok(None);
+            };
+            return Ok(Some(Solved {
                 x,
                 v,
                 flow: f,
                 tangent,
                 iterations,
-            });
+            }));
         }
         let s = |i: usize| if i % 2 == 1 { 1.0 / w } else { 1.0 };
         let j = SMatrix::<f64, 9, 9>::from_fn(|r, c| {
             if r < STATE_DIM {
                 if c < STATE_DIM {
-                    f.monodromy[r][c] - if r == c { 1.0 } else { 0.0 }
+                    m[r][c] - if r == c { 1.0 } else { 0.0 }
                 } else {
                     fp[r]
                 }
@@ -360,18 +388,20 @@ fn correct(
             rhs[i] = -g[i];
         }
         rhs[STATE_DIM] = -g_arc;
-        let d = j.lu().solve(&rhs)?;
+        let Some(d) = j.lu().solve(&rhs) else {
+            return Ok(None);
+        };
         for i in 0..STATE_DIM {
             x[i] += d[i];
         }
         v += d[STATE_DIM];
     }
-    None
+    Ok(None)
 }
 
 /// The point record of a solved point.
 fn point(s: &Solved) -> BranchPoint {
-    let mu = multipliers(&s.flow.monodromy);
+    let mu = multipliers(s.flow.jacobian().expect("a solved point's flow is finite"));
     BranchPoint {
         value: s.v,
         x: s.x,
@@ -415,7 +445,13 @@ fn crosses(kind: Crossing, a: &BranchPoint, b: &BranchPoint) -> bool {
 
 /// Locates a crossing of `kind` between point `a` (solved) and the point at arclength
 /// `ds` from it, by bisection of the arclength until the parameter is known to 1e-8.
-fn locate(spec: &BranchSpec, a: &BranchPoint, ds: f64, kind: Crossing) -> Option<BranchPoint> {
+fn locate(
+    spec: &BranchSpec,
+    engine: &dyn Flows,
+    a: &BranchPoint,
+    ds: f64,
+    kind: Crossing,
+) -> Result<Option<BranchPoint>> {
     let (mut lo, mut hi) = (0.0, ds);
     let mut best: Option<BranchPoint> = None;
     let mut v_lo = a.value;
@@ -427,7 +463,9 @@ fn locate(spec: &BranchSpec, a: &BranchPoint, ds: f64, kind: Crossing) -> Option
     };
     for _ in 0..80 {
         let mid = 0.5 * (lo + hi);
-        let s = correct(spec, &a.x, a.value, &a.tangent, mid)?;
+        let Some(s) = correct(spec, engine, &a.x, a.value, &a.tangent, mid)? else {
+            return Ok(None);
+        };
         let p = point(&s);
         if crosses(kind, a, &p) {
             hi = mid;
@@ -440,22 +478,30 @@ fn locate(spec: &BranchSpec, a: &BranchPoint, ds: f64, kind: Crossing) -> Option
             break;
         }
     }
-    best
+    Ok(best)
 }
 
-/// Continues the branch of `spec` (see the module docs).
-pub fn continue_branch(spec: &BranchSpec) -> Result<Branch> {
+/// Continues the branch of `spec` (see the module docs), every flow on `engine`.
+pub fn continue_branch(spec: &BranchSpec, engine: &dyn Flows) -> Result<Branch> {
     spec.validate()?;
-    let (p0, w0) = spec.at(spec.start_value);
-    let orbit = shoot(&p0, w0, &spec.start, spec.period, &spec.shoot)?;
-    let f0 = spec.flow(&orbit.x, spec.start_value);
-    let fp0 = spec.d_dp(&orbit.x, spec.start_value).ok_or_else(|| {
-        Error::invalid(
-            "start",
-            spec.start_value,
-            "the orbit leaves the divergence bound",
-        )
-    })?;
+    let (params, omega) = spec.at(spec.start_value);
+    let start = Start {
+        params,
+        omega,
+        x0: spec.start,
+    };
+    let orbit = shoot_many(engine, &[start], spec.period, &spec.shoot)?
+        .pop()
+        .expect("one start, one result")?;
+    let (f0, fp0) = spec
+        .linearise(engine, &orbit.x, spec.start_value)?
+        .ok_or_else(|| {
+            Error::invalid(
+                "start",
+                spec.start_value,
+                "the orbit leaves the divergence bound",
+            )
+        })?;
     let mut along = [0.0; STATE_DIM + 1];
     along[STATE_DIM] = spec.direction.signum();
     let t0 = tangent(spec, &f0, &fp0, spec.start_value, &along).ok_or_else(|| {
@@ -491,7 +537,7 @@ pub fn continue_branch(spec: &BranchSpec) -> Result<Branch> {
         let corner = |s: &Solved| {
             (s.flow.min_clearance > 0.0) != (last.min_clearance > 0.0) && ds <= 1e-2 * spec.ds
         };
-        let solved = correct(spec, &last.x, last.value, &last.tangent, ds)
+        let solved = correct(spec, engine, &last.x, last.value, &last.tangent, ds)?
             .filter(|s| turn(s) >= MIN_TANGENT_COS || corner(s));
         let Some(s) = solved else {
             ds *= 0.5;
@@ -513,7 +559,7 @@ pub fn continue_branch(spec: &BranchSpec) -> Result<Branch> {
             Crossing::Grazing,
         ] {
             if crosses(kind, last, &next)
-                && let Some(b) = locate(spec, last, ds, kind)
+                && let Some(b) = locate(spec, engine, last, ds, kind)?
             {
                 bifurcations.push(Bifurcation {
                     kind,
@@ -550,62 +596,90 @@ pub fn continue_branch(spec: &BranchSpec) -> Result<Branch> {
 /// distance, so shots of period 2n from x + eps v at a small distance on either side
 /// are tried until one converges onto an orbit that is not the period-n one (which is a
 /// fixed point of P^2n too). Errors name `period` when none does.
-pub fn doubled_branch(spec: &BranchSpec, b: &Bifurcation) -> Result<Branch> {
-    let (p, w) = spec.at(b.value);
-    let f = flow(&p, w, &b.x, spec.period, &spec.shoot.stepper);
-    let a = SMatrix::<f64, STATE_DIM, STATE_DIM>::from_fn(|r, c| {
-        f.monodromy[r][c] + if r == c { 1.0 } else { 0.0 }
-    });
-    let svd = a.svd(false, true);
-    let v_t = svd.v_t.ok_or_else(|| {
+pub fn doubled_branch(spec: &BranchSpec, b: &Bifurcation, engine: &dyn Flows) -> Result<Branch> {
+    let (_, w) = spec.at(b.value);
+    let no_orbit = |why: &str| {
         Error::invalid(
             "period",
-            spec.period,
-            "no singular vectors at the period doubling",
+            spec.period * 2,
+            format!(
+                "no period-{} orbit was found next to the period doubling at {} = {}{why}",
+                spec.period * 2,
+                spec.var.name(),
+                b.value
+            ),
         )
-    })?;
+    };
+    let ask = spec.ask(&b.x, b.value, spec.period, Want::Monodromy);
+    let f = engine.flows(&[ask], &spec.shoot.stepper)?.remove(0);
+    let m = f
+        .jacobian()
+        .ok_or_else(|| no_orbit(" (the orbit there leaves the bound)"))?;
+    let a = SMatrix::<f64, STATE_DIM, STATE_DIM>::from_fn(|r, c| {
+        m[r][c] + if r == c { 1.0 } else { 0.0 }
+    });
+    let svd = a.svd(false, true);
+    let v_t = svd
+        .v_t
+        .ok_or_else(|| no_orbit(" (no singular vectors there)"))?;
     let k = svd.singular_values.imin();
     let v: State = std::array::from_fn(|i| v_t[(k, i)]);
     let v_size = metric(&v, w).max(f64::MIN_POSITIVE);
     let doubled = spec.period * 2;
     let step = 1e-3 * (spec.hi - spec.lo);
     let collapsed = 1e3 * spec.shoot.tol;
+    // Every trial start at once (one engine call per Newton iteration for all of them);
+    // the first, in this order, that converges onto a true period-2n orbit is taken.
+    let mut trials = Vec::new();
     for side in [1.0, -1.0] {
         let value = b.value + side * step;
         if !(spec.lo..=spec.hi).contains(&value) {
             continue;
         }
-        let (pp, ww) = spec.at(value);
+        let (params, omega) = spec.at(value);
         for eps in [1e-7, 1e-6, 1e-5, 1e-4] {
-            let start: State = std::array::from_fn(|i| b.x[i] + eps / v_size * v[i]);
-            let Ok(o) = shoot(&pp, ww, &start, doubled, &spec.shoot) else {
-                continue;
-            };
-            // Not the period-n orbit: P^n(x) is another point.
-            let Some(half) = advance(&pp, ww, &o.x, spec.period, &spec.shoot.stepper) else {
-                continue;
-            };
-            let d: State = std::array::from_fn(|i| half[i] - o.x[i]);
-            if metric(&d, ww) > collapsed {
-                return continue_branch(&BranchSpec {
-                    start: o.x,
-                    start_value: value,
-                    period: doubled,
-                    direction: side,
-                    ..spec.clone()
-                });
-            }
+            let x0: State = std::array::from_fn(|i| b.x[i] + eps / v_size * v[i]);
+            trials.push((
+                side,
+                value,
+                Start {
+                    params: params.clone(),
+                    omega,
+                    x0,
+                },
+            ));
         }
     }
-    Err(Error::invalid(
-        "period",
-        doubled,
-        format!(
-            "no period-{doubled} orbit was found next to the period doubling at {} = {}",
-            spec.var.name(),
-            b.value
-        ),
-    ))
+    let starts: Vec<Start> = trials.iter().map(|t| t.2.clone()).collect();
+    let shots = shoot_many(engine, &starts, doubled, &spec.shoot)?;
+    // Not the period-n orbit: P^n(x) is another point.
+    let halves: Vec<FlowAsk> = trials
+        .iter()
+        .zip(&shots)
+        .filter_map(|((_, value, _), o)| {
+            let o = o.as_ref().ok()?;
+            Some(spec.ask(&o.x, *value, spec.period, Want::End))
+        })
+        .collect();
+    let mut halves = engine.flows(&halves, &spec.shoot.stepper)?.into_iter();
+    for ((side, value, start), o) in trials.iter().zip(&shots) {
+        let Ok(o) = o else { continue };
+        let half = halves.next().expect("one half per orbit");
+        let d: State = std::array::from_fn(|i| half.end[i] - o.x[i]);
+        if half.finite && metric(&d, start.omega) > collapsed {
+            return continue_branch(
+                &BranchSpec {
+                    start: o.x,
+                    start_value: *value,
+                    period: doubled,
+                    direction: *side,
+                    ..spec.clone()
+                },
+                engine,
+            );
+        }
+    }
+    Err(no_orbit(""))
 }
 
 /// Parses the continued parameter and its range, `NAME:lo:hi` (`option` names it in
@@ -741,8 +815,8 @@ impl OrbitsRequest<'_> {
 /// every period doubling (a doubling whose doubled orbit is not found is skipped, its
 /// reason in that branch's place is not invented: the main branch still lists it).
 /// Errors name `settle` when the start state diverges while settling.
-pub fn run(study: &OrbitsStudy) -> Result<Vec<Branch>> {
-    let main = run_main(study)?;
+pub fn run(study: &OrbitsStudy, engine: &dyn Flows) -> Result<Vec<Branch>> {
+    let main = run_main(study, engine)?;
     let mut all = Vec::new();
     if study.follow_doublings {
         for b in main
@@ -750,7 +824,7 @@ pub fn run(study: &OrbitsStudy) -> Result<Vec<Branch>> {
             .iter()
             .filter(|b| b.kind == Crossing::PeriodDoubling)
         {
-            if let Ok(d) = doubled_branch(&study.branch, b) {
+            if let Ok(d) = doubled_branch(&study.branch, b, engine) {
                 all.push(d);
             }
         }
@@ -760,21 +834,25 @@ pub fn run(study: &OrbitsStudy) -> Result<Vec<Branch>> {
 }
 
 /// The main branch of [`run`].
-fn run_main(study: &OrbitsStudy) -> Result<Branch> {
+fn run_main(study: &OrbitsStudy, engine: &dyn Flows) -> Result<Branch> {
     let spec = &study.branch;
     spec.validate()?;
-    let (p, w) = spec.at(spec.start_value);
-    let Some(start) = advance(&p, w, &spec.start, study.settle, &spec.shoot.stepper) else {
+    let ask = spec.ask(&spec.start, spec.start_value, study.settle, Want::End);
+    let settled = engine.flows(&[ask], &spec.shoot.stepper)?.remove(0);
+    if !settled.finite {
         return Err(Error::invalid(
             "settle",
             study.settle,
             "the start state diverged while settling; start elsewhere (init) or settle less",
         ));
-    };
-    continue_branch(&BranchSpec {
-        start,
-        ..spec.clone()
-    })
+    }
+    continue_branch(
+        &BranchSpec {
+            start: settled.end,
+            ..spec.clone()
+        },
+        engine,
+    )
 }
 
 /// A bifurcation as `branches.json` lists it: its type, the parameter's value under the

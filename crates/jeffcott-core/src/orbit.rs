@@ -18,7 +18,9 @@
 //! trace at -4 (xi_r w_r + xi_s w_s), and det S = 1 at every switch).
 
 use crate::error::{Error, Result};
-use crate::integrate::lane::{Lane, LaneConsts, StepperConfig, Tangent, macro_step_tangent};
+use crate::integrate::lane::{
+    Lane, LaneConsts, StepperConfig, Tangent, macro_step_tangent, renormalise,
+};
 use crate::model::{Params, STATE_DIM, State, penetration, relative_motion};
 pub use nalgebra::Complex;
 use nalgebra::{SMatrix, SVector};
@@ -45,30 +47,92 @@ impl Default for ShootConfig {
     }
 }
 
-/// n periods of the flow from a state at t = 0 and their derivative.
+/// n periods of the flow from a state at t = 0 and, when asked for, their derivative.
 #[derive(Clone, Debug)]
 pub struct Flow {
-    /// The state after n periods.
+    /// The state after n periods (where it froze, for a lane that left the bound).
     pub end: State,
-    /// The monodromy matrix dP^n/dx, `m[i][j]` = d end_i / d x0_j.
-    pub monodromy: [[f64; STATE_DIM]; STATE_DIM],
+    /// The monodromy matrix dP^n/dx, `m[i][j]` = d end_i / d x0_j ([`Want::Monodromy`]
+    /// and a finite flow only).
+    pub monodromy: Option<[[f64; STATE_DIM]; STATE_DIM]>,
     /// The smallest clearance delta - |d| between rotor and stator over the n periods
-    /// [m] (negative: in contact), within each macro step by [`max_distance`].
+    /// [m] (negative: in contact), within each macro step by [`max_distance`]
+    /// ([`Want::Monodromy`] only; NaN for [`Want::End`]).
     pub min_clearance: f64,
     /// Whether the lane stayed finite and within the divergence bound.
     pub finite: bool,
 }
 
+impl Flow {
+    /// The monodromy matrix of a flow asked with [`Want::Monodromy`] that stayed finite.
+    pub fn jacobian(&self) -> Option<&[[f64; STATE_DIM]; STATE_DIM]> {
+        self.monodromy.as_ref().filter(|_| self.finite)
+    }
+}
+
+/// What a flow computes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Want {
+    /// The end state only (the parameter derivative's finite differences, settling).
+    End,
+    /// The end state, the monodromy matrix and the smallest clearance.
+    Monodromy,
+}
+
+/// One flow asked of a [`Flows`] engine: `periods` forcing periods from `x0` at t = 0
+/// at speed `omega` with the model `params`.
+#[derive(Clone, Debug)]
+pub struct FlowAsk {
+    /// The model.
+    pub params: Params,
+    /// Rotor speed W [rad/s].
+    pub omega: f64,
+    /// The state at t = 0.
+    pub x0: State,
+    /// Forcing periods.
+    pub periods: u32,
+    /// What to compute.
+    pub want: Want,
+}
+
+/// Something that runs many flows at once: the CPU ([`CpuFlows`]) or a GPU (the
+/// analysis crate's engine, one lane per tangent vector of the kernel's lambda_1
+/// variant). Every implementation returns the same bits: [`flow`]'s arithmetic.
+pub trait Flows: Sync {
+    /// The flows of `asks`, in order, with the lane stepper `stepper`.
+    fn flows(&self, asks: &[FlowAsk], stepper: &StepperConfig) -> Result<Vec<Flow>>;
+}
+
+/// The CPU's flows: [`flow`] and [`advance`] in parallel on rayon's pool.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct CpuFlows;
+
+impl Flows for CpuFlows {
+    fn flows(&self, asks: &[FlowAsk], stepper: &StepperConfig) -> Result<Vec<Flow>> {
+        use rayon::prelude::*;
+        Ok(asks
+            .par_iter()
+            .map(|a| match a.want {
+                Want::Monodromy => flow(&a.params, a.omega, &a.x0, a.periods, stepper),
+                Want::End => end_of(&a.params, a.omega, &a.x0, a.periods, stepper),
+            })
+            .collect())
+    }
+}
+
 /// Advances `x0` (a state at t = 0) by `periods` forcing periods at speed `omega` with
 /// the 8 tangent vectors of the identity: the end state and the monodromy matrix.
+///
+/// Each tangent vector is renormalised at the end of every period and its growths are
+/// multiplied up, column j of M = (prod of e_j's growths) v_j: exactly what a lane of
+/// the GPU kernel's lambda_1 variant started from e_j computes (per-vector arithmetic
+/// of [`Tangent`] does not depend on the other vectors), so a GPU gives M to the bit
+/// (tests/orbits_gpu.rs). The renormalisation also keeps long periods from overflowing.
 pub fn flow(p: &Params, omega: f64, x0: &State, periods: u32, stepper: &StepperConfig) -> Flow {
     let lc = LaneConsts::<f64>::new(p, omega, stepper);
     let mut lane = Lane::<f64>::new(x0, p.delta);
-    let mut identity = [[0.0; STATE_DIM]; STATE_DIM];
-    for (j, v) in identity.iter_mut().enumerate() {
-        v[j] = 1.0;
-    }
-    let mut tan = Tangent::<f64, STATE_DIM>::new(identity);
+    let mut tan = Tangent::<f64, STATE_DIM>::new(identity());
+    let mut growth = [1.0; STATE_DIM];
     let mut min_clearance = -penetration(p.delta, &lane.x);
     let h = lc.h;
     'periods: for _ in 0..periods {
@@ -80,19 +144,72 @@ pub fn flow(p: &Params, omega: f64, x0: &State, periods: u32, stepper: &StepperC
             }
             min_clearance = min_clearance.min(p.delta - max_distance(&before, &lane.x, h));
         }
-    }
-    let mut monodromy = [[0.0; STATE_DIM]; STATE_DIM];
-    for (j, v) in tan.v.iter().enumerate() {
-        for (i, row) in monodromy.iter_mut().enumerate() {
-            row[j] = v[i];
+        for (g, v) in growth.iter_mut().zip(tan.v.iter_mut()) {
+            *g *= renormalise(v);
         }
+    }
+    let finite = !lane.status.is_frozen();
+    Flow {
+        end: lane.x,
+        monodromy: finite.then(|| columns(&tan.v, &growth)),
+        min_clearance,
+        finite,
+    }
+}
+
+/// The identity's columns: the tangent vectors a monodromy matrix starts from.
+pub fn identity() -> [[f64; STATE_DIM]; STATE_DIM] {
+    std::array::from_fn(|j| std::array::from_fn(|i| if i == j { 1.0 } else { 0.0 }))
+}
+
+/// The monodromy matrix from unit tangent vectors `v` (v[j]: the image of e_j) and their
+/// accumulated growths: `m[i][j]` = v[j][i] growth[j].
+pub fn columns(
+    v: &[[f64; STATE_DIM]; STATE_DIM],
+    growth: &[f64; STATE_DIM],
+) -> [[f64; STATE_DIM]; STATE_DIM] {
+    std::array::from_fn(|i| std::array::from_fn(|j| v[j][i] * growth[j]))
+}
+
+/// [`advance`] as a [`Flow`] of [`Want::End`]: no monodromy, no clearance (NaN).
+fn end_of(p: &Params, omega: f64, x0: &State, periods: u32, stepper: &StepperConfig) -> Flow {
+    let lc = LaneConsts::<f64>::new(p, omega, stepper);
+    let mut lane = Lane::<f64>::new(x0, p.delta);
+    for _ in 0..periods {
+        crate::integrate::lane::advance_period(&lc, &mut lane);
     }
     Flow {
         end: lane.x,
-        monodromy,
-        min_clearance,
+        monodromy: None,
+        min_clearance: f64::NAN,
         finite: !lane.status.is_frozen(),
     }
+}
+
+/// The smallest clearance over `periods` periods from `x0` (no tangent vectors): the
+/// same states, hence the same value, as [`flow`]'s `min_clearance` (a GPU engine,
+/// whose kernel does not track it, takes it from here).
+pub fn min_clearance(
+    p: &Params,
+    omega: f64,
+    x0: &State,
+    periods: u32,
+    stepper: &StepperConfig,
+) -> f64 {
+    let lc = LaneConsts::<f64>::new(p, omega, stepper);
+    let mut lane = Lane::<f64>::new(x0, p.delta);
+    let mut min_clearance = -penetration(p.delta, &lane.x);
+    'periods: for _ in 0..periods {
+        for _ in 0..stepper.steps_per_period {
+            let before = lane.x;
+            crate::integrate::lane::macro_step(&lc, &mut lane);
+            if lane.status.is_frozen() {
+                break 'periods;
+            }
+            min_clearance = min_clearance.min(p.delta - max_distance(&before, &lane.x, lc.h));
+        }
+    }
+    min_clearance
 }
 
 /// The largest rotor-stator distance |d| over a macro step of length `h` from state `a`
@@ -241,75 +358,186 @@ pub fn check_period(period: u32) -> Result<()> {
 
 /// Shoots a period-`period` orbit at speed `omega` from the guess `x0` by Newton's
 /// method on P^n(x) - x, each step halved until the residual decreases (at most 12
-/// times). Errors name `period` or `start` when the input is refused, and say so when
-/// Newton does not converge within `cfg.max_iter` iterations.
+/// times), on the CPU. Errors name `period` or `start` when the input is refused, and
+/// say so when Newton does not converge within `cfg.max_iter` iterations.
 pub fn shoot(p: &Params, omega: f64, x0: &State, period: u32, cfg: &ShootConfig) -> Result<Orbit> {
-    check_period(period)?;
-    if x0.iter().any(|v| !v.is_finite()) {
-        return Err(Error::invalid("start", format!("{x0:?}"), "must be finite"));
-    }
-    let mut x = *x0;
-    let mut f = flow(p, omega, &x, period, &cfg.stepper);
-    let residual_of = |x: &State, f: &Flow| {
-        if !f.finite {
-            return f64::INFINITY;
-        }
-        let d: State = std::array::from_fn(|i| f.end[i] - x[i]);
-        metric(&d, omega)
+    let start = Start {
+        params: p.clone(),
+        omega,
+        x0: *x0,
     };
-    let mut res = residual_of(&x, &f);
-    let mut it = 0;
-    while res > cfg.tol {
-        if it == cfg.max_iter || !res.is_finite() {
+    shoot_many(&CpuFlows, &[start], period, cfg)?
+        .pop()
+        .expect("one start, one result")
+}
+
+/// A start of [`shoot_many`]: a guess `x0` for an orbit of the model `params` at speed
+/// `omega`.
+#[derive(Clone, Debug)]
+pub struct Start {
+    /// The model.
+    pub params: Params,
+    /// Rotor speed W [rad/s].
+    pub omega: f64,
+    /// The guess, a state at t = 0.
+    pub x0: State,
+}
+
+/// Where one start's Newton iteration stands.
+struct Newton {
+    x: State,
+    /// The flow at `x` (none before the first).
+    f: Option<Flow>,
+    res: f64,
+    it: u32,
+    /// The Newton step from `x` and the fraction of it being tried.
+    dx: State,
+    step: f64,
+    /// The end: the orbit, or why there is none.
+    done: Option<Result<Orbit>>,
+}
+
+/// Shoots period-`period` orbits from many starts at once: every Newton iteration (and
+/// every halving of its step) of all starts not yet converged is one call of `engine`,
+/// so a GPU runs them as lanes side by side (issue 26: many orbits at once). Each start
+/// goes exactly the way [`shoot`] takes it alone, so its orbit does not depend on the
+/// others. The outer error refuses the input (`period`, a start that is not finite) or
+/// reports the engine's failure; each start's own result says whether it converged.
+pub fn shoot_many(
+    engine: &dyn Flows,
+    starts: &[Start],
+    period: u32,
+    cfg: &ShootConfig,
+) -> Result<Vec<Result<Orbit>>> {
+    check_period(period)?;
+    for s in starts {
+        if s.x0.iter().any(|v| !v.is_finite()) {
             return Err(Error::invalid(
                 "start",
-                format!("{x0:?}"),
+                format!("{:?}", s.x0),
+                "must be finite",
+            ));
+        }
+    }
+    let mut runs: Vec<Newton> = starts
+        .iter()
+        .map(|s| Newton {
+            x: s.x0,
+            f: None,
+            res: f64::INFINITY,
+            it: 0,
+            dx: [0.0; STATE_DIM],
+            step: 1.0,
+            done: None,
+        })
+        .collect();
+    loop {
+        let open: Vec<usize> = (0..runs.len())
+            .filter(|&k| runs[k].done.is_none())
+            .collect();
+        if open.is_empty() {
+            break;
+        }
+        let asks: Vec<FlowAsk> = open
+            .iter()
+            .map(|&k| FlowAsk {
+                params: starts[k].params.clone(),
+                omega: starts[k].omega,
+                x0: runs[k].trial(),
+                periods: period,
+                want: Want::Monodromy,
+            })
+            .collect();
+        let flows = engine.flows(&asks, &cfg.stepper)?;
+        for ((&k, ask), f) in open.iter().zip(&asks).zip(flows) {
+            runs[k].take(&starts[k], ask.x0, f, period, cfg);
+        }
+    }
+    Ok(runs
+        .into_iter()
+        .map(|r| r.done.expect("every run ended"))
+        .collect())
+}
+
+impl Newton {
+    /// The state whose flow this run needs next: the start, or the trial step.
+    fn trial(&self) -> State {
+        match self.f {
+            None => self.x,
+            Some(_) => std::array::from_fn(|i| self.x[i] + self.step * self.dx[i]),
+        }
+    }
+
+    /// Takes the flow `f` from `trial` (the state [`Newton::trial`] gave).
+    fn take(&mut self, s: &Start, trial: State, f: Flow, period: u32, cfg: &ShootConfig) {
+        let omega = s.omega;
+        let rt = residual(&trial, &f, omega);
+        if self.f.is_some() && !(rt < self.res || self.step < 1.0 / 4096.0) {
+            self.step *= 0.5;
+            return;
+        }
+        // The first flow, or an accepted step.
+        self.x = trial;
+        self.res = rt;
+        self.f = Some(f);
+        let f = self.f.as_ref().expect("just set");
+        if self.res <= cfg.tol {
+            let monodromy = *f.jacobian().expect("a finite flow");
+            self.done = Some(Ok(Orbit {
+                omega,
+                period,
+                x: self.x,
+                residual: self.res,
+                iterations: self.it,
+                monodromy,
+                multipliers: multipliers(&monodromy),
+                min_clearance: f.min_clearance,
+            }));
+            return;
+        }
+        if self.it == cfg.max_iter || !self.res.is_finite() {
+            self.done = Some(Err(Error::invalid(
+                "start",
+                format!("{:?}", s.x0),
                 format!(
                     "Newton shooting for a period-{period} orbit at W = {omega} rad/s did not \
-                     converge: |P^n(x) - x| = {res:.3e} m after {it} iterations (tolerance \
+                     converge: |P^n(x) - x| = {:.3e} m after {} iterations (tolerance \
                      {:.1e} m); start closer to the orbit (e.g. from an attractor)",
-                    cfg.tol
+                    self.res, self.it, cfg.tol
                 ),
-            ));
+            )));
+            return;
         }
-        it += 1;
+        self.it += 1;
+        let m = f.jacobian().expect("a finite flow");
         let j = SMatrix::<f64, STATE_DIM, STATE_DIM>::from_fn(|r, c| {
-            f.monodromy[r][c] - if r == c { 1.0 } else { 0.0 }
+            m[r][c] - if r == c { 1.0 } else { 0.0 }
         });
-        let rhs = SVector::<f64, STATE_DIM>::from_fn(|r, _| x[r] - f.end[r]);
-        let Some(dx) = j.lu().solve(&rhs) else {
-            return Err(Error::invalid(
-                "start",
-                format!("{x0:?}"),
-                format!(
-                    "M - I is singular at W = {omega} rad/s (a multiplier at +1: a fold); \
-                     shooting cannot converge here"
-                ),
-            ));
-        };
-        let mut step = 1.0;
-        loop {
-            let trial: State = std::array::from_fn(|i| x[i] + step * dx[i]);
-            let ft = flow(p, omega, &trial, period, &cfg.stepper);
-            let rt = residual_of(&trial, &ft);
-            if rt < res || step < 1.0 / 4096.0 {
-                x = trial;
-                f = ft;
-                res = rt;
-                break;
+        let rhs = SVector::<f64, STATE_DIM>::from_fn(|r, _| self.x[r] - f.end[r]);
+        match j.lu().solve(&rhs) {
+            Some(dx) => {
+                self.dx = std::array::from_fn(|i| dx[i]);
+                self.step = 1.0;
             }
-            step *= 0.5;
+            None => {
+                self.done = Some(Err(Error::invalid(
+                    "start",
+                    format!("{:?}", s.x0),
+                    format!(
+                        "M - I is singular at W = {omega} rad/s (a multiplier at +1: a fold); \
+                         shooting cannot converge here"
+                    ),
+                )));
+            }
         }
     }
-    let multipliers = multipliers(&f.monodromy);
-    Ok(Orbit {
-        omega,
-        period,
-        x,
-        residual: res,
-        iterations: it,
-        monodromy: f.monodromy,
-        multipliers,
-        min_clearance: f.min_clearance,
-    })
+}
+
+/// |P^n(x) - x| in the classification metric (infinite for a flow that left the bound).
+fn residual(x: &State, f: &Flow, omega: f64) -> f64 {
+    if !f.finite {
+        return f64::INFINITY;
+    }
+    let d: State = std::array::from_fn(|i| f.end[i] - x[i]);
+    metric(&d, omega)
 }

@@ -70,8 +70,8 @@ impl Schedule {
 }
 
 /// Per-lane outcomes and, with the lambda_1 variant, per-lane tangent growths over the
-/// recorded periods (empty without it).
-pub type LyapunovOutcomes<R> = (Vec<LaneOutcome<R>>, Vec<Vec<f64>>);
+/// recorded periods and each lane's final (unit) tangent vector (both empty without it).
+pub type LyapunovOutcomes<R> = (Vec<LaneOutcome<R>>, Vec<Vec<f64>>, Vec<[R; STATE_DIM]>);
 
 /// What one lane produced.
 #[derive(Clone, Debug)]
@@ -113,7 +113,16 @@ struct Buffers {
     unfinished: wgpu::Buffer,
     unfinished_staging: wgpu::Buffer,
     tangents: wgpu::Buffer,
+    tangents_staging: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
+}
+
+/// Where a chunk's read-back goes: its lanes' outcomes and, with the lambda_1 variant,
+/// their tangent growths and final tangent vectors.
+struct ChunkOut<'a, R> {
+    lanes: &'a mut [LaneOutcome<R>],
+    norms: Option<&'a mut [Vec<f64>]>,
+    tangents: Option<&'a mut [[R; STATE_DIM]]>,
 }
 
 /// The compiled kernel of one precision and its buffers.
@@ -299,11 +308,13 @@ impl GpuRunner {
         let unfinished_staging = make("unfinished staging", 8, staging);
         // One tangent per lane in the lambda_1 variant, one unused element otherwise.
         let tangent_lanes = if rec_dim > STATE_DIM { lanes_cap } else { 1 };
+        let tangent_bytes = tangent_lanes * STATE_DIM * size_of::<R>();
         let tangents = make(
             "tangents",
-            tangent_lanes * STATE_DIM * size_of::<R>(),
-            storage,
+            tangent_bytes,
+            storage | wgpu::BufferUsages::COPY_SRC,
         );
+        let tangents_staging = make("tangents staging", tangent_bytes, staging);
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("lanes"),
             layout: &pipeline.get_bind_group_layout(0),
@@ -346,6 +357,7 @@ impl GpuRunner {
             unfinished,
             unfinished_staging,
             tangents,
+            tangents_staging,
             bind_group,
         }
     }
@@ -419,7 +431,9 @@ impl GpuRunner {
     /// (saltation at switches) and renormalised at the end of every forcing period. Also
     /// returns, per lane, the tangent's growth (its length before renormalisation) over
     /// each recorded period, in order: the logarithms summed and divided by the recorded
-    /// time give lambda_1 ([`jeffcott_core::lyapunov::lambda1_from_norms`]).
+    /// time give lambda_1 ([`jeffcott_core::lyapunov::lambda1_from_norms`]); and each
+    /// lane's tangent vector at the end (unit length; the growths times it are the image
+    /// of the start vector: a column of a monodromy matrix, `jeffcott_core::orbit`).
     pub fn run_lyapunov_with_progress<R: GpuReal>(
         &self,
         consts: &[LaneConsts<R>],
@@ -500,15 +514,21 @@ impl GpuRunner {
         bufs: &Buffers,
         slots: std::ops::Range<u32>,
         last: bool,
-        out: &mut [LaneOutcome<R>],
-        norms: Option<&mut [Vec<f64>]>,
+        chunk: ChunkOut<'_, R>,
         start: usize,
     ) -> Result<()> {
+        let ChunkOut {
+            lanes: out,
+            norms,
+            tangents,
+        } = chunk;
         let n = out.len();
         let rec_dim = shader::record_dim(norms.is_some());
         let rec = rec_dim * size_of::<R>();
         let rec_bytes = slots.len() * n * rec;
         let lane_bytes = n * size_of::<R::Lane>();
+        let tangent_bytes = n * STATE_DIM * size_of::<R>();
+        let tangents = tangents.filter(|_| last);
         if rec_bytes > 0 || last {
             let mut enc =
                 self.gpu
@@ -532,6 +552,15 @@ impl GpuRunner {
                     &bufs.lanes_staging,
                     0,
                     Some(lane_bytes as u64),
+                );
+            }
+            if tangents.is_some() {
+                enc.copy_buffer_to_buffer(
+                    &bufs.tangents,
+                    0,
+                    &bufs.tangents_staging,
+                    0,
+                    Some(tangent_bytes as u64),
                 );
             }
             self.gpu.queue().submit(Some(enc.finish()));
@@ -558,6 +587,12 @@ impl GpuRunner {
                 out[i].lane = R::unpack_lane(g).ok_or_else(|| Error::Gpu {
                     message: format!("lane {} came back with an unknown status", start + i),
                 })?;
+            }
+        }
+        if let Some(t) = tangents {
+            let v: Vec<R> = self.read_back(&bufs.tangents_staging, tangent_bytes)?;
+            for (d, s) in t.iter_mut().zip(v.chunks_exact(STATE_DIM)) {
+                d.copy_from_slice(s);
             }
         }
         Ok(())
@@ -600,8 +635,10 @@ impl GpuRunner {
         } else {
             Vec::new()
         };
+        // The start vectors, overwritten by the final ones (kept when nothing runs).
+        let mut ends: Vec<[R; STATE_DIM]> = tangents.map_or_else(Vec::new, <[_]>::to_vec);
         if n_total == 0 || total == 0 {
-            return Ok((out, norms));
+            return Ok((out, norms, ends));
         }
         let chunk = self.plan::<R>(n_total, schedule, lyapunov)?.lanes_per_chunk;
         let slots = schedule.periods_per_slice.min(total);
@@ -667,12 +704,12 @@ impl GpuRunner {
                 // Slots [first, periods) of this slice hold recorded periods.
                 let first = schedule.transient.saturating_sub(begin).min(periods);
                 let last = begin + periods == total;
-                let (out_chunk, norms_chunk) = if lyapunov {
-                    (&mut out[start..end], Some(&mut norms[start..end]))
-                } else {
-                    (&mut out[start..end], None)
+                let chunk_out = ChunkOut {
+                    lanes: &mut out[start..end],
+                    norms: lyapunov.then(|| &mut norms[start..end]),
+                    tangents: lyapunov.then(|| &mut ends[start..end]),
                 };
-                self.read_slice(bufs, first..periods, last, out_chunk, norms_chunk, start)?;
+                self.read_slice(bufs, first..periods, last, chunk_out, start)?;
                 lane_periods_done += n as u64 * periods as u64;
                 let go_on = progress(SliceReport {
                     lane_periods_done,
@@ -688,6 +725,6 @@ impl GpuRunner {
                 begin += periods;
             }
         }
-        Ok((out, norms))
+        Ok((out, norms, ends))
     }
 }

@@ -19,13 +19,14 @@ use std::collections::HashMap;
 /// or grazing, and the parameter's value under its name) and why it `stop`ped; with
 /// `follow_doublings` also the period-2n branch of each period doubling) with the arrays
 /// `branch` `[points, 13]` (branch index, value, state, largest |mu|, smallest
-/// clearance, stable) and `multipliers` `[points, 8, 2]`.
+/// clearance, stable) and `multipliers` `[points, 8, 2]`. `backend`: where the flows
+/// run, always in f64 (`"cpu"`, `"gpu"`, `"auto"`; the same bits on each).
 #[pyfunction]
 #[pyo3(signature = (
     param, *, omega=None, period=defaults::orbits::PERIOD, direction="up",
     settle=defaults::orbits::SETTLE, init=None, max_points=defaults::orbits::MAX_POINTS,
     ds=defaults::orbits::DS, ds_max=defaults::orbits::DS_MAX, follow_doublings=false,
-    params=None,
+    backend="cpu", params=None,
     **stepper,
 ))]
 #[allow(clippy::too_many_arguments)]
@@ -41,6 +42,7 @@ pub(crate) fn orbits<'py>(
     #[pyo3(from_py_with = kw::ds)] ds: f64,
     #[pyo3(from_py_with = kw::ds_max)] ds_max: f64,
     #[pyo3(from_py_with = kw::follow_doublings)] follow_doublings: bool,
+    #[pyo3(from_py_with = kw::backend)] backend: &str,
     #[pyo3(from_py_with = kw::params)] params: Option<HashMap<String, f64>>,
     stepper: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
@@ -63,7 +65,15 @@ pub(crate) fn orbits<'py>(
     }
     .study()
     .map_err(run::to_py_err)?;
-    let branches = run::detached(py, None, |_| jeffcott_analysis::orbits::run(&study))?;
+    let backend =
+        jeffcott_core::ensemble::Backend::parse("backend", backend).map_err(run::to_py_err)?;
+    let branches = run::detached(py, None, |_| {
+        let engine = jeffcott_analysis::backend::Engine::new(
+            backend,
+            jeffcott_core::ensemble::Precision::F64,
+        )?;
+        jeffcott_analysis::orbits::run(&study, &engine)
+    })?;
     let name = study.branch.var.name();
     let d = json_to_py(py, &jeffcott_analysis::orbits::record(name, &branches))?
         .cast_into::<PyDict>()?;

@@ -218,7 +218,7 @@ pub fn reproduce<H: Host>(spec: &ReproduceSpec, host: &mut H) -> Result<Reproduc
     // The periodic orbits behind the diagram, stable and unstable (issue 26).
     let t = Instant::now();
     let o = spec.orbits();
-    let branches = crate::orbits::run(&o)?;
+    let branches = crate::orbits::run(&o, &jeffcott_core::orbit::CpuFlows)?;
     host.section(Section::Orbits {
         study: &o,
         branches: &branches,
