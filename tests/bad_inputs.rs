@@ -198,6 +198,14 @@ const CASES: &[Case] = &[
     ("orbits --param omega:131.7:132.4 --coord spin", &["spin"]),
     ("orbits --param omega:131.7:132.4 --backend tpu", &["tpu"]),
     (
+        "orbits --param omega:131.7:132.4 --from /no/such/result",
+        &["`from`", "jeffcott basin"],
+    ),
+    (
+        "orbits --param omega:131.7:132.4 --from /no/such/result --settle 5",
+        &["--from", "--settle"],
+    ),
+    (
         "orbits --param omega:131.7:132.4 --over /no/such/bifurcation",
         &["`over`"],
     ),

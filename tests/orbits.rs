@@ -651,3 +651,93 @@ fn the_orbits_command_on_a_gpu_writes_the_cpus_branch_files_to_the_byte() {
         );
     }
 }
+
+#[test]
+fn the_orbits_command_starts_from_the_periodic_attractors_of_a_basin_and_of_a_bifurcation() {
+    let tmp = tempfile::tempdir().unwrap();
+    // A basin at 132.2 rad/s, where the period-2 attractor lives (Fig. 6).
+    let basin = tmp.path().join("basin");
+    common::ok(&common::jeffcott_out(
+        "basin --omega 132.2 --x x_r:-0.006:0.006:4 --y vx_r:-1:1:4 --transient 300 \
+         --periods 16 --backend cpu --no-plot --quiet",
+        &basin,
+    ));
+    let attractors = common::json(&basin.join("attractors.json"));
+    let a = &attractors["attractors"][0];
+    assert_eq!(a["period"], 2, "{attractors}");
+    let out = tmp.path().join("from-basin");
+    common::ok(&common::jeffcott_out(
+        &format!(
+            "orbits --param omega:131.9:132.4 --direction down --from {} --no-plot --quiet",
+            basin.display()
+        ),
+        &out,
+    ));
+    let b = common::json(&out.join("branches.json"));
+    let branch = &b["branches"][0];
+    assert_eq!(branch["period"], 2);
+    let first = &branch["points"][0];
+    assert_eq!(first["value"], 132.2);
+    // The orbit shot from the attractor's Poincare point is that attractor: one of its
+    // two points lies within the basin record's transient residue of the start.
+    let x: Vec<f64> = serde_json::from_value(first["x"].clone()).unwrap();
+    let p0: Vec<f64> = serde_json::from_value(a["points"][0].clone()).unwrap();
+    let d = x
+        .iter()
+        .zip(&p0)
+        .map(|(u, v)| (u - v).abs())
+        .fold(0.0, f64::max);
+    assert!(d < 1e-6, "orbit {x:?} vs attractor point {p0:?}: {d:e}");
+    // Going down it ends where it was born, the period doubling of the period-1 branch
+    // at 132.0698: seen from the doubled branch (fixed points of P^2, the period-1 orbit
+    // among them) a pitchfork, a multiplier at +1 where the branch turns back.
+    let bif = branch["bifurcations"].as_array().unwrap();
+    assert!(
+        bif.iter().any(|x| x["type"] == "fold"
+            && (x["omega"].as_f64().unwrap() - 132.0698).abs() < 1e-3
+            && (x["multipliers"][0][0].as_f64().unwrap() - 1.0).abs() < 1e-4),
+        "{bif:?}"
+    );
+    // A bifurcation diagram's brute force at the speed nearest the start (131.0:
+    // a period-1 attractor there, beside aperiodic ones that start nothing).
+    let bif_dir = tmp.path().join("bifurcation");
+    common::ok(&common::jeffcott_out(
+        "bifurcation --omega 131:131.8:2 --ics 2 --transient 20 --transient-first 300 \
+         --brute-transient 300 --periods 12 --backend cpu --no-plot --quiet",
+        &bif_dir,
+    ));
+    let out = tmp.path().join("from-bifurcation");
+    common::ok(&common::jeffcott_out(
+        &format!(
+            "orbits --param omega:131:131.2 --from {} --no-plot --quiet",
+            bif_dir.display()
+        ),
+        &out,
+    ));
+    let b = common::json(&out.join("branches.json"));
+    let branches = b["branches"].as_array().unwrap();
+    assert!(!branches.is_empty());
+    for br in branches {
+        assert_eq!(br["points"][0]["value"], 131.0, "{br}");
+    }
+    let run = common::json(&out.join("run.json"));
+    assert!(
+        run["spec"]["from"]
+            .as_str()
+            .unwrap()
+            .ends_with("bifurcation")
+    );
+    // Another model's attractors are refused, naming the parameter.
+    let refused = common::jeffcott_out(
+        &format!(
+            "orbits --param omega:131.9:132.4 --from {} --set mu=0.1 --no-plot --quiet",
+            basin.display()
+        ),
+        tmp.path().join("refused"),
+    );
+    let err = String::from_utf8_lossy(&refused.stderr);
+    assert!(
+        !refused.status.success() && err.contains("`from`") && err.contains("mu"),
+        "{err}"
+    );
+}

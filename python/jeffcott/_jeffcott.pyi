@@ -150,6 +150,7 @@ def orbits(
     ds: float = 2e-5,
     ds_max: float = 2e-4,
     follow_doublings: bool = False,
+    start_from: Optional[str] = None,
     backend: Backend = "cpu",
     params: Optional[Mapping[str, float]] = None,
     **stepper: Unpack[StepperOptions],

@@ -170,6 +170,7 @@ CASES = [
     ("orbits", ("omega:131.7:132.4",), {"settle": 2**40}, ValueError, "`settle`"),
     ("orbits", ("omega:131.7:132.4",), {"init": {"x_r": NAN}}, ValueError, "`init x_r`"),
     ("orbits", ("omega:131.7:132.4",), {"backend": "tpu"}, ValueError, "`backend`"),
+    ("orbits", ("omega:131.7:132.4",), {"start_from": "/no/such/result"}, ValueError, "`from`"),
     ("parameters", ({"mu": -1.0},), {}, ValueError, "`mu`"),
     ("parameters", ({"mu": "x"},), {}, TypeError, "`params`"),
     ("parameters", (5,), {}, TypeError, "`params`"),

@@ -45,6 +45,13 @@ pub struct OrbitsArgs {
     /// `--init x_r=0.005,vx_r=-0.5`.
     #[arg(long, value_name = "NAME=VALUE,...")]
     pub init: Vec<String>,
+    /// Start from the periodic attractors of an earlier result: a `jeffcott basin`
+    /// output directory (every periodic attractor in attractors.json) or a `jeffcott
+    /// bifurcation` one (the brute force's periodic attractors at the speed nearest the
+    /// branch's start). Each attractor's orbit is shot (all at once) and a branch of its
+    /// period continued from it; the model options must be the result's.
+    #[arg(long, value_name = "DIR", conflicts_with_all = ["init", "settle", "period"])]
+    pub from: Option<PathBuf>,
     /// Branch points at most.
     #[arg(long, default_value_t = defaults::orbits::MAX_POINTS, value_name = "K")]
     pub max_points: usize,
@@ -74,8 +81,14 @@ pub struct OrbitsArgs {
     /// few lanes per Newton step, too few to fill a GPU. Both give the same bits.
     #[arg(long, value_enum, default_value_t = Backend::Cpu)]
     pub backend: Backend,
-    #[command(flatten)]
-    pub model: ModelArgs,
+    /// TOML file of model parameters (as every command's `--config`).
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// Override model parameters, e.g. `--set mu=0.1,k_c=2e8` (applied after --config;
+    /// repeatable): every other command's `--param NAME=VALUE`, which here names the
+    /// continued parameter.
+    #[arg(long, value_name = "NAME=VALUE,...")]
+    pub set: Vec<String>,
     #[command(flatten)]
     pub stepper: StepperArgs,
     /// Output directory.
@@ -96,6 +109,7 @@ struct Record<'a> {
     direction: Direction,
     settle: u32,
     start: [f64; 8],
+    from: Option<&'a Path>,
     max_points: usize,
     ds: f64,
     ds_max: f64,
@@ -122,7 +136,11 @@ const OUTPUTS: &[&str] = &[
 
 /// Runs `jeffcott orbits`.
 pub fn run_orbits(a: &OrbitsArgs) -> Result<()> {
-    let params = a.model.params()?;
+    let params = ModelArgs {
+        config: a.config.clone(),
+        param: a.set.clone(),
+    }
+    .params()?;
     let mut start = params.static_equilibrium();
     apply_init(&mut start, &a.init)?;
     let stepper = a.stepper.config();
@@ -139,6 +157,7 @@ pub fn run_orbits(a: &OrbitsArgs) -> Result<()> {
         ds_max: a.ds_max,
         stepper,
         follow_doublings: a.follow_doublings,
+        from: a.from.as_deref(),
     }
     .study()?;
     let spec = &study.branch;
@@ -162,6 +181,7 @@ pub fn run_orbits(a: &OrbitsArgs) -> Result<()> {
             direction: a.direction,
             settle: a.settle,
             start,
+            from: a.from.as_deref(),
             max_points: a.max_points,
             ds: a.ds,
             ds_max: a.ds_max,

@@ -20,6 +20,7 @@ pub mod ensemble;
 pub mod lyapunov;
 pub mod map;
 pub mod measures;
+pub mod orbit_starts;
 pub mod orbits;
 pub mod output;
 pub mod record;

@@ -19,14 +19,16 @@ use std::collections::HashMap;
 /// or grazing, and the parameter's value under its name) and why it `stop`ped; with
 /// `follow_doublings` also the period-2n branch of each period doubling) with the arrays
 /// `branch` `[points, 13]` (branch index, value, state, largest |mu|, smallest
-/// clearance, stable) and `multipliers` `[points, 8, 2]`. `backend`: where the flows
+/// clearance, stable) and `multipliers` `[points, 8, 2]`. `start_from`: a basin or
+/// bifurcation output directory whose periodic attractors start the branches (the
+/// command line's `--from`). `backend`: where the flows
 /// run, always in f64 (`"cpu"`, `"gpu"`, `"auto"`; the same bits on each).
 #[pyfunction]
 #[pyo3(signature = (
     param, *, omega=None, period=defaults::orbits::PERIOD, direction="up",
     settle=defaults::orbits::SETTLE, init=None, max_points=defaults::orbits::MAX_POINTS,
     ds=defaults::orbits::DS, ds_max=defaults::orbits::DS_MAX, follow_doublings=false,
-    backend="cpu", params=None,
+    start_from=None, backend="cpu", params=None,
     **stepper,
 ))]
 #[allow(clippy::too_many_arguments)]
@@ -42,6 +44,7 @@ pub(crate) fn orbits<'py>(
     #[pyo3(from_py_with = kw::ds)] ds: f64,
     #[pyo3(from_py_with = kw::ds_max)] ds_max: f64,
     #[pyo3(from_py_with = kw::follow_doublings)] follow_doublings: bool,
+    start_from: Option<String>,
     #[pyo3(from_py_with = kw::backend)] backend: &str,
     #[pyo3(from_py_with = kw::params)] params: Option<HashMap<String, f64>>,
     stepper: Option<&Bound<'py, PyDict>>,
@@ -62,6 +65,7 @@ pub(crate) fn orbits<'py>(
         ds_max,
         stepper,
         follow_doublings,
+        from: start_from.as_deref().map(std::path::Path::new),
     }
     .study()
     .map_err(run::to_py_err)?;

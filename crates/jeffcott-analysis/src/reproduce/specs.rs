@@ -89,6 +89,7 @@ impl ReproduceSpec {
             branch,
             settle: d::SETTLE,
             follow_doublings: true,
+            starts: Vec::new(),
         }
     }
 
