@@ -156,6 +156,43 @@ fn reproduce_writes_every_figure_and_a_report_that_shows_them() {
             .unwrap_or_else(|| panic!("a spectrum row at {w}"));
         assert!(row.contains(" %)"), "{row}");
     }
+    // The article's spectra beside jeffcott's: as printed (bits/s), in 1/s, and
+    // jeffcott's in bits/s with its eight errors, each with its sum.
+    assert!(report.contains("## The article's Lyapunov spectra beside jeffcott's"));
+    assert!(report.contains("1 bit/s = ln 2 1/s = 0.693 1/s"));
+    for (w, printed, per_s) in [
+        ("135", "| 0.0 | -2.8 | -6.7 |", "-118.81 | +0.33 % |"),
+        ("140", "| 11.4 | -3.4 | -9.5 |", "-119.01 | +0.16 % |"),
+    ] {
+        let row = |label: &str| {
+            let head = format!("| {w} | {label} |");
+            report
+                .lines()
+                .find(|l| l.starts_with(&head))
+                .unwrap_or_else(|| panic!("a row {head}"))
+                .to_string()
+        };
+        assert!(row("article, as printed [bits/s]").contains(printed));
+        assert!(row("article x ln 2 [1/s]").contains(per_s));
+        let jeffcott = row("jeffcott / ln 2 [bits/s]");
+        assert_eq!(jeffcott.matches("+-").count(), 8, "{jeffcott}");
+        assert!(jeffcott.contains("| -171.97 |"), "{jeffcott}");
+    }
+    // The Floquet spectra: the period-1 response at 131.7 rad/s has its orbit shot, its
+    // eight exponents summing to the trace rule, beside the QR exponents.
+    assert!(report.contains("## Floquet spectra of the periodic responses"));
+    let floquet = report
+        .lines()
+        .find(|l| l.starts_with("| 131.7 | period 1, "))
+        .expect("a Floquet row at 131.7");
+    assert!(floquet.contains("| Floquet [1/s] |"), "{floquet}");
+    assert!(floquet.ends_with("| -119.20 |"), "{floquet}");
+    for label in ["QR [1/s]", "Floquet - QR [1/s]", "(Floquet - QR) / error"] {
+        assert!(
+            report.contains(&format!("| 131.7 | | {label} |")),
+            "a row {label} at 131.7"
+        );
+    }
 }
 
 #[test]

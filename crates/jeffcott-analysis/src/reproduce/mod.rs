@@ -13,10 +13,13 @@
 //! - the findings REPORT.md quotes, each a struct computed from a study's result:
 //!   [`SweepCounts`], [`Lambda1Row`], [`BruteCounts`], [`MapFindings`],
 //!   [`RampFindings`], [`RegimeCells`], [`ThrowOutcome`], the sum rule
-//!   ([`sum_rule`]) and the summary table's rows ([`SummaryRow`]).
+//!   ([`sum_rule`]) and the summary table's rows ([`SummaryRow`]);
+//! - the spectra set beside the QR spectra: the article's own ([`ARTICLE_SPECTRA`], in
+//!   bits/s: [`ArticleComparison`]) and the Floquet spectra of the periodic responses
+//!   ([`Floquet`]).
 //!
-//! One file each: `presets.rs`, `specs.rs`, `survey.rs`, `findings.rs`, and `run.rs`
-//! (the set as one study: [`Host`], [`Section`], [`reproduce`]).
+//! One file each: `presets.rs`, `specs.rs`, `survey.rs`, `findings.rs`, `spectra.rs`,
+//! and `run.rs` (the set as one study: [`Host`], [`Section`], [`reproduce`]).
 //!
 //! The command line runs the studies (each with its progress bar, its units under its own
 //! prefix of one run directory, and its own output writer into a sub-folder), draws the
@@ -45,12 +48,14 @@ mod findings;
 mod presets;
 mod run;
 mod specs;
+mod spectra;
 mod survey;
 
 pub use findings::*;
 pub use presets::*;
 pub use run::*;
 pub use specs::*;
+pub use spectra::*;
 pub use survey::*;
 
 #[cfg(test)]
@@ -293,6 +298,17 @@ mod tests {
             rows.iter()
                 .all(|r| r.static_class.is_some() && r.spectrum.is_some())
         );
+        // The Floquet spectra: a row per periodic response, every other speed passed over.
+        let periodic = first
+            .static_class
+            .iter()
+            .filter(|(_, c)| c.period().is_some())
+            .count();
+        assert_eq!(first.floquet.rows.len(), periodic);
+        assert_eq!(
+            first.floquet.rows.len() + first.floquet.skipped.len(),
+            ARTICLE_SPEEDS.len()
+        );
         // Every lane study's progress reached its total (the brute force's is an upper
         // bound: its neighbour seeds are known only as they come; the refinement's is a
         // scale, its boundary lanes unknown in advance).
@@ -309,5 +325,9 @@ mod tests {
         let again = reproduce(&spec, &mut host).unwrap();
         assert_eq!(host.sections, sections);
         assert_eq!(again.static_class, first.static_class);
+        let exponents = |r: &ReproduceResult| -> Vec<_> {
+            r.floquet.rows.iter().map(FloquetRow::exponents).collect()
+        };
+        assert_eq!(exponents(&again), exponents(&first));
     }
 }

@@ -208,3 +208,33 @@ pub const ZOOMS: [(f64, f64); 2] = [(132.6, 133.8), (138.4, 141.0)];
 /// The rotor start of the backward throws: displaced to x_r = 6.5 mm and thrown with
 /// vy_r = -1 m/s against the rotation (docs/rub.md).
 pub const THROW: (f64, f64) = (0.0065, -1.0);
+
+/// A Lyapunov spectrum as the source article prints it: eight exponents in bits/s (base-2
+/// rates; 1 bit/s = ln 2 1/s) by decreasing value, and the sum it prints.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ArticleSpectrum {
+    /// Rotor speed W [rad/s].
+    pub omega: f64,
+    /// The eight exponents [bits/s], as printed.
+    pub bits: [f64; 8],
+    /// Their sum as printed [bits/s].
+    pub sum_bits: f64,
+}
+
+/// The article's own Lyapunov spectra, at 135 rad/s (with Figs. 9-10) and 140 rad/s
+/// (with Figs. 11-12), in bits/s as it prints them. Its sums, -171.4 and -171.7 bits/s,
+/// are -118.8 and -119.0 1/s: the trace rule's -119.2 1/s (MODEL.md 6) to 0.4 %, which
+/// says the unit is bits/s (in 1/s they would break the rule by a factor 1.44). REPORT.md
+/// sets them beside jeffcott's spectra at the same speeds.
+pub const ARTICLE_SPECTRA: [ArticleSpectrum; 2] = [
+    ArticleSpectrum {
+        omega: 135.0,
+        bits: [0.0, -2.8, -6.7, -9.7, -25.8, -35.4, -36.9, -54.1],
+        sum_bits: -171.4,
+    },
+    ArticleSpectrum {
+        omega: 140.0,
+        bits: [11.4, -3.4, -9.5, -18.2, -25.6, -30.9, -38.5, -57.0],
+        sum_bits: -171.7,
+    },
+];

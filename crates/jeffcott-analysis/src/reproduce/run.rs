@@ -197,6 +197,8 @@ pub struct ReproduceResult {
     pub survey: Survey,
     /// The class from the static equilibrium at each article speed simulated.
     pub static_class: Vec<(f64, Class)>,
+    /// The Floquet spectra of the periodic ones, beside their QR spectra.
+    pub floquet: Floquet,
 }
 
 /// Computes the figure set, section by section, handing each section's results to
@@ -293,6 +295,9 @@ pub fn reproduce<H: Host>(spec: &ReproduceSpec, host: &mut H) -> Result<Reproduc
         let at = AtSpeed::run(&sim, omega, &survey, lambda_tol, &mut static_class)?;
         host.section(Section::PoincareSection { index, at: &at })?;
     }
+    // Every article speed is classified by now: shoot the periodic ones' orbits
+    // (issue 26, item 5), for the report's Floquet spectra.
+    let floquet = floquet(spec, &survey, &static_class);
 
     host.begin(8, "design chart: speed against unbalance");
     let t = Instant::now();
@@ -388,5 +393,6 @@ pub fn reproduce<H: Host>(spec: &ReproduceSpec, host: &mut H) -> Result<Reproduc
     Ok(ReproduceResult {
         survey,
         static_class,
+        floquet,
     })
 }
