@@ -653,7 +653,8 @@ fn the_orbits_command_on_a_gpu_writes_the_cpus_branch_files_to_the_byte() {
 }
 
 #[test]
-fn the_orbits_command_starts_from_the_periodic_attractors_of_a_basin_and_of_a_bifurcation() {
+fn the_orbits_command_starts_from_the_periodic_attractors_of_a_basin_a_bifurcation_and_a_continuation()
+ {
     let tmp = tempfile::tempdir().unwrap();
     // A basin at 132.2 rad/s, where the period-2 attractor lives (Fig. 6).
     let basin = tmp.path().join("basin");
@@ -727,6 +728,45 @@ fn the_orbits_command_starts_from_the_periodic_attractors_of_a_basin_and_of_a_bi
             .unwrap()
             .ends_with("bifurcation")
     );
+    // A continuation's attractors at the step nearest the branch's start (132.1).
+    let cont = tmp.path().join("continuation");
+    common::ok(&common::jeffcott_out(
+        "continuation --vary omega:132.1:132.3:3 --ics 8 --transient 300 --periods 16 \
+         --backend cpu --no-plot --quiet",
+        &cont,
+    ));
+    let c = common::json(&cont.join("continuation.json"));
+    assert_eq!(
+        c["ramps"]["up"]["steps"][0]["attractors"][0]["period"], 2,
+        "{c}"
+    );
+    let out = tmp.path().join("from-continuation");
+    common::ok(&common::jeffcott_out(
+        &format!(
+            "orbits --param omega:132.0:132.3 --from {} --no-plot --quiet",
+            cont.display()
+        ),
+        &out,
+    ));
+    let b = common::json(&out.join("branches.json"));
+    let br = &b["branches"][0];
+    assert_eq!(
+        (br["period"].as_u64(), br["points"][0]["value"].as_f64()),
+        (Some(2), Some(132.1))
+    );
+    // ... over its own parameter only.
+    let refused = common::jeffcott_out(
+        &format!(
+            "orbits --param e:0.0009:0.0011 --from {} --no-plot --quiet",
+            cont.display()
+        ),
+        tmp.path().join("refused-var"),
+    );
+    let err = String::from_utf8_lossy(&refused.stderr);
+    assert!(
+        !refused.status.success() && err.contains("continuation over omega"),
+        "{err}"
+    );
     // Another model's attractors are refused, naming the parameter.
     let refused = common::jeffcott_out(
         &format!(
@@ -739,5 +779,54 @@ fn the_orbits_command_starts_from_the_periodic_attractors_of_a_basin_and_of_a_bi
     assert!(
         !refused.status.success() && err.contains("`from`") && err.contains("mu"),
         "{err}"
+    );
+}
+
+#[test]
+fn a_closed_branch_stops_when_it_comes_back_to_its_first_orbit() {
+    use jeffcott_analysis::orbits::Crossing;
+    // The period-2 branch born at the period doubling of the period-1 branch near
+    // 137.30 rad/s (`orbits --param omega:130:141 --follow-doublings` reaches it there):
+    // a loop that leaves it and comes back through the doubling at 136.42. The guess is
+    // that run's first doubled-branch point; Newton re-shoots it here.
+    let p = Params::default();
+    let start = [
+        0.005942289579602519,
+        0.14149200927414507,
+        -0.0013539651024248255,
+        0.7976184843457342,
+        6.578164251845993e-05,
+        0.036577683894988514,
+        -1.3886880459990444e-05,
+        0.019224786577048382,
+    ];
+    let spec = jeffcott_analysis::orbits::BranchSpec {
+        period: 2,
+        max_points: 1000,
+        ..w_spec(&p, start, 137.28893464890245, (135.0, 139.0), -1.0)
+    };
+    let b = jeffcott_analysis::orbits::continue_branch(&spec, &CpuFlows).unwrap();
+    assert!(
+        b.stop.starts_with("closed"),
+        "{} after {} points",
+        b.stop,
+        b.points.len()
+    );
+    // Before, it went round until max-points (1000).
+    assert!(b.points.len() < 400, "{} points", b.points.len());
+    // The last step passed the first orbit: its state at t = 0 or at t = T.
+    let (first, last) = (&b.points[0], b.points.last().unwrap());
+    let image =
+        jeffcott_core::orbit::advance(&p, first.value, &first.x, 1, &StepperConfig::default())
+            .unwrap();
+    let off = |x: &State| {
+        jeffcott_core::orbit::metric(&std::array::from_fn(|i| last.x[i] - x[i]), first.value)
+    };
+    let d = off(&first.x).min(off(&image));
+    assert!(d < 1e-4 && (last.value - first.value).abs() < 0.05, "{d:e}");
+    assert!(
+        !of_kind(&b, Crossing::PeriodDoubling).is_empty(),
+        "{:?}",
+        b.found("omega", 5)
     );
 }

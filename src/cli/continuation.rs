@@ -228,7 +228,7 @@ pub fn write_continuation(
             ),
             (
                 "continuation.json",
-                "this file: per ramp, every attractor's first and last value and every step's attractors (id, class, period, fraction, error, lambda_1, seeded_only)",
+                "this file: per ramp, every attractor's first and last value and every step's attractors (id, class, period, fraction, error, lambda_1, seeded_only, state: one Poincare point at t = kT)",
             ),
             (
                 "continuation.png",

@@ -46,10 +46,12 @@ pub struct OrbitsArgs {
     #[arg(long, value_name = "NAME=VALUE,...")]
     pub init: Vec<String>,
     /// Start from the periodic attractors of an earlier result: a `jeffcott basin`
-    /// output directory (every periodic attractor in attractors.json) or a `jeffcott
+    /// output directory (every periodic attractor in attractors.json), a `jeffcott
     /// bifurcation` one (the brute force's periodic attractors at the speed nearest the
-    /// branch's start). Each attractor's orbit is shot (all at once) and a branch of its
-    /// period continued from it; the model options must be the result's.
+    /// branch's start) or a `jeffcott continuation` one over the same parameter (the
+    /// step nearest the branch's start). Each attractor's orbit is shot (all at once)
+    /// and a branch of its period continued from it; the model options must be the
+    /// result's.
     #[arg(long, value_name = "DIR", conflicts_with_all = ["init", "settle", "period"])]
     pub from: Option<PathBuf>,
     /// Branch points at most.

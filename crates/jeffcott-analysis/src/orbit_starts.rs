@@ -4,11 +4,13 @@
 //! shooting of P^n from it starts on the orbit up to the attractor's transient.
 //!
 //! Read from a `jeffcott basin` directory (`attractors.json`: every periodic attractor
-//! with its period and Poincare points) or a `jeffcott bifurcation` directory (its
+//! with its period and Poincare points), a `jeffcott bifurcation` directory (its
 //! brute force at the speed nearest a given one: `summary.json` names each attractor's
 //! period, `bifurcation_rows.npy` the lane rows that found it, `bifurcation.npy` their
-//! Poincare points).
+//! Poincare points) or a `jeffcott continuation` directory (`continuation.json`: the
+//! attractors of the step nearest a given value, each with a Poincare point).
 
+use crate::map::MapVar;
 use crate::output::read_npy_f64;
 use jeffcott_core::error::{Error, Result};
 use jeffcott_core::model::{Params, STATE_DIM, State};
@@ -20,6 +22,8 @@ use std::path::Path;
 pub struct AttractorStart {
     /// Rotor speed W [rad/s].
     pub omega: f64,
+    /// The continued parameter's value there (W itself when it is W).
+    pub value: f64,
     /// Period in forcing periods.
     pub period: u32,
     /// A Poincare point of the attractor (a state at t = kT).
@@ -37,21 +41,85 @@ pub struct Attractors {
     pub starts: Vec<AttractorStart>,
 }
 
-/// Reads the periodic attractors of the result in `dir` (field `from` in errors): a
-/// basin's, or a bifurcation diagram's brute force at the speed nearest `near` [rad/s].
-pub fn read(dir: &Path, near: f64) -> Result<Attractors> {
+/// Reads the periodic attractors of the result in `dir` (field `from` in errors) for a
+/// branch continuing `var` from `near`: a basin's, a bifurcation diagram's brute force
+/// at the speed nearest `near`, or a continuation's (over `var` itself) at the step
+/// nearest `near`.
+pub fn read(dir: &Path, var: MapVar, near: f64) -> Result<Attractors> {
     let bad = |why: String| Error::invalid("from", dir.display(), why);
-    if dir.join("attractors.json").is_file() {
-        from_basin(dir)
+    let mut found = if dir.join("attractors.json").is_file() {
+        from_basin(dir)?
     } else if dir.join("summary.json").is_file() && dir.join("bifurcation_rows.npy").is_file() {
-        from_bifurcation(dir, near)
+        from_bifurcation(dir, near)?
+    } else if dir.join("continuation.json").is_file() {
+        return from_continuation(dir, var, near);
     } else {
-        Err(bad(
-            "not a `jeffcott basin` output (attractors.json) or a `jeffcott bifurcation` \
-             output (summary.json, bifurcation_rows.npy)"
+        return Err(bad(
+            "not a `jeffcott basin` output (attractors.json), a `jeffcott bifurcation` \
+             output (summary.json, bifurcation_rows.npy) or a `jeffcott continuation` \
+             output (continuation.json)"
                 .into(),
-        ))
+        ));
+    };
+    // A basin or a brute force lies at one speed, in the result's model.
+    for s in &mut found.starts {
+        s.value = match var {
+            MapVar::Omega => s.omega,
+            _ => found.params.get(var.name()).unwrap_or(f64::NAN),
+        };
     }
+    Ok(found)
+}
+
+/// `continuation.json`: the periodic attractors of the step nearest `near` (either
+/// ramp; the up ramp where both hold the value), at that value of the continuation's
+/// parameter, which must be the branch's.
+fn from_continuation(dir: &Path, var: MapVar, near: f64) -> Result<Attractors> {
+    let c = json(dir, "continuation.json")?;
+    let params = params(dir, &c)?;
+    let bad = |why: String| Error::invalid("from", dir.display(), why);
+    let theirs = c["param"]["var"].as_str().unwrap_or("?");
+    if theirs != var.name() {
+        return Err(bad(format!(
+            "a continuation over {theirs}; continue the same parameter ({theirs}:lo:hi)"
+        )));
+    }
+    let steps = ["up", "down"]
+        .iter()
+        .filter_map(|d| c["ramps"][d]["steps"].as_array())
+        .flatten()
+        .filter(|s| s["value"].as_f64().is_some());
+    let step = steps
+        .min_by(|a, b| {
+            let d = |s: &Value| (s["value"].as_f64().unwrap_or(f64::NAN) - near).abs();
+            d(a).total_cmp(&d(b))
+        })
+        .ok_or_else(|| bad("continuation.json lists no step".into()))?;
+    let value = step["value"].as_f64().expect("filtered");
+    let omega = match var {
+        MapVar::Omega => value,
+        _ => c["omega"].as_f64().unwrap_or(f64::NAN),
+    };
+    let mut starts = Vec::new();
+    for a in step["attractors"].as_array().into_iter().flatten() {
+        let (Some(n), Some(x)) = (
+            period(&a["period"]),
+            a["state"]
+                .as_array()
+                .and_then(|p| state(p.iter().map(Value::as_f64))),
+        ) else {
+            continue;
+        };
+        let id = a["id"].as_u64().unwrap_or(0);
+        starts.push(AttractorStart {
+            omega,
+            value,
+            period: n,
+            x,
+            label: format!("attractor #{id} at {} = {value}", var.name()),
+        });
+    }
+    Ok(Attractors { params, starts })
 }
 
 /// The JSON file `name` of `dir`.
@@ -111,6 +179,7 @@ fn from_basin(dir: &Path) -> Result<Attractors> {
         let id = at["id"].as_u64().unwrap_or(k as u64);
         starts.push(AttractorStart {
             omega: w,
+            value: w,
             period: n,
             x,
             label: format!("attractor {id} at W = {w}"),
@@ -164,6 +233,7 @@ fn from_bifurcation(dir: &Path, near: f64) -> Result<Attractors> {
         if let Some(x) = x {
             starts.push(AttractorStart {
                 omega: w,
+                value: w,
                 period: n,
                 x,
                 label: format!("brute-force attractor {id} at W = {w}"),

@@ -25,6 +25,10 @@ pub struct Tracked {
     pub size_m: f64,
     /// Found only from a seed (no fresh start state reaches it).
     pub seeded_only: bool,
+    /// One of its Poincare points, a state at t = kT (`jeffcott orbits --from` shoots
+    /// periodic orbits from it).
+    #[serde(default)]
+    pub state: Option<State>,
     /// Representative Poincare points (seeds and matching), not in the JSON.
     #[serde(skip)]
     pub points: Vec<State>,

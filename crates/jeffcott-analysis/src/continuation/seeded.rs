@@ -189,6 +189,7 @@ fn seeded_step(
                 lambda1: a.lambda1,
                 size_m: a.size_m,
                 seeded_only: hits == 0,
+                state: a.points.first().copied(),
                 points: a.points.iter().take(64).copied().collect(),
             }
         })

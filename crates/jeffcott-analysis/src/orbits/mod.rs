@@ -481,6 +481,54 @@ fn locate(
     Ok(best)
 }
 
+/// Whether the step from `a` to `b` passes the first orbit of the branch: its first
+/// point `first` going the way the branch left it, or (n > 1) another of that orbit's
+/// Poincare points `shifted` (P^k of the first state, k = 1..n-1: a fixed point of P^n
+/// describing the same orbit). Either way a closed branch has come round (an isola, or
+/// a period-2n branch joining two doublings of its period-n branch), and from there on
+/// it would list the same orbits again. In scaled coordinates the point lies within 5 %
+/// of the step's length of the chord from a to b (the arc bows out by ~ds^2 times the
+/// curvature).
+fn passes_start(
+    spec: &BranchSpec,
+    first: &BranchPoint,
+    shifted: &[State],
+    a: &BranchPoint,
+    b: &BranchPoint,
+) -> bool {
+    let same_way: f64 = (0..=STATE_DIM)
+        .map(|i| first.tangent[i] * b.tangent[i])
+        .sum();
+    (same_way > 0.0 && near_chord(spec, &first.x, first.value, a, b))
+        || shifted
+            .iter()
+            .any(|x| near_chord(spec, x, first.value, a, b))
+}
+
+/// Whether (x, v) lies within 5 % of the step's length of the chord from a to b, in
+/// scaled coordinates.
+fn near_chord(spec: &BranchSpec, x: &State, v: f64, a: &BranchPoint, b: &BranchPoint) -> bool {
+    let (z0, za, zb) = (
+        spec.scaled(x, v),
+        spec.scaled(&a.x, a.value),
+        spec.scaled(&b.x, b.value),
+    );
+    let seg: Vec<f64> = (0..=STATE_DIM).map(|i| zb[i] - za[i]).collect();
+    let len2: f64 = seg.iter().map(|v| v * v).sum();
+    if len2 == 0.0 || !len2.is_finite() {
+        return false;
+    }
+    let t = ((0..=STATE_DIM)
+        .map(|i| (z0[i] - za[i]) * seg[i])
+        .sum::<f64>()
+        / len2)
+        .clamp(0.0, 1.0);
+    let dist2: f64 = (0..=STATE_DIM)
+        .map(|i| (za[i] + t * seg[i] - z0[i]).powi(2))
+        .sum();
+    dist2 <= 0.05 * 0.05 * len2
+}
+
 /// Continues the branch of `spec` (see the module docs), every flow on `engine`.
 pub fn continue_branch(spec: &BranchSpec, engine: &dyn Flows) -> Result<Branch> {
     spec.validate()?;
@@ -518,6 +566,15 @@ pub fn continue_branch(spec: &BranchSpec, engine: &dyn Flows) -> Result<Branch> 
         tangent: t0,
         iterations: 0,
     })];
+    // The first orbit's other Poincare points, for the closed-branch test.
+    let images: Vec<FlowAsk> = (1..spec.period)
+        .map(|k| spec.ask(&orbit.x, spec.start_value, k, Want::End))
+        .collect();
+    let shifted: Vec<State> = engine
+        .flows(&images, &spec.shoot.stepper)?
+        .into_iter()
+        .map(|f| f.end)
+        .collect();
     let mut bifurcations = Vec::new();
     let mut ds = spec.ds;
     let stop;
@@ -572,7 +629,15 @@ pub fn continue_branch(spec: &BranchSpec, engine: &dyn Flows) -> Result<Branch> 
             }
         }
         let outside = !(spec.lo..=spec.hi).contains(&next.value);
+        let closed = points.len() >= 3 && passes_start(spec, &points[0], &shifted, last, &next);
         points.push(next);
+        if closed {
+            stop = format!(
+                "closed: the branch came back to its first orbit after {} points",
+                points.len() - 1
+            );
+            break;
+        }
         if outside {
             stop = format!("left the range {}..{}", spec.lo, spec.hi);
             break;

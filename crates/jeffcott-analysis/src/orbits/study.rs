@@ -168,7 +168,7 @@ impl OrbitsRequest<'_> {
             MapVar::Omega => hi,
             _ => omega,
         };
-        let found = crate::orbit_starts::read(dir, near)?;
+        let found = crate::orbit_starts::read(dir, var, near)?;
         let (ours, theirs) = (
             serde_json::to_value(&self.params).expect("params serialise"),
             serde_json::to_value(&found.params).expect("params serialise"),
@@ -192,10 +192,7 @@ impl OrbitsRequest<'_> {
             ));
         }
         for s in &found.starts {
-            let value = match var {
-                MapVar::Omega => s.omega,
-                _ => found.params.get(var.name()).unwrap_or(f64::NAN),
-            };
+            let value = s.value;
             if !(lo..=hi).contains(&value) {
                 return Err(bad(format!(
                     "its {} lies at {} = {value}, outside the range {lo}..{hi}",
@@ -251,10 +248,7 @@ pub fn run(study: &OrbitsStudy, engine: &dyn Flows) -> Result<Vec<Branch>> {
 /// attractor whose orbit is not found is an error naming `from` and the attractor.
 fn from_attractors(study: &OrbitsStudy, engine: &dyn Flows) -> Result<Vec<(BranchSpec, Branch)>> {
     let spec = &study.branch;
-    let value = |s: &crate::orbit_starts::AttractorStart| match spec.var {
-        MapVar::Omega => s.omega,
-        _ => spec.params.get(spec.var.name()).unwrap_or(f64::NAN),
-    };
+    let value = |s: &crate::orbit_starts::AttractorStart| s.value;
     let mut periods: Vec<u32> = study.starts.iter().map(|s| s.period).collect();
     periods.sort_unstable();
     periods.dedup();
