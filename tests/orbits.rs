@@ -830,3 +830,37 @@ fn a_closed_branch_stops_when_it_comes_back_to_its_first_orbit() {
         b.found("omega", 5)
     );
 }
+
+#[test]
+fn the_branch_from_the_contact_free_orbit_passes_grazing_and_the_corner_after_it_onto_the_attractors_branch()
+ {
+    use jeffcott_analysis::orbits::Crossing;
+    // From the contact-free orbit at 120 rad/s: grazing at 129.1297, then a corner at
+    // 129.461 where a further contact episode begins and the pseudo-arclength corrector
+    // fails at every step (the natural-parameter step takes it past), then on to the
+    // Neimark-Sacker bifurcation at 130.421 that the branch continued from the
+    // attractor at 130 rad/s shows too: the two are one branch.
+    let p = Params::default();
+    let from_below = jeffcott_analysis::orbits::BranchSpec {
+        max_points: 600,
+        ..w_spec(&p, settled(&p, 120.0, 300), 120.0, (120.0, 130.6), 1.0)
+    };
+    let b = jeffcott_analysis::orbits::continue_branch(&from_below, &CpuFlows).unwrap();
+    assert!(b.stop.starts_with("left the range"), "{}", b.stop);
+    let graze = of_kind(&b, Crossing::Grazing);
+    assert!(
+        (graze[0].value - 129.12968804).abs() < 1e-6,
+        "{:?}",
+        b.found("omega", 8)
+    );
+    let ns_below: Vec<f64> = of_kind(&b, Crossing::NeimarkSacker)
+        .iter()
+        .map(|x| x.value)
+        .collect();
+    let from_attractor = w_branch(&p, settled(&p, 130.0, 300), 130.0, (130.0, 130.6), 1.0);
+    let ns = of_kind(&from_attractor, Crossing::NeimarkSacker)[0].value;
+    assert!(
+        ns_below.iter().any(|v| (v - ns).abs() < 1e-6),
+        "Neimark-Sacker at {ns} from the attractor; from below: {ns_below:?}"
+    );
+}

@@ -529,6 +529,61 @@ fn near_chord(spec: &BranchSpec, x: &State, v: f64, a: &BranchPoint, b: &BranchP
     dist2 <= 0.05 * 0.05 * len2
 }
 
+/// Past a corner of the branch, where the pseudo-arclength corrector fails at every
+/// step: a contact episode begins or ends somewhere in the period (the grazing of a
+/// further contact, which the smallest clearance, already negative, does not show), and
+/// the stiff penalty contact turns the branch within nanometres of arclength (MODEL.md:
+/// k_c = 1e8 N/m). The parameter itself is stepped instead (a natural-parameter step:
+/// the orbit shot at the new value from the last one), by 1e-6, 1e-5, then 1e-4 of the
+/// range along the branch's direction; the first that converges to a nearby orbit (within
+/// 100 times the step in the classification metric) is the next point, its tangent
+/// oriented along the last one. `None` when none does.
+fn corner_step(
+    spec: &BranchSpec,
+    engine: &dyn Flows,
+    last: &BranchPoint,
+) -> Result<Option<Solved>> {
+    let along = if last.tangent[STATE_DIM] != 0.0 {
+        last.tangent[STATE_DIM].signum()
+    } else {
+        spec.direction.signum()
+    };
+    let range = spec.hi - spec.lo;
+    for frac in [1e-6, 1e-5, 1e-4] {
+        let v = last.value + along * frac * range;
+        let (params, omega) = spec.at(v);
+        let start = Start {
+            params,
+            omega,
+            x0: last.x,
+        };
+        let Ok(o) = shoot_many(engine, &[start], spec.period, &spec.shoot)?
+            .pop()
+            .expect("one start, one result")
+        else {
+            continue;
+        };
+        let moved = metric(&std::array::from_fn(|i| o.x[i] - last.x[i]), omega);
+        if moved > 100.0 * frac * range.abs().max(1.0) * 1e-3 {
+            continue;
+        }
+        let Some((f, fp)) = spec.linearise(engine, &o.x, v)? else {
+            continue;
+        };
+        let Some(tangent) = tangent(spec, &f, &fp, v, &last.tangent) else {
+            continue;
+        };
+        return Ok(Some(Solved {
+            x: o.x,
+            v,
+            flow: f,
+            tangent,
+            iterations: o.iterations,
+        }));
+    }
+    Ok(None)
+}
+
 /// Continues the branch of `spec` (see the module docs), every flow on `engine`.
 pub fn continue_branch(spec: &BranchSpec, engine: &dyn Flows) -> Result<Branch> {
     spec.validate()?;
@@ -596,6 +651,12 @@ pub fn continue_branch(spec: &BranchSpec, engine: &dyn Flows) -> Result<Branch> 
         };
         let solved = correct(spec, engine, &last.x, last.value, &last.tangent, ds)?
             .filter(|s| turn(s) >= MIN_TANGENT_COS || corner(s));
+        let solved = match solved {
+            Some(s) => Some(s),
+            // A corner the arclength cannot turn: step the parameter itself.
+            None if ds * 0.5 < spec.ds * 1e-4 => corner_step(spec, engine, last)?,
+            None => None,
+        };
         let Some(s) = solved else {
             ds *= 0.5;
             if ds < spec.ds * 1e-4 {
