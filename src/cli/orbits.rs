@@ -70,8 +70,9 @@ pub struct OrbitsArgs {
     /// The coordinate `branch.png` shows (each orbit's Poincare points in it).
     #[arg(long, default_value = "x_r", value_name = "NAME")]
     pub coord: String,
-    /// A `jeffcott bifurcation` output directory over the same speeds: its brute-force
-    /// Poincare points are drawn under the branches (W continuation only).
+    /// A `jeffcott bifurcation` output directory over the same speeds: its brute force's
+    /// and its up and down sweeps' Poincare points are drawn under the branches (W
+    /// continuation only).
     #[arg(long, value_name = "DIR")]
     pub over: Option<PathBuf>,
     /// Do not draw `branch.png`.
@@ -166,9 +167,9 @@ pub fn run_orbits(a: &OrbitsArgs) -> Result<()> {
     let (lo, hi) = (spec.lo, spec.hi);
     let var = spec.var;
     let coord = jeffcott_core::inputs::coord("coord", &a.coord)?;
-    // The brute force to draw under the branches, read (and refused) before any work.
+    // The diagram to draw under the branches, read (and refused) before any work.
     let background = match &a.over {
-        Some(dir) if !a.no_plot => Some(brute_force_points(dir, var, coord)?),
+        Some(dir) if !a.no_plot => Some(diagram_points(dir, var, coord)?),
         _ => None,
     };
     let run_dir = rundir::open(
@@ -205,7 +206,7 @@ pub fn run_orbits(a: &OrbitsArgs) -> Result<()> {
             &study,
             &branches,
             coord,
-            background.as_deref(),
+            background.as_ref(),
         )?;
     }
     run_dir.finish(
@@ -267,13 +268,13 @@ fn summary(name: &str, b: &Branch) -> String {
     )
 }
 
-/// The brute-force Poincare points (W, coordinate `coord`) of the `jeffcott bifurcation`
-/// run in `dir` (field `over`).
-fn brute_force_points(
+/// The Poincare points (W, coordinate `coord`) of the `jeffcott bifurcation` run in
+/// `dir` (field `over`): its brute force's and its sweeps'.
+fn diagram_points(
     dir: &Path,
     var: jeffcott_analysis::map::MapVar,
     coord: usize,
-) -> Result<Vec<(f64, f64)>> {
+) -> Result<crate::plot::orbits::Backdrop> {
     if !matches!(var, jeffcott_analysis::map::MapVar::Omega) {
         return Err(jeffcott_core::error::Error::invalid(
             "over",
@@ -291,25 +292,28 @@ fn brute_force_points(
         return Err(bad("array shapes"));
     }
     let recorded = ps[1] as usize;
-    let mut out = Vec::new();
+    let mut out = crate::plot::orbits::Backdrop::default();
     for (r, row) in rows.chunks_exact(4).enumerate() {
-        if row[1] != 2.0 {
-            continue; // sweeps
-        }
+        // Column 1: 0 the up sweep, 1 the down sweep, 2 the brute force.
+        let layer = match row[1] {
+            0.0 => &mut out.up,
+            1.0 => &mut out.down,
+            _ => &mut out.brute,
+        };
         let lane = &points[r * recorded * 8..(r + 1) * recorded * 8];
-        out.extend(lane.chunks_exact(8).map(|x| (row[0], x[coord])));
+        layer.extend(lane.chunks_exact(8).map(|x| (row[0], x[coord])));
     }
     Ok(out)
 }
 
 /// Draws the branches of `study` in coordinate `coord` to `path` over `background`
-/// (brute-force points: W and the coordinate).
+/// (a bifurcation diagram's points: W and the coordinate).
 pub(crate) fn draw(
     path: &Path,
     study: &jeffcott_analysis::orbits::OrbitsStudy,
     branches: &[Branch],
     coord: usize,
-    background: Option<&[(f64, f64)]>,
+    background: Option<&crate::plot::orbits::Backdrop>,
 ) -> Result<()> {
     use crate::plot::orbits::{BranchLine, Mark};
     let spec = &study.branch;
@@ -354,6 +358,6 @@ pub(crate) fn draw(
         coord,
         &lines,
         &marks,
-        background.unwrap_or_default(),
+        background.unwrap_or(&Default::default()),
     )
 }

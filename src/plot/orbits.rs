@@ -29,8 +29,20 @@ pub struct Mark {
     pub kind: String,
 }
 
+/// What a branch picture is drawn over: a bifurcation diagram's Poincare points
+/// (parameter value, coordinate), the brute force's and each quasistatic sweep's.
+#[derive(Clone, Debug, Default)]
+pub struct Backdrop {
+    /// The brute force's points (grey).
+    pub brute: Vec<(f64, f64)>,
+    /// The up sweep's (light blue).
+    pub up: Vec<(f64, f64)>,
+    /// The down sweep's (light red).
+    pub down: Vec<(f64, f64)>,
+}
+
 /// Draws `branches` (coordinate `coord` against the parameter `x_desc`), their `marks`,
-/// over `background` (grey dots: a brute force's Poincare points at those values).
+/// over `background` (dots: a brute force's and the sweeps' Poincare points).
 pub fn branches(
     path: &Path,
     title: &str,
@@ -38,8 +50,15 @@ pub fn branches(
     coord: usize,
     branches: &[BranchLine],
     marks: &[Mark],
-    background: &[(f64, f64)],
+    background: &Backdrop,
 ) -> Result<()> {
+    let all = || {
+        background
+            .brute
+            .iter()
+            .chain(&background.up)
+            .chain(&background.down)
+    };
     let (s, y_desc) = coord_axis(coord);
     let scaled: Vec<BranchLine> = branches
         .iter()
@@ -58,29 +77,40 @@ pub fn branches(
             branches
                 .iter()
                 .flat_map(|b| b.points.iter().map(|p| p.0))
-                .chain(background.iter().map(|p| p.0)),
+                .chain(all().map(|p| p.0)),
         );
         let yr = padded_range(
             branches
                 .iter()
                 .flat_map(|b| b.points.iter().flat_map(|p| p.1.iter().copied()))
-                .chain(background.iter().map(|p| p.1 * s)),
+                .chain(all().filter(|p| p.1.is_finite()).map(|p| p.1 * s)),
         );
         let mut chart = chart(root, Some((title, 24)), (14, 50, 100), xr, yr)?;
         Mesh::new(x_desc, &y_desc)
             .no_light_lines()
             .draw(&mut chart)?;
-        if !background.is_empty() {
-            let grey = RGBColor(170, 170, 170);
+        let layers = [
+            (
+                &background.brute,
+                RGBColor(170, 170, 170),
+                "brute force (Poincare points)",
+            ),
+            (&background.up, RGBColor(120, 160, 230), "up sweep"),
+            (&background.down, RGBColor(235, 140, 140), "down sweep"),
+        ];
+        for (points, colour, label) in layers {
+            if points.is_empty() {
+                continue;
+            }
             chart
                 .draw_series(
-                    background
+                    points
                         .iter()
                         .filter(|p| p.1.is_finite())
-                        .map(|p| Circle::new((p.0, p.1 * s), 1, grey.filled())),
+                        .map(|p| Circle::new((p.0, p.1 * s), 1, colour.filled())),
                 )?
-                .label("brute force (Poincare points)")
-                .legend(dot_key(grey, 3));
+                .label(label)
+                .legend(dot_key(colour, 3));
         }
         for (k, b) in branches.iter().enumerate() {
             let c = PALETTE[k % PALETTE.len()];

@@ -128,20 +128,30 @@ pub(super) fn orbits_section(
     c: &mut Ctx,
     study: &jeffcott_analysis::orbits::OrbitsStudy,
     branches: &[jeffcott_analysis::orbits::Branch],
-    background: &[jeffcott_analysis::bifurcation::BrutePoint],
+    background: &jeffcott_analysis::bifurcation::BifurcationResult,
     seconds: f64,
 ) -> Result<()> {
     use jeffcott_core::model::{STATE_DIM, VX_S};
     let (dir, rep) = (c.dir, &mut c.rep);
     crate::cli::orbits::write_files(&dir.join("orbits"), "omega", branches)?;
-    let under: Vec<(f64, f64)> = background
-        .iter()
-        .flat_map(|bp| {
-            bp.points
-                .chunks_exact(STATE_DIM)
-                .map(move |x| (bp.omega, x[VX_S]))
-        })
-        .collect();
+    let sweep = |s: &[jeffcott_analysis::bifurcation::SweepPoint]| -> Vec<(f64, f64)> {
+        s.iter()
+            .flat_map(|sp| sp.points.iter().map(move |x| (sp.omega, x[VX_S])))
+            .collect()
+    };
+    let under = crate::plot::orbits::Backdrop {
+        brute: background
+            .brute
+            .iter()
+            .flat_map(|bp| {
+                bp.points
+                    .chunks_exact(STATE_DIM)
+                    .map(move |x| (bp.omega, x[VX_S]))
+            })
+            .collect(),
+        up: sweep(&background.up),
+        down: sweep(&background.down),
+    };
     crate::cli::orbits::draw(
         &dir.join("fig_orbits.png"),
         study,
@@ -169,7 +179,7 @@ pub(super) fn orbits_section(
         "Periodic orbits behind the diagram (beyond the article): stable solid, unstable dashed",
         "fig_orbits.png",
         &format!(
-            "Newton shooting with the exact monodromy matrix, continued by pseudo-arclength through folds, bifurcations located to 1e-8 rad/s (docs/orbits.md), over the brute force of Fig. 3 (grey). {}. Files in `orbits/`.",
+            "Newton shooting with the exact monodromy matrix, continued by pseudo-arclength through folds, bifurcations located to 1e-8 rad/s (docs/orbits.md), over the brute force of Fig. 3 (grey) and its up (blue) and down (red) sweeps. {}. Files in `orbits/`.",
             text.join("; ")
         ),
         &format!(

@@ -47,7 +47,7 @@ pub enum Section<'a> {
         branches: &'a [crate::orbits::Branch],
         /// The brute force of the bifurcation section (its Poincare points are drawn
         /// under the branches).
-        background: &'a [crate::bifurcation::BrutePoint],
+        background: &'a crate::bifurcation::BifurcationResult,
         /// Wall time [s].
         seconds: f64,
     },
@@ -224,7 +224,7 @@ pub fn reproduce<H: Host>(spec: &ReproduceSpec, host: &mut H) -> Result<Reproduc
     host.section(Section::Orbits {
         study: &o,
         branches: &branches,
-        background: &res.brute,
+        background: &res,
         seconds: t.elapsed().as_secs_f64(),
     })?;
     drop(res);
