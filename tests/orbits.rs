@@ -656,6 +656,15 @@ fn the_orbits_command_on_a_gpu_writes_the_cpus_branch_files_to_the_byte() {
 fn the_orbits_command_starts_from_the_periodic_attractors_of_a_basin_a_bifurcation_and_a_continuation()
  {
     let tmp = tempfile::tempdir().unwrap();
+    // `orbits ARGS --from DIR` into tmp/NAME: its branches.json.
+    let orbits_from = |name: &str, args: &str, dir: &std::path::Path| {
+        let out = tmp.path().join(name);
+        common::ok(&common::jeffcott_out(
+            &format!("orbits {args} --from {} --no-plot --quiet", dir.display()),
+            &out,
+        ));
+        common::json(&out.join("branches.json"))
+    };
     // A basin at 132.2 rad/s, where the period-2 attractor lives (Fig. 6).
     let basin = tmp.path().join("basin");
     common::ok(&common::jeffcott_out(
@@ -666,15 +675,11 @@ fn the_orbits_command_starts_from_the_periodic_attractors_of_a_basin_a_bifurcati
     let attractors = common::json(&basin.join("attractors.json"));
     let a = &attractors["attractors"][0];
     assert_eq!(a["period"], 2, "{attractors}");
-    let out = tmp.path().join("from-basin");
-    common::ok(&common::jeffcott_out(
-        &format!(
-            "orbits --param omega:131.9:132.4 --direction down --from {} --no-plot --quiet",
-            basin.display()
-        ),
-        &out,
-    ));
-    let b = common::json(&out.join("branches.json"));
+    let b = orbits_from(
+        "from-basin",
+        "--param omega:131.9:132.4 --direction down",
+        &basin,
+    );
     let branch = &b["branches"][0];
     assert_eq!(branch["period"], 2);
     let first = &branch["points"][0];
@@ -707,21 +712,13 @@ fn the_orbits_command_starts_from_the_periodic_attractors_of_a_basin_a_bifurcati
          --brute-transient 300 --periods 12 --backend cpu --no-plot --quiet",
         &bif_dir,
     ));
-    let out = tmp.path().join("from-bifurcation");
-    common::ok(&common::jeffcott_out(
-        &format!(
-            "orbits --param omega:131:131.2 --from {} --no-plot --quiet",
-            bif_dir.display()
-        ),
-        &out,
-    ));
-    let b = common::json(&out.join("branches.json"));
+    let b = orbits_from("from-bifurcation", "--param omega:131:131.2", &bif_dir);
     let branches = b["branches"].as_array().unwrap();
     assert!(!branches.is_empty());
     for br in branches {
         assert_eq!(br["points"][0]["value"], 131.0, "{br}");
     }
-    let run = common::json(&out.join("run.json"));
+    let run = common::json(&tmp.path().join("from-bifurcation/run.json"));
     assert!(
         run["spec"]["from"]
             .as_str()
@@ -740,15 +737,7 @@ fn the_orbits_command_starts_from_the_periodic_attractors_of_a_basin_a_bifurcati
         c["ramps"]["up"]["steps"][0]["attractors"][0]["period"], 2,
         "{c}"
     );
-    let out = tmp.path().join("from-continuation");
-    common::ok(&common::jeffcott_out(
-        &format!(
-            "orbits --param omega:132.0:132.3 --from {} --no-plot --quiet",
-            cont.display()
-        ),
-        &out,
-    ));
-    let b = common::json(&out.join("branches.json"));
+    let b = orbits_from("from-continuation", "--param omega:132.0:132.3", &cont);
     let br = &b["branches"][0];
     assert_eq!(
         (br["period"].as_u64(), br["points"][0]["value"].as_f64()),

@@ -32,6 +32,19 @@ pub struct AttractorStart {
     pub label: String,
 }
 
+impl AttractorStart {
+    /// An attractor at speed `w` (the value W until [`read`] sets the branch's own).
+    fn at_speed(w: f64, period: u32, x: State, label: String) -> Self {
+        AttractorStart {
+            omega: w,
+            value: w,
+            period,
+            x,
+            label,
+        }
+    }
+}
+
 /// The periodic attractors of a result and the model they were computed with.
 #[derive(Clone, Debug)]
 pub struct Attractors {
@@ -177,13 +190,12 @@ fn from_basin(dir: &Path) -> Result<Attractors> {
             continue;
         };
         let id = at["id"].as_u64().unwrap_or(k as u64);
-        starts.push(AttractorStart {
-            omega: w,
-            value: w,
-            period: n,
+        starts.push(AttractorStart::at_speed(
+            w,
+            n,
             x,
-            label: format!("attractor {id} at W = {w}"),
-        });
+            format!("attractor {id} at W = {w}"),
+        ));
     }
     Ok(Attractors { params, starts })
 }
@@ -231,13 +243,8 @@ fn from_bifurcation(dir: &Path, near: f64) -> Result<Attractors> {
             state(p.iter().map(|&c| Some(c)))
         });
         if let Some(x) = x {
-            starts.push(AttractorStart {
-                omega: w,
-                value: w,
-                period: n,
-                x,
-                label: format!("brute-force attractor {id} at W = {w}"),
-            });
+            let label = format!("brute-force attractor {id} at W = {w}");
+            starts.push(AttractorStart::at_speed(w, n, x, label));
         }
     }
     Ok(Attractors { params, starts })
