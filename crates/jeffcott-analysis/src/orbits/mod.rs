@@ -679,6 +679,15 @@ pub fn continue_branch(spec: &BranchSpec, engine: &dyn Flows) -> Result<Branch> 
             if crosses(kind, last, &next)
                 && let Some(b) = locate(spec, engine, last, ds, kind)?
             {
+                // A closed period-2n loop meets each orbit at its n Poincare points, so
+                // it crosses a bifurcation once per point: listed once (two orbits
+                // bifurcating alike at one parameter value, to 1e-7, are not generic).
+                let seen = bifurcations
+                    .iter()
+                    .any(|x: &Bifurcation| x.kind == kind && (x.value - b.value).abs() < 1e-7);
+                if seen {
+                    continue;
+                }
                 bifurcations.push(Bifurcation {
                     kind,
                     value: b.value,
