@@ -146,7 +146,7 @@ def orbits(
     direction: Literal["up", "down"] = "up",
     settle: int = 300,
     init: Optional[Mapping[str, float]] = None,
-    max_points: int = 400,
+    max_points: int = 5000,
     ds: float = 2e-5,
     ds_max: float = 2e-4,
     follow_doublings: bool = False,

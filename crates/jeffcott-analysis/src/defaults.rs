@@ -133,8 +133,8 @@ studies! {
         PERIOD: u32 = 1,
         /// Forcing periods integrated from the start state before shooting.
         SETTLE: u32 = 300,
-        /// Branch points at most.
-        MAX_POINTS: usize = 400,
+        /// Branch points at most: the period-1 branch over 125..141 rad/s takes 2680 (10 s).
+        MAX_POINTS: usize = 5000,
         /// First arclength step (positions in metres, velocities over W, the parameter
         /// at 1 mm per its range).
         DS: f64 = 2e-5,
