@@ -9,7 +9,7 @@ mod common;
 
 use jeffcott_core::integrate::lane::StepperConfig;
 use jeffcott_core::model::{Params, STATE_DIM, State, VX_R, VY_R, X_R, Y_R, Y_S};
-use jeffcott_core::orbit::{Complex, CpuFlows, ShootConfig, shoot};
+use jeffcott_core::orbit::{Complex, CpuFlows, Flows, ShootConfig, Want, shoot};
 
 /// The default parameters with the gap opened to 1 m: no contact anywhere.
 fn contact_free() -> Params {
@@ -537,6 +537,7 @@ fn many_starts(p: &Params) -> Vec<jeffcott_core::orbit::Start> {
             params: p.clone(),
             omega: w,
             x0: settled(p, w, 60),
+            period: 1,
         })
         .collect()
 }
@@ -546,7 +547,7 @@ fn many_orbits_shot_at_once_are_each_the_orbit_shot_alone() {
     let p = Params::default();
     let starts = many_starts(&p);
     let cfg = ShootConfig::default();
-    let many = jeffcott_core::orbit::shoot_many(&CpuFlows, &starts, 1, &cfg).unwrap();
+    let many = jeffcott_core::orbit::shoot_many(&CpuFlows, &starts, &cfg).unwrap();
     assert_eq!(many.len(), starts.len());
     for (s, o) in starts.iter().zip(&many) {
         let alone = shoot(&p, s.omega, &s.x0, 1, &cfg).unwrap();
@@ -565,12 +566,22 @@ fn many_orbits_shot_at_once_are_each_the_orbit_shot_alone() {
             ..starts[0].clone()
         },
     );
+    // A start that is not finite is refused on its own; the others go on.
+    let nan = jeffcott_core::orbit::Start {
+        x0: [f64::NAN; STATE_DIM],
+        ..starts[0].clone()
+    };
+    let both =
+        jeffcott_core::orbit::shoot_many(&CpuFlows, &[nan, starts[1].clone()], &cfg).unwrap();
+    let err = both[0].as_ref().unwrap_err().to_string();
+    assert!(err.contains("`start`") && err.contains("finite"), "{err}");
+    assert_eq!(both[1].as_ref().unwrap().x, many[1].as_ref().unwrap().x);
     let tight = ShootConfig { max_iter: 2, ..cfg };
-    let mixed = jeffcott_core::orbit::shoot_many(&CpuFlows, &with_bad, 1, &tight).unwrap();
+    let mixed = jeffcott_core::orbit::shoot_many(&CpuFlows, &with_bad, &tight).unwrap();
     let err = mixed[1].as_ref().unwrap_err().to_string();
     assert!(err.contains("did not converge"), "{err}");
     for (k, s) in [(0, &starts[0]), (2, &starts[1]), (3, &starts[2])] {
-        let alone = jeffcott_core::orbit::shoot_many(&CpuFlows, std::slice::from_ref(s), 1, &tight)
+        let alone = jeffcott_core::orbit::shoot_many(&CpuFlows, std::slice::from_ref(s), &tight)
             .unwrap()
             .remove(0);
         assert_eq!(
@@ -594,8 +605,8 @@ fn gpu_and_cpu_give_the_same_orbits_and_branch_to_the_bit_in_f64() {
     // Many orbits at once: the eight tangent lanes of every start side by side.
     let starts = many_starts(&p);
     let cfg = ShootConfig::default();
-    let on_gpu = jeffcott_core::orbit::shoot_many(&gpu, &starts, 1, &cfg).unwrap();
-    let on_cpu = jeffcott_core::orbit::shoot_many(&CpuFlows, &starts, 1, &cfg).unwrap();
+    let on_gpu = jeffcott_core::orbit::shoot_many(&gpu, &starts, &cfg).unwrap();
+    let on_cpu = jeffcott_core::orbit::shoot_many(&CpuFlows, &starts, &cfg).unwrap();
     for ((g, c), s) in on_gpu.iter().zip(&on_cpu).zip(&starts) {
         let (g, c) = (g.as_ref().unwrap(), c.as_ref().unwrap());
         assert_eq!(g.x, c.x, "W = {}", s.omega);
@@ -603,6 +614,30 @@ fn gpu_and_cpu_give_the_same_orbits_and_branch_to_the_bit_in_f64() {
         assert_eq!(g.min_clearance.to_bits(), c.min_clearance.to_bits());
         assert_eq!(g.iterations, c.iterations);
     }
+    // Zero periods (settling by 0): the start itself and the identity, on both.
+    let zero: Vec<jeffcott_core::orbit::FlowAsk> = [Want::Monodromy, Want::End]
+        .into_iter()
+        .map(|want| jeffcott_core::orbit::FlowAsk {
+            params: p.clone(),
+            omega: 131.7,
+            x0: starts[0].x0,
+            periods: 0,
+            want,
+        })
+        .collect();
+    let stepper = StepperConfig::default();
+    let (g, c) = (
+        gpu.flows(&zero, &stepper).unwrap(),
+        CpuFlows.flows(&zero, &stepper).unwrap(),
+    );
+    for (g, c) in g.iter().zip(&c) {
+        assert_eq!(
+            (g.end, g.monodromy, g.finite),
+            (c.end, c.monodromy, c.finite)
+        );
+        assert_eq!(g.min_clearance.to_bits(), c.min_clearance.to_bits());
+    }
+    assert_eq!(c[0].monodromy, Some(jeffcott_core::orbit::identity()));
     // A branch through the period doubling at 132.07 rad/s, located on both.
     let spec = jeffcott_analysis::orbits::BranchSpec {
         max_points: 8,
@@ -744,31 +779,19 @@ fn the_orbits_command_starts_from_the_periodic_attractors_of_a_basin_a_bifurcati
         (Some(2), Some(132.1))
     );
     // ... over its own parameter only.
-    let refused = common::jeffcott_out(
-        &format!(
-            "orbits --param e:0.0009:0.0011 --from {} --no-plot --quiet",
-            cont.display()
-        ),
-        tmp.path().join("refused-var"),
+    let line = format!(
+        "orbits --param e:0.0009:0.0011 --from {} --no-plot --quiet",
+        cont.display()
     );
-    let err = String::from_utf8_lossy(&refused.stderr);
-    assert!(
-        !refused.status.success() && err.contains("continuation over omega"),
-        "{err}"
-    );
+    let refused = common::jeffcott_out(&line, tmp.path().join("refused-var"));
+    common::assert_refused_naming(&refused, &line, &["continuation over omega"]);
     // Another model's attractors are refused, naming the parameter.
-    let refused = common::jeffcott_out(
-        &format!(
-            "orbits --param omega:131.9:132.4 --from {} --set mu=0.1 --no-plot --quiet",
-            basin.display()
-        ),
-        tmp.path().join("refused"),
+    let line = format!(
+        "orbits --param omega:131.9:132.4 --from {} --set mu=0.1 --no-plot --quiet",
+        basin.display()
     );
-    let err = String::from_utf8_lossy(&refused.stderr);
-    assert!(
-        !refused.status.success() && err.contains("`from`") && err.contains("mu"),
-        "{err}"
-    );
+    let refused = common::jeffcott_out(&line, tmp.path().join("refused"));
+    common::assert_refused_naming(&refused, &line, &["`from`", "mu"]);
 }
 
 #[test]

@@ -12,7 +12,7 @@ use jeffcott_core::ensemble::{
 };
 use jeffcott_core::integrate::lane::{Lane, LaneConsts, StepperConfig};
 use jeffcott_core::model::STATE_DIM;
-use jeffcott_core::orbit::{self, CpuFlows, Flow, FlowAsk, Flows as _, Want};
+use jeffcott_core::orbit::{self, CpuFlows, Flow, FlowAsk, Want};
 use jeffcott_gpu::{DeviceRequest, GpuDevice, GpuRunner};
 
 /// A resolved backend.
@@ -352,17 +352,6 @@ fn gpu_flows(runner: &GpuRunner, asks: &[FlowAsk], stepper: &StepperConfig) -> R
         let mine: Vec<usize> = (0..asks.len())
             .filter(|&i| asks[i].periods == periods)
             .collect();
-        if periods == 0 {
-            // Nothing to integrate: the CPU's answer is the start itself.
-            let cpu = CpuFlows.flows(
-                &mine.iter().map(|&i| asks[i].clone()).collect::<Vec<_>>(),
-                stepper,
-            )?;
-            for (&i, f) in mine.iter().zip(cpu) {
-                out[i] = Some(f);
-            }
-            continue;
-        }
         let (mut consts, mut init, mut tangents, mut first) = (vec![], vec![], vec![], vec![]);
         for &i in &mine {
             let a = &asks[i];
@@ -380,7 +369,10 @@ fn gpu_flows(runner: &GpuRunner, asks: &[FlowAsk], stepper: &StepperConfig) -> R
             }
         }
         let per_period = consts.len() as u64 * stepper.steps_per_period as u64;
-        let slice = (LANE_STEPS_PER_SLICE / per_period.max(1)).clamp(1, periods as u64) as u32;
+        // (0 periods: the runner hands back the start lanes and tangents untouched, and
+        // the identity's columns with no growth are the CPU's monodromy too.)
+        let slice =
+            (LANE_STEPS_PER_SLICE / per_period.max(1)).clamp(1, periods.max(1) as u64) as u32;
         let schedule = jeffcott_gpu::Schedule::new(0, periods, slice);
         let (lanes, norms, ends) =
             runner

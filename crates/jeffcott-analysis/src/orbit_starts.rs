@@ -100,15 +100,10 @@ fn from_continuation(dir: &Path, var: MapVar, near: f64) -> Result<Attractors> {
     let steps = ["up", "down"]
         .iter()
         .filter_map(|d| c["ramps"][d]["steps"].as_array())
-        .flatten()
-        .filter(|s| s["value"].as_f64().is_some());
-    let step = steps
-        .min_by(|a, b| {
-            let d = |s: &Value| (s["value"].as_f64().unwrap_or(f64::NAN) - near).abs();
-            d(a).total_cmp(&d(b))
-        })
+        .flatten();
+    let step = nearest(steps, "value", near)
         .ok_or_else(|| bad("continuation.json lists no step".into()))?;
-    let value = step["value"].as_f64().expect("filtered");
+    let value = step["value"].as_f64().expect("nearest has one");
     let omega = match var {
         MapVar::Omega => value,
         _ => c["omega"].as_f64().unwrap_or(f64::NAN),
@@ -152,6 +147,14 @@ fn params(dir: &Path, v: &Value) -> Result<Params> {
             format!("its model parameters cannot be read: {e}"),
         )
     })
+}
+
+/// The entry of `list` whose number under `key` lies nearest `near` (the first of
+/// equals; entries without one are passed over).
+fn nearest<'a>(list: impl Iterator<Item = &'a Value>, key: &str, near: f64) -> Option<&'a Value> {
+    list.filter_map(|v| Some((v, (v[key].as_f64()? - near).abs())))
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|(v, _)| v)
 }
 
 /// A period as a result records it (null: not periodic).
@@ -208,15 +211,9 @@ fn from_bifurcation(dir: &Path, near: f64) -> Result<Attractors> {
     let per_omega = s["per_omega"]
         .as_array()
         .ok_or_else(|| bad("summary.json has no per_omega list"))?;
-    let at = per_omega
-        .iter()
-        .filter(|o| o["omega"].as_f64().is_some())
-        .min_by(|a, b| {
-            let d = |o: &Value| (o["omega"].as_f64().unwrap_or(f64::NAN) - near).abs();
-            d(a).total_cmp(&d(b))
-        })
+    let at = nearest(per_omega.iter(), "omega", near)
         .ok_or_else(|| bad("summary.json lists no speed"))?;
-    let w = at["omega"].as_f64().expect("filtered");
+    let w = at["omega"].as_f64().expect("nearest has one");
     let catalogue = at["brute_force"]["attractors"]
         .as_array()
         .ok_or_else(|| bad("no brute force in this diagram (it was run without one)"))?;

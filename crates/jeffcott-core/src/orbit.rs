@@ -127,34 +127,63 @@ impl Flows for CpuFlows {
 /// multiplied up, column j of M = (prod of e_j's growths) v_j: exactly what a lane of
 /// the GPU kernel's lambda_1 variant started from e_j computes (per-vector arithmetic
 /// of [`Tangent`] does not depend on the other vectors), so a GPU gives M to the bit
-/// (tests/orbits_gpu.rs). The renormalisation also keeps long periods from overflowing.
+/// (tests/orbits.rs). The renormalisation also keeps long periods from overflowing.
 pub fn flow(p: &Params, omega: f64, x0: &State, periods: u32, stepper: &StepperConfig) -> Flow {
+    let w = walk(p, omega, x0, periods, stepper, identity());
+    let finite = !w.lane.status.is_frozen();
+    Flow {
+        end: w.lane.x,
+        monodromy: finite.then(|| columns(&w.tangent.v, &w.growth)),
+        min_clearance: w.min_clearance,
+        finite,
+    }
+}
+
+/// Where [`walk`] ends: the lane, its tangent vectors (unit length), their growths
+/// multiplied up, and the smallest clearance on the way.
+struct Walk<const M: usize> {
+    lane: Lane<f64>,
+    tangent: Tangent<f64, M>,
+    growth: [f64; M],
+    min_clearance: f64,
+}
+
+/// `periods` periods from `x0` carrying the M tangent vectors `v0` (none: the state
+/// alone, by the same state arithmetic), each renormalised at every period end, and the
+/// smallest clearance within every macro step ([`max_distance`]); stops where the lane
+/// freezes. The one loop behind [`flow`] and [`min_clearance`], so both see one
+/// sequence of states.
+fn walk<const M: usize>(
+    p: &Params,
+    omega: f64,
+    x0: &State,
+    periods: u32,
+    stepper: &StepperConfig,
+    v0: [[f64; STATE_DIM]; M],
+) -> Walk<M> {
     let lc = LaneConsts::<f64>::new(p, omega, stepper);
-    let mut lane = Lane::<f64>::new(x0, p.delta);
-    let mut tan = Tangent::<f64, STATE_DIM>::new(identity());
-    let mut growth = [1.0; STATE_DIM];
-    let mut min_clearance = -penetration(p.delta, &lane.x);
-    let h = lc.h;
+    let mut w = Walk {
+        lane: Lane::<f64>::new(x0, p.delta),
+        tangent: Tangent::<f64, M>::new(v0),
+        growth: [1.0; M],
+        min_clearance: -penetration(p.delta, x0),
+    };
     'periods: for _ in 0..periods {
         for _ in 0..stepper.steps_per_period {
-            let before = lane.x;
-            macro_step_tangent(&lc, &mut lane, &mut tan);
-            if lane.status.is_frozen() {
+            let before = w.lane.x;
+            macro_step_tangent(&lc, &mut w.lane, &mut w.tangent);
+            if w.lane.status.is_frozen() {
                 break 'periods;
             }
-            min_clearance = min_clearance.min(p.delta - max_distance(&before, &lane.x, h));
+            w.min_clearance = w
+                .min_clearance
+                .min(p.delta - max_distance(&before, &w.lane.x, lc.h));
         }
-        for (g, v) in growth.iter_mut().zip(tan.v.iter_mut()) {
+        for (g, v) in w.growth.iter_mut().zip(w.tangent.v.iter_mut()) {
             *g *= renormalise(v);
         }
     }
-    let finite = !lane.status.is_frozen();
-    Flow {
-        end: lane.x,
-        monodromy: finite.then(|| columns(&tan.v, &growth)),
-        min_clearance,
-        finite,
-    }
+    w
 }
 
 /// The identity's columns: the tangent vectors a monodromy matrix starts from.
@@ -196,20 +225,7 @@ pub fn min_clearance(
     periods: u32,
     stepper: &StepperConfig,
 ) -> f64 {
-    let lc = LaneConsts::<f64>::new(p, omega, stepper);
-    let mut lane = Lane::<f64>::new(x0, p.delta);
-    let mut min_clearance = -penetration(p.delta, &lane.x);
-    'periods: for _ in 0..periods {
-        for _ in 0..stepper.steps_per_period {
-            let before = lane.x;
-            crate::integrate::lane::macro_step(&lc, &mut lane);
-            if lane.status.is_frozen() {
-                break 'periods;
-            }
-            min_clearance = min_clearance.min(p.delta - max_distance(&before, &lane.x, lc.h));
-        }
-    }
-    min_clearance
+    walk::<0>(p, omega, x0, periods, stepper, []).min_clearance
 }
 
 /// The largest rotor-stator distance |d| over a macro step of length `h` from state `a`
@@ -272,12 +288,8 @@ pub fn advance(
     periods: u32,
     stepper: &StepperConfig,
 ) -> Option<State> {
-    let lc = LaneConsts::<f64>::new(p, omega, stepper);
-    let mut lane = Lane::<f64>::new(x0, p.delta);
-    for _ in 0..periods {
-        crate::integrate::lane::advance_period(&lc, &mut lane);
-    }
-    (!lane.status.is_frozen()).then_some(lane.x)
+    let f = end_of(p, omega, x0, periods, stepper);
+    f.finite.then_some(f.end)
 }
 
 /// A periodic orbit.
@@ -365,14 +377,13 @@ pub fn shoot(p: &Params, omega: f64, x0: &State, period: u32, cfg: &ShootConfig)
         params: p.clone(),
         omega,
         x0: *x0,
+        period,
     };
-    shoot_many(&CpuFlows, &[start], period, cfg)?
-        .pop()
-        .expect("one start, one result")
+    shoot_one(&CpuFlows, start, cfg)?
 }
 
-/// A start of [`shoot_many`]: a guess `x0` for an orbit of the model `params` at speed
-/// `omega`.
+/// A start of [`shoot_many`]: a guess `x0` for a period-`period` orbit of the model
+/// `params` at speed `omega`.
 #[derive(Clone, Debug)]
 pub struct Start {
     /// The model.
@@ -381,6 +392,16 @@ pub struct Start {
     pub omega: f64,
     /// The guess, a state at t = 0.
     pub x0: State,
+    /// Period of the orbit in forcing periods.
+    pub period: u32,
+}
+
+/// [`shoot_many`] of one start: the outer error refuses the period or reports the
+/// engine's failure, the inner one refuses the start or says it did not converge.
+pub fn shoot_one(engine: &dyn Flows, start: Start, cfg: &ShootConfig) -> Result<Result<Orbit>> {
+    Ok(shoot_many(engine, &[start], cfg)?
+        .pop()
+        .expect("one start, one result"))
 }
 
 /// Where one start's Newton iteration stands.
@@ -397,27 +418,20 @@ struct Newton {
     done: Option<Result<Orbit>>,
 }
 
-/// Shoots period-`period` orbits from many starts at once: every Newton iteration (and
-/// every halving of its step) of all starts not yet converged is one call of `engine`,
-/// so a GPU runs them as lanes side by side (issue 26: many orbits at once). Each start
-/// goes exactly the way [`shoot`] takes it alone, so its orbit does not depend on the
-/// others. The outer error refuses the input (`period`, a start that is not finite) or
-/// reports the engine's failure; each start's own result says whether it converged.
+/// Shoots orbits from many starts at once, each of its own period: every Newton
+/// iteration (and every halving of its step) of all starts not yet converged is one
+/// call of `engine`, so a GPU runs them as lanes side by side (issue 26: many orbits at
+/// once). Each start goes exactly the way [`shoot`] takes it alone, so its orbit does
+/// not depend on the others. The outer error refuses a `period` out of range or
+/// reports the engine's failure; each start's own result says whether it converged
+/// (a start that is not finite is refused there, naming `start`, the others go on).
 pub fn shoot_many(
     engine: &dyn Flows,
     starts: &[Start],
-    period: u32,
     cfg: &ShootConfig,
 ) -> Result<Vec<Result<Orbit>>> {
-    check_period(period)?;
     for s in starts {
-        if s.x0.iter().any(|v| !v.is_finite()) {
-            return Err(Error::invalid(
-                "start",
-                format!("{:?}", s.x0),
-                "must be finite",
-            ));
-        }
+        check_period(s.period)?;
     }
     let mut runs: Vec<Newton> = starts
         .iter()
@@ -428,7 +442,13 @@ pub fn shoot_many(
             it: 0,
             dx: [0.0; STATE_DIM],
             step: 1.0,
-            done: None,
+            done: s.x0.iter().any(|v| !v.is_finite()).then(|| {
+                Err(Error::invalid(
+                    "start",
+                    format!("{:?}", s.x0),
+                    "must be finite",
+                ))
+            }),
         })
         .collect();
     loop {
@@ -444,13 +464,13 @@ pub fn shoot_many(
                 params: starts[k].params.clone(),
                 omega: starts[k].omega,
                 x0: runs[k].trial(),
-                periods: period,
+                periods: starts[k].period,
                 want: Want::Monodromy,
             })
             .collect();
         let flows = engine.flows(&asks, &cfg.stepper)?;
         for ((&k, ask), f) in open.iter().zip(&asks).zip(flows) {
-            runs[k].take(&starts[k], ask.x0, f, period, cfg);
+            runs[k].take(&starts[k], ask.x0, f, cfg);
         }
     }
     Ok(runs
@@ -469,8 +489,8 @@ impl Newton {
     }
 
     /// Takes the flow `f` from `trial` (the state [`Newton::trial`] gave).
-    fn take(&mut self, s: &Start, trial: State, f: Flow, period: u32, cfg: &ShootConfig) {
-        let omega = s.omega;
+    fn take(&mut self, s: &Start, trial: State, f: Flow, cfg: &ShootConfig) {
+        let (omega, period) = (s.omega, s.period);
         let rt = residual(&trial, &f, omega);
         if self.f.is_some() && !(rt < self.res || self.step < 1.0 / 4096.0) {
             self.step *= 0.5;

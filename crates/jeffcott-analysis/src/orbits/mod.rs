@@ -23,7 +23,7 @@ use jeffcott_core::error::{Error, Result};
 use jeffcott_core::model::{Params, STATE_DIM, State};
 use jeffcott_core::orbit::{
     Complex, Flow, FlowAsk, Flows, ShootConfig, Start, Want, advance, metric, multipliers,
-    shoot_many,
+    shoot_many, shoot_one,
 };
 use nalgebra::{SMatrix, SVector};
 use serde::Serialize;
@@ -249,6 +249,17 @@ impl BranchSpec {
             x0: *x,
             periods,
             want,
+        }
+    }
+
+    /// A shot of a period-`period` orbit from `x` at value `v`.
+    pub(crate) fn start_at(&self, x: &State, v: f64, period: u32) -> Start {
+        let (params, omega) = self.at(v);
+        Start {
+            params,
+            omega,
+            x0: *x,
+            period,
         }
     }
 
@@ -513,7 +524,7 @@ fn near_chord(spec: &BranchSpec, x: &State, v: f64, a: &BranchPoint, b: &BranchP
         spec.scaled(&a.x, a.value),
         spec.scaled(&b.x, b.value),
     );
-    let seg: Vec<f64> = (0..=STATE_DIM).map(|i| zb[i] - za[i]).collect();
+    let seg: [f64; STATE_DIM + 1] = std::array::from_fn(|i| zb[i] - za[i]);
     let len2: f64 = seg.iter().map(|v| v * v).sum();
     if len2 == 0.0 || !len2.is_finite() {
         return false;
@@ -535,9 +546,10 @@ fn near_chord(spec: &BranchSpec, x: &State, v: f64, a: &BranchPoint, b: &BranchP
 /// the stiff penalty contact turns the branch within nanometres of arclength (MODEL.md:
 /// k_c = 1e8 N/m). The parameter itself is stepped instead (a natural-parameter step:
 /// the orbit shot at the new value from the last one), by 1e-6, 1e-5, then 1e-4 of the
-/// range along the branch's direction; the first that converges to a nearby orbit (within
-/// 100 times the step in the classification metric) is the next point, its tangent
-/// oriented along the last one. `None` when none does.
+/// range along the branch's direction; the first that converges to a nearby orbit (moved
+/// less than 100 x the step x max(range, 1) mm per unit of the parameter, in the
+/// classification metric) is the next point, its tangent oriented along the last one.
+/// `None` when none does.
 fn corner_step(
     spec: &BranchSpec,
     engine: &dyn Flows,
@@ -551,19 +563,11 @@ fn corner_step(
     let range = spec.hi - spec.lo;
     for frac in [1e-6, 1e-5, 1e-4] {
         let v = last.value + along * frac * range;
-        let (params, omega) = spec.at(v);
-        let start = Start {
-            params,
-            omega,
-            x0: last.x,
-        };
-        let Ok(o) = shoot_many(engine, &[start], spec.period, &spec.shoot)?
-            .pop()
-            .expect("one start, one result")
-        else {
+        let start = spec.start_at(&last.x, v, spec.period);
+        let Ok(o) = shoot_one(engine, start, &spec.shoot)? else {
             continue;
         };
-        let moved = metric(&std::array::from_fn(|i| o.x[i] - last.x[i]), omega);
+        let moved = metric(&std::array::from_fn(|i| o.x[i] - last.x[i]), o.omega);
         if moved > 100.0 * frac * range.abs().max(1.0) * 1e-3 {
             continue;
         }
@@ -587,15 +591,8 @@ fn corner_step(
 /// Continues the branch of `spec` (see the module docs), every flow on `engine`.
 pub fn continue_branch(spec: &BranchSpec, engine: &dyn Flows) -> Result<Branch> {
     spec.validate()?;
-    let (params, omega) = spec.at(spec.start_value);
-    let start = Start {
-        params,
-        omega,
-        x0: spec.start,
-    };
-    let orbit = shoot_many(engine, &[start], spec.period, &spec.shoot)?
-        .pop()
-        .expect("one start, one result")?;
+    let start = spec.start_at(&spec.start, spec.start_value, spec.period);
+    let orbit = shoot_one(engine, start, &spec.shoot)??;
     let (f0, fp0) = spec
         .linearise(engine, &orbit.x, spec.start_value)?
         .ok_or_else(|| {
@@ -765,43 +762,34 @@ pub fn doubled_branch(spec: &BranchSpec, b: &Bifurcation, engine: &dyn Flows) ->
     let collapsed = 1e3 * spec.shoot.tol;
     // Every trial start at once (one engine call per Newton iteration for all of them);
     // the first, in this order, that converges onto a true period-2n orbit is taken.
-    let mut trials = Vec::new();
+    let (mut sides, mut starts) = (Vec::new(), Vec::new());
     for side in [1.0, -1.0] {
         let value = b.value + side * step;
         if !(spec.lo..=spec.hi).contains(&value) {
             continue;
         }
-        let (params, omega) = spec.at(value);
         for eps in [1e-7, 1e-6, 1e-5, 1e-4] {
             let x0: State = std::array::from_fn(|i| b.x[i] + eps / v_size * v[i]);
-            trials.push((
-                side,
-                value,
-                Start {
-                    params: params.clone(),
-                    omega,
-                    x0,
-                },
-            ));
+            sides.push((side, value));
+            starts.push(spec.start_at(&x0, value, doubled));
         }
     }
-    let starts: Vec<Start> = trials.iter().map(|t| t.2.clone()).collect();
-    let shots = shoot_many(engine, &starts, doubled, &spec.shoot)?;
+    let shots = shoot_many(engine, &starts, &spec.shoot)?;
     // Not the period-n orbit: P^n(x) is another point.
-    let halves: Vec<FlowAsk> = trials
+    let halves: Vec<FlowAsk> = sides
         .iter()
         .zip(&shots)
-        .filter_map(|((_, value, _), o)| {
+        .filter_map(|(&(_, value), o)| {
             let o = o.as_ref().ok()?;
-            Some(spec.ask(&o.x, *value, spec.period, Want::End))
+            Some(spec.ask(&o.x, value, spec.period, Want::End))
         })
         .collect();
     let mut halves = engine.flows(&halves, &spec.shoot.stepper)?.into_iter();
-    for ((side, value, start), o) in trials.iter().zip(&shots) {
+    for ((side, value), o) in sides.iter().zip(&shots) {
         let Ok(o) = o else { continue };
         let half = halves.next().expect("one half per orbit");
         let d: State = std::array::from_fn(|i| half.end[i] - o.x[i]);
-        if half.finite && metric(&d, start.omega) > collapsed {
+        if half.finite && metric(&d, o.omega) > collapsed {
             return continue_branch(
                 &BranchSpec {
                     start: o.x,

@@ -244,49 +244,37 @@ pub fn run(study: &OrbitsStudy, engine: &dyn Flows) -> Result<Vec<Branch>> {
 }
 
 /// The branches from `study.starts`: every attractor's orbit shot at once (one engine
-/// call per Newton iteration for all of those of a period), then each continued. An
+/// call per Newton iteration for all of them), then each continued. An
 /// attractor whose orbit is not found is an error naming `from` and the attractor.
 fn from_attractors(study: &OrbitsStudy, engine: &dyn Flows) -> Result<Vec<(BranchSpec, Branch)>> {
     let spec = &study.branch;
-    let value = |s: &crate::orbit_starts::AttractorStart| s.value;
-    let mut periods: Vec<u32> = study.starts.iter().map(|s| s.period).collect();
-    periods.sort_unstable();
-    periods.dedup();
-    let mut orbits = vec![None; study.starts.len()];
-    for n in periods {
-        let mine: Vec<usize> = (0..study.starts.len())
-            .filter(|&k| study.starts[k].period == n)
-            .collect();
-        let shots: Vec<Start> = mine
-            .iter()
-            .map(|&k| {
-                let (params, omega) = spec.at(value(&study.starts[k]));
-                Start {
-                    params,
-                    omega,
-                    x0: study.starts[k].x,
-                }
-            })
-            .collect();
-        for (&k, o) in mine.iter().zip(shoot_many(engine, &shots, n, &spec.shoot)?) {
-            let o = o.map_err(|e| {
+    let shots: Vec<Start> = study
+        .starts
+        .iter()
+        .map(|s| spec.start_at(&s.x, s.value, s.period))
+        .collect();
+    // Every orbit found before any branch is continued.
+    let orbits = shoot_many(engine, &shots, &spec.shoot)?
+        .into_iter()
+        .zip(&study.starts)
+        .map(|(o, s)| {
+            o.map_err(|e| {
                 Error::invalid(
                     "from",
-                    &study.starts[k].label,
-                    format!("its period-{n} orbit was not found: {e}"),
+                    &s.label,
+                    format!("its period-{} orbit was not found: {e}", s.period),
                 )
-            })?;
-            orbits[k] = Some(o);
-        }
-    }
+            })
+        })
+        .collect::<Result<Vec<_>>>()?;
     study
         .starts
         .iter()
         .zip(orbits)
         .map(|(s, o)| {
             let b = BranchSpec {
-                start: o.expect("every start shot").x,
-                start_value: value(s),
+                start: o.x,
+                start_value: s.value,
                 period: s.period,
                 ..spec.clone()
             };

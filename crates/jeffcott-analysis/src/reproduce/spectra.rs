@@ -7,7 +7,7 @@
 
 use super::*;
 use jeffcott_core::model::STATE_DIM;
-use jeffcott_core::orbit::{Orbit, ShootConfig, shoot};
+use jeffcott_core::orbit::{CpuFlows, Orbit, ShootConfig, Start, shoot_many};
 
 /// 1 bit/s in 1/s: ln 2 = 0.693. The article's exponents are base-2 rates.
 pub const BIT: f64 = std::f64::consts::LN_2;
@@ -137,41 +137,62 @@ pub struct Floquet {
 /// found there. The start is the state where the spectrum ended: on the attractor the
 /// QR exponents describe, at t = kT (the forcing's phase 0, as shooting wants). The
 /// model parameters and the stepper are the spectrum's, so both routes see the same
-/// discrete map. A speed where shooting fails gets its error's message in its row.
+/// discrete map. All the orbits are shot at once (`orbit::shoot_many`: each as it
+/// would be alone). A speed where shooting fails gets its error's message in its row.
 pub fn floquet(spec: &ReproduceSpec, survey: &Survey, static_class: &[(f64, Class)]) -> Floquet {
     let t = std::time::Instant::now();
     let cfg = ShootConfig {
         stepper: spec.spectrum_config().stepper,
         ..ShootConfig::default()
     };
-    let (mut rows, mut skipped) = (Vec::new(), Vec::new());
+    let (mut periodic, mut skipped) = (Vec::new(), Vec::new());
     for s in &survey.spectra {
         let class = static_class
             .iter()
             .find(|(w, _)| *w == s.omega)
             .map(|&(_, c)| c);
         match class.and_then(|c| c.period()) {
-            Some(n) => rows.push(floquet_row(&spec.params, s, n as u32, &cfg)),
+            Some(n) => periodic.push((s, n as u32)),
             None => skipped.push((s.omega, class)),
         }
     }
+    let starts: Vec<Start> = periodic
+        .iter()
+        .map(|&(s, period)| Start {
+            params: spec.params.clone(),
+            omega: s.omega,
+            x0: s.final_state,
+            period,
+        })
+        .collect();
+    // (Refused as a whole only for a period out of range: every row says so.)
+    let orbits: Vec<std::result::Result<Orbit, String>> = match shoot_many(&CpuFlows, &starts, &cfg)
+    {
+        Ok(all) => all
+            .into_iter()
+            .map(|o| o.map_err(|e| e.to_string()))
+            .collect(),
+        Err(e) => vec![Err(e.to_string()); starts.len()],
+    };
+    let rows = periodic
+        .iter()
+        .zip(orbits)
+        .map(|(&(s, period), orbit)| {
+            let (qr, qr_errors) = sorted(s);
+            FloquetRow {
+                omega: s.omega,
+                period,
+                orbit,
+                qr,
+                qr_errors,
+            }
+        })
+        .collect();
     Floquet {
         rows,
         skipped,
         config: cfg,
         seconds: t.elapsed().as_secs_f64(),
-    }
-}
-
-/// The period-`period` orbit shot from the end of spectrum `s`, beside it.
-fn floquet_row(p: &Params, s: &Spectrum, period: u32, cfg: &ShootConfig) -> FloquetRow {
-    let (qr, qr_errors) = sorted(s);
-    FloquetRow {
-        omega: s.omega,
-        period,
-        orbit: shoot(p, s.omega, &s.final_state, period, cfg).map_err(|e| e.to_string()),
-        qr,
-        qr_errors,
     }
 }
 
