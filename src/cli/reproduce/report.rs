@@ -124,7 +124,16 @@ pub(super) fn spectra_table(
 ) -> String {
     let rule = sum_rule(params);
     let mut t = format!(
-        "\n## Lyapunov spectra at the article's speeds\n\nAll eight exponents [1/s] from the static equilibrium (`lyapunov::spectrum`: eight tangent vectors with the state, saltation at every contact switch, QR every period), each +- its error estimate (the larger of the batch-means standard error and the change over the last window). Sum rule (MODEL.md 6): the exponents sum to {rule:.2} 1/s. Command: `{cmd}`; the five spectra took {seconds:.1} s in all (in parallel).\n\n| W [rad/s] | lambda_1 | lambda_2 | lambda_3 | lambda_4 | lambda_5 | lambda_6 | lambda_7 | lambda_8 | sum (rule {rule:.1}) | accumulated [s] | stop | wall [s] |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
+        "\n## Lyapunov spectra at the article's speeds\n\nAll eight exponents [1/s] from the static equilibrium (`lyapunov::spectrum`: eight tangent vectors with the state, saltation at every contact switch, QR every period), each +- its error estimate (the larger of the batch-means standard error and the change over the last window). Sum rule (MODEL.md 6): the exponents sum to {rule:.2} 1/s. Command: `{cmd}`; the five spectra took {seconds:.1} s in all (in parallel).\n\n"
+    );
+    t += &exponent_columns(
+        &["W [rad/s]"],
+        &[
+            &format!("sum (rule {rule:.1})"),
+            "accumulated [s]",
+            "stop",
+            "wall [s]",
+        ],
     );
     for s in spectra {
         let _ = write!(t, "| {} |", s.omega);
