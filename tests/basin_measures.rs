@@ -5,10 +5,20 @@
 //! Every grid is built here; the only numbers written down are analytic expectations.
 
 use jeffcott_analysis::measures::{
-    BoundaryKind, DEFAULT_ENTROPY_BOX, LabelGrid, WadaOptions, basin_entropy, basin_fractions,
-    boundary_box_dimension, classify_boundary, uncertainty_exponent, wada_merge_test,
+    BoundaryClassification, BoundaryKind, DEFAULT_ENTROPY_BOX, LabelGrid, LogLogFit, WadaOptions,
+    basin_entropy, basin_fractions, boundary_box_dimension, classify_boundary,
+    uncertainty_exponent, wada_merge_test,
 };
 use std::f64::consts::{LN_2, PI};
+
+/// `grid`'s boundary classified, with its uncertainty-exponent and box-counting fits
+/// (both must exist).
+fn classified_with_fits(grid: &LabelGrid) -> (BoundaryClassification, LogLogFit, LogLogFit) {
+    let c = classify_boundary(grid, DEFAULT_ENTROPY_BOX).unwrap();
+    let u = c.uncertainty.fit.unwrap();
+    let b = c.box_counting.as_ref().unwrap().fit.unwrap();
+    (c, u, b)
+}
 
 /// splitmix64 (Steele, Lea and Flood 2014): a seeded stream for random label grids.
 struct SplitMix64(u64);
@@ -284,9 +294,7 @@ fn a_straight_boundary_has_alpha_one_and_is_smooth() {
         ("tilted", tilted),
         ("steep", steep),
     ] {
-        let c = classify_boundary(&grid, DEFAULT_ENTROPY_BOX).unwrap();
-        let fit = c.uncertainty.fit.unwrap();
-        let boxes = c.box_counting.as_ref().unwrap().fit.unwrap();
+        let (c, fit, boxes) = classified_with_fits(&grid);
         eprintln!(
             "{name}: alpha = {:.4} +- {:.4}, box D = {:.4} +- {:.4}, S_bb = {:.4}, N_b = {}",
             fit.slope,
@@ -317,9 +325,7 @@ fn koch_curve_boundary_has_dimension_ln4_over_ln3() {
     let exact = 4f64.ln() / 3f64.ln();
     // Level 7: the shortest segment is 1000 / 3^7 = 0.46 cells, finer than the grid.
     let (_, grid) = koch_grid(1000, 7);
-    let c = classify_boundary(&grid, DEFAULT_ENTROPY_BOX).unwrap();
-    let u = c.uncertainty.fit.unwrap();
-    let b = c.box_counting.as_ref().unwrap().fit.unwrap();
+    let (c, u, b) = classified_with_fits(&grid);
     eprintln!(
         "Koch: 2 - alpha = {:.4} +- {:.4} (eps {}..{}), box counting {:.4} +- {:.4} (eps {}..{}), exact {exact:.4}; S_bb = {:.4}, kind {:?}",
         u.dimension,
@@ -401,10 +407,8 @@ fn newton_cubic_basins_are_wada_and_fractal() {
     let labels = newton_labels(3, n);
     let grid = LabelGrid::new(&labels, n, n).unwrap();
     let fractions = basin_fractions(&grid);
-    let c = classify_boundary(&grid, DEFAULT_ENTROPY_BOX).unwrap();
+    let (c, fit, boxes) = classified_with_fits(&grid);
     let w = wada_merge_test(&grid, &WadaOptions::default()).unwrap();
-    let fit = c.uncertainty.fit.unwrap();
-    let boxes = c.box_counting.as_ref().unwrap().fit.unwrap();
     eprintln!(
         "Newton z^3: labels {:?}, fractions {:?}\n  S_b = {:.4}, S_bb = {:.4}, N_b = {}/{}\n  alpha = {:.4} +- {:.4} (D = {:.4}), box D = {:.4} +- {:.4}\n  Wada r = {}, max mismatch = {:.4}, pairs {:?}\n  kind {:?}: {:?}",
         grid.labels(),

@@ -10,7 +10,7 @@ use jeffcott_core::lyapunov::{Spectrum, SpectrumConfig, spectrum};
 use jeffcott_core::model::{Params, STATE_DIM, State};
 
 mod common;
-use common::{jeffcott, jeffcott_out, json, ok, words};
+use common::{jeffcott, jeffcott_ok, jeffcott_out, json, ok, words};
 
 /// -2 (2 xi_r w_r + 2 xi_s w_s) for Table 1 (MODEL.md 6) [1/s].
 const TABLE1_TRACE: f64 = -2.0 * (2.0 * 0.02 * 140.0 + 2.0 * 0.05 * 540.0);
@@ -266,12 +266,7 @@ fn is_png(path: &std::path::Path) -> bool {
 
 #[test]
 fn lyapunov_command_writes_the_spectrum_for_one_speed_and_a_range() {
-    let dir = tempfile::tempdir().unwrap();
-    let one = dir.path().join("one");
-    ok(&jeffcott_out(
-        "lyapunov --omega 131.7 --transient 300 --time 5",
-        &one,
-    ));
+    let (dir, one) = jeffcott_ok("one", "lyapunov --omega 131.7 --transient 300 --time 5");
     let s = json(&one.join("spectrum.json"));
     assert_eq!(s["omega"], 131.7);
     let exps = s["exponents"].as_array().unwrap();

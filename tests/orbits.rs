@@ -320,13 +320,7 @@ fn a_period_doubling_is_found_where_the_brute_force_sees_period_1_turn_into_peri
 
 #[test]
 fn the_orbits_command_writes_the_branch_and_names_the_period_doubling_under_omega() {
-    let tmp = tempfile::tempdir().unwrap();
-    let out = tmp.path().join("orbits");
-    common::ok(&common::jeffcott_out(
-        "orbits --param omega:131.7:132.4 --quiet",
-        &out,
-    ));
-    let b = common::json(&out.join("branches.json"));
+    let (_tmp, out, b) = branches_of("orbits --param omega:131.7:132.4 --quiet");
     assert_eq!(b["param"], "omega");
     let branch = &b["branches"][0];
     assert_eq!(branch["period"], 1);
@@ -391,13 +385,7 @@ fn the_doubled_branch_born_at_the_period_doubling_holds_the_period_2_attractor_o
 
 #[test]
 fn the_orbits_command_follows_the_doubled_branch_when_asked() {
-    let tmp = tempfile::tempdir().unwrap();
-    let out = tmp.path().join("orbits");
-    common::ok(&common::jeffcott_out(
-        "orbits --param omega:131.7:132.4 --follow-doublings --quiet",
-        &out,
-    ));
-    let b = common::json(&out.join("branches.json"));
+    let (_tmp, out, b) = branches_of("orbits --param omega:131.7:132.4 --follow-doublings --quiet");
     let branches = b["branches"].as_array().unwrap();
     assert_eq!(branches.len(), 2);
     assert_eq!(
@@ -879,4 +867,12 @@ fn the_branch_from_the_contact_free_orbit_passes_grazing_and_the_corner_after_it
         ns_below.iter().any(|v| (v - ns).abs() < 1e-6),
         "Neimark-Sacker at {ns} from the attractor; from below: {ns_below:?}"
     );
+}
+
+/// Runs `line` (an `orbits` command) into a temporary directory: the directory (it
+/// lasts while held), the output directory and the branches.json written.
+fn branches_of(line: &str) -> (tempfile::TempDir, std::path::PathBuf, serde_json::Value) {
+    let (tmp, out) = common::jeffcott_ok("orbits", line);
+    let b = common::json(&out.join("branches.json"));
+    (tmp, out, b)
 }

@@ -238,16 +238,22 @@ fn rk4_converges_at_fourth_order_in_free_flight() {
     }
 }
 
+/// The rubbing transient the convergence tests integrate: Table 1 at 132.2 rad/s, from
+/// the static equilibrium with the rotor thrown at 0.9 m/s.
+fn rubbing_transient() -> (Params, f64, State) {
+    let p = Params::default();
+    let mut x0 = p.static_equilibrium();
+    x0[VX_R] = 0.9;
+    (p, 132.2, x0)
+}
+
 #[test]
 fn lane_stepper_converges_at_fourth_order_through_contact() {
     // The located crossings keep fourth order although the field is only C0 at g = 0
     // (MODEL.md 4.2). Error: worst position error over 20 Poincare points of a rubbing
     // transient; successive ratios wander (error contributions of both signs), so the
     // claim is on the least-squares order over N = 250..2000, with every ratio above 2^3.5.
-    let p = Params::default();
-    let omega = 132.2;
-    let mut x0 = p.static_equilibrium();
-    x0[VX_R] = 0.9;
+    let (p, omega, x0) = rubbing_transient();
     let reference = lane_run(&p, omega, x0, 32000, 20);
     let ns = [250u32, 500, 1000, 2000];
     let errs: Vec<f64> = ns
@@ -288,10 +294,7 @@ fn lane_stepper_converges_at_fourth_order_through_contact() {
 /// stays four with refinement on (the test above runs the default R).
 #[test]
 fn contact_refinement_divides_the_error_through_contact_at_equal_n() {
-    let p = Params::default();
-    let omega = 132.2;
-    let mut x0 = p.static_equilibrium();
-    x0[VX_R] = 0.9;
+    let (p, omega, x0) = rubbing_transient();
     let reference = lane_run_r(&p, omega, x0, 32000, 1, 20);
     let err = |r: u32| {
         lane_run_r(&p, omega, x0, 500, r, 20)

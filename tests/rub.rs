@@ -233,12 +233,10 @@ fn contact_statistics_equal_those_integrated_from_the_time_series() {
 
 #[test]
 fn a_cascade_shows_no_contact_below_the_rub_band_and_hysteresis_above_it() {
-    let tmp = tempfile::tempdir().unwrap();
-    let out = tmp.path().join("c");
-    ok(&jeffcott_out(
+    let (_tmp, out) = jeffcott_ok(
+        "c",
         "cascade --omega 120:170:26 --transient 100 --periods 12 --quiet",
-        &out,
-    ));
+    );
     let (shape, amp) = npy::<f64>(&out.join("cascade.npy"));
     assert_eq!(shape[..2], [2, 26]);
     let bins = shape[2] as usize;

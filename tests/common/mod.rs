@@ -73,6 +73,14 @@ pub fn jeffcott_temp(name: &str, line: &str) -> (tempfile::TempDir, PathBuf, Out
     (dir, out, o)
 }
 
+/// [`jeffcott_temp`] for a run that must succeed: the directory (it lasts while held)
+/// and the output path.
+pub fn jeffcott_ok(name: &str, line: &str) -> (tempfile::TempDir, PathBuf) {
+    let (dir, out, o) = jeffcott_temp(name, line);
+    ok(&o);
+    (dir, out)
+}
+
 /// Asserts that a run of `input` was refused: exit code 2, every one of `needles` in its
 /// stderr.
 pub fn assert_refused_naming(o: &Output, input: impl std::fmt::Debug, needles: &[&str]) {

@@ -532,6 +532,26 @@ impl CatalogueBuilder {
             .collect()
     }
 
+    /// [`CatalogueBuilder::add_block`] for lanes `lanes` of an ensemble result: their
+    /// points, their diverged flags and their lambda_1 where it has them.
+    pub fn add_result_lanes(
+        &mut self,
+        res: &jeffcott_core::ensemble::EnsembleResult,
+        lanes: std::ops::Range<usize>,
+    ) -> Vec<i32> {
+        let rec = res.recorded * STATE_DIM;
+        let frozen: Vec<bool> = res.status[lanes.clone()]
+            .iter()
+            .map(|s| s.is_frozen())
+            .collect();
+        self.add_block(
+            &res.poincare[lanes.start * rec..lanes.end * rec],
+            res.recorded,
+            &frozen,
+            res.lambda1.as_ref().map(|l| &l[lanes]),
+        )
+    }
+
     /// Classifies a block of lanes (in parallel) as [`CatalogueBuilder::add_block`]
     /// does, without adding them.
     pub fn classify_block(

@@ -14,7 +14,7 @@ use super::classify::Class;
 use super::rub::{RubFigures, rub_on_attractor, rub_periods};
 use crate::run::Host;
 use crate::run::lanes::{Control, LaneUnits, Split};
-use crate::run::{Array, Unit, UnitStore};
+use crate::run::{Array, Unit, Units};
 use crate::settings::LaneSettings;
 use jeffcott_core::ensemble::{EnsembleResult, EnsembleSpec, LaneSpec, RunInfo};
 use jeffcott_core::error::{Error, Result};
@@ -376,7 +376,14 @@ impl MapSpec {
     }
 }
 
-crate::record::unit_sized_spec!(MapSpec, cells_per_unit, unit_cells);
+crate::record::unit_sized_spec!(
+    MapSpec,
+    cells_per_unit,
+    unit_cells,
+    STAGE,
+    MapResult,
+    map_units
+);
 
 /// One attractor found in one cell.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -466,7 +473,7 @@ pub const STAGE: &str = "map";
 
 /// Computes a map in memory; `ctl.progress` counts lane-periods.
 pub fn map(spec: &MapSpec, ctl: Control) -> Result<MapResult> {
-    crate::run::in_memory(&spec.lane, ctl, |e, s, c| map_with(spec, e, s, c))
+    crate::run::in_memory(spec, ctl)
 }
 
 /// The cells of one unit from its ensemble result: per cell, its K lanes catalogued
@@ -479,8 +486,6 @@ fn reduce_cells(
     res: &EnsembleResult,
 ) -> Result<Vec<Cell>> {
     let k = spec.ics as usize;
-    let rec = res.recorded;
-    let per_lane = rec * jeffcott_core::model::STATE_DIM;
     let n_cells = e.lanes.len() / k;
     (0..n_cells)
         .into_par_iter()
@@ -491,16 +496,7 @@ fn reduce_cells(
             let p = &e.param_sets[e.lanes[j * k].param_set as usize];
             let w = e.lanes[j * k].omega;
             let mut b = CatalogueBuilder::new(w, spec.lane.catalogue);
-            let frozen: Vec<bool> = res.status[lanes.clone()]
-                .iter()
-                .map(|s| s.is_frozen())
-                .collect();
-            let labels = b.add_block(
-                &res.poincare[lanes.start * per_lane..lanes.end * per_lane],
-                rec,
-                &frozen,
-                res.lambda1.as_ref().map(|l| &l[lanes.clone()]),
-            );
+            let labels = b.add_result_lanes(res, lanes.clone());
             let cat = b.finish(labels);
             let mut attractors = Vec::with_capacity(cat.attractors.len());
             for a in &cat.attractors {
@@ -534,21 +530,12 @@ fn reduce_cells(
 /// Runs a map under `host` (its units committed to the host's store, its progress on
 /// the host's display as stage `map`): the front ends' entry point.
 pub fn run(spec: &MapSpec, engine: &crate::backend::Engine, host: &impl Host) -> Result<MapResult> {
-    let per_lane = (spec.transient + spec.periods) as u64;
-    host.progress(
-        crate::run::Stage::new(STAGE, spec.lane_periods(), per_lane),
-        |ctl| map_with(spec, engine, host.store(), ctl),
-    )
+    crate::run::under_host(spec, engine, host)
 }
 
 /// Computes a map unit by unit into `store` (resuming from the units it holds), then
 /// assembles the arrays from the units in order.
-pub fn map_with(
-    spec: &MapSpec,
-    engine: &crate::backend::Engine,
-    store: &dyn UnitStore,
-    ctl: Control,
-) -> Result<MapResult> {
+fn map_units(spec: &MapSpec, Units { engine, store, ctl }: Units) -> Result<MapResult> {
     spec.validate()?;
     let t0 = std::time::Instant::now();
     let cells = spec.cells();

@@ -64,9 +64,23 @@ pub trait StudySpec: Serialize + serde::de::DeserializeOwned + Clone {
 /// Implements [`StudySpec`] for `$spec`, whose `backend` field is set and whose unit
 /// size `$field` (an `Option`, `None` for the default) is recorded resolved by its
 /// method `$unit` (units of another size do not combine, so a resumed or merged run
-/// checks it).
+/// checks it); and [`crate::run::UnitStudy`], computed by `$compute` into `$output`
+/// under stage `$stage` (work: its `lane_periods`, `transient + periods` per lane).
 macro_rules! unit_sized_spec {
-    ($spec:ty, $field:ident, $unit:ident) => {
+    ($spec:ty, $field:ident, $unit:ident, $stage:expr, $output:ty, $compute:path) => {
+        impl $crate::run::UnitStudy for $spec {
+            type Output = $output;
+            const STAGE: &'static str = $stage;
+            fn lane_settings(&self) -> &$crate::settings::LaneSettings {
+                &self.lane
+            }
+            fn work(&self) -> (u64, u64) {
+                (self.lane_periods(), (self.transient + self.periods) as u64)
+            }
+            fn compute(&self, at: $crate::run::Units<'_>) -> jeffcott_core::error::Result<$output> {
+                $compute(self, at)
+            }
+        }
         impl $crate::record::StudySpec for $spec {
             fn resolved(&self) -> Self {
                 let $field = Some(self.$unit());

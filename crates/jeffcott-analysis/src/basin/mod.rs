@@ -19,7 +19,7 @@ pub mod study;
 
 use super::catalogue::{Catalogue, CatalogueBuilder, part_unit, unit_parts};
 use crate::run::lanes::{Control, LaneUnits, Split};
-use crate::run::{Array, UnitStore};
+use crate::run::{Array, Units};
 use crate::settings::LaneSettings;
 use jeffcott_core::ensemble::{EnsembleSpec, RunInfo};
 use jeffcott_core::error::{Error, Result};
@@ -277,9 +277,21 @@ impl BasinSpec {
         self.lanes_per_unit
             .unwrap_or_else(|| crate::run::unit_lanes(self.x.n * self.y.n, per_lane))
     }
+
+    /// Lane-periods of the whole grid (for progress and estimates).
+    pub fn lane_periods(&self) -> u64 {
+        (self.x.n * self.y.n) as u64 * (self.transient + self.periods) as u64
+    }
 }
 
-crate::record::unit_sized_spec!(BasinSpec, lanes_per_unit, unit_lanes);
+crate::record::unit_sized_spec!(
+    BasinSpec,
+    lanes_per_unit,
+    unit_lanes,
+    STAGE,
+    BasinResult,
+    basin_units
+);
 
 /// Most cells a basin may have: 1e9 (4 GB of labels, 12 GB with lambda_1; at the
 /// default 564 periods per cell about 16 hours at 1e7 lane-periods/s, a large GPU).
@@ -336,7 +348,7 @@ impl BasinSpec {
 
 /// Computes a basin in memory; `ctl.progress` counts lane-periods.
 pub fn basin(spec: &BasinSpec, ctl: Control) -> Result<BasinResult> {
-    crate::run::in_memory(&spec.lane, ctl, |e, s, c| basin_with(spec, e, s, c))
+    crate::run::in_memory(spec, ctl)
 }
 
 /// Computes a basin unit by unit into `store` (resuming from the units it holds), then
@@ -345,12 +357,7 @@ pub fn basin(spec: &BasinSpec, ctl: Control) -> Result<BasinResult> {
 /// labels, lambda_1 and partial catalogue only; the assembly absorbs the partial
 /// catalogues in unit order, so memory is the labels plus one unit, and the result
 /// depends on the specification alone.
-pub fn basin_with(
-    spec: &BasinSpec,
-    engine: &crate::backend::Engine,
-    store: &dyn UnitStore,
-    ctl: Control,
-) -> Result<BasinResult> {
+fn basin_units(spec: &BasinSpec, Units { engine, store, ctl }: Units) -> Result<BasinResult> {
     spec.validate()?;
     let t0 = std::time::Instant::now();
     let (nx, ny) = (spec.x.n, spec.y.n);
@@ -361,8 +368,7 @@ pub fn basin_with(
     let ensemble = |u: usize| spec.ensemble(split.range(u).map(|c| spec.start(c % nx, c / nx)));
     let reduce = |_u: usize, _e: &EnsembleSpec, res: jeffcott_core::ensemble::EnsembleResult| {
         let mut b = CatalogueBuilder::new(spec.omega, spec.lane.catalogue);
-        let frozen: Vec<bool> = res.status.iter().map(|s| s.is_frozen()).collect();
-        let labels = b.add_block(&res.poincare, res.recorded, &frozen, res.lambda1.as_deref());
+        let labels = b.add_result_lanes(&res, 0..res.status.len());
         let (parts, labels, diverged) = b.finish_part(labels);
         let mut unit = part_unit(labels, &parts, diverged);
         if let Some(l) = res.lambda1 {

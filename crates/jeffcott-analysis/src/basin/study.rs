@@ -7,7 +7,7 @@
 //! build a [`BasinStudy`] and write or return the [`BasinOutcome`]; writers never
 //! integrate.
 
-use super::{BasinResult, BasinSpec, STAGE, basin_with};
+use super::{BasinResult, BasinSpec};
 use crate::backend::Engine;
 use crate::measures::{BasinMetrics, MetricsRecord};
 use crate::refine::Refined;
@@ -128,10 +128,7 @@ pub fn run(study: &BasinStudy, engine: &Engine, host: &impl Host) -> Result<Basi
     let per_lane = (coarse.transient + coarse.periods) as u64;
     let cells = (coarse.x.n * coarse.y.n) as u64;
     let store = host.store();
-    let res = host.progress(
-        crate::run::Stage::new(STAGE, cells * per_lane, per_lane),
-        |ctl| basin_with(coarse, engine, store, ctl),
-    )?;
+    let res = crate::run::under_host(coarse, engine, host)?;
     let (spec, result, refined) = if study.refine > 0 {
         // The boundary's lanes are not known in advance: the display counts the coarse
         // grid's size per level as a scale.

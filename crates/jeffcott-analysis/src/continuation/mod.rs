@@ -38,10 +38,9 @@ pub use spec::{ContinuationSpec, Direction, Fields, directions, parse_box, unifo
 
 use super::catalogue::CatalogueBuilder;
 use crate::run::lanes::{Control, LaneUnits, Split};
-use crate::run::{Unit, UnitStore};
+use crate::run::{Unit, UnitStore, Units};
 use jeffcott_core::ensemble::{EnsembleResult, EnsembleSpec, RunInfo};
 use jeffcott_core::error::{Error, Result};
-use jeffcott_core::model::STATE_DIM;
 use serde::{Deserialize, Serialize};
 
 /// A computed continuation.
@@ -64,7 +63,7 @@ pub const FRESH: &str = "fresh";
 
 /// Computes a continuation in memory; `ctl.progress` counts lane-periods of the fresh pass.
 pub fn continuation(spec: &ContinuationSpec, ctl: Control) -> Result<ContinuationResult> {
-    crate::run::in_memory(&spec.lane, ctl, |e, s, c| continuation_with(spec, e, s, c))
+    crate::run::in_memory(spec, ctl)
 }
 
 /// Runs a continuation (or a basin stability, the same study) under `host` (its units
@@ -75,19 +74,13 @@ pub fn run(
     engine: &crate::backend::Engine,
     host: &impl crate::run::Host,
 ) -> Result<ContinuationResult> {
-    let per_lane = (spec.transient + spec.periods) as u64;
-    host.progress(
-        crate::run::Stage::new("continuation", spec.lane_periods(), per_lane),
-        |ctl| continuation_with(spec, engine, host.store(), ctl),
-    )
+    crate::run::under_host(spec, engine, host)
 }
 
 /// Runs the continuation unit by unit into `store` (resuming from what it holds).
-pub fn continuation_with(
+pub(super) fn continuation_units(
     spec: &ContinuationSpec,
-    engine: &crate::backend::Engine,
-    store: &dyn UnitStore,
-    ctl: Control,
+    Units { engine, store, ctl }: Units,
 ) -> Result<ContinuationResult> {
     spec.validate()?;
     let t0 = std::time::Instant::now();
@@ -109,21 +102,11 @@ pub fn continuation_with(
         e
     };
     let reduce = |u: usize, _e: &EnsembleSpec, res: EnsembleResult| {
-        let rec = res.recorded * STATE_DIM;
         let values = split.range(u).enumerate().map(|(j, i)| {
             let lanes = j * k..(j + 1) * k;
             let (_, w) = spec.value_params(i);
             let mut b = CatalogueBuilder::new(w, spec.lane.catalogue);
-            let frozen: Vec<bool> = res.status[lanes.clone()]
-                .iter()
-                .map(|s| s.is_frozen())
-                .collect();
-            let labels = b.add_block(
-                &res.poincare[lanes.start * rec..lanes.end * rec],
-                res.recorded,
-                &frozen,
-                res.lambda1.as_ref().map(|l| &l[lanes.clone()]),
-            );
+            let labels = b.add_result_lanes(&res, lanes);
             (b, labels)
         });
         Ok(fresh_unit(values))

@@ -82,7 +82,14 @@ pub struct ContinuationSpec {
     pub values_per_unit: Option<usize>,
 }
 
-crate::record::unit_sized_spec!(ContinuationSpec, values_per_unit, unit_values);
+crate::record::unit_sized_spec!(
+    ContinuationSpec,
+    values_per_unit,
+    unit_values,
+    "continuation",
+    super::ContinuationResult,
+    super::continuation_units
+);
 
 /// The continued parameter as `run.json` records it: name and range, no spacing (a
 /// continuation's values are evenly spaced): `#[serde(with = "linear_axis")]`.

@@ -190,6 +190,13 @@ impl<'a> AtSpeed<'a> {
     }
 }
 
+/// `work`'s value and its wall time [s].
+fn timed<T>(work: impl FnOnce() -> Result<T>) -> Result<(T, f64)> {
+    let t = std::time::Instant::now();
+    let value = work()?;
+    Ok((value, t.elapsed().as_secs_f64()))
+}
+
 /// What the report's head quotes once every section is done.
 #[derive(Clone, Debug)]
 pub struct ReproduceResult {
@@ -212,20 +219,19 @@ pub fn reproduce<H: Host>(spec: &ReproduceSpec, host: &mut H) -> Result<Reproduc
 
     host.begin(1, "bifurcation diagram over 130..141 rad/s");
     let b = spec.bifurcation()?;
-    let res = crate::bifurcation::run(&b, &crate::run::PrefixedHost::new(&*host, "bifurcation"))?;
+    let res = crate::bifurcation::run(&b, &host.prefixed("bifurcation"))?;
     host.section(Section::Bifurcation {
         spec: &b,
         res: &res,
     })?;
     // The periodic orbits behind the diagram, stable and unstable (issue 26).
-    let t = Instant::now();
     let o = spec.orbits();
-    let branches = crate::orbits::run(&o, &jeffcott_core::orbit::CpuFlows)?;
+    let (branches, seconds) = timed(|| crate::orbits::run(&o, &jeffcott_core::orbit::CpuFlows))?;
     host.section(Section::Orbits {
         study: &o,
         branches: &branches,
         background: &res,
-        seconds: t.elapsed().as_secs_f64(),
+        seconds,
     })?;
     drop(res);
 
@@ -233,10 +239,7 @@ pub fn reproduce<H: Host>(spec: &ReproduceSpec, host: &mut H) -> Result<Reproduc
     for k in 0..ZOOMS.len() {
         let t = Instant::now();
         let z = spec.zoom(k)?;
-        let res = crate::bifurcation::run(
-            &z,
-            &crate::run::PrefixedHost::new(&*host, ["zoom0", "zoom1"][k]),
-        )?;
+        let res = crate::bifurcation::run(&z, &host.prefixed(["zoom0", "zoom1"][k]))?;
         host.section(Section::Zoom {
             k,
             spec: &z,
@@ -271,11 +274,8 @@ pub fn reproduce<H: Host>(spec: &ReproduceSpec, host: &mut H) -> Result<Reproduc
 
     host.begin(6, "basin of attraction at 133 rad/s");
     let t = Instant::now();
-    let outcome = crate::basin::study::run(
-        &spec.basin_study(),
-        &engine,
-        &crate::run::PrefixedHost::new(&*host, "basin_133"),
-    )?;
+    let outcome =
+        crate::basin::study::run(&spec.basin_study(), &engine, &host.prefixed("basin_133"))?;
     let sim = spec.portrait(133.0);
     let class = AtSpeed::run(&sim, 133.0, &survey, lambda_tol, &mut static_class)?.class;
     host.section(Section::Basin {
@@ -300,35 +300,26 @@ pub fn reproduce<H: Host>(spec: &ReproduceSpec, host: &mut H) -> Result<Reproduc
     let floquet = floquet(spec, &survey, &static_class);
 
     host.begin(8, "design chart: speed against unbalance");
-    let t = Instant::now();
     let m = spec.design_map();
-    let res = crate::map::run(
-        &m,
-        &engine,
-        &crate::run::PrefixedHost::new(&*host, "map_w_e"),
-    )?;
+    let (res, seconds) = timed(|| crate::map::run(&m, &engine, &host.prefixed("map_w_e")))?;
     host.section(Section::DesignChart {
         spec: &m,
         res: &res,
         findings: &MapFindings::of(&m, &res, 0.001),
-        seconds: t.elapsed().as_secs_f64(),
+        seconds,
     })?;
     drop(res);
 
     host.begin(9, "attractor continuation over 130..141 rad/s");
-    let t = Instant::now();
     let c = spec.continuation();
-    let res = crate::continuation::run(
-        &c,
-        &engine,
-        &crate::run::PrefixedHost::new(&*host, "continuation"),
-    )?;
+    let (res, seconds) =
+        timed(|| crate::continuation::run(&c, &engine, &host.prefixed("continuation")))?;
     let ramps: Vec<RampFindings> = res.ramps.iter().map(RampFindings::of).collect();
     host.section(Section::Continuation {
         spec: &c,
         res: &res,
         ramps: &ramps,
-        seconds: t.elapsed().as_secs_f64(),
+        seconds,
     })?;
     drop(res);
 
@@ -338,11 +329,7 @@ pub fn reproduce<H: Host>(spec: &ReproduceSpec, host: &mut H) -> Result<Reproduc
     );
     let t = Instant::now();
     let r = spec.rub_map();
-    let res = crate::map::run(
-        &r,
-        &engine,
-        &crate::run::PrefixedHost::new(&*host, "map_w_mu"),
-    )?;
+    let res = crate::map::run(&r, &engine, &host.prefixed("map_w_mu"))?;
     // Backward whirl from a backward throw, stiff and soft contact (docs/rub.md).
     let throws = [(0.3, 1e8), (0.25, 1e6)]
         .into_iter()
@@ -367,13 +354,12 @@ pub fn reproduce<H: Host>(spec: &ReproduceSpec, host: &mut H) -> Result<Reproduc
         seconds: t.elapsed().as_secs_f64(),
     })?;
     drop(res);
-    let t = Instant::now();
     let k = spec.cascade()?;
-    let res = crate::cascade::run(&k, &crate::run::PrefixedHost::new(&*host, "cascade"))?;
+    let (res, seconds) = timed(|| crate::cascade::run(&k, &host.prefixed("cascade")))?;
     host.section(Section::Cascade {
         spec: &k,
         res: &res,
-        seconds: t.elapsed().as_secs_f64(),
+        seconds,
     })?;
     drop(res);
     let t = Instant::now();

@@ -37,6 +37,13 @@ pub trait Host {
     fn store(&self) -> &dyn UnitStore;
     /// Runs `stage` under the host's progress display and cancel flag.
     fn progress<T>(&self, stage: Stage<'_>, work: impl FnOnce(Control) -> Result<T>) -> Result<T>;
+    /// This host with its store seen under `prefix` ([`PrefixedHost`]).
+    fn prefixed<'a>(&'a self, prefix: &'a str) -> PrefixedHost<'a, Self>
+    where
+        Self: Sized,
+    {
+        PrefixedHost::new(self, prefix)
+    }
 }
 
 /// A host for library calls: units in memory, every stage reported through one

@@ -233,16 +233,62 @@ impl UnitStore for MemoryStore {
 
 pub use jeffcott_core::control::{Cancel, ProgressFn, no_progress};
 
+/// Where a study computed unit by unit runs: the engine its lanes go to, the store its
+/// units are committed to (and resumed from), and the progress and cancel control.
+#[derive(Clone, Copy)]
+pub struct Units<'a> {
+    /// The engine the lanes run on.
+    pub engine: &'a crate::backend::Engine,
+    /// Where the units are committed and found again on resume.
+    pub store: &'a dyn UnitStore,
+    /// Progress (lane-periods) and cancel.
+    pub ctl: lanes::Control<'a>,
+}
+
+/// A study computed unit by unit into a [`UnitStore`] (resumable and shardable): the
+/// basin, the map and the continuation. It runs the same way in memory (the library
+/// calls, [`in_memory`]) and under a front end's host ([`under_host`]).
+pub trait UnitStudy {
+    /// What the study computes.
+    type Output;
+    /// The progress label of its units.
+    const STAGE: &'static str;
+    /// Its lane settings (the backend and precision of the engine [`in_memory`] opens).
+    fn lane_settings(&self) -> &crate::settings::LaneSettings;
+    /// Its work [lane-periods] and the lane-periods of one lane.
+    fn work(&self) -> (u64, u64);
+    /// Computes it unit by unit into `at.store`, resuming from the units it holds.
+    fn compute(&self, at: Units<'_>) -> Result<Self::Output>;
+}
+
 /// Runs a study in memory (a [`MemoryStore`], nothing written) on a freshly opened
 /// engine, reporting and stopped through `ctl`: the library entry points of the studies
-/// (`basin`, `map`, `continuation`) are this around their `*_with` form.
-pub fn in_memory<T>(
-    lane: &crate::settings::LaneSettings,
-    ctl: lanes::Control,
-    study: impl FnOnce(&crate::backend::Engine, &dyn UnitStore, lanes::Control) -> Result<T>,
-) -> Result<T> {
+/// (`basin`, `map`, `continuation`).
+pub fn in_memory<S: UnitStudy>(study: &S, ctl: lanes::Control) -> Result<S::Output> {
+    let lane = study.lane_settings();
     let engine = crate::backend::Engine::new(lane.backend, lane.precision)?;
-    study(&engine, &MemoryStore::new(), ctl)
+    study.compute(Units {
+        engine: &engine,
+        store: &MemoryStore::new(),
+        ctl,
+    })
+}
+
+/// Runs a study on `engine` under `host`: its units committed to the host's store, its
+/// progress on the host's display as stage [`UnitStudy::STAGE`] (the front ends' entry).
+pub fn under_host<S: UnitStudy>(
+    study: &S,
+    engine: &crate::backend::Engine,
+    host: &impl Host,
+) -> Result<S::Output> {
+    let (total, per_lane) = study.work();
+    host.progress(Stage::new(S::STAGE, total, per_lane), |ctl| {
+        study.compute(Units {
+            engine,
+            store: host.store(),
+            ctl,
+        })
+    })
 }
 
 /// Lane-steps per unit at most: about 25 s on the 2-core CPU the defaults were measured

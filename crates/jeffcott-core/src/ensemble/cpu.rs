@@ -29,6 +29,19 @@ struct Outcome {
     lambda1: f64,
 }
 
+impl Outcome {
+    /// Appends this lane to `res` (its lambda_1 where `res` keeps them).
+    fn append_to(self, res: &mut EnsembleResult) {
+        if let Some(l) = res.lambda1.as_mut() {
+            l.push(self.lambda1);
+        }
+        res.poincare.extend_from_slice(&self.points);
+        res.final_state.push(self.final_state);
+        res.status.push(self.status);
+        res.counters.push(self.counters);
+    }
+}
+
 fn run_lane<R: Real>(spec: &EnsembleSpec, i: usize, cancel: &Cancel) -> Option<Outcome> {
     let lc = spec.lane_consts::<R>(i);
     let mut lane = spec.initial_lane::<R>(i);
@@ -311,13 +324,7 @@ pub fn run(spec: &EnsembleSpec, lambda1: bool, ctl: Control) -> Result<EnsembleR
     let outcomes = outcomes.into_iter().flatten();
     let mut res = EnsembleResult::with_capacity(spec.lanes.len(), spec.recorded, lambda1);
     for o in outcomes {
-        if let Some(l) = res.lambda1.as_mut() {
-            l.push(o.lambda1);
-        }
-        res.poincare.extend_from_slice(&o.points);
-        res.final_state.push(o.final_state);
-        res.status.push(o.status);
-        res.counters.push(o.counters);
+        o.append_to(&mut res);
     }
     super::mask_frozen_records(spec, &mut res);
     Ok(res)
@@ -566,13 +573,7 @@ pub fn run_early(
     let mut retired = Vec::with_capacity(n);
     let mut record_from = Vec::with_capacity(n);
     for (_, o, r, from) in all {
-        if let Some(l) = res.lambda1.as_mut() {
-            l.push(o.lambda1);
-        }
-        res.poincare.extend_from_slice(&o.points);
-        res.final_state.push(o.final_state);
-        res.status.push(o.status);
-        res.counters.push(o.counters);
+        o.append_to(&mut res);
         retired.push(r);
         record_from.push(from);
     }
