@@ -246,7 +246,7 @@ impl RunDir {
                 .and_then(|v| serde_json::from_value(v.clone()).ok()),
             _ => None,
         };
-        let rd = RunDir {
+        let run_dir = RunDir {
             dir: dir.to_path_buf(),
             command: command.to_string(),
             spec,
@@ -258,9 +258,9 @@ impl RunDir {
             stages: Default::default(),
             _lock: lock,
         };
-        rd.write_state("running", &serde_json::Map::new(), &[])?;
+        run_dir.write_state("running", &serde_json::Map::new(), &[])?;
         std::fs::create_dir_all(dir.join(UNITS)).map_err(io(&dir.join(UNITS)))?;
-        Ok(rd)
+        Ok(run_dir)
     }
 
     /// Removes the files of the run recorded in `old` (its `outputs`, and the `files` of
@@ -288,9 +288,9 @@ impl RunDir {
         if units.exists() {
             std::fs::remove_dir_all(&units).map_err(io(&units))?;
         }
-        let rj = dir.join(RUN_JSON);
-        if rj.exists() {
-            std::fs::remove_file(&rj).map_err(io(&rj))?;
+        let run_json = dir.join(RUN_JSON);
+        if run_json.exists() {
+            std::fs::remove_file(&run_json).map_err(io(&run_json))?;
         }
         Ok(())
     }
@@ -478,8 +478,8 @@ impl RunDir {
         self.check_lock()?;
         // run.json must still describe this run: another one writing here would have
         // rewritten it with its own command and specification.
-        let rj = self.dir.join(RUN_JSON);
-        let now: Option<serde_json::Value> = std::fs::read(&rj)
+        let run_json = self.dir.join(RUN_JSON);
+        let now: Option<serde_json::Value> = std::fs::read(&run_json)
             .ok()
             .and_then(|b| serde_json::from_slice(&b).ok());
         let ours = now.as_ref().is_some_and(|o| {
