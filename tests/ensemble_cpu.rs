@@ -185,6 +185,17 @@ fn simd_batches_equal_the_scalar_lane_stepper_to_the_bit() {
         for l in s.lanes.iter_mut().step_by(3) {
             l.param_set = 2;
         }
+        // A fourth with another unbalance phase for every seventh lane: its batches mix
+        // phases, so the forcing table serves some batches and not others (those
+        // evaluate the phasor), and a packed pass may mix both kinds.
+        let turned = jeffcott_core::model::Params {
+            phi0: 0.9,
+            ..s.param_sets[0].clone()
+        };
+        s.param_sets.push(turned);
+        for l in s.lanes.iter_mut().skip(4).step_by(7) {
+            l.param_set = 3;
+        }
         let r = cpu::run(&s, false, Control::none()).unwrap();
         let reference = match precision {
             Precision::F64 => scalar_reference::<f64>(&s),
@@ -312,4 +323,82 @@ fn grouped_batches_packing_lanes_across_batches_equal_the_scalar_stepper_to_the_
         bits(a.lambda1.as_ref().unwrap()),
         bits(b.lambda1.as_ref().unwrap())
     );
+}
+
+/// The forcing table (issue 28, item 3) holds, for every macro step and every fraction
+/// j/(2R), exactly the bits `lane::forcing_phasor` computes, in both precisions and for
+/// every R and phase; it answers nothing else (a fraction off its grid, a step past N),
+/// serves only lanes of its own N, phase and R, and is not built for R not a power of
+/// two or beyond its size cap. The batch runs above go through it and equal the scalar
+/// stepper to the bit.
+#[test]
+fn the_forcing_table_holds_the_polynomial_phasors_bit_for_bit_and_nothing_else() {
+    fn check<R: jeffcott_core::real::Real>(precision: Precision) {
+        use jeffcott_core::integrate::batch::{BATCH, ForcingTable};
+        use jeffcott_core::integrate::lane::forcing_phasor;
+        let bits = |v: R| v.to_f64().to_bits();
+        for r in [1u32, 2, 8] {
+            for phi0 in [0.0, 0.7, -2.5] {
+                let mut s = spec(precision, 3);
+                s.stepper.contact_substeps = r;
+                s.param_sets[0].phi0 = phi0;
+                let lc = s.lane_consts::<R>(0);
+                let table = ForcingTable::for_lane(&lc).expect("a table for R a power of two");
+                let two_r = 2 * r;
+                for k in 0..lc.n {
+                    // Each lane of the batch at another fraction of the grid.
+                    for j0 in 0..=two_r {
+                        let sigma: [R; BATCH] = std::array::from_fn(|l| {
+                            R::lit(((j0 as usize + l) % (two_r as usize + 1)) as f64 / two_r as f64)
+                        });
+                        let (c, sn) = table.lookup(k, &sigma).expect("on the grid");
+                        for l in 0..BATCH {
+                            let (pc, ps) = forcing_phasor(&lc, k, sigma[l]);
+                            assert_eq!(
+                                (bits(c[l]), bits(sn[l])),
+                                (bits(pc), bits(ps)),
+                                "{precision:?} R {r} phi0 {phi0} k {k} sigma {}",
+                                sigma[l].to_f64()
+                            );
+                        }
+                    }
+                }
+                // Off the grid, past the period: no answer.
+                let mut off = [R::lit(0.5); BATCH];
+                off[3] = R::lit(0.5 / two_r as f64 + 0.5);
+                assert!(
+                    table.lookup(0, &off).is_none(),
+                    "R {r}: a fraction off the grid"
+                );
+                assert!(table.lookup(lc.n, &[R::lit(0.0); BATCH]).is_none());
+                // Lanes of the same N, phase and R at any speed are served; another
+                // phase, N or R is not.
+                assert!(
+                    table.serves(&s.lane_consts::<R>(2)),
+                    "another speed, same phase"
+                );
+                let mut other = s.clone();
+                other.param_sets[0].phi0 = phi0 + 0.1;
+                assert!(!table.serves(&other.lane_consts::<R>(0)));
+                other = s.clone();
+                other.stepper.steps_per_period += 1;
+                assert!(!table.serves(&other.lane_consts::<R>(0)));
+                other = s.clone();
+                other.stepper.contact_substeps = 2 * r;
+                assert!(!table.serves(&other.lane_consts::<R>(0)));
+            }
+        }
+        // Not built where it cannot hold the bits or would be too large.
+        let mut s = spec(precision, 1);
+        let mut lc = s.lane_consts::<R>(0);
+        lc.inv_r = R::lit(1.0 / 3.0);
+        assert!(ForcingTable::for_lane(&lc).is_none(), "R = 3");
+        s.stepper.steps_per_period = (ForcingTable::<R>::MAX_ENTRIES / 5 + 1) as u32;
+        assert!(
+            ForcingTable::for_lane(&s.lane_consts::<R>(0)).is_none(),
+            "too large"
+        );
+    }
+    check::<f64>(Precision::F64);
+    check::<f32>(Precision::F32);
 }

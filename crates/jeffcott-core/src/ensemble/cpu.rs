@@ -10,7 +10,8 @@ use super::{EnsembleResult, EnsembleSpec, Precision};
 use crate::control::{Cancel, Control};
 use crate::error::{Error, Result};
 use crate::integrate::batch::{
-    BATCH, BatchConsts, GroupScratch, batch_macro_step_tangent, group_macro_step_tangent,
+    BATCH, BatchConsts, ForcingTable, GroupScratch, batch_macro_step_tangent,
+    group_macro_step_tangent,
 };
 use crate::integrate::lane::{
     Counters, LAMBDA1_START, Lane, LaneConsts, Status, Tangent, advance_period,
@@ -124,7 +125,13 @@ fn run_batch_inner<R: Real, const M: usize>(
     let lc: Vec<[LaneConsts<R>; BATCH]> = (0..batches)
         .map(|b| std::array::from_fn(|l| spec.lane_consts(lane_of(b, l))))
         .collect();
-    let bc: Vec<BatchConsts<R>> = lc.iter().map(BatchConsts::new).collect();
+    // The forcing table of the group's first lane (f64), for every batch it serves (a
+    // few thousand phasors, against three per lane-sub-step of the group's run).
+    let forcing = ForcingTable::for_batches(&lc[0][0]);
+    let bc: Vec<BatchConsts<R>> = lc
+        .iter()
+        .map(|l| BatchConsts::new(l, forcing.as_ref()))
+        .collect();
     let mut lanes: Vec<[Lane<R>; BATCH]> = (0..batches)
         .map(|b| std::array::from_fn(|l| spec.initial_lane(lane_of(b, l))))
         .collect();
@@ -401,7 +408,8 @@ fn run_refill_inner<R: Real, const M: usize>(
     for l in 0..BATCH {
         load(l, &mut lc, &mut state, &mut tan, &mut slot);
     }
-    let mut bc = BatchConsts::new(&lc);
+    let forcing = ForcingTable::for_batches(&lc[0]);
+    let mut bc = BatchConsts::new(&lc, forcing.as_ref());
     let mut out = Vec::with_capacity(lanes.len());
     let n = spec.stepper.steps_per_period;
     while slot.iter().any(Option::is_some) {
@@ -496,7 +504,7 @@ fn run_refill_inner<R: Real, const M: usize>(
             }
         }
         if refilled {
-            bc = BatchConsts::new(&lc);
+            bc = BatchConsts::new(&lc, forcing.as_ref());
         }
     }
     Some(out)

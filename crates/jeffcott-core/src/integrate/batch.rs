@@ -18,8 +18,8 @@
 
 use crate::integrate::forcing::phasor_turns;
 use crate::integrate::lane::{
-    Lane, LaneConsts, MacroStep, finish_macro_step, macro_step_begin, macro_step_end,
-    macro_step_tangent, trial_extent,
+    Lane, LaneConsts, MacroStep, finish_macro_step, forcing_phasor, macro_step_begin,
+    macro_step_end, macro_step_tangent, trial_extent,
 };
 use crate::integrate::switch::{GRAZE_SAMPLES, free_flight_certain, hermite_gap, wrong_side};
 use crate::integrate::tangent::{Tangent, jacobian_trace, stage_partials};
@@ -43,23 +43,135 @@ fn lanes<R: Copy>(f: impl FnMut(usize) -> R) -> [R; BATCH] {
 
 /// The lane constants of a batch, structure-of-arrays.
 #[derive(Clone, Copy, Debug)]
-pub struct BatchConsts<R> {
+pub struct BatchConsts<'t, R> {
     /// The equation coefficients, one value per lane in each field.
     c: Coeffs<V<R>>,
     h: V<R>,
     inv_n: V<R>,
     phase0: V<R>,
+    /// The forcing table, when it serves every lane of the batch.
+    forcing: Option<&'t ForcingTable<R>>,
 }
 
-impl<R: Real> BatchConsts<R> {
-    /// Transposes the constants of `BATCH` lanes.
-    pub fn new(lc: &[LaneConsts<R>; BATCH]) -> Self {
+impl<'t, R: Real> BatchConsts<'t, R> {
+    /// Transposes the constants of `BATCH` lanes; `forcing` is kept when it serves all
+    /// of them ([`ForcingTable::serves`]).
+    pub fn new(lc: &[LaneConsts<R>; BATCH], forcing: Option<&'t ForcingTable<R>>) -> Self {
         BatchConsts {
             c: Coeffs::transpose(&std::array::from_fn(|l| lc[l].c)),
             h: lanes(|l| lc[l].h),
             inv_n: lanes(|l| lc[l].inv_n),
             phase0: lanes(|l| lc[l].phase0),
+            forcing: forcing.filter(|t| lc.iter().all(|l| t.serves(l))),
         }
+    }
+}
+
+/// The unbalance phasor at every fraction a batch pass asks for, tabulated (issue 28,
+/// item 3): `lane::forcing_phasor` at sigma = j/(2R), j = 0..=2R, for every macro step
+/// k < N. A pass starts its sub-steps at multiples of 1/R (a lane that meets a switch
+/// leaves the batch), so its stages sit at such fractions, and a lookup replaces three
+/// ~40-flop polynomials per sub-step. The phasor's argument, (k + sigma)/N - phi0/(2 pi)
+/// turns, does not depend on W, so one table serves every lane with the same N, phi0
+/// and R, whatever its speed or parameters. Each entry is `forcing_phasor` of exactly
+/// the argument the polynomial path computes (j/(2R) is exact for R a power of two), so
+/// a lookup gives the polynomial's bits: the batch still equals the scalar stepper and
+/// the GPU kernel to the bit. Anything else (another phi0, a fraction off the grid, R
+/// not a power of two) takes the polynomial.
+#[derive(Clone, Debug)]
+pub struct ForcingTable<R> {
+    inv_n: R,
+    phase0: R,
+    inv_r: R,
+    n: u32,
+    /// 2R: the fractions per macro step.
+    two_r: u32,
+    /// (cos, sin) at [k][j], j = 0..=2R, flat.
+    values: Vec<[R; 2]>,
+}
+
+impl<R: Real> ForcingTable<R> {
+    /// Most entries a table holds (4 MiB in f64); a finer stepper takes the polynomial.
+    pub const MAX_ENTRIES: usize = 1 << 18;
+
+    /// The table the batch stepper uses for lanes like `lc`: in f64 only. Back to back
+    /// on the 2-core VM (`jeffcott bench --backend cpu --lanes 16384`, two rounds) the
+    /// table took f64 from 2.44-2.50e7 to 2.80-2.86e7 lane-steps/s, and f32 from
+    /// 3.66-3.68e7 down to 3.40-3.44e7: eight f32 lanes fill one AVX2 register, so the
+    /// polynomial costs less than eight scalar look-ups.
+    pub fn for_batches(lc: &LaneConsts<R>) -> Option<Self> {
+        if R::WGSL_NAME == "f64" {
+            Self::for_lane(lc)
+        } else {
+            None
+        }
+    }
+
+    /// The table for lanes with `lc`'s N, phi0 and R; `None` when R is not a power of
+    /// two or the table would exceed [`ForcingTable::MAX_ENTRIES`].
+    pub fn for_lane(lc: &LaneConsts<R>) -> Option<Self> {
+        let r = (1.0 / lc.inv_r.to_f64()).round();
+        if !(1.0..=65536.0).contains(&r) {
+            return None;
+        }
+        let r = r as u32;
+        if !r.is_power_of_two() || R::lit(1.0 / r as f64).to_f64() != lc.inv_r.to_f64() {
+            return None;
+        }
+        let two_r = 2 * r;
+        if lc.n as usize * (two_r as usize + 1) > Self::MAX_ENTRIES {
+            return None;
+        }
+        let values = (0..lc.n)
+            .flat_map(|k| {
+                (0..=two_r).map(move |j| {
+                    let (c, s) = forcing_phasor(lc, k, R::lit(j as f64 / two_r as f64));
+                    [c, s]
+                })
+            })
+            .collect();
+        Some(ForcingTable {
+            inv_n: lc.inv_n,
+            phase0: lc.phase0,
+            inv_r: lc.inv_r,
+            n: lc.n,
+            two_r,
+            values,
+        })
+    }
+
+    /// Whether the table holds `lc`'s phasors: the same N, phi0 and R, to the bit.
+    pub fn serves(&self, lc: &LaneConsts<R>) -> bool {
+        let same = |a: R, b: R| a.to_f64().to_bits() == b.to_f64().to_bits();
+        lc.n == self.n
+            && same(lc.inv_n, self.inv_n)
+            && same(lc.phase0, self.phase0)
+            && same(lc.inv_r, self.inv_r)
+    }
+
+    /// The phasors of macro step `k` at each lane's fraction `sigma`, when every
+    /// fraction is one of the table's (else `None`: the caller evaluates them).
+    #[inline(always)]
+    pub fn lookup(&self, k: u32, sigma: &V<R>) -> Option<(V<R>, V<R>)> {
+        if k >= self.n {
+            return None;
+        }
+        let per_k = self.two_r as usize + 1;
+        let scale = R::lit(self.two_r as f64);
+        let mut at = [0usize; BATCH];
+        for l in 0..BATCH {
+            // Exact: scale is a power of two, so j is an integer only when sigma is
+            // exactly j / (2R).
+            let j = sigma[l] * scale;
+            if !(j >= R::lit(0.0) && j <= scale && j == j.floor()) {
+                return None;
+            }
+            at[l] = k as usize * per_k + j.to_f64() as usize;
+        }
+        Some((
+            lanes(|l| self.values[at[l]][0]),
+            lanes(|l| self.values[at[l]][1]),
+        ))
     }
 }
 
@@ -77,9 +189,13 @@ fn lane_of<R: Copy>(x: &[V<R>; STATE_DIM], l: usize) -> [R; STATE_DIM] {
     std::array::from_fn(|i| x[i][l])
 }
 
-/// `lane::forcing_phasor` for every lane at its fraction `sigma` of macro step `k`.
+/// `lane::forcing_phasor` for every lane at its fraction `sigma` of macro step `k`:
+/// from the batch's [`ForcingTable`] where it holds them, else evaluated.
 #[inline(always)]
 fn phasor<R: Real>(bc: &BatchConsts<R>, k: u32, sigma: &V<R>) -> (V<R>, V<R>) {
+    if let Some(found) = bc.forcing.and_then(|t| t.lookup(k, sigma)) {
+        return found;
+    }
     let mut c = [R::lit(0.0); BATCH];
     let mut s = [R::lit(0.0); BATCH];
     for l in 0..BATCH {
@@ -528,7 +644,7 @@ pub fn group_macro_step_tangent<R: Real, const M: usize>(
             });
             let mut active: [bool; BATCH] = lanes(|i| i < pack.len());
             batch_pass(
-                &BatchConsts::new(&lc),
+                &BatchConsts::new(&lc, bcs.iter().find_map(|b| b.forcing)),
                 &lc,
                 k,
                 &mut part,
