@@ -6,7 +6,10 @@
 //! The count is exact for the code as written: every `+ - * /`, `sqrt`, comparison and
 //! negation the scalar stepper executes (the SIMD batch path executes the same
 //! operations per lane, plus the lanes it computes and discards while other lanes of its
-//! batch take contact sub-steps).
+//! batch take contact sub-steps). The f64 batch path looks the forcing phasors up
+//! (`batch::ForcingTable`) instead of evaluating them: the rate of flops is computed on
+//! the count without them (three phasors per RK4 sub-step; the few sub-steps located at
+//! a switch, which do evaluate them, are not added back).
 //!
 //! Usage: flop_count [LANES] [CORES] [GHZ] [FP_PORTS]   (default 16384 2 2.6 2: two
 //! 512-bit FMA ports per core, 8 f64 per register)
@@ -121,7 +124,7 @@ fn main() -> anyhow::Result<()> {
 
     // Count on a 512-lane sample of the workload (the same lanes `bench` starts).
     let spec = bench_spec(512, periods, Precision::F64, false);
-    let mut steps = 0u64;
+    let (mut steps, mut subs) = (0u64, 0u64);
     for i in 0..spec.lanes.len() {
         let lc = spec.lane_consts::<Counted>(i);
         let mut lane = spec.initial_lane::<Counted>(i);
@@ -129,7 +132,9 @@ fn main() -> anyhow::Result<()> {
             advance_period(&lc, &mut lane);
         }
         steps += lane.counters.macro_steps;
+        subs += lane.counters.macro_steps + lane.counters.extra_substeps;
     }
+    let sub_per_step = subs as f64 / steps as f64;
     let ops = OPS.with(|c| c.get());
     let per = |v: u64| v as f64 / steps as f64;
     let flops = per(ops[0] + ops[1] + ops[2] + ops[3]);
@@ -143,6 +148,19 @@ fn main() -> anyhow::Result<()> {
         per(ops[4]),
         per(ops[5])
     );
+
+    // The forcing phasors among them: three per RK4 sub-step, which the f64 batch path
+    // looks up in its table (`batch::ForcingTable`, issue 28 item 3) instead.
+    OPS.with(|c| c.set([0; 6]));
+    let _ = jeffcott_core::integrate::forcing::phasor_turns(Counted(0.3));
+    let one = OPS.with(|c| c.get());
+    let per_phasor = (one[0] + one[1] + one[2] + one[3]) as f64;
+    let forcing = per_phasor * 3.0 * sub_per_step;
+    println!(
+        "of which forcing: {forcing:.0} flops ({per_phasor:.0} per phasor, 3 per RK4 sub-step, {sub_per_step:.3} sub-steps per lane-step); the f64 batch path looks these up: {:.0} flops per lane-step",
+        flops - forcing
+    );
+    let flops = flops - forcing;
 
     // Time the real CPU path (batched, rayon) on the full workload.
     let spec = bench_spec(lanes, periods, Precision::F64, false);
