@@ -431,19 +431,31 @@ fn a_refined_and_reintegrated_basin_with_early_exit_has_the_cpus_labels_on_a_gpu
     );
 }
 
-/// A brute force over 131..134.5 rad/s (periodic and aperiodic speeds) on `backend`
-/// with early exit at `streak` (0: off): its output directory (kept alive).
-fn brute_force(backend: &str, streak: u32) -> (tempfile::TempDir, std::path::PathBuf) {
-    let tmp = tempfile::tempdir().unwrap();
-    let out = tmp.path().join("out");
-    ok(&jeffcott(&words(&format!(
-        "bifurcation --omega 131:134.5:12 --ics 4 --brute-transient 300 --periods 24 \
-         --max-seeds 4 --steps-per-period 200 --no-lyapunov --no-plot --quiet \
-         --precision f64 --backend {backend} --early-exit-streak {streak} --out {}",
-        out.display()
-    ))));
-    (tmp, out)
+/// Runs `line` (a study command) in f64 on `backend` with early exit at `streak` (0:
+/// off) into a temporary directory: the directory and the output path.
+fn early_run(line: &str, backend: &str, streak: u32) -> (tempfile::TempDir, std::path::PathBuf) {
+    jeffcott_ok(
+        "out",
+        &format!("{line} --precision f64 --backend {backend} --early-exit-streak {streak}"),
+    )
 }
+
+/// [`early_run`] of `line` with early exit on, on the CPU and on a GPU (`None`, the
+/// test skipped, without an f64 GPU; a failure when one is required).
+#[allow(clippy::type_complexity)]
+fn on_cpu_and_gpu(
+    line: &str,
+) -> Option<(
+    (tempfile::TempDir, std::path::PathBuf),
+    (tempfile::TempDir, std::path::PathBuf),
+)> {
+    gpu_f64_present().then(|| (early_run(line, "cpu", 16), early_run(line, "gpu", 16)))
+}
+
+/// A brute force over 131..134.5 rad/s (periodic and aperiodic speeds), for
+/// [`early_run`].
+const BRUTE_FORCE: &str = "bifurcation --omega 131:134.5:12 --ics 4 --brute-transient 300 \
+    --periods 24 --max-seeds 4 --steps-per-period 200 --no-lyapunov --no-plot --quiet";
 
 /// Per speed: each brute-force attractor's class and lane count, sorted.
 fn brute_classes(dir: &std::path::Path) -> Vec<Vec<(String, u64)>> {
@@ -451,22 +463,25 @@ fn brute_classes(dir: &std::path::Path) -> Vec<Vec<(String, u64)>> {
         .as_array()
         .unwrap()
         .iter()
-        .map(|w| {
-            let mut c: Vec<(String, u64)> = w["brute_force"]["attractors"]
-                .as_array()
-                .unwrap()
-                .iter()
-                .map(|a| {
-                    (
-                        a["class"].as_str().unwrap().into(),
-                        a["lanes"].as_u64().unwrap(),
-                    )
-                })
-                .collect();
-            c.sort();
-            c
-        })
+        .map(|w| class_counts(&w["brute_force"]["attractors"]))
         .collect()
+}
+
+/// An attractor list's (class, start-state count) pairs, sorted.
+fn class_counts(attractors: &serde_json::Value) -> Vec<(String, u64)> {
+    let mut c: Vec<(String, u64)> = attractors
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|a| {
+            (
+                a["class"].as_str().unwrap().into(),
+                a["lanes"].as_u64().unwrap(),
+            )
+        })
+        .collect();
+    c.sort();
+    c
 }
 
 #[test]
@@ -474,7 +489,10 @@ fn a_brute_force_with_early_exit_records_lanes_that_classify_as_in_the_full_leng
     // A lane recognised on a cycle of its speed during its transient records from
     // there; its record must classify as the full-length lane's does (it is recognised
     // only within half the classifier's repeat tolerance).
-    let (full, early) = (brute_force("cpu", 0), brute_force("cpu", 16));
+    let (full, early) = (
+        early_run(BRUTE_FORCE, "cpu", 0),
+        early_run(BRUTE_FORCE, "cpu", 16),
+    );
     let classes = brute_classes(&full.1);
     assert_eq!(classes, brute_classes(&early.1));
     let kinds: Vec<String> = classes.concat().into_iter().map(|c| c.0).collect();
@@ -493,10 +511,9 @@ fn a_brute_force_with_early_exit_records_lanes_that_classify_as_in_the_full_leng
 
 #[test]
 fn a_brute_force_with_early_exit_has_the_cpus_records_on_a_gpu() {
-    if !gpu_f64_present() {
+    let Some((cpu, gpu)) = on_cpu_and_gpu(BRUTE_FORCE) else {
         return;
-    }
-    let (cpu, gpu) = (brute_force("cpu", 16), brute_force("gpu", 16));
+    };
     assert_eq!(
         json(&gpu.1.join("run.json"))["brute_force_backend"]["backend"],
         "gpu"
@@ -512,18 +529,9 @@ fn a_brute_force_with_early_exit_has_the_cpus_records_on_a_gpu() {
 }
 
 /// Basin stability at 133 (two cycles) and 137.25 rad/s (a cycle and aperiodic clouds),
-/// 128 draws per speed, on `backend` with early exit at `streak` (0: off).
-fn stability(backend: &str, streak: u32) -> (tempfile::TempDir, std::path::PathBuf) {
-    let tmp = tempfile::tempdir().unwrap();
-    let out = tmp.path().join("out");
-    ok(&jeffcott(&words(&format!(
-        "basin-stability --omega 133:137.25:2 --sample 128 --box x_r:-0.006:0.006,vx_r:-1:1 \
-         --transient 250 --periods 16 --no-plot --quiet --precision f64 --backend {backend} \
-         --early-exit-streak {streak} --out {}",
-        out.display()
-    ))));
-    (tmp, out)
-}
+/// 128 draws per speed, for [`early_run`].
+const STABILITY: &str = "basin-stability --omega 133:137.25:2 --sample 128 \
+    --box x_r:-0.006:0.006,vx_r:-1:1 --transient 250 --periods 16 --no-plot --quiet";
 
 /// Per speed: each attractor's class and fraction, and the diverged fraction.
 fn stability_fractions(dir: &std::path::Path) -> Vec<(Vec<(String, f64)>, f64)> {
@@ -550,7 +558,10 @@ fn stability_fractions(dir: &std::path::Path) -> Vec<(Vec<(String, f64)>, f64)> 
 fn basin_stability_with_early_exit_has_the_fractions_of_the_full_length_run() {
     // The continuation's fresh lanes (basin stability's draws) in rounds per speed,
     // with lambda_1 (aperiodic lanes run whole and are told apart by it as before).
-    let (full, early) = (stability("cpu", 0), stability("cpu", 16));
+    let (full, early) = (
+        early_run(STABILITY, "cpu", 0),
+        early_run(STABILITY, "cpu", 16),
+    );
     assert_eq!(stability_fractions(&full.1), stability_fractions(&early.1));
     let saved = &json(&early.1.join("run.json"))["early_exit"];
     eprintln!("{saved}");
@@ -561,12 +572,77 @@ fn basin_stability_with_early_exit_has_the_fractions_of_the_full_length_run() {
 
 #[test]
 fn basin_stability_with_early_exit_has_the_cpus_fractions_on_a_gpu() {
-    if !gpu_f64_present() {
+    let Some((cpu, gpu)) = on_cpu_and_gpu(STABILITY) else {
         return;
-    }
-    let (cpu, gpu) = (stability("cpu", 16), stability("gpu", 16));
+    };
     let run = |d: &std::path::Path| json(&d.join("run.json"));
     assert_eq!(run(&gpu.1)["backend"]["backend"], "gpu");
     assert_eq!(run(&cpu.1)["early_exit"], run(&gpu.1)["early_exit"]);
     assert_eq!(stability_fractions(&cpu.1), stability_fractions(&gpu.1));
+}
+
+/// A map over speed and unbalance, 4 start states per cell (the first from the static
+/// equilibrium), for [`early_run`].
+const MAP: &str = "map --x omega:131:134.5:8 --y e:0.0008:0.0012:2 --ics 4 --transient 300 \
+    --periods 24 --steps-per-period 200 --no-lyapunov --no-plot --quiet";
+
+/// A map's per-cell figures of the equilibrium's attractor, then the attractor counts.
+const MAP_FILES: [&str; 6] = [
+    "class.npy",
+    "period.npy",
+    "contact.npy",
+    "peak_force.npy",
+    "regime.npy",
+    "attractors.npy",
+];
+
+/// Asserts that `files` are the same bytes in directories `a` and `b`.
+fn same_files(a: &std::path::Path, b: &std::path::Path, files: &[&str]) {
+    for f in files {
+        let read = |d: &std::path::Path| std::fs::read(d.join(f)).unwrap();
+        assert_eq!(read(a), read(b), "{f}");
+    }
+}
+
+/// Per cell: each attractor's class and start-state count, sorted.
+fn map_cells(dir: &std::path::Path) -> Vec<Vec<(String, u64)>> {
+    json(&dir.join("map.json"))["cell_attractors"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| class_counts(&c["attractors"]))
+        .collect()
+}
+
+/// Early exit in a map (issue 24, item 3): each cell's first start state (the static
+/// equilibrium) runs whole and catalogues the cell, the others are recognised on it and
+/// record from there. The cells find the attractors of the full-length run, with the
+/// same start-state counts; the per-cell figures of the equilibrium's attractor are
+/// those of the full-length run to the byte (its lane ran whole in both).
+#[test]
+fn a_map_with_early_exit_finds_the_attractors_of_the_full_length_run_in_every_cell() {
+    let (full, early) = (early_run(MAP, "cpu", 0), early_run(MAP, "cpu", 16));
+    let cells = map_cells(&full.1);
+    assert_eq!(cells, map_cells(&early.1));
+    let kinds: Vec<String> = cells.concat().into_iter().map(|c| c.0).collect();
+    assert!(kinds.iter().any(|k| k.starts_with("period")), "{kinds:?}");
+    same_files(&full.1, &early.1, &MAP_FILES[..5]);
+    let saved = &json(&early.1.join("run.json"))["early_exit"];
+    eprintln!("{saved}");
+    assert!(saved["retired"].as_u64() > Some(10), "{saved}");
+    assert!(saved["periods_run"].as_u64() < saved["periods_full"].as_u64());
+    assert!(json(&full.1.join("run.json")).get("early_exit").is_none());
+}
+
+#[test]
+fn a_map_with_early_exit_has_the_cpus_cells_on_a_gpu() {
+    let Some((cpu, gpu)) = on_cpu_and_gpu(MAP) else {
+        return;
+    };
+    same_files(&cpu.1, &gpu.1, &MAP_FILES);
+    assert_eq!(map_cells(&cpu.1), map_cells(&gpu.1));
+    assert_eq!(
+        json(&cpu.1.join("run.json"))["early_exit"],
+        json(&gpu.1.join("run.json"))["early_exit"]
+    );
 }

@@ -195,9 +195,11 @@ impl EarlyExitRecord for jeffcott_analysis::continuation::ContinuationResult {
     }
 }
 
-/// Maps run every lane whole (a cell's K lanes are too few for rounds at the default
-/// K = 1; docs/early-exit.md).
-impl EarlyExitRecord for jeffcott_analysis::map::MapResult {}
+impl EarlyExitRecord for jeffcott_analysis::map::MapResult {
+    fn early_exit(&self) -> Option<jeffcott_analysis::early::EarlySaved> {
+        self.early_exit
+    }
+}
 
 /// The writer options of the commands whose only file option is `--no-plot`.
 #[derive(Clone, Copy, Debug, Serialize, serde::Deserialize)]

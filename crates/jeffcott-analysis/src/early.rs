@@ -466,6 +466,130 @@ pub fn record_lanes(
     Ok((r.result, saved, info))
 }
 
+/// How [`records_by_group`] recognises its lanes.
+pub enum GroupRecognition {
+    /// Each group's first lane runs whole and catalogues the group for its other lanes
+    /// (nothing is known of a group before).
+    FirstLane,
+    /// Each group's lanes are recognised from the start by its recogniser (one per
+    /// group: an earlier pass's catalogues).
+    Known(Vec<Recogniser>),
+}
+
+/// Runs `ens`'s lanes with early exit in record mode ([`record_lanes`]): lane i belongs
+/// to group `group[i]` (a brute force's speed, a map's cell; groups consecutive), whose
+/// speed is `omegas[group]`, recognised as `how` says. The records come back in lane
+/// order, as a plain run gives them (points, final states, statuses, counters,
+/// lambda_1), with what early exit saved (the first lanes count as run whole) and the
+/// last round's run information (`None` when no lane was left for it).
+#[allow(clippy::too_many_arguments)]
+pub fn records_by_group(
+    ens: &EnsembleSpec,
+    group: &[usize],
+    omegas: &[f64],
+    how: GroupRecognition,
+    cfg: CatalogueConfig,
+    lambda1: bool,
+    engine: &Engine,
+    ctl: Control,
+) -> Result<(
+    jeffcott_core::ensemble::EnsembleResult,
+    EarlySaved,
+    Option<RunInfo>,
+)> {
+    use jeffcott_core::ensemble::EnsembleResult;
+    let streak = ens.stepper.early_exit_streak;
+    let n = ens.lanes.len();
+    let full = (ens.transient + ens.recorded) as u64;
+    if n == 0 {
+        // Groups without lanes (a brute force's speeds without seeds): nothing to run.
+        let empty = EnsembleResult::with_capacity(0, ens.recorded, lambda1);
+        return Ok((empty, EarlySaved::default(), None));
+    }
+    let sub = |pick: &[usize]| EnsembleSpec {
+        lanes: pick.iter().map(|&i| ens.lanes[i]).collect(),
+        ..ens.clone()
+    };
+    let (known, first, mut saved) = match how {
+        GroupRecognition::Known(rec) => (rec, None, EarlySaved::default()),
+        GroupRecognition::FirstLane => {
+            // Round 1: each group's first lane, whole; its catalogue recognises the rest.
+            let firsts: Vec<usize> = (0..n)
+                .filter(|&i| i == 0 || group[i] != group[i - 1])
+                .collect();
+            let r1 = engine.run(&sub(&firsts), lambda1, ctl)?.0;
+            let mut builders: Vec<CatalogueBuilder> = omegas
+                .iter()
+                .map(|&w| CatalogueBuilder::new(w, cfg))
+                .collect();
+            for (k, &i) in firsts.iter().enumerate() {
+                builders[group[i]].add_result_lanes(&r1, k..k + 1);
+            }
+            let rec = builders
+                .iter()
+                .map(|b| b.recogniser_to_record(streak))
+                .collect();
+            let saved = EarlySaved {
+                lanes: firsts.len() as u64,
+                retired: 0,
+                periods_run: firsts.len() as u64 * full,
+                periods_full: firsts.len() as u64 * full,
+            };
+            (rec, Some((firsts, r1)), saved)
+        }
+    };
+    let base = saved.periods_full;
+    let rest: Vec<usize> = match &first {
+        Some((firsts, _)) => (0..n)
+            .filter(|i| firsts.binary_search(i).is_err())
+            .collect(),
+        None => (0..n).collect(),
+    };
+    let rest_group: Vec<usize> = rest.iter().map(|&i| group[i]).collect();
+    let report = |d: u64, _: u64| (ctl.progress)(base + d, n as u64 * full);
+    // No lane may be left (one lane per group, or no lanes).
+    let (r2, info) = if rest.is_empty() {
+        (
+            EnsembleResult::with_capacity(0, ens.recorded, lambda1),
+            None,
+        )
+    } else {
+        let (r, s, i) = record_lanes(
+            &sub(&rest),
+            &ByGroup {
+                recognisers: &known,
+                group: &rest_group,
+            },
+            lambda1,
+            engine,
+            Control {
+                progress: &report,
+                cancel: ctl.cancel,
+            },
+        )?;
+        saved.add(&s);
+        (r, Some(i))
+    };
+    // The records back in lane order.
+    let mut from: Vec<(usize, &EnsembleResult, usize)> =
+        rest.iter().enumerate().map(|(k, &i)| (i, &r2, k)).collect();
+    if let Some((firsts, r1)) = &first {
+        from.extend(firsts.iter().enumerate().map(|(k, &i)| (i, r1, k)));
+    }
+    from.sort_unstable_by_key(|f| f.0);
+    let mut out = EnsembleResult::with_capacity(n, ens.recorded, lambda1);
+    for (_, r, k) in from {
+        out.poincare.extend_from_slice(r.lane_points(k));
+        out.final_state.push(r.final_state[k]);
+        out.status.push(r.status[k]);
+        out.counters.push(r.counters[k]);
+        if let (Some(l), Some(rl)) = (out.lambda1.as_mut(), r.lambda1.as_ref()) {
+            l.push(rl[k]);
+        }
+    }
+    Ok((out, saved, info))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -464,6 +464,9 @@ pub struct MapResult {
     pub cells: Vec<Cell>,
     /// Backend information of the last batch (`None` when every unit was committed).
     pub info: Option<RunInfo>,
+    /// What early exit saved (`None`: it ran without; a cell needs two or more start
+    /// states for it).
+    pub early_exit: Option<crate::early::EarlySaved>,
     /// Wall time [s].
     pub seconds: f64,
 }
@@ -569,15 +572,39 @@ fn map_units(spec: &MapSpec, Units { engine, store, ctl }: Units) -> Result<MapR
             precision: spec.lane.precision,
         }
     };
-    let reduce = |u: usize, e: &EnsembleSpec, res: EnsembleResult| {
-        let cells = reduce_cells(spec, u * per_unit, e, &res)?;
+    let cells_unit = |u: usize, e: &EnsembleSpec, res: &EnsembleResult| -> Result<Unit> {
+        let cells = reduce_cells(spec, u * per_unit, e, res)?;
         Ok(Unit::new("")
             .with("n", Array::U32(vec![cells.len() as u32]))
             .with_meta(&CellsMeta { cells }))
     };
+    let reduce = |u: usize, e: &EnsembleSpec, res: EnsembleResult| cells_unit(u, e, &res);
+    // Early exit (crate::early, record mode, as the bifurcation's brute force): each
+    // cell's first start state runs whole and catalogues the cell; the others are
+    // recognised on that catalogue during their transient and record their periods from
+    // there, then every lane is classified from its record as without early exit. Only
+    // with two or more start states per cell (with one there is nothing to recognise).
+    let early_on = spec.lane.early_exit() && k >= 2;
+    let early = |u: usize, e: &EnsembleSpec, engine: &crate::backend::Engine, c: Control| {
+        let group: Vec<usize> = (0..e.lanes.len()).map(|i| i / k).collect();
+        let omegas: Vec<f64> = e.lanes.iter().step_by(k).map(|l| l.omega).collect();
+        let (res, saved, info) = crate::early::records_by_group(
+            e,
+            &group,
+            &omegas,
+            crate::early::GroupRecognition::FirstLane,
+            spec.lane.catalogue,
+            spec.lane.lyapunov,
+            engine,
+            c,
+        )?;
+        let unit = cells_unit(u, e, &res)?.with("early", Array::F64(saved.to_array()));
+        Ok((unit, info))
+    };
     let info = LaneUnits::new(STAGE, split, &ensemble, &reduce)
         .lanes_per_item(k)
         .lambda1(spec.lane.lyapunov)
+        .computed_by(early_on.then_some(&early as &crate::run::lanes::ComputeUnit))
         .run(store, engine, ctl)?;
     let mut out = MapResult {
         class: Vec::with_capacity(cells),
@@ -589,10 +616,12 @@ fn map_units(spec: &MapSpec, Units { engine, store, ctl }: Units) -> Result<MapR
         regime: Vec::with_capacity(cells),
         cells: Vec::with_capacity(cells),
         info,
+        early_exit: None,
         seconds: 0.0,
     };
     for u in 0..count {
         let unit = store.load(STAGE, u)?;
+        crate::early::EarlySaved::accumulate(&mut out.early_exit, crate::early::unit_saved(&unit)?);
         for cell in unit.meta_as::<CellsMeta>()?.cells {
             out.push(cell);
         }

@@ -78,16 +78,9 @@ fn stage_unit(r: jeffcott_core::ensemble::EnsembleResult) -> Unit {
     unit
 }
 
-/// The lanes `pick` of `e` as an ensemble of their own.
-fn sub_ensemble(e: &EnsembleSpec, pick: &[usize]) -> EnsembleSpec {
-    EnsembleSpec {
-        lanes: pick.iter().map(|&i| e.lanes[i]).collect(),
-        ..e.clone()
-    }
-}
-
 /// Computes one brute-force unit with early exit: `e`'s lanes, lane i at the speed of
-/// group `group[i]`, `omegas[g]` each group's speed.
+/// group `group[i]`, `ws[g]` the index of each group's speed
+/// ([`crate::early::records_by_group`], the speeds as its groups).
 fn early_unit(
     spec: &BifurcationSpec,
     how: &BruteEarly,
@@ -97,92 +90,24 @@ fn early_unit(
     engine: &crate::backend::Engine,
     ctl: Control,
 ) -> Result<(Unit, Option<RunInfo>)> {
-    use crate::early::{ByGroup, record_lanes};
-    let streak = spec.lane.stepper.early_exit_streak;
-    let lambda1 = spec.lane.lyapunov;
-    let n = e.lanes.len();
-    if n == 0 {
-        // Speeds without seeds: nothing to run.
-        let empty = jeffcott_core::ensemble::EnsembleResult::with_capacity(0, e.recorded, lambda1);
-        let saved = EarlySaved::default().to_array();
-        return Ok((stage_unit(empty).with("early", Array::F64(saved)), None));
-    }
-    let full = (e.transient + e.recorded) as u64;
-    let builder = |g: usize| CatalogueBuilder::new(spec.omegas[ws[g]], spec.lane.catalogue);
-    let (known, first, mut saved, base) = match how {
+    use crate::early::GroupRecognition;
+    let how = match how {
+        BruteEarly::FirstLane => GroupRecognition::FirstLane,
         BruteEarly::Known(recogniser) => {
-            let rec: Vec<_> = ws.iter().map(|&wi| recogniser(wi)).collect();
-            (rec, None, EarlySaved::default(), 0)
-        }
-        BruteEarly::FirstLane => {
-            // Round 1: each speed's first lane, whole; its catalogue recognises the rest.
-            let firsts: Vec<usize> = (0..n)
-                .filter(|&i| i == 0 || group[i] != group[i - 1])
-                .collect();
-            let r1 = engine.run(&sub_ensemble(e, &firsts), lambda1, ctl)?.0;
-            let mut builders: Vec<CatalogueBuilder> = (0..ws.len()).map(builder).collect();
-            for (k, &i) in firsts.iter().enumerate() {
-                let frozen = [r1.status[k].is_frozen()];
-                let l1 = r1.lambda1.as_ref().map(|l| &l[k..k + 1]);
-                builders[group[i]].add_block(r1.lane_points(k), r1.recorded, &frozen, l1);
-            }
-            let rec = builders
-                .iter()
-                .map(|b| b.recogniser_to_record(streak))
-                .collect();
-            let saved = EarlySaved {
-                lanes: firsts.len() as u64,
-                retired: 0,
-                periods_run: firsts.len() as u64 * full,
-                periods_full: firsts.len() as u64 * full,
-            };
-            (rec, Some((firsts, r1)), saved, saved.periods_full)
+            GroupRecognition::Known(ws.iter().map(|&wi| recogniser(wi)).collect())
         }
     };
-    let rest: Vec<usize> = match &first {
-        Some((firsts, _)) => (0..n)
-            .filter(|i| firsts.binary_search(i).is_err())
-            .collect(),
-        None => (0..n).collect(),
-    };
-    let rest_group: Vec<usize> = rest.iter().map(|&i| group[i]).collect();
-    let report = |d: u64, _: u64| (ctl.progress)(base + d, n as u64 * full);
-    // A unit may have no lanes left (one start state per speed, or speeds without seeds).
-    let (r2, s2, info) = if rest.is_empty() {
-        let empty = jeffcott_core::ensemble::EnsembleResult::with_capacity(0, e.recorded, lambda1);
-        (empty, EarlySaved::default(), None)
-    } else {
-        let (r, s, i) = record_lanes(
-            &sub_ensemble(e, &rest),
-            &ByGroup {
-                recognisers: &known,
-                group: &rest_group,
-            },
-            lambda1,
-            engine,
-            Control {
-                progress: &report,
-                cancel: ctl.cancel,
-            },
-        )?;
-        (r, s, Some(i))
-    };
-    saved.add(&s2);
-    // The records back in the unit's lane order.
-    let mut out = jeffcott_core::ensemble::EnsembleResult::with_capacity(n, e.recorded, lambda1);
-    let mut from: Vec<(usize, &jeffcott_core::ensemble::EnsembleResult, usize)> =
-        rest.iter().enumerate().map(|(k, &i)| (i, &r2, k)).collect();
-    if let Some((firsts, r1)) = &first {
-        from.extend(firsts.iter().enumerate().map(|(k, &i)| (i, r1, k)));
-    }
-    from.sort_unstable_by_key(|f| f.0);
-    for (_, r, k) in from {
-        out.poincare.extend_from_slice(r.lane_points(k));
-        out.status.push(r.status[k]);
-        if let (Some(l), Some(rl)) = (out.lambda1.as_mut(), r.lambda1.as_ref()) {
-            l.push(rl[k]);
-        }
-    }
+    let omegas: Vec<f64> = ws.iter().map(|&wi| spec.omegas[wi]).collect();
+    let (out, saved, info) = crate::early::records_by_group(
+        e,
+        group,
+        &omegas,
+        how,
+        spec.lane.catalogue,
+        spec.lane.lyapunov,
+        engine,
+        ctl,
+    )?;
     let unit = stage_unit(out).with("early", Array::F64(saved.to_array()));
     Ok((unit, info))
 }
