@@ -176,8 +176,7 @@ impl<'a> AtSpeed<'a> {
         lambda_tol: f64,
         static_class: &mut Vec<(f64, Class)>,
     ) -> Result<AtSpeed<'a>> {
-        let t = std::time::Instant::now();
-        let res = simulate(sim)?;
+        let (res, seconds) = timed(|| simulate(sim))?;
         let class = survey.refine(res.classification.class, omega, lambda_tol);
         static_class.push((omega, class));
         Ok(AtSpeed {
@@ -185,7 +184,7 @@ impl<'a> AtSpeed<'a> {
             res,
             class,
             survey,
-            seconds: t.elapsed().as_secs_f64(),
+            seconds,
         })
     }
 }
@@ -237,14 +236,14 @@ pub fn reproduce<H: Host>(spec: &ReproduceSpec, host: &mut H) -> Result<Reproduc
 
     host.begin(2, "enlargements of Fig. 3");
     for k in 0..ZOOMS.len() {
-        let t = Instant::now();
         let z = spec.zoom(k)?;
-        let res = crate::bifurcation::run(&z, &host.prefixed(["zoom0", "zoom1"][k]))?;
+        let (res, seconds) =
+            timed(|| crate::bifurcation::run(&z, &host.prefixed(["zoom0", "zoom1"][k])))?;
         host.section(Section::Zoom {
             k,
             spec: &z,
             res: &res,
-            seconds: t.elapsed().as_secs_f64(),
+            seconds,
         })?;
     }
 
@@ -362,19 +361,17 @@ pub fn reproduce<H: Host>(spec: &ReproduceSpec, host: &mut H) -> Result<Reproduc
         seconds,
     })?;
     drop(res);
-    let t = Instant::now();
-    let s = crate::simulate::run_study(
-        &crate::simulate::SimulateStudy {
-            spec: spec.portrait(132.2),
-            spectrum_periods: crate::defaults::simulate::SPECTRUM_PERIODS,
-        },
-        &jeffcott_core::control::Cancel::new(),
-    )?;
+    let study = crate::simulate::SimulateStudy {
+        spec: spec.portrait(132.2),
+        spectrum_periods: crate::defaults::simulate::SPECTRUM_PERIODS,
+    };
+    let (s, seconds) =
+        timed(|| crate::simulate::run_study(&study, &jeffcott_core::control::Cancel::new()))?;
     host.section(Section::Spectrum {
         omega: 132.2,
         res: &s.result,
         rub: s.rub.as_ref(),
-        seconds: t.elapsed().as_secs_f64(),
+        seconds,
     })?;
     Ok(ReproduceResult {
         survey,

@@ -221,12 +221,12 @@ fn run_units(
     let mut batch_work_target: u64 = 0; // 0: one unit (before a speed was measured)
     let mut info = None;
     let mut next = 0;
-    // On the CPU every unit is computed whole, several at a time: a plain unit's lanes
-    // in one run of the engine (a small unit, say 3 batches of 8 lanes, cannot keep the
-    // threads busy alone: a 48-cell map's units of 3 cells ran at 150 % CPU of 200 %),
-    // an early-exit unit's in rounds that leave threads idle at a round's end. A GPU
-    // batches plain units into one dispatch (below) and takes early-exit units one at
-    // a time.
+    // On the CPU every unit is computed whole, several at a time where one alone
+    // leaves threads idle: a plain unit's lanes in one run of the engine (a small unit,
+    // say 3 batches of 8 lanes, cannot keep the threads busy: a 48-cell map's units of
+    // 3 cells ran at 150 % CPU of 200 %), an early-exit unit's in rounds that leave
+    // threads idle at a round's end. A GPU batches plain units into one dispatch
+    // (below) and takes early-exit units one at a time.
     let plain = |i: usize, spec: &EnsembleSpec, engine: &Engine, c: Control| {
         if spec.lanes.is_empty() {
             // A unit may have no lanes (a speed group without seeds): nothing to run.
@@ -249,12 +249,19 @@ fn run_units(
             });
         }
         if let Some(compute) = whole {
-            // Units computed whole: on the CPU several at a time, committed in order; a
-            // GPU takes one at a time.
+            // Units computed whole, committed in order: on a GPU one at a time; on the
+            // CPU up to 2 per thread, early-exit units always, plain units only as many
+            // as give every thread 8 batches of lanes (a large unit runs alone, so a
+            // kill loses no more than it did).
+            let threads = rayon::current_num_threads().max(1);
             let width = if gpu {
                 1
+            } else if units.computed_by.is_some() {
+                2 * threads
             } else {
-                2 * rayon::current_num_threads().max(1)
+                let fill = 8 * jeffcott_core::integrate::batch::BATCH * threads;
+                fill.div_ceil(lanes_of[pending[next]].max(1))
+                    .clamp(1, 2 * threads)
             };
             let group: Vec<usize> = pending[next..].iter().copied().take(width).collect();
             let done_in: Vec<std::sync::atomic::AtomicU64> =

@@ -96,9 +96,9 @@ impl<R: Real> ForcingTable<R> {
 
     /// The table the batch stepper uses for lanes like `lc`: in f64 only. Back to back
     /// on the 2-core VM (`jeffcott bench --backend cpu --lanes 16384`, two rounds) the
-    /// table took f64 from 2.44-2.50e7 to 2.80-2.86e7 lane-steps/s, and f32 from
-    /// 3.66-3.68e7 down to 3.40-3.44e7: eight f32 lanes fill one AVX2 register, so the
-    /// polynomial costs less than eight scalar look-ups.
+    /// table took f64 from 2.43-2.45e7 to 2.72-2.85e7 lane-steps/s, and f32 (given
+    /// the table too) from 3.66-3.68e7 down to 3.40-3.44e7: eight f32 lanes fill one
+    /// AVX2 register, so the polynomial costs less than eight scalar look-ups.
     pub fn for_batches(lc: &LaneConsts<R>) -> Option<Self> {
         if R::WGSL_NAME == "f64" {
             Self::for_lane(lc)
