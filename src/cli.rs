@@ -448,7 +448,7 @@ pub fn run_info() -> Result<()> {
     }
     for s in adapters {
         println!(
-            "GPU: {} [{} {}{}], driver {}, f64 {}, max storage binding {} MiB, max buffer {} MiB, workgroups/dim {}, invocations/workgroup {}, kernel as {}",
+            "GPU: {} [{} {}{}], driver {}, f64 {}, max storage binding {} MiB, max buffer {} MiB, workgroups/dim {}, invocations/workgroup {}, kernel as {}, f32 division and sqrt {}",
             s.name,
             s.backend,
             s.device_type,
@@ -463,6 +463,11 @@ pub fn run_info() -> Result<()> {
                 "exact SPIR-V (NoContraction; JEFFCOTT_GPU_SHADER=wgsl for WGSL)"
             } else {
                 "WGSL (no SPIR-V passthrough: the driver may contract a*b+c)"
+            },
+            if s.f64 {
+                "through f64 (correctly rounded)"
+            } else {
+                "the driver's own"
             }
         );
     }

@@ -13,7 +13,7 @@ use jeffcott_gpu::{GpuReal, GpuRunner, LaneOutcome, Schedule};
 use rayon::prelude::*;
 
 mod common;
-use common::gpu::runner_for;
+use common::gpu::{device_variant, identity_promised, runner_for};
 use common::unit;
 
 /// Macro steps per period in these tests: small enough for lavapipe on two cores,
@@ -202,26 +202,11 @@ type BothRuns<R> = (
     Vec<Kind>,
 );
 
-/// True where the f64 kernel is promised to equal the CPU to the bit: on a software
-/// adapter (lavapipe), and on hardware that takes the kernel as exact SPIR-V (no fused
-/// or reassociated operations; f64 division and sqrt correctly rounded, as on the H100:
-/// docs/gpu.md). Through WGSL a hardware driver may fuse a*b+c, so only a short-horizon
-/// tolerance holds there (4.4e-14 m after one period on the H100).
+/// True where the f64 kernel is promised to equal the CPU to the bit (common::gpu's
+/// `identity_promised`). Through WGSL a hardware driver may fuse a*b+c, so only a
+/// short-horizon tolerance holds there (4.4e-14 m after one period on the H100).
 fn f64_bit_identity_promised(runner: &GpuRunner) -> bool {
-    let gpu = runner.gpu();
-    let promised =
-        gpu.adapter().software || gpu.shader_path() == jeffcott_gpu::ShaderPath::ExactSpirv;
-    eprintln!(
-        "regime: {} ({}, kernel as {})",
-        if promised {
-            "bit-identical"
-        } else {
-            "tolerance"
-        },
-        gpu.adapter().name,
-        gpu.shader_path().name()
-    );
-    promised
+    identity_promised::<f64>(runner, device_variant(runner, false))
 }
 
 /// The varied ensemble of `n` lanes over 50 periods in precision `R`, run on the GPU and
@@ -338,7 +323,10 @@ fn f64_kernel_with_contact_refinement_reproduces_cpu_to_the_bit_for_every_r() {
 /// A hardware GPU may implement f32 division and sqrt to 2-3 ulp (Vulkan's precision
 /// rules; fused multiply-adds are ruled out where the kernel goes as exact SPIR-V, see
 /// jeffcott-gpu's spirv.rs). On an H100 (driver 580.159) the f32 lanes left the CPU's
-/// in the first periods while the f64 lanes stayed identical (docs/gpu.md). Then each
+/// in the first periods while the f64 lanes stayed identical (docs/gpu.md), so where
+/// the device has f64 the f32 kernel divides and takes square roots through f64
+/// (`shader::Variant`), correctly rounded: identity is then promised wherever it is for
+/// f64 (`identity_promised`). Where it is not (no f64, or WGSL on hardware), each
 /// macro step can differ by a few ulp of the state (|x| <= 1e-2 m, ulp 1e-9 m), and
 /// chaotic lanes amplify that to the attractor's size within tens of periods; only a
 /// statistical comparison makes sense there, so on hardware the test checks that the
@@ -352,12 +340,12 @@ fn f32_kernel_matches_cpu_f32_lanes_within_derived_bound() {
     let Some((runner, gpu, cpu, _)) = gpu_and_cpu_runs::<f32>(n) else {
         return;
     };
-    let software = runner.gpu().adapter().software;
+    let promised = identity_promised::<f32>(runner, device_variant(runner, false));
     let mut exact = 0;
     let mut worst: f64 = 0.0;
     let mut status_differs = 0;
     for (i, (g, c)) in gpu.iter().zip(&cpu).enumerate() {
-        if software {
+        if promised {
             assert_eq!(g.lane.status, c.lane.status, "lane {i} status");
         } else {
             assert_eq!(
@@ -372,7 +360,7 @@ fn f32_kernel_matches_cpu_f32_lanes_within_derived_bound() {
         worst = worst.max(worst_relative(&g.poincare, &c.poincare));
         if identical(g, c) {
             exact += 1;
-        } else if !software {
+        } else if !promised {
             for (pg, pc) in g.poincare.iter().zip(&c.poincare) {
                 for d in [0, 2, 4, 6] {
                     assert!(
@@ -387,7 +375,7 @@ fn f32_kernel_matches_cpu_f32_lanes_within_derived_bound() {
         "f32: {exact}/{n} lanes bit-identical, worst relative difference {worst:e}, \
          {status_differs} statuses differ (refinement cap)"
     );
-    if software {
+    if promised {
         assert_eq!(exact, n, "f32 lanes not bit-identical (worst {worst:e})");
     }
     assert!(

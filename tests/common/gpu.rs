@@ -3,7 +3,8 @@
 //! fails the test instead.
 
 use super::require_gpu;
-use jeffcott_gpu::{DeviceRequest, GpuDevice, GpuReal, GpuRunner};
+use jeffcott_gpu::shader::Variant;
+use jeffcott_gpu::{DeviceRequest, GpuDevice, GpuReal, GpuRunner, ShaderPath};
 use std::sync::OnceLock;
 
 /// The shared runner, or `None` (after saying so) when there is no adapter and none is
@@ -65,4 +66,40 @@ macro_rules! both_precisions {
     ($check:ident) => {
         common::gpu::in_both_precisions($check::<f32>, $check::<f64>)
     };
+}
+
+/// The lane kernel `runner`'s device runs in precision `R` (f32 divides and takes square
+/// roots through f64 where the device has SHADER_F64), `lyapunov` or not.
+pub fn device_variant(runner: &GpuRunner, lyapunov: bool) -> Variant {
+    Variant::on_device(lyapunov, runner.gpu().supports_f64())
+}
+
+/// True where kernel variant `v` in precision `R` is promised to equal the CPU to the bit
+/// on `runner`'s device: on a software adapter (lavapipe: every operation correctly
+/// rounded, nothing fused), and on hardware that takes the kernel as exact SPIR-V (no
+/// fused or reassociated operations) when every division and sqrt is an f64 one (the f64
+/// kernel, or f32 through f64): the H100 rounds f64 division and sqrt correctly, its own
+/// f32 ones not (docs/gpu.md). Says which regime it found.
+pub fn identity_promised<R: GpuReal>(runner: &GpuRunner, v: Variant) -> bool {
+    let gpu = runner.gpu();
+    let f64_ops = R::WGSL_NAME == "f64" || v.f32_through_f64;
+    let promised =
+        gpu.adapter().software || (gpu.shader_path() == ShaderPath::ExactSpirv && f64_ops);
+    eprintln!(
+        "regime ({}{}): {} ({}, kernel as {})",
+        R::WGSL_NAME,
+        if R::WGSL_NAME == "f32" && !v.f32_through_f64 {
+            ", driver's own division and sqrt"
+        } else {
+            ""
+        },
+        if promised {
+            "bit-identical"
+        } else {
+            "tolerance"
+        },
+        gpu.adapter().name,
+        gpu.shader_path().name()
+    );
+    promised
 }

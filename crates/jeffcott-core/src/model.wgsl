@@ -11,7 +11,7 @@ fn relative_motion(x: array<Real, STATE_DIM>) -> vec4<Real> {
 
 fn penetration(delta: Real, x: array<Real, STATE_DIM>) -> Real {
     let m = relative_motion(x);
-    return sqrt(m.x * m.x + m.y * m.y) - delta;
+    return sqrt_rn(m.x * m.x + m.y * m.y) - delta;
 }
 
 fn contact_force_per_kc(
@@ -26,12 +26,12 @@ fn contact_force_per_kc(
     // r2, not r * r: Mesa's NIR rewrites sqrt(a) * sqrt(a) to a, which rounds
     // differently from the CPU's r * r.
     let r2 = dx * dx + dy * dy;
-    let r = sqrt(r2);
+    let r = sqrt_rn(r2);
     if r <= Real(0.0) {
         return vec2<Real>(Real(0.0), Real(0.0));
     }
-    let s = (r - delta) / r;
-    let nrm = s + tau_c * ((dx * dvx + dy * dvy) / r2);
+    let s = div_rn(r - delta, r);
+    let nrm = s + tau_c * div_rn(dx * dvx + dy * dvy, r2);
     return vec2<Real>(-nrm * dx + mu * s * dy, -nrm * dy - mu * s * dx);
 }
 
@@ -49,22 +49,22 @@ fn contact_partials(c: Coeffs, x: array<Real, STATE_DIM>) -> Partials {
     let dvx = m.z;
     let dvy = m.w;
     let r2 = dx * dx + dy * dy;
-    let r = sqrt(r2);
+    let r = sqrt_rn(r2);
     let z = Real(0.0);
     if r <= z {
         return Partials(vec4<Real>(z, z, z, z), vec4<Real>(z, z, z, z));
     }
-    let s = (r - c.delta) / r;
-    let q = (dx * dvx + dy * dvy) / r2;
+    let s = div_rn(r - c.delta, r);
+    let q = div_rn(dx * dvx + dy * dvy, r2);
     let nrm = s + c.tau_c * q;
     let r3 = r2 * r;
-    let sx = c.delta * dx / r3;
-    let sy = c.delta * dy / r3;
+    let sx = div_rn(c.delta * dx, r3);
+    let sy = div_rn(c.delta * dy, r3);
     let two = Real(2.0);
-    let nx = sx + c.tau_c * (dvx - two * q * dx) / r2;
-    let ny = sy + c.tau_c * (dvy - two * q * dy) / r2;
-    let nvx = c.tau_c * dx / r2;
-    let nvy = c.tau_c * dy / r2;
+    let nx = sx + div_rn(c.tau_c * (dvx - two * q * dx), r2);
+    let ny = sy + div_rn(c.tau_c * (dvy - two * q * dy), r2);
+    let nvx = div_rn(c.tau_c * dx, r2);
+    let nvy = div_rn(c.tau_c * dy, r2);
     let mu = c.mu;
     return Partials(
         vec4<Real>(

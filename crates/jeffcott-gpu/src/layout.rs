@@ -247,7 +247,7 @@ mod tests {
 
     macro_rules! check_layout {
         ($r:ty, $m:ident) => {{
-            let module = shader::parse::<$r>(true).expect("shader parses");
+            let module = shader::parse::<$r>(shader::Variant::on_device(true, true)).expect("shader parses");
             let check = |name: &str, (size, offsets): (usize, &[(&str, usize)])| {
                 let (span, members) = wgsl_struct(&module, name);
                 assert_eq!(span as usize, size, "{name} size ({})", stringify!($r));

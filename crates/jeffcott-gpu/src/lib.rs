@@ -213,15 +213,16 @@ impl GpuRunner {
             });
         }
         // Fail early with naga's readable report rather than wgpu's summary.
-        shader::validate::<R>(lyapunov, shader::capabilities::<R>())
+        let v = shader::Variant::on_device(lyapunov, self.gpu.supports_f64());
+        shader::validate::<R>(v, shader::capabilities::<R>(v))
             .map_err(|e| gpu_err("lane kernel does not validate", e))?;
         // An explicit layout, the same for both variants: the plain kernel never touches
         // `tangents` (binding 5), and an automatic layout might or might not list it.
         let rw = wgpu::BufferBindingType::Storage { read_only: false };
         let (pipeline, _) = self.gpu.compute_pipeline(
             "lane kernel",
-            &shader::source::<R>(lyapunov),
-            shader::capabilities::<R>(),
+            &shader::source::<R>(v),
+            shader::capabilities::<R>(v),
             shader::ENTRY_POINT,
             (shader::WORKGROUP_SIZE, 1, 1),
             &[

@@ -70,15 +70,54 @@ pub fn float_constants<R: Real>() -> Vec<(String, f64)> {
     v
 }
 
+/// Which lane kernel, beside its precision (the type parameter).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Variant {
+    /// One tangent vector per lane for lambda_1 (`false`: the plain kernel).
+    pub lyapunov: bool,
+    /// f32 only: divide and take square roots through f64 (`div_rn`, `sqrt_rn` in the
+    /// header). Each is then correctly rounded to f32 whatever the driver's own f32
+    /// division and sqrt do (Vulkan allows 2.5 ulp, and NVIDIA's differ from the CPU's,
+    /// docs/gpu.md): the exact quotient or root rounded to f64 and then to f32 is the
+    /// exact value rounded to f32 once, because double rounding is innocuous for / and
+    /// sqrt when the wider format has at least 2p + 2 significand bits (53 >= 2 x 24 + 2;
+    /// S. A. Figueroa, "When is double rounding innocuous?", SIGNUM Newsl. 30(3), 1995).
+    /// It needs SHADER_F64 and f64 division and sqrt correctly rounded, as the f64
+    /// kernel's bit-identity already does. Without f64 the f32 kernel uses the driver's
+    /// own, equal to the CPU's only where those round correctly (lavapipe).
+    pub f32_through_f64: bool,
+}
+
+impl Variant {
+    /// The kernel a device runs: `lyapunov` or not, f32's division and sqrt through f64
+    /// where the device has SHADER_F64.
+    pub fn on_device(lyapunov: bool, device_has_f64: bool) -> Self {
+        Self {
+            lyapunov,
+            f32_through_f64: device_has_f64,
+        }
+    }
+
+    /// The plain kernel, f32 with the driver's own division and sqrt (no f64 needed).
+    pub const PLAIN: Self = Self {
+        lyapunov: false,
+        f32_through_f64: false,
+    };
+
+    /// True when precision `R`'s kernel uses f64 arithmetic (and needs FLOAT64).
+    fn uses_f64<R: Real>(self) -> bool {
+        R::WGSL_NAME == "f64" || self.f32_through_f64
+    }
+}
+
 /// Reals per record: the state, and with `lyapunov` the tangent's growth after it.
 pub fn record_dim(lyapunov: bool) -> usize {
     STATE_DIM + lyapunov as usize
 }
 
-/// The generated header for precision `R` and kernel variant `lyapunov` (`false`: the
-/// plain kernel; `true`: one tangent vector per lane for lambda_1, see the kernel's
-/// docs).
-pub fn header<R: Real>(lyapunov: bool) -> String {
+/// The generated header for precision `R` and kernel variant `v` (see [`Variant`]).
+pub fn header<R: Real>(v: Variant) -> String {
+    let lyapunov = v.lyapunov;
     let mut h = String::new();
     let mut line = |s: String| {
         h.push_str(&s);
@@ -112,20 +151,29 @@ pub fn header<R: Real>(lyapunov: bool) -> String {
     for (name, value) in float_constants::<R>() {
         line(format!("const {name}: Real = {};", float_lit(value)));
     }
+    // Every division and square root of the kernel goes through these (the names of
+    // CUDA's correctly rounded intrinsics, __fdiv_rn and __fsqrt_rn); see Variant.
+    if R::WGSL_NAME == "f32" && v.f32_through_f64 {
+        line("fn div_rn(a: Real, b: Real) -> Real { return Real(f64(a) / f64(b)); }".into());
+        line("fn sqrt_rn(x: Real) -> Real { return Real(sqrt(f64(x))); }".into());
+    } else {
+        line("fn div_rn(a: Real, b: Real) -> Real { return a / b; }".into());
+        line("fn sqrt_rn(x: Real) -> Real { return sqrt(x); }".into());
+    }
     let mut s = h;
     let _ = writeln!(s);
     s
 }
 
-/// The complete kernel source for precision `R` and variant `lyapunov`: the header, then
+/// The complete kernel source for precision `R` and variant `v`: the header, then
 /// [`KERNEL`].
-pub fn source<R: Real>(lyapunov: bool) -> String {
-    header::<R>(lyapunov) + KERNEL
+pub fn source<R: Real>(v: Variant) -> String {
+    header::<R>(v) + KERNEL
 }
 
-/// naga capabilities the kernel needs in precision `R`.
-pub fn capabilities<R: Real>() -> naga::valid::Capabilities {
-    if R::WGSL_NAME == "f64" {
+/// naga capabilities the kernel needs in precision `R` and variant `v`.
+pub fn capabilities<R: Real>(v: Variant) -> naga::valid::Capabilities {
+    if v.uses_f64::<R>() {
         naga::valid::Capabilities::FLOAT64
     } else {
         naga::valid::Capabilities::empty()
@@ -134,8 +182,8 @@ pub fn capabilities<R: Real>() -> naga::valid::Capabilities {
 
 /// Where line `line` (1-based) of [`source`] comes from: "the generated header" or a
 /// part of the kernel (`integrate::lane::WGSL_FILES`), with the line number in that file.
-pub fn origin<R: Real>(lyapunov: bool, line: usize) -> String {
-    let header_lines = header::<R>(lyapunov).lines().count();
+pub fn origin<R: Real>(v: Variant, line: usize) -> String {
+    let header_lines = header::<R>(v).lines().count();
     if line <= header_lines {
         return format!("the generated header, line {line}");
     }
@@ -152,40 +200,40 @@ pub fn origin<R: Real>(lyapunov: bool, line: usize) -> String {
 
 /// naga's report on an error in [`source`], with the file and line its first location
 /// comes from (the report's own line numbers count from the start of the header).
-fn report<R: Real>(lyapunov: bool, emitted: String, at: Option<naga::SourceLocation>) -> String {
+fn report<R: Real>(v: Variant, emitted: String, at: Option<naga::SourceLocation>) -> String {
     match at {
         Some(loc) => format!(
             "{emitted}(the kernel's line {} is {})",
             loc.line_number,
-            origin::<R>(lyapunov, loc.line_number as usize)
+            origin::<R>(v, loc.line_number as usize)
         ),
         None => emitted,
     }
 }
 
-/// Parses the kernel for precision `R` and variant `lyapunov`; the error is naga's
-/// report with source context.
-pub fn parse<R: Real>(lyapunov: bool) -> Result<naga::Module, String> {
-    let src = source::<R>(lyapunov);
+/// Parses the kernel for precision `R` and variant `v`; the error is naga's report with
+/// source context.
+pub fn parse<R: Real>(v: Variant) -> Result<naga::Module, String> {
+    let src = source::<R>(v);
     naga::front::wgsl::parse_str(&src).map_err(|e| {
         let emitted = e.emit_to_string_with_path(&src, "lane kernel");
-        report::<R>(lyapunov, emitted, e.location(&src))
+        report::<R>(v, emitted, e.location(&src))
     })
 }
 
-/// Parses and validates the kernel for precision `R` and variant `lyapunov` with the
+/// Parses and validates the kernel for precision `R` and variant `v` with the
 /// capabilities `caps` (the kernel needs [`capabilities`]).
 pub fn validate<R: Real>(
-    lyapunov: bool,
+    v: Variant,
     caps: naga::valid::Capabilities,
 ) -> Result<(naga::Module, naga::valid::ModuleInfo), String> {
-    let module = parse::<R>(lyapunov)?;
-    let src = source::<R>(lyapunov);
+    let module = parse::<R>(v)?;
+    let src = source::<R>(v);
     let info = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), caps)
         .validate(&module)
         .map_err(|e| {
             let emitted = e.emit_to_string_with_path(&src, "lane kernel");
-            report::<R>(lyapunov, emitted, e.location(&src))
+            report::<R>(v, emitted, e.location(&src))
         })?;
     Ok((module, info))
 }
@@ -195,34 +243,82 @@ mod tests {
     use super::*;
     use jeffcott_core::integrate::forcing::phasor_turns;
 
-    #[test]
-    fn f32_kernel_parses_and_validates_without_an_adapter() {
-        let (module, _) =
-            validate::<f32>(false, capabilities::<f32>()).unwrap_or_else(|e| panic!("{e}"));
-        assert!(module.entry_points.iter().any(|e| e.name == ENTRY_POINT));
+    /// Every variant of both precisions, and the capabilities each needs.
+    fn variants() -> Vec<Variant> {
+        let mut v = Vec::new();
+        for lyapunov in [false, true] {
+            for f32_through_f64 in [false, true] {
+                v.push(Variant {
+                    lyapunov,
+                    f32_through_f64,
+                });
+            }
+        }
+        v
     }
 
     #[test]
-    fn lyapunov_variant_parses_and_validates_in_both_precisions() {
-        for lyapunov in [false, true] {
+    fn f32_kernel_parses_and_validates_without_an_adapter() {
+        let (module, _) = validate::<f32>(Variant::PLAIN, capabilities::<f32>(Variant::PLAIN))
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert!(module.entry_points.iter().any(|e| e.name == ENTRY_POINT));
+        // The plain f32 kernel needs no f64 (it runs on adapters without SHADER_F64).
+        assert!(capabilities::<f32>(Variant::PLAIN).is_empty());
+    }
+
+    #[test]
+    fn every_variant_parses_and_validates_in_both_precisions() {
+        for v in variants() {
             let (module, _) =
-                validate::<f32>(lyapunov, capabilities::<f32>()).unwrap_or_else(|e| panic!("{e}"));
+                validate::<f32>(v, capabilities::<f32>(v)).unwrap_or_else(|e| panic!("{e}"));
             assert!(module.entry_points.iter().any(|e| e.name == ENTRY_POINT));
-            validate::<f64>(lyapunov, capabilities::<f64>()).unwrap_or_else(|e| panic!("{e}"));
+            validate::<f64>(v, capabilities::<f64>(v)).unwrap_or_else(|e| panic!("{e}"));
+            let lyapunov = format!("const LYAPUNOV: bool = {};", v.lyapunov);
+            assert!(header::<f32>(v).contains(&lyapunov));
         }
-        assert!(header::<f32>(true).contains("const LYAPUNOV: bool = true;"));
-        assert!(header::<f32>(false).contains("const LYAPUNOV: bool = false;"));
-        assert!(header::<f64>(true).contains("const RECORD_DIM: u32 = 9u;"));
+        assert!(
+            header::<f64>(Variant::on_device(true, true)).contains("const RECORD_DIM: u32 = 9u;")
+        );
     }
 
     #[test]
     fn f64_kernel_parses_and_validates_with_float64() {
+        let v = Variant::PLAIN;
         let (module, _) =
-            validate::<f64>(false, capabilities::<f64>()).unwrap_or_else(|e| panic!("{e}"));
+            validate::<f64>(v, capabilities::<f64>(v)).unwrap_or_else(|e| panic!("{e}"));
         assert!(module.entry_points.iter().any(|e| e.name == ENTRY_POINT));
         // And the capability is really what makes it valid: f64 is not core WGSL.
-        let err = validate::<f64>(false, naga::valid::Capabilities::empty()).unwrap_err();
+        let err = validate::<f64>(v, naga::valid::Capabilities::empty()).unwrap_err();
         assert!(err.contains("FLOAT64"), "{err}");
+    }
+
+    #[test]
+    fn f32_through_f64_divides_and_takes_roots_in_f64_and_needs_float64() {
+        let v = Variant::on_device(false, true);
+        let h = header::<f32>(v);
+        assert!(h.contains("return Real(f64(a) / f64(b));"), "{h}");
+        assert!(h.contains("return Real(sqrt(f64(x)));"), "{h}");
+        assert!(!header::<f32>(Variant::PLAIN).contains("f64("));
+        // In f64 the two are the plain operations whatever the variant says.
+        assert!(!header::<f64>(v).contains("f64("));
+        // Without FLOAT64 naga refuses the widening (its first use, in div_rn).
+        let err = validate::<f32>(v, naga::valid::Capabilities::empty()).unwrap_err();
+        assert!(err.contains("'div_rn' is invalid"), "{err}");
+        // And the kernel divides and takes square roots nowhere else at run time (naga
+        // evaluates the constant quotients k / GRAZE_SAMPLES when it parses, exactly).
+        for (path, text) in WGSL_FILES {
+            for (i, l) in text.lines().enumerate() {
+                let mut code = l.split("//").next().unwrap_or("").to_string();
+                for k in 0..=GRAZE_SAMPLES {
+                    code = code.replace(&format!("Real({k}u) / Real(GRAZE_SAMPLES)"), "");
+                }
+                assert!(
+                    !code.contains(" / ") && !code.contains("sqrt("),
+                    "{path}:{}: division or sqrt outside div_rn/sqrt_rn: {l}",
+                    i + 1
+                );
+            }
+        }
     }
 
     #[test]
@@ -232,17 +328,76 @@ mod tests {
         for (path, text) in WGSL_FILES {
             assert!(text.ends_with('\n'), "{path} does not end with a newline");
         }
-        let h = header::<f32>(false).lines().count();
-        assert_eq!(origin::<f32>(false, 1), "the generated header, line 1");
+        let v = Variant::PLAIN;
+        let h = header::<f32>(v).lines().count();
+        assert_eq!(origin::<f32>(v, 1), "the generated header, line 1");
         assert_eq!(
-            origin::<f32>(false, h + 1),
+            origin::<f32>(v, h + 1),
             "integrate/lane_buffers.wgsl, line 1"
         );
         let lines = |i: usize| WGSL_FILES[i].1.lines().count();
         assert_eq!(
-            origin::<f32>(false, h + lines(0) + lines(1) + 3),
+            origin::<f32>(v, h + lines(0) + lines(1) + 3),
             "model.wgsl, line 3"
         );
+    }
+
+    /// The rule `div_rn` and `sqrt_rn` rest on (Variant): f32 division and sqrt done in
+    /// f64 and rounded to f32 give the f32 operations' own results, on random operands
+    /// over the whole exponent range and on the awkward ones (halfway-looking quotients,
+    /// the largest and smallest normals, subnormals, zeros, infinities, NaN).
+    #[test]
+    fn f32_division_and_sqrt_through_f64_equal_the_f32_operations() {
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            f32::from_bits((seed >> 32) as u32)
+        };
+        let mut special = vec![
+            0.0f32,
+            -0.0,
+            1.0,
+            3.0,
+            7.0,
+            10.0,
+            f32::MAX,
+            f32::MIN_POSITIVE,
+            f32::MIN_POSITIVE / 3.0,
+            f32::from_bits(1),
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+            1.0 + f32::EPSILON,
+            2.0 - f32::EPSILON,
+        ];
+        special.extend(special.clone().iter().map(|x| -x));
+        // Half over every bit pattern, half with exponents within 2^+-16 (the model's
+        // range: metres, seconds, newtons), where no quotient overflows or underflows.
+        let near_one = |x: f32| {
+            let bits = x.to_bits();
+            let e = 127 + ((bits >> 23) & 31) - 16;
+            f32::from_bits((bits & 0x807f_ffff) | (e << 23))
+        };
+        let mut pairs: Vec<(f32, f32)> = (0..1_000_000).map(|_| (next(), next())).collect();
+        pairs.extend((0..1_000_000).map(|_| (near_one(next()), near_one(next()))));
+        for &a in &special {
+            for &b in &special {
+                pairs.push((a, b));
+            }
+        }
+        let same = |x: f32, y: f32| x.to_bits() == y.to_bits() || (x.is_nan() && y.is_nan());
+        for (a, b) in pairs {
+            let q = (a as f64 / b as f64) as f32;
+            assert!(same(q, a / b), "{a:e} / {b:e}: {q:e} against {:e}", a / b);
+            let r = (a as f64).sqrt() as f32;
+            assert!(
+                same(r, a.sqrt()),
+                "sqrt({a:e}): {r:e} against {:e}",
+                a.sqrt()
+            );
+        }
     }
 
     /// The value of a named `const` of the module, widened to f64.
@@ -261,7 +416,7 @@ mod tests {
 
     #[test]
     fn header_constants_are_real_lit_of_the_rust_values() {
-        let m32 = parse::<f32>(false).unwrap_or_else(|e| panic!("{e}"));
+        let m32 = parse::<f32>(Variant::PLAIN).unwrap_or_else(|e| panic!("{e}"));
         for (name, v) in float_constants::<f32>() {
             let got = const_value(&m32, &name);
             assert_eq!(
@@ -270,7 +425,7 @@ mod tests {
                 "{name} (f32)"
             );
         }
-        let m64 = parse::<f64>(false).unwrap_or_else(|e| panic!("{e}"));
+        let m64 = parse::<f64>(Variant::PLAIN).unwrap_or_else(|e| panic!("{e}"));
         for (name, v) in float_constants::<f64>() {
             assert_eq!(
                 const_value(&m64, &name).to_bits(),
@@ -431,7 +586,7 @@ mod tests {
             WGSL_FILES.iter().map(|(p, _)| *p).collect::<Vec<_>>(),
             "the kernel's parts"
         );
-        let module = parse::<f64>(true).unwrap_or_else(|e| panic!("{e}"));
+        let module = parse::<f64>(Variant::on_device(true, true)).unwrap_or_else(|e| panic!("{e}"));
         let in_module: Vec<&str> = module
             .functions
             .iter()

@@ -217,9 +217,10 @@ pub fn contraction_census(words: &[u32]) -> Result<(usize, usize), String> {
 mod tests {
     use super::*;
     use crate::shader;
+    use crate::shader::Variant;
 
-    fn kernel_words<R: jeffcott_core::real::Real>(lyapunov: bool) -> Vec<u32> {
-        let (module, info) = shader::validate::<R>(lyapunov, shader::capabilities::<R>())
+    fn kernel_words<R: jeffcott_core::real::Real>(v: shader::Variant) -> Vec<u32> {
+        let (module, info) = shader::validate::<R>(v, shader::capabilities::<R>(v))
             .unwrap_or_else(|e| panic!("{e}"));
         exact_compute_words(&module, &info, shader::ENTRY_POINT, &[0, 1, 2, 3, 4, 5]).unwrap()
     }
@@ -227,9 +228,16 @@ mod tests {
     #[test]
     fn every_float_operation_of_the_kernel_is_marked_no_contraction() {
         for (words, what) in [
-            (kernel_words::<f64>(false), "f64"),
-            (kernel_words::<f32>(false), "f32"),
-            (kernel_words::<f64>(true), "f64 lyapunov"),
+            (kernel_words::<f64>(Variant::PLAIN), "f64"),
+            (kernel_words::<f32>(Variant::PLAIN), "f32"),
+            (
+                kernel_words::<f32>(Variant::on_device(false, true)),
+                "f32 through f64",
+            ),
+            (
+                kernel_words::<f64>(Variant::on_device(true, true)),
+                "f64 lyapunov",
+            ),
         ] {
             let (ops, marked) = contraction_census(&words).unwrap();
             // The kernel has hundreds of float operations (RK4, the switch search...).
@@ -242,7 +250,7 @@ mod tests {
     fn decorated_module_is_valid_spirv_that_naga_reads_back() {
         // naga's SPIR-V front end checks the layout (decorations before types, ids
         // defined) and reads the decoration; it must find the same entry point.
-        let words = kernel_words::<f64>(false);
+        let words = kernel_words::<f64>(Variant::PLAIN);
         let module = naga::front::spv::parse_u8_slice(
             bytemuck::cast_slice(&words),
             &naga::front::spv::Options::default(),
@@ -261,7 +269,7 @@ mod tests {
 
     #[test]
     fn decorating_twice_adds_nothing_and_a_bad_module_is_refused() {
-        let mut words = kernel_words::<f32>(false);
+        let mut words = kernel_words::<f32>(Variant::PLAIN);
         let before = words.clone();
         assert_eq!(decorate_no_contraction(&mut words).unwrap(), 0);
         assert_eq!(words, before);

@@ -26,6 +26,10 @@
 //   WORKGROUP_SIZE, STATE_DIM, X_R .. VY_S, GRAZE_SAMPLES, ROOT_MAX_ITERS, STATUS_*
 //   REAL_MAX, TAU, SIXTH, HERMITE_SLOPE_BOUND, FREE_FLIGHT_SAFETY, SIN_C0 .. SIN_C8, COS_C0 .. COS_C8
 //   LYAPUNOV (bool), RECORD_DIM                the pipeline variant (below)
+//   div_rn(a, b), sqrt_rn(x)                   every division and square root: a / b
+//                                              and sqrt(x), in f32 done in f64 where
+//                                              the device has f64 (correctly rounded on
+//                                              any driver; shader.rs's Variant)
 // from the Rust constants. Every non-dyadic floating constant lives in that header as
 // an abstract-float literal holding the exact f64 value Rust uses; naga converts it to
 // Real with `as f32` semantics, exactly like `Real::lit`. The literals written inline

@@ -37,11 +37,11 @@ fn hermite_gap(
     let dy = h00 * m0.y + h10 * m0.w + h01 * m1.y + h11 * m1.w;
     let ddx = d00 * m0.x + d10 * m0.z + d01 * m1.x + d11 * m1.z;
     let ddy = d00 * m0.y + d10 * m0.w + d01 * m1.y + d11 * m1.w;
-    let r = sqrt(dx * dx + dy * dy);
+    let r = sqrt_rn(dx * dx + dy * dy);
     // r > 0 whenever g is near 0 (r ~ delta); the rate is only used there.
     var rate = Real(0.0);
     if r > Real(0.0) {
-        rate = (dx * ddx + dy * ddy) / r;
+        rate = div_rn(dx * ddx + dy * ddy, r);
     }
     return vec2<Real>(r - delta, rate);
 }
@@ -65,10 +65,10 @@ fn free_flight_certain(
 ) -> bool {
     let m0 = relative_motion(x0);
     let m1 = relative_motion(x1);
-    let a0 = sqrt(m0.x * m0.x + m0.y * m0.y);
-    let a1 = sqrt(m1.x * m1.x + m1.y * m1.y);
-    let w0 = sqrt(m0.z * m0.z + m0.w * m0.w);
-    let w1 = sqrt(m1.z * m1.z + m1.w * m1.w);
+    let a0 = sqrt_rn(m0.x * m0.x + m0.y * m0.y);
+    let a1 = sqrt_rn(m1.x * m1.x + m1.y * m1.y);
+    let w0 = sqrt_rn(m0.z * m0.z + m0.w * m0.w);
+    let w1 = sqrt_rn(m1.z * m1.z + m1.w * m1.w);
     let reach = rmax(a0, a1) + HERMITE_SLOPE_BOUND * abs(hs) * (w0 + w1);
     return reach * FREE_FLIGHT_SAFETY < lc.c.delta;
 }
@@ -156,7 +156,7 @@ fn scan_sample(
         (*sc).rate_th = rate_th;
     } else {
         (*sc).max_g = rmax((*sc).max_g, g_j);
-        (*sc).lo = Real(j) / Real(GRAZE_SAMPLES);
+        (*sc).lo = div_rn(Real(j), Real(GRAZE_SAMPLES));
         (*sc).g_lo = g_j;
     }
 }
@@ -280,7 +280,7 @@ fn find_switch(
                 phase = FS_DONE;
             } else {
                 je = sc.je;
-                th = Real(je) / Real(GRAZE_SAMPLES);
+                th = div_rn(Real(je), Real(GRAZE_SAMPLES));
                 g_th = sc.g_th;
                 if sc.crossing {
                     hi = th;
@@ -288,7 +288,7 @@ fn find_switch(
                     crossing = true;
                 } else {
                     // Extremum where the linearly interpolated rate vanishes.
-                    theta = lo + (th - lo) * sc.rate_lo / (sc.rate_lo - sc.rate_th);
+                    theta = lo + div_rn((th - lo) * sc.rate_lo, sc.rate_lo - sc.rate_th);
                     phase = FS_EXTREMUM;
                 }
             }
@@ -313,7 +313,7 @@ fn find_switch(
                 result = b;
                 phase = FS_DONE;
             } else {
-                var m = b - gb * (b - a) / (gb - ga);
+                var m = b - div_rn(gb * (b - a), gb - ga);
                 if !(m > a && m < b) {
                     m = Real(0.5) * (a + b);
                 }

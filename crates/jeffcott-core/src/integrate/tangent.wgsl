@@ -102,11 +102,11 @@ fn saltation(
 ) {
     let dx = x[X_R] - x[X_S];
     let dy = x[Y_R] - x[Y_S];
-    let r = sqrt(dx * dx + dy * dy);
+    let r = sqrt_rn(dx * dx + dy * dy);
     if r <= Real(0.0) || !is_finite(r) {
         return;
     }
-    let scale = lc.c.delta / r;
+    let scale = div_rn(lc.c.delta, r);
     var xs = x;
     // keep: rhs_frozen takes xs[X_R] - xs[X_S], which Mesa's NIR would simplify from
     // (x_s + dx scale) - x_s to dx scale without the rounding of the sum (an inexact
@@ -117,13 +117,13 @@ fn saltation(
     let ph = forcing_phasor(lc, k, s);
     let fm = rhs_frozen(lc.c, xs, ph.x, ph.y, from_contact);
     let fp = rhs_frozen(lc.c, xs, ph.x, ph.y, !from_contact);
-    let nx = dx / r;
-    let ny = dy / r;
+    let nx = div_rn(dx, r);
+    let ny = div_rn(dy, r);
     let nf = nx * (fm[X_R] - fm[X_S]) + ny * (fm[Y_R] - fm[Y_S]);
     if nf == Real(0.0) || !is_finite(nf) {
         return;
     }
-    let w = (nx * ((*v)[X_R] - (*v)[X_S]) + ny * ((*v)[Y_R] - (*v)[Y_S])) / nf;
+    let w = div_rn(nx * ((*v)[X_R] - (*v)[X_S]) + ny * ((*v)[Y_R] - (*v)[Y_S]), nf);
     for (var i = 0u; i < STATE_DIM; i++) {
         (*v)[i] += (fp[i] - fm[i]) * w;
     }
@@ -142,16 +142,16 @@ fn renormalise(v: ptr<function, array<Real, STATE_DIM>>) -> Real {
     sq += (*v)[5] * (*v)[5];
     sq += (*v)[6] * (*v)[6];
     sq += (*v)[7] * (*v)[7];
-    let n = sqrt(sq);
+    let n = sqrt_rn(sq);
     if n > Real(0.0) && is_finite(n) {
-        (*v)[0] = (*v)[0] / n;
-        (*v)[1] = (*v)[1] / n;
-        (*v)[2] = (*v)[2] / n;
-        (*v)[3] = (*v)[3] / n;
-        (*v)[4] = (*v)[4] / n;
-        (*v)[5] = (*v)[5] / n;
-        (*v)[6] = (*v)[6] / n;
-        (*v)[7] = (*v)[7] / n;
+        (*v)[0] = div_rn((*v)[0], n);
+        (*v)[1] = div_rn((*v)[1], n);
+        (*v)[2] = div_rn((*v)[2], n);
+        (*v)[3] = div_rn((*v)[3], n);
+        (*v)[4] = div_rn((*v)[4], n);
+        (*v)[5] = div_rn((*v)[5], n);
+        (*v)[6] = div_rn((*v)[6], n);
+        (*v)[7] = div_rn((*v)[7], n);
     }
     return n;
 }
