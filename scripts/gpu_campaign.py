@@ -3,19 +3,24 @@
 Steps, in order of what a short lease must not miss; each has a share of one deadline
 and a step that fails is recorded and the next one runs:
 
-1. adapter: nvidia-smi and `jeffcott info` (name, driver, f64, limits).
+1. adapter: nvidia-smi and `jeffcott info --kernel-stats` (name, driver, f64, limits;
+   each kernel variant's compile time and the driver's statistics: registers, spills).
 2. parity: the standard job's lanes for a few periods on the CPU and the GPU, f64 and
    f32: bit-identical lanes, largest difference, and the regime that implies.
-3. bench: `jeffcott bench` on the GPU at 16k, 128k and 1M lanes (f64, f32), and on this
+3. tests: the GPU test executables carried in .campaign/tests with a GPU required,
+   quick parity-critical ones first, within their own share of the deadline (two
+   campaigns that ran them last never reached them).
+4. bench: `jeffcott bench` on the GPU at 16k, 128k and 1M lanes (f64, f32), and on this
    machine's CPU for scale.
-4. standard job (issue 28: 1024 lanes at W = 133, x_r0 evenly over [-4, 4] mm, 200
+5. standard job (issue 28: 1024 lanes at W = 133, x_r0 evenly over [-4, 4] mm, 200
    periods from t = 0, error = worst lane's last Poincare position against a reference
-   good to ~1e-9 m), also replicated so it fills the GPU, by jeffcott's GPU kernel and by
-   the hand-written CUDA kernel of the numba loop's algorithm (benches/peer/rk4_cuda.py,
-   through cupy): lane-periods per second and worst-lane error for each.
-5. basin: 1000 x 1000 at W = 133 (250 + 32 periods) end to end in f32 and f64, the two
+   good to ~1e-9 m), replicated 128 times so it fills the GPU (the 1024 lanes alone
+   leave the H100 latency-bound: 5.2e3-7.1e3 lane-periods/s in f64, two campaigns), by
+   jeffcott's GPU kernel and by the hand-written CUDA kernel of the numba loop's
+   algorithm (benches/peer/rk4_cuda.py, through cupy): lane-periods per second and
+   worst-lane error for each.
+6. basin: 1000 x 1000 at W = 133 (250 + 32 periods) end to end in f32 and f64, the two
    label sets compared, and a 100 x 100 subgrid computed on the CPU compared with both.
-6. tests: the GPU test executables carried in .campaign/tests with a GPU required.
 
 Results go to --out as at most 8 files: summary.md (also printed last), results.json,
 info.txt, campaign.log (every command and its output) and tests.log.
@@ -33,7 +38,7 @@ import traceback
 
 import numpy as np
 
-STEPS = ["adapter", "parity", "bench", "standard", "peer", "basin", "tests"]
+STEPS = ["adapter", "parity", "tests", "bench", "standard", "peer", "basin"]
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 POS = [0, 2, 4, 6]  # x_r, y_r, x_s, y_s in the state vector
 OMEGA = 133.0
@@ -53,6 +58,7 @@ def parse_args():
     ap.add_argument("--only", help="comma-separated steps to run (adapter always runs): " + ",".join(STEPS))
     ap.add_argument("--basin-precisions", default="f32,f64", help="precisions of the GPU basin")
     ap.add_argument("--tests", help="comma-separated test executables to run (default: all carried)")
+    ap.add_argument("--tests-budget", type=float, help="seconds the tests step may take (default 200, small: no limit)")
     ap.add_argument("--bench-lanes", help="the GPU bench's lane counts, comma-separated (default 16384,131072,1048576)")
     ap.add_argument("--bench-lane-periods", type=int, help="the GPU bench's lane-periods per row (default 8388608)")
     ap.add_argument("--bench-backends", default="gpu,cpu", help="backends the bench step runs (default gpu,cpu)")
@@ -75,8 +81,12 @@ class Sizes:
         self.std_lanes = lanes or (64 if small else 1024)
         self.std_periods = periods or (20 if small else 200)
         self.replicas = 4 if small else 128
-        self.jeffcott_n = {"f64": [500] if small else [500, 700, 1000], "f32": [500] if small else [500, 700]}
-        self.peer_n = {"f64": [1024] if small else [3072, 6144], "f32": [1024] if small else [6144]}
+        # (lanes multiple, precision, N): N = 700 f64 and the peer's N = 6144 meet the
+        # same worst-lane error (1.57e-8 and 1.48e-8 m on the H100).
+        self.jeffcott_rows = [(1, "f64", 500), (self.replicas, "f64", 500), (self.replicas, "f32", 500)] if small \
+            else [(self.replicas, "f64", 500), (self.replicas, "f64", 700), (self.replicas, "f32", 500)]
+        self.peer_rows = [(1, "f64", 1024), (self.replicas, "f32", 1024)] if small \
+            else [(self.replicas, "f64", 3072), (self.replicas, "f64", 6144), (self.replicas, "f32", 6144)]
         self.basin_n, self.basin_t, self.basin_p, self.basin_stride = (40, 30, 8, 4) if small else (1000, 250, 32, 10)
 
 
@@ -193,7 +203,12 @@ class Campaign:
             _, q, _ = self.sh(["nvidia-smi", "--query-gpu=name,driver_version,memory.total,clocks.sm,clocks.max.sm,"
                                "power.limit,temperature.gpu", "--format=csv"], check=False)
             text.append(q)
-        _, info, _ = self.sh([self.jeffcott, "info"])
+        # The driver's statistics of each kernel variant (registers, spills: why the kernel
+        # is slow on the H100, docs/gpu.md); plain `info` if that fails.
+        rc, info, _ = self.sh([self.jeffcott, "info", "--kernel-stats"], timeout=120, check=False)
+        if rc != 0:
+            text.append(info)
+            _, info, _ = self.sh([self.jeffcott, "info"])
         text.append(info)
         with open(os.path.join(self.out, "info.txt"), "w") as f:
             f.write("\n".join(text))
@@ -206,7 +221,8 @@ class Campaign:
             with open(os.path.join(self.out, "info.txt"), "a") as f:
                 f.write("\n\nVK_LOADER_DEBUG=error,warn:\n" + dbg)
             raise Fatal("no hardware Vulkan adapter with f64: " + dbg.strip()[-800:])
-        return {"jeffcott_info": info.strip().splitlines(), "gpus": gpus}
+        kernels = [line.strip() for line in info.splitlines() if line.startswith(("kernel", "  ["))]
+        return {"jeffcott_info": info.strip().splitlines(), "gpus": gpus, "kernel_stats": kernels}
 
     # ---- 2. parity -----------------------------------------------------------------
 
@@ -301,15 +317,13 @@ class Campaign:
                      f"{row['lane_periods_per_s']:.3e} lane-periods/s, worst lane {row['worst_lane_m']:.2e} m")
 
         xr = standard_xr(L)
-        for lanes_mult in (1, s.replicas):
+        for lanes_mult, prec, n in s.jeffcott_rows:
             xs = np.tile(xr, lanes_mult)
-            for prec, ns in s.jeffcott_n.items():
-                for n in ns:
-                    pts, run, _ = self.ensemble(f"std-{prec}-{n}", xs, 1, P - 1, n, "gpu", prec, timeout=120)
-                    compute = run["wall_time_s"] - run.get("setup_time_s", 0.0)
-                    add({"integrator": "jeffcott-gpu", "device": run["device"], "precision": prec, "N": n,
-                         "lanes": len(xs), "wall_s": run["wall_time_s"], "setup_s": run.get("setup_time_s"),
-                         "lane_periods_per_s": len(xs) * P / compute}, pts[:, -1, :])
+            pts, run, _ = self.ensemble(f"std-{prec}-{n}", xs, 1, P - 1, n, "gpu", prec, timeout=120)
+            compute = run["wall_time_s"] - run.get("setup_time_s", 0.0)
+            add({"integrator": "jeffcott-gpu", "device": run["device"], "precision": prec, "N": n,
+                 "lanes": len(xs), "wall_s": run["wall_time_s"], "setup_s": run.get("setup_time_s"),
+                 "lane_periods_per_s": len(xs) * P / compute}, pts[:, -1, :])
         # this machine's CPU on the 1024 lanes, at the N that meets 1e-7 m on the 2-core VM
         pts, run, _ = self.ensemble("std-cpu", xr, 1, P - 1, 700 if not s.small else 500, "cpu", "f64", timeout=120)
         add({"integrator": "jeffcott-cpu", "device": run["device"], "precision": "f64", "N": run["steps_per_period"],
@@ -339,22 +353,20 @@ class Campaign:
             self.say(f"   CUDA peer skipped: cupy unavailable ({type(e).__name__})")
             return [{"integrator": "cuda-peer", "skipped": "cupy unavailable"}]
         rows = []
-        for lanes_mult in (1, self.sizes.replicas):
+        for lanes_mult, prec, n in self.sizes.peer_rows:
             states = os.path.join(self.work, f"x0-{lanes_mult}.npy")
             np.save(states, np.tile(x0, (lanes_mult, 1)))
-            for prec, ns in self.sizes.peer_n.items():
-                for n in ns:
-                    final = os.path.join(self.work, "peer-final.npy")
-                    _, out, _ = self.sh([sys.executable, os.path.join(ROOT, "benches/peer/rk4_cuda.py"), "substep", n,
-                                         periods, "--states", states, "--out", final, "--precision", prec,
-                                         "--repeat", 3 if lanes_mult == 1 else 1], timeout=150)
-                    r = json.loads([line for line in out.splitlines() if line.startswith("{")][-1])
-                    r["worst_lane_m"], r["p99_lane_m"] = errors(np.load(final))
-                    r["integrator"] = "cuda-peer"
-                    r["N"] = n
-                    rows.append(r)
-                    self.say(f"   cuda-peer {prec} N={n} lanes={r['lanes']}: {r['lane_periods_per_s']:.3e} "
-                             f"lane-periods/s, worst lane {r['worst_lane_m']:.2e} m")
+            final = os.path.join(self.work, "peer-final.npy")
+            _, out, _ = self.sh([sys.executable, os.path.join(ROOT, "benches/peer/rk4_cuda.py"), "substep", n,
+                                 periods, "--states", states, "--out", final, "--precision", prec,
+                                 "--repeat", 3 if lanes_mult == 1 else 1], timeout=150)
+            r = json.loads([line for line in out.splitlines() if line.startswith("{")][-1])
+            r["worst_lane_m"], r["p99_lane_m"] = errors(np.load(final))
+            r["integrator"] = "cuda-peer"
+            r["N"] = n
+            rows.append(r)
+            self.say(f"   cuda-peer {prec} N={n} lanes={r['lanes']}: {r['lane_periods_per_s']:.3e} "
+                     f"lane-periods/s, worst lane {r['worst_lane_m']:.2e} m")
         return rows
 
     # ---- 5. the basin --------------------------------------------------------------
@@ -410,6 +422,8 @@ class Campaign:
         # Quick, parity-critical executables first: on the H100 (2026-11-25) three GPU
         # tests of `map` ran past 90 s and the executables after it were never reached.
         first = ["mirror", "gpu", "input_checks", "lyapunov", "orbits", "basin_gpu", "early_exit", "jeffcott_gpu"]
+        budget = self.args.tests_budget or (1e9 if self.sizes.small else 200.0)
+        t0 = time.monotonic()
         rank = {name: i for i, name in enumerate(first)}
         for gz in sorted(os.listdir(src), key=lambda f: (rank.get(f.removesuffix(".gz"), len(first)), f)):
             name = gz.removesuffix(".gz")
@@ -418,13 +432,18 @@ class Campaign:
             if self.left() < 20:
                 out[name] = "skipped: deadline"
                 continue
+            spent = time.monotonic() - t0
+            if budget - spent < 20:
+                out[name] = f"skipped: the step's budget ({spent:.0f} of {budget:.0f} s spent)"
+                continue
             exe = os.path.join(self.work, "t-" + name)
             with gzip.open(os.path.join(src, gz)) as f, open(exe, "wb") as g:
                 shutil.copyfileobj(f, g)
             os.chmod(exe, 0o755)
             # One executable may not take the whole budget: 90 s each (the slowest took 14 s
             # on the H100 apart from map's).
-            rc, text, dt = self.sh([exe], env={"JEFFCOTT_REQUIRE_GPU": "1"}, timeout=90, check=False)
+            rc, text, dt = self.sh([exe], env={"JEFFCOTT_REQUIRE_GPU": "1"}, timeout=min(90, budget - spent),
+                                   check=False)
             log.write(f"===== {name} (rc {rc}, {dt:.1f} s)\n{text}\n")
             log.flush()
             result = [line for line in text.splitlines() if line.startswith("test result:")]
@@ -454,6 +473,9 @@ class Campaign:
         md = [f"# GPU campaign ({self.results['mode']}), {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}", ""]
         a = st.get("adapter", {})
         md += ["## Adapter", ""] + [f"- {g}" for g in a.get("gpus", [])] + [""]
+        if a.get("kernel_stats"):
+            md += ["## The kernel as the driver compiled it (`jeffcott info --kernel-stats`)", ""]
+            md += [f"    {line}" for line in a["kernel_stats"]] + [""]
         p = st.get("parity", {})
         md += ["## Parity (CPU against GPU, the standard job's lanes)", "",
                "| precision | lanes bit-identical | largest position difference [m] | first period differing | regime |",

@@ -106,7 +106,7 @@ pub enum Command {
     /// diagrams) and a REPORT.md; --quick (default) takes under 10 minutes on 2 CPU cores.
     Reproduce(ReproduceArgs),
     /// List GPU adapters, their backends, f64 support and limits, and the CPU threads.
-    Info,
+    Info(InfoArgs),
     /// Measure lane-steps and forcing periods per second of each backend and precision
     /// at W = 133 (a contact-heavy regime) and print the README's table.
     Bench(BenchArgs),
@@ -136,7 +136,7 @@ pub fn dispatch(command: &Command) -> Result<()> {
         Command::Cascade(a) => run_cascade(a),
         Command::BasinStability(a) => run_stability(a),
         Command::Reproduce(a) => run_reproduce(a),
-        Command::Info => run_info(),
+        Command::Info(a) => run_info(a),
         Command::Bench(a) => run_bench(a),
         Command::Lyapunov(a) => lyapunov::run_lyapunov(a),
         Command::Merge(a) => run_merge(a),
@@ -437,8 +437,18 @@ fn write_ensemble(
     Ok(())
 }
 
+/// Options of `jeffcott info`.
+#[derive(Args, Debug)]
+pub struct InfoArgs {
+    /// Also compile every lane-kernel variant on each Vulkan device and print what the
+    /// driver reports about it (registers, spills, local memory, instructions: whatever
+    /// it offers through VK_KHR_pipeline_executable_properties).
+    #[arg(long)]
+    pub kernel_stats: bool,
+}
+
 /// Runs `jeffcott info`.
-pub fn run_info() -> Result<()> {
+pub fn run_info(args: &InfoArgs) -> Result<()> {
     let adapters = jeffcott_gpu::list_adapters();
     println!("CPU: {} rayon threads", rayon::current_num_threads());
     if adapters.is_empty() {
@@ -470,6 +480,40 @@ pub fn run_info() -> Result<()> {
                 "the driver's own"
             }
         );
+    }
+    if args.kernel_stats {
+        print_kernel_stats()?;
+    }
+    Ok(())
+}
+
+/// Prints the driver's statistics of every lane-kernel variant on every Vulkan device.
+fn print_kernel_stats() -> Result<()> {
+    let devices = jeffcott_gpu::stats::kernel_statistics()
+        .map_err(|message| jeffcott_core::Error::Gpu { message })?;
+    for d in devices {
+        let kernels = d.kernels.map_err(|e| jeffcott_core::Error::Gpu {
+            message: format!("compiling the lane kernel on {}: {e}", d.device),
+        })?;
+        if !d.offers_statistics {
+            println!(
+                "kernel statistics on {}: none (the driver does not offer VK_KHR_pipeline_executable_properties)",
+                d.device
+            );
+        }
+        for k in kernels {
+            println!(
+                "kernel {} on {}: compiled in {:.2} s",
+                k.kernel, k.device, k.compile_s
+            );
+            for (exe, stats) in &k.executables {
+                let list: Vec<String> = stats
+                    .iter()
+                    .map(|s| format!("{} = {}", s.name, s.value))
+                    .collect();
+                println!("  [{exe}] {}", list.join("; "));
+            }
+        }
     }
     Ok(())
 }

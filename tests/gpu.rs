@@ -649,3 +649,39 @@ fn f32_gpu_lanes_find_the_f64_cpu_period_and_points_within_1e_5_m() {
     }
     assert!(periods.contains(&1) && periods.contains(&2), "{periods:?}");
 }
+
+/// `jeffcott info --kernel-stats` builds every lane-kernel variant through raw Vulkan
+/// (jeffcott-gpu's stats.rs: its own device, descriptor layout and pipelines from the
+/// runner's exact SPIR-V words): each compiles on every Vulkan device, and where the
+/// driver offers VK_KHR_pipeline_executable_properties each has statistics (Mesa 22.3's
+/// lavapipe offers none: that half says skipped there).
+#[test]
+fn every_kernel_variant_compiles_through_raw_vulkan_with_the_drivers_statistics() {
+    if common::gpu::runner().is_none() {
+        return;
+    }
+    let devices = jeffcott_gpu::stats::kernel_statistics().expect("a Vulkan instance");
+    assert!(!devices.is_empty(), "no Vulkan device");
+    for d in devices {
+        let kernels = d
+            .kernels
+            .unwrap_or_else(|e| panic!("{}: the kernel does not compile: {e}", d.device));
+        // f32 plain and lambda_1, and with f64 the f64 and driver's-f32 variants too.
+        assert!(
+            kernels.len() == 2 || kernels.len() == 6,
+            "{} kernels",
+            kernels.len()
+        );
+        if !d.offers_statistics {
+            eprintln!("skipped: {} offers no pipeline statistics", d.device);
+            continue;
+        }
+        for k in &kernels {
+            assert!(!k.executables.is_empty(), "{}: no executable", k.kernel);
+            for (exe, stats) in &k.executables {
+                assert!(!stats.is_empty(), "{} [{exe}]: no statistics", k.kernel);
+                eprintln!("{} [{exe}]: {stats:?}", k.kernel);
+            }
+        }
+    }
+}

@@ -30,6 +30,7 @@ pub mod layout;
 pub mod plan;
 pub mod shader;
 pub mod spirv;
+pub mod stats;
 
 pub use device::{
     AdapterSummary, DeviceRequest, GpuDevice, SHADER_PATH_VAR, ShaderPath, list_adapters,
