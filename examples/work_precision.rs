@@ -23,12 +23,14 @@ use std::process::Command;
 use std::time::Instant;
 
 /// The standard job's lanes, integrated by the lane stepper at N steps per period with
-/// contact refinement R; also the mean RK4 sub-steps per lane-period.
+/// contact refinement R (and the exact free-flight step where `exact`); also the mean
+/// RK4 sub-steps per lane-period.
 fn lane_stepper(
     lanes: usize,
     periods: u32,
     n: u32,
     r: u32,
+    exact: bool,
 ) -> anyhow::Result<(Vec<State>, f64, f64)> {
     let p = Params::default();
     let eq = p.static_equilibrium();
@@ -50,6 +52,7 @@ fn lane_stepper(
         stepper: StepperConfig {
             steps_per_period: n,
             contact_substeps: r,
+            exact_free_flight: exact,
             ..Default::default()
         },
         precision: Precision::F64,
@@ -140,8 +143,8 @@ fn main() -> anyhow::Result<()> {
     let lanes: usize = args.get(1).map_or(Ok(1024), |s| s.parse())?;
     let periods: u32 = args.get(2).map_or(Ok(200), |s| s.parse())?;
     let lp = lanes as f64 * periods as f64;
-    let (reference, _, _) = lane_stepper(lanes, periods, 8000, 1)?;
-    let (check, _, _) = lane_stepper(lanes, periods, 4000, 1)?;
+    let (reference, _, _) = lane_stepper(lanes, periods, 8000, 1, false)?;
+    let (check, _, _) = lane_stepper(lanes, periods, 4000, 1, false)?;
     let agree = sorted_position_errors(&check, &reference);
     println!(
         "{lanes} lanes x {periods} periods at W = 133 (x_r0 over [-4, 4] mm); references N = 4000 and 8000 agree to {:.1e} m (median), {:.1e} (99 %), {:.1e} (worst)",
@@ -179,8 +182,18 @@ fn main() -> anyhow::Result<()> {
     ];
     for (r, ns) in study {
         for &n in ns {
-            let (s, w, steps) = lane_stepper(lanes, periods, n, r)?;
+            let (s, w, steps) = lane_stepper(lanes, periods, n, r, false)?;
             record(&name(r), n, Some(steps), &s, w);
+        }
+    }
+    // The exact free-flight step (issue 28 item 5): its error is contact's alone, so
+    // half the N at twice the R.
+    let exact_name = |r: u32| format!("jeffcott CPU f64 (2 threads), exact free flight, R = {r}");
+    let exact_study: [(u32, &[u32]); 2] = [(4, &[250, 350, 500]), (8, &[175, 250, 350])];
+    for (r, ns) in exact_study {
+        for &n in ns {
+            let (s, w, steps) = lane_stepper(lanes, periods, n, r, true)?;
+            record(&exact_name(r), n, Some(steps), &s, w);
         }
     }
     let peer = "RK4 + switch sub-steps (numba, prange)";
@@ -218,13 +231,19 @@ fn main() -> anyhow::Result<()> {
     } else {
         &[strong]
     };
+    let exact4 = &exact_name(4);
     for (what, q, target) in [
         ("worst lane", 1.0, 1e-7),
         ("99th percentile", 0.99, 1e-7),
         ("99th percentile", 0.99, 2e-9),
     ] {
-        for &other in baselines {
-            let (ours_c, other_c) = (curve(ours, q), curve(other, q));
+        for (mine, &other) in baselines
+            .iter()
+            .map(|b| (ours, b))
+            .chain(baselines.iter().map(|b| (exact4, b)))
+        {
+            println!("{mine}:");
+            let (ours_c, other_c) = (curve(mine, q), curve(other, q));
             match (cheapest(&ours_c, target), cheapest(&other_c, target)) {
                 (Some(a), Some(b)) => println!(
                     "{what} <= {target:e} m, fastest measured point: jeffcott {a:.3e} lane-periods/s, {other} {b:.3e}: ratio {:.2}",
@@ -276,6 +295,12 @@ fn main() -> anyhow::Result<()> {
             p[4],
             false,
             curve(&name(4), 1.0),
+        ),
+        (
+            format!("{exact4}, worst lane"),
+            p[3],
+            false,
+            curve(exact4, 1.0),
         ),
         (format!("{peer}, worst lane"), p[5], false, curve(peer, 1.0)),
         (

@@ -574,6 +574,12 @@ pub struct StepperArgs {
     /// transient and record, as before early exit existed).
     #[arg(long, default_value_t = StepperConfig::DEFAULT.early_exit_streak, value_name = "M")]
     pub early_exit_streak: u32,
+    /// Macro steps begun in free flight take the exact flow map of the free motion
+    /// instead of RK4 (contact stays RK4); halve --steps-per-period and double
+    /// --contact-substeps for the same accuracy at less cost (docs/performance.md). CPU
+    /// only so far.
+    #[arg(long)]
+    pub exact_free_flight: bool,
 }
 
 impl StepperArgs {
@@ -586,6 +592,7 @@ impl StepperArgs {
             contact_substeps: self.contact_substeps,
             early_exit_after: self.early_exit_after,
             early_exit_streak: self.early_exit_streak,
+            exact_free_flight: self.exact_free_flight,
         }
     }
 }

@@ -157,15 +157,18 @@ fn scalar_reference<R: jeffcott_core::real::Real>(
 fn simd_batches_equal_the_scalar_lane_stepper_to_the_bit() {
     // Every precision, and contact refinement off (R = 1), at its default and at the
     // largest R: the batch takes R passes for lanes in contact and hands a lane over to
-    // the scalar stepper in the middle of a macro step.
+    // the scalar stepper in the middle of a macro step. With the exact free-flight step
+    // too: a batch mixes lanes taking it with lanes in contact taking RK4.
     let cases = [
-        (Precision::F64, None),
-        (Precision::F32, None),
-        (Precision::F64, Some(1)),
-        (Precision::F64, Some(16)),
-        (Precision::F32, Some(4)),
+        (Precision::F64, None, false),
+        (Precision::F32, None, false),
+        (Precision::F64, Some(1), false),
+        (Precision::F64, Some(16), false),
+        (Precision::F32, Some(4), false),
+        (Precision::F64, None, true),
+        (Precision::F32, Some(8), true),
     ];
-    for (precision, refine) in cases {
+    for (precision, refine, exact) in cases {
         // 53 lanes: six batches of 8 and five single lanes; one batch holds a NaN lane
         // and a lane thrown out of every bound, so frozen lanes share batches with live
         // ones.
@@ -173,6 +176,7 @@ fn simd_batches_equal_the_scalar_lane_stepper_to_the_bit() {
         if let Some(r) = refine {
             s.stepper.contact_substeps = r;
         }
+        s.stepper.exact_free_flight = exact;
         s.lanes[9].x0[X_R] = f64::NAN;
         s.lanes[12].x0[VX_R] = 1e6;
         // A third parameter set with contact damping (a velocity-dependent force that
@@ -203,14 +207,17 @@ fn simd_batches_equal_the_scalar_lane_stepper_to_the_bit() {
         };
         for (i, (bits, status, counters)) in reference.iter().enumerate() {
             let got: Vec<u64> = r.lane_points(i).iter().map(|v| v.to_bits()).collect();
-            assert_eq!(&got, bits, "{precision:?} R {refine:?} lane {i} points");
+            assert_eq!(
+                &got, bits,
+                "{precision:?} R {refine:?} exact {exact} lane {i} points"
+            );
             assert_eq!(
                 r.status[i], *status,
-                "{precision:?} R {refine:?} lane {i} status"
+                "{precision:?} R {refine:?} exact {exact} lane {i} status"
             );
             assert_eq!(
                 r.counters[i], *counters,
-                "{precision:?} R {refine:?} lane {i} counters"
+                "{precision:?} R {refine:?} exact {exact} lane {i} counters"
             );
         }
         assert_eq!(r.status[9], Status::NonFinite);
@@ -225,11 +232,20 @@ fn simd_batches_equal_the_scalar_lane_stepper_to_the_bit() {
 /// and lambda_1 to the bit.
 #[test]
 fn simd_batches_with_lambda1_equal_the_scalar_tangent_stepper_to_the_bit() {
+    for exact in [false, true] {
+        lambda1_batches_equal_the_scalar_tangent_stepper(exact);
+    }
+}
+
+/// The lambda_1 comparison, with RK4 throughout or the exact free-flight step (whose
+/// tangent step is its own transition).
+fn lambda1_batches_equal_the_scalar_tangent_stepper(exact: bool) {
     use jeffcott_core::integrate::lane::{
         LAMBDA1_START, Tangent, advance_period_tangent, renormalise,
     };
     use jeffcott_core::model::STATE_DIM;
     let mut s = spec(Precision::F64, 21);
+    s.stepper.exact_free_flight = exact;
     s.lanes[4].x0[X_R] = f64::NAN;
     s.lanes[6].x0[VX_R] = 1e6;
     let r = cpu::run(&s, true, Control::none()).unwrap();
@@ -260,7 +276,7 @@ fn simd_batches_with_lambda1_equal_the_scalar_tangent_stepper_to_the_bit() {
             }
         }
         let got: Vec<u64> = r.lane_points(i).iter().map(|v| v.to_bits()).collect();
-        assert_eq!(got, bits, "lane {i} points");
+        assert_eq!(got, bits, "exact {exact} lane {i} points");
         assert_eq!(r.status[i], lane.status, "lane {i} status");
         assert_eq!(r.counters[i], lane.counters, "lane {i} counters");
         let want = if lane.status.is_frozen() {

@@ -525,3 +525,41 @@ fn contact_refinement_other_than_a_power_of_two_up_to_16_is_refused_naming_the_o
         assert!(!out.exists(), "nothing may be written for R = {bad}");
     }
 }
+
+/// The exact free-flight step is on the CPU only so far: on a GPU a run asking for it is
+/// refused with the option's name and the way out, before it writes anything; on the
+/// CPU it runs, and its points differ from RK4's (the step really changed).
+#[test]
+fn exact_free_flight_is_refused_on_the_gpu_and_runs_on_the_cpu() {
+    let base = [
+        "ensemble",
+        "--omega",
+        "133",
+        "--transient",
+        "2",
+        "--periods",
+        "2",
+        "--quiet",
+    ];
+    if gpu_present() {
+        assert_refused_before_output(
+            &[&base[..], &["--backend", "gpu", "--exact-free-flight"]].concat(),
+            &["exact-free-flight", "--backend cpu"],
+        );
+    }
+    let (_dir, out) = temp_out("runs");
+    let run = |extra: &[&str], name: &str| {
+        let dir = out.join(name);
+        let o = jeffcott(
+            &[
+                &base[..],
+                &["--backend", "cpu", "--out", dir.to_str().unwrap()],
+                extra,
+            ]
+            .concat(),
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+        std::fs::read(dir.join("poincare.npy")).expect("poincare.npy")
+    };
+    assert_ne!(run(&["--exact-free-flight"], "exact"), run(&[], "rk4"));
+}

@@ -23,7 +23,8 @@ dictionaries whose keys are those of the command line's JSON files:
 ``"gpu"`` (any adapter, Mesa's lavapipe included); ``precision=None`` is f64 on the CPU
 and f32 on a GPU. ``progress`` takes a callable ``f(done, total)`` (lane-periods).
 Every function that integrates takes the lane stepper's settings as keywords
-(``steps_per_period``, ``max_segments``, ``divergence_bound``, ``contact_substeps``: the
+(``steps_per_period``, ``max_segments``, ``divergence_bound``, ``contact_substeps``,
+``exact_free_flight`` (CPU only), ...: the
 command line's options of those names), their defaults in ``STEPPER_DEFAULTS``; every
 keyword's default is in ``DEFAULTS``.
 Ctrl-C stops a run cleanly (KeyboardInterrupt), within a forcing period; bad input

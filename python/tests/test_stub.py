@@ -125,9 +125,11 @@ def test_the_stepper_keywords_are_exactly_the_stepper_settings_with_their_kinds(
 
 def test_a_stepper_keyword_reaches_the_stepper_and_an_unknown_keyword_is_refused():
     r = jeffcott.simulate(133.0, transient=1, periods=2, steps_per_period=300,
-                          contact_substeps=4)
+                          contact_substeps=4, exact_free_flight=True)
     assert r["stepper"]["steps_per_period"] == 300
     assert r["stepper"]["contact_substeps"] == 4
+    assert r["stepper"]["exact_free_flight"] is True
+    assert jeffcott.STEPPER_DEFAULTS["exact_free_flight"] is False
     assert r["stepper"]["max_segments"] == jeffcott.STEPPER_DEFAULTS["max_segments"]
     assert jeffcott.ensemble("133", transient=1, periods=1, backend="cpu",
                              steps_per_period=300)["run"]["steps_per_period"] == 300

@@ -611,6 +611,13 @@ impl GpuRunner {
         let lyapunov = tangents.is_some();
         let rec_dim = shader::record_dim(lyapunov);
         same_count("lanes", consts.len(), "lane constants", init.len())?;
+        if consts.iter().any(|lc| lc.exact.is_some()) {
+            return Err(Error::invalid(
+                "exact-free-flight",
+                "on",
+                "the GPU kernel does not have the exact free-flight step yet; use --backend cpu",
+            ));
+        }
         if schedule.periods_per_slice == 0 {
             return Err(Error::invalid("periods_per_slice", 0, "must be >= 1"));
         }

@@ -17,6 +17,7 @@
 //! the one definition of the algorithm that the WGSL kernel mirrors.
 
 use crate::integrate::forcing::phasor_turns;
+use crate::integrate::free_flight::ExactFreeFlight;
 use crate::integrate::lane::{
     Lane, LaneConsts, MacroStep, finish_macro_step, forcing_phasor, macro_step_begin,
     macro_step_end, macro_step_tangent, trial_extent,
@@ -461,7 +462,25 @@ fn batch_pass<R: Real, const M: usize>(
     let s0: V<R> = lanes(|l| part[l].s);
     let extent: [(R, R); BATCH] = lanes(|l| trial_extent(&lc[l], s0[l], contact[l]));
     let ds: V<R> = lanes(|l| extent[l].0);
-    let (x1, stages) = rk4_step(bc, &x, k, &s0, &ds, &contact);
+    // Lanes whose macro step begins in free flight take the exact map where the
+    // stepper has it (`lane::finish_macro_step`, the same choice and the same scalar
+    // map); RK4 runs for the batch unless every live lane did.
+    let exact: [Option<&ExactFreeFlight<R>>; BATCH] = lanes(|l| {
+        lc[l]
+            .exact
+            .as_ref()
+            .filter(|_| !contact[l] && s0[l] == zero)
+    });
+    let (mut x1, stages) = if (0..BATCH).any(|l| active[l] && exact[l].is_none()) {
+        rk4_step(bc, &x, k, &s0, &ds, &contact)
+    } else {
+        (x, [x; 4])
+    };
+    for l in 0..BATCH {
+        if let Some(ex) = exact[l] {
+            set_lane(&mut x1, l, ex.step(&lc[l], &lane_of(&x, l), k));
+        }
+    }
     // When every live lane's macro step is untouched and its trial step certainly stays
     // clear of the stator (`lane::finish_macro_step`, the same test), the samples are
     // not computed at all. The test stops at the first live lane that fails it (the
@@ -497,9 +516,18 @@ fn batch_pass<R: Real, const M: usize>(
     }
     // No switch: accept the trial sub-step as `finish_macro_step` does.
     let accept: [bool; BATCH] = lanes(|l| active[l] && !switch[l]);
-    if M > 0 && accept.iter().any(|&a| a) {
-        let hs: V<R> = lanes(|l| ds[l] * bc.h[l]);
-        tangent_step(bc, lc, &stages, &hs, &contact, &accept, tan);
+    if M > 0 {
+        // RK4's tangent step on the stages, or the exact map's own (`lane::trial_tangent`).
+        let by_rk4: [bool; BATCH] = lanes(|l| accept[l] && exact[l].is_none());
+        if by_rk4.iter().any(|&a| a) {
+            let hs: V<R> = lanes(|l| ds[l] * bc.h[l]);
+            tangent_step(bc, lc, &stages, &hs, &contact, &by_rk4, tan);
+        }
+        for l in 0..BATCH {
+            if let (true, Some(ex)) = (accept[l], exact[l]) {
+                ex.tangent(&lc[l], &mut tan[l]);
+            }
+        }
     }
     for l in 0..BATCH {
         if !active[l] {

@@ -69,6 +69,7 @@ pub const WGSL_FILES: [(&str, &str); 7] = [
 ];
 
 use crate::integrate::forcing::phasor_turns;
+use crate::integrate::free_flight::ExactFreeFlight;
 use crate::model::{Coeffs, STATE_DIM, X_R, X_S, Y_R, Y_S, penetration, rhs_frozen};
 use crate::real::Real;
 use serde::Serialize;
@@ -144,6 +145,9 @@ pub struct LaneConsts<R> {
     pub max_segments: u32,
     /// 1/R: the longest sub-step taken in contact, as a fraction of the macro step.
     pub inv_r: R,
+    /// The exact flow map for macro steps begun in free flight
+    /// ([`StepperConfig::exact_free_flight`]); `None`: RK4 throughout.
+    pub exact: Option<ExactFreeFlight<R>>,
 }
 
 /// Settings of the lane stepper that are not model parameters.
@@ -168,6 +172,13 @@ pub struct StepperConfig {
     /// exit existed had it off (0).
     #[serde(default)]
     pub early_exit_streak: u32,
+    /// A macro step begun in free flight takes the exact flow map of the free motion
+    /// (`integrate::free_flight`) as its trial step instead of RK4; crossings, contact
+    /// sub-steps and partial steps stay RK4. Its error is then all contact's, so N can
+    /// halve where R doubles (docs/performance.md). CPU only so far. Runs recorded before
+    /// it existed used RK4 (false).
+    #[serde(default)]
+    pub exact_free_flight: bool,
 }
 
 fn no_contact_refinement() -> u32 {
@@ -184,6 +195,7 @@ impl StepperConfig {
         contact_substeps: DEFAULT_CONTACT_SUBSTEPS,
         early_exit_after: 100,
         early_exit_streak: 16,
+        exact_free_flight: false,
     };
 }
 
@@ -271,6 +283,11 @@ impl<R: Real> LaneConsts<R> {
             n,
             max_segments: cfg.max_segments,
             inv_r: R::lit(1.0 / cfg.contact_substeps as f64),
+            exact: if cfg.exact_free_flight {
+                ExactFreeFlight::new(p, omega, n)
+            } else {
+                None
+            },
         }
     }
 }
@@ -464,7 +481,15 @@ pub(crate) fn finish_macro_step<R: Real, const M: usize>(
     // MacroStep the batch stepper finished itself already is).
     while p.s < one && p.switches < lc.max_segments {
         let (ds, end) = trial_extent(lc, p.s, p.contact);
-        let x1 = rk4_substep(lc, &p.x, k, p.s, ds, p.contact);
+        // A macro step begun in free flight may take the exact map (s = 0: ds = 1).
+        let exact = lc
+            .exact
+            .as_ref()
+            .filter(|_| !p.contact && p.s == R::lit(0.0));
+        let x1 = match exact {
+            Some(ex) => ex.step(lc, &p.x, k),
+            None => rk4_substep(lc, &p.x, k, p.s, ds, p.contact),
+        };
         p.substeps += 1;
         // A macro step untouched so far is in free flight from its start (s = 0, ds = 1):
         // where the trial step certainly stays clear of the stator the search would find
@@ -480,7 +505,7 @@ pub(crate) fn finish_macro_step<R: Real, const M: usize>(
         p.max_g = p.max_g.max(sw.max_g);
         if sw.theta > one {
             if M > 0 {
-                rk4_tangent_substep(lc, &p.x, k, p.s, ds, p.contact, tan);
+                trial_tangent(lc, exact, &p.x, k, p.s, ds, p.contact, tan);
             }
             p.x = x1;
             p.s = end;
@@ -488,7 +513,7 @@ pub(crate) fn finish_macro_step<R: Real, const M: usize>(
         }
         if sw.theta >= one {
             if M > 0 {
-                rk4_tangent_substep(lc, &p.x, k, p.s, ds, p.contact, tan);
+                trial_tangent(lc, exact, &p.x, k, p.s, ds, p.contact, tan);
             }
             p.x = x1;
             p.s = end;
@@ -520,6 +545,26 @@ pub(crate) fn finish_macro_step<R: Real, const M: usize>(
         }
     }
     macro_step_end(lc, lane, &p);
+}
+
+/// The tangent step over an accepted trial sub-step: the exact map's own (its
+/// transition, `exact`) or RK4's on the state step's stages.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn trial_tangent<R: Real, const M: usize>(
+    lc: &LaneConsts<R>,
+    exact: Option<&ExactFreeFlight<R>>,
+    x: &[R; STATE_DIM],
+    k: u32,
+    s: R,
+    ds: R,
+    contact: bool,
+    tan: &mut Tangent<R, M>,
+) {
+    match exact {
+        Some(ex) => ex.tangent(lc, tan),
+        None => rk4_tangent_substep(lc, x, k, s, ds, contact, tan),
+    }
 }
 
 /// The end of a macro step whose segments are done (`p.s >= 1` or capped): status

@@ -4,6 +4,7 @@
 pub mod article;
 pub mod batch;
 pub mod forcing;
+pub mod free_flight;
 pub mod lane;
 pub mod rk4;
 pub mod switch;
