@@ -531,16 +531,9 @@ fn contact_refinement_other_than_a_power_of_two_up_to_16_is_refused_naming_the_o
 /// CPU it runs, and its points differ from RK4's (the step really changed).
 #[test]
 fn exact_free_flight_is_refused_on_the_gpu_and_runs_on_the_cpu() {
-    let base = [
-        "ensemble",
-        "--omega",
-        "133",
-        "--transient",
-        "2",
-        "--periods",
-        "2",
-        "--quiet",
-    ];
+    let base: Vec<&str> = "ensemble --omega 133 --transient 2 --periods 2 --quiet"
+        .split(' ')
+        .collect();
     if gpu_present() {
         assert_refused_before_output(
             &[&base[..], &["--backend", "gpu", "--exact-free-flight"]].concat(),
