@@ -83,8 +83,13 @@ class Sizes:
         self.replicas = 4 if small else 128
         # (lanes multiple, precision, N): N = 700 f64 and the peer's N = 6144 meet the
         # same worst-lane error (1.57e-8 and 1.48e-8 m on the H100).
-        self.jeffcott_rows = [(1, "f64", 500), (self.replicas, "f64", 500), (self.replicas, "f32", 500)] if small \
-            else [(self.replicas, "f64", 500), (self.replicas, "f64", 700), (self.replicas, "f32", 500)]
+        # The exact free-flight step (issue 28 item 5) at half the N and twice the R: on the
+        # 2-core CPU N = 350, R = 4 met N = 700, R = 2's worst lane 1.30-1.44x faster.
+        exact = ["--contact-substeps", "4", "--exact-free-flight"]
+        self.jeffcott_rows = [(1, "f64", 500, []), (self.replicas, "f64", 500, []), (self.replicas, "f32", 500, []),
+                              (1, "f64", 250, exact)] if small \
+            else [(self.replicas, "f64", 500, []), (self.replicas, "f64", 700, []), (self.replicas, "f32", 500, []),
+                  (self.replicas, "f64", 350, exact)]
         self.peer_rows = [(1, "f64", 1024), (self.replicas, "f32", 1024)] if small \
             else [(self.replicas, "f64", 3072), (self.replicas, "f64", 6144), (self.replicas, "f32", 6144)]
         self.basin_n, self.basin_t, self.basin_p, self.basin_stride = (40, 30, 8, 4) if small else (1000, 250, 32, 10)
@@ -174,7 +179,7 @@ class Campaign:
 
     # ---- jeffcott runs -------------------------------------------------------------
 
-    def ensemble(self, tag, xr, periods, transient, n, backend, precision, timeout=None):
+    def ensemble(self, tag, xr, periods, transient, n, backend, precision, timeout=None, extra=()):
         """`jeffcott ensemble` on lanes x_r0 = xr at W = 133 (the rest at the static
         equilibrium): (poincare [lanes, periods, 8], run.json, lanes.npy)."""
         d = os.path.join(self.work, tag)
@@ -185,7 +190,7 @@ class Campaign:
                 f.write("x_r\n" + "".join(f"{v!r}\n" for v in xr.tolist()))
         self.sh([self.jeffcott, "ensemble", "--lanes", table, "--omega", OMEGA, "--transient", transient,
                  "--periods", periods, "--steps-per-period", n, "--backend", backend, "--precision", precision,
-                 "--out", d, "--quiet"], timeout=timeout)
+                 "--out", d, "--quiet", *extra], timeout=timeout)
         with open(os.path.join(d, "run.json")) as f:
             run = json.load(f)
         pts = np.load(os.path.join(d, "poincare.npy"))
@@ -317,11 +322,12 @@ class Campaign:
                      f"{row['lane_periods_per_s']:.3e} lane-periods/s, worst lane {row['worst_lane_m']:.2e} m")
 
         xr = standard_xr(L)
-        for lanes_mult, prec, n in s.jeffcott_rows:
+        for lanes_mult, prec, n, extra in s.jeffcott_rows:
             xs = np.tile(xr, lanes_mult)
-            pts, run, _ = self.ensemble(f"std-{prec}-{n}", xs, 1, P - 1, n, "gpu", prec, timeout=120)
+            pts, run, _ = self.ensemble(f"std-{prec}-{n}", xs, 1, P - 1, n, "gpu", prec, timeout=120, extra=extra)
             compute = run["wall_time_s"] - run.get("setup_time_s", 0.0)
-            add({"integrator": "jeffcott-gpu", "device": run["device"], "precision": prec, "N": n,
+            name = "jeffcott-gpu exact-ff R=4" if extra else "jeffcott-gpu"
+            add({"integrator": name, "device": run["device"], "precision": prec, "N": n,
                  "lanes": len(xs), "wall_s": run["wall_time_s"], "setup_s": run.get("setup_time_s"),
                  "lane_periods_per_s": len(xs) * P / compute}, pts[:, -1, :])
         # this machine's CPU on the 1024 lanes, at the N that meets 1e-7 m on the 2-core VM

@@ -576,8 +576,7 @@ pub struct StepperArgs {
     pub early_exit_streak: u32,
     /// Macro steps begun in free flight take the exact flow map of the free motion
     /// instead of RK4 (contact stays RK4); halve --steps-per-period and double
-    /// --contact-substeps for the same accuracy at less cost (docs/performance.md). CPU
-    /// only so far.
+    /// --contact-substeps for the same accuracy at less cost (docs/performance.md).
     #[arg(long)]
     pub exact_free_flight: bool,
 }

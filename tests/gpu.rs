@@ -450,8 +450,9 @@ fn one_dispatch_and_many_slices_and_chunks_are_bit_identical() {
 }
 
 /// Scale (issue 25): a device whose limits admit only a few lanes per dispatch and per
-/// buffer (2 workgroups of 64, 4 KiB bindings: 16 f64 lanes of 4-period slices, 32 f32)
-/// runs a 700-lane ensemble in 44 or 22 chunks one after the other, bit-identical to the
+/// buffer (2 workgroups of 64, 4 KiB bindings: 10 f64 lanes, whose constants of 384
+/// bytes bind before their 4-period slices of records, 20 f32) runs a 700-lane ensemble
+/// in 70 or 35 chunks one after the other, bit-identical to the
 /// device's own plan. The same planning cuts 10M lanes on an H100 (plan.rs tests).
 fn small_device_limits_plan_many_chunks_with_identical_results<R: GpuReal>(runner: &GpuRunner) {
     let n = 700;
@@ -471,9 +472,9 @@ fn small_device_limits_plan_many_chunks_with_identical_results<R: GpuReal>(runne
     };
     let tiny = GpuRunner::with_limits(gpu, small);
     let plan = tiny.plan::<R>(n, &schedule, false).expect("plan");
-    let record_bytes = 4 * 8 * std::mem::size_of::<R>();
-    assert_eq!(plan.lanes_per_chunk, 4096 / record_bytes, "{plan:?}");
-    assert_eq!(plan.chunks, n.div_ceil(4096 / record_bytes), "{plan:?}");
+    let lane_bytes = (4 * 8 * std::mem::size_of::<R>()).max(std::mem::size_of::<R::Consts>());
+    assert_eq!(plan.lanes_per_chunk, 4096 / lane_bytes, "{plan:?}");
+    assert_eq!(plan.chunks, n.div_ceil(4096 / lane_bytes), "{plan:?}");
     let mut reports = 0;
     let cut = tiny
         .run_with_progress(&consts, &init, &schedule, &mut |_| {
@@ -684,4 +685,48 @@ fn every_kernel_variant_compiles_through_raw_vulkan_with_the_drivers_statistics(
             }
         }
     }
+}
+
+/// The exact free-flight step on the GPU (the kernel variant with EXACT_FREE_FLIGHT, the
+/// map in each lane's constants) equals the CPU's lane stepper in both precisions, to
+/// the bit where identity is promised, and it really runs: the lanes differ from RK4's.
+#[test]
+fn exact_free_flight_on_the_gpu_equals_the_cpu_lane_stepper_to_the_bit() {
+    common::gpu::in_both_precisions(
+        check_exact_free_flight::<f32>,
+        check_exact_free_flight::<f64>,
+    );
+}
+
+fn check_exact_free_flight<R: GpuReal>(runner: &GpuRunner) {
+    let n = 130;
+    let cfg = StepperConfig {
+        exact_free_flight: true,
+        ..config()
+    };
+    let (consts, init, _) = ensemble_with::<R>(n, &cfg);
+    assert!(consts.iter().all(|lc| lc.exact.is_some()));
+    let schedule = Schedule::new(TRANSIENT, RECORDED, 10);
+    let gpu = runner.run(&consts, &init, &schedule).expect("GPU run");
+    let cpu = cpu_run(&consts, &init, TRANSIENT, RECORDED);
+    let same = gpu
+        .iter()
+        .zip(&cpu)
+        .filter(|(g, c)| identical(g, c))
+        .count();
+    eprintln!(
+        "{} exact free flight: {same}/{n} lanes bit-identical",
+        R::WGSL_NAME
+    );
+    if identity_promised::<R>(runner, device_variant(runner, false)) {
+        assert_eq!(same, n, "lanes not bit-identical");
+    } else {
+        eprintln!("skipped: bit-identity is not promised on this adapter");
+    }
+    let (rk4_consts, _, _) = ensemble_with::<R>(n, &config());
+    let rk4 = cpu_run(&rk4_consts, &init, TRANSIENT, RECORDED);
+    assert!(
+        rk4.iter().zip(&cpu).any(|(a, b)| !identical(a, b)),
+        "the exact step changed nothing"
+    );
 }

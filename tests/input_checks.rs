@@ -526,33 +526,27 @@ fn contact_refinement_other_than_a_power_of_two_up_to_16_is_refused_naming_the_o
     }
 }
 
-/// The exact free-flight step is on the CPU only so far: on a GPU a run asking for it is
-/// refused with the option's name and the way out, before it writes anything; on the
-/// CPU it runs, and its points differ from RK4's (the step really changed).
+/// `--exact-free-flight` reaches the stepper: run.json records it, and the points differ
+/// from RK4's (the GPU's agreement with the CPU is tests/gpu.rs's).
 #[test]
-fn exact_free_flight_is_refused_on_the_gpu_and_runs_on_the_cpu() {
-    let base: Vec<&str> = "ensemble --omega 133 --transient 2 --periods 2 --quiet"
+fn exact_free_flight_reaches_the_stepper_and_its_record() {
+    let base: Vec<&str> = "ensemble --omega 133 --transient 2 --periods 2 --quiet --backend cpu"
         .split(' ')
         .collect();
-    if gpu_present() {
-        assert_refused_before_output(
-            &[&base[..], &["--backend", "gpu", "--exact-free-flight"]].concat(),
-            &["exact-free-flight", "--backend cpu"],
-        );
-    }
     let (_dir, out) = temp_out("runs");
     let run = |extra: &[&str], name: &str| {
         let dir = out.join(name);
-        let o = jeffcott(
-            &[
-                &base[..],
-                &["--backend", "cpu", "--out", dir.to_str().unwrap()],
-                extra,
-            ]
-            .concat(),
-        );
+        let o = jeffcott(&[&base[..], &["--out", dir.to_str().unwrap()], extra].concat());
         assert!(o.status.success(), "{}", stderr(&o));
-        std::fs::read(dir.join("poincare.npy")).expect("poincare.npy")
+        let run = std::fs::read_to_string(dir.join("run.json")).expect("run.json");
+        let on = run.contains("\"exact_free_flight\": true");
+        (
+            std::fs::read(dir.join("poincare.npy")).expect("poincare.npy"),
+            on,
+        )
     };
-    assert_ne!(run(&["--exact-free-flight"], "exact"), run(&[], "rk4"));
+    let (exact, on) = run(&["--exact-free-flight"], "exact");
+    let (rk4, off) = run(&[], "rk4");
+    assert!(on && !off, "run.json does not record the choice");
+    assert_ne!(exact, rk4);
 }

@@ -17,10 +17,14 @@
 //! the tests print "skipped" and return, unless `JEFFCOTT_REQUIRE_GPU=1`.
 
 use jeffcott_core::integrate::forcing::phasor_turns;
+use jeffcott_core::integrate::free_flight::{
+    ExactFreeFlight, free_flight_step, free_flight_tangent,
+};
 use jeffcott_core::integrate::lane::{
     Lane, LaneConsts, Status, StepperConfig, Tangent, find_switch, forcing_phasor,
     free_flight_certain, hermite_gap, macro_step, macro_step_tangent, renormalise, rk4_substep,
-    rk4_tangent_substep, saltation, stage_partials, tangent_rhs, trial_extent, wrong_side,
+    rk4_tangent_substep, saltation, stage_partials, tangent_rhs, trial_extent, trial_tangent,
+    wrong_side,
 };
 use jeffcott_core::model::{
     Coeffs, Params, STATE_DIM, VX_R, VX_S, VY_R, VY_S, X_R, X_S, Y_R, Y_S, contact_force_per_kc,
@@ -95,9 +99,24 @@ fn in_consts() -> LaneConsts {
     let bound = in_real();
     let root_tol = in_real();
     let inv_r = in_real();
+    var ff: FreeFlight;
+    for (var j = 0u; j < 16u; j++) {
+        ff.phi[j] = in_real();
+    }
+    for (var j = 0u; j < 4u; j++) {
+        ff.off[j] = in_real();
+    }
+    for (var j = 0u; j < 4u; j++) {
+        ff.p[j] = in_real();
+    }
+    for (var j = 0u; j < 4u; j++) {
+        ff.q[j] = in_real();
+    }
+    ff.omega = in_real();
     let n = in_u32();
     let max_segments = in_u32();
-    return LaneConsts(c, h, inv_n, phase0, bound, root_tol, inv_r, n, max_segments);
+    let exact = in_u32();
+    return LaneConsts(c, h, inv_n, phase0, bound, root_tol, inv_r, ff, n, max_segments, exact, 0u);
 }
 fn in_partials() -> Partials {
     let a = in_state();
@@ -137,12 +156,12 @@ struct Probe {
 }
 
 /// Reals of a `LaneConsts` row: Coeffs (11), h, inv_n, phase0, bound, root_tol, inv_r,
-/// n, max_segments.
-const CONSTS: usize = 19;
+/// the exact free-flight map (29), n, max_segments, exact.
+const CONSTS: usize = 49;
 const COEFFS: usize = 11;
 const S: usize = STATE_DIM;
 
-const PROBES: [Probe; 19] = [
+const PROBES: [Probe; 22] = [
     Probe {
         name: "phasor_turns",
         inputs: 1,
@@ -213,6 +232,39 @@ const PROBES: [Probe; 19] = [
     let p = forcing_phasor(lc, k, sigma);
     out_real(p.x);
     out_real(p.y);",
+    },
+    Probe {
+        name: "free_flight_step",
+        inputs: CONSTS + S + 1,
+        outputs: S,
+        body: "let lc = in_consts();
+    let x = in_state();
+    let k = in_u32();
+    out_state(free_flight_step(lc, x, k));",
+    },
+    Probe {
+        name: "free_flight_tangent",
+        inputs: CONSTS + S,
+        outputs: S,
+        body: "let lc = in_consts();
+    var v = in_state();
+    free_flight_tangent(lc, &v);
+    out_state(v);",
+    },
+    Probe {
+        name: "trial_tangent",
+        inputs: CONSTS + 1 + S + 4 + S,
+        outputs: S,
+        body: "let lc = in_consts();
+    let exact = in_bool();
+    let x = in_state();
+    let k = in_u32();
+    let s0 = in_real();
+    let ds = in_real();
+    let contact = in_bool();
+    var v = in_state();
+    trial_tangent(lc, exact, x, k, s0, ds, contact, &v);
+    out_state(v);",
     },
     Probe {
         name: "rk4_substep",
@@ -532,8 +584,22 @@ impl<R: Real> Row<R> {
             .real(lc.bound)
             .real(lc.root_tol)
             .real(lc.inv_r)
+            .free_flight(lc.exact.as_ref())
             .int(lc.n)
             .int(lc.max_segments)
+            .flag(lc.exact.is_some())
+    }
+    /// The lane's exact free-flight map, zeros where it has none (as the GPU packs it).
+    fn free_flight(self, ff: Option<&ExactFreeFlight<R>>) -> Self {
+        match ff {
+            Some(ff) => self
+                .state(&ff.phi)
+                .state(&ff.off)
+                .state(&ff.p)
+                .state(&ff.q)
+                .real(ff.omega),
+            None => self.state(&[R::lit(0.0); 29]),
+        }
     }
     fn expect(mut self, out: &[R]) -> Self {
         self.expect.extend_from_slice(out);
@@ -549,10 +615,12 @@ fn flag<R: Real>(b: bool) -> R {
 /// in precision `R`: the device's, and in f32 on a device with f64 also the f32 kernel
 /// of adapters without it (the driver's own division and sqrt).
 fn probed_variants<R: GpuReal>(runner: &GpuRunner) -> Vec<Variant> {
-    let device = device_variant(runner, true);
+    // The exact free-flight code live: lanes whose constants carry the map take it, the
+    // others RK4, as in Rust.
+    let device = device_variant(runner, true).with_exact_free_flight(true);
     let mut v = vec![device];
     if R::WGSL_NAME == "f32" && device.f32_through_f64 {
-        v.push(Variant::on_device(true, false));
+        v.push(Variant::on_device(true, false).with_exact_free_flight(true));
     }
     v
 }
@@ -643,6 +711,9 @@ fn lane_consts<R: Real>(i: usize) -> (Params, LaneConsts<R>) {
     };
     let cfg = StepperConfig {
         contact_substeps: [1, 2, 4][i % 3],
+        // Every other case with the exact free-flight step (in the probes of
+        // macro_step and below).
+        exact_free_flight: i % 2 == 1,
         ..StepperConfig::default()
     };
     let omega = 130.0 + 11.0 * unit(i, 9).abs();
@@ -1016,6 +1087,75 @@ fn check_rk4_substep<R: GpuReal>(runner: &GpuRunner) {
         }
     }
     assert_mirrors(runner, "rk4_substep", &rows);
+}
+
+fn check_free_flight<R: GpuReal>(runner: &GpuRunner) {
+    let (mut steps, mut tangents) = (Vec::new(), Vec::new());
+    for (i, c) in cases::<R>().iter().enumerate() {
+        let Some(ex) = c.lc.exact else {
+            continue;
+        };
+        steps.push(
+            Row::new()
+                .consts(&c.lc)
+                .state(&c.x)
+                .int(c.k)
+                .expect(&free_flight_step(&ex, &c.lc, &c.x, c.k)),
+        );
+        let v = tangent::<R>(i, 1.0);
+        let mut t = Tangent::new([v]);
+        free_flight_tangent(&ex, &c.lc, &mut t);
+        tangents.push(Row::new().consts(&c.lc).state(&v).expect(&t.v[0]));
+    }
+    assert!(
+        steps.len() > 100,
+        "{} cases with the exact map",
+        steps.len()
+    );
+    assert_mirrors(runner, "free_flight_step", &steps);
+    assert_mirrors(runner, "free_flight_tangent", &tangents);
+    // trial_tangent: the map's transition where the step was exact, else RK4's tangent
+    // step over the trial sub-step.
+    let mut rows = Vec::new();
+    for (i, c) in cases::<R>().iter().enumerate() {
+        let t = trial(i, c);
+        let v = tangent::<R>(i, 1.0);
+        let exact = c.lc.exact.filter(|_| !c.contact && t.s0 == R::lit(0.0));
+        let mut tan = Tangent::new([v]);
+        trial_tangent(
+            &c.lc,
+            exact.as_ref(),
+            &c.x,
+            c.k,
+            t.s0,
+            t.ds,
+            c.contact,
+            &mut tan,
+        );
+        rows.push(
+            Row::new()
+                .consts(&c.lc)
+                .flag(exact.is_some())
+                .state(&c.x)
+                .int(c.k)
+                .real(t.s0)
+                .real(t.ds)
+                .flag(c.contact)
+                .state(&v)
+                .expect(&tan.v[0]),
+        );
+    }
+    assert!(
+        rows.iter().any(|r| r.args[CONSTS] > R::lit(0.5)),
+        "no exact trial step among the cases"
+    );
+    assert_mirrors(runner, "trial_tangent", &rows);
+}
+
+/// The exact free-flight step and its tangent map (integrate/free_flight.rs).
+#[test]
+fn free_flight_step_and_tangent_on_the_gpu_equal_the_rust_functions_bit_for_bit() {
+    both_precisions!(check_free_flight);
 }
 
 #[test]
@@ -1490,6 +1630,7 @@ fn every_mirrored_function_has_a_probe() {
             "model.wgsl",
             "integrate/tangent.wgsl",
             "integrate/switch.wgsl",
+            "integrate/free_flight.wgsl",
             "integrate/lane.wgsl",
         ]
         .contains(&path)

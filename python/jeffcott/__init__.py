@@ -24,7 +24,7 @@ dictionaries whose keys are those of the command line's JSON files:
 and f32 on a GPU. ``progress`` takes a callable ``f(done, total)`` (lane-periods).
 Every function that integrates takes the lane stepper's settings as keywords
 (``steps_per_period``, ``max_segments``, ``divergence_bound``, ``contact_substeps``,
-``exact_free_flight`` (CPU only), ...: the
+``exact_free_flight``, ...: the
 command line's options of those names), their defaults in ``STEPPER_DEFAULTS``; every
 keyword's default is in ``DEFAULTS``.
 Ctrl-C stops a run cleanly (KeyboardInterrupt), within a forcing period; bad input

@@ -59,15 +59,6 @@ pub fn execute<C: StudyCommand>(spec: &C::Spec, write: &C::Write, exec: &Executi
             .map_err(|e| Error::invalid("run specification", C::COMMAND, e.to_string()))?,
         ..RunHeader::new(C::COMMAND, &spec.resolved())?
     };
-    // Refused here, before --out is touched (the GPU runner refuses it too, for `auto`
-    // resolving to a hardware GPU).
-    if exec.backend == Backend::Gpu && asks_exact_free_flight(&header.spec) {
-        return Err(Error::invalid(
-            "exact-free-flight",
-            "on",
-            "the GPU kernel does not have the exact free-flight step yet; use --backend cpu",
-        ));
-    }
     let run_dir = exec.open(header, C::OUTPUTS)?;
     match C::run(spec, write, &CommandHost::new(&run_dir, exec.run.quiet)) {
         Err(e) if e.layer_error::<ShardDone>().is_some() => finish_shard(&run_dir, exec.run.quiet),
@@ -215,17 +206,4 @@ impl EarlyExitRecord for jeffcott_analysis::map::MapResult {
 pub struct Plot {
     /// Draw the pictures.
     pub plot: bool,
-}
-
-/// True when some lane stepper of a study's specification (its serde form) asks for the
-/// exact free-flight step.
-fn asks_exact_free_flight(spec: &serde_json::Value) -> bool {
-    match spec {
-        serde_json::Value::Object(m) => m.iter().any(|(k, v)| {
-            (k == "exact_free_flight" && v == &serde_json::Value::Bool(true))
-                || asks_exact_free_flight(v)
-        }),
-        serde_json::Value::Array(a) => a.iter().any(asks_exact_free_flight),
-        _ => false,
-    }
 }

@@ -1,4 +1,4 @@
-// The lane kernel, part 3 of 7 (see integrate/lane_buffers.wgsl for the whole): the
+// The lane kernel, part 3 of 8 (see integrate/lane_buffers.wgsl for the whole): the
 // contact force and the right-hand side. Keep in sync with model.rs, beside this file:
 // the functions below are relative_motion, penetration, contact_force_per_kc,
 // contact_partials and rhs_frozen of model.rs, in the same order, doing the same

@@ -69,10 +69,16 @@ macro_rules! gpu_layout {
                 pub root_tol: $r,
                 /// 1/R, the longest sub-step in contact.
                 pub inv_r: $r,
+                /// The exact free-flight map (zero where the lane has none).
+                pub ff: jeffcott_core::integrate::free_flight::ExactFreeFlight<$r>,
                 /// N.
                 pub n: u32,
                 /// Segment cap per macro step.
                 pub max_segments: u32,
+                /// 1 where the lane takes the exact free-flight step.
+                pub exact: u32,
+                /// Keeps the f64 struct a multiple of 8 bytes.
+                pub pad: u32,
             }
 
             /// WGSL `Counters` (integrate::lane::Counters with saturating u32 counts).
@@ -148,8 +154,11 @@ macro_rules! impl_gpu_real {
                     bound: lc.bound,
                     root_tol: lc.root_tol,
                     inv_r: lc.inv_r,
+                    ff: lc.exact.unwrap_or(bytemuck::Zeroable::zeroed()),
                     n: lc.n,
                     max_segments: lc.max_segments,
+                    exact: lc.exact.is_some() as u32,
+                    pad: 0,
                 }
             }
 
@@ -267,7 +276,7 @@ mod tests {
             check(
                 "LaneConsts",
                 members!(GpuLaneConsts {
-                    c, h, inv_n, phase0, bound, root_tol, inv_r, n, max_segments
+                    c, h, inv_n, phase0, bound, root_tol, inv_r, ff, n, max_segments, exact, pad
                 }),
             );
             check(
@@ -322,8 +331,14 @@ mod tests {
         check_layout!(f32, layout_f32);
         check_layout!(f64, layout_f64);
         // The sizes the module docs promise (no implicit padding anywhere).
-        assert_eq!(size_of::<layout_f32::GpuLaneConsts>(), 17 * 4 + 2 * 4);
-        assert_eq!(size_of::<layout_f64::GpuLaneConsts>(), 17 * 8 + 2 * 4);
+        assert_eq!(
+            size_of::<layout_f32::GpuLaneConsts>(),
+            (17 + 29) * 4 + 4 * 4
+        );
+        assert_eq!(
+            size_of::<layout_f64::GpuLaneConsts>(),
+            (17 + 29) * 8 + 4 * 4
+        );
         assert_eq!(size_of::<layout_f32::GpuLane>(), 9 * 4 + 8 * 4);
         assert_eq!(size_of::<layout_f64::GpuLane>(), 9 * 8 + 8 * 4);
         assert_eq!(size_of::<Params>(), 32);

@@ -141,7 +141,7 @@ pub struct GpuRunner {
     /// ([`GpuRunner::with_limits`]).
     limits: plan::PlanLimits,
     /// [f32 plain, f32 lambda_1, f64 plain, f64 lambda_1].
-    kernels: [Mutex<Option<Kernel>>; 4],
+    kernels: [Mutex<Option<Kernel>>; 8],
 }
 
 impl std::fmt::Debug for GpuRunner {
@@ -199,12 +199,16 @@ impl GpuRunner {
         &self.gpu
     }
 
-    fn slot<R: GpuReal>(&self, lyapunov: bool) -> &Mutex<Option<Kernel>> {
+    fn slot<R: GpuReal>(&self, lyapunov: bool, exact: bool) -> &Mutex<Option<Kernel>> {
         let precision = if R::WGSL_NAME == "f64" { 2 } else { 0 };
-        &self.kernels[precision + lyapunov as usize]
+        &self.kernels[4 * exact as usize + precision + lyapunov as usize]
     }
 
-    fn build_pipeline<R: GpuReal>(&self, lyapunov: bool) -> Result<wgpu::ComputePipeline> {
+    fn build_pipeline<R: GpuReal>(
+        &self,
+        lyapunov: bool,
+        exact: bool,
+    ) -> Result<wgpu::ComputePipeline> {
         if R::WGSL_NAME == "f64" && !self.gpu.supports_f64() {
             return Err(Error::NoAdapter {
                 reason: format!(
@@ -214,7 +218,8 @@ impl GpuRunner {
             });
         }
         // Fail early with naga's readable report rather than wgpu's summary.
-        let v = shader::Variant::on_device(lyapunov, self.gpu.supports_f64());
+        let v = shader::Variant::on_device(lyapunov, self.gpu.supports_f64())
+            .with_exact_free_flight(exact);
         shader::validate::<R>(v, shader::capabilities::<R>(v))
             .map_err(|e| gpu_err("lane kernel does not validate", e))?;
         // An explicit layout, the same for both variants: the plain kernel never touches
@@ -611,13 +616,8 @@ impl GpuRunner {
         let lyapunov = tangents.is_some();
         let rec_dim = shader::record_dim(lyapunov);
         same_count("lanes", consts.len(), "lane constants", init.len())?;
-        if consts.iter().any(|lc| lc.exact.is_some()) {
-            return Err(Error::invalid(
-                "exact-free-flight",
-                "on",
-                "the GPU kernel does not have the exact free-flight step yet; use --backend cpu",
-            ));
-        }
+        // The exact free-flight kernel variant where some lane has the map.
+        let exact = consts.iter().any(|lc| lc.exact.is_some());
         if schedule.periods_per_slice == 0 {
             return Err(Error::invalid("periods_per_slice", 0, "must be >= 1"));
         }
@@ -652,12 +652,15 @@ impl GpuRunner {
         let chunk = self.plan::<R>(n_total, schedule, lyapunov)?.lanes_per_chunk;
         let slots = schedule.periods_per_slice.min(total);
 
-        let mut guard = self.slot::<R>(lyapunov).lock().map_err(|_| Error::Gpu {
-            message: "a previous GPU run panicked".into(),
-        })?;
+        let mut guard = self
+            .slot::<R>(lyapunov, exact)
+            .lock()
+            .map_err(|_| Error::Gpu {
+                message: "a previous GPU run panicked".into(),
+            })?;
         if guard.is_none() {
             *guard = Some(Kernel {
-                pipeline: self.build_pipeline::<R>(lyapunov)?,
+                pipeline: self.build_pipeline::<R>(lyapunov, exact)?,
                 buffers: None,
             });
         }

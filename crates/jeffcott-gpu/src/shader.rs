@@ -86,6 +86,11 @@ pub struct Variant {
     /// kernel's bit-identity already does. Without f64 the f32 kernel uses the driver's
     /// own, equal to the CPU's only where those round correctly (lavapipe).
     pub f32_through_f64: bool,
+    /// Macro steps begun in free flight may take the exact free-flight map (lanes whose
+    /// constants carry one; `EXACT_FREE_FLIGHT` in the header). Off, that code is dead
+    /// and removed: llvmpipe would otherwise run it at every sub-step (it executes both
+    /// arms of an `if`).
+    pub exact_free_flight: bool,
 }
 
 impl Variant {
@@ -95,6 +100,15 @@ impl Variant {
         Self {
             lyapunov,
             f32_through_f64: device_has_f64,
+            exact_free_flight: false,
+        }
+    }
+
+    /// This variant with the exact free-flight step on or off.
+    pub fn with_exact_free_flight(self, on: bool) -> Self {
+        Self {
+            exact_free_flight: on,
+            ..self
         }
     }
 
@@ -102,6 +116,7 @@ impl Variant {
     pub const PLAIN: Self = Self {
         lyapunov: false,
         f32_through_f64: false,
+        exact_free_flight: false,
     };
 
     /// True when precision `R`'s kernel uses f64 arithmetic (and needs FLOAT64).
@@ -148,6 +163,10 @@ pub fn header<R: Real>(v: Variant) -> String {
         line(format!("const {name}: u32 = {value}u;"));
     }
     line(format!("const LYAPUNOV: bool = {lyapunov};"));
+    line(format!(
+        "const EXACT_FREE_FLIGHT: bool = {};",
+        v.exact_free_flight
+    ));
     for (name, value) in float_constants::<R>() {
         line(format!("const {name}: Real = {};", float_lit(value)));
     }
@@ -248,10 +267,13 @@ mod tests {
         let mut v = Vec::new();
         for lyapunov in [false, true] {
             for f32_through_f64 in [false, true] {
-                v.push(Variant {
-                    lyapunov,
-                    f32_through_f64,
-                });
+                for exact_free_flight in [false, true] {
+                    v.push(Variant {
+                        lyapunov,
+                        f32_through_f64,
+                        exact_free_flight,
+                    });
+                }
             }
         }
         v
@@ -564,6 +586,15 @@ mod tests {
                 kernel_only: &["scan_sample"],
             },
             Mirror {
+                wgsl: "integrate/free_flight.wgsl",
+                rs: Some((
+                    "integrate/free_flight.rs",
+                    include_str!("../../jeffcott-core/src/integrate/free_flight.rs"),
+                )),
+                mirrored: &["free_flight_step", "free_flight_tangent"],
+                kernel_only: &[],
+            },
+            Mirror {
                 wgsl: "integrate/lane.wgsl",
                 rs: Some(("integrate/lane.rs", lane_rs)),
                 mirrored: &[
@@ -571,6 +602,7 @@ mod tests {
                     "rk4_substep",
                     "trial_extent",
                     "macro_step",
+                    "trial_tangent",
                 ],
                 kernel_only: &["macro_step_begin", "macro_step_end"],
             },

@@ -17,7 +17,7 @@
 //! the one definition of the algorithm that the WGSL kernel mirrors.
 
 use crate::integrate::forcing::phasor_turns;
-use crate::integrate::free_flight::ExactFreeFlight;
+use crate::integrate::free_flight::{ExactFreeFlight, free_flight_step, free_flight_tangent};
 use crate::integrate::lane::{
     Lane, LaneConsts, MacroStep, finish_macro_step, forcing_phasor, macro_step_begin,
     macro_step_end, macro_step_tangent, trial_extent,
@@ -478,7 +478,7 @@ fn batch_pass<R: Real, const M: usize>(
     };
     for l in 0..BATCH {
         if let Some(ex) = exact[l] {
-            set_lane(&mut x1, l, ex.step(&lc[l], &lane_of(&x, l), k));
+            set_lane(&mut x1, l, free_flight_step(ex, &lc[l], &lane_of(&x, l), k));
         }
     }
     // When every live lane's macro step is untouched and its trial step certainly stays
@@ -525,7 +525,7 @@ fn batch_pass<R: Real, const M: usize>(
         }
         for l in 0..BATCH {
             if let (true, Some(ex)) = (accept[l], exact[l]) {
-                ex.tangent(&lc[l], &mut tan[l]);
+                free_flight_tangent(ex, &lc[l], &mut tan[l]);
             }
         }
     }

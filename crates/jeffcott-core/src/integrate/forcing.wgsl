@@ -1,4 +1,4 @@
-// The lane kernel, part 2 of 7 (see integrate/lane_buffers.wgsl for the whole): the
+// The lane kernel, part 2 of 8 (see integrate/lane_buffers.wgsl for the whole): the
 // unbalance phasor. Keep in sync with forcing.rs, beside this file: the same function,
 // doing the same arithmetic in the same order.
 

@@ -16,18 +16,29 @@ use crate::integrate::tangent::{Tangent, jacobian_trace};
 use crate::model::{Params, STATE_DIM};
 use crate::real::Real;
 
-/// The exact free-flight map of one lane's macro step.
-#[derive(Clone, Copy, Debug)]
+/// The exact free-flight map of one lane's macro step. `#[repr(C)]`, every field `R`:
+/// the GPU lane constants carry it as it is (WGSL `FreeFlight`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ExactFreeFlight<R> {
-    /// Per oscillator (x_r, y_r, x_s, y_s): the transition [q<-q, q<-v, v<-q, v<-v].
-    phi: [[R; 4]; 4],
-    /// Per oscillator: F / w^2, P, Q.
-    off: [R; 4],
-    p: [R; 4],
-    q: [R; 4],
+    /// Per oscillator j (x_r, y_r, x_s, y_s), entries 4j..4j+4: the transition
+    /// [q<-q, q<-v, v<-q, v<-v].
+    pub phi: [R; 16],
+    /// Per oscillator: F / w^2.
+    pub off: [R; 4],
+    /// Per oscillator: P (the cosine part of the forced response).
+    pub p: [R; 4],
+    /// Per oscillator: Q (the sine part).
+    pub q: [R; 4],
     /// The rotor speed W.
-    omega: R,
+    pub omega: R,
 }
+
+// SAFETY: `#[repr(C)]` with every field an array of `R` or `R`: the size of `[R; 29]`,
+// no padding, every bit pattern valid when `R: Pod`, all-zero `R`s when zeroed.
+unsafe impl<R: bytemuck::Zeroable> bytemuck::Zeroable for ExactFreeFlight<R> {}
+// SAFETY: as above.
+unsafe impl<R: bytemuck::Pod> bytemuck::Pod for ExactFreeFlight<R> {}
 
 impl<R: Real> ExactFreeFlight<R> {
     /// The map for parameters `p` at speed `omega` and N macro steps per period, in f64
@@ -60,11 +71,12 @@ impl<R: Real> ExactFreeFlight<R> {
                 0.0,
             ),
         ];
+        let zero = R::lit(0.0);
         let mut m = ExactFreeFlight {
-            phi: [[R::lit(0.0); 4]; 4],
-            off: [R::lit(0.0); 4],
-            p: [R::lit(0.0); 4],
-            q: [R::lit(0.0); 4],
+            phi: [zero; 16],
+            off: [zero; 4],
+            p: [zero; 4],
+            q: [zero; 4],
             omega: R::lit(omega),
         };
         for (j, &(w2, c, f, a_, b_)) in osc.iter().enumerate() {
@@ -75,13 +87,15 @@ impl<R: Real> ExactFreeFlight<R> {
             }
             let wd = (w2 - a * a).sqrt();
             let (e, cs, sn) = ((-a * h).exp(), (wd * h).cos(), (wd * h).sin());
-            m.phi[j] = [
+            let t = [
                 e * (cs + a / wd * sn),
                 e * sn / wd,
                 -e * w2 / wd * sn,
                 e * (cs - a / wd * sn),
-            ]
-            .map(R::lit);
+            ];
+            for (i, v) in t.iter().enumerate() {
+                m.phi[4 * j + i] = R::lit(*v);
+            }
             let (aa, bb) = (w2 - omega * omega, c * omega);
             let det = aa * aa + bb * bb;
             m.off[j] = R::lit(f / w2);
@@ -90,44 +104,57 @@ impl<R: Real> ExactFreeFlight<R> {
         }
         Some(m)
     }
+}
 
-    /// The state after macro step `k` of a lane in free flight throughout, from `x`.
-    #[inline(always)]
-    pub fn step(&self, lc: &LaneConsts<R>, x: &[R; STATE_DIM], k: u32) -> [R; STATE_DIM] {
-        let (c0, s0) = forcing_phasor(lc, k, R::lit(0.0));
-        let (c1, s1) = forcing_phasor(lc, k, R::lit(1.0));
-        let mut out = [R::lit(0.0); STATE_DIM];
+/// The state after macro step `k` of a lane in free flight throughout, from `x`, by the
+/// map `ex` of the lane with constants `lc`. Keep in sync with `free_flight_step` in
+/// `integrate/free_flight.wgsl`.
+#[inline(always)]
+pub fn free_flight_step<R: Real>(
+    ex: &ExactFreeFlight<R>,
+    lc: &LaneConsts<R>,
+    x: &[R; STATE_DIM],
+    k: u32,
+) -> [R; STATE_DIM] {
+    let (c0, s0) = forcing_phasor(lc, k, R::lit(0.0));
+    let (c1, s1) = forcing_phasor(lc, k, R::lit(1.0));
+    let mut out = [R::lit(0.0); STATE_DIM];
+    for j in 0..4 {
+        let (qi, vi) = (2 * j, 2 * j + 1);
+        let (p, q) = (ex.p[j], ex.q[j]);
+        let qp0 = ex.off[j] + p * c0 + q * s0;
+        let vp0 = ex.omega * (q * c0 - p * s0);
+        let (e, ev) = (x[qi] - qp0, x[vi] - vp0);
+        let f = &ex.phi[4 * j..4 * j + 4];
+        let (e1, ev1) = (f[0] * e + f[1] * ev, f[2] * e + f[3] * ev);
+        out[qi] = e1 + (ex.off[j] + p * c1 + q * s1);
+        out[vi] = ev1 + ex.omega * (q * c1 - p * s1);
+    }
+    out
+}
+
+/// The tangent vectors over the same step: the map's derivative, which is its
+/// transition (the forced part does not depend on the state), and the trace integral
+/// of the free-flight Jacobian (a constant) over h. Keep in sync with
+/// `free_flight_tangent` in `integrate/free_flight.wgsl` (which has no trace integral).
+#[inline(always)]
+pub fn free_flight_tangent<R: Real, const M: usize>(
+    ex: &ExactFreeFlight<R>,
+    lc: &LaneConsts<R>,
+    tan: &mut Tangent<R, M>,
+) {
+    for v in tan.v.iter_mut() {
         for j in 0..4 {
             let (qi, vi) = (2 * j, 2 * j + 1);
-            let qp0 = self.off[j] + self.p[j] * c0 + self.q[j] * s0;
-            let vp0 = self.omega * (self.q[j] * c0 - self.p[j] * s0);
-            let (e, ev) = (x[qi] - qp0, x[vi] - vp0);
-            let f = &self.phi[j];
-            let (e1, ev1) = (f[0] * e + f[1] * ev, f[2] * e + f[3] * ev);
-            out[qi] = e1 + self.off[j] + self.p[j] * c1 + self.q[j] * s1;
-            out[vi] = ev1 + self.omega * (self.q[j] * c1 - self.p[j] * s1);
+            let f = &ex.phi[4 * j..4 * j + 4];
+            let (a, b) = (v[qi], v[vi]);
+            v[qi] = f[0] * a + f[1] * b;
+            v[vi] = f[2] * a + f[3] * b;
         }
-        out
     }
-
-    /// The tangent vectors over the same step: the map's derivative, which is its
-    /// transition (the forced part does not depend on the state), and the trace integral
-    /// of the free-flight Jacobian (a constant) over h.
-    #[inline(always)]
-    pub fn tangent<const M: usize>(&self, lc: &LaneConsts<R>, tan: &mut Tangent<R, M>) {
-        for v in tan.v.iter_mut() {
-            for j in 0..4 {
-                let (qi, vi) = (2 * j, 2 * j + 1);
-                let f = &self.phi[j];
-                let (a, b) = (v[qi], v[vi]);
-                v[qi] = f[0] * a + f[1] * b;
-                v[vi] = f[2] * a + f[3] * b;
-            }
-        }
-        if M > 0 {
-            let free = [R::lit(0.0); 8];
-            tan.trace_integral += lc.h.to_f64() * jacobian_trace(&lc.c, &free).to_f64();
-        }
+    if M > 0 {
+        let free = [R::lit(0.0); 8];
+        tan.trace_integral += lc.h.to_f64() * jacobian_trace(&lc.c, &free).to_f64();
     }
 }
 
@@ -175,7 +202,7 @@ mod tests {
             let sub = 2000;
             for (i, x0) in starts().iter().enumerate() {
                 let k = (i as u32 * 37) % n;
-                let exact = ex.step(&lc, x0, k);
+                let exact = free_flight_step(&ex, &lc, x0, k);
                 let mut x = *x0;
                 let mut tan =
                     Tangent::<f64, 2>::new([[1.0, 0.0, -0.5, 0.0, 0.3, 0.0, 0.0, 1.0]; 2]);
@@ -195,7 +222,7 @@ mod tests {
                         x[d]
                     );
                 }
-                ex.tangent(&lc, &mut mapped);
+                free_flight_tangent(&ex, &lc, &mut mapped);
                 for m in 0..2 {
                     for d in 0..STATE_DIM {
                         assert!(

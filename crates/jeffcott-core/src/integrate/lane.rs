@@ -47,6 +47,7 @@ pub const WGSL: &str = concat!(
     include_str!("../model.wgsl"),
     include_str!("tangent.wgsl"),
     include_str!("switch.wgsl"),
+    include_str!("free_flight.wgsl"),
     include_str!("lane.wgsl"),
     include_str!("lane_entry.wgsl"),
 );
@@ -55,7 +56,7 @@ pub const WGSL: &str = concat!(
 /// the buffers and helpers, the mirrors of `integrate::forcing`, `model`,
 /// `integrate::tangent`, `integrate::switch` and this module, and the entry point (which
 /// stands in for [`advance_period`]).
-pub const WGSL_FILES: [(&str, &str); 7] = [
+pub const WGSL_FILES: [(&str, &str); 8] = [
     (
         "integrate/lane_buffers.wgsl",
         include_str!("lane_buffers.wgsl"),
@@ -64,12 +65,16 @@ pub const WGSL_FILES: [(&str, &str); 7] = [
     ("model.wgsl", crate::model::WGSL),
     ("integrate/tangent.wgsl", include_str!("tangent.wgsl")),
     ("integrate/switch.wgsl", include_str!("switch.wgsl")),
+    (
+        "integrate/free_flight.wgsl",
+        include_str!("free_flight.wgsl"),
+    ),
     ("integrate/lane.wgsl", include_str!("lane.wgsl")),
     ("integrate/lane_entry.wgsl", include_str!("lane_entry.wgsl")),
 ];
 
 use crate::integrate::forcing::phasor_turns;
-use crate::integrate::free_flight::ExactFreeFlight;
+use crate::integrate::free_flight::{ExactFreeFlight, free_flight_step, free_flight_tangent};
 use crate::model::{Coeffs, STATE_DIM, X_R, X_S, Y_R, Y_S, penetration, rhs_frozen};
 use crate::real::Real;
 use serde::Serialize;
@@ -175,7 +180,8 @@ pub struct StepperConfig {
     /// A macro step begun in free flight takes the exact flow map of the free motion
     /// (`integrate::free_flight`) as its trial step instead of RK4; crossings, contact
     /// sub-steps and partial steps stay RK4. Its error is then all contact's, so N can
-    /// halve where R doubles (docs/performance.md). CPU only so far. Runs recorded before
+    /// halve where R doubles (docs/performance.md). Both backends, the same bits. Runs
+    /// recorded before
     /// it existed used RK4 (false).
     #[serde(default)]
     pub exact_free_flight: bool,
@@ -487,7 +493,7 @@ pub(crate) fn finish_macro_step<R: Real, const M: usize>(
             .as_ref()
             .filter(|_| !p.contact && p.s == R::lit(0.0));
         let x1 = match exact {
-            Some(ex) => ex.step(lc, &p.x, k),
+            Some(ex) => free_flight_step(ex, lc, &p.x, k),
             None => rk4_substep(lc, &p.x, k, p.s, ds, p.contact),
         };
         p.substeps += 1;
@@ -549,9 +555,10 @@ pub(crate) fn finish_macro_step<R: Real, const M: usize>(
 
 /// The tangent step over an accepted trial sub-step: the exact map's own (its
 /// transition, `exact`) or RK4's on the state step's stages.
+/// Keep in sync with `trial_tangent` in `integrate/lane.wgsl`.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn trial_tangent<R: Real, const M: usize>(
+pub fn trial_tangent<R: Real, const M: usize>(
     lc: &LaneConsts<R>,
     exact: Option<&ExactFreeFlight<R>>,
     x: &[R; STATE_DIM],
@@ -562,7 +569,7 @@ fn trial_tangent<R: Real, const M: usize>(
     tan: &mut Tangent<R, M>,
 ) {
     match exact {
-        Some(ex) => ex.tangent(lc, tan),
+        Some(ex) => free_flight_tangent(ex, lc, tan),
         None => rk4_tangent_substep(lc, x, k, s, ds, contact, tan),
     }
 }

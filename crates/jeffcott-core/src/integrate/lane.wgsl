@@ -1,4 +1,4 @@
-// The lane kernel, part 6 of 7 (see lane_buffers.wgsl for the whole): the lane stepper.
+// The lane kernel, part 7 of 8 (see lane_buffers.wgsl for the whole): the lane stepper.
 //
 // Keep in sync with lane.rs, beside this file: the functions below are those of lane.rs,
 // with the same names, in the same order, doing the same arithmetic in the same order
@@ -142,7 +142,15 @@ fn macro_step(
     } else if part == MS_CAP {
         ds = one - s;
     }
-    let x1 = rk4_substep(lc, x, k, s, ds, contact);
+    // lane.rs: a macro step begun in free flight may take the exact map (s = 0: ds = 1).
+    let exact = EXACT_FREE_FLIGHT && part == MS_TRIAL && lc.exact != 0u && !contact
+        && s == Real(0.0);
+    var x1: array<Real, STATE_DIM>;
+    if exact {
+        x1 = free_flight_step(lc, x, k);
+    } else {
+        x1 = rk4_substep(lc, x, k, s, ds, contact);
+    }
     (*ms).substeps += 1u;
     var flip = false;
     var done = false;
@@ -159,14 +167,14 @@ fn macro_step(
             // No switch: the macro step is done, or a contact sub-step of 1/R is (and
             // the next trial follows).
             if LYAPUNOV {
-                rk4_tangent_substep(lc, x, k, s, ds, contact, v);
+                trial_tangent(lc, exact, x, k, s, ds, contact, v);
             }
             x = x1;
             s = end;
             done = s >= one;
         } else if sw.theta >= one {
             if LYAPUNOV {
-                rk4_tangent_substep(lc, x, k, s, ds, contact, v);
+                trial_tangent(lc, exact, x, k, s, ds, contact, v);
             }
             x = x1;
             s = end;
@@ -215,6 +223,25 @@ fn macro_step(
     (*ms).contact = contact;
     (*ms).part = next_part;
     (*ms).done = done;
+}
+
+// The tangent step over an accepted trial sub-step: the exact map's own or RK4's (keep
+// in sync with lane.rs's trial_tangent).
+fn trial_tangent(
+    lc: LaneConsts,
+    exact: bool,
+    x: array<Real, STATE_DIM>,
+    k: u32,
+    s: Real,
+    ds: Real,
+    contact: bool,
+    v: ptr<function, array<Real, STATE_DIM>>,
+) {
+    if exact {
+        free_flight_tangent(lc, v);
+    } else {
+        rk4_tangent_substep(lc, x, k, s, ds, contact, v);
+    }
 }
 
 // lane.rs's macro_step after its segment loop and refinement cap: status checks and

@@ -1,9 +1,9 @@
-// The ensemble lane stepper on the GPU, part 1 of 7: the buffers and the helpers that
+// The ensemble lane stepper on the GPU, part 1 of 8: the buffers and the helpers that
 // stand in for the Real trait. One invocation advances one lane (one trajectory of the
 // rotor-stator system, MODEL.md 4.2) by a time slice of whole forcing periods, with the
 // state held in registers for the whole slice.
 //
-// The kernel is seven files, each beside the Rust module it mirrors, concatenated in this
+// The kernel is eight files, each beside the Rust module it mirrors, concatenated in this
 // order by `integrate::lane::WGSL` (the list is `integrate::lane::WGSL_FILES`):
 //   integrate/lane_buffers.wgsl   this file: GPU-visible structs (keep in sync with
 //                                 jeffcott-gpu's layout.rs), bindings, helpers
@@ -12,6 +12,7 @@
 //                                 contact_partials, rhs_frozen)
 //   integrate/tangent.wgsl        integrate/tangent.rs (tangent vectors, saltation)
 //   integrate/switch.wgsl         integrate/switch.rs (the switch search)
+//   integrate/free_flight.wgsl    integrate/free_flight.rs (the exact free-flight step)
 //   integrate/lane.wgsl           integrate/lane.rs (the macro step)
 //   integrate/lane_entry.wgsl     the entry point (lane.rs's advance_period)
 // The mirrored functions have the same names, in the same order as in their .rs file,
@@ -26,6 +27,7 @@
 //   WORKGROUP_SIZE, STATE_DIM, X_R .. VY_S, GRAZE_SAMPLES, ROOT_MAX_ITERS, STATUS_*
 //   REAL_MAX, TAU, SIXTH, HERMITE_SLOPE_BOUND, FREE_FLIGHT_SAFETY, SIN_C0 .. SIN_C8, COS_C0 .. COS_C8
 //   LYAPUNOV (bool), RECORD_DIM                the pipeline variant (below)
+//   EXACT_FREE_FLIGHT (bool)                   lanes may take the exact free-flight step
 //   div_rn(a, b), sqrt_rn(x)                   every division and square root: a / b
 //                                              and sqrt(x), in f32 done in f64 where
 //                                              the device has f64 (correctly rounded on
@@ -65,6 +67,17 @@ struct Coeffs {
     tau_c: Real,
 }
 
+// The exact free-flight map (integrate::free_flight::ExactFreeFlight): per oscillator
+// j the transition phi[4j..4j+4], the forced response's offset, cosine and sine parts,
+// and the rotor speed.
+struct FreeFlight {
+    phi: array<Real, 16>,
+    off: array<Real, 4>,
+    p: array<Real, 4>,
+    q: array<Real, 4>,
+    omega: Real,
+}
+
 // Constants of one lane (integrate::lane::LaneConsts).
 struct LaneConsts {
     c: Coeffs,
@@ -75,8 +88,12 @@ struct LaneConsts {
     root_tol: Real,
     // 1/R: the longest sub-step in contact (contact refinement).
     inv_r: Real,
+    // The exact free-flight map, used where `exact` is 1 (LaneConsts::exact is Some).
+    ff: FreeFlight,
     n: u32,
     max_segments: u32,
+    exact: u32,
+    pad: u32,
 }
 
 // integrate::lane::Counters, with u32 counts that saturate at 2^32 - 1 (the host widens

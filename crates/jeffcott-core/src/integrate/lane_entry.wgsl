@@ -1,4 +1,4 @@
-// The lane kernel, part 7 of 7 (see lane_buffers.wgsl for the whole): the entry point.
+// The lane kernel, part 8 of 8 (see lane_buffers.wgsl for the whole): the entry point.
 // It stands in for lane.rs's advance_period (keep in sync with lane.rs): the same N
 // macro steps per period, one sub-step at a time so that it can stop and resume between
 // any two of them.

@@ -1,4 +1,4 @@
-// The lane kernel, part 5 of 7 (see lane_buffers.wgsl for the whole): the switch search
+// The lane kernel, part 5 of 8 (see lane_buffers.wgsl for the whole): the switch search
 // of one trial sub-step.
 //
 // Keep in sync with switch.rs, beside this file: the functions below are those of

@@ -1,4 +1,4 @@
-// The lane kernel, part 4 of 7 (see lane_buffers.wgsl for the whole): tangent vectors
+// The lane kernel, part 4 of 8 (see lane_buffers.wgsl for the whole): tangent vectors
 // and saltation.
 //
 // Keep in sync with tangent.rs, beside this file: the functions below are those of
