@@ -118,6 +118,21 @@ fn in_consts() -> LaneConsts {
     let exact = in_u32();
     return LaneConsts(c, h, inv_n, phase0, bound, root_tol, inv_r, ff, n, max_segments, exact, 0u);
 }
+// A sub-step's arguments after the constants: state, macro step, start, length, mode.
+struct SubStep {
+    x: array<Real, STATE_DIM>,
+    k: u32,
+    s0: Real,
+    ds: Real,
+    contact: bool,
+}
+fn in_substep() -> SubStep {
+    let x = in_state();
+    let k = in_u32();
+    let s0 = in_real();
+    let ds = in_real();
+    return SubStep(x, k, s0, ds, in_bool());
+}
 fn in_partials() -> Partials {
     let a = in_state();
     return Partials(vec4<Real>(a[0], a[1], a[2], a[3]), vec4<Real>(a[4], a[5], a[6], a[7]));
@@ -257,13 +272,9 @@ const PROBES: [Probe; 22] = [
         outputs: S,
         body: "let lc = in_consts();
     let exact = in_bool();
-    let x = in_state();
-    let k = in_u32();
-    let s0 = in_real();
-    let ds = in_real();
-    let contact = in_bool();
+    let a = in_substep();
     var v = in_state();
-    trial_tangent(lc, exact, x, k, s0, ds, contact, &v);
+    trial_tangent(lc, exact, a.x, a.k, a.s0, a.ds, a.contact, &v);
     out_state(v);",
     },
     Probe {
@@ -271,12 +282,8 @@ const PROBES: [Probe; 22] = [
         inputs: CONSTS + S + 4,
         outputs: S,
         body: "let lc = in_consts();
-    let x = in_state();
-    let k = in_u32();
-    let s0 = in_real();
-    let ds = in_real();
-    let contact = in_bool();
-    out_state(rk4_substep(lc, x, k, s0, ds, contact));",
+    let a = in_substep();
+    out_state(rk4_substep(lc, a.x, a.k, a.s0, a.ds, a.contact));",
     },
     Probe {
         name: "stage_partials",
@@ -301,13 +308,9 @@ const PROBES: [Probe; 22] = [
         inputs: CONSTS + S + 4 + S,
         outputs: S,
         body: "let lc = in_consts();
-    let x = in_state();
-    let k = in_u32();
-    let s0 = in_real();
-    let ds = in_real();
-    let contact = in_bool();
+    let a = in_substep();
     var v = in_state();
-    rk4_tangent_substep(lc, x, k, s0, ds, contact, &v);
+    rk4_tangent_substep(lc, a.x, a.k, a.s0, a.ds, a.contact, &v);
     out_state(v);",
     },
     Probe {
@@ -600,6 +603,10 @@ impl<R: Real> Row<R> {
                 .real(ff.omega),
             None => self.state(&[R::lit(0.0); 29]),
         }
+    }
+    /// A sub-step's arguments, as `in_substep` reads them.
+    fn substep(self, x: &[R; STATE_DIM], k: u32, s0: R, ds: R, contact: bool) -> Self {
+        self.state(x).int(k).real(s0).real(ds).flag(contact)
     }
     fn expect(mut self, out: &[R]) -> Self {
         self.expect.extend_from_slice(out);
@@ -1077,11 +1084,7 @@ fn check_rk4_substep<R: GpuReal>(runner: &GpuRunner) {
             rows.push(
                 Row::new()
                     .consts(&c.lc)
-                    .state(&c.x)
-                    .int(c.k)
-                    .real(t.s0)
-                    .real(ds)
-                    .flag(c.contact)
+                    .substep(&c.x, c.k, t.s0, ds, c.contact)
                     .expect(&rk4_substep(&c.lc, &c.x, c.k, t.s0, ds, c.contact)),
             );
         }
@@ -1136,11 +1139,7 @@ fn check_free_flight<R: GpuReal>(runner: &GpuRunner) {
             Row::new()
                 .consts(&c.lc)
                 .flag(exact.is_some())
-                .state(&c.x)
-                .int(c.k)
-                .real(t.s0)
-                .real(t.ds)
-                .flag(c.contact)
+                .substep(&c.x, c.k, t.s0, t.ds, c.contact)
                 .state(&v)
                 .expect(&tan.v[0]),
         );
@@ -1192,11 +1191,7 @@ fn check_tangent_functions<R: GpuReal>(runner: &GpuRunner) {
         step.push(
             Row::new()
                 .consts(&c.lc)
-                .state(&c.x)
-                .int(c.k)
-                .real(t.s0)
-                .real(t.ds)
-                .flag(c.contact)
+                .substep(&c.x, c.k, t.s0, t.ds, c.contact)
                 .state(&v)
                 .expect(&tan.v[0]),
         );
