@@ -576,7 +576,8 @@ pub struct StepperArgs {
     pub early_exit_streak: u32,
     /// Macro steps begun in free flight take the exact flow map of the free motion
     /// instead of RK4 (contact stays RK4); halve --steps-per-period and double
-    /// --contact-substeps for the same accuracy at less cost (docs/performance.md).
+    /// --contact-substeps for the same accuracy at less cost (docs/performance.md). Lanes
+    /// whose free motion is not underdamped take RK4.
     #[arg(long)]
     pub exact_free_flight: bool,
 }

@@ -667,9 +667,10 @@ fn every_kernel_variant_compiles_through_raw_vulkan_with_the_drivers_statistics(
         let kernels = d
             .kernels
             .unwrap_or_else(|e| panic!("{}: the kernel does not compile: {e}", d.device));
-        // f32 plain and lambda_1, and with f64 the f64 and driver's-f32 variants too.
+        // f32 plain and lambda_1, and with f64 the f64 and driver's-f32 variants too;
+        // each with and without the exact free-flight step.
         assert!(
-            kernels.len() == 2 || kernels.len() == 6,
+            kernels.len() == 4 || kernels.len() == 12,
             "{} kernels",
             kernels.len()
         );

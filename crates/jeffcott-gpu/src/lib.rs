@@ -140,7 +140,8 @@ pub struct GpuRunner {
     /// The limits runs are planned for: the device's, or smaller ones
     /// ([`GpuRunner::with_limits`]).
     limits: plan::PlanLimits,
-    /// [f32 plain, f32 lambda_1, f64 plain, f64 lambda_1].
+    /// [f32 plain, f32 lambda_1, f64 plain, f64 lambda_1], then the same four with the
+    /// exact free-flight step (`slot`).
     kernels: [Mutex<Option<Kernel>>; 8],
 }
 

@@ -65,35 +65,40 @@ fn vk_err(what: &str) -> impl Fn(vk::Result) -> String + '_ {
 
 /// The kernel variants a device runs (see [`crate::GpuRunner`]): f32, and with f64 the
 /// f64 kernel and the f32 one with the driver's own division and sqrt (what a device
-/// without f64 runs), each plain and with lambda_1.
-fn variants(has_f64: bool) -> Vec<(String, Vec<u32>)> {
+/// without f64 runs), each plain and with lambda_1, with and without the exact
+/// free-flight step; an error (not a panic: the caller's Vulkan handles are live) when
+/// one does not compile.
+fn variants(has_f64: bool) -> Result<Vec<(String, Vec<u32>)>, String> {
     fn words<R: Real>(v: Variant) -> Result<Vec<u32>, String> {
         let (module, info) = shader::validate::<R>(v, shader::capabilities::<R>(v))?;
         crate::spirv::exact_compute_words(&module, &info, shader::ENTRY_POINT, &[0, 1, 2, 3, 4, 5])
     }
     let mut out = Vec::new();
-    for lyapunov in [false, true] {
-        let tail = if lyapunov { ", lambda_1" } else { "" };
-        let device = Variant::on_device(lyapunov, has_f64);
-        let mut push = |name: String, w: Result<Vec<u32>, String>| match w {
-            Ok(w) => out.push((name, w)),
-            Err(e) => panic!("the lane kernel does not compile: {e}"),
-        };
-        if has_f64 {
-            push(format!("f64{tail}"), words::<f64>(device));
-            push(
-                format!("f32, / and sqrt through f64{tail}"),
-                words::<f32>(device),
+    for exact in [false, true] {
+        for lyapunov in [false, true] {
+            let tail = format!(
+                "{}{}",
+                if lyapunov { ", lambda_1" } else { "" },
+                if exact { ", exact free flight" } else { "" }
             );
-            push(
-                format!("f32, driver's / and sqrt{tail}"),
-                words::<f32>(Variant::on_device(lyapunov, false)),
-            );
-        } else {
-            push(format!("f32{tail}"), words::<f32>(device));
+            let device = Variant::on_device(lyapunov, has_f64).with_exact_free_flight(exact);
+            if has_f64 {
+                out.push((format!("f64{tail}"), words::<f64>(device)?));
+                out.push((
+                    format!("f32, / and sqrt through f64{tail}"),
+                    words::<f32>(device)?,
+                ));
+                let own = Variant::on_device(lyapunov, false).with_exact_free_flight(exact);
+                out.push((
+                    format!("f32, driver's / and sqrt{tail}"),
+                    words::<f32>(own)?,
+                ));
+            } else {
+                out.push((format!("f32{tail}"), words::<f32>(device)?));
+            }
         }
     }
-    out
+    Ok(out)
 }
 
 /// The statistics of every kernel variant on every Vulkan device; `Err` when there is
@@ -214,7 +219,7 @@ unsafe fn device_stats(
         }
         .map_err(vk_err("vkCreatePipelineLayout"));
         let out = layout.and_then(|layout| {
-            let r = variants(has_f64)
+            let r = variants(has_f64)?
                 .into_iter()
                 .map(|(kernel, words)| {
                     let (compile_s, executables) =

@@ -42,7 +42,9 @@ unsafe impl<R: bytemuck::Pod> bytemuck::Pod for ExactFreeFlight<R> {}
 
 impl<R: Real> ExactFreeFlight<R> {
     /// The map for parameters `p` at speed `omega` and N macro steps per period, in f64
-    /// and rounded once; `None` when an oscillator is not underdamped.
+    /// and rounded once; `None` (the lane takes RK4) when an oscillator is not
+    /// underdamped, or is undamped and forced exactly at its resonance (no steady
+    /// response), or anything comes out non-finite.
     pub fn new(p: &Params, omega: f64, n: u32) -> Option<Self> {
         let h = std::f64::consts::TAU / omega / n as f64;
         let u = p.e * omega * omega;
@@ -98,11 +100,15 @@ impl<R: Real> ExactFreeFlight<R> {
             }
             let (aa, bb) = (w2 - omega * omega, c * omega);
             let det = aa * aa + bb * bb;
+            if det.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+                return None;
+            }
             m.off[j] = R::lit(f / w2);
             m.p[j] = R::lit((aa * a_ - bb * b_) / det);
             m.q[j] = R::lit((bb * a_ + aa * b_) / det);
         }
-        Some(m)
+        let finite = |v: &[R]| v.iter().all(|x| x.is_finite());
+        (finite(&m.phi) && finite(&m.off) && finite(&m.p) && finite(&m.q)).then_some(m)
     }
 }
 

@@ -180,8 +180,9 @@ pub struct StepperConfig {
     /// A macro step begun in free flight takes the exact flow map of the free motion
     /// (`integrate::free_flight`) as its trial step instead of RK4; crossings, contact
     /// sub-steps and partial steps stay RK4. Its error is then all contact's, so N can
-    /// halve where R doubles (docs/performance.md). Both backends, the same bits. Runs
-    /// recorded before
+    /// halve where R doubles (docs/performance.md). Both backends, the same bits. A lane
+    /// whose free motion has no such map (an oscillator not underdamped, or undamped at
+    /// its resonance: `ExactFreeFlight::new`) takes RK4 throughout. Runs recorded before
     /// it existed used RK4 (false).
     #[serde(default)]
     pub exact_free_flight: bool,
