@@ -21,7 +21,7 @@ use jeffcott_core::integrate::free_flight::{
     ExactFreeFlight, free_flight_step, free_flight_tangent,
 };
 use jeffcott_core::integrate::lane::{
-    Lane, LaneConsts, Status, StepperConfig, Tangent, find_switch, forcing_phasor,
+    Lane, LaneConsts, Status, StepperConfig, Tangent, exact_trial, find_switch, forcing_phasor,
     free_flight_certain, hermite_gap, macro_step, macro_step_tangent, renormalise, rk4_substep,
     rk4_tangent_substep, saltation, stage_partials, tangent_rhs, trial_extent, trial_tangent,
     wrong_side,
@@ -1123,18 +1123,9 @@ fn check_free_flight<R: GpuReal>(runner: &GpuRunner) {
     for (i, c) in cases::<R>().iter().enumerate() {
         let t = trial(i, c);
         let v = tangent::<R>(i, 1.0);
-        let exact = c.lc.exact.filter(|_| !c.contact && t.s0 == R::lit(0.0));
+        let exact = exact_trial(&c.lc, t.s0, c.contact);
         let mut tan = Tangent::new([v]);
-        trial_tangent(
-            &c.lc,
-            exact.as_ref(),
-            &c.x,
-            c.k,
-            t.s0,
-            t.ds,
-            c.contact,
-            &mut tan,
-        );
+        trial_tangent(&c.lc, exact, &c.x, c.k, t.s0, t.ds, c.contact, &mut tan);
         rows.push(
             Row::new()
                 .consts(&c.lc)

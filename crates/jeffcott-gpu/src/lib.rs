@@ -200,6 +200,13 @@ impl GpuRunner {
         &self.gpu
     }
 
+    /// The kernel this runner's device runs: `lyapunov` or not, with the exact
+    /// free-flight step or not, f32's division and sqrt through f64 where the device has
+    /// SHADER_F64 ([`shader::Variant`]).
+    pub fn kernel_variant(&self, lyapunov: bool, exact: bool) -> shader::Variant {
+        shader::Variant::on_device(lyapunov, self.gpu.supports_f64()).with_exact_free_flight(exact)
+    }
+
     fn slot<R: GpuReal>(&self, lyapunov: bool, exact: bool) -> &Mutex<Option<Kernel>> {
         let precision = if R::WGSL_NAME == "f64" { 2 } else { 0 };
         &self.kernels[4 * exact as usize + precision + lyapunov as usize]
@@ -219,8 +226,7 @@ impl GpuRunner {
             });
         }
         // Fail early with naga's readable report rather than wgpu's summary.
-        let v = shader::Variant::on_device(lyapunov, self.gpu.supports_f64())
-            .with_exact_free_flight(exact);
+        let v = self.kernel_variant(lyapunov, exact);
         shader::validate::<R>(v, shader::capabilities::<R>(v))
             .map_err(|e| gpu_err("lane kernel does not validate", e))?;
         // An explicit layout, the same for both variants: the plain kernel never touches

@@ -19,7 +19,7 @@
 use crate::integrate::forcing::phasor_turns;
 use crate::integrate::free_flight::{ExactFreeFlight, free_flight_step, free_flight_tangent};
 use crate::integrate::lane::{
-    Lane, LaneConsts, MacroStep, finish_macro_step, forcing_phasor, macro_step_begin,
+    Lane, LaneConsts, MacroStep, exact_trial, finish_macro_step, forcing_phasor, macro_step_begin,
     macro_step_end, macro_step_tangent, trial_extent,
 };
 use crate::integrate::switch::{GRAZE_SAMPLES, free_flight_certain, hermite_gap, wrong_side};
@@ -465,12 +465,8 @@ fn batch_pass<R: Real, const M: usize>(
     // Lanes whose macro step begins in free flight take the exact map where the
     // stepper has it (`lane::finish_macro_step`, the same choice and the same scalar
     // map); RK4 runs for the batch unless every live lane did.
-    let exact: [Option<&ExactFreeFlight<R>>; BATCH] = lanes(|l| {
-        lc[l]
-            .exact
-            .as_ref()
-            .filter(|_| !contact[l] && s0[l] == zero)
-    });
+    let exact: [Option<&ExactFreeFlight<R>>; BATCH] =
+        lanes(|l| exact_trial(&lc[l], s0[l], contact[l]));
     let (mut x1, stages) = if (0..BATCH).any(|l| active[l] && exact[l].is_none()) {
         rk4_step(bc, &x, k, &s0, &ds, &contact)
     } else {

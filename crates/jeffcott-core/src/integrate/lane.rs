@@ -414,6 +414,19 @@ pub fn trial_extent<R: Real>(lc: &LaneConsts<R>, s: R, contact: bool) -> (R, R) 
     }
 }
 
+/// The exact free-flight map the trial sub-step from fraction `s` in mode `contact`
+/// takes: the lane's, where it has one and the sub-step begins a macro step in free
+/// flight (s = 0, so the step is the whole macro step); else `None`, RK4. The scalar
+/// and batch steppers decide by this; the kernel's `macro_step` tests the same.
+#[inline(always)]
+pub fn exact_trial<R: Real>(
+    lc: &LaneConsts<R>,
+    s: R,
+    contact: bool,
+) -> Option<&ExactFreeFlight<R>> {
+    lc.exact.as_ref().filter(|_| !contact && s == R::lit(0.0))
+}
+
 /// Advances the lane by one macro step (1/N of a forcing period). Frozen lanes do not
 /// move. Keep in sync with `macro_step` in `integrate/lane.wgsl`.
 pub fn macro_step<R: Real>(lc: &LaneConsts<R>, lane: &mut Lane<R>) {
@@ -488,11 +501,7 @@ pub(crate) fn finish_macro_step<R: Real, const M: usize>(
     // MacroStep the batch stepper finished itself already is).
     while p.s < one && p.switches < lc.max_segments {
         let (ds, end) = trial_extent(lc, p.s, p.contact);
-        // A macro step begun in free flight may take the exact map (s = 0: ds = 1).
-        let exact = lc
-            .exact
-            .as_ref()
-            .filter(|_| !p.contact && p.s == R::lit(0.0));
+        let exact = exact_trial(lc, p.s, p.contact);
         let x1 = match exact {
             Some(ex) => free_flight_step(ex, lc, &p.x, k),
             None => rk4_substep(lc, &p.x, k, p.s, ds, p.contact),
