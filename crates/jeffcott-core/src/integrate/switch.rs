@@ -25,17 +25,15 @@ pub fn free_flight_safety<R: Real>() -> f64 {
     1.0 + 64.0 * R::EPSILON
 }
 
-/// Penetration g and its rate dg/dtheta at fraction `theta` of a sub-step of duration
-/// `hs`, on the cubic Hermite interpolant of the relative displacement between the
-/// sub-step's end states (exact at theta = 0 and 1).
+/// The squared relative displacement |d|^2 and d . dd/dtheta at fraction `theta` of a
+/// sub-step of duration `hs`, on the cubic Hermite interpolant of the relative
+/// displacement between the sub-step's end states: what [`hermite_gap`] takes its g and
+/// rate from (g = sqrt(|d|^2) - delta, rate = (d . dd/dtheta) / |d|). The batch stepper
+/// decides "no switch" from these alone (`integrate::batch`, the search): sqrt and g
+/// are monotone, so the samples' largest g is that of their largest |d|^2, and a rate's
+/// sign is that of d . dd/dtheta. The WGSL `hermite_gap` computes the same inline.
 #[inline(always)]
-pub fn hermite_gap<R: Real>(
-    delta: R,
-    x0: &[R; STATE_DIM],
-    x1: &[R; STATE_DIM],
-    hs: R,
-    theta: R,
-) -> (R, R) {
+pub fn hermite_sq<R: Real>(x0: &[R; STATE_DIM], x1: &[R; STATE_DIM], hs: R, theta: R) -> (R, R) {
     let one = R::lit(1.0);
     let two = R::lit(2.0);
     let three = R::lit(3.0);
@@ -56,10 +54,25 @@ pub fn hermite_gap<R: Real>(
     let dy = h00 * py0 + h10 * vy0 + h01 * py1 + h11 * vy1;
     let ddx = d00 * px0 + d10 * vx0 + d01 * px1 + d11 * vx1;
     let ddy = d00 * py0 + d10 * vy0 + d01 * py1 + d11 * vy1;
-    let r = (dx * dx + dy * dy).sqrt();
+    (dx * dx + dy * dy, dx * ddx + dy * ddy)
+}
+
+/// Penetration g and its rate dg/dtheta at fraction `theta` of a sub-step of duration
+/// `hs`, on the cubic Hermite interpolant of the relative displacement between the
+/// sub-step's end states (exact at theta = 0 and 1).
+#[inline(always)]
+pub fn hermite_gap<R: Real>(
+    delta: R,
+    x0: &[R; STATE_DIM],
+    x1: &[R; STATE_DIM],
+    hs: R,
+    theta: R,
+) -> (R, R) {
+    let (sq, dot) = hermite_sq(x0, x1, hs, theta);
+    let r = sq.sqrt();
     // r > 0 whenever g is near 0 (r ~ delta); the rate is only used there.
     let rate = if r > R::lit(0.0) {
-        (dx * ddx + dy * ddy) / r
+        dot / r
     } else {
         R::lit(0.0)
     };
