@@ -421,3 +421,35 @@ fn scattered_lambda1_estimates_on_one_cloud_give_one_quasiperiodic_attractor() {
     );
     assert_eq!(c.identify(&l), Some(0));
 }
+
+#[test]
+fn early_exit_never_recognises_a_cycle_within_four_identity_tolerances_of_another_attractor() {
+    use jeffcott_analysis::catalogue::CatalogueBuilder;
+    use jeffcott_core::ensemble::early::{Recognise, Track};
+    // Three period-1 lanes: two fixed points 2 um apart (the catalogue's identity
+    // tolerance is 1 um, so they are distinct entries, but a point near one may be as
+    // near the other), and one 1 mm away.
+    let at = |dx: f64| {
+        let mut s = [0.0; STATE_DIM];
+        s[X_R] = 3e-3 + dx;
+        s[VX_R] = 0.2;
+        s
+    };
+    let lanes: Vec<Vec<State>> = [0.0, 2e-6, 1e-3].iter().map(|&d| vec![at(d); 32]).collect();
+    let (pts, rec) = flat(&lanes);
+    let cfg = CatalogueConfig::default();
+    assert!(cfg.match_abs < 2e-6 && 4.0 * cfg.match_abs > 2e-6);
+    let mut b = CatalogueBuilder::new(W, cfg);
+    let labels = b.add_block(&pts, rec, &[false; 3], None);
+    assert_eq!(labels, vec![0, 1, 2], "three distinct entries");
+    let r = b.recogniser(4);
+    let recognised = |dx: f64| {
+        let mut t = Track::default();
+        (0..64).find_map(|_| r.observe(0, &mut t, &at(dx)))
+    };
+    // On either close point: never (the lane runs whole and is classified from its
+    // record); on the lone one: recognised.
+    assert_eq!(recognised(0.0), None);
+    assert_eq!(recognised(2e-6), None);
+    assert_eq!(recognised(1e-3), Some(2));
+}

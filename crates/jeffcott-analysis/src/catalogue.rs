@@ -365,9 +365,19 @@ pub fn recogniser_of(
                 let tol = match closeness {
                     Closeness::Label => {
                         let identity = (cfg.match_rel * a.size_m).max(cfg.match_abs);
-                        let wide =
-                            (RECOGNISE_REL * a.size_m).min(RECOGNISE_SEPARATION * separation(a));
-                        identity.max(wide)
+                        let apart = RECOGNISE_SEPARATION * separation(a);
+                        if identity > apart {
+                            // Another catalogued attractor lies within four identity
+                            // tolerances: a point near this cycle could be near that
+                            // one too. Such neighbours are lanes still converging near
+                            // a bifurcation (at 132.07 rad/s a period-1 point and two
+                            // period-2 cycles within 2 um, at 136.04 a period-4 and a
+                            // "period-8" on the same points; docs/early-exit.md), so
+                            // the lanes run their whole record and are classified from
+                            // it.
+                            return crate::early::Known::Never;
+                        }
+                        identity.max((RECOGNISE_REL * a.size_m).min(apart))
                     }
                     Closeness::Record => {
                         0.5 * (cfg.classify.rel_tol * a.size_m).max(cfg.classify.abs_tol)
