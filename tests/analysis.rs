@@ -453,3 +453,79 @@ fn early_exit_never_recognises_a_cycle_within_four_identity_tolerances_of_anothe
     assert_eq!(recognised(2e-6), None);
     assert_eq!(recognised(1e-3), Some(2));
 }
+
+/// An aperiodic lane: `len` points on the arc of angles [from, from + span] degrees of a
+/// circle of radius 1 mm in (x_r, y_r), spread by a golden rotation.
+fn arc(from: f64, span: f64, len: usize) -> Vec<State> {
+    let rho = (5f64.sqrt() - 1.0) / 2.0;
+    (0..len)
+        .map(|i| {
+            let a = (from + span * (i as f64 * rho).fract()).to_radians();
+            let mut s = [0.0; STATE_DIM];
+            s[X_R] = 1e-3 * a.cos();
+            s[2] = 1e-3 * a.sin();
+            s
+        })
+        .collect()
+}
+
+#[test]
+fn early_exits_catalogue_is_the_one_a_pass_in_lane_order_builds_whatever_the_rounds_order() {
+    use jeffcott_analysis::catalogue::{CatalogueBuilder, LaneEnd, classify_lane};
+    let cfg = CatalogueConfig::default();
+    let class = |pts: &[State], l1: f64| classify_lane(pts, W, false, Some(l1), &cfg);
+    // Lanes 0-2: three arcs of one cloud whose entries depend on the order they join
+    // (0 and 1 overlap by half, 2 covers three quarters of each and joins whatever
+    // came first; an entry's cloud grows as lanes join it). Lane 3 was recognised on a
+    // period-2 cycle that lane 4 ran whole onto, lane 5 is another period-2 cycle.
+    let lanes = [
+        arc(0.0, 180.0, 96),
+        arc(90.0, 180.0, 96),
+        arc(45.0, 180.0, 96),
+        cycle(2, 32, 0, 4e-3, 0.0, 3),
+        cycle(2, 32, 0, 4e-3, 1e-10, 4),
+        cycle(2, 32, 0, -4e-3, 1e-10, 5),
+    ];
+    let l1 = [0.5, 0.6, 0.7, -1.0, -1.5, -2.0];
+    // A pass in lane order, lane 3 given its cycle.
+    let mut pass = CatalogueBuilder::new(W, cfg);
+    let plain: Vec<i32> = (0..6)
+        .map(|i| pass.add_at(class(&lanes[i], l1[i]), i as u64))
+        .collect();
+    assert_eq!(
+        plain,
+        vec![0, 1, 0, 2, 2, 3],
+        "the arcs form two entries in lane order"
+    );
+    // Early exit's rounds: lanes 2 and 4 first (they run whole), then lane 3, recognised
+    // on the rounds' entry of lane 4's cycle, then the rest.
+    let mut rounds = CatalogueBuilder::new(W, cfg);
+    let mut labels = [0i32; 6];
+    let mut ends: Vec<Option<LaneEnd>> = vec![None; 6];
+    for i in [2, 4, 3, 0, 1, 5] {
+        if i == 3 {
+            labels[i] = rounds.add_recognised(labels[4] as u32);
+            ends[i] = Some(LaneEnd::Recognised(labels[4] as u32));
+        } else {
+            labels[i] = rounds.add_at(class(&lanes[i], l1[i]), i as u64);
+            ends[i] = Some(LaneEnd::Whole(class(&lanes[i], l1[i])));
+        }
+    }
+    assert_eq!(
+        (labels[0], labels[1], labels[2]),
+        (0, 0, 0),
+        "in the rounds' order the arcs form one entry"
+    );
+    let (rebuilt, got) = rounds.rebuilt_in_lane_order(ends.into_iter().flatten().collect());
+    assert_eq!(got, plain);
+    let (a, b) = (rebuilt.attractors(), pass.attractors());
+    assert_eq!(a.len(), b.len());
+    for (a, b) in a.iter().zip(&b) {
+        assert_eq!(
+            (a.kind(), a.lanes, a.first_lane),
+            (b.kind(), b.lanes, b.first_lane)
+        );
+    }
+    // The recognised lane brings no lambda_1: the cycle's is lane 4's alone.
+    assert_eq!(a[2].lambda1, Some(-1.5));
+}

@@ -23,10 +23,12 @@
 //! attractors of the rounds before it (an attractor with a small basin missed by the
 //! first rounds costs its lanes their early exit, never their label). Each round's
 //! recogniser is fixed while it runs, so the labels depend on the unit's lanes alone, not
-//! on threads, backends or other units: resumable and shardable as before.
+//! on threads, backends or other units: resumable and shardable as before. The labels
+//! and entries then come from the catalogue rebuilt in lane order
+//! (`CatalogueBuilder::rebuilt_in_lane_order`), as a pass without rounds builds it.
 
 use crate::backend::Engine;
-use crate::catalogue::{CatalogueBuilder, CatalogueConfig};
+use crate::catalogue::{CatalogueBuilder, CatalogueConfig, LaneEnd};
 use crate::classify::distance;
 use jeffcott_core::control::Control;
 use jeffcott_core::ensemble::early::{EarlyExit, Recognise, Retired, Then, Track};
@@ -279,6 +281,9 @@ pub fn catalogue_groups(
             info: None,
         })
         .collect();
+    // How each lane ended: its class where it ran whole, else the rounds' attractor id
+    // it was recognised on (the catalogue is rebuilt from these in lane order at the end).
+    let mut ends: Vec<Vec<Option<LaneEnd>>> = groups.iter().map(|g| vec![None; g.len()]).collect();
     let group_rounds: Vec<Vec<Vec<usize>>> = groups.iter().map(|g| rounds(g.len())).collect();
     let count = group_rounds.iter().map(Vec::len).max().unwrap_or(0);
     let mut base = 0u64;
@@ -328,7 +333,7 @@ pub fn catalogue_groups(
         let len = res.result.recorded * jeffcott_core::model::STATE_DIM;
         // Each group's lanes of the round are consecutive in `picks`.
         let mut at = 0;
-        for (g, e) in out.iter_mut().enumerate() {
+        for (g, (e, ends)) in out.iter_mut().zip(&mut ends).enumerate() {
             let m = picks[at..].iter().take_while(|p| p.0 == g).count();
             let lanes = at..at + m;
             at += m;
@@ -348,19 +353,29 @@ pub fn catalogue_groups(
                 .zip(&res.retired[lanes.clone()])
             {
                 e.labels[i] = match retired {
-                    Some(ret) => e.builder.add_recognised(ret.attractor),
-                    None => e.builder.add_at(class, i as u64),
+                    Some(ret) => {
+                        ends[i] = Some(LaneEnd::Recognised(ret.attractor));
+                        e.builder.add_recognised(ret.attractor)
+                    }
+                    None => {
+                        ends[i] = Some(LaneEnd::Whole(class.clone()));
+                        e.builder.add_at(class, i as u64)
+                    }
                 };
             }
             e.saved.add(&EarlySaved::of(&res.retired[lanes], full));
         }
         base += picks.len() as u64 * per_lane;
     }
-    // Ids in the order of each attractor's first lane, as a pass without rounds gives
-    // them: the ids, lanes and first lanes then do not depend on how the grid is cut
-    // into units (the representative cycle is the first-found lane's, which may).
-    for e in &mut out {
-        e.builder.renumber_by_first_lane(&mut e.labels);
+    // The catalogue as a pass without rounds builds it, lanes in index order
+    // (`CatalogueBuilder::rebuilt_in_lane_order`): entries, ids and first lanes then do
+    // not depend on the rounds' order, nor on how the grid is cut into units.
+    for (e, ends) in out.iter_mut().zip(ends) {
+        let lanes = ends
+            .into_iter()
+            .map(|l| l.expect("every lane ends in one round"))
+            .collect();
+        (e.builder, e.labels) = e.builder.rebuilt_in_lane_order(lanes);
     }
     Ok(out)
 }
