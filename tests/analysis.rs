@@ -452,6 +452,11 @@ fn early_exit_never_recognises_a_cycle_within_four_identity_tolerances_of_anothe
     assert_eq!(recognised(0.0), None);
     assert_eq!(recognised(2e-6), None);
     assert_eq!(recognised(1e-3), Some(2));
+    // The basin study names that pair (and only it) for the user to check.
+    let whole = catalogue(W, &pts, rec, &[false; 3], None, &cfg);
+    let close: Vec<(u32, u32)> = whole.close_pairs().iter().map(|p| (p.0, p.1)).collect();
+    assert_eq!(close, vec![(0, 1)]);
+    assert!((whole.close_pairs()[0].2 - 2e-6).abs() < 1e-12);
 }
 
 /// An aperiodic lane: `len` points on the arc of angles [from, from + span] degrees of a

@@ -246,6 +246,17 @@ fn report_basin(
         if !rub_line.is_empty() {
             println!("Rub on the attractors (attractors.json, docs/rub.md): {rub_line}.");
         }
+        let close = res.catalogue.close_pairs();
+        if !close.is_empty() {
+            let pairs: Vec<String> = close
+                .iter()
+                .map(|(a, b, d)| format!("#{a} and #{b} ({:.2} um)", d * 1e6))
+                .collect();
+            println!(
+                "Entries within four identity tolerances of each other: {}. Near a bifurcation such entries are usually one attractor still converging; a longer --transient tells (docs/early-exit.md).",
+                pairs.join(", ")
+            );
+        }
         if let Some(f) = &o.refined {
             let lanes: usize = f.levels.iter().map(|l| l.lanes).sum();
             println!(

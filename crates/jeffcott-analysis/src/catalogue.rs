@@ -345,6 +345,15 @@ pub enum Closeness {
     Record,
 }
 
+/// The distance between the nearest points of attractors `a` and `b` at speed `w`
+/// (infinite when either has no points).
+fn apart(a: &Attractor, b: &Attractor, w: f64) -> f64 {
+    a.points
+        .iter()
+        .flat_map(|p| b.points.iter().map(move |q| distance(p, q, w)))
+        .fold(f64::INFINITY, f64::min)
+}
+
 /// What early exit recognises lanes on at speed `omega`: the periodic attractors of
 /// `attractors`, a cycle point matching as `closeness` says (module docs). Aperiodic
 /// attractors are not recognised.
@@ -355,16 +364,11 @@ pub fn recogniser_of(
     streak: u32,
     closeness: Closeness,
 ) -> crate::early::Recogniser {
-    let w = omega;
     let separation = |a: &Attractor| {
         attractors
             .iter()
-            .filter(|b| b.id != a.id && !b.points.is_empty())
-            .flat_map(|b| {
-                a.points
-                    .iter()
-                    .flat_map(move |p| b.points.iter().map(move |q| distance(p, q, w)))
-            })
+            .filter(|b| b.id != a.id)
+            .map(|b| apart(a, b, omega))
             .fold(f64::INFINITY, f64::min)
     };
     let known = attractors
@@ -941,6 +945,33 @@ impl Catalogue {
             &self.config,
         );
         self.identify(&lc).map(|id| id as i32).unwrap_or(-2)
+    }
+
+    /// Pairs of entries (ids, distance of their nearest points [metric of `distance`])
+    /// of which at least one is a cycle lying within four of its identity tolerances of
+    /// the other: the pairs early exit does not recognise ([`recogniser_of`]). Near a
+    /// bifurcation such entries are usually one attractor whose lanes are still
+    /// converging (at 132.068 rad/s a period-1 point and two period-2 "cycles" within
+    /// 2 um at 1000 transient periods, one period-1 point at 4000; docs/early-exit.md),
+    /// so the basin study names them for the user to check with a longer transient.
+    pub fn close_pairs(&self) -> Vec<(u32, u32, f64)> {
+        let cfg = &self.config;
+        let reach = |a: &Attractor| match a.kind {
+            Class::Periodic(_) => {
+                (cfg.match_rel * a.size_m).max(cfg.match_abs) / RECOGNISE_SEPARATION
+            }
+            _ => 0.0,
+        };
+        let mut out = Vec::new();
+        for (i, a) in self.attractors.iter().enumerate() {
+            for b in &self.attractors[i + 1..] {
+                let d = apart(a, b, self.omega);
+                if d < reach(a).max(reach(b)) {
+                    out.push((a.id, b.id, d));
+                }
+            }
+        }
+        out
     }
 
     /// What early exit recognises lanes on against this catalogue ([`recogniser_of`]).
