@@ -345,6 +345,19 @@ pub enum Closeness {
     Record,
 }
 
+/// Whether cycle `a` (identity tolerance `identity`) lies too close to an attractor at
+/// distance `separation` (nearest points) for early exit to recognise it: the quarter
+/// of that distance that caps its recognition tolerance would fall below the identity
+/// floor, so a point near the cycle could be as near the other attractor.
+fn too_close_to_recognise(identity: f64, separation: f64) -> bool {
+    identity > RECOGNISE_SEPARATION * separation
+}
+
+/// A catalogued cycle's identity tolerance `max(match_rel * size, match_abs)`.
+fn cycle_identity(cfg: &CatalogueConfig, a: &Attractor) -> f64 {
+    (cfg.match_rel * a.size_m).max(cfg.match_abs)
+}
+
 /// The distance between the nearest points of attractors `a` and `b` at speed `w`
 /// (infinite when either has no points).
 fn apart(a: &Attractor, b: &Attractor, w: f64) -> f64 {
@@ -377,9 +390,9 @@ pub fn recogniser_of(
             Class::Periodic(_) => {
                 let tol = match closeness {
                     Closeness::Label => {
-                        let identity = (cfg.match_rel * a.size_m).max(cfg.match_abs);
-                        let apart = RECOGNISE_SEPARATION * separation(a);
-                        if identity > apart {
+                        let identity = cycle_identity(cfg, a);
+                        let sep = separation(a);
+                        if too_close_to_recognise(identity, sep) {
                             // Another catalogued attractor lies within four identity
                             // tolerances: a point near this cycle could be near that
                             // one too. Such neighbours are lanes still converging near
@@ -390,7 +403,7 @@ pub fn recogniser_of(
                             // it.
                             return crate::early::Known::Never;
                         }
-                        identity.max((RECOGNISE_REL * a.size_m).min(apart))
+                        identity.max((RECOGNISE_REL * a.size_m).min(RECOGNISE_SEPARATION * sep))
                     }
                     Closeness::Record => {
                         0.5 * (cfg.classify.rel_tol * a.size_m).max(cfg.classify.abs_tol)
@@ -955,18 +968,15 @@ impl Catalogue {
     /// 2 um at 1000 transient periods, one period-1 point at 4000; docs/early-exit.md),
     /// so the basin study names them for the user to check with a longer transient.
     pub fn close_pairs(&self) -> Vec<(u32, u32, f64)> {
-        let cfg = &self.config;
-        let reach = |a: &Attractor| match a.kind {
-            Class::Periodic(_) => {
-                (cfg.match_rel * a.size_m).max(cfg.match_abs) / RECOGNISE_SEPARATION
-            }
-            _ => 0.0,
+        let unrecognised = |a: &Attractor, d: f64| {
+            matches!(a.kind, Class::Periodic(_))
+                && too_close_to_recognise(cycle_identity(&self.config, a), d)
         };
         let mut out = Vec::new();
         for (i, a) in self.attractors.iter().enumerate() {
             for b in &self.attractors[i + 1..] {
                 let d = apart(a, b, self.omega);
-                if d < reach(a).max(reach(b)) {
+                if unrecognised(a, d) || unrecognised(b, d) {
                     out.push((a.id, b.id, d));
                 }
             }

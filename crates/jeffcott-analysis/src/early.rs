@@ -352,16 +352,16 @@ pub fn catalogue_groups(
                 .zip(classes)
                 .zip(&res.retired[lanes.clone()])
             {
-                e.labels[i] = match retired {
-                    Some(ret) => {
-                        ends[i] = Some(LaneEnd::Recognised(ret.attractor));
-                        e.builder.add_recognised(ret.attractor)
-                    }
+                // The rounds' catalogue only recognises: it needs the cycles of the
+                // lanes that ran whole, not the recognised lanes' counts or labels
+                // (those come from the rebuild below).
+                ends[i] = Some(match retired {
+                    Some(ret) => LaneEnd::Recognised(ret.attractor),
                     None => {
-                        ends[i] = Some(LaneEnd::Whole(class.clone()));
-                        e.builder.add_at(class, i as u64)
+                        e.builder.add_at(class.clone(), i as u64);
+                        LaneEnd::Whole(class)
                     }
-                };
+                });
             }
             e.saved.add(&EarlySaved::of(&res.retired[lanes], full));
         }
