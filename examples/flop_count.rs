@@ -19,7 +19,7 @@ use jeffcott_analysis::bench::bench_spec;
 use jeffcott_core::control::Control;
 use jeffcott_core::ensemble::{Backend, Precision};
 use jeffcott_core::integrate::lane::advance_period;
-use jeffcott_core::real::Real;
+use jeffcott_core::real::{Arith, Real};
 use std::cell::Cell;
 use std::cmp::Ordering;
 use std::ops::{Add, AddAssign, Div, Mul, Neg, Sub};
@@ -86,6 +86,15 @@ impl AddAssign for Counted {
     fn add_assign(&mut self, o: Self) {
         tick(0);
         self.0 += o.0;
+    }
+}
+impl Arith for Counted {
+    fn splat(x: f64) -> Self {
+        Counted(x)
+    }
+    fn root(self) -> Self {
+        tick(3);
+        Counted(self.0.sqrt())
     }
 }
 impl Real for Counted {

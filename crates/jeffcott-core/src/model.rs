@@ -8,7 +8,7 @@
 //! keep in sync with it.
 
 use crate::error::{Error, Result};
-use crate::real::Real;
+use crate::real::{Arith, Real};
 use serde::{Deserialize, Serialize};
 
 /// The WGSL mirror of the lane functions of this module (`model.wgsl`, beside this
@@ -374,7 +374,7 @@ impl<R: Copy, const B: usize> Coeffs<[R; B]> {
 /// The rotor's displacement and velocity relative to the stator, [dx, dy, dvx, dvy]
 /// (MODEL.md 2).
 #[inline(always)]
-pub fn relative_motion<R: Real>(x: &[R; STATE_DIM]) -> [R; 4] {
+pub fn relative_motion<T: Arith>(x: &[T; STATE_DIM]) -> [T; 4] {
     [
         x[X_R] - x[X_S],
         x[Y_R] - x[Y_S],
@@ -424,6 +424,13 @@ pub fn contact_force_per_kc<R: Real>(
     (-nrm * dx + mu * s * dy, -nrm * dy - mu * s * dx)
 }
 
+/// Whether the bodies are concentric (|d| = sqrt(dx^2 + dy^2) <= 0), where the contact
+/// partials are zero ([`contact_partials`]' guard, [`contact_force_per_kc`]'s too).
+#[inline(always)]
+pub fn concentric<R: Real>(dx: R, dy: R) -> bool {
+    (dx * dx + dy * dy).sqrt() <= R::lit(0.0)
+}
+
 /// Partial derivatives of [`contact_force_per_kc`] (fx, fy) with respect to
 /// (dx, dy, dvx, dvy), in the order
 /// `[fx_dx, fx_dy, fx_dvx, fx_dvy, fy_dx, fy_dy, fy_dvx, fy_dvy]`: the contact block of
@@ -432,19 +439,28 @@ pub fn contact_force_per_kc<R: Real>(
 /// Keep in sync with `contact_partials` in `model.wgsl`.
 #[inline(always)]
 pub fn contact_partials<R: Real>(c: &Coeffs<R>, x: &[R; STATE_DIM]) -> [R; 8] {
-    let [dx, dy, dvx, dvy] = relative_motion(x);
-    let r2 = dx * dx + dy * dy;
-    let r = r2.sqrt();
-    if r <= R::lit(0.0) {
+    let [dx, dy, _, _] = relative_motion(x);
+    if concentric(dx, dy) {
         return [R::lit(0.0); 8];
     }
+    contact_partials_off_centre(c, x)
+}
+
+/// [`contact_partials`] off the concentric position, branch-free, so a batch of lanes
+/// (`integrate::wide::Wide`) computes it at once and keeps it where a lane is in contact
+/// and not [`concentric`] (`integrate::batch`, the tangent step).
+#[inline(always)]
+pub fn contact_partials_off_centre<T: Arith>(c: &Coeffs<T>, x: &[T; STATE_DIM]) -> [T; 8] {
+    let [dx, dy, dvx, dvy] = relative_motion(x);
+    let r2 = dx * dx + dy * dy;
+    let r = r2.root();
     let s = (r - c.delta) / r;
     let q = (dx * dvx + dy * dvy) / r2;
     let nrm = s + c.tau_c * q;
     // s = 1 - delta/r: ds/d(dx) = delta dx / r^3; q = (d . v)/r^2.
     let r3 = r2 * r;
     let (sx, sy) = (c.delta * dx / r3, c.delta * dy / r3);
-    let two = R::lit(2.0);
+    let two = T::splat(2.0);
     let nx = sx + c.tau_c * (dvx - two * q * dx) / r2;
     let ny = sy + c.tau_c * (dvy - two * q * dy) / r2;
     let nvx = c.tau_c * dx / r2;

@@ -10,21 +10,26 @@
 use std::fmt::Debug;
 use std::ops::{Add, AddAssign, Div, Mul, Neg, Sub};
 
-/// A real scalar usable by the lane stepper (`f32` or `f64`).
-pub trait Real:
+/// The arithmetic of the equations of motion: one value (`f32`, `f64`, any [`Real`]) or
+/// the lanes of a SIMD batch (`integrate::wide::Wide`, each operation lane by lane). The
+/// model's branch-free functions are written once over this trait, so the batch stepper
+/// runs them on whole batches with exactly the scalar stepper's operations per lane.
+pub trait Arith:
     Copy
-    + Debug
-    + PartialOrd
     + Add<Output = Self>
     + Sub<Output = Self>
     + Mul<Output = Self>
     + Div<Output = Self>
     + Neg<Output = Self>
-    + AddAssign
-    + Send
-    + Sync
-    + 'static
 {
+    /// An `f64` constant in every lane (rounded to nearest for `f32`).
+    fn splat(x: f64) -> Self;
+    /// Square root (correctly rounded), lane by lane.
+    fn root(self) -> Self;
+}
+
+/// A real scalar usable by the lane stepper (`f32` or `f64`).
+pub trait Real: Arith + Debug + PartialOrd + AddAssign + Send + Sync + 'static {
     /// Name of the type as WGSL spells it.
     const WGSL_NAME: &'static str;
     /// Machine epsilon (the distance from 1 to the next larger value), as `f64`.
@@ -65,6 +70,16 @@ macro_rules! forward {
 
 macro_rules! impl_real {
     ($t:ty, $name:literal) => {
+        impl Arith for $t {
+            #[inline(always)]
+            fn splat(x: f64) -> Self {
+                x as $t
+            }
+            #[inline(always)]
+            fn root(self) -> Self {
+                <$t>::sqrt(self)
+            }
+        }
         impl Real for $t {
             const WGSL_NAME: &'static str = $name;
             const EPSILON: f64 = <$t>::EPSILON as f64;

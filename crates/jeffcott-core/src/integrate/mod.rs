@@ -9,3 +9,4 @@ pub mod lane;
 pub mod rk4;
 pub mod switch;
 pub mod tangent;
+pub mod wide;

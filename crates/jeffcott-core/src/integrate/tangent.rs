@@ -11,7 +11,7 @@ use super::lane::forcing_phasor;
 use crate::model::{
     Coeffs, STATE_DIM, VX_R, VX_S, VY_R, VY_S, X_R, X_S, Y_R, Y_S, contact_partials, rhs_frozen,
 };
-use crate::real::Real;
+use crate::real::{Arith, Real};
 
 /// Tangent vectors carried along a lane, with what the Lyapunov spectrum needs to
 /// account for them (MODEL.md 5 and 6). `M = 0` is the plain lane.
@@ -59,7 +59,7 @@ pub fn stage_partials<R: Real>(c: &Coeffs<R>, x: &[R; STATE_DIM], contact: bool)
 /// J v: the variational right-hand side for one tangent vector, the contact block given.
 /// Keep in sync with `tangent_rhs` in `integrate/lane.wgsl`.
 #[inline(always)]
-pub fn tangent_rhs<R: Real>(c: &Coeffs<R>, pc: &[R; 8], v: &[R; STATE_DIM]) -> [R; STATE_DIM] {
+pub fn tangent_rhs<T: Arith>(c: &Coeffs<T>, pc: &[T; 8], v: &[T; STATE_DIM]) -> [T; STATE_DIM] {
     let ddx = v[X_R] - v[X_S];
     let ddy = v[Y_R] - v[Y_S];
     let ddvx = v[VX_R] - v[VX_S];
