@@ -462,15 +462,16 @@ pub fn batch_macro_step_tangent<R: Real, const M: usize>(
         return;
     };
     let mut part: [MacroStep<R>; BATCH] = lanes(|l| macro_step_begin(&lane[l]));
+    let mut trial = [[R::lit(0.0); STATE_DIM]; BATCH];
     // Lanes the batch still advances; a lane leaves when its macro step is done (s = 1)
     // or when its trial sub-step needs the scalar switch search.
     let mut active: [bool; BATCH] = lanes(|l| !lane[l].status.is_frozen() && lane[l].k == k);
     // One pass per sub-step: a lane in free flight needs one, a lane in contact R
     // (contact refinement, `lane::trial_extent`); every pass computes all lanes.
     while active.iter().any(|&a| a) {
-        batch_pass(bc, lc, k, &mut part, &mut active, tan);
+        batch_pass(bc, lc, k, &mut part, &mut active, tan, &mut trial);
     }
-    batch_finish(lc, lane, tan, k, &part);
+    batch_finish(lc, lane, tan, k, &part, &trial);
 }
 
 /// The macro-step index of a batch's live lanes (they advance in lock step from k = 0;
@@ -482,7 +483,8 @@ fn batch_k<R: Real>(lane: &[Lane<R>; BATCH]) -> Option<u32> {
 
 /// One pass of a batch: every lane takes its next trial sub-step (all lanes computed,
 /// the `active` ones kept); a lane whose step ends its macro step, or that needs the
-/// scalar switch search, leaves `active`.
+/// scalar switch search, leaves `active` (the latter with its trial sub-step in
+/// `trial`, which the scalar stepper takes up instead of computing it again).
 #[inline(always)]
 fn batch_pass<R: Real, const M: usize>(
     bc: &BatchConsts<R>,
@@ -491,6 +493,7 @@ fn batch_pass<R: Real, const M: usize>(
     part: &mut [MacroStep<R>; BATCH],
     active: &mut [bool; BATCH],
     tan: &mut [Tangent<R, M>; BATCH],
+    trial: &mut [[R; STATE_DIM]; BATCH],
 ) {
     let zero = R::lit(0.0);
     let one = R::lit(1.0);
@@ -588,6 +591,7 @@ fn batch_pass<R: Real, const M: usize>(
         }
         if switch[l] {
             active[l] = false;
+            trial[l] = lane_of(&x1, l);
             continue;
         }
         let p = &mut part[l];
@@ -611,6 +615,7 @@ fn batch_finish<R: Real, const M: usize>(
     tan: &mut [Tangent<R, M>; BATCH],
     k: u32,
     part: &[MacroStep<R>; BATCH],
+    trial: &[[R; STATE_DIM]; BATCH],
 ) {
     for l in 0..BATCH {
         if lane[l].status.is_frozen() {
@@ -624,9 +629,9 @@ fn batch_finish<R: Real, const M: usize>(
             // Done: only the checks and counters are left.
             macro_step_end(&lc[l], &mut lane[l], &part[l]);
         } else {
-            // Handed over: the scalar stepper redoes the trial sub-step at s bit for bit
-            // and locates the switch.
-            finish_macro_step(&lc[l], &mut lane[l], &mut tan[l], part[l]);
+            // Handed over: the scalar stepper takes up the trial sub-step at s (the
+            // batch's, the bits it would compute) and locates the switch.
+            finish_macro_step(&lc[l], &mut lane[l], &mut tan[l], part[l], Some(trial[l]));
         }
     }
 }
@@ -637,6 +642,8 @@ fn batch_finish<R: Real, const M: usize>(
 pub struct GroupScratch<R> {
     ks: Vec<Option<u32>>,
     parts: Vec<[MacroStep<R>; BATCH]>,
+    /// Each batch's trial sub-steps of the lanes handed to the scalar stepper.
+    trials: Vec<[[R; STATE_DIM]; BATCH]>,
     /// (k, batch, lane) of the lanes still in their macro step after a pass.
     queue: Vec<(u32, usize, usize)>,
     next: Vec<(u32, usize, usize)>,
@@ -647,6 +654,7 @@ impl<R> Default for GroupScratch<R> {
         GroupScratch {
             ks: Vec::new(),
             parts: Vec::new(),
+            trials: Vec::new(),
             queue: Vec::new(),
             next: Vec::new(),
         }
@@ -678,6 +686,7 @@ pub fn group_macro_step_tangent<R: Real, const M: usize>(
     let GroupScratch {
         ks,
         parts,
+        trials,
         queue,
         next,
     } = scratch;
@@ -685,12 +694,22 @@ pub fn group_macro_step_tangent<R: Real, const M: usize>(
     ks.extend(lane.iter().map(batch_k));
     parts.clear();
     parts.extend(lane.iter().map(|b| lanes(|l| macro_step_begin(&b[l]))));
+    // Read only where a pass wrote them (lanes handed over), so never cleared.
+    trials.resize(g, [[R::lit(0.0); STATE_DIM]; BATCH]);
     queue.clear();
     for b in 0..g {
         let Some(k) = ks[b] else { continue };
         let mut active: [bool; BATCH] =
             lanes(|l| !lane[b][l].status.is_frozen() && lane[b][l].k == k);
-        batch_pass(&bcs[b], &lcs[b], k, &mut parts[b], &mut active, &mut tan[b]);
+        batch_pass(
+            &bcs[b],
+            &lcs[b],
+            k,
+            &mut parts[b],
+            &mut active,
+            &mut tan[b],
+            &mut trials[b],
+        );
         queue.extend((0..BATCH).filter(|&l| active[l]).map(|l| (k, b, l)));
     }
     while !queue.is_empty() {
@@ -724,6 +743,7 @@ pub fn group_macro_step_tangent<R: Real, const M: usize>(
                 tan[b][l]
             });
             let mut active: [bool; BATCH] = lanes(|i| i < pack.len());
+            let mut tr = [[R::lit(0.0); STATE_DIM]; BATCH];
             batch_pass(
                 &BatchConsts::new(&lc, bcs.iter().find_map(|b| b.forcing)),
                 &lc,
@@ -731,12 +751,16 @@ pub fn group_macro_step_tangent<R: Real, const M: usize>(
                 &mut part,
                 &mut active,
                 &mut tn,
+                &mut tr,
             );
             for (i, &(_, b, l)) in pack.iter().enumerate() {
                 parts[b][l] = part[i];
                 tan[b][l] = tn[i];
                 if active[i] {
                     next.push((k, b, l));
+                } else if part[i].s < R::lit(1.0) {
+                    // Handed over to the scalar stepper.
+                    trials[b][l] = tr[i];
                 }
             }
             at = end;
@@ -745,7 +769,7 @@ pub fn group_macro_step_tangent<R: Real, const M: usize>(
     }
     for b in 0..g {
         if let Some(k) = ks[b] {
-            batch_finish(&lcs[b], &mut lane[b], &mut tan[b], k, &parts[b]);
+            batch_finish(&lcs[b], &mut lane[b], &mut tan[b], k, &parts[b], &trials[b]);
         }
     }
 }

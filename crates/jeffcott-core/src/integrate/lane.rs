@@ -445,7 +445,7 @@ pub fn macro_step_tangent<R: Real, const M: usize>(
         return;
     }
     let ms = macro_step_begin(lane);
-    finish_macro_step(lc, lane, tan, ms);
+    finish_macro_step(lc, lane, tan, ms, None);
 }
 
 /// A macro step in progress: the local variables of [`finish_macro_step`]'s segment
@@ -486,12 +486,16 @@ pub(crate) fn macro_step_begin<R: Real>(lane: &Lane<R>) -> MacroStep<R> {
 }
 
 /// Runs the segment loop of `lane`'s macro step from `p`, then the refinement cap, the
-/// status checks and the counters ([`macro_step_end`]).
+/// status checks and the counters ([`macro_step_end`]). `trial`, when given, is the
+/// trial sub-step from `p` already computed (by the batch stepper, which hands the lane
+/// over because that step meets a switch): the same bits the loop's first trial step
+/// would compute, so it is not computed again.
 pub(crate) fn finish_macro_step<R: Real, const M: usize>(
     lc: &LaneConsts<R>,
     lane: &mut Lane<R>,
     tan: &mut Tangent<R, M>,
     mut p: MacroStep<R>,
+    mut trial: Option<[R; STATE_DIM]>,
 ) {
     let one = R::lit(1.0);
     let k = lane.k;
@@ -502,9 +506,10 @@ pub(crate) fn finish_macro_step<R: Real, const M: usize>(
     while p.s < one && p.switches < lc.max_segments {
         let (ds, end) = trial_extent(lc, p.s, p.contact);
         let exact = exact_trial(lc, p.s, p.contact);
-        let x1 = match exact {
-            Some(ex) => free_flight_step(ex, lc, &p.x, k),
-            None => rk4_substep(lc, &p.x, k, p.s, ds, p.contact),
+        let x1 = match (trial.take(), exact) {
+            (Some(x1), _) => x1,
+            (None, Some(ex)) => free_flight_step(ex, lc, &p.x, k),
+            (None, None) => rk4_substep(lc, &p.x, k, p.s, ds, p.contact),
         };
         p.substeps += 1;
         // A macro step untouched so far is in free flight from its start (s = 0, ds = 1):
