@@ -412,6 +412,10 @@ pub fn contact_force_per_kc<R: Real>(
     dvx: R,
     dvy: R,
 ) -> (R, R) {
+    // The guard written out rather than `concentric` before a shared branch-free body
+    // (as `contact_partials` has it): with that form the batch stepper's per-lane force
+    // was compiled into a copy through memory and ran 25 % slower (docs/performance.md,
+    // "Whole-batch tangent steps").
     let r2 = dx * dx + dy * dy;
     let r = r2.sqrt();
     if r <= R::lit(0.0) {

@@ -12,8 +12,10 @@ use std::ops::{Add, AddAssign, Div, Mul, Neg, Sub};
 
 /// The arithmetic of the equations of motion: one value (`f32`, `f64`, any [`Real`]) or
 /// the lanes of a SIMD batch (`integrate::wide::Wide`, each operation lane by lane). The
-/// model's branch-free functions are written once over this trait, so the batch stepper
-/// runs them on whole batches with exactly the scalar stepper's operations per lane.
+/// variational equations (`tangent::tangent_rhs`) and the contact partials
+/// (`model::contact_partials_off_centre`) are written once over this trait, so the batch
+/// stepper's tangent step runs them on whole batches with exactly the scalar stepper's
+/// operations per lane.
 pub trait Arith:
     Copy
     + Add<Output = Self>

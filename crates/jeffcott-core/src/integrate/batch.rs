@@ -27,7 +27,7 @@ use crate::integrate::tangent::{Tangent, jacobian_trace, tangent_rhs};
 use crate::integrate::wide::Wide;
 use crate::model::{
     Coeffs, STATE_DIM, VX_R, VX_S, VY_R, VY_S, X_R, X_S, Y_R, Y_S, concentric,
-    contact_force_per_kc, contact_partials_off_centre, rhs_with_force,
+    contact_force_per_kc, contact_partials_off_centre, relative_motion, rhs_with_force,
 };
 use crate::real::Real;
 
@@ -364,10 +364,10 @@ fn tangent_step<R: Real, const M: usize>(
     if contact.iter().any(|&c| c) {
         for (st, p) in stages.iter().zip(pc.iter_mut()) {
             let st: [Wide<R>; STATE_DIM] = st.map(Wide);
+            let [dx, dy, _, _] = relative_motion(&st);
             let mut keep = [false; BATCH];
             for l in 0..BATCH {
-                keep[l] =
-                    contact[l] && !concentric(st[X_R][l] - st[X_S][l], st[Y_R][l] - st[Y_S][l]);
+                keep[l] = contact[l] && !concentric(dx[l], dy[l]);
             }
             let q = contact_partials_off_centre(&c, &st);
             for j in 0..8 {

@@ -30,12 +30,6 @@ impl<R: Copy> Wide<R> {
         Wide([x; BATCH])
     }
 
-    /// Lane `l`'s value from `f(l)`.
-    #[inline(always)]
-    pub fn from_fn(f: impl FnMut(usize) -> R) -> Self {
-        Wide(std::array::from_fn(f))
-    }
-
     /// Each lane's value where `keep`, else `other`'s.
     #[inline(always)]
     pub fn select(mut self, keep: &[bool; BATCH], other: Self) -> Self {
