@@ -1,7 +1,8 @@
 //! Early exit (issue 24): lanes recognised on a catalogued attractor retire and their
 //! slots are refilled. What must hold: refill changes no lane's arithmetic (a lane not
 //! retired has the record of the run without early exit, to the bit, in both
-//! precisions, whatever the thread count); a GPU reaches the same decisions by replay;
+//! precisions, whatever the thread count); a GPU's slot pool ends the same lanes at the
+//! same periods with the same records, states and counters;
 //! a basin's labels agree with the full-length run's.
 
 mod common;
@@ -227,7 +228,7 @@ fn a_lane_recorded_early_has_its_own_record_from_where_it_was_recognised_to_the_
 }
 
 #[test]
-fn a_gpu_reaches_the_cpus_early_exit_decisions_and_records_by_replay() {
+fn a_gpus_slot_pool_ends_every_lane_where_the_cpu_does_with_its_records_states_and_counters() {
     let Some(_) = gpu_f64_device() else {
         return;
     };
@@ -239,33 +240,38 @@ fn a_gpu_reaches_the_cpus_early_exit_decisions_and_records_by_replay() {
             then,
         };
         for lambda1 in [false, true] {
-            let run = |backend| {
+            // 29 lanes through 29 slots, and through 5 (refilled as lanes end).
+            let run = |backend, slots| {
                 Engine::new(backend, Precision::F64)
                     .unwrap()
+                    .with_pool_slots(slots)
                     .run_early(&s, &early, lambda1, Control::none())
                     .unwrap()
                     .0
             };
-            let (c, g) = (run(Backend::Cpu), run(Backend::Gpu));
-            let case = format!("{then:?}, lambda1 {lambda1}");
-            assert_eq!(c.retired, g.retired, "{case}");
+            let c = run(Backend::Cpu, 1);
             assert!(c.retired.iter().any(Option::is_some));
-            assert_eq!(bits(&c.result.poincare), bits(&g.result.poincare), "{case}");
-            assert_eq!(c.result.status, g.result.status, "{case}");
-            if then == Then::Record {
-                let final_states = |r: &EnsembleResult| bits(&r.final_state.concat());
-                assert_eq!(final_states(&c.result), final_states(&g.result));
-            }
-            // lambda_1 of every lane that ran whole or recorded early (the same
-            // arithmetic on both backends in f64, as the plain lambda_1 variant).
-            if lambda1 {
-                let (lc, lg) = (c.result.lambda1.unwrap(), g.result.lambda1.unwrap());
-                assert!(lc.iter().any(|l| l.is_finite()));
-                for (i, (a, b)) in lc.iter().zip(&lg).enumerate() {
-                    assert!(
-                        (a.is_nan() && b.is_nan()) || (a - b).abs() < 1e-9,
-                        "{case}: lane {i} cpu {a} gpu {b}"
-                    );
+            assert!(c.retired.iter().any(Option::is_none));
+            for slots in [29, 5] {
+                let g = run(Backend::Gpu, slots);
+                let case = format!("{then:?}, lambda1 {lambda1}, {slots} slots");
+                assert_eq!(c.retired, g.retired, "{case}");
+                let (cr, gr) = (&c.result, &g.result);
+                assert_eq!(bits(&cr.poincare), bits(&gr.poincare), "{case}");
+                assert_eq!(cr.status, gr.status, "{case}");
+                assert_eq!(
+                    bits(&cr.final_state.concat()),
+                    bits(&gr.final_state.concat()),
+                    "{case}"
+                );
+                // The GPU's counters are u32 (saturating), the same values here.
+                assert_eq!(cr.counters, gr.counters, "{case}");
+                // lambda_1 of every lane that ran whole or recorded early: the same
+                // growths (the kernel's f64 arithmetic is the CPU's), summed alike.
+                if lambda1 {
+                    let (lc, lg) = (cr.lambda1.as_ref().unwrap(), gr.lambda1.as_ref().unwrap());
+                    assert!(lc.iter().any(|l| l.is_finite()));
+                    assert_eq!(bits(lc), bits(lg), "{case}");
                 }
             }
         }
@@ -399,9 +405,9 @@ fn a_refined_and_reintegrated_basin_with_early_exit_has_the_cpus_labels_on_a_gpu
     if !gpu_f64_present() {
         return;
     }
-    // Recognition on the GPU replays the recorded periods from `--early-exit-after`
-    // on: the same decisions, so the same labels at every stage (every refined and
-    // re-integrated lane retires here).
+    // The GPU's slot pool ends the same lanes at the same periods as the CPU's refilled
+    // batches: the same labels at every stage (every refined and re-integrated lane
+    // retires here).
     let run = |backend: &str| {
         let tmp = tempfile::tempdir().unwrap();
         let out = tmp.path().join("out");

@@ -3,9 +3,10 @@
 //! ensembles (the chunks of a basin, the passes of a brute-force diagram, benchmark
 //! rows) keeps one, so the GPU device and pipeline are set up once.
 
+use crate::gpu_pool::{POOL_SLOTS, run_early_gpu};
 use jeffcott_core::Result;
 use jeffcott_core::control::Control;
-use jeffcott_core::ensemble::early::{self, EarlyExit, EarlyResult, Then};
+use jeffcott_core::ensemble::early::{EarlyExit, EarlyResult};
 use jeffcott_core::ensemble::{
     Backend, EnsembleResult, EnsembleSpec, Precision, RunInfo, cpu, lane_lambda1,
     mask_frozen_records,
@@ -20,6 +21,8 @@ pub struct Engine {
     gpu: Option<GpuRunner>,
     device: String,
     reason: String,
+    /// Slots of the GPU's early-exit pool at most.
+    pool_slots: usize,
 }
 
 impl Engine {
@@ -30,6 +33,7 @@ impl Engine {
             gpu: None,
             device: format!("{} rayon threads", rayon::current_num_threads()),
             reason,
+            pool_slots: POOL_SLOTS,
         };
         match backend {
             Backend::Cpu => Ok(cpu("--backend cpu".into())),
@@ -47,6 +51,7 @@ impl Engine {
                         } else {
                             "hardware GPU found".into()
                         },
+                        pool_slots: POOL_SLOTS,
                     }),
                     Err(e) if backend == Backend::Gpu => Err(e),
                     Err(e) => Ok(cpu(format!("no hardware GPU ({e})"))),
@@ -83,10 +88,9 @@ impl Engine {
 
 impl Engine {
     /// Runs one ensemble with early exit (`jeffcott_core::ensemble::early`). The CPU
-    /// retires recognised lanes and refills their slots; a GPU runs every lane to the end
-    /// recording the periods from `early.after` on, and the same rule is replayed over
-    /// those records, so both backends reach the same decisions and the same records
-    /// (the GPU saves no time yet).
+    /// retires recognised lanes and refills their slots in its batches; a GPU does the
+    /// same in a slot pool refilled between time slices (`gpu_pool`), so both backends
+    /// end the same lanes at the same periods with the same records.
     pub fn run_early(
         &self,
         spec: &EnsembleSpec,
@@ -94,97 +98,25 @@ impl Engine {
         lambda1: bool,
         ctl: Control,
     ) -> Result<(EarlyResult, RunInfo)> {
+        let start = std::time::Instant::now();
         let Some(runner) = &self.gpu else {
-            let start = std::time::Instant::now();
             let r = cpu::run_early(spec, early, lambda1, ctl)?;
             return Ok((r, self.info("cpu", spec.precision, start)));
         };
-        let start = std::time::Instant::now();
-        let full = spec.transient + spec.recorded;
-        let first = early.after.max(1);
-        if first > full || !early.looks_at(first, spec.transient) {
-            let res = run_on_gpu(spec, runner, lambda1, ctl)?;
-            let retired = vec![None; spec.lanes.len()];
-            let r = EarlyResult {
-                result: res,
-                retired,
-            };
-            return Ok((r, self.info("gpu", spec.precision, start)));
-        }
-        // Record from period `first` on; the original record is the last rows.
-        let long = EnsembleSpec {
-            transient: first - 1,
-            recorded: full - first + 1,
-            ..spec.clone()
+        spec.validate()?;
+        let slots = self.pool_slots;
+        let r = match spec.precision {
+            Precision::F32 => run_early_gpu::<f32>(spec, runner, early, lambda1, slots, ctl)?,
+            Precision::F64 => run_early_gpu::<f64>(spec, runner, early, lambda1, slots, ctl)?,
         };
-        let (
-            EnsembleResult {
-                poincare: rows_all,
-                final_state,
-                status,
-                counters,
-                ..
-            },
-            norms,
-        ) = run_on_gpu_norms(&long, runner, lambda1, ctl)?;
-        let rows = long.recorded as usize;
-        let keep = spec.recorded as usize;
-        let mut out = EnsembleResult {
-            poincare: Vec::with_capacity(spec.lanes.len() * keep * STATE_DIM),
-            recorded: keep,
-            final_state,
-            status,
-            counters,
-            lambda1: lambda1.then(|| Vec::with_capacity(spec.lanes.len())),
-        };
-        let mut retired = Vec::with_capacity(spec.lanes.len());
-        let periods = (spec.transient, spec.recorded);
-        for (i, lane) in rows_all.chunks_exact(rows * STATE_DIM).enumerate() {
-            let r = early::replay(early, i, lane, first, periods);
-            // The rows (and tangent growths) the lane's record ends at.
-            let end = match (r, early.then) {
-                (Some(r), Then::Record) => (r.periods - first + 1) as usize,
-                _ => rows,
-            };
-            if let (Some(l), Some(norms)) = (out.lambda1.as_mut(), norms.as_ref()) {
-                l.push(match (r, early.then) {
-                    (Some(_), Then::Retire) => f64::NAN,
-                    _ => lane_lambda1(
-                        &norms[i][end - keep..end],
-                        spec.lanes[i].omega,
-                        out.status[i],
-                    ),
-                });
-            }
-            match (r, early.then) {
-                (Some(_), Then::Retire) => out
-                    .poincare
-                    .extend(std::iter::repeat_n(f64::NAN, keep * STATE_DIM)),
-                // Recorded early: the `keep` rows up to the period it ends at, and the
-                // state it ends in (a lane that froze in them keeps its frozen state;
-                // one the GPU saw freeze only after them keeps that status, where the
-                // CPU, which stopped the lane, does not see it).
-                (Some(_), Then::Record) => {
-                    let window = &lane[(end - keep) * STATE_DIM..end * STATE_DIM];
-                    out.poincare.extend_from_slice(window);
-                    let last = &window[window.len() - STATE_DIM..];
-                    if last.iter().all(|v| v.is_finite()) {
-                        out.final_state[i] = last.try_into().expect("a state");
-                    }
-                }
-                (None, _) => out
-                    .poincare
-                    .extend_from_slice(&lane[(rows - keep) * STATE_DIM..]),
-            }
-            retired.push(r);
-        }
-        Ok((
-            EarlyResult {
-                result: out,
-                retired,
-            },
-            self.info("gpu", spec.precision, start),
-        ))
+        Ok((r, self.info("gpu", spec.precision, start)))
+    }
+
+    /// This engine with a GPU slot pool of at most `slots` slots for early exit
+    /// (default [`POOL_SLOTS`]): tests use a few, so that slots are refilled.
+    pub fn with_pool_slots(mut self, slots: usize) -> Self {
+        self.pool_slots = slots.max(1);
+        self
     }
 
     /// How a run went: the backend, this engine's device and reason, the precision and
@@ -208,16 +140,15 @@ impl Engine {
 
 /// Lane-steps per GPU dispatch aimed at: short enough for a watchdog (DESIGN.md 3),
 /// long enough to amortise the dispatch.
-const LANE_STEPS_PER_SLICE: u64 = 50_000_000;
+pub(crate) const LANE_STEPS_PER_SLICE: u64 = 50_000_000;
 
-/// The ensemble on the GPU, with each lane's tangent growth over every recorded period
-/// when `lambda1` (whose lambda_1 the result holds).
+/// The ensemble on the GPU, with each lane's lambda_1 when `lambda1`.
 fn run_gpu<R: jeffcott_gpu::GpuReal>(
     spec: &EnsembleSpec,
     runner: &jeffcott_gpu::GpuRunner,
     lambda1: bool,
     ctl: Control,
-) -> Result<(EnsembleResult, Option<Vec<Vec<f64>>>)> {
+) -> Result<EnsembleResult> {
     let n = spec.lanes.len();
     let consts: Vec<LaneConsts<R>> = (0..n).map(|i| spec.lane_consts(i)).collect();
     let init: Vec<Lane<R>> = (0..n).map(|i| spec.initial_lane(i)).collect();
@@ -260,7 +191,7 @@ fn run_gpu<R: jeffcott_gpu::GpuReal>(
         res.counters.push(o.lane.counters);
     }
     mask_frozen_records(spec, &mut res);
-    Ok((res, norms))
+    Ok(res)
 }
 
 /// Runs an ensemble on an existing GPU runner, so repeated runs (chunks of a basin,
@@ -273,17 +204,6 @@ pub fn run_on_gpu(
     lambda1: bool,
     ctl: Control,
 ) -> Result<EnsembleResult> {
-    Ok(run_on_gpu_norms(spec, runner, lambda1, ctl)?.0)
-}
-
-/// [`run_on_gpu`] with each lane's tangent growth over every recorded period when
-/// `lambda1` (early exit's replay takes lambda_1 over the window a lane records).
-fn run_on_gpu_norms(
-    spec: &EnsembleSpec,
-    runner: &jeffcott_gpu::GpuRunner,
-    lambda1: bool,
-    ctl: Control,
-) -> Result<(EnsembleResult, Option<Vec<Vec<f64>>>)> {
     spec.validate()?;
     match spec.precision {
         Precision::F32 => run_gpu::<f32>(spec, runner, lambda1, ctl),

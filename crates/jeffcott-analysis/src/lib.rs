@@ -17,6 +17,7 @@ pub mod continuation;
 pub mod defaults;
 pub mod early;
 pub mod ensemble;
+pub mod gpu_pool;
 pub mod lyapunov;
 pub mod map;
 pub mod measures;

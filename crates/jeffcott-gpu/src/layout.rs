@@ -137,6 +137,9 @@ pub trait GpuReal: Real + Pod {
     /// Unpacks a lane's state; `None` when the status code is unknown (a corrupt
     /// buffer).
     fn unpack_lane(gpu: &Self::Lane) -> Option<Lane<Self>>;
+    /// Sets a packed lane's count of completed forcing periods (GPU only: a time slice
+    /// runs each lane from it to the slice's end).
+    fn set_period(gpu: &mut Self::Lane, period: u32);
 }
 
 macro_rules! impl_gpu_real {
@@ -181,6 +184,10 @@ macro_rules! impl_gpu_real {
                         max_penetration: ct.max_penetration as $r,
                     },
                 }
+            }
+
+            fn set_period(gpu: &mut Self::Lane, period: u32) {
+                gpu.period = period;
             }
 
             fn unpack_lane(gpu: &Self::Lane) -> Option<Lane<$r>> {

@@ -28,6 +28,7 @@
 pub mod device;
 pub mod layout;
 pub mod plan;
+pub mod pool;
 pub mod shader;
 pub mod spirv;
 pub mod stats;
@@ -621,7 +622,6 @@ impl GpuRunner {
         progress: &mut dyn FnMut(SliceReport) -> bool,
     ) -> Result<LyapunovOutcomes<R>> {
         let lyapunov = tangents.is_some();
-        let rec_dim = shader::record_dim(lyapunov);
         same_count("lanes", consts.len(), "lane constants", init.len())?;
         // The exact free-flight kernel variant where some lane has the map.
         let exact = consts.iter().any(|lc| lc.exact.is_some());
@@ -659,6 +659,33 @@ impl GpuRunner {
         let chunk = self.plan::<R>(n_total, schedule, lyapunov)?.lanes_per_chunk;
         let slots = schedule.periods_per_slice.min(total);
 
+        let lanes_cap = chunk.min(n_total);
+        self.with_kernel::<R, _>(lyapunov, exact, lanes_cap, slots, |pipeline, bufs| {
+            self.run_chunks(
+                pipeline,
+                bufs,
+                (consts, init, tangents),
+                schedule,
+                (chunk, slots, total),
+                (&mut out, &mut norms, &mut ends),
+                progress,
+            )
+        })?;
+        Ok((out, norms, ends))
+    }
+
+    /// Runs `f` with this variant's pipeline (built on first use) and buffers for at
+    /// least `lanes_cap` lanes and `slots_cap` periods per slice (grown where smaller),
+    /// holding the kernel's lock.
+    fn with_kernel<R: GpuReal, T>(
+        &self,
+        lyapunov: bool,
+        exact: bool,
+        lanes_cap: usize,
+        slots_cap: u32,
+        f: impl FnOnce(&wgpu::ComputePipeline, &Buffers) -> Result<T>,
+    ) -> Result<T> {
+        let rec_dim = shader::record_dim(lyapunov);
         let mut guard = self
             .slot::<R>(lyapunov, exact)
             .lock()
@@ -674,24 +701,42 @@ impl GpuRunner {
         let kernel = guard.as_mut().ok_or_else(|| Error::Gpu {
             message: "pipeline cache is empty".into(),
         })?;
-        let lanes_cap = chunk.min(n_total);
         let fits = kernel
             .buffers
             .as_ref()
-            .is_some_and(|b| b.lanes_cap >= lanes_cap && b.slots_cap >= slots);
+            .is_some_and(|b| b.lanes_cap >= lanes_cap && b.slots_cap >= slots_cap);
         if !fits {
             kernel.buffers = None; // free the old ones first
-            kernel.buffers = Some(self.buffers::<R>(&kernel.pipeline, lanes_cap, slots, rec_dim));
+            kernel.buffers =
+                Some(self.buffers::<R>(&kernel.pipeline, lanes_cap, slots_cap, rec_dim));
         }
-        let (pipeline, bufs) = match (&kernel.pipeline, &kernel.buffers) {
-            (p, Some(b)) => (p, b),
-            _ => {
-                return Err(Error::Gpu {
-                    message: "buffers missing".into(),
-                });
-            }
-        };
+        match (&kernel.pipeline, &kernel.buffers) {
+            (p, Some(b)) => f(p, b),
+            _ => Err(Error::Gpu {
+                message: "buffers missing".into(),
+            }),
+        }
+    }
 
+    /// The chunks of `run_inner`'s lanes through `bufs`, one after the other, each in
+    /// time slices, into `out`, `norms` and `ends`.
+    #[allow(clippy::too_many_arguments, clippy::type_complexity)]
+    fn run_chunks<R: GpuReal>(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        bufs: &Buffers,
+        (consts, init, tangents): (&[LaneConsts<R>], &[Lane<R>], Option<&[[R; STATE_DIM]]>),
+        schedule: &Schedule,
+        (chunk, slots, total): (usize, u32, u32),
+        (out, norms, ends): (
+            &mut [LaneOutcome<R>],
+            &mut [Vec<f64>],
+            &mut [[R; STATE_DIM]],
+        ),
+        progress: &mut dyn FnMut(SliceReport) -> bool,
+    ) -> Result<()> {
+        let lyapunov = tangents.is_some();
+        let n_total = consts.len();
         let queue = self.gpu.queue();
         let lane_periods_total = n_total as u64 * total as u64;
         let mut lane_periods_done = 0u64;
@@ -744,6 +789,6 @@ impl GpuRunner {
                 begin += periods;
             }
         }
-        Ok((out, norms, ends))
+        Ok(())
     }
 }

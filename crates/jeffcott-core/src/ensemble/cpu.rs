@@ -5,8 +5,9 @@
 //! end, so the result is bit-identical for any number of threads. Where the CPU has
 //! AVX2 the batch code is compiled a second time for it and chosen at run time.
 
-use super::early::{EarlyExit, EarlyResult, Retired, Then, Track};
-use super::{EnsembleResult, EnsembleSpec, Precision};
+use super::early::{EarlyExit, EarlyResult};
+use super::refill::{Ended, Refill, SlotLane, early_result};
+use super::{EnsembleResult, EnsembleSpec, LaneResult, Precision};
 use crate::control::{Cancel, Control};
 use crate::error::{Error, Result};
 use crate::integrate::batch::{
@@ -14,36 +15,13 @@ use crate::integrate::batch::{
     group_macro_step_tangent,
 };
 use crate::integrate::lane::{
-    Counters, LAMBDA1_START, Lane, LaneConsts, Status, Tangent, advance_period,
-    advance_period_tangent, renormalise,
+    LAMBDA1_START, Lane, LaneConsts, Tangent, advance_period, advance_period_tangent, renormalise,
 };
-use crate::model::{STATE_DIM, State};
+use crate::model::STATE_DIM;
 use crate::real::Real;
 use rayon::prelude::*;
 
-/// What one lane produced.
-struct Outcome {
-    points: Vec<f64>,
-    final_state: State,
-    status: Status,
-    counters: Counters,
-    lambda1: f64,
-}
-
-impl Outcome {
-    /// Appends this lane to `res` (its lambda_1 where `res` keeps them).
-    fn append_to(self, res: &mut EnsembleResult) {
-        if let Some(l) = res.lambda1.as_mut() {
-            l.push(self.lambda1);
-        }
-        res.poincare.extend_from_slice(&self.points);
-        res.final_state.push(self.final_state);
-        res.status.push(self.status);
-        res.counters.push(self.counters);
-    }
-}
-
-fn run_lane<R: Real>(spec: &EnsembleSpec, i: usize, cancel: &Cancel) -> Option<Outcome> {
+fn run_lane<R: Real>(spec: &EnsembleSpec, i: usize, cancel: &Cancel) -> Option<LaneResult> {
     let lc = spec.lane_consts::<R>(i);
     let mut lane = spec.initial_lane::<R>(i);
     for _ in 0..spec.transient {
@@ -65,7 +43,7 @@ fn run_lane<R: Real>(spec: &EnsembleSpec, i: usize, cancel: &Cancel) -> Option<O
         // those rows by NaN afterwards (`mask_frozen_records`).
         points.extend(lane.x.iter().map(|v| v.to_f64()));
     }
-    Some(Outcome {
+    Some(LaneResult {
         points,
         final_state: lane.state_f64(),
         status: lane.status,
@@ -76,7 +54,7 @@ fn run_lane<R: Real>(spec: &EnsembleSpec, i: usize, cancel: &Cancel) -> Option<O
 
 /// `run_lane` with a tangent vector, as the kernel's lambda_1 variant: renormalised at
 /// the end of every period the lane completes, its growth kept over recorded periods.
-fn run_lane_lambda1<R: Real>(spec: &EnsembleSpec, i: usize, cancel: &Cancel) -> Option<Outcome> {
+fn run_lane_lambda1<R: Real>(spec: &EnsembleSpec, i: usize, cancel: &Cancel) -> Option<LaneResult> {
     let lc = spec.lane_consts::<R>(i);
     let mut lane = spec.initial_lane::<R>(i);
     let mut tan = Tangent::<R, 1>::new([[R::lit(LAMBDA1_START); STATE_DIM]]);
@@ -100,7 +78,7 @@ fn run_lane_lambda1<R: Real>(spec: &EnsembleSpec, i: usize, cancel: &Cancel) -> 
             norms.push(norm);
         }
     }
-    Some(Outcome {
+    Some(LaneResult {
         points,
         final_state: lane.state_f64(),
         status: lane.status,
@@ -120,7 +98,7 @@ fn run_batch_inner<R: Real, const M: usize>(
     first: usize,
     batches: usize,
     cancel: &Cancel,
-) -> Vec<Outcome> {
+) -> Vec<LaneResult> {
     let lane_of = |b: usize, l: usize| first + b * BATCH + l;
     let lc: Vec<[LaneConsts<R>; BATCH]> = (0..batches)
         .map(|b| std::array::from_fn(|l| spec.lane_consts(lane_of(b, l))))
@@ -187,7 +165,7 @@ fn run_batch_inner<R: Real, const M: usize>(
         .zip(lanes.into_iter().flatten())
         .zip(norms)
         .enumerate()
-        .map(|(i, ((points, lane), norms))| Outcome {
+        .map(|(i, ((points, lane), norms))| LaneResult {
             points,
             final_state: lane.state_f64(),
             status: lane.status,
@@ -263,7 +241,7 @@ per_instruction_set! {
         first: usize,
         batches: usize,
         cancel: &Cancel,
-    ) -> Vec<Outcome> = run_batch_inner
+    ) -> Vec<LaneResult> = run_batch_inner
 }
 
 /// Runs the ensemble on the CPU with rayon's global pool, with each lane's largest
@@ -294,7 +272,7 @@ pub fn run(spec: &EnsembleSpec, lambda1: bool, ctl: Control) -> Result<EnsembleR
     // Every task may go to its own thread: a small ensemble (a map's unit of 3 cells x 8
     // start states is 3 batches) ran on one core while rayon kept pairs of tasks
     // together (`with_min_len(2)`, removed: a map of 48 cells took 20.8 s at 100 % CPU).
-    let outcomes: Vec<Vec<Outcome>> = tasks
+    let outcomes: Vec<Vec<LaneResult>> = tasks
         .into_par_iter()
         .map(|(first, batches)| {
             let c = ctl.cancel;
@@ -339,36 +317,14 @@ pub fn run(spec: &EnsembleSpec, lambda1: bool, ctl: Control) -> Result<EnsembleR
     Ok(res)
 }
 
-/// A lane that ended: its index, its outcome, whether it was recognised, and the periods
-/// before its record (the transient, or fewer when recorded early).
-type Ended = (usize, Outcome, Option<Retired>, u32);
-
-/// A slot of a refilled batch: the lane in it and what that lane has gathered.
-struct SlotLane {
-    /// Index of the lane in the ensemble.
-    lane: usize,
-    /// Periods integrated.
-    periods: u32,
-    /// Its recognition so far.
-    track: Track,
-    /// Its recorded points.
-    points: Vec<f64>,
-    /// Periods before its record: the transient, or the period it was recognised at
-    /// ([`Then::Record`]).
-    record_from: u32,
-    /// The attractor it was recognised on ([`Then::Record`]: it is recording).
-    recognised: Option<u32>,
-    /// The tangent's growth over each recorded period (with lambda_1).
-    norms: Vec<f64>,
-}
-
 /// Lanes `lanes` of `spec` through one batch of [`BATCH`] slots, each slot refilled
 /// with the next lane as soon as its lane retires (recognised by `early`), froze, or
-/// finished its periods; empty slots hold a frozen placeholder, which the batch
-/// stepper skips. Every lane starts at a period boundary (`Lane::k` = 0), so each
-/// lane's arithmetic is that of `run_batch_inner` and `run_lane` to the bit; with
-/// `M = 1` a tangent vector per slot gives each lane's lambda_1 over its record, renormalised
-/// after every period as `run_lane_lambda1` does (a retired lane has none: NaN).
+/// finished its periods (`refill::Refill`, the bookkeeping a GPU's slot pool shares);
+/// empty slots hold a frozen placeholder, which the batch stepper skips. Every lane
+/// starts at a period boundary (`Lane::k` = 0), so each lane's arithmetic is that of
+/// `run_batch_inner` and `run_lane` to the bit; with `M = 1` a tangent vector per slot
+/// gives each lane's lambda_1 over its record, renormalised after every period as
+/// `run_lane_lambda1` does (a retired lane has none: NaN).
 #[inline(always)]
 fn run_refill_inner<R: Real, const M: usize>(
     spec: &EnsembleSpec,
@@ -376,39 +332,31 @@ fn run_refill_inner<R: Real, const M: usize>(
     lanes: std::ops::Range<usize>,
     cancel: &Cancel,
 ) -> Option<Vec<Ended>> {
-    let record_len = spec.recorded as usize * STATE_DIM;
-    let mut queue = lanes.clone();
+    let mut refill = Refill::new(spec, early, lanes.clone(), M > 0);
     let placeholder = || Lane::<R>::new(&[f64::NAN; STATE_DIM], 0.0);
     let mut lc: [LaneConsts<R>; BATCH] = std::array::from_fn(|_| spec.lane_consts(lanes.start));
     let mut state: [Lane<R>; BATCH] = std::array::from_fn(|_| placeholder());
     let mut slot: [Option<SlotLane>; BATCH] = std::array::from_fn(|_| None);
     let fresh = || Tangent::<R, M>::new([[R::lit(LAMBDA1_START); STATE_DIM]; M]);
     let mut tan: [Tangent<R, M>; BATCH] = std::array::from_fn(|_| fresh());
-    let mut load = |l: usize,
-                    lc: &mut [LaneConsts<R>; BATCH],
-                    state: &mut [Lane<R>; BATCH],
-                    tan: &mut [Tangent<R, M>; BATCH],
-                    slot: &mut [Option<SlotLane>; BATCH]| {
-        slot[l] = queue.next().map(|i| {
-            lc[l] = spec.lane_consts(i);
-            state[l] = spec.initial_lane(i);
-            tan[l] = fresh();
-            SlotLane {
-                lane: i,
-                periods: 0,
-                track: Track::default(),
-                points: Vec::with_capacity(record_len),
-                record_from: spec.transient,
-                recognised: None,
-                norms: Vec::with_capacity(if M > 0 { spec.recorded as usize } else { 0 }),
+    let load = |l: usize,
+                refill: &mut Refill,
+                lc: &mut [LaneConsts<R>; BATCH],
+                state: &mut [Lane<R>; BATCH],
+                tan: &mut [Tangent<R, M>; BATCH],
+                slot: &mut [Option<SlotLane>; BATCH]| {
+        slot[l] = refill.next_lane();
+        match &slot[l] {
+            Some(s) => {
+                lc[l] = spec.lane_consts(s.lane);
+                state[l] = spec.initial_lane(s.lane);
+                tan[l] = fresh();
             }
-        });
-        if slot[l].is_none() {
-            state[l] = placeholder();
+            None => state[l] = placeholder(),
         }
     };
     for l in 0..BATCH {
-        load(l, &mut lc, &mut state, &mut tan, &mut slot);
+        load(l, &mut refill, &mut lc, &mut state, &mut tan, &mut slot);
     }
     let forcing = ForcingTable::for_batches(&lc[0]);
     let mut bc = BatchConsts::new(&lc, forcing.as_ref());
@@ -426,82 +374,19 @@ fn run_refill_inner<R: Real, const M: usize>(
             let Some(s) = slot[l].as_mut() else {
                 continue;
             };
-            s.periods += 1;
             let lane = &state[l];
-            let x = lane.state_f64();
-            if s.periods > s.record_from {
-                s.points.extend_from_slice(&x);
-            }
-            if M > 0 {
-                // As `run_batch_inner`: a frozen lane is not renormalised (it ends here).
-                let norm = if lane.status.is_frozen() {
-                    1.0
-                } else {
-                    renormalise(&mut tan[l].v[0]).to_f64()
-                };
-                if s.periods > s.record_from {
-                    s.norms.push(norm);
-                }
-            }
-            // Recognised at this period: retire now, or record from here on.
-            let now = (s.recognised.is_none()
-                && !lane.status.is_frozen()
-                && early.looks_at(s.periods, spec.transient))
-            .then(|| early.recognise.observe(s.lane, &mut s.track, &x))
-            .flatten();
-            if let (Some(a), Then::Record) = (now, early.then) {
-                s.record_from = s.periods;
-                s.recognised = Some(a);
-            }
-            // A lane recorded early counts the periods of its whole record, also when it
-            // froze during it (as the replay of a GPU's records counts it).
-            let recorded_early = |s: &SlotLane| {
-                s.recognised.map(|a| Retired {
-                    attractor: a,
-                    periods: s.record_from + spec.recorded,
-                })
-            };
-            let ended = if lane.status.is_frozen() {
-                // A frozen lane repeats the state it froze at in every later record, as
-                // in `run_lane` (the host masks those rows afterwards).
-                while s.points.len() < record_len {
-                    s.points.extend_from_slice(&x);
-                }
-                Some(recorded_early(s))
-            } else if let (Some(a), Then::Retire) = (now, early.then) {
-                Some(Some(Retired {
-                    attractor: a,
-                    periods: s.periods,
-                }))
+            let frozen = lane.status.is_frozen();
+            // As `run_batch_inner`: a frozen lane is not renormalised (it ends here).
+            let norm = if M == 0 || frozen {
+                1.0
             } else {
-                (s.periods == s.record_from + spec.recorded).then(|| recorded_early(s))
+                renormalise(&mut tan[l].v[0]).to_f64()
             };
-            if let Some(retired) = ended {
+            let x = lane.state_f64();
+            if let Some(retired) = refill.period_end(s, &x, frozen, norm) {
                 let s = slot[l].take().expect("occupied slot");
-                let gone = retired.is_some() && early.then == Then::Retire;
-                let points = if gone {
-                    vec![f64::NAN; record_len]
-                } else {
-                    s.points
-                };
-                let lambda1 = if M > 0 && !gone {
-                    super::lane_lambda1(&s.norms, spec.lanes[s.lane].omega, lane.status)
-                } else {
-                    f64::NAN
-                };
-                out.push((
-                    s.lane,
-                    Outcome {
-                        points,
-                        final_state: x,
-                        status: lane.status,
-                        counters: lane.counters,
-                        lambda1,
-                    },
-                    retired,
-                    s.record_from,
-                ));
-                load(l, &mut lc, &mut state, &mut tan, &mut slot);
+                out.push(refill.ended(s, retired, x, lane.status, lane.counters));
+                load(l, &mut refill, &mut lc, &mut state, &mut tan, &mut slot);
                 refilled = true;
             }
         }
@@ -578,18 +463,5 @@ pub fn run_early(
         };
         all.extend(o);
     }
-    all.sort_unstable_by_key(|(i, _, _, _)| *i);
-    let mut res = EnsembleResult::with_capacity(n, spec.recorded, lambda1);
-    let mut retired = Vec::with_capacity(n);
-    let mut record_from = Vec::with_capacity(n);
-    for (_, o, r, from) in all {
-        o.append_to(&mut res);
-        retired.push(r);
-        record_from.push(from);
-    }
-    super::mask_frozen_records_from(spec, &mut res, |i| record_from[i]);
-    Ok(EarlyResult {
-        result: res,
-        retired,
-    })
+    Ok(early_result(spec, all, lambda1))
 }

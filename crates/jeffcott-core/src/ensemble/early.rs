@@ -8,9 +8,10 @@
 //! independent and a refilled slot starts at a period boundary, where the lane stepper
 //! holds no state but the lane's own (`Lane::k` = 0).
 //!
-//! The rule is a function of the lane's sequence of Poincare points alone, so a backend
-//! that cannot stop a lane early (the GPU kernel today) reaches the same decisions by
-//! recording the periods from `after` on and replaying them ([`replay`]).
+//! The rule is a function of the lane's sequence of Poincare points alone: the CPU's
+//! refilled batches and a GPU's slot pool apply it through the same bookkeeping
+//! (`super::refill`), and [`replay`] applies it to recorded periods (the tests check
+//! the runners' decisions against it).
 //!
 //! Literature: Datseris and Wagemakers, "Effortless estimation of basins of attraction",
 //! Chaos 32, 023104 (2022) (`AttractorsViaRecurrences`: a trajectory stops once it has

@@ -4,6 +4,7 @@
 
 pub mod cpu;
 pub mod early;
+pub mod refill;
 pub mod table;
 
 use crate::error::{Error, Result};
@@ -145,6 +146,34 @@ pub struct EnsembleResult {
     /// t = 0, advanced by the lane stepper with the state (saltation at switches),
     /// renormalised every forcing period; the same arithmetic on both backends.
     pub lambda1: Option<Vec<f64>>,
+}
+
+/// What one lane produced: its row of an [`EnsembleResult`].
+#[derive(Clone, Debug)]
+pub struct LaneResult {
+    /// Its record (`recorded` rows of 8).
+    pub points: Vec<f64>,
+    /// Its final state.
+    pub final_state: State,
+    /// Its status.
+    pub status: Status,
+    /// Its counters.
+    pub counters: Counters,
+    /// Its lambda_1 (NaN where the run has none).
+    pub lambda1: f64,
+}
+
+impl LaneResult {
+    /// Appends this lane to `res` (its lambda_1 where `res` keeps them).
+    pub fn append_to(self, res: &mut EnsembleResult) {
+        if let Some(l) = res.lambda1.as_mut() {
+            l.push(self.lambda1);
+        }
+        res.poincare.extend_from_slice(&self.points);
+        res.final_state.push(self.final_state);
+        res.status.push(self.status);
+        res.counters.push(self.counters);
+    }
 }
 
 /// lambda_1 of one lane from its per-period growths, NaN if the lane froze.

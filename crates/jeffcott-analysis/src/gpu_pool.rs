@@ -1,0 +1,156 @@
+//! Early exit on a GPU (issue 24): a slot pool (`jeffcott_gpu::pool`) driven by the
+//! same per-slot bookkeeping as the CPU's refilled batches
+//! (`jeffcott_core::ensemble::refill`). Each time slice runs until the first period end
+//! at which some slot's lane could be recognised or end its record
+//! (`Refill::quiet_periods`), so no lane runs past the period where the CPU stops it;
+//! the host then reads every slot's points and lane, ends the lanes the rule ends and
+//! refills their slots. Each lane's arithmetic is the kernel's (the CPU's to the bit in
+//! f64), so a GPU ends the same lanes at the same periods with the same records, final
+//! states, statuses and counters as the CPU (`tests/early_exit.rs`).
+
+use jeffcott_core::control::Control;
+use jeffcott_core::ensemble::EnsembleSpec;
+use jeffcott_core::ensemble::early::{EarlyExit, EarlyResult};
+use jeffcott_core::ensemble::refill::{Ended, Refill, SlotLane, early_result};
+use jeffcott_core::error::{Error, Result};
+use jeffcott_core::integrate::lane::{LAMBDA1_START, Lane};
+use jeffcott_core::model::{STATE_DIM, State};
+use jeffcott_gpu::pool::{PoolHost, PoolLane};
+use jeffcott_gpu::{GpuReal, GpuRunner, Schedule};
+use rayon::prelude::*;
+
+/// Slots of a GPU's early-exit pool at most: enough lanes to fill a large GPU
+/// (an H100 runs 132 x 2048 threads at once), few enough that the lanes waiting for a
+/// slot keep the pool full while most of a run retires.
+pub const POOL_SLOTS: usize = 1 << 18;
+
+/// The host side of the pool: the run's lanes through [`Refill`].
+struct EarlyPool<'a> {
+    spec: &'a EnsembleSpec,
+    refill: Refill<'a>,
+    slots: Vec<Option<SlotLane>>,
+    ended: Vec<Ended>,
+    lambda1: bool,
+    ctl: Control<'a>,
+    /// Lane-periods of the lanes that ended (progress counts a lane's full periods).
+    done: u64,
+}
+
+impl<R: GpuReal> PoolHost<R> for EarlyPool<'_> {
+    fn fill(&mut self, slot: usize) -> Option<PoolLane<R>> {
+        self.slots[slot] = self.refill.next_lane();
+        self.slots[slot].as_ref().map(|s| PoolLane {
+            consts: self.spec.lane_consts(s.lane),
+            lane: self.spec.initial_lane(s.lane),
+            tangent: self.lambda1.then_some([R::lit(LAMBDA1_START); STATE_DIM]),
+        })
+    }
+
+    fn next_slice(&mut self) -> Result<u32> {
+        if self.ctl.cancel.is_set() {
+            return Err(Error::Interrupted {
+                committed: 0,
+                total: 1,
+            });
+        }
+        Ok(self
+            .slots
+            .iter()
+            .flatten()
+            .map(|s| self.refill.quiet_periods(s))
+            .min()
+            .unwrap_or(0))
+    }
+
+    fn after_slice(
+        &mut self,
+        periods: u32,
+        records: &[R],
+        lanes: &[Lane<R>],
+    ) -> Result<Vec<usize>> {
+        let n = self.slots.len();
+        let dim = STATE_DIM + self.lambda1 as usize;
+        let refill = &self.refill;
+        // Slots are independent: their rows are read in parallel (a large pool's
+        // recognition is most of the host's work per slice).
+        let ended: Vec<(usize, Ended)> = self
+            .slots
+            .par_iter_mut()
+            .enumerate()
+            .filter_map(|(i, slot)| {
+                let s = slot.as_mut()?;
+                let lane = &lanes[i];
+                for p in 0..periods as usize {
+                    let row = &records[(p * n + i) * dim..][..dim];
+                    let x: State = std::array::from_fn(|j| row[j].to_f64());
+                    let last = p + 1 == periods as usize;
+                    // The status is known at the slice's end only; a lane that froze
+                    // earlier in the slice records its frozen state from then on (as the
+                    // CPU pads its record), and no period before the last can end a lane
+                    // but a freeze (`Refill::quiet_periods`), so only the last row needs
+                    // it.
+                    let frozen = last && lane.status.is_frozen();
+                    let norm = if dim > STATE_DIM {
+                        row[STATE_DIM].to_f64()
+                    } else {
+                        1.0
+                    };
+                    if let Some(retired) = refill.period_end(s, &x, frozen, norm) {
+                        if !last {
+                            return Some(Err(Error::Gpu {
+                                message: format!(
+                                    "pool slot {i}: its lane ended at period {} of a \
+                                     {periods}-period slice (the slice should have stopped there)",
+                                    p + 1
+                                ),
+                            }));
+                        }
+                        let s = slot.take().expect("occupied slot");
+                        let e = refill.ended(s, retired, x, lane.status, lane.counters);
+                        return Some(Ok((i, e)));
+                    }
+                }
+                None
+            })
+            .collect::<Result<_>>()?;
+        let per_lane = (self.spec.transient + self.spec.recorded) as u64;
+        self.done += ended.len() as u64 * per_lane;
+        (self.ctl.progress)(self.done, self.spec.lanes.len() as u64 * per_lane);
+        let freed = ended.iter().map(|(i, _)| *i).collect();
+        self.ended.extend(ended.into_iter().map(|(_, e)| e));
+        Ok(freed)
+    }
+}
+
+/// Runs `spec` with early exit on `runner` in a slot pool of at most `max_slots` slots:
+/// the result is the CPU's `cpu::run_early` result.
+pub fn run_early_gpu<R: GpuReal>(
+    spec: &EnsembleSpec,
+    runner: &GpuRunner,
+    early: &EarlyExit,
+    lambda1: bool,
+    max_slots: usize,
+    ctl: Control,
+) -> Result<EarlyResult> {
+    let n = spec.lanes.len();
+    let full = spec.transient + spec.recorded;
+    let mut slots = n.min(max_slots.max(1));
+    // Slices of about `LANE_STEPS_PER_SLICE` lane-steps, as plain runs take.
+    let per_period = slots as u64 * spec.stepper.steps_per_period.max(1) as u64;
+    let max_periods = (super::backend::LANE_STEPS_PER_SLICE / per_period.max(1))
+        .clamp(1, full.max(1) as u64) as u32;
+    let schedule = Schedule::new(0, max_periods, max_periods);
+    slots = slots.min(runner.plan::<R>(slots, &schedule, lambda1)?.lanes_per_chunk);
+    let exact = (0..n).any(|i| spec.lane_consts::<R>(i).exact.is_some());
+    let mut host = EarlyPool {
+        spec,
+        refill: Refill::new(spec, early, 0..n, lambda1),
+        slots: (0..slots).map(|_| None).collect(),
+        ended: Vec::with_capacity(n),
+        lambda1,
+        ctl,
+        done: 0,
+    };
+    runner.run_pool::<R>(slots, (lambda1, exact), max_periods, &mut host)?;
+    Ok(early_result(spec, host.ended, lambda1))
+}

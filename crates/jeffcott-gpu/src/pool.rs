@@ -1,0 +1,200 @@
+//! A pool of lane slots refilled between time slices: the GPU's side of early exit
+//! (issue 24). The kernel is the same; the host keeps a fixed number of slots busy,
+//! reads back every slice's Poincare points and each slot's lane, and writes the next
+//! lanes into the slots whose lanes ended. What a slot's lane does at a period's end
+//! (recognised, recorded, ended) is decided by a [`PoolHost`]
+//! (`jeffcott_core::ensemble::refill` in the analysis crate's backend), which also picks
+//! each slice's length so that no lane runs past the period at which the CPU would
+//! stop it: a lane that ends is read back exactly where it ended, counters included.
+//!
+//! Every slot's `Lane::period` is the pool's period count at the start of each slice,
+//! and the slice records every period, so a slot's records are its lane's points
+//! whatever period of its own life the lane is at (the kernel only uses the count to
+//! place records and to stop). Empty slots hold a lane with N = 0, which the kernel
+//! does not step: it only writes its record each period.
+
+use super::*;
+use bytemuck::Zeroable;
+
+/// A lane for a slot of the pool.
+#[derive(Clone, Copy, Debug)]
+pub struct PoolLane<R> {
+    /// Its constants.
+    pub consts: LaneConsts<R>,
+    /// Its start state.
+    pub lane: Lane<R>,
+    /// Its start tangent vector (the lambda_1 kernel variant).
+    pub tangent: Option<[R; STATE_DIM]>,
+}
+
+/// The host side of a slot pool ([`GpuRunner::run_pool`]).
+pub trait PoolHost<R: GpuReal> {
+    /// The lane for free slot `slot`, `None` to leave it empty.
+    fn fill(&mut self, slot: usize) -> Option<PoolLane<R>>;
+    /// Forcing periods of the next time slice (cut to the pool's buffers), 0 when the
+    /// run is done; an error (e.g. cancelled) stops the run.
+    fn next_slice(&mut self) -> Result<u32>;
+    /// What a slice of `periods` periods produced: the record of slot `s` at the
+    /// slice's `p`-th period end is `records[(p * slots + s) * dim..][..dim]` (the state,
+    /// then in the lambda_1 variant the tangent's growth over the period), and `lanes`
+    /// holds each slot's lane at the slice's end. Returns the slots whose lanes ended,
+    /// which are then filled anew.
+    fn after_slice(&mut self, periods: u32, records: &[R], lanes: &[Lane<R>])
+    -> Result<Vec<usize>>;
+}
+
+impl GpuRunner {
+    /// Runs a pool of `slots` lane slots, with the lambda_1 kernel variant when
+    /// `lyapunov` and the exact free-flight variant when `exact`, in time slices of at
+    /// most `max_periods` forcing periods, until `host` says it is done (see the module
+    /// docs). Returns the number of dispatches.
+    pub fn run_pool<R: GpuReal>(
+        &self,
+        slots: usize,
+        (lyapunov, exact): (bool, bool),
+        max_periods: u32,
+        host: &mut dyn PoolHost<R>,
+    ) -> Result<u64> {
+        if slots == 0 {
+            return Ok(0);
+        }
+        if max_periods == 0 {
+            return Err(Error::invalid("max_periods", 0, "must be >= 1"));
+        }
+        let schedule = Schedule::new(0, max_periods, max_periods);
+        let chunk = self.plan::<R>(slots, &schedule, lyapunov)?.lanes_per_chunk;
+        if chunk < slots {
+            return Err(Error::invalid(
+                "slots",
+                slots,
+                format!("a slot pool must fit one chunk of this device ({chunk} lanes)"),
+            ));
+        }
+        self.with_kernel::<R, _>(lyapunov, exact, slots, max_periods, |pipeline, bufs| {
+            self.pool_slices(pipeline, bufs, slots, lyapunov, max_periods, host)
+        })
+    }
+
+    /// The time slices of [`GpuRunner::run_pool`] on the kernel's buffers.
+    fn pool_slices<R: GpuReal>(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        bufs: &Buffers,
+        slots: usize,
+        lyapunov: bool,
+        max_periods: u32,
+        host: &mut dyn PoolHost<R>,
+    ) -> Result<u64> {
+        let queue = self.gpu.queue();
+        let rec_dim = shader::record_dim(lyapunov);
+        let lane_size = size_of::<R::Lane>();
+        // The pool's period count: every slot's `Lane::period` at the next slice's start.
+        let mut period = 0u32;
+        let pack = |p: Option<PoolLane<R>>, period: u32| {
+            let (consts, mut lane, tangent) = match p {
+                Some(p) => (
+                    R::pack_consts(&p.consts),
+                    R::pack_lane(&p.lane),
+                    p.tangent.unwrap_or([R::lit(0.0); STATE_DIM]),
+                ),
+                // N = 0: the kernel records the lane each period and steps nothing.
+                None => (
+                    R::Consts::zeroed(),
+                    R::Lane::zeroed(),
+                    [R::lit(0.0); STATE_DIM],
+                ),
+            };
+            R::set_period(&mut lane, period);
+            (consts, lane, tangent)
+        };
+        let mut consts = Vec::with_capacity(slots);
+        let mut lanes = Vec::with_capacity(slots);
+        let mut tangents = Vec::with_capacity(slots);
+        for s in 0..slots {
+            let (c, l, t) = pack(host.fill(s), period);
+            consts.push(c);
+            lanes.push(l);
+            tangents.push(t);
+        }
+        queue.write_buffer(&bufs.consts, 0, bytemuck::cast_slice(&consts));
+        queue.write_buffer(&bufs.lanes, 0, bytemuck::cast_slice(&lanes));
+        if lyapunov {
+            queue.write_buffer(&bufs.tangents, 0, bytemuck::cast_slice(&tangents));
+        }
+        let mut dispatches = 0u64;
+        loop {
+            let periods = host.next_slice()?.min(max_periods);
+            if periods == 0 {
+                return Ok(dispatches);
+            }
+            let end = period.checked_add(periods).ok_or_else(|| {
+                Error::invalid("periods", periods, "the pool's period count overflows u32")
+            })?;
+            let params = Params {
+                n_lanes: slots as u32,
+                period_begin: period,
+                period_end: end,
+                record_from: period,
+                probe: PROBE_ITERS,
+                pad: [0; 3],
+            };
+            queue.write_buffer(&bufs.params, 0, bytemuck::bytes_of(&params));
+            dispatches += self.dispatch_slice(pipeline, bufs, slots)?;
+            let rec_bytes = periods as usize * slots * rec_dim * size_of::<R>();
+            let lane_bytes = slots * lane_size;
+            let mut enc =
+                self.gpu
+                    .device()
+                    .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                        label: Some("pool readback"),
+                    });
+            enc.copy_buffer_to_buffer(
+                &bufs.records,
+                0,
+                &bufs.records_staging,
+                0,
+                Some(rec_bytes as u64),
+            );
+            enc.copy_buffer_to_buffer(
+                &bufs.lanes,
+                0,
+                &bufs.lanes_staging,
+                0,
+                Some(lane_bytes as u64),
+            );
+            queue.submit(Some(enc.finish()));
+            let records: Vec<R> = self.read_back(&bufs.records_staging, rec_bytes)?;
+            let gpu_lanes: Vec<R::Lane> = self.read_back(&bufs.lanes_staging, lane_bytes)?;
+            let lanes = gpu_lanes
+                .iter()
+                .enumerate()
+                .map(|(s, g)| {
+                    R::unpack_lane(g).ok_or_else(|| Error::Gpu {
+                        message: format!("pool slot {s} came back with an unknown status"),
+                    })
+                })
+                .collect::<Result<Vec<_>>>()?;
+            period = end;
+            for s in host.after_slice(periods, &records, &lanes)? {
+                if s >= slots {
+                    return Err(Error::invalid("slot", s, format!("the pool has {slots}")));
+                }
+                let (c, l, t) = pack(host.fill(s), period);
+                let at = |size: usize| (s * size) as u64;
+                queue.write_buffer(
+                    &bufs.consts,
+                    at(size_of::<R::Consts>()),
+                    bytemuck::bytes_of(&c),
+                );
+                queue.write_buffer(&bufs.lanes, at(lane_size), bytemuck::bytes_of(&l));
+                if lyapunov {
+                    queue.write_buffer(
+                        &bufs.tangents,
+                        at(STATE_DIM * size_of::<R>()),
+                        bytemuck::cast_slice(&t),
+                    );
+                }
+            }
+        }
+    }
+}
