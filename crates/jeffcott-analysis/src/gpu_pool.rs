@@ -68,13 +68,13 @@ impl<R: GpuReal> PoolHost<R> for EarlyPool<'_> {
         records: &[R],
         lanes: &[Lane<R>],
     ) -> Result<Vec<usize>> {
-        let n = self.slots.len();
+        // The slots the slice ran (the pool dispatches the lowest ones only).
+        let n = lanes.len();
         let dim = STATE_DIM + self.lambda1 as usize;
         let refill = &self.refill;
         // Slots are independent: their rows are read in parallel (a large pool's
         // recognition is most of the host's work per slice).
-        let ended: Vec<(usize, Ended)> = self
-            .slots
+        let ended: Vec<(usize, Ended)> = self.slots[..n]
             .par_iter_mut()
             .enumerate()
             .filter_map(|(i, slot)| {
@@ -119,6 +119,10 @@ impl<R: GpuReal> PoolHost<R> for EarlyPool<'_> {
         let freed = ended.iter().map(|(i, _)| *i).collect();
         self.ended.extend(ended.into_iter().map(|(_, e)| e));
         Ok(freed)
+    }
+
+    fn moved(&mut self, from: usize, to: usize) {
+        self.slots.swap(from, to);
     }
 }
 

@@ -11,7 +11,10 @@
 //! and the slice records every period, so a slot's records are its lane's points
 //! whatever period of its own life the lane is at (the kernel only uses the count to
 //! place records and to stop). Empty slots hold a lane with N = 0, which the kernel
-//! does not step: it only writes its record each period.
+//! does not step: it only writes its record each period. Once no lane is left to fill
+//! a slot with, the lanes still running move to the lowest slots and only those are
+//! dispatched and read back: on a GPU a warp runs as long as its slowest lane, so the
+//! few lanes that run whole would otherwise keep most warps busy to the end.
 
 use super::*;
 use bytemuck::Zeroable;
@@ -37,10 +40,14 @@ pub trait PoolHost<R: GpuReal> {
     /// What a slice of `periods` periods produced: the record of slot `s` at the
     /// slice's `p`-th period end is `records[(p * slots + s) * dim..][..dim]` (the state,
     /// then in the lambda_1 variant the tangent's growth over the period), and `lanes`
-    /// holds each slot's lane at the slice's end. Returns the slots whose lanes ended,
-    /// which are then filled anew.
+    /// holds each slot's lane at the slice's end, for the `slots = lanes.len()` slots
+    /// the slice ran (the others are empty). Returns the slots whose lanes ended, which
+    /// are then filled anew.
     fn after_slice(&mut self, periods: u32, records: &[R], lanes: &[Lane<R>])
     -> Result<Vec<usize>>;
+    /// The lane in slot `from` now runs in the empty slot `to` (the pool compacts its
+    /// running lanes once nothing is left to fill slots with).
+    fn moved(&mut self, from: usize, to: usize);
 }
 
 impl GpuRunner {
@@ -110,8 +117,11 @@ impl GpuRunner {
         let mut consts = Vec::with_capacity(slots);
         let mut lanes = Vec::with_capacity(slots);
         let mut tangents = Vec::with_capacity(slots);
-        for s in 0..slots {
-            let (c, l, t) = pack(host.fill(s), period);
+        let mut occupied = vec![false; slots];
+        for (s, occ) in occupied.iter_mut().enumerate() {
+            let p = host.fill(s);
+            *occ = p.is_some();
+            let (c, l, t) = pack(p, period);
             consts.push(c);
             lanes.push(l);
             tangents.push(t);
@@ -121,6 +131,21 @@ impl GpuRunner {
         if lyapunov {
             queue.write_buffer(&bufs.tangents, 0, bytemuck::cast_slice(&tangents));
         }
+        let tangent_size = STATE_DIM * size_of::<R>();
+        let write = |s: usize, c: &R::Consts, l: &R::Lane, t: &[R]| {
+            let at = |size: usize| (s * size) as u64;
+            queue.write_buffer(
+                &bufs.consts,
+                at(size_of::<R::Consts>()),
+                bytemuck::bytes_of(c),
+            );
+            queue.write_buffer(&bufs.lanes, at(lane_size), bytemuck::bytes_of(l));
+            if lyapunov {
+                queue.write_buffer(&bufs.tangents, at(tangent_size), bytemuck::cast_slice(t));
+            }
+        };
+        // Slots dispatched: those below `active` (the rest are empty).
+        let mut active = slots;
         let mut dispatches = 0u64;
         loop {
             let periods = host.next_slice()?.min(max_periods);
@@ -131,7 +156,7 @@ impl GpuRunner {
                 Error::invalid("periods", periods, "the pool's period count overflows u32")
             })?;
             let params = Params {
-                n_lanes: slots as u32,
+                n_lanes: active as u32,
                 period_begin: period,
                 period_end: end,
                 record_from: period,
@@ -139,9 +164,9 @@ impl GpuRunner {
                 pad: [0; 3],
             };
             queue.write_buffer(&bufs.params, 0, bytemuck::bytes_of(&params));
-            dispatches += self.dispatch_slice(pipeline, bufs, slots)?;
-            let rec_bytes = periods as usize * slots * rec_dim * size_of::<R>();
-            let lane_bytes = slots * lane_size;
+            dispatches += self.dispatch_slice(pipeline, bufs, active)?;
+            let rec_bytes = periods as usize * active * rec_dim * size_of::<R>();
+            let lane_bytes = active * lane_size;
             let mut enc =
                 self.gpu
                     .device()
@@ -162,10 +187,24 @@ impl GpuRunner {
                 0,
                 Some(lane_bytes as u64),
             );
+            if lyapunov {
+                enc.copy_buffer_to_buffer(
+                    &bufs.tangents,
+                    0,
+                    &bufs.tangents_staging,
+                    0,
+                    Some((active * tangent_size) as u64),
+                );
+            }
             queue.submit(Some(enc.finish()));
             let records: Vec<R> = self.read_back(&bufs.records_staging, rec_bytes)?;
-            let gpu_lanes: Vec<R::Lane> = self.read_back(&bufs.lanes_staging, lane_bytes)?;
-            let lanes = gpu_lanes
+            let mut gpu_lanes: Vec<R::Lane> = self.read_back(&bufs.lanes_staging, lane_bytes)?;
+            let gpu_tangents: Vec<R> = if lyapunov {
+                self.read_back(&bufs.tangents_staging, active * tangent_size)?
+            } else {
+                Vec::new()
+            };
+            let unpacked = gpu_lanes
                 .iter()
                 .enumerate()
                 .map(|(s, g)| {
@@ -175,26 +214,47 @@ impl GpuRunner {
                 })
                 .collect::<Result<Vec<_>>>()?;
             period = end;
-            for s in host.after_slice(periods, &records, &lanes)? {
-                if s >= slots {
-                    return Err(Error::invalid("slot", s, format!("the pool has {slots}")));
+            for s in host.after_slice(periods, &records, &unpacked)? {
+                if s >= active {
+                    return Err(Error::invalid("slot", s, format!("the pool runs {active}")));
                 }
-                let (c, l, t) = pack(host.fill(s), period);
-                let at = |size: usize| (s * size) as u64;
-                queue.write_buffer(
-                    &bufs.consts,
-                    at(size_of::<R::Consts>()),
-                    bytemuck::bytes_of(&c),
-                );
-                queue.write_buffer(&bufs.lanes, at(lane_size), bytemuck::bytes_of(&l));
-                if lyapunov {
-                    queue.write_buffer(
-                        &bufs.tangents,
-                        at(STATE_DIM * size_of::<R>()),
-                        bytemuck::cast_slice(&t),
-                    );
-                }
+                let p = host.fill(s);
+                occupied[s] = p.is_some();
+                let (c, l, t) = pack(p, period);
+                consts[s] = c;
+                write(s, &c, &l, &t);
             }
+            // Nothing left to fill with: the running lanes move down, each from the
+            // highest occupied slot into the lowest empty one, with the state, counters
+            // and tangent the slice left it.
+            let (mut lo, mut hi) = (0, active);
+            loop {
+                while lo < hi && occupied[lo] {
+                    lo += 1;
+                }
+                while hi > lo && !occupied[hi - 1] {
+                    hi -= 1;
+                }
+                if hi <= lo + 1 {
+                    break;
+                }
+                let from = hi - 1;
+                R::set_period(&mut gpu_lanes[from], period);
+                let t = if lyapunov {
+                    &gpu_tangents[from * STATE_DIM..][..STATE_DIM]
+                } else {
+                    &[][..]
+                };
+                consts[lo] = consts[from];
+                write(lo, &consts[from], &gpu_lanes[from], t);
+                occupied.swap(lo, from);
+                host.moved(from, lo);
+            }
+            active = occupied
+                .iter()
+                .rposition(|&o| o)
+                .map_or(0, |i| i + 1)
+                .max(1);
         }
     }
 }
