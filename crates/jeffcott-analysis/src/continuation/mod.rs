@@ -151,10 +151,16 @@ pub(super) fn continuation_units(
             crate::early::EarlySaved::accumulate(&mut early_exit, s);
         }
     }
-    let mut ramps = Vec::new();
-    for &d in &spec.directions {
-        ramps.push(seeded::ramp(spec, engine, store, d, ctl)?);
-    }
+    // The directions' ramps are independent (each its own stage of units, each value
+    // seeded from the one before in its own order) and each is a chain of small
+    // ensembles of a few batches, which leave cores idle: they run side by side.
+    let ramps = {
+        use rayon::prelude::*;
+        spec.directions
+            .par_iter()
+            .map(|&d| seeded::ramp(spec, engine, store, d, ctl))
+            .collect::<Result<Vec<_>>>()?
+    };
     Ok(ContinuationResult {
         values: spec.param.values(),
         ramps,

@@ -210,7 +210,7 @@ pub struct ReproduceResult {
 /// Computes the figure set, section by section, handing each section's results to
 /// `host` as they come. Every lane study keeps its units in `host.store()` under its own
 /// prefix, so a set interrupted and started again resumes where it stopped.
-pub fn reproduce<H: Host>(spec: &ReproduceSpec, host: &mut H) -> Result<ReproduceResult> {
+pub fn reproduce<H: Host + Sync>(spec: &ReproduceSpec, host: &mut H) -> Result<ReproduceResult> {
     use std::time::Instant;
     let engine = crate::backend::Engine::new(spec.backend, spec.precision)?;
     let p = spec.preset;
@@ -223,9 +223,35 @@ pub fn reproduce<H: Host>(spec: &ReproduceSpec, host: &mut H) -> Result<Reproduc
         spec: &b,
         res: &res,
     })?;
-    // The periodic orbits behind the diagram, stable and unstable (issue 26).
+    // The periodic orbits behind the diagram, stable and unstable (issue 26), and the
+    // enlargements: independent of each other (the orbits read the diagram only to be
+    // drawn over it), each mostly on one core (a continuation is a chain of Newton
+    // steps, an enlargement one quasistatic sweep), so they run side by side; their
+    // sections follow in the set's order.
+    host.begin(2, "periodic orbits and enlargements of Fig. 3");
     let o = spec.orbits();
-    let (branches, seconds) = timed(|| crate::orbits::run(&o, &jeffcott_core::orbit::CpuFlows))?;
+    let zooms = (0..ZOOMS.len())
+        .map(|k| spec.zoom(k))
+        .collect::<Result<Vec<_>>>()?;
+    let (orbits, enlarged) = {
+        use rayon::prelude::*;
+        let shared = &*host;
+        rayon::join(
+            || timed(|| crate::orbits::run(&o, &jeffcott_core::orbit::CpuFlows)),
+            || {
+                zooms
+                    .par_iter()
+                    .enumerate()
+                    .map(|(k, z)| {
+                        timed(|| {
+                            crate::bifurcation::run(z, &shared.prefixed(["zoom0", "zoom1"][k]))
+                        })
+                    })
+                    .collect::<Vec<_>>()
+            },
+        )
+    };
+    let (branches, seconds) = orbits?;
     host.section(Section::Orbits {
         study: &o,
         branches: &branches,
@@ -233,15 +259,11 @@ pub fn reproduce<H: Host>(spec: &ReproduceSpec, host: &mut H) -> Result<Reproduc
         seconds,
     })?;
     drop(res);
-
-    host.begin(2, "enlargements of Fig. 3");
-    for k in 0..ZOOMS.len() {
-        let z = spec.zoom(k)?;
-        let (res, seconds) =
-            timed(|| crate::bifurcation::run(&z, &host.prefixed(["zoom0", "zoom1"][k])))?;
+    for (k, (z, zoomed)) in zooms.iter().zip(enlarged).enumerate() {
+        let (res, seconds) = zoomed?;
         host.section(Section::Zoom {
             k,
-            spec: &z,
+            spec: z,
             res: &res,
             seconds,
         })?;
