@@ -342,15 +342,17 @@ fn grouped_batches_packing_lanes_across_batches_equal_the_scalar_stepper_to_the_
 }
 
 /// The forcing table (issue 28, item 3) holds, for every macro step and every fraction
-/// j/(2R), exactly the bits `lane::forcing_phasor` computes, in both precisions and for
-/// every R and phase; it answers nothing else (a fraction off its grid, a step past N),
-/// serves only lanes of its own N, phase and R, and is not built for R not a power of
-/// two or beyond its size cap. The batch runs above go through it and equal the scalar
-/// stepper to the bit.
+/// j/(2R), exactly the bits of the polynomial `forcing::phasor_turns` (what the GPU
+/// kernel's `forcing_phasor` evaluates), in both precisions and for every R and phase,
+/// for the batch's lookup and the scalar one (`lane::forcing_phasor`, through the table
+/// every lane's constants share); it answers nothing else (a fraction off its grid, a
+/// step past N), serves only lanes of its own N, phase and R, and is not built for R
+/// not a power of two or beyond its size cap.
 #[test]
 fn the_forcing_table_holds_the_polynomial_phasors_bit_for_bit_and_nothing_else() {
     fn check<R: jeffcott_core::real::Real>(precision: Precision) {
         use jeffcott_core::integrate::batch::{BATCH, ForcingTable};
+        use jeffcott_core::integrate::forcing::phasor_turns;
         use jeffcott_core::integrate::lane::forcing_phasor;
         let bits = |v: R| v.to_f64().to_bits();
         for r in [1u32, 2, 8] {
@@ -360,6 +362,9 @@ fn the_forcing_table_holds_the_polynomial_phasors_bit_for_bit_and_nothing_else()
                 s.param_sets[0].phi0 = phi0;
                 let lc = s.lane_consts::<R>(0);
                 let table = ForcingTable::for_lane(&lc).expect("a table for R a power of two");
+                // Every lane's constants share one table of the same values.
+                let shared = lc.forcing.expect("the shared table");
+                assert!(std::ptr::eq(shared, s.lane_consts::<R>(2).forcing.unwrap()));
                 let two_r = 2 * r;
                 for k in 0..lc.n {
                     // Each lane of the batch at another fraction of the grid.
@@ -369,13 +374,18 @@ fn the_forcing_table_holds_the_polynomial_phasors_bit_for_bit_and_nothing_else()
                         });
                         let (c, sn) = table.lookup(k, &sigma).expect("on the grid");
                         for l in 0..BATCH {
-                            let (pc, ps) = forcing_phasor(&lc, k, sigma[l]);
-                            assert_eq!(
-                                (bits(c[l]), bits(sn[l])),
-                                (bits(pc), bits(ps)),
+                            let arg = (R::lit(k as f64) + sigma[l]) * lc.inv_n - lc.phase0;
+                            let (pc, ps) = phasor_turns(arg);
+                            let want = (bits(pc), bits(ps));
+                            let case = format!(
                                 "{precision:?} R {r} phi0 {phi0} k {k} sigma {}",
                                 sigma[l].to_f64()
                             );
+                            assert_eq!((bits(c[l]), bits(sn[l])), want, "batch: {case}");
+                            let (gc, gs) = shared.get(k, sigma[l]).expect("on the grid");
+                            assert_eq!((bits(gc), bits(gs)), want, "scalar: {case}");
+                            let (fc, fs) = forcing_phasor(&lc, k, sigma[l]);
+                            assert_eq!((bits(fc), bits(fs)), want, "forcing_phasor: {case}");
                         }
                     }
                 }
@@ -386,7 +396,14 @@ fn the_forcing_table_holds_the_polynomial_phasors_bit_for_bit_and_nothing_else()
                     table.lookup(0, &off).is_none(),
                     "R {r}: a fraction off the grid"
                 );
+                assert!(shared.get(0, off[3]).is_none());
                 assert!(table.lookup(lc.n, &[R::lit(0.0); BATCH]).is_none());
+                assert!(shared.get(lc.n, R::lit(0.0)).is_none());
+                // Off the grid the scalar path evaluates the polynomial.
+                let arg = off[3] * lc.inv_n - lc.phase0;
+                let (pc, ps) = phasor_turns(arg);
+                let (fc, fs) = forcing_phasor(&lc, 0, off[3]);
+                assert_eq!((bits(fc), bits(fs)), (bits(pc), bits(ps)));
                 // Lanes of the same N, phase and R at any speed are served; another
                 // phase, N or R is not.
                 assert!(

@@ -730,7 +730,7 @@ fn lane_consts<R: Real>(i: usize) -> (Params, LaneConsts<R>) {
 
 /// A lane state at the start of a macro step.
 #[derive(Clone, Copy, Debug)]
-struct Case<R> {
+struct Case<R: 'static> {
     lc: LaneConsts<R>,
     x: [R; STATE_DIM],
     contact: bool,

@@ -21,7 +21,7 @@ use bytemuck::Zeroable;
 
 /// A lane for a slot of the pool.
 #[derive(Clone, Copy, Debug)]
-pub struct PoolLane<R> {
+pub struct PoolLane<R: 'static> {
     /// Its constants.
     pub consts: LaneConsts<R>,
     /// Its start state.

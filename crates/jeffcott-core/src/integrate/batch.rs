@@ -79,7 +79,7 @@ impl<'t, R: Real> BatchConsts<'t, R> {
 /// a lookup gives the polynomial's bits: the batch still equals the scalar stepper and
 /// the GPU kernel to the bit. Anything else (another phi0, a fraction off the grid, R
 /// not a power of two) takes the polynomial.
-#[derive(Clone, Debug)]
+#[derive(Clone)]
 pub struct ForcingTable<R> {
     inv_n: R,
     phase0: R,
@@ -141,6 +141,60 @@ impl<R: Real> ForcingTable<R> {
         })
     }
 
+    /// The table for lanes like `lc` shared for the whole process (built on first use,
+    /// never freed): what `LaneConsts::new` gives each lane, so that the scalar stepper
+    /// (`lane::forcing_phasor`) looks its phasors up too. At most
+    /// [`ForcingTable::INTERNED_BYTES`] of tables per process (40 KB for N = 500, R = 2 in
+    /// f64); lanes of further (N, phi0, R) evaluate the polynomial.
+    pub fn interned(lc: &LaneConsts<R>) -> Option<&'static Self> {
+        use std::any::{Any, TypeId};
+        use std::collections::HashMap;
+        use std::sync::{Mutex, OnceLock};
+        type Key = (TypeId, u32, u64, u64);
+        type Tables = (
+            usize,
+            HashMap<Key, Option<&'static (dyn Any + Send + Sync)>>,
+        );
+        static TABLES: OnceLock<Mutex<Tables>> = OnceLock::new();
+        let key = (
+            TypeId::of::<R>(),
+            lc.n,
+            lc.phase0.to_f64().to_bits(),
+            lc.inv_r.to_f64().to_bits(),
+        );
+        let mut guard = TABLES.get_or_init(Default::default).lock().ok()?;
+        let (bytes, tables) = &mut *guard;
+        if let Some(t) = tables.get(&key) {
+            return t.and_then(|t| t.downcast_ref::<Self>());
+        }
+        // The table's size before building it (in f64: any R, also a nonsense one).
+        let entries = lc.n as f64 * (2.0 * (1.0 / lc.inv_r.to_f64()).round() + 1.0);
+        let size = entries * std::mem::size_of::<[R; 2]>() as f64;
+        let fits = size <= (Self::INTERNED_BYTES - *bytes) as f64;
+        if !fits {
+            return None;
+        }
+        let table: Option<&'static Self> = Self::for_lane(lc).map(|t| &*Box::leak(Box::new(t)));
+        *bytes += table.map_or(0, |t| t.values.len() * std::mem::size_of::<[R; 2]>());
+        tables.insert(key, table.map(|t| t as &'static (dyn Any + Send + Sync)));
+        table
+    }
+
+    /// Bytes of tables [`ForcingTable::interned`] keeps at most (each kept for the
+    /// process's life: a study uses one or a few).
+    pub const INTERNED_BYTES: usize = 64 << 20;
+
+    /// The phasor of macro step `k` at fraction `sigma` (scalar), when the table holds it.
+    #[inline(always)]
+    pub fn get(&self, k: u32, sigma: R) -> Option<(R, R)> {
+        if k >= self.n {
+            return None;
+        }
+        let j = self.index(sigma)?;
+        let [c, s] = self.values[k as usize * (self.two_r as usize + 1) + j];
+        Some((c, s))
+    }
+
     /// Whether the table holds `lc`'s phasors: the same N, phi0 and R, to the bit.
     pub fn serves(&self, lc: &LaneConsts<R>) -> bool {
         let same = |a: R, b: R| a.to_f64().to_bits() == b.to_f64().to_bits();
@@ -191,6 +245,12 @@ impl<R: Real> ForcingTable<R> {
         }
         let at = j as usize;
         (at as f64 == j).then_some(at)
+    }
+}
+
+impl<R> std::fmt::Debug for ForcingTable<R> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "ForcingTable(N = {}, 2R = {})", self.n, self.two_r)
     }
 }
 

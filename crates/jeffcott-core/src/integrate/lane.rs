@@ -73,6 +73,7 @@ pub const WGSL_FILES: [(&str, &str); 8] = [
     ("integrate/lane_entry.wgsl", include_str!("lane_entry.wgsl")),
 ];
 
+use crate::integrate::batch::ForcingTable;
 use crate::integrate::forcing::phasor_turns;
 use crate::integrate::free_flight::{ExactFreeFlight, free_flight_step, free_flight_tangent};
 use crate::model::{Coeffs, STATE_DIM, X_R, X_S, Y_R, Y_S, penetration, rhs_frozen};
@@ -131,7 +132,7 @@ impl Status {
 
 /// Constants of one lane, in the lane's precision.
 #[derive(Clone, Copy, Debug)]
-pub struct LaneConsts<R> {
+pub struct LaneConsts<R: 'static> {
     /// Equation coefficients for this lane's parameters and speed.
     pub c: Coeffs<R>,
     /// Macro step h = T/N [s].
@@ -153,6 +154,11 @@ pub struct LaneConsts<R> {
     /// The exact flow map for macro steps begun in free flight
     /// ([`StepperConfig::exact_free_flight`]); `None`: RK4 throughout.
     pub exact: Option<ExactFreeFlight<R>>,
+    /// The unbalance phasor at the fractions sub-steps usually start and end at, for
+    /// this lane's N, phi0 and R (`batch::ForcingTable::interned`; the polynomial's own
+    /// values, so a lookup changes no bit): [`forcing_phasor`] looks there first.
+    /// `None` where there is none (host only: the GPU kernel evaluates the polynomial).
+    pub forcing: Option<&'static ForcingTable<R>>,
 }
 
 /// Settings of the lane stepper that are not model parameters.
@@ -280,7 +286,7 @@ impl<R: Real> LaneConsts<R> {
         let n = cfg.steps_per_period;
         // The search stops near the precision's resolution of a fraction in [0, 1].
         let root_tol = if R::WGSL_NAME == "f64" { 1e-13 } else { 2e-6 };
-        LaneConsts {
+        let mut lc = LaneConsts {
             c: Coeffs::new(p, omega),
             h: R::lit(period / n as f64),
             inv_n: R::lit(1.0 / n as f64),
@@ -295,7 +301,10 @@ impl<R: Real> LaneConsts<R> {
             } else {
                 None
             },
-        }
+            forcing: None,
+        };
+        lc.forcing = ForcingTable::interned(&lc);
+        lc
     }
 }
 
@@ -357,6 +366,12 @@ impl<R: Real> Lane<R> {
 /// Unbalance phasor at fraction `sigma` of macro step `k`.
 #[inline(always)]
 pub fn forcing_phasor<R: Real>(lc: &LaneConsts<R>, k: u32, sigma: R) -> (R, R) {
+    // The table holds this function's own values at the fractions j / (2R), so a
+    // lookup gives the polynomial's bits; a sub-step of a macro step untouched by a
+    // switch starts and ends at such fractions (the WGSL mirror always evaluates).
+    if let Some(v) = lc.forcing.and_then(|t| t.get(k, sigma)) {
+        return v;
+    }
     phasor_turns((R::lit(k as f64) + sigma) * lc.inv_n - lc.phase0)
 }
 
