@@ -137,6 +137,9 @@ pub fn run_early_gpu<R: GpuReal>(
     ctl: Control,
 ) -> Result<EarlyResult> {
     let n = spec.lanes.len();
+    if n == 0 {
+        return Ok(early_result(spec, Vec::new(), lambda1));
+    }
     let full = spec.transient + spec.recorded;
     let mut slots = n.min(max_slots.max(1));
     // Slices of about `LANE_STEPS_PER_SLICE` lane-steps, as plain runs take.
