@@ -148,7 +148,10 @@ pub fn run_early_gpu<R: GpuReal>(
         .clamp(1, full.max(1) as u64) as u32;
     let schedule = Schedule::new(0, max_periods, max_periods);
     slots = slots.min(runner.plan::<R>(slots, &schedule, lambda1)?.lanes_per_chunk);
-    let exact = (0..n).any(|i| spec.lane_consts::<R>(i).exact.is_some());
+    // The exact free-flight kernel variant where some lane has the map (only when the
+    // stepper asks for it: no lane's constants are built twice otherwise).
+    let exact =
+        spec.stepper.exact_free_flight && (0..n).any(|i| spec.lane_consts::<R>(i).exact.is_some());
     let mut host = EarlyPool {
         spec,
         refill: Refill::new(spec, early, 0..n, lambda1),

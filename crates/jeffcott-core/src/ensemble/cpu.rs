@@ -103,13 +103,10 @@ fn run_batch_inner<R: Real, const M: usize>(
     let lc: Vec<[LaneConsts<R>; BATCH]> = (0..batches)
         .map(|b| std::array::from_fn(|l| spec.lane_consts(lane_of(b, l))))
         .collect();
-    // The forcing table of the group's first lane (f64), for every batch it serves (a
-    // few thousand phasors, against three per lane-sub-step of the group's run).
+    // The forcing table of the group's first lane (f64; the process's shared one), for
+    // every batch it serves.
     let forcing = ForcingTable::for_batches(&lc[0][0]);
-    let bc: Vec<BatchConsts<R>> = lc
-        .iter()
-        .map(|l| BatchConsts::new(l, forcing.as_ref()))
-        .collect();
+    let bc: Vec<BatchConsts<R>> = lc.iter().map(|l| BatchConsts::new(l, forcing)).collect();
     let mut lanes: Vec<[Lane<R>; BATCH]> = (0..batches)
         .map(|b| std::array::from_fn(|l| spec.initial_lane(lane_of(b, l))))
         .collect();
@@ -359,7 +356,7 @@ fn run_refill_inner<R: Real, const M: usize>(
         load(l, &mut refill, &mut lc, &mut state, &mut tan, &mut slot);
     }
     let forcing = ForcingTable::for_batches(&lc[0]);
-    let mut bc = BatchConsts::new(&lc, forcing.as_ref());
+    let mut bc = BatchConsts::new(&lc, forcing);
     let mut out = Vec::with_capacity(lanes.len());
     let n = spec.stepper.steps_per_period;
     while slot.iter().any(Option::is_some) {
@@ -391,7 +388,7 @@ fn run_refill_inner<R: Real, const M: usize>(
             }
         }
         if refilled {
-            bc = BatchConsts::new(&lc, forcing.as_ref());
+            bc = BatchConsts::new(&lc, forcing);
         }
     }
     Some(out)

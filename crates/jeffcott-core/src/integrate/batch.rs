@@ -99,10 +99,11 @@ impl<R: Real> ForcingTable<R> {
     /// on the 2-core VM (`jeffcott bench --backend cpu --lanes 16384`, two rounds) the
     /// table took f64 from 2.43-2.45e7 to 2.72-2.85e7 lane-steps/s, and f32 (given
     /// the table too) from 3.66-3.68e7 down to 3.40-3.44e7: eight f32 lanes fill one
-    /// AVX2 register, so the polynomial costs less than eight scalar look-ups.
-    pub fn for_batches(lc: &LaneConsts<R>) -> Option<Self> {
+    /// AVX2 register, so the polynomial costs less than eight scalar look-ups. It is
+    /// the table `lc` already carries for the scalar stepper (`LaneConsts::forcing`).
+    pub fn for_batches(lc: &LaneConsts<R>) -> Option<&'static Self> {
         if R::WGSL_NAME == "f64" {
-            Self::for_lane(lc)
+            lc.forcing
         } else {
             None
         }
@@ -167,15 +168,13 @@ impl<R: Real> ForcingTable<R> {
         if let Some(t) = tables.get(&key) {
             return t.and_then(|t| t.downcast_ref::<Self>());
         }
-        // The table's size before building it (in f64: any R, also a nonsense one).
-        let entries = lc.n as f64 * (2.0 * (1.0 / lc.inv_r.to_f64()).round() + 1.0);
-        let size = entries * std::mem::size_of::<[R; 2]>() as f64;
-        let fits = size <= (Self::INTERNED_BYTES - *bytes) as f64;
-        if !fits {
-            return None;
-        }
-        let table: Option<&'static Self> = Self::for_lane(lc).map(|t| &*Box::leak(Box::new(t)));
-        *bytes += table.map_or(0, |t| t.values.len() * std::mem::size_of::<[R; 2]>());
+        // Built once per key, kept where it fits the budget (a refusal is kept too, so
+        // the lanes of that key do not build it again).
+        let bytes_of = |t: &Self| t.values.len() * std::mem::size_of::<[R; 2]>();
+        let table: Option<&'static Self> = Self::for_lane(lc)
+            .filter(|t| *bytes + bytes_of(t) <= Self::INTERNED_BYTES)
+            .map(|t| &*Box::leak(Box::new(t)));
+        *bytes += table.map_or(0, bytes_of);
         tables.insert(key, table.map(|t| t as &'static (dyn Any + Send + Sync)));
         table
     }
