@@ -181,14 +181,15 @@ fn run_batch_inner<R: Real, const M: usize>(
 /// bench (16k lanes) groups of 16 were 3 % faster than of 8, and 32 another 1-2 %.
 const GROUP_BATCHES: usize = 16;
 
-/// Declares `$name`, which runs `$inner` compiled for AVX-512 where asked for and the CPU
-/// has it ([`use_avx512`]), else for AVX2 where the CPU has it, else as built: the same
-/// code for each instruction set (no FMA: fusing would change the rounding), so the
-/// lanes' arithmetic cannot drift between them. `[$gen]` are the generic parameters,
-/// `[$arg]` the arguments `$inner` is instantiated with.
+/// Declares `$name`, which runs `$inner` compiled for AVX-512 where [`use_avx512`] says
+/// so (`$wide`: whether this instantiation was measured faster with it on an AMD CPU),
+/// else for AVX2 where the CPU has it, else as built: the same code for each
+/// instruction set (no FMA: fusing would change the rounding), so the lanes' arithmetic
+/// cannot drift between them. `[$gen]` are the generic parameters, `[$arg]` the
+/// arguments `$inner` is instantiated with.
 macro_rules! per_instruction_set {
     ($(#[$doc:meta])* fn $name:ident [$($gen:tt)*] [$($garg:tt)*]
-     ($($arg:ident: $ty:ty),* $(,)?) -> $ret:ty = $inner:ident) => {
+     ($($arg:ident: $ty:ty),* $(,)?) -> $ret:ty = $inner:ident, avx512_on_amd: $wide:expr) => {
         $(#[$doc])*
         fn $name<$($gen)*>($($arg: $ty),*) -> $ret {
             #[cfg(target_arch = "x86_64")]
@@ -201,7 +202,7 @@ macro_rules! per_instruction_set {
                 fn avx2<$($gen)*>($($arg: $ty),*) -> $ret {
                     $inner::<$($garg)*>($($arg),*)
                 }
-                if use_avx512() {
+                if use_avx512($wide) {
                     // SAFETY: the CPU has been found to support AVX-512 F, DQ and VL.
                     return unsafe { avx512::<$($garg)*>($($arg),*) };
                 }
@@ -215,30 +216,54 @@ macro_rules! per_instruction_set {
     };
 }
 
-/// Whether the AVX-512 batch code runs: asked for with `JEFFCOTT_AVX512=1`, and the CPU
-/// has it. One 512-bit register then holds the 8 f64 lanes of a batch; on the 2-core
-/// Xeon it was measured on it was 8 % slower than AVX2 on `jeffcott bench`'s workload
-/// and on a W sweep (docs/performance.md), so AVX2 stays the default.
+/// Whether the AVX-512 batch code runs, for code that `wide_on_amd` says ran faster with
+/// it on an AMD CPU: where the CPU has AVX-512 F, DQ and VL, `JEFFCOTT_AVX512=1` or `0`
+/// decides; unset, AVX-512 runs on AMD's CPUs for such code (Zen 4 executes 512-bit
+/// operations without lowering the clock; on the 2-core AMD EPYC VM the grouped batches
+/// ran 1.6 % faster in f64 and 6 % in f32 on `jeffcott bench`, the refilled batches with
+/// lambda_1 6.5 % faster on a brute force, but the refilled batches without it 5 %
+/// slower on a basin: docs/performance.md) and never on Intel's (on the 2-core Xeon it
+/// was measured on first, 8 % slower than AVX2). Either build gives the same bits
+/// (tests/avx512.rs).
 #[cfg(target_arch = "x86_64")]
-fn use_avx512() -> bool {
-    static USE: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
-    *USE.get_or_init(|| {
-        std::is_x86_feature_detected!("avx512f")
+fn use_avx512(wide_on_amd: bool) -> bool {
+    static CHOICE: std::sync::OnceLock<(bool, Option<bool>)> = std::sync::OnceLock::new();
+    let (eligible, forced) = *CHOICE.get_or_init(|| {
+        let has = std::is_x86_feature_detected!("avx512f")
             && std::is_x86_feature_detected!("avx512dq")
-            && std::is_x86_feature_detected!("avx512vl")
-            && std::env::var_os("JEFFCOTT_AVX512").is_some_and(|v| v == "1")
-    })
+            && std::is_x86_feature_detected!("avx512vl");
+        let forced = match std::env::var_os("JEFFCOTT_AVX512") {
+            Some(v) if v == "1" => Some(true),
+            Some(v) if v == "0" => Some(false),
+            _ => None,
+        };
+        (has && (forced.is_some() || cpu_is_amd()), forced)
+    });
+    eligible && forced.unwrap_or(wide_on_amd)
+}
+
+/// Whether the CPU's vendor string (CPUID leaf 0) is AMD's.
+#[cfg(target_arch = "x86_64")]
+fn cpu_is_amd() -> bool {
+    // SAFETY: CPUID leaf 0 exists on every x86-64 CPU.
+    #[allow(unused_unsafe)]
+    let r = unsafe { std::arch::x86_64::__cpuid(0) };
+    let vendor: Vec<u8> = [r.ebx, r.edx, r.ecx]
+        .iter()
+        .flat_map(|w| w.to_le_bytes())
+        .collect();
+    vendor == b"AuthenticAMD"
 }
 
 per_instruction_set! {
     /// Lanes `first..first + batches * BATCH`, with AVX2 where the CPU has it (AVX-512
-    /// on request).
+    /// on an AMD CPU or on request).
     fn run_batch[R: Real, const M: usize][R, M](
         spec: &EnsembleSpec,
         first: usize,
         batches: usize,
         cancel: &Cancel,
-    ) -> Vec<LaneResult> = run_batch_inner
+    ) -> Vec<LaneResult> = run_batch_inner, avx512_on_amd: true
 }
 
 /// Runs the ensemble on the CPU with rayon's global pool, with each lane's largest
@@ -396,13 +421,13 @@ fn run_refill_inner<R: Real, const M: usize>(
 
 per_instruction_set! {
     /// Lanes `lanes` through a refilled batch, with AVX2 where the CPU has it (AVX-512 on
-    /// request), as the batch code.
+    /// an AMD CPU with lambda_1, or on request), as the batch code.
     fn run_refill[R: Real, const M: usize][R, M](
         spec: &EnsembleSpec,
         early: &EarlyExit,
         lanes: std::ops::Range<usize>,
         cancel: &Cancel,
-    ) -> Option<Vec<Ended>> = run_refill_inner
+    ) -> Option<Vec<Ended>> = run_refill_inner, avx512_on_amd: M > 0
 }
 
 /// Runs the ensemble on the CPU with early exit (`super::early`): lanes recognised by
