@@ -422,36 +422,6 @@ fn scattered_lambda1_estimates_on_one_cloud_give_one_quasiperiodic_attractor() {
     assert_eq!(c.identify(&l), Some(0));
 }
 
-/// A record that repeats after 10 periods within the classifier's repeat tolerance but
-/// after 5 only within the catalogue's identity tolerance (an f32 period-5 lane's
-/// rounding noise) is the period-5 cycle to the catalogue; halves farther apart than
-/// that tolerance stay a period-10 cycle.
-#[test]
-fn a_cycle_that_is_a_shorter_one_at_the_identity_tolerance_is_catalogued_with_the_shorter_period() {
-    use jeffcott_analysis::catalogue::classify_lane;
-    let cfg = CatalogueConfig::default();
-    // Five points 1 mm apart; the second half of each 10-period cycle is shifted by `dx`.
-    let record = |dx: f64| -> Vec<State> {
-        (0..40)
-            .map(|k| {
-                let mut s = [0.0; STATE_DIM];
-                s[X_R] = 1e-3 * (k % 5) as f64 + if k % 10 >= 5 { dx } else { 0.0 };
-                s[VX_R] = 0.1;
-                s
-            })
-            .collect()
-    };
-    // The cycle's diameter is 4 mm: identity tolerance max(0.01 * 4 mm, 1 um) = 40 um,
-    // the classifier's repeat tolerance max(1e-3 * 4 mm, 1e-7 m) = 4 um.
-    let near = classify_lane(&record(10e-6), W, false, None, &cfg);
-    assert_eq!(near.class, Class::Periodic(5));
-    assert_eq!(near.points.len(), 5);
-    let far = classify_lane(&record(100e-6), W, false, None, &cfg);
-    assert_eq!(far.class, Class::Periodic(10));
-    let exact = classify_lane(&record(0.0), W, false, None, &cfg);
-    assert_eq!(exact.class, Class::Periodic(5));
-}
-
 #[test]
 fn early_exit_never_recognises_a_cycle_within_four_identity_tolerances_of_another_attractor() {
     use jeffcott_analysis::catalogue::CatalogueBuilder;

@@ -231,20 +231,6 @@ pub fn classify_lane(
             class: Class::Periodic(1),
             ..c
         },
-        // Likewise a cycle that is a shorter one at the catalogue's identity tolerance:
-        // in f32 a period-5 lane's rounding noise can keep its record from repeating
-        // within the classifier's tolerance after 5 periods but not after 10, and the
-        // "period-10" entry it made sat on the period-5 cycle's points, so that early
-        // exit (which recognises no cycle with another entry that close) recognised
-        // neither (133 rad/s, f32: 62 of 3600 lanes retired against 3483 in f64).
-        Class::Periodic(n) if n > 1 => Classification {
-            class: Class::Periodic(shortest_period(
-                &points[points.len() - n..],
-                (cfg.match_rel * c.size).max(cfg.match_abs),
-                omega,
-            )),
-            ..c
-        },
         _ => c,
     };
     let class = match (c.class, lambda1) {
@@ -273,16 +259,6 @@ pub fn classify_lane(
         points,
         lambda1: lambda1.unwrap_or(f64::NAN),
     }
-}
-
-/// The least period d dividing `cycle.len()` at which `cycle` (a cycle's points in order)
-/// repeats within `tol`: every point within `tol` of the point d after it.
-fn shortest_period(cycle: &[State], tol: f64, omega: f64) -> usize {
-    let n = cycle.len();
-    (1..n)
-        .filter(|&d| n.is_multiple_of(d))
-        .find(|&d| (0..n).all(|i| distance(&cycle[i], &cycle[(i + d) % n], omega) <= tol))
-        .unwrap_or(n)
 }
 
 /// True for the classes without a period (aperiodic and its lambda_1 refinements).
