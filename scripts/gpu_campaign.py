@@ -55,7 +55,11 @@ def parse_args():
     ap.add_argument("--ref-dir", default=".campaign/ref")
     ap.add_argument("--lanes", type=int, help="the standard job's lanes (default 1024, small 64)")
     ap.add_argument("--periods", type=int, help="the standard job's periods (default 200, small 20)")
-    ap.add_argument("--only", help="comma-separated steps to run (adapter always runs): " + ",".join(STEPS))
+    ap.add_argument("--only", help="comma-separated steps to run, in this order (adapter always runs, first): "
+                    + ",".join(STEPS))
+    ap.add_argument("--std-rows", help="the standard job's jeffcott rows to run, comma-separated indices "
+                    "(default all; full: 0 f64 N=500, 1 f64 N=700, 2 f32 N=500, 3 f64 N=350 exact)")
+    ap.add_argument("--basin-timeout", type=float, help="seconds one GPU basin may take (default: the deadline's rest)")
     ap.add_argument("--basin-precisions", default="f32,f64", help="precisions of the GPU basin")
     ap.add_argument("--tests", help="comma-separated test executables to run (default: all carried)")
     ap.add_argument("--tests-budget", type=float, help="seconds the tests step may take (default 200, small: no limit)")
@@ -210,7 +214,7 @@ class Campaign:
             text.append(q)
         # The driver's statistics of each kernel variant (registers, spills: why the kernel
         # is slow on the H100, docs/gpu.md); plain `info` if that fails.
-        rc, info, _ = self.sh([self.jeffcott, "info", "--kernel-stats"], timeout=120, check=False)
+        rc, info, _ = self.sh([self.jeffcott, "info", "--kernel-stats"], timeout=90, check=False)
         if rc != 0:
             text.append(info)
             _, info, _ = self.sh([self.jeffcott, "info"])
@@ -322,7 +326,10 @@ class Campaign:
                      f"{row['lane_periods_per_s']:.3e} lane-periods/s, worst lane {row['worst_lane_m']:.2e} m")
 
         xr = standard_xr(L)
-        for lanes_mult, prec, n, extra in s.jeffcott_rows:
+        keep = {int(i) for i in self.args.std_rows.split(",")} if self.args.std_rows else None
+        for i, (lanes_mult, prec, n, extra) in enumerate(s.jeffcott_rows):
+            if keep is not None and i not in keep:
+                continue
             xs = np.tile(xr, lanes_mult)
             pts, run, _ = self.ensemble(f"std-{prec}-{n}", xs, 1, P - 1, n, "gpu", prec, timeout=120, extra=extra)
             compute = run["wall_time_s"] - run.get("setup_time_s", 0.0)
@@ -384,7 +391,10 @@ class Campaign:
         cmd = [self.jeffcott, "basin", "--omega", OMEGA, "--x", f"x_r:-0.006:{hi_x!r}:{n}", "--y", f"vx_r:-1:{hi_y!r}:{n}",
                "--transient", s.basin_t, "--periods", s.basin_p, "--backend", backend, "--precision", prec,
                "--out", d, "--quiet"]
-        _, _, wall = self.sh(cmd, timeout=self.left() - 30)
+        limit = self.left() - 30
+        if backend == "gpu" and self.args.basin_timeout:
+            limit = min(limit, self.args.basin_timeout)
+        _, _, wall = self.sh(cmd, timeout=limit)
         labels = np.load(os.path.join(d, "labels.npy"))
         with open(os.path.join(d, "attractors.json")) as f:
             attractors = json.load(f)
@@ -567,15 +577,14 @@ def main():
         c.reference()
         return 0
     c.say(f"jeffcott: {c.jeffcott}; deadline {c.deadline:.0f} s; work in {c.work}")
-    only = set(args.only.split(",")) if args.only else set(STEPS)
-    unknown = only - set(STEPS)
+    order = [n for n in args.only.split(",") if n != "adapter"] if args.only else STEPS[1:]
+    unknown = set(order) - set(STEPS)
     if unknown:
         print(f"gpu_campaign: --only names unknown steps {sorted(unknown)}; steps: {', '.join(STEPS)}", file=sys.stderr)
         return 2
     need = {"adapter": 5, "parity": 20, "bench": 60, "standard": 90, "peer": 30, "basin": 90, "tests": 30}
-    for name in STEPS:
-        if name == "adapter" or name in only:
-            c.step(name, getattr(c, name), need[name])
+    for name in ["adapter"] + order:
+        c.step(name, getattr(c, name), need[name])
     text = c.summary()
     c.save()
     shutil.rmtree(c.work, ignore_errors=True)
