@@ -422,6 +422,14 @@ fn scattered_lambda1_estimates_on_one_cloud_give_one_quasiperiodic_attractor() {
     assert_eq!(c.identify(&l), Some(0));
 }
 
+/// A period-1 lane's point `dx` [m] along x_r from (x_r, vx_r) = (3 mm, 0.2 m/s).
+fn fixed_point(dx: f64) -> State {
+    let mut s = [0.0; STATE_DIM];
+    s[X_R] = 3e-3 + dx;
+    s[VX_R] = 0.2;
+    s
+}
+
 #[test]
 fn early_exit_never_recognises_a_cycle_within_four_identity_tolerances_of_another_attractor() {
     use jeffcott_analysis::catalogue::CatalogueBuilder;
@@ -429,12 +437,7 @@ fn early_exit_never_recognises_a_cycle_within_four_identity_tolerances_of_anothe
     // Three period-1 lanes: two fixed points 2 um apart (the catalogue's identity
     // tolerance is 1 um, so they are distinct entries, but a point near one may be as
     // near the other), and one 1 mm away.
-    let at = |dx: f64| {
-        let mut s = [0.0; STATE_DIM];
-        s[X_R] = 3e-3 + dx;
-        s[VX_R] = 0.2;
-        s
-    };
+    let at = fixed_point;
     let lanes: Vec<Vec<State>> = [0.0, 2e-6, 1e-3].iter().map(|&d| vec![at(d); 32]).collect();
     let (pts, rec) = flat(&lanes);
     let cfg = CatalogueConfig::default();
@@ -457,6 +460,58 @@ fn early_exit_never_recognises_a_cycle_within_four_identity_tolerances_of_anothe
     let close: Vec<(u32, u32)> = whole.close_pairs().iter().map(|p| (p.0, p.1)).collect();
     assert_eq!(close, vec![(0, 1)]);
     assert!((whole.close_pairs()[0].2 - 2e-6).abs() < 1e-12);
+}
+
+#[test]
+fn in_f32_early_exit_recognises_two_fixed_points_28_um_apart_but_not_2_um_apart() {
+    use jeffcott_analysis::catalogue::CatalogueBuilder;
+    use jeffcott_core::ensemble::Precision;
+    use jeffcott_core::ensemble::early::{Recognise, Track};
+    // f32's identity floor is 10 um (rounding noise): 28 um is under four of them, yet
+    // two attractors that far apart are distinct (the period-5 and period-4 cycles at
+    // 133 rad/s); 2 um apart they are taken for one, as in f64.
+    let at = fixed_point;
+    let lanes: Vec<Vec<State>> = [0.0, 28e-6, 1e-3, 1e-3 + 2e-6]
+        .iter()
+        .map(|&d| vec![at(d); 32])
+        .collect();
+    let (pts, rec) = flat(&lanes);
+    let cfg = CatalogueConfig::for_precision(Precision::F32);
+    assert!(4.0 * cfg.match_abs > 28e-6 && cfg.match_abs < 28e-6);
+    let mut b = CatalogueBuilder::new(W, cfg);
+    let labels = b.add_block(&pts, rec, &[false; 4], None);
+    assert_eq!(
+        labels,
+        vec![0, 1, 2, 2],
+        "within 10 um of each other: one entry"
+    );
+    let r = b.recogniser(4);
+    let recognised = |dx: f64| {
+        let mut t = Track::default();
+        (0..64).find_map(|_| r.observe(0, &mut t, &at(dx)))
+    };
+    assert_eq!(recognised(0.0), Some(0));
+    assert_eq!(recognised(28e-6), Some(1));
+    // Within a quarter of the separation (7 um) of a point, not beyond, although the
+    // f32 identity floor is 10 um: no point is near both.
+    assert_eq!(recognised(6e-6), Some(0));
+    assert_eq!(recognised(8e-6), None);
+    assert_eq!(recognised(20e-6), None);
+    // Two entries 2 um apart at the f64 floor's resolution stay unrecognised and named.
+    let lanes: Vec<Vec<State>> = [0.0, 2e-6, 28e-6]
+        .iter()
+        .map(|&d| vec![at(d); 32])
+        .collect();
+    let (pts, rec) = flat(&lanes);
+    let cfg64 = CatalogueConfig::default();
+    let whole = catalogue(W, &pts, rec, &[false; 3], None, &cfg64);
+    let close: Vec<(u32, u32)> = whole.close_pairs().iter().map(|p| (p.0, p.1)).collect();
+    assert_eq!(close, vec![(0, 1)]);
+    let lanes: Vec<Vec<State>> = [0.0, 28e-6].iter().map(|&d| vec![at(d); 32]).collect();
+    let (pts, rec) = flat(&lanes);
+    let whole = catalogue(W, &pts, rec, &[false; 2], None, &cfg);
+    assert_eq!(whole.attractors.len(), 2);
+    assert!(whole.close_pairs().is_empty(), "{:?}", whole.close_pairs());
 }
 
 /// An aperiodic lane: `len` points on the arc of angles [from, from + span] degrees of a

@@ -335,8 +335,10 @@ fn find(cfg: &CatalogueConfig, w: f64, attractors: &[Attractor], l: &LaneClass) 
 pub enum Closeness {
     /// Close enough to take its label (a lane that retires): within [`RECOGNISE_REL`] of
     /// the cycle's diameter, never more than [`RECOGNISE_SEPARATION`] of its distance to
-    /// the nearest point of another attractor, never less than the identity tolerance
-    /// `max(match_rel * size, match_abs)`.
+    /// the nearest point of another attractor, and not less than the identity tolerance
+    /// `max(match_rel * size, match_abs)` unless that quarter is; a cycle within four
+    /// of its separation tolerances of another attractor is not recognised
+    /// ([`SEPARATION_ABS`]).
     Label,
     /// Close enough that a record taken from there classifies as the cycle (a lane that
     /// records early): within half the classifier's repeat tolerance
@@ -345,10 +347,10 @@ pub enum Closeness {
     Record,
 }
 
-/// Whether cycle `a` (identity tolerance `identity`) lies too close to an attractor at
-/// distance `separation` (nearest points) for early exit to recognise it: the quarter
-/// of that distance that caps its recognition tolerance would fall below the identity
-/// floor, so a point near the cycle could be as near the other attractor.
+/// Whether a cycle (tolerance `identity` of [`separation_identity`]) lies too close to an
+/// attractor at distance `separation` (nearest points) for early exit to recognise it:
+/// the quarter of that distance that caps its recognition tolerance would fall below
+/// that tolerance, so the two are likely one attractor whose lanes still converge.
 fn too_close_to_recognise(identity: f64, separation: f64) -> bool {
     identity > RECOGNISE_SEPARATION * separation
 }
@@ -356,6 +358,23 @@ fn too_close_to_recognise(identity: f64, separation: f64) -> bool {
 /// A catalogued cycle's identity tolerance `max(match_rel * size, match_abs)`.
 fn cycle_identity(cfg: &CatalogueConfig, a: &Attractor) -> f64 {
     (cfg.match_rel * a.size_m).max(cfg.match_abs)
+}
+
+/// The floor [m] of the separation rule ([`too_close_to_recognise`]): `match_abs`, but
+/// never above the f64 catalogue's 1 um. Two entries within four of
+/// `max(match_rel * size, floor)` are taken for one attractor whose lanes are still
+/// converging, a statement about the dynamics at the resolution of f64 lanes. f32 lanes
+/// raise their identity floor ten-fold for their rounding noise
+/// ([`CatalogueConfig::for_precision`]), which says nothing about how far apart distinct
+/// attractors lie: at 133 rad/s the period-5 and period-4 cycles are 28 um apart, under
+/// four f32 floors (40 um), and an f32 basin there retired 62 of 3600 lanes against
+/// f64's 3483 (docs/early-exit.md).
+pub const SEPARATION_ABS: f64 = CatalogueConfig::DEFAULT.match_abs;
+
+/// A catalogued cycle's tolerance in the separation rule: its identity tolerance with
+/// the floor [`SEPARATION_ABS`] at most.
+fn separation_identity(cfg: &CatalogueConfig, a: &Attractor) -> f64 {
+    (cfg.match_rel * a.size_m).max(cfg.match_abs.min(SEPARATION_ABS))
 }
 
 /// The distance between the nearest points of attractors `a` and `b` at speed `w`
@@ -390,9 +409,8 @@ pub fn recogniser_of(
             Class::Periodic(_) => {
                 let tol = match closeness {
                     Closeness::Label => {
-                        let identity = cycle_identity(cfg, a);
                         let sep = separation(a);
-                        if too_close_to_recognise(identity, sep) {
+                        if too_close_to_recognise(separation_identity(cfg, a), sep) {
                             // Another catalogued attractor lies within four identity
                             // tolerances: a point near this cycle could be near that
                             // one too. Such neighbours are lanes still converging near
@@ -403,7 +421,14 @@ pub fn recogniser_of(
                             // it.
                             return crate::early::Known::Never;
                         }
-                        identity.max((RECOGNISE_REL * a.size_m).min(RECOGNISE_SEPARATION * sep))
+                        // Never more than a quarter of the separation, so that no point
+                        // matches two attractors, also where the identity floor (f32's)
+                        // exceeds that quarter. For f64 lanes with the default floor the
+                        // cap never binds (the rule above leaves identity <= sep / 4).
+                        let cap = RECOGNISE_SEPARATION * sep;
+                        cycle_identity(cfg, a)
+                            .max((RECOGNISE_REL * a.size_m).min(cap))
+                            .min(cap)
                     }
                     Closeness::Record => {
                         0.5 * (cfg.classify.rel_tol * a.size_m).max(cfg.classify.abs_tol)
@@ -961,8 +986,8 @@ impl Catalogue {
     }
 
     /// Pairs of entries (ids, distance of their nearest points [metric of `distance`])
-    /// of which at least one is a cycle lying within four of its identity tolerances of
-    /// the other: the pairs early exit does not recognise ([`recogniser_of`]). Near a
+    /// of which at least one is a cycle lying within four of its separation tolerances
+    /// (identity tolerances with the floor [`SEPARATION_ABS`] at most) of the other: the pairs early exit does not recognise ([`recogniser_of`]). Near a
     /// bifurcation such entries are usually one attractor whose lanes are still
     /// converging (at 132.068 rad/s a period-1 point and two period-2 "cycles" within
     /// 2 um at 1000 transient periods, one period-1 point at 4000; docs/early-exit.md),
@@ -970,7 +995,7 @@ impl Catalogue {
     pub fn close_pairs(&self) -> Vec<(u32, u32, f64)> {
         let unrecognised = |a: &Attractor, d: f64| {
             matches!(a.kind, Class::Periodic(_))
-                && too_close_to_recognise(cycle_identity(&self.config, a), d)
+                && too_close_to_recognise(separation_identity(&self.config, a), d)
         };
         let mut out = Vec::new();
         for (i, a) in self.attractors.iter().enumerate() {

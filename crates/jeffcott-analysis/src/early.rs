@@ -7,8 +7,9 @@
 //! is recognised when `early_exit_streak` points in a row, and at least two whole cycles,
 //! each lie within the recognition tolerance
 //! ([`CatalogueBuilder::recogniser`]: a tenth of the cycle's diameter, at most a quarter
-//! of its distance to any other attractor, at least the identity tolerance; a cycle
-//! whose cap would fall below that floor is not recognised) of the cycle
+//! of its distance to any other attractor, at least the identity tolerance below that
+//! cap; a cycle whose cap would fall below its identity tolerance, the floor at most
+//! 1 um in f32 too, is not recognised) of the cycle
 //! point expected next, in its cyclic order (the analogue of the
 //! recurrence cells of Datseris and Wagemakers, Chaos 32, 023104 (2022)). Aperiodic
 //! attractors are not recognised: lanes still in a long transient form clouds that look
