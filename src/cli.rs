@@ -458,7 +458,7 @@ pub fn run_info(args: &InfoArgs) -> Result<()> {
     }
     for s in adapters {
         println!(
-            "GPU: {} [{} {}{}], driver {}, f64 {}, max storage binding {} MiB, max buffer {} MiB, workgroups/dim {}, invocations/workgroup {}, kernel as {}, f32 division and sqrt {}",
+            "GPU: {} [{} {}{}], driver {}, f64 {}, max storage binding {} MiB, max buffer {} MiB, workgroups/dim {}, invocations/workgroup {}, kernel as {}, f32 division and sqrt {}, lane constants read {} (JEFFCOTT_GPU_CONSTS)",
             s.name,
             s.backend,
             s.device_type,
@@ -478,6 +478,11 @@ pub fn run_info(args: &InfoArgs) -> Result<()> {
                 "through f64 (correctly rounded)"
             } else {
                 "the driver's own"
+            },
+            if s.software {
+                "once"
+            } else {
+                "at every sub-step"
             }
         );
     }

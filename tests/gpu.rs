@@ -731,3 +731,53 @@ fn check_exact_free_flight<R: GpuReal>(runner: &GpuRunner) {
         "the exact step changed nothing"
     );
 }
+
+#[test]
+fn the_kernel_reading_lane_constants_once_or_at_every_sub_step_gives_the_cpus_bits() {
+    // Variant::consts_each_step: hardware reads a lane's constants at every sub-step
+    // (registers), lavapipe once (its loads are gathers). Each adapter runs one form by
+    // default; JEFFCOTT_GPU_CONSTS runs the other, so CI's lavapipe checks both forms,
+    // with and without the exact free-flight map, in both precisions.
+    let Some(runner) = runner_for::<f64>() else {
+        return;
+    };
+    if !f64_bit_identity_promised(runner) {
+        eprintln!("skipped: bit-identity is not promised on this adapter");
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let table = tmp.path().join("lanes.csv");
+    let xr: Vec<String> = (0..48)
+        .map(|i| format!("{}", -0.004 + 0.008 * i as f64 / 47.0))
+        .collect();
+    std::fs::write(&table, format!("x_r\n{}\n", xr.join("\n"))).unwrap();
+    let run = |backend: &str, precision: &str, extra: &str, consts: &str| {
+        let out = tmp
+            .path()
+            .join(format!("{backend}-{precision}-{}-{consts}", extra.len()));
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_jeffcott"))
+            .args(common::words(&format!(
+                "ensemble --lanes {} --omega 133 --transient 0 --periods 12 --steps-per-period 400 \
+                 --backend {backend} --precision {precision} --quiet {extra} --out {}",
+                table.display(),
+                out.display()
+            )))
+            .env(jeffcott_gpu::device::CONSTS_VAR, consts)
+            .output()
+            .unwrap();
+        common::ok(&o);
+        ["poincare.npy", "status.npy"].map(|f| std::fs::read(out.join(f)).unwrap())
+    };
+    for precision in ["f64", "f32"] {
+        for extra in ["", "--exact-free-flight --contact-substeps 4"] {
+            let cpu = run("cpu", precision, extra, "");
+            for consts in ["once", "each-step"] {
+                let gpu = run("gpu", precision, extra, consts);
+                assert!(
+                    gpu == cpu,
+                    "{precision} {extra} with {consts}: the GPU's lanes differ from the CPU's"
+                );
+            }
+        }
+    }
+}

@@ -166,12 +166,33 @@ fn shader_path(summary: &AdapterSummary) -> Result<ShaderPath> {
     }
 }
 
+/// The environment variable that says how the kernel reads a lane's constants: `once`
+/// (the default on software adapters) or `each-step` (the default on hardware); see
+/// `shader::Variant::consts_each_step`. Both give the same bits.
+pub const CONSTS_VAR: &str = "JEFFCOTT_GPU_CONSTS";
+
+/// Whether the kernel on this adapter reads a lane's constants at every sub-step:
+/// `JEFFCOTT_GPU_CONSTS` if set, else on hardware only.
+fn consts_each_step(summary: &AdapterSummary) -> Result<bool> {
+    match std::env::var(CONSTS_VAR).ok().as_deref() {
+        None | Some("") => Ok(!summary.software),
+        Some("once") => Ok(false),
+        Some("each-step") => Ok(true),
+        Some(other) => Err(Error::invalid(
+            CONSTS_VAR,
+            other,
+            "must be once or each-step",
+        )),
+    }
+}
+
 /// A wgpu device and queue with what the runner needs to know about them.
 pub struct GpuDevice {
     device: wgpu::Device,
     queue: wgpu::Queue,
     summary: AdapterSummary,
     shader_path: ShaderPath,
+    consts_each_step: bool,
     lost: Arc<AtomicBool>,
     errors: Arc<Mutex<Vec<String>>>,
 }
@@ -230,6 +251,7 @@ impl GpuDevice {
     pub fn from_adapter(adapter: &wgpu::Adapter) -> Result<GpuDevice> {
         let summary = AdapterSummary::of(adapter);
         let shader_path = shader_path(&summary)?;
+        let consts_each_step = consts_each_step(&summary)?;
         let mut required_features = wgpu::Features::empty();
         if summary.f64 {
             required_features |= wgpu::Features::SHADER_F64;
@@ -266,6 +288,7 @@ impl GpuDevice {
             queue,
             summary,
             shader_path,
+            consts_each_step,
             lost,
             errors,
         })
@@ -289,6 +312,11 @@ impl GpuDevice {
     /// How this device receives the kernel.
     pub fn shader_path(&self) -> ShaderPath {
         self.shader_path
+    }
+
+    /// Whether the kernel reads a lane's constants at every sub-step ([`CONSTS_VAR`]).
+    pub fn consts_each_step(&self) -> bool {
+        self.consts_each_step
     }
 
     /// A compute pipeline for entry point `entry` (workgroup size `workgroup`) of the

@@ -205,7 +205,9 @@ impl GpuRunner {
     /// free-flight step or not, f32's division and sqrt through f64 where the device has
     /// SHADER_F64 ([`shader::Variant`]).
     pub fn kernel_variant(&self, lyapunov: bool, exact: bool) -> shader::Variant {
-        shader::Variant::on_device(lyapunov, self.gpu.supports_f64()).with_exact_free_flight(exact)
+        shader::Variant::on_device(lyapunov, self.gpu.supports_f64())
+            .with_exact_free_flight(exact)
+            .with_consts_each_step(self.gpu.consts_each_step())
     }
 
     fn slot<R: GpuReal>(&self, lyapunov: bool, exact: bool) -> &Mutex<Option<Kernel>> {

@@ -91,6 +91,14 @@ pub struct Variant {
     /// and removed: llvmpipe would otherwise run it at every sub-step (it executes both
     /// arms of an `if`).
     pub exact_free_flight: bool,
+    /// The entry point reads the lane's constants from their buffer at every sub-step
+    /// instead of once (`CONSTS_EACH_STEP` in the header): what a SIMT GPU needs, where
+    /// constants held across the loop take registers that push the f64 kernel into
+    /// spills (RADV's statistics for a virtual RDNA3 GPU, together with rk4_substep's
+    /// k2 + k3 summed early: spilled VGPRs of the f64 kernel 220 -> 159, with the exact
+    /// free-flight map 446 -> 190; docs/gpu.md), and what costs lavapipe a third of its
+    /// speed (its loads are 8-lane gathers). The arithmetic is the same either way.
+    pub consts_each_step: bool,
 }
 
 impl Variant {
@@ -101,6 +109,15 @@ impl Variant {
             lyapunov,
             f32_through_f64: device_has_f64,
             exact_free_flight: false,
+            consts_each_step: false,
+        }
+    }
+
+    /// This variant reading the lane constants at every sub-step, or once.
+    pub fn with_consts_each_step(self, on: bool) -> Self {
+        Self {
+            consts_each_step: on,
+            ..self
         }
     }
 
@@ -117,6 +134,7 @@ impl Variant {
         lyapunov: false,
         f32_through_f64: false,
         exact_free_flight: false,
+        consts_each_step: false,
     };
 
     /// True when precision `R`'s kernel uses f64 arithmetic (and needs FLOAT64).
@@ -166,6 +184,10 @@ pub fn header<R: Real>(v: Variant) -> String {
     line(format!(
         "const EXACT_FREE_FLIGHT: bool = {};",
         v.exact_free_flight
+    ));
+    line(format!(
+        "const CONSTS_EACH_STEP: bool = {};",
+        v.consts_each_step
     ));
     for (name, value) in float_constants::<R>() {
         line(format!("const {name}: Real = {};", float_lit(value)));
@@ -268,11 +290,14 @@ mod tests {
         for lyapunov in [false, true] {
             for f32_through_f64 in [false, true] {
                 for exact_free_flight in [false, true] {
-                    v.push(Variant {
-                        lyapunov,
-                        f32_through_f64,
-                        exact_free_flight,
-                    });
+                    for consts_each_step in [false, true] {
+                        v.push(Variant {
+                            lyapunov,
+                            f32_through_f64,
+                            exact_free_flight,
+                            consts_each_step,
+                        });
+                    }
                 }
             }
         }

@@ -32,18 +32,22 @@ fn rk4_substep(
     for (var i = 0u; i < STATE_DIM; i++) {
         xt[i] = x[i] + half * hs * k1[i];
     }
-    let k2 = rhs_frozen(lc.c, xt, pm.x, pm.y, contact);
+    // k2 + k3 is summed as soon as k3 is known, and k2 and k3 are not kept (the same
+    // operations in the same order as lane.rs's last line): 16 fewer live values, which
+    // a SIMT GPU otherwise holds in registers or spills (docs/gpu.md).
+    var k23 = rhs_frozen(lc.c, xt, pm.x, pm.y, contact);
     for (var i = 0u; i < STATE_DIM; i++) {
-        xt[i] = x[i] + half * hs * k2[i];
+        xt[i] = x[i] + half * hs * k23[i];
     }
     let k3 = rhs_frozen(lc.c, xt, pm.x, pm.y, contact);
     for (var i = 0u; i < STATE_DIM; i++) {
         xt[i] = x[i] + hs * k3[i];
+        k23[i] = k23[i] + k3[i];
     }
     let k4 = rhs_frozen(lc.c, xt, p1.x, p1.y, contact);
     var out: array<Real, STATE_DIM>;
     for (var i = 0u; i < STATE_DIM; i++) {
-        out[i] = x[i] + hs * SIXTH * (k1[i] + Real(2.0) * (k2[i] + k3[i]) + k4[i]);
+        out[i] = x[i] + hs * SIXTH * (k1[i] + Real(2.0) * k23[i] + k4[i]);
     }
     return out;
 }

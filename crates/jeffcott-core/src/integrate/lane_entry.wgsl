@@ -62,7 +62,7 @@ fn advance_lanes(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     probe_n = params.probe;
     let period_end = params.period_end;
-    let lc = consts[i];
+    let lc_once = consts[i];
     var lane = lanes[i];
     var tv: array<Real, STATE_DIM>;
     if LYAPUNOV {
@@ -70,7 +70,7 @@ fn advance_lanes(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     var committed = false;
     // The lane's macro step in progress (`busy`) and its tangent vector.
-    var ms = macro_step_begin(lc, lane);
+    var ms = macro_step_begin(lc_once, lane);
     var busy = false;
     var vw = tv;
     loop {
@@ -81,6 +81,13 @@ fn advance_lanes(@builtin(global_invocation_id) gid: vec3<u32>) {
         // iteration on lavapipe, which executes both arms of every `if`).
         var recorded = false;
         var norm = Real(1.0);
+        // The lane's constants, read once before the loop or here at every sub-step
+        // (shader.rs's Variant::consts_each_step: registers on a GPU, gathers on
+        // lavapipe).
+        var lc = lc_once;
+        if CONSTS_EACH_STEP {
+            lc = consts[i];
+        }
         if is_frozen(lane.status) || lc.n == 0u {
             recorded = true;
         } else {
