@@ -28,6 +28,8 @@
 //!    progress callback and the cancel flag of every run.
 
 pub mod control;
+#[macro_use]
+mod dispatch;
 pub mod ensemble;
 pub mod error;
 pub mod inputs;

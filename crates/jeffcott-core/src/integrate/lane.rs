@@ -500,43 +500,26 @@ pub(crate) fn macro_step_begin<R: Real>(lane: &Lane<R>) -> MacroStep<R> {
     }
 }
 
-/// Runs the segment loop of `lane`'s macro step from `p`, then the refinement cap, the
-/// status checks and the counters ([`macro_step_end`]). `trial`, when given, is the
-/// trial sub-step from `p` already computed (by the batch stepper, which hands the lane
-/// over because that step meets a switch): the same bits the loop's first trial step
-/// would compute, so it is not computed again.
-///
-/// Compiled twice, as the batch code is (`ensemble::cpu`'s `per_instruction_set`): for
-/// AVX2 where the CPU has it (VEX encoding, `roundsd` for the forcing phase's floor
-/// instead of a libm call), else as built. Both are the same operations in the same
-/// order without FMA, so the bits do not depend on the CPU; every scalar step (a
-/// quasistatic sweep's, a single trajectory's, a lane handed over by the batch) goes
-/// through here.
-pub(crate) fn finish_macro_step<R: Real, const M: usize>(
-    lc: &LaneConsts<R>,
-    lane: &mut Lane<R>,
-    tan: &mut Tangent<R, M>,
-    p: MacroStep<R>,
-    trial: Option<[R; STATE_DIM]>,
-) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        #[target_feature(enable = "avx2")]
-        fn avx2<R: Real, const M: usize>(
-            lc: &LaneConsts<R>,
-            lane: &mut Lane<R>,
-            tan: &mut Tangent<R, M>,
-            p: MacroStep<R>,
-            trial: Option<[R; STATE_DIM]>,
-        ) {
-            finish_macro_step_inner(lc, lane, tan, p, trial)
-        }
-        if std::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU has just been found to support AVX2.
-            return unsafe { avx2(lc, lane, tan, p, trial) };
-        }
-    }
-    finish_macro_step_inner(lc, lane, tan, p, trial)
+per_instruction_set! {
+    /// Runs the segment loop of `lane`'s macro step from `p`, then the refinement cap,
+    /// the status checks and the counters ([`macro_step_end`]). `trial`, when given, is
+    /// the trial sub-step from `p` already computed (by the batch stepper, which hands
+    /// the lane over because that step meets a switch): the same bits the loop's first
+    /// trial step would compute, so it is not computed again.
+    ///
+    /// Compiled for AVX2 where the CPU has it (VEX encoding, `roundsd` for the forcing
+    /// phase's floor instead of a libm call), else as built, and for AVX-512 only on
+    /// request (`JEFFCOTT_AVX512=1`; `crate::dispatch::use_avx512`): the same operations
+    /// in the same order without FMA, so the bits do not depend on the CPU. Every scalar
+    /// step (a quasistatic sweep's, a single trajectory's, a lane handed over by the
+    /// batch) goes through here.
+    pub(crate) fn finish_macro_step[R: Real, const M: usize][R, M](
+        lc: &LaneConsts<R>,
+        lane: &mut Lane<R>,
+        tan: &mut Tangent<R, M>,
+        p: MacroStep<R>,
+        trial: Option<[R; STATE_DIM]>,
+    ) -> () = finish_macro_step_inner, avx512_on_amd: false
 }
 
 /// The body of [`finish_macro_step`], inlined into each instruction set's copy.

@@ -1,0 +1,78 @@
+//! One body compiled for several x86-64 instruction sets, the fastest the CPU has chosen
+//! at run time ([`per_instruction_set`]): the batch code of `ensemble::cpu` and the
+//! scalar macro step of `integrate::lane`. Every copy is the same operations in the same
+//! order without FMA, so the bits do not depend on the CPU (tests/avx512.rs).
+
+/// Declares `$name`, which runs `$inner` compiled for AVX-512 where [`use_avx512`] says
+/// so (`$wide`: whether this instantiation was measured faster with it on an AMD CPU),
+/// else for AVX2 where the CPU has it, else as built: the same code for each
+/// instruction set (no FMA: fusing would change the rounding), so the lanes' arithmetic
+/// cannot drift between them. `[$gen]` are the generic parameters, `[$arg]` the
+/// arguments `$inner` is instantiated with.
+macro_rules! per_instruction_set {
+    ($(#[$doc:meta])* $vis:vis fn $name:ident [$($gen:tt)*] [$($garg:tt)*]
+     ($($arg:ident: $ty:ty),* $(,)?) -> $ret:ty = $inner:ident, avx512_on_amd: $wide:expr) => {
+        $(#[$doc])*
+        $vis fn $name<$($gen)*>($($arg: $ty),*) -> $ret {
+            #[cfg(target_arch = "x86_64")]
+            {
+                #[target_feature(enable = "avx512f,avx512dq,avx512vl")]
+                fn avx512<$($gen)*>($($arg: $ty),*) -> $ret {
+                    $inner::<$($garg)*>($($arg),*)
+                }
+                #[target_feature(enable = "avx2")]
+                fn avx2<$($gen)*>($($arg: $ty),*) -> $ret {
+                    $inner::<$($garg)*>($($arg),*)
+                }
+                if $crate::dispatch::use_avx512($wide) {
+                    // SAFETY: the CPU has been found to support AVX-512 F, DQ and VL.
+                    return unsafe { avx512::<$($garg)*>($($arg),*) };
+                }
+                if std::is_x86_feature_detected!("avx2") {
+                    // SAFETY: the CPU has just been found to support AVX2.
+                    return unsafe { avx2::<$($garg)*>($($arg),*) };
+                }
+            }
+            $inner::<$($garg)*>($($arg),*)
+        }
+    };
+}
+
+/// Whether the AVX-512 batch code runs, for code that `wide_on_amd` says ran faster with
+/// it on an AMD CPU: where the CPU has AVX-512 F, DQ and VL, `JEFFCOTT_AVX512=1` or `0`
+/// decides; unset, AVX-512 runs on AMD's CPUs for such code (Zen 4 executes 512-bit
+/// operations without lowering the clock; on the 2-core AMD EPYC VM the grouped batches
+/// ran 1.6 % faster in f64 and 6 % in f32 on `jeffcott bench`, the refilled batches with
+/// lambda_1 6.5 % faster on a brute force, but the refilled batches without it 5 %
+/// slower on a basin: docs/performance.md) and never on Intel's (on the 2-core Xeon it
+/// was measured on first, 8 % slower than AVX2). Either build gives the same bits
+/// (tests/avx512.rs).
+#[cfg(target_arch = "x86_64")]
+pub(crate) fn use_avx512(wide_on_amd: bool) -> bool {
+    static CHOICE: std::sync::OnceLock<(bool, Option<bool>)> = std::sync::OnceLock::new();
+    let (eligible, forced) = *CHOICE.get_or_init(|| {
+        let has = std::is_x86_feature_detected!("avx512f")
+            && std::is_x86_feature_detected!("avx512dq")
+            && std::is_x86_feature_detected!("avx512vl");
+        let forced = match std::env::var_os("JEFFCOTT_AVX512") {
+            Some(v) if v == "1" => Some(true),
+            Some(v) if v == "0" => Some(false),
+            _ => None,
+        };
+        (has && (forced.is_some() || cpu_is_amd()), forced)
+    });
+    eligible && forced.unwrap_or(wide_on_amd)
+}
+
+/// Whether the CPU's vendor string (CPUID leaf 0) is AMD's.
+#[cfg(target_arch = "x86_64")]
+fn cpu_is_amd() -> bool {
+    // SAFETY: CPUID leaf 0 exists on every x86-64 CPU.
+    #[allow(unused_unsafe)]
+    let r = unsafe { std::arch::x86_64::__cpuid(0) };
+    let mut vendor = [0u8; 12];
+    for (chunk, w) in vendor.chunks_exact_mut(4).zip([r.ebx, r.edx, r.ecx]) {
+        chunk.copy_from_slice(&w.to_le_bytes());
+    }
+    &vendor == b"AuthenticAMD"
+}
