@@ -230,6 +230,14 @@ class Campaign:
             text.append(info)
             _, info, _ = self.sh([self.jeffcott, "info"])
         text.append(info)
+        # The statistics of the other form of reading the lane constants too
+        # (JEFFCOTT_GPU_CONSTS; shader.rs's Variant::consts_each_step), so the registers
+        # it saves on this compiler are measured, not assumed.
+        once = ""
+        if rc == 0:
+            _, once, _ = self.sh([self.jeffcott, "info", "--kernel-stats"], timeout=90, check=False,
+                                 env={"JEFFCOTT_GPU_CONSTS": "once"})
+            text.append("JEFFCOTT_GPU_CONSTS=once:\n" + once)
         with open(os.path.join(self.out, "info.txt"), "w") as f:
             f.write("\n".join(text))
         gpus = [line for line in info.splitlines() if line.startswith("GPU:")]
@@ -242,7 +250,9 @@ class Campaign:
                 f.write("\n\nVK_LOADER_DEBUG=error,warn:\n" + dbg)
             raise Fatal("no hardware Vulkan adapter with f64: " + dbg.strip()[-800:])
         kernels = [line.strip() for line in info.splitlines() if line.startswith(("kernel", "  ["))]
-        return {"jeffcott_info": info.strip().splitlines(), "gpus": gpus, "kernel_stats": kernels}
+        kernels_once = [line.strip() for line in once.splitlines() if line.startswith(("kernel", "  ["))]
+        return {"jeffcott_info": info.strip().splitlines(), "gpus": gpus, "kernel_stats": kernels,
+                "kernel_stats_constants_once": kernels_once}
 
     # ---- 2. parity -----------------------------------------------------------------
 
@@ -517,6 +527,9 @@ class Campaign:
         if a.get("kernel_stats"):
             md += ["## The kernel as the driver compiled it (`jeffcott info --kernel-stats`)", ""]
             md += [f"    {line}" for line in a["kernel_stats"]] + [""]
+        if a.get("kernel_stats_constants_once"):
+            md += ["With the lane constants read once (`JEFFCOTT_GPU_CONSTS=once`):", ""]
+            md += [f"    {line}" for line in a["kernel_stats_constants_once"]] + [""]
         p = st.get("parity", {})
         md += ["## Parity (CPU against GPU, the standard job's lanes)", "",
                "| precision | lanes bit-identical | largest position difference [m] | first period differing | regime |",

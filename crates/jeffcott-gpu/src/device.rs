@@ -171,11 +171,11 @@ fn shader_path(summary: &AdapterSummary) -> Result<ShaderPath> {
 /// `shader::Variant::consts_each_step`. Both give the same bits.
 pub const CONSTS_VAR: &str = "JEFFCOTT_GPU_CONSTS";
 
-/// Whether the kernel on this adapter reads a lane's constants at every sub-step:
-/// `JEFFCOTT_GPU_CONSTS` if set, else on hardware only.
-fn consts_each_step(summary: &AdapterSummary) -> Result<bool> {
+/// Whether the kernel on an adapter (`software` or not) reads a lane's constants at
+/// every sub-step: `JEFFCOTT_GPU_CONSTS` if set, else on hardware only.
+pub fn consts_each_step(software: bool) -> Result<bool> {
     match std::env::var(CONSTS_VAR).ok().as_deref() {
-        None | Some("") => Ok(!summary.software),
+        None | Some("") => Ok(!software),
         Some("once") => Ok(false),
         Some("each-step") => Ok(true),
         Some(other) => Err(Error::invalid(
@@ -251,7 +251,7 @@ impl GpuDevice {
     pub fn from_adapter(adapter: &wgpu::Adapter) -> Result<GpuDevice> {
         let summary = AdapterSummary::of(adapter);
         let shader_path = shader_path(&summary)?;
-        let consts_each_step = consts_each_step(&summary)?;
+        let consts_each_step = consts_each_step(summary.software)?;
         let mut required_features = wgpu::Features::empty();
         if summary.f64 {
             required_features |= wgpu::Features::SHADER_F64;

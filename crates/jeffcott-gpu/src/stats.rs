@@ -68,7 +68,7 @@ fn vk_err(what: &str) -> impl Fn(vk::Result) -> String + '_ {
 /// without f64 runs), each plain and with lambda_1, with and without the exact
 /// free-flight step; an error (not a panic: the caller's Vulkan handles are live) when
 /// one does not compile.
-fn variants(has_f64: bool, software: bool) -> Result<Vec<(String, Vec<u32>)>, String> {
+fn variants(has_f64: bool, each_step: bool) -> Result<Vec<(String, Vec<u32>)>, String> {
     fn words<R: Real>(v: Variant) -> Result<Vec<u32>, String> {
         let (module, info) = shader::validate::<R>(v, shader::capabilities::<R>(v))?;
         crate::spirv::exact_compute_words(&module, &info, shader::ENTRY_POINT, &[0, 1, 2, 3, 4, 5])
@@ -77,14 +77,19 @@ fn variants(has_f64: bool, software: bool) -> Result<Vec<(String, Vec<u32>)>, St
     for exact in [false, true] {
         for lyapunov in [false, true] {
             let tail = format!(
-                "{}{}",
+                "{}{}{}",
                 if lyapunov { ", lambda_1" } else { "" },
-                if exact { ", exact free flight" } else { "" }
+                if exact { ", exact free flight" } else { "" },
+                if each_step {
+                    ", constants each sub-step"
+                } else {
+                    ""
+                }
             );
             // Lane constants as the runner reads them on this device (Variant).
             let device = Variant::on_device(lyapunov, has_f64)
                 .with_exact_free_flight(exact)
-                .with_consts_each_step(!software);
+                .with_consts_each_step(each_step);
             if has_f64 {
                 out.push((format!("f64{tail}"), words::<f64>(device)?));
                 out.push((
@@ -93,7 +98,7 @@ fn variants(has_f64: bool, software: bool) -> Result<Vec<(String, Vec<u32>)>, St
                 ));
                 let own = Variant::on_device(lyapunov, false)
                     .with_exact_free_flight(exact)
-                    .with_consts_each_step(!software);
+                    .with_consts_each_step(each_step);
                 out.push((
                     format!("f32, driver's / and sqrt{tail}"),
                     words::<f32>(own)?,
@@ -170,6 +175,9 @@ unsafe fn device_stats(
     let has_f64 = unsafe { instance.get_physical_device_features(pd) }.shader_float64 == vk::TRUE;
     let software = unsafe { instance.get_physical_device_properties(pd) }.device_type
         == vk::PhysicalDeviceType::CPU;
+    // The lane constants' form the runner would use here (JEFFCOTT_GPU_CONSTS honoured,
+    // so that a campaign can compare both forms' statistics).
+    let each_step = crate::device::consts_each_step(software).map_err(|e| e.to_string())?;
     let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
     let family = families
         .iter()
@@ -226,7 +234,7 @@ unsafe fn device_stats(
         }
         .map_err(vk_err("vkCreatePipelineLayout"));
         let out = layout.and_then(|layout| {
-            let r = variants(has_f64, software)?
+            let r = variants(has_f64, each_step)?
                 .into_iter()
                 .map(|(kernel, words)| {
                     let (compile_s, executables) =
