@@ -479,10 +479,11 @@ pub fn run_info(args: &InfoArgs) -> Result<()> {
             } else {
                 "the driver's own"
             },
-            if s.software {
-                "once"
-            } else {
-                "at every sub-step"
+            // The runner's own choice (JEFFCOTT_GPU_CONSTS, else by adapter kind).
+            match jeffcott_gpu::device::consts_each_step(s.software) {
+                Ok(true) => "at every sub-step",
+                Ok(false) => "once",
+                Err(_) => "? (invalid value: once or each-step)",
             }
         );
     }

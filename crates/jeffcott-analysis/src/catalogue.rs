@@ -987,11 +987,12 @@ impl Catalogue {
 
     /// Pairs of entries (ids, distance of their nearest points [metric of `distance`])
     /// of which at least one is a cycle lying within four of its separation tolerances
-    /// (identity tolerances with the floor [`SEPARATION_ABS`] at most) of the other: the pairs early exit does not recognise ([`recogniser_of`]). Near a
-    /// bifurcation such entries are usually one attractor whose lanes are still
-    /// converging (at 132.068 rad/s a period-1 point and two period-2 "cycles" within
-    /// 2 um at 1000 transient periods, one period-1 point at 4000; docs/early-exit.md),
-    /// so the basin study names them for the user to check with a longer transient.
+    /// (identity tolerances with the floor [`SEPARATION_ABS`] at most) of the other: the
+    /// pairs early exit does not recognise ([`recogniser_of`]). Near a bifurcation such
+    /// entries are usually one attractor whose lanes are still converging (at
+    /// 132.068 rad/s a period-1 point and two period-2 "cycles" within 2 um at 1000
+    /// transient periods, one period-1 point at 4000; docs/early-exit.md), so the basin
+    /// study names them for the user to check with a longer transient.
     pub fn close_pairs(&self) -> Vec<(u32, u32, f64)> {
         let unrecognised = |a: &Attractor, d: f64| {
             matches!(a.kind, Class::Periodic(_))

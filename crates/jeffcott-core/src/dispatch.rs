@@ -38,7 +38,7 @@ macro_rules! per_instruction_set {
     };
 }
 
-/// Whether the AVX-512 batch code runs, for code that `wide_on_amd` says ran faster with
+/// Whether the AVX-512 copy runs, for code that `wide_on_amd` says ran faster with
 /// it on an AMD CPU: where the CPU has AVX-512 F, DQ and VL, `JEFFCOTT_AVX512=1` or `0`
 /// decides; unset, AVX-512 runs on AMD's CPUs for such code (Zen 4 executes 512-bit
 /// operations without lowering the clock; on the 2-core AMD EPYC VM the grouped batches
