@@ -313,6 +313,29 @@ fn reproduce_killed_and_resumed_redraws_the_same_figures() {
 }
 
 #[test]
+fn a_figure_set_begun_with_other_stepper_defaults_is_refused_naming_the_field_and_kept() {
+    // reproduce's studies take the stepper's defaults, so its run.json records them: a
+    // figure set begun by a version whose early exit started at period 100 must not be
+    // finished with units computed from period 30 (docs/early-exit.md).
+    let (_dir, out) = temp_out("set");
+    let cmd = words("reproduce --smoke --backend cpu --quiet");
+    let a = args(&cmd, &out);
+    kill_after_units(&a, &out, 4);
+    let path = out.join("run.json");
+    let mut run = common::json(&path);
+    assert_eq!(
+        run["spec"]["stepper"]["early_exit_after"],
+        jeffcott_core::integrate::lane::StepperConfig::DEFAULT.early_exit_after
+    );
+    run["spec"]["stepper"]["early_exit_after"] = 100.into();
+    std::fs::write(&path, serde_json::to_vec_pretty(&run).unwrap()).unwrap();
+    let before = units(&out);
+    assert!(before > 0);
+    assert_refused(&cmd, &out, &["early_exit_after"]);
+    assert_eq!(units(&out), before, "a refused resume removed units");
+}
+
+#[test]
 fn gpu_basin_killed_and_resumed_equals_an_uninterrupted_cpu_run_bit_for_bit() {
     if !common::gpu_f64_present() {
         return;

@@ -17,6 +17,7 @@ use jeffcott_analysis::reproduce::{
 };
 use jeffcott_core::ensemble::{Backend, Precision};
 use jeffcott_core::error::{Error, Result};
+use jeffcott_core::integrate::lane::StepperConfig;
 use report::Report;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -68,6 +69,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         &RunSpec {
             mode: preset.name,
             precision,
+            stepper: StepperConfig::DEFAULT,
         },
         &["REPORT.md"],
         a.run,
@@ -111,12 +113,15 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     Ok(())
 }
 
-/// A figure set's specification as `run.json` records it: the preset and the lanes'
-/// precision.
+/// A figure set's specification as `run.json` records it: the preset, the lanes'
+/// precision and the stepper's defaults (so that a figure set begun by a version with
+/// other defaults, such as early exit's first period, is not resumed with units of
+/// both: the run directory names the field that differs).
 #[derive(serde::Serialize)]
 struct RunSpec {
     mode: &'static str,
     precision: Precision,
+    stepper: StepperConfig,
 }
 
 /// The command line as the figure set's host: the arguments, the set's specification,

@@ -108,18 +108,41 @@ fn io(path: &Path) -> impl FnOnce(std::io::Error) -> Error + '_ {
 /// The top-level keys in which two specifications differ (for the refusal message).
 fn differing_keys(a: &serde_json::Value, b: &serde_json::Value) -> Vec<String> {
     match (a.as_object(), b.as_object()) {
-        (Some(a), Some(b)) => {
-            let mut keys: Vec<String> = a
-                .keys()
-                .chain(b.keys())
-                .filter(|k| a.get(*k) != b.get(*k))
-                .cloned()
-                .collect();
+        (Some(_), Some(_)) => {
+            let mut keys = Vec::new();
+            differing_paths(a, b, "", &mut keys);
             keys.sort();
             keys.dedup();
             keys
         }
         _ => vec!["(whole specification)".into()],
+    }
+}
+
+/// The dotted paths (`lane.stepper.early_exit_after`) at which two JSON objects
+/// differ, down to the innermost object holding a difference, so that a refusal names
+/// the setting, not only the group it is in.
+fn differing_paths(a: &serde_json::Value, b: &serde_json::Value, at: &str, out: &mut Vec<String>) {
+    let (Some(ao), Some(bo)) = (a.as_object(), b.as_object()) else {
+        out.push(at.to_string());
+        return;
+    };
+    for k in ao.keys().chain(bo.keys()) {
+        let (x, y) = (ao.get(k), bo.get(k));
+        if x == y {
+            continue;
+        }
+        let path = if at.is_empty() {
+            k.clone()
+        } else {
+            format!("{at}.{k}")
+        };
+        match (x, y) {
+            (Some(x), Some(y)) if x.is_object() && y.is_object() => {
+                differing_paths(x, y, &path, out)
+            }
+            _ => out.push(path),
+        }
     }
 }
 
@@ -571,6 +594,22 @@ mod tests {
     fn open(dir: &Path) -> RunDir {
         let header = RunHeader::new("basin", &serde_json::json!({"n": 3})).unwrap();
         RunDir::open(dir, header, &[], false).unwrap()
+    }
+
+    #[test]
+    fn a_refusal_names_the_innermost_settings_that_differ() {
+        let old = serde_json::json!({"n": 3, "lane": {"stepper": {"after": 100, "streak": 16},
+            "precision": "f64"}, "gone": 1});
+        let new = serde_json::json!({"n": 3, "lane": {"stepper": {"after": 30, "streak": 16},
+            "precision": "f32"}, "stepper": {"after": 30}});
+        assert_eq!(
+            differing_keys(&old, &new),
+            ["gone", "lane.precision", "lane.stepper.after", "stepper"]
+        );
+        assert_eq!(
+            differing_keys(&old, &serde_json::json!(3)),
+            ["(whole specification)"]
+        );
     }
 
     #[test]
