@@ -586,6 +586,10 @@ pub struct StepperArgs {
     /// whose free motion is not underdamped take RK4.
     #[arg(long)]
     pub exact_free_flight: bool,
+    /// lambda_1: periods the tangent vector aligns before each lane's record (it starts
+    /// afresh then; 0: over the whole transient, as before 2026-11-27; docs/performance.md).
+    #[arg(long, default_value_t = StepperConfig::DEFAULT.lyapunov_align, value_name = "PERIODS")]
+    pub lyapunov_align: u32,
 }
 
 impl StepperArgs {
@@ -599,6 +603,7 @@ impl StepperArgs {
             early_exit_after: self.early_exit_after,
             early_exit_streak: self.early_exit_streak,
             exact_free_flight: self.exact_free_flight,
+            lyapunov_align: self.lyapunov_align,
         }
     }
 }

@@ -39,6 +39,11 @@ fn spec(precision: Precision, lanes: usize) -> EnsembleSpec {
         stepper: StepperConfig {
             steps_per_period: 200,
             divergence_bound: 0.0065,
+            // lambda_1's tangent starts at period 18 (a lane recognised before then
+            // starts it there and records 12 periods later), so the runs with lambda_1
+            // below cover lanes moving from the batch without tangents to the one with
+            // them, and a GPU pool writing fresh tangents into running slots.
+            lyapunov_align: 12,
             ..StepperConfig::default()
         },
         precision,

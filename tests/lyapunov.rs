@@ -340,13 +340,15 @@ fn cpu_lambda1_of_a_lane_agrees_with_the_first_exponent_of_the_full_spectrum() {
     let cfg = config(20.0);
     for omega in [131.7, 140.0] {
         let s = run(&p, omega, &cfg);
-        // The same accumulation window: the lane's tangent starts at t = 0 and aligns
-        // during the transient, the spectrum's after its own transient.
-        let spec = ensemble_spec(
+        // The same accumulation window: the spectrum's tangents start after its
+        // transient and align over `tangent_transient` periods, the lane's start
+        // `lyapunov_align` periods before its record.
+        let mut spec = ensemble_spec(
             &[(omega, p.clone())],
             cfg.transient + cfg.tangent_transient,
             s.periods,
         );
+        spec.stepper.lyapunov_align = cfg.tangent_transient;
         let res = jeffcott_core::ensemble::cpu::run(&spec, true, Control::none()).unwrap();
         let l1 = res.lambda1.as_ref().unwrap()[0];
         eprintln!(
@@ -363,6 +365,81 @@ fn cpu_lambda1_of_a_lane_agrees_with_the_first_exponent_of_the_full_spectrum() {
         let plain = jeffcott_core::ensemble::cpu::run(&spec, false, Control::none()).unwrap();
         assert!(plain.lambda1.is_none());
         assert_eq!(plain.poincare, res.poincare);
+    }
+}
+
+/// Eleven lanes at periodic, quasiperiodic and chaotic speeds (one batch of 8 and
+/// three lanes stepped alone), with and without contact damping, whose tangent starts
+/// at period 25 of a 40-period transient (`lyapunov_align` 15).
+fn windowed_spec() -> jeffcott_core::ensemble::EnsembleSpec {
+    let speeds = [
+        131.7, 132.2, 133.0, 135.0, 137.0, 138.5, 140.0, 141.0, 133.5, 136.0, 139.0,
+    ];
+    let lanes: Vec<(f64, Params)> = speeds
+        .iter()
+        .enumerate()
+        .map(|(i, &w)| {
+            (
+                w,
+                if i % 3 == 0 {
+                    damped()
+                } else {
+                    Params::default()
+                },
+            )
+        })
+        .collect();
+    let mut spec = ensemble_spec(&lanes, 40, 10);
+    spec.stepper.steps_per_period = 200;
+    spec.stepper.lyapunov_align = 15;
+    spec
+}
+
+#[test]
+fn lambda1_with_its_tangent_started_15_periods_before_the_record_is_a_fresh_tangents_from_there_to_the_bit()
+ {
+    // The windowed run against lanes restarted at period 25 from its states with the
+    // tangent over their whole 15-period transient (`lyapunov_align` 0): the same
+    // exponents, so the tangent starts afresh at period 25 and nothing before it
+    // counts, in the batches and in the lanes stepped alone.
+    let spec = windowed_spec();
+    let windowed = jeffcott_core::ensemble::cpu::run(&spec, true, Control::none()).unwrap();
+    let mut to25 = spec.clone();
+    to25.transient = 23;
+    to25.recorded = 2;
+    let at25 = jeffcott_core::ensemble::cpu::run(&to25, false, Control::none()).unwrap();
+    let mut rest = spec.clone();
+    rest.transient = 15;
+    rest.stepper.lyapunov_align = 0;
+    for (l, x) in rest.lanes.iter_mut().zip(&at25.final_state) {
+        l.x0 = *x;
+    }
+    let restarted = jeffcott_core::ensemble::cpu::run(&rest, true, Control::none()).unwrap();
+    let (a, b) = (windowed.lambda1.unwrap(), restarted.lambda1.unwrap());
+    assert!(a.iter().all(|l| l.is_finite()), "{a:?}");
+    for (i, (x, y)) in a.iter().zip(&b).enumerate() {
+        assert_eq!(x.to_bits(), y.to_bits(), "lane {i}: {x} against {y}");
+    }
+    // And the window matters: over the whole transient the exponents differ.
+    let mut whole = spec.clone();
+    whole.stepper.lyapunov_align = 0;
+    let w = jeffcott_core::ensemble::cpu::run(&whole, true, Control::none()).unwrap();
+    assert!(w.lambda1.unwrap().iter().zip(&a).any(|(x, y)| x != y));
+    assert_eq!(w.poincare, windowed.poincare);
+}
+
+#[test]
+fn gpu_lambda1_with_its_tangent_started_before_the_record_is_the_cpus_to_the_bit() {
+    let Some(runner) = f64_runner() else {
+        return;
+    };
+    let spec = windowed_spec();
+    let cpu = jeffcott_core::ensemble::cpu::run(&spec, true, Control::none()).unwrap();
+    let gpu =
+        jeffcott_analysis::backend::run_on_gpu(&spec, &runner, true, Control::none()).unwrap();
+    let (c, g) = (cpu.lambda1.unwrap(), gpu.lambda1.unwrap());
+    for (i, (x, y)) in c.iter().zip(&g).enumerate() {
+        assert_eq!(x.to_bits(), y.to_bits(), "lane {i}: CPU {x}, GPU {y}");
     }
 }
 

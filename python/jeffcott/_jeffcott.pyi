@@ -26,6 +26,7 @@ class StepperOptions(TypedDict, total=False):
     early_exit_after: int  # periods before a lane may retire on a known attractor
     early_exit_streak: int  # points in a row on a known attractor that retire a lane; 0: off
     exact_free_flight: bool  # macro steps begun in free flight take the exact flow map
+    lyapunov_align: int  # lambda_1: periods the tangent aligns before the record; 0: whole transient
 
 # Bad input raises ValueError (a value out of range; a request too large for memory,
 # refused before anything is allocated) or TypeError (the wrong kind of value), naming

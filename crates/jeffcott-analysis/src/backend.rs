@@ -155,7 +155,10 @@ fn run_gpu<R: jeffcott_gpu::GpuReal>(
     let per_period = n as u64 * spec.stepper.steps_per_period as u64;
     let slice = (LANE_STEPS_PER_SLICE / per_period.max(1))
         .clamp(1, (spec.transient + spec.recorded) as u64) as u32;
-    let schedule = jeffcott_gpu::Schedule::new(spec.transient, spec.recorded, slice);
+    let schedule = jeffcott_gpu::Schedule {
+        tangent_from: spec.stepper.tangent_from(spec.transient),
+        ..jeffcott_gpu::Schedule::new(spec.transient, spec.recorded, slice)
+    };
     let mut report = |p: jeffcott_gpu::SliceReport| {
         (ctl.progress)(p.lane_periods_done, p.lane_periods_total);
         !ctl.cancel.is_set()

@@ -34,6 +34,9 @@ struct EarlyPool<'a> {
     ctl: Control<'a>,
     /// Lane-periods of the lanes that ended (progress counts a lane's full periods).
     done: u64,
+    /// Slots whose lanes start their tangent afresh after the last slice
+    /// (`Refill::tangent_starts`).
+    restarts: Vec<usize>,
 }
 
 impl<R: GpuReal> PoolHost<R> for EarlyPool<'_> {
@@ -116,6 +119,12 @@ impl<R: GpuReal> PoolHost<R> for EarlyPool<'_> {
         let per_lane = (self.spec.transient + self.spec.recorded) as u64;
         self.done += ended.len() as u64 * per_lane;
         (self.ctl.progress)(self.done, self.spec.lanes.len() as u64 * per_lane);
+        self.restarts = self.slots[..n]
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| s.as_ref().is_some_and(|s| refill.tangent_starts(s)))
+            .map(|(i, _)| i)
+            .collect();
         let freed = ended.iter().map(|(i, _)| *i).collect();
         self.ended.extend(ended.into_iter().map(|(_, e)| e));
         Ok(freed)
@@ -123,6 +132,14 @@ impl<R: GpuReal> PoolHost<R> for EarlyPool<'_> {
 
     fn moved(&mut self, from: usize, to: usize) {
         self.slots.swap(from, to);
+    }
+
+    fn tangent_restarts(&mut self) -> Vec<(usize, [R; STATE_DIM])> {
+        let fresh = [R::lit(LAMBDA1_START); STATE_DIM];
+        std::mem::take(&mut self.restarts)
+            .into_iter()
+            .map(|s| (s, fresh))
+            .collect()
     }
 }
 
@@ -160,6 +177,7 @@ pub fn run_early_gpu<R: GpuReal>(
         lambda1,
         ctl,
         done: 0,
+        restarts: Vec::new(),
     };
     runner.run_pool::<R>(slots, (lambda1, exact), max_periods, &mut host)?;
     Ok(early_result(spec, host.ended, lambda1))

@@ -56,6 +56,10 @@ pub struct Schedule {
     pub periods_per_slice: u32,
     /// Upper bound on lanes per chunk on top of the device limits (`None`: limits only).
     pub max_lanes_per_chunk: Option<usize>,
+    /// The lambda_1 variant's tangent vectors (re)start from the given start vectors at
+    /// this period (a time slice ends there): the CPU's lanes carry none before it
+    /// (`StepperConfig::tangent_from`). 0: from the start.
+    pub tangent_from: u32,
 }
 
 impl Schedule {
@@ -67,6 +71,7 @@ impl Schedule {
             recorded,
             periods_per_slice,
             max_lanes_per_chunk: None,
+            tangent_from: 0,
         }
     }
 }
@@ -756,7 +761,16 @@ impl GpuRunner {
             queue.write_buffer(&bufs.lanes, 0, bytemuck::cast_slice(&packed_lanes));
             let mut begin = 0u32;
             while begin < total {
-                let periods = slots.min(total - begin);
+                let mut periods = slots.min(total - begin);
+                if let Some(t) = tangents {
+                    let from = schedule.tangent_from;
+                    if begin < from {
+                        // A slice ends where the tangents start.
+                        periods = periods.min(from - begin);
+                    } else if begin == from && from > 0 {
+                        queue.write_buffer(&bufs.tangents, 0, bytemuck::cast_slice(&t[start..end]));
+                    }
+                }
                 let params = Params {
                     n_lanes: n as u32,
                     period_begin: begin,

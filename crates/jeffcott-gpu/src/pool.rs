@@ -48,6 +48,10 @@ pub trait PoolHost<R: GpuReal> {
     /// The lane in slot `from` now runs in the empty slot `to` (the pool compacts its
     /// running lanes once nothing is left to fill slots with).
     fn moved(&mut self, from: usize, to: usize);
+    /// After [`PoolHost::after_slice`] (and the refills), the slots whose lanes start
+    /// their tangent vector afresh here, with the vector (lambda_1 variant): the kernel
+    /// carries every slot's tangent from its fill, the host counts it from here on.
+    fn tangent_restarts(&mut self) -> Vec<(usize, [R; STATE_DIM])>;
 }
 
 impl GpuRunner {
@@ -199,7 +203,7 @@ impl GpuRunner {
             queue.submit(Some(enc.finish()));
             let records: Vec<R> = self.read_back(&bufs.records_staging, rec_bytes)?;
             let mut gpu_lanes: Vec<R::Lane> = self.read_back(&bufs.lanes_staging, lane_bytes)?;
-            let gpu_tangents: Vec<R> = if lyapunov {
+            let mut gpu_tangents: Vec<R> = if lyapunov {
                 self.read_back(&bufs.tangents_staging, active * tangent_size)?
             } else {
                 Vec::new()
@@ -223,6 +227,20 @@ impl GpuRunner {
                 let (c, l, t) = pack(p, period);
                 consts[s] = c;
                 write(s, &c, &l, &t);
+            }
+            if lyapunov {
+                for (s, t) in host.tangent_restarts() {
+                    if s >= active {
+                        return Err(Error::invalid("slot", s, format!("the pool runs {active}")));
+                    }
+                    // Also in the copy read back, which the compaction below moves.
+                    gpu_tangents[s * STATE_DIM..][..STATE_DIM].copy_from_slice(&t);
+                    queue.write_buffer(
+                        &bufs.tangents,
+                        (s * tangent_size) as u64,
+                        bytemuck::cast_slice(&t),
+                    );
+                }
             }
             // Nothing left to fill with: the running lanes move down, each from the
             // highest occupied slot into the lowest empty one, with the state, counters

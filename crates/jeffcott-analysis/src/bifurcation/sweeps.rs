@@ -32,11 +32,15 @@ fn sweep_step(spec: &BifurcationSpec, omega: f64, first: bool, x: &State) -> (Sw
     } else {
         spec.transient
     };
-    // The tangent vector (with `lyapunov`) starts afresh at each W and aligns during
-    // the transient, as the ensembles' lambda_1 does.
+    // The tangent vector (with `lyapunov`) starts afresh at each W and aligns over the
+    // last `lyapunov_align` periods of the transient, as the ensembles' lambda_1 does;
+    // before, the lane steps without it (the same state arithmetic).
+    let from = spec.lane.stepper.tangent_from(transient);
+    let mut period = 0u32;
     let mut tan = Tangent::<f64, 1>::new([[LAMBDA1_START; STATE_DIM]]);
     let mut step = |lane: &mut Lane<f64>| -> f64 {
-        if spec.lane.lyapunov {
+        period += 1;
+        if spec.lane.lyapunov && period > from {
             advance_period_tangent(&lc, lane, &mut tan);
             if lane.status.is_frozen() {
                 1.0

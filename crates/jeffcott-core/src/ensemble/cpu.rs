@@ -60,12 +60,19 @@ fn run_lane_lambda1<R: Real>(spec: &EnsembleSpec, i: usize, cancel: &Cancel) -> 
     let mut tan = Tangent::<R, 1>::new([[R::lit(LAMBDA1_START); STATE_DIM]]);
     let mut points = Vec::with_capacity(spec.recorded as usize * STATE_DIM);
     let mut norms = Vec::with_capacity(spec.recorded as usize);
+    // The tangent starts (untouched until then) `lyapunov_align` periods before the
+    // record; the state's arithmetic is the same with it or without.
+    let from = spec.stepper.tangent_from(spec.transient);
     for p in 0..spec.transient + spec.recorded {
         if p < spec.transient && lane.status.is_frozen() {
             continue;
         }
         if cancel.is_set() {
             return None;
+        }
+        if p < from {
+            advance_period(&lc, &mut lane);
+            continue;
         }
         advance_period_tangent(&lc, &mut lane, &mut tan);
         let norm = if lane.status.is_frozen() {
@@ -120,6 +127,17 @@ fn run_batch_inner<R: Real, const M: usize>(
         .map(|_| Vec::with_capacity(spec.recorded as usize * STATE_DIM))
         .collect();
     let mut norms: Vec<Vec<f64>> = vec![Vec::new(); count];
+    // With lambda_1 the tangents start (untouched until then, so fresh) `lyapunov_align`
+    // periods before the record, as in `run_lane_lambda1`; before that the group steps
+    // without them.
+    let from = if M > 0 {
+        spec.stepper.tangent_from(spec.transient)
+    } else {
+        0
+    };
+    let mut no_tan: Vec<[Tangent<R, 0>; BATCH]> = (0..batches)
+        .map(|_| std::array::from_fn(|_| Tangent::new([])))
+        .collect();
     for p in 0..spec.transient + spec.recorded {
         let recording = p >= spec.transient;
         if !recording && lanes.iter().flatten().all(|l| l.status.is_frozen()) {
@@ -129,6 +147,12 @@ fn run_batch_inner<R: Real, const M: usize>(
         // stops within a period and returns nothing.
         if cancel.is_set() {
             return Vec::new();
+        }
+        if p < from {
+            for _ in 0..n {
+                group_macro_step_tangent(&bc, &lc, &mut lanes, &mut no_tan, &mut scratch);
+            }
+            continue;
         }
         for _ in 0..n {
             group_macro_step_tangent(&bc, &lc, &mut lanes, &mut tan, &mut scratch);
@@ -265,14 +289,103 @@ pub fn run(spec: &EnsembleSpec, lambda1: bool, ctl: Control) -> Result<EnsembleR
     Ok(res)
 }
 
-/// Lanes `lanes` of `spec` through one batch of [`BATCH`] slots, each slot refilled
-/// with the next lane as soon as its lane retires (recognised by `early`), froze, or
-/// finished its periods (`refill::Refill`, the bookkeeping a GPU's slot pool shares);
-/// empty slots hold a frozen placeholder, which the batch stepper skips. Every lane
-/// starts at a period boundary (`Lane::k` = 0), so each lane's arithmetic is that of
-/// `run_batch_inner` and `run_lane` to the bit; with `M = 1` a tangent vector per slot
-/// gives each lane's lambda_1 over its record, renormalised after every period as
-/// `run_lane_lambda1` does (a retired lane has none: NaN).
+/// One refilled batch of [`BATCH`] slots (`run_refill_inner`): the slots' lanes, their
+/// constants and tangents (`M` per lane), and the batch constants, rebuilt when a slot
+/// takes another lane.
+struct Bank<'t, R: Real, const M: usize> {
+    lc: [LaneConsts<R>; BATCH],
+    state: [Lane<R>; BATCH],
+    slot: [Option<SlotLane>; BATCH],
+    tan: [Tangent<R, M>; BATCH],
+    bc: BatchConsts<'t, R>,
+    forcing: Option<&'t ForcingTable<R>>,
+    changed: bool,
+}
+
+impl<'t, R: Real, const M: usize> Bank<'t, R, M> {
+    #[inline(always)]
+    fn new(lc: LaneConsts<R>, forcing: Option<&'t ForcingTable<R>>) -> Self {
+        let lc: [LaneConsts<R>; BATCH] = std::array::from_fn(|_| lc);
+        Bank {
+            bc: BatchConsts::new(&lc, forcing),
+            lc,
+            state: std::array::from_fn(|_| placeholder()),
+            slot: std::array::from_fn(|_| None),
+            tan: std::array::from_fn(|_| fresh_tangent()),
+            forcing,
+            changed: false,
+        }
+    }
+
+    #[inline(always)]
+    fn live(&self) -> usize {
+        self.slot.iter().filter(|s| s.is_some()).count()
+    }
+
+    #[inline(always)]
+    fn free(&self) -> Option<usize> {
+        self.slot.iter().position(Option::is_none)
+    }
+
+    /// Puts `s` (constants `lc`, at `state`) into free slot `l` with a fresh tangent.
+    #[inline(always)]
+    fn load(&mut self, l: usize, (s, lc, state): Moving<R>) {
+        self.slot[l] = Some(s);
+        self.lc[l] = lc;
+        self.state[l] = state;
+        self.tan[l] = fresh_tangent();
+        self.changed = true;
+    }
+
+    /// Empties slot `l`, handing back what it held.
+    #[inline(always)]
+    fn take(&mut self, l: usize) -> Option<Moving<R>> {
+        let s = self.slot[l].take()?;
+        let state = std::mem::replace(&mut self.state[l], placeholder());
+        self.changed = true;
+        Some((s, self.lc[l], state))
+    }
+
+    /// One forcing period of the batch's lanes. Inlined into `run_refill_inner`, so
+    /// that it is compiled for the instruction set its caller was (`per_instruction_set!`).
+    #[inline(always)]
+    fn step_period(&mut self, n: u32) {
+        if self.changed {
+            self.bc = BatchConsts::new(&self.lc, self.forcing);
+            self.changed = false;
+        }
+        for _ in 0..n {
+            batch_macro_step_tangent(&self.bc, &self.lc, &mut self.state, &mut self.tan);
+        }
+    }
+}
+
+/// A slot lane between slots: its bookkeeping, constants and state.
+type Moving<R> = (SlotLane, LaneConsts<R>, Lane<R>);
+
+/// An empty slot's lane: frozen, so the batch stepper skips it.
+fn placeholder<R: Real>() -> Lane<R> {
+    Lane::<R>::new(&[f64::NAN; STATE_DIM], 0.0)
+}
+
+fn fresh_tangent<R: Real, const M: usize>() -> Tangent<R, M> {
+    Tangent::new([[R::lit(LAMBDA1_START); STATE_DIM]; M])
+}
+
+/// Lanes `lanes` of `spec` through refilled batches of [`BATCH`] slots, each slot
+/// refilled with the next lane as soon as its lane retires (recognised by `early`),
+/// froze, or finished its periods (`refill::Refill`, the bookkeeping a GPU's slot pool
+/// shares); empty slots hold a frozen placeholder, which the batch stepper skips. Every
+/// lane starts at a period boundary (`Lane::k` = 0), so each lane's arithmetic is that
+/// of `run_batch_inner` and `run_lane` to the bit, whichever slot and batch it runs in.
+/// With `M = 1` a tangent vector per slot gives each lane's lambda_1 over its record,
+/// renormalised after every period as `run_lane_lambda1` does (a retired lane has
+/// none: NaN). The tangent starts only `lyapunov_align` periods before a lane's record
+/// (`Refill::needs_tangent`), and lanes start at different periods, so two batches run
+/// side by side: one without tangents for lanes before their window, one with them,
+/// which a lane enters (its tangent fresh) when its window begins. The one with
+/// tangents steps when its slots are full or the other has no lane; so neither
+/// computes tangents for lanes that need none.
 #[inline(always)]
 fn run_refill_inner<R: Real, const M: usize>(
     spec: &EnsembleSpec,
@@ -281,65 +394,84 @@ fn run_refill_inner<R: Real, const M: usize>(
     cancel: &Cancel,
 ) -> Option<Vec<Ended>> {
     let mut refill = Refill::new(spec, early, lanes.clone(), M > 0);
-    let placeholder = || Lane::<R>::new(&[f64::NAN; STATE_DIM], 0.0);
-    let mut lc: [LaneConsts<R>; BATCH] = std::array::from_fn(|_| spec.lane_consts(lanes.start));
-    let mut state: [Lane<R>; BATCH] = std::array::from_fn(|_| placeholder());
-    let mut slot: [Option<SlotLane>; BATCH] = std::array::from_fn(|_| None);
-    let fresh = || Tangent::<R, M>::new([[R::lit(LAMBDA1_START); STATE_DIM]; M]);
-    let mut tan: [Tangent<R, M>; BATCH] = std::array::from_fn(|_| fresh());
-    let load = |l: usize,
-                refill: &mut Refill,
-                lc: &mut [LaneConsts<R>; BATCH],
-                state: &mut [Lane<R>; BATCH],
-                tan: &mut [Tangent<R, M>; BATCH],
-                slot: &mut [Option<SlotLane>; BATCH]| {
-        slot[l] = refill.next_lane();
-        match &slot[l] {
-            Some(s) => {
-                lc[l] = spec.lane_consts(s.lane);
-                state[l] = spec.initial_lane(s.lane);
-                tan[l] = fresh();
-            }
-            None => state[l] = placeholder(),
-        }
-    };
-    for l in 0..BATCH {
-        load(l, &mut refill, &mut lc, &mut state, &mut tan, &mut slot);
-    }
-    let forcing = ForcingTable::for_batches(&lc[0]);
-    let mut bc = BatchConsts::new(&lc, forcing);
+    let lc0 = spec.lane_consts::<R>(lanes.start);
+    let forcing = ForcingTable::for_batches(&lc0);
+    let mut plain = Bank::<R, 0>::new(lc0, forcing);
+    let mut with = Bank::<R, M>::new(lc0, forcing);
+    // Lanes whose window has begun, waiting for a slot with tangents.
+    let mut waiting: std::collections::VecDeque<Moving<R>> = std::collections::VecDeque::new();
     let mut out = Vec::with_capacity(lanes.len());
     let n = spec.stepper.steps_per_period;
-    while slot.iter().any(Option::is_some) {
+    let mut more = true;
+    loop {
         if cancel.is_set() {
             return None;
         }
-        for _ in 0..n {
-            batch_macro_step_tangent(&bc, &lc, &mut state, &mut tan);
+        while let (Some(l), false) = (with.free(), waiting.is_empty()) {
+            let m = waiting.pop_front().expect("a waiting lane");
+            with.load(l, m);
         }
-        let mut refilled = false;
-        for l in 0..BATCH {
-            let Some(s) = slot[l].as_mut() else {
-                continue;
+        while more {
+            let Some(l) = plain.free() else { break };
+            let Some(s) = refill.next_lane() else {
+                more = false;
+                break;
             };
-            let lane = &state[l];
-            let frozen = lane.status.is_frozen();
-            // As `run_batch_inner`: a frozen lane is not renormalised (it ends here).
-            let norm = if M == 0 || frozen {
-                1.0
+            let i = s.lane;
+            let m = (s, spec.lane_consts(i), spec.initial_lane(i));
+            if refill.needs_tangent(&m.0) {
+                // Window from period 0: straight to the batch with tangents.
+                match with.free() {
+                    Some(w) => with.load(w, m),
+                    None => waiting.push_back(m),
+                }
             } else {
-                renormalise(&mut tan[l].v[0]).to_f64()
-            };
-            let x = lane.state_f64();
-            if let Some(retired) = refill.period_end(s, &x, frozen, norm) {
-                let s = slot[l].take().expect("occupied slot");
-                out.push(refill.ended(s, retired, x, lane.status, lane.counters));
-                load(l, &mut refill, &mut lc, &mut state, &mut tan, &mut slot);
-                refilled = true;
+                plain.load(l, m);
             }
         }
-        if refilled {
-            bc = BatchConsts::new(&lc, forcing);
+        let (p_live, w_live) = (plain.live(), with.live());
+        if p_live == 0 && w_live == 0 && waiting.is_empty() && !more {
+            break;
+        }
+        if w_live > 0 && (w_live == BATCH || p_live == 0) {
+            with.step_period(n);
+            for l in 0..BATCH {
+                let Some(s) = with.slot[l].as_mut() else {
+                    continue;
+                };
+                let lane = &with.state[l];
+                let frozen = lane.status.is_frozen();
+                // As `run_batch_inner`: a frozen lane is not renormalised (it ends here).
+                let norm = if M == 0 || frozen {
+                    1.0
+                } else {
+                    renormalise(&mut with.tan[l].v[0]).to_f64()
+                };
+                let x = lane.state_f64();
+                if let Some(retired) = refill.period_end(s, &x, frozen, norm) {
+                    let (s, _, lane) = with.take(l).expect("occupied slot");
+                    out.push(refill.ended(s, retired, x, lane.status, lane.counters));
+                }
+            }
+        } else if p_live > 0 {
+            plain.step_period(n);
+            for l in 0..BATCH {
+                let Some(s) = plain.slot[l].as_mut() else {
+                    continue;
+                };
+                let lane = &plain.state[l];
+                let frozen = lane.status.is_frozen();
+                let x = lane.state_f64();
+                // No lane here records with lambda_1 (its window begins before its
+                // record), so its growth is never kept: 1.
+                if let Some(retired) = refill.period_end(s, &x, frozen, 1.0) {
+                    let (s, _, lane) = plain.take(l).expect("occupied slot");
+                    out.push(refill.ended(s, retired, x, lane.status, lane.counters));
+                } else if refill.needs_tangent(s) {
+                    let m = plain.take(l).expect("occupied slot");
+                    waiting.push_back(m);
+                }
+            }
         }
     }
     Some(out)

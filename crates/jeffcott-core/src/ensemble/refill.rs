@@ -41,6 +41,10 @@ pub struct SlotLane {
     record_from: u32,
     /// The attractor it was recognised on ([`Then::Record`]: it is recording).
     recognised: Option<u32>,
+    /// With lambda_1, the period its tangent vector starts afresh at
+    /// ([`crate::integrate::lane::StepperConfig::tangent_from`] of its record): it carries
+    /// none before.
+    tangent_from: u32,
     /// The tangent's growth over each recorded period (with lambda_1).
     norms: Vec<f64>,
 }
@@ -79,6 +83,7 @@ impl<'a> Refill<'a> {
             points: Vec::with_capacity(spec.recorded as usize * STATE_DIM),
             record_from: spec.transient,
             recognised: None,
+            tangent_from: spec.stepper.tangent_from(spec.transient),
             norms: Vec::with_capacity(if self.lambda1 {
                 spec.recorded as usize
             } else {
@@ -113,7 +118,14 @@ impl<'a> Refill<'a> {
             .then(|| early.recognise.observe(s.lane, &mut s.track, x))
             .flatten();
         if let (Some(a), Then::Record) = (now, early.then) {
-            s.record_from = s.periods;
+            // With lambda_1 the record waits for the tangent to align
+            // (`StepperConfig::record_early_from`), which starts afresh here if it was
+            // not running yet.
+            let k = s.periods;
+            s.record_from = spec
+                .stepper
+                .record_early_from(k, spec.transient, self.lambda1);
+            s.tangent_from = s.tangent_from.min(k);
             s.recognised = Some(a);
         }
         // A lane recorded early counts the periods of its whole record, also when it
@@ -144,7 +156,13 @@ impl<'a> Refill<'a> {
     /// could be recognised, or its record ends): a GPU slice of at most this many
     /// periods stops no later than the CPU would stop the lane. At least 1.
     pub fn quiet_periods(&self, s: &SlotLane) -> u32 {
-        let end = s.record_from + self.spec.recorded;
+        // With lambda_1 a slice also stops where the lane's tangent starts, so that it
+        // starts afresh there ([`Refill::tangent_starts`]).
+        let end = if self.lambda1 && s.periods < s.tangent_from {
+            s.tangent_from
+        } else {
+            s.record_from + self.spec.recorded
+        };
         let looks = if s.recognised.is_some() {
             None
         } else {
@@ -155,6 +173,20 @@ impl<'a> Refill<'a> {
             .map_or(end, |q| q.min(end))
             .saturating_sub(s.periods)
             .max(1)
+    }
+
+    /// Whether slot lane `s` needs its tangent vector over its next period (with
+    /// lambda_1, from [`SlotLane`]'s `tangent_from` on); before, a batch may step it
+    /// without one.
+    pub fn needs_tangent(&self, s: &SlotLane) -> bool {
+        self.lambda1 && s.periods >= s.tangent_from
+    }
+
+    /// Whether slot lane `s`, after a period end that did not end it, starts its
+    /// tangent vector afresh now: a slot pool whose kernel carries tangents all along
+    /// writes the start vector into its slot here.
+    pub fn tangent_starts(&self, s: &SlotLane) -> bool {
+        self.lambda1 && s.tangent_from > 0 && s.periods == s.tangent_from
     }
 
     /// What a lane that ended at [`Refill::period_end`] leaves: `x`, `status` and

@@ -194,6 +194,15 @@ pub struct StepperConfig {
     /// it existed used RK4 (false).
     #[serde(default)]
     pub exact_free_flight: bool,
+    /// lambda_1: forcing periods the tangent vector aligns before a lane's record. It
+    /// starts afresh `lyapunov_align` periods before the record (at period 0 when the
+    /// transient is shorter), and until then the lanes carry none, so a lambda_1 study
+    /// costs a tangent step only over these periods and the record: an estimate needs
+    /// a few 1/(lambda_1 - lambda_2) of alignment (Benettin et al., Meccanica 15 (1980)),
+    /// not the whole transient (docs/performance.md). 0: over the whole transient, as
+    /// runs recorded before it existed did.
+    #[serde(default)]
+    pub lyapunov_align: u32,
 }
 
 fn no_contact_refinement() -> u32 {
@@ -201,6 +210,30 @@ fn no_contact_refinement() -> u32 {
 }
 
 impl StepperConfig {
+    /// The period at which a lane whose record starts at period `record_from` starts
+    /// its tangent vector afresh ([`StepperConfig::lyapunov_align`]; 0 with 0).
+    pub fn tangent_from(&self, record_from: u32) -> u32 {
+        if self.lyapunov_align == 0 {
+            0
+        } else {
+            record_from.saturating_sub(self.lyapunov_align)
+        }
+    }
+
+    /// The period a lane's record starts at when it is recognised on an attractor at
+    /// period `k` of its transient `transient` and recorded from there
+    /// (`ensemble::early::Then::Record`): at `k` itself without lambda_1 or with
+    /// `lyapunov_align` 0, else after its tangent has aligned over `lyapunov_align`
+    /// periods (restarted at `k` if it was not running yet), at `transient` at the
+    /// latest.
+    pub fn record_early_from(&self, k: u32, transient: u32, lambda1: bool) -> u32 {
+        if !lambda1 || self.lyapunov_align == 0 {
+            k
+        } else {
+            k.saturating_add(self.lyapunov_align).min(transient)
+        }
+    }
+
     /// The defaults, in one place: the command line's option defaults and the Python
     /// package's keyword defaults are these fields.
     pub const DEFAULT: StepperConfig = StepperConfig {
@@ -211,6 +244,7 @@ impl StepperConfig {
         early_exit_after: 30,
         early_exit_streak: 16,
         exact_free_flight: false,
+        lyapunov_align: 100,
     };
 }
 
@@ -270,6 +304,7 @@ impl StepperConfig {
             ));
         }
         crate::limits::check_periods("early-exit-after", self.early_exit_after, 0)?;
+        crate::limits::check_periods("lyapunov-align", self.lyapunov_align, 0)?;
         if self.early_exit_streak > 100_000 {
             return Err(Error::invalid(
                 "early-exit-streak",
