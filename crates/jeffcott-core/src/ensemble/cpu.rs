@@ -346,6 +346,41 @@ impl<'t, R: Real, const M: usize> Bank<'t, R, M> {
         Some((s, self.lc[l], state))
     }
 
+    /// The period end of every lane in the batch (`Refill::period_end`): lanes that end
+    /// go into `out`; with `to_window`, lanes whose tangent window begins leave for it.
+    #[inline(always)]
+    fn period_ends(
+        &mut self,
+        refill: &Refill,
+        out: &mut Vec<Ended>,
+        mut to_window: Option<&mut std::collections::VecDeque<Moving<R>>>,
+    ) {
+        for l in 0..BATCH {
+            let Some(s) = self.slot[l].as_mut() else {
+                continue;
+            };
+            let lane = &self.state[l];
+            let frozen = lane.status.is_frozen();
+            // As `run_batch_inner`: a frozen lane is not renormalised (it ends here). A
+            // batch without tangents keeps no growth: its lanes record none (their
+            // window begins before their record).
+            let norm = if M == 0 || frozen {
+                1.0
+            } else {
+                renormalise(&mut self.tan[l].v[0]).to_f64()
+            };
+            let x = lane.state_f64();
+            if let Some(retired) = refill.period_end(s, &x, frozen, norm) {
+                let (s, _, lane) = self.take(l).expect("occupied slot");
+                out.push(refill.ended(s, retired, x, lane.status, lane.counters));
+            } else if let Some(w) = to_window.as_deref_mut()
+                && refill.needs_tangent(s)
+            {
+                w.push_back(self.take(l).expect("occupied slot"));
+            }
+        }
+    }
+
     /// One forcing period of the batch's lanes. Inlined into `run_refill_inner`, so
     /// that it is compiled for the instruction set its caller was (`per_instruction_set!`).
     #[inline(always)]
@@ -435,43 +470,10 @@ fn run_refill_inner<R: Real, const M: usize>(
         }
         if w_live > 0 && (w_live == BATCH || p_live == 0) {
             with.step_period(n);
-            for l in 0..BATCH {
-                let Some(s) = with.slot[l].as_mut() else {
-                    continue;
-                };
-                let lane = &with.state[l];
-                let frozen = lane.status.is_frozen();
-                // As `run_batch_inner`: a frozen lane is not renormalised (it ends here).
-                let norm = if M == 0 || frozen {
-                    1.0
-                } else {
-                    renormalise(&mut with.tan[l].v[0]).to_f64()
-                };
-                let x = lane.state_f64();
-                if let Some(retired) = refill.period_end(s, &x, frozen, norm) {
-                    let (s, _, lane) = with.take(l).expect("occupied slot");
-                    out.push(refill.ended(s, retired, x, lane.status, lane.counters));
-                }
-            }
+            with.period_ends(&refill, &mut out, None);
         } else if p_live > 0 {
             plain.step_period(n);
-            for l in 0..BATCH {
-                let Some(s) = plain.slot[l].as_mut() else {
-                    continue;
-                };
-                let lane = &plain.state[l];
-                let frozen = lane.status.is_frozen();
-                let x = lane.state_f64();
-                // No lane here records with lambda_1 (its window begins before its
-                // record), so its growth is never kept: 1.
-                if let Some(retired) = refill.period_end(s, &x, frozen, 1.0) {
-                    let (s, _, lane) = plain.take(l).expect("occupied slot");
-                    out.push(refill.ended(s, retired, x, lane.status, lane.counters));
-                } else if refill.needs_tangent(s) {
-                    let m = plain.take(l).expect("occupied slot");
-                    waiting.push_back(m);
-                }
-            }
+            plain.period_ends(&refill, &mut out, Some(&mut waiting));
         }
     }
     Some(out)
