@@ -129,6 +129,14 @@ fn period_counts_beyond_1e8_are_refused_by_every_command() {
             "basin --omega 133 --x x_r:-0.006:0.006:4 --y vx_r:-1:1:4 --transient",
             "transient",
         ),
+        (
+            "ensemble --omega 133 --lyapunov --lyapunov-align",
+            "lyapunov-align",
+        ),
+        (
+            "basin --omega 133 --x x_r:-0.006:0.006:4 --y vx_r:-1:1:4 --early-exit-after",
+            "early-exit-after",
+        ),
     ];
     for (line, option) in cases {
         let args = [words(line), vec![huge]].concat();
