@@ -446,7 +446,9 @@ fn run_refill_inner<R: Real, const M: usize>(
             let m = waiting.pop_front().expect("a waiting lane");
             with.load(l, m);
         }
-        while more {
+        // At most a batch of lanes waits (a run whose lanes all start with their
+        // tangent would otherwise draw every lane into the queue at once).
+        while more && waiting.len() < BATCH {
             let Some(l) = plain.free() else { break };
             let Some(s) = refill.next_lane() else {
                 more = false;
