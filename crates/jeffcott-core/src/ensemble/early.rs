@@ -46,11 +46,12 @@ pub enum Then {
     /// It retires: no record (NaN rows), its final state the state it was recognised at.
     /// For studies that need its label only (a basin's cells).
     Retire,
-    /// It skips the rest of its transient and records its `recorded` periods from there:
-    /// a record of its own on the attractor, for studies that classify or draw each
-    /// lane's record (the brute force). Recognition looks at the transient only; a lane
-    /// recognised at the transient's last period has the record of the run without
-    /// early exit.
+    /// It skips the rest of its transient and records its `recorded` periods from there
+    /// (with lambda_1, once its tangent has aligned:
+    /// `StepperConfig::record_early_from`): a record of its own on the attractor, for
+    /// studies that classify or draw each lane's record (the brute force). Recognition
+    /// looks at the transient only; a lane recognised at the transient's last period
+    /// has the record of the run without early exit.
     Record,
 }
 
@@ -123,7 +124,9 @@ pub fn periods_run(retired: &[Option<Retired>], full: u32) -> u64 {
 /// never match) in a run of `transient` periods of transient and `recorded` recorded:
 /// the same calls of [`Recognise::observe`] as the runner makes, stopping at the first
 /// recognition (`first` is `early.after`, at least 1). With [`Then::Record`] the lane's
-/// record is then the `recorded` rows before the returned period's end.
+/// record is then the `recorded` rows before the returned period's end (the runner's
+/// rule without lambda_1; with it the record may start later,
+/// `StepperConfig::record_early_from`).
 pub fn replay(
     early: &EarlyExit,
     lane: usize,

@@ -36,8 +36,8 @@ pub struct SlotLane {
     track: Track,
     /// Its recorded points.
     points: Vec<f64>,
-    /// Periods before its record: the transient, or the period it was recognised at
-    /// ([`Then::Record`]).
+    /// Periods before its record: the transient, or from the period it was recognised
+    /// at ([`Then::Record`]; later with lambda_1, `StepperConfig::record_early_from`).
     record_from: u32,
     /// The attractor it was recognised on ([`Then::Record`]: it is recording).
     recognised: Option<u32>,
