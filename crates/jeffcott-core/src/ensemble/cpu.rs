@@ -57,7 +57,7 @@ fn run_lane<R: Real>(spec: &EnsembleSpec, i: usize, cancel: &Cancel) -> Option<L
 fn run_lane_lambda1<R: Real>(spec: &EnsembleSpec, i: usize, cancel: &Cancel) -> Option<LaneResult> {
     let lc = spec.lane_consts::<R>(i);
     let mut lane = spec.initial_lane::<R>(i);
-    let mut tan = Tangent::<R, 1>::new([[R::lit(LAMBDA1_START); STATE_DIM]]);
+    let mut tan = fresh_tangent::<R, 1>();
     let mut points = Vec::with_capacity(spec.recorded as usize * STATE_DIM);
     let mut norms = Vec::with_capacity(spec.recorded as usize);
     // The tangent starts (untouched until then) `lyapunov_align` periods before the
@@ -118,7 +118,7 @@ fn run_batch_inner<R: Real, const M: usize>(
         .map(|b| std::array::from_fn(|l| spec.initial_lane(lane_of(b, l))))
         .collect();
     let mut tan: Vec<[Tangent<R, M>; BATCH]> = (0..batches)
-        .map(|_| std::array::from_fn(|_| Tangent::new([[R::lit(LAMBDA1_START); STATE_DIM]; M])))
+        .map(|_| std::array::from_fn(|_| fresh_tangent()))
         .collect();
     let mut scratch = GroupScratch::default();
     let n = spec.stepper.steps_per_period;
@@ -403,6 +403,7 @@ fn placeholder<R: Real>() -> Lane<R> {
     Lane::<R>::new(&[f64::NAN; STATE_DIM], 0.0)
 }
 
+/// `M` tangent vectors as every lambda_1 lane starts them, along (1, ..., 1).
 fn fresh_tangent<R: Real, const M: usize>() -> Tangent<R, M> {
     Tangent::new([[R::lit(LAMBDA1_START); STATE_DIM]; M])
 }
@@ -442,8 +443,9 @@ fn run_refill_inner<R: Real, const M: usize>(
         if cancel.is_set() {
             return None;
         }
-        while let (Some(l), false) = (with.free(), waiting.is_empty()) {
-            let m = waiting.pop_front().expect("a waiting lane");
+        while let Some(l) = with.free()
+            && let Some(m) = waiting.pop_front()
+        {
             with.load(l, m);
         }
         // At most a batch of lanes waits (a run whose lanes all start with their
