@@ -36,10 +36,33 @@ pub use crate::integrate::wide::BATCH;
 /// One value per lane of a batch.
 type V<R> = [R; BATCH];
 
-/// Builds a per-lane array from a function of the lane index.
+/// Builds a per-lane array from a function of the lane index. A plain loop, not
+/// `std::array::from_fn` nor an iterator adapter: those are generic functions the
+/// compiler may keep out of line, and out of line they are compiled without the
+/// instruction set the batch stepper is built for (`cpu::run_batch`'s per-instruction-
+/// set copies). perf found 14 % of the f64 bench's samples in such SSE2 copies
+/// (`Map::fold`, `Iterator::try_fold`); written as loops, the same work ran 1-3 %
+/// faster (2026-11-27).
 #[inline(always)]
-fn lanes<R: Copy>(f: impl FnMut(usize) -> R) -> [R; BATCH] {
-    std::array::from_fn(f)
+fn lanes<R: Copy>(mut f: impl FnMut(usize) -> R) -> [R; BATCH] {
+    let mut out = [f(0); BATCH];
+    #[allow(clippy::needless_range_loop)]
+    for l in 1..BATCH {
+        out[l] = f(l);
+    }
+    out
+}
+
+/// Whether `f` holds for some lane, lanes in order, stopping at the first (a loop for
+/// the reason of [`lanes`]).
+#[inline(always)]
+fn any_lane(mut f: impl FnMut(usize) -> bool) -> bool {
+    for l in 0..BATCH {
+        if f(l) {
+            return true;
+        }
+    }
+    false
 }
 
 /// The lane constants of a batch, structure-of-arrays.
@@ -264,7 +287,12 @@ fn set_lane<R: Copy>(x: &mut [V<R>; STATE_DIM], l: usize, v: [R; STATE_DIM]) {
 /// Lane `l` of a structure-of-arrays state.
 #[inline(always)]
 fn lane_of<R: Copy>(x: &[V<R>; STATE_DIM], l: usize) -> [R; STATE_DIM] {
-    std::array::from_fn(|i| x[i][l])
+    let mut out = [x[0][l]; STATE_DIM];
+    #[allow(clippy::needless_range_loop)]
+    for i in 1..STATE_DIM {
+        out[i] = x[i][l];
+    }
+    out
 }
 
 /// `lane::forcing_phasor` for every lane at its fraction `sigma` of macro step `k`:
@@ -331,9 +359,10 @@ fn stage<R: Real>(
     hs: &V<R>,
     k: &[V<R>; STATE_DIM],
 ) -> [V<R>; STATE_DIM] {
+    // Lanes outside, components inside (see the update in `rk4_step`).
     let mut out = [[R::lit(0.0); BATCH]; STATE_DIM];
-    for i in 0..STATE_DIM {
-        for l in 0..BATCH {
+    for l in 0..BATCH {
+        for i in 0..STATE_DIM {
             out[i][l] = x[i][l] + factor * hs[l] * k[i][l];
         }
     }
@@ -368,10 +397,15 @@ fn rk4_step<R: Real>(
     let k3 = rhs(bc, &xt3, &cm, &sm, contact);
     let xt4 = stage(x, R::lit(1.0), &hs, &k3);
     let k4 = rhs(bc, &xt4, &c1, &s1, contact);
+    // The loop over lanes outside, the one over components inside: the compiler
+    // unrolls the inner loop and vectorises the outer one, so with the lanes inside it
+    // vectorised across the components (STATE_DIM = BATCH), reading and writing the
+    // lane-major arrays through gathers and scatters: 23 % of the f64 bench's samples
+    // (perf, 2026-11-27).
     let sixth = R::lit(1.0 / 6.0);
     let mut out = [[R::lit(0.0); BATCH]; STATE_DIM];
-    for i in 0..STATE_DIM {
-        for l in 0..BATCH {
+    for l in 0..BATCH {
+        for i in 0..STATE_DIM {
             out[i][l] = x[i][l]
                 + hs[l] * sixth * (k1[i][l] + R::lit(2.0) * (k2[i][l] + k3[i][l]) + k4[i][l]);
         }
@@ -389,8 +423,11 @@ fn wide_stage<R: Real>(
 ) -> [Wide<R>; STATE_DIM] {
     let a = factor * hs;
     let mut out = *v;
-    for (o, k) in out.iter_mut().zip(k) {
-        *o = *o + a * *k;
+    // Lanes outside, components inside (see the update in `rk4_step`).
+    for l in 0..BATCH {
+        for i in 0..STATE_DIM {
+            out[i][l] = v[i][l] + a[l] * k[i][l];
+        }
     }
     out
 }
@@ -446,10 +483,14 @@ fn tangent_step<R: Real, const M: usize>(
         let a3 = tangent_rhs(&c, &pc[2], &wide_stage(&v, half, hs, &a2));
         let a4 = tangent_rhs(&c, &pc[3], &wide_stage(&v, one, hs, &a3));
         // Loops, not `std::array::from_fn`: with the state step written that way, its
-        // closure was compiled out of line, without the caller's AVX2.
+        // closure was compiled out of line, without the caller's AVX2. Lanes outside,
+        // components inside (see the update in `rk4_step`).
         let mut out = v;
-        for (i, o) in out.iter_mut().enumerate() {
-            *o = v[i] + hs * sixth * (a1[i] + two * (a2[i] + a3[i]) + a4[i]);
+        for l in 0..BATCH {
+            for i in 0..STATE_DIM {
+                out[i][l] = v[i][l]
+                    + hs[l] * sixth[l] * (a1[i][l] + two[l] * (a2[i][l] + a3[i][l]) + a4[i][l]);
+            }
         }
         for (l, t) in tan.iter_mut().enumerate() {
             if accept[l] {
@@ -483,6 +524,8 @@ fn samples<R: Real>(
     ds: &V<R>,
     theta: R,
 ) -> (V<R>, V<R>) {
+    // Per lane on `lane_of` its state: written on whole rows (`Wide`, the definition
+    // made generic) the f64 bench ran 3-6 % slower (2026-11-27).
     let mut sq = [R::lit(0.0); BATCH];
     let mut dot = [R::lit(0.0); BATCH];
     for l in 0..BATCH {
@@ -556,7 +599,10 @@ fn batch_pass<R: Real, const M: usize>(
 ) {
     let zero = R::lit(0.0);
     let one = R::lit(1.0);
-    let x: [V<R>; STATE_DIM] = std::array::from_fn(|i| lanes(|l| part[l].x[i]));
+    let mut x: [V<R>; STATE_DIM] = [[zero; BATCH]; STATE_DIM];
+    for (l, p) in part.iter().enumerate() {
+        set_lane(&mut x, l, p.x);
+    }
     let contact: [bool; BATCH] = lanes(|l| part[l].contact);
     let s0: V<R> = lanes(|l| part[l].s);
     let extent: [(R, R); BATCH] = lanes(|l| trial_extent(&lc[l], s0[l], contact[l]));
@@ -566,7 +612,7 @@ fn batch_pass<R: Real, const M: usize>(
     // map); RK4 runs for the batch unless every live lane did.
     let exact: [Option<&ExactFreeFlight<R>>; BATCH] =
         lanes(|l| exact_trial(&lc[l], s0[l], contact[l]));
-    let (mut x1, stages) = if (0..BATCH).any(|l| active[l] && exact[l].is_none()) {
+    let (mut x1, stages) = if any_lane(|l| active[l] && exact[l].is_none()) {
         rk4_step(bc, &x, k, &s0, &ds, &contact)
     } else {
         (x, [x; 4])
@@ -581,11 +627,18 @@ fn batch_pass<R: Real, const M: usize>(
     // not computed at all. The test stops at the first live lane that fails it (the
     // search runs then, for all lanes, and a lane's outcome does not depend on it):
     // computed for all 8 lanes in contact-heavy batches it cost 5 % at W = 133.
-    let search = (0..BATCH).any(|l| {
-        active[l]
+    // A loop in this function's body, not a closure: a closure called from a helper
+    // was compiled out of line, without the batch's instruction set (perf).
+    let mut search = false;
+    for l in 0..BATCH {
+        if active[l]
             && (part[l].touched
                 || !free_flight_certain(&lc[l], &lane_of(&x, l), &lane_of(&x1, l), ds[l] * bc.h[l]))
-    });
+        {
+            search = true;
+            break;
+        }
+    }
     // The switch search of `lane::find_switch`, kept only as far as deciding that
     // there is no switch: any sample on the wrong side, or an extremum heading
     // there, sends the lane to the scalar path. Decided without a sqrt or a division
@@ -659,7 +712,7 @@ fn batch_pass<R: Real, const M: usize>(
         if search {
             p.max_g = p.max_g.max(max_g[l]);
         }
-        p.x = std::array::from_fn(|i| x1[i][l]);
+        p.x = lane_of(&x1, l);
         p.s = extent[l].1;
         active[l] = p.s < one;
     }
@@ -749,10 +802,18 @@ pub fn group_macro_step_tangent<R: Real, const M: usize>(
         queue,
         next,
     } = scratch;
+    // Loops with push, not `extend` over an iterator adapter (`Map::fold`, compiled out
+    // of line without the batch's instruction set: 5 % of the f64 bench in perf).
     ks.clear();
-    ks.extend(lane.iter().map(batch_k));
     parts.clear();
-    parts.extend(lane.iter().map(|b| lanes(|l| macro_step_begin(&b[l]))));
+    for b in lane.iter() {
+        ks.push(batch_k(b));
+        let mut part = [macro_step_begin(&b[0]); BATCH];
+        for l in 1..BATCH {
+            part[l] = macro_step_begin(&b[l]);
+        }
+        parts.push(part);
+    }
     // Read only where a pass wrote them (lanes handed over), so never cleared.
     trials.resize(g, [[R::lit(0.0); STATE_DIM]; BATCH]);
     queue.clear();
