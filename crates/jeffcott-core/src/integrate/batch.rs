@@ -794,7 +794,10 @@ pub fn group_macro_step_tangent<R: Real, const M: usize>(
         batch_macro_step_tangent(bc, lc, lane, tan);
         return;
     }
-    let g = lane.len();
+    let (g, Some(first)) = (lane.len(), lane.first()) else {
+        return;
+    };
+    let filler = [macro_step_begin(&first[0]); BATCH];
     let GroupScratch {
         ks,
         parts,
@@ -802,12 +805,12 @@ pub fn group_macro_step_tangent<R: Real, const M: usize>(
         queue,
         next,
     } = scratch;
-    // Loops with push, not `extend` over an iterator adapter (`Map::fold`, compiled out
-    // of line without the batch's instruction set: 5 % of the f64 bench in perf).
-    // Each batch's macro steps are written in place (sized once, never cleared), not
-    // built on the stack and pushed.
+    // Plain loops, not `extend` over an iterator adapter (`Map::fold`, compiled out of
+    // line without the batch's instruction set: 5 % of the f64 bench in perf). Each
+    // batch's macro steps are written in place (the scratch only resized), not built on
+    // the stack and pushed.
     ks.clear();
-    parts.resize(g, [macro_step_begin(&lane[0][0]); BATCH]);
+    parts.resize(g, filler);
     for (b, part) in lane.iter().zip(parts.iter_mut()) {
         ks.push(batch_k(b));
         for l in 0..BATCH {
