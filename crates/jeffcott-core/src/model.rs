@@ -336,20 +336,37 @@ impl<R: Copy, const B: usize> Coeffs<[R; B]> {
     /// lane), so a loop over the lanes vectorises (`integrate::batch`).
     #[inline(always)]
     pub fn transpose(lanes: &[Coeffs<R>; B]) -> Self {
-        let f = |get: fn(&Coeffs<R>) -> R| std::array::from_fn(|l| get(&lanes[l]));
-        Coeffs {
-            wr2: f(|c| c.wr2),
-            dr: f(|c| c.dr),
-            ws2: f(|c| c.ws2),
-            ds: f(|c| c.ds),
-            unbalance: f(|c| c.unbalance),
-            a_g: f(|c| c.a_g),
-            kc_mr: f(|c| c.kc_mr),
-            kc_ms: f(|c| c.kc_ms),
-            mu: f(|c| c.mu),
-            delta: f(|c| c.delta),
-            tau_c: f(|c| c.tau_c),
+        // A plain loop, not `std::array::from_fn` with a getter per field: out of line
+        // (the batch stepper's pack loop, perf) those were compiled without the batch
+        // code's instruction set.
+        let c0 = &lanes[0];
+        let mut t = Coeffs {
+            wr2: [c0.wr2; B],
+            dr: [c0.dr; B],
+            ws2: [c0.ws2; B],
+            ds: [c0.ds; B],
+            unbalance: [c0.unbalance; B],
+            a_g: [c0.a_g; B],
+            kc_mr: [c0.kc_mr; B],
+            kc_ms: [c0.kc_ms; B],
+            mu: [c0.mu; B],
+            delta: [c0.delta; B],
+            tau_c: [c0.tau_c; B],
+        };
+        for (l, c) in lanes.iter().enumerate().skip(1) {
+            t.wr2[l] = c.wr2;
+            t.dr[l] = c.dr;
+            t.ws2[l] = c.ws2;
+            t.ds[l] = c.ds;
+            t.unbalance[l] = c.unbalance;
+            t.a_g[l] = c.a_g;
+            t.kc_mr[l] = c.kc_mr;
+            t.kc_ms[l] = c.kc_ms;
+            t.mu[l] = c.mu;
+            t.delta[l] = c.delta;
+            t.tau_c[l] = c.tau_c;
         }
+        t
     }
 
     /// Lane `l`'s coefficients.

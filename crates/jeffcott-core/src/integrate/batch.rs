@@ -22,7 +22,7 @@ use crate::integrate::lane::{
     Lane, LaneConsts, MacroStep, exact_trial, finish_macro_step, forcing_phasor, macro_step_begin,
     macro_step_end, macro_step_tangent, trial_extent,
 };
-use crate::integrate::switch::{GRAZE_SAMPLES, free_flight_certain, hermite_sq};
+use crate::integrate::switch::{GRAZE_SAMPLES, clear_of_stator, hermite_sq};
 use crate::integrate::tangent::{Tangent, jacobian_trace, tangent_rhs};
 use crate::integrate::wide::Wide;
 use crate::model::{
@@ -80,13 +80,22 @@ pub struct BatchConsts<'t, R> {
 impl<'t, R: Real> BatchConsts<'t, R> {
     /// Transposes the constants of `BATCH` lanes; `forcing` is kept when it serves all
     /// of them ([`ForcingTable::serves`]).
+    ///
+    /// Inlined and written as loops (see [`lanes`]): the group stepper builds one per
+    /// packed pass, and out of line, without the batch code's instruction set, this
+    /// held 2 % of the 1k-lane bench row's samples (perf, 2026-11-27).
+    #[inline(always)]
     pub fn new(lc: &[LaneConsts<R>; BATCH], forcing: Option<&'t ForcingTable<R>>) -> Self {
+        let mut serves = forcing.is_some();
+        for l in lc {
+            serves &= forcing.is_some_and(|t| t.serves(l));
+        }
         BatchConsts {
-            c: Coeffs::transpose(&std::array::from_fn(|l| lc[l].c)),
+            c: Coeffs::transpose(&lanes(|l| lc[l].c)),
             h: lanes(|l| lc[l].h),
             inv_n: lanes(|l| lc[l].inv_n),
             phase0: lanes(|l| lc[l].phase0),
-            forcing: forcing.filter(|t| lc.iter().all(|l| t.serves(l))),
+            forcing: if serves { forcing } else { None },
         }
     }
 }
@@ -218,6 +227,7 @@ impl<R: Real> ForcingTable<R> {
     }
 
     /// Whether the table holds `lc`'s phasors: the same N, phi0 and R, to the bit.
+    #[inline(always)]
     pub fn serves(&self, lc: &LaneConsts<R>) -> bool {
         let same = |a: R, b: R| a.to_f64().to_bits() == b.to_f64().to_bits();
         lc.n == self.n
@@ -624,19 +634,26 @@ fn batch_pass<R: Real, const M: usize>(
     }
     // When every live lane's macro step is untouched and its trial step certainly stays
     // clear of the stator (`lane::finish_macro_step`, the same test), the samples are
-    // not computed at all. The test stops at the first live lane that fails it (the
-    // search runs then, for all lanes, and a lane's outcome does not depend on it):
-    // computed for all 8 lanes in contact-heavy batches it cost 5 % at W = 133.
-    // A loop in this function's body, not a closure: a closure called from a helper
-    // was compiled out of line, without the batch's instruction set (perf).
+    // not computed at all. A touched live lane needs the search anyway; otherwise the
+    // test runs for all 8 lanes at once, in a loop without branches that the compiler
+    // vectorises (four square roots per lane: stopping at the first lane that failed,
+    // a serial loop, held 8 % of the 1k-lane bench row's samples, perf 2026-11-27).
     let mut search = false;
     for l in 0..BATCH {
-        if active[l]
-            && (part[l].touched
-                || !free_flight_certain(&lc[l], &lane_of(&x, l), &lane_of(&x1, l), ds[l] * bc.h[l]))
-        {
-            search = true;
-            break;
+        search |= active[l] & part[l].touched;
+    }
+    if !search {
+        let mut clear = [false; BATCH];
+        for l in 0..BATCH {
+            clear[l] = clear_of_stator(
+                bc.c.delta[l],
+                &lane_of(&x, l),
+                &lane_of(&x1, l),
+                ds[l] * bc.h[l],
+            );
+        }
+        for l in 0..BATCH {
+            search |= active[l] & !clear[l];
         }
     }
     // The switch search of `lane::find_switch`, kept only as far as deciding that

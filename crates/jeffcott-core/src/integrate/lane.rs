@@ -666,9 +666,11 @@ pub fn trial_tangent<R: Real, const M: usize>(
 pub(crate) fn macro_step_end<R: Real>(lc: &LaneConsts<R>, lane: &mut Lane<R>, p: &MacroStep<R>) {
     let (x, contact, substeps, k) = (p.x, p.contact, p.substeps, lane.k);
     // Status checks: freeze at the last good state rather than poison anything.
+    // Every component tested, without short-circuit: one vector test, where `&&`
+    // compiled to a compare and branch per component (the batch's profile).
     let mut finite = true;
     for v in x.iter() {
-        finite = finite && v.is_finite();
+        finite &= v.is_finite();
     }
     if !finite {
         lane.status = Status::NonFinite;
