@@ -339,6 +339,7 @@ impl<R: Copy, const B: usize> Coeffs<[R; B]> {
         // A plain loop, not `std::array::from_fn` with a getter per field: out of line
         // (the batch stepper's pack loop, perf) those were compiled without the batch
         // code's instruction set.
+        const { assert!(B > 0, "a batch holds at least one lane") };
         let c0 = &lanes[0];
         let mut t = Coeffs {
             wr2: [c0.wr2; B],
@@ -353,7 +354,9 @@ impl<R: Copy, const B: usize> Coeffs<[R; B]> {
             delta: [c0.delta; B],
             tau_c: [c0.tau_c; B],
         };
-        for (l, c) in lanes.iter().enumerate().skip(1) {
+        #[allow(clippy::needless_range_loop)]
+        for l in 1..B {
+            let c = &lanes[l];
             t.wr2[l] = c.wr2;
             t.dr[l] = c.dr;
             t.ws2[l] = c.ws2;
