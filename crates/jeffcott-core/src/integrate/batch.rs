@@ -86,7 +86,7 @@ impl<'t, R: Real> BatchConsts<'t, R> {
     /// held 2 % of the 1k-lane bench row's samples (perf, 2026-11-27).
     #[inline(always)]
     pub fn new(lc: &[LaneConsts<R>; BATCH], forcing: Option<&'t ForcingTable<R>>) -> Self {
-        let mut serves = forcing.is_some();
+        let mut serves = true;
         for l in lc {
             serves &= forcing.is_some_and(|t| t.serves(l));
         }

@@ -175,11 +175,12 @@ pub fn find_switch<R: Real>(
     // the walk's end is not used, so nothing else changes; the WGSL find_switch
     // evaluates them first too.
     const S: usize = GRAZE_SAMPLES as usize + 1;
+    let mut th_s = [zero; S];
     let mut sq = [zero; S];
     let mut dot = [zero; S];
     for j in 0..S {
-        let th = R::lit(j as f64 / GRAZE_SAMPLES as f64);
-        (sq[j], dot[j]) = hermite_sq(x0, x1, hs, th);
+        th_s[j] = R::lit(j as f64 / GRAZE_SAMPLES as f64);
+        (sq[j], dot[j]) = hermite_sq(x0, x1, hs, th_s[j]);
     }
     let mut g_s = [zero; S];
     let mut rate_s = [zero; S];
@@ -189,9 +190,8 @@ pub fn find_switch<R: Real>(
     let mut lo = zero;
     let (mut g_lo, mut rate_lo) = (g_s[0], rate_s[0]);
     let mut max_g = g_lo;
-    for j in 1..=GRAZE_SAMPLES {
-        let th = R::lit(j as f64 / GRAZE_SAMPLES as f64);
-        let (g_th, rate_th) = (g_s[j as usize], rate_s[j as usize]);
+    for j in 1..S {
+        let (th, g_th, rate_th) = (th_s[j], g_s[j], rate_s[j]);
         let mut hi = th;
         let mut g_hi = g_th;
         let mut crossing = wrong_side(g_th, contact);
