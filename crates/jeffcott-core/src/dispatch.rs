@@ -36,6 +36,36 @@ macro_rules! per_instruction_set {
             $inner::<$($garg)*>($($arg),*)
         }
     };
+    // The same, with `$inner` told whether it is the AVX-512 copy (a last const
+    // generic `bool`), for code with parts written for AVX-512 alone
+    // (`integrate::transpose`).
+    ($(#[$doc:meta])* $vis:vis fn $name:ident [$($gen:tt)*] [$($garg:tt)*]
+     ($($arg:ident: $ty:ty),* $(,)?) -> $ret:ty = $inner:ident, avx512_on_amd: $wide:expr,
+     tells_avx512) => {
+        $(#[$doc])*
+        $vis fn $name<$($gen)*>($($arg: $ty),*) -> $ret {
+            #[cfg(target_arch = "x86_64")]
+            {
+                #[target_feature(enable = "avx512f,avx512dq,avx512vl")]
+                fn avx512<$($gen)*>($($arg: $ty),*) -> $ret {
+                    $inner::<$($garg)*, true>($($arg),*)
+                }
+                #[target_feature(enable = "avx2")]
+                fn avx2<$($gen)*>($($arg: $ty),*) -> $ret {
+                    $inner::<$($garg)*, false>($($arg),*)
+                }
+                if $crate::dispatch::use_avx512($wide) {
+                    // SAFETY: the CPU has been found to support AVX-512 F, DQ and VL.
+                    return unsafe { avx512::<$($garg)*>($($arg),*) };
+                }
+                if std::is_x86_feature_detected!("avx2") {
+                    // SAFETY: the CPU has just been found to support AVX2.
+                    return unsafe { avx2::<$($garg)*>($($arg),*) };
+                }
+            }
+            $inner::<$($garg)*, false>($($arg),*)
+        }
+    };
 }
 
 /// Whether the AVX-512 copy runs, for code that `wide_on_amd` says ran faster with

@@ -100,7 +100,7 @@ fn run_lane_lambda1<R: Real>(spec: &EnsembleSpec, i: usize, cancel: &Cancel) -> 
 /// renormalised after every period exactly as `run_lane_lambda1` does (same bits:
 /// `tests/ensemble_cpu.rs`).
 #[inline(always)]
-fn run_batch_inner<R: Real, const M: usize>(
+fn run_batch_inner<R: Real, const M: usize, const AVX512: bool>(
     spec: &EnsembleSpec,
     first: usize,
     batches: usize,
@@ -150,12 +150,18 @@ fn run_batch_inner<R: Real, const M: usize>(
         }
         if p < from {
             for _ in 0..n {
-                group_macro_step_tangent(&bc, &lc, &mut lanes, &mut no_tan, &mut scratch);
+                group_macro_step_tangent::<R, 0, AVX512>(
+                    &bc,
+                    &lc,
+                    &mut lanes,
+                    &mut no_tan,
+                    &mut scratch,
+                );
             }
             continue;
         }
         for _ in 0..n {
-            group_macro_step_tangent(&bc, &lc, &mut lanes, &mut tan, &mut scratch);
+            group_macro_step_tangent::<R, M, AVX512>(&bc, &lc, &mut lanes, &mut tan, &mut scratch);
         }
         for (i, (lane, t)) in lanes
             .iter()
@@ -213,7 +219,7 @@ per_instruction_set! {
         first: usize,
         batches: usize,
         cancel: &Cancel,
-    ) -> Vec<LaneResult> = run_batch_inner, avx512_on_amd: true
+    ) -> Vec<LaneResult> = run_batch_inner, avx512_on_amd: true, tells_avx512
 }
 
 /// Runs the ensemble on the CPU with rayon's global pool, with each lane's largest
@@ -384,13 +390,18 @@ impl<'t, R: Real, const M: usize> Bank<'t, R, M> {
     /// One forcing period of the batch's lanes. Inlined into `run_refill_inner`, so
     /// that it is compiled for the instruction set its caller was (`per_instruction_set!`).
     #[inline(always)]
-    fn step_period(&mut self, n: u32) {
+    fn step_period<const AVX512: bool>(&mut self, n: u32) {
         if self.changed {
             self.bc = BatchConsts::new(&self.lc, self.forcing);
             self.changed = false;
         }
         for _ in 0..n {
-            batch_macro_step_tangent(&self.bc, &self.lc, &mut self.state, &mut self.tan);
+            batch_macro_step_tangent::<R, M, AVX512>(
+                &self.bc,
+                &self.lc,
+                &mut self.state,
+                &mut self.tan,
+            );
         }
     }
 }
@@ -423,7 +434,7 @@ fn fresh_tangent<R: Real, const M: usize>() -> Tangent<R, M> {
 /// tangents steps when its slots are full or the other has no lane; so neither
 /// computes tangents for lanes that need none.
 #[inline(always)]
-fn run_refill_inner<R: Real, const M: usize>(
+fn run_refill_inner<R: Real, const M: usize, const AVX512: bool>(
     spec: &EnsembleSpec,
     early: &EarlyExit,
     lanes: std::ops::Range<usize>,
@@ -473,10 +484,10 @@ fn run_refill_inner<R: Real, const M: usize>(
             break;
         }
         if w_live > 0 && (w_live == BATCH || p_live == 0) {
-            with.step_period(n);
+            with.step_period::<AVX512>(n);
             with.period_ends(&refill, &mut out, None);
         } else if p_live > 0 {
-            plain.step_period(n);
+            plain.step_period::<AVX512>(n);
             plain.period_ends(&refill, &mut out, Some(&mut waiting));
         }
     }
@@ -491,7 +502,7 @@ per_instruction_set! {
         early: &EarlyExit,
         lanes: std::ops::Range<usize>,
         cancel: &Cancel,
-    ) -> Option<Vec<Ended>> = run_refill_inner, avx512_on_amd: M > 0
+    ) -> Option<Vec<Ended>> = run_refill_inner, avx512_on_amd: M > 0, tells_avx512
 }
 
 /// Runs the ensemble on the CPU with early exit (`super::early`): lanes recognised by

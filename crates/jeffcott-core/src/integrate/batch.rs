@@ -24,6 +24,7 @@ use crate::integrate::lane::{
 };
 use crate::integrate::switch::{GRAZE_SAMPLES, clear_of_stator, hermite_sq};
 use crate::integrate::tangent::{Tangent, jacobian_trace, tangent_rhs};
+use crate::integrate::transpose;
 use crate::integrate::wide::Wide;
 use crate::model::{
     Coeffs, STATE_DIM, VX_R, VX_S, VY_R, VY_S, X_R, X_S, Y_R, Y_S, concentric,
@@ -578,7 +579,7 @@ pub fn batch_macro_step<R: Real>(
     lane: &mut [Lane<R>; BATCH],
 ) {
     let mut none: [Tangent<R, 0>; BATCH] = std::array::from_fn(|_| Tangent::new([]));
-    batch_macro_step_tangent(bc, lc, lane, &mut none);
+    batch_macro_step_tangent::<R, 0, false>(bc, lc, lane, &mut none);
 }
 
 /// [`batch_macro_step`] carrying `M` tangent vectors per lane, as
@@ -588,7 +589,7 @@ pub fn batch_macro_step<R: Real>(
 /// bit for bit those of the scalar stepper; a lane that meets a switch goes on in
 /// `lane::finish_macro_step` from where the batch left it.
 #[inline(always)]
-pub fn batch_macro_step_tangent<R: Real, const M: usize>(
+pub fn batch_macro_step_tangent<R: Real, const M: usize, const AVX512: bool>(
     bc: &BatchConsts<R>,
     lc: &[LaneConsts<R>; BATCH],
     lane: &mut [Lane<R>; BATCH],
@@ -605,7 +606,7 @@ pub fn batch_macro_step_tangent<R: Real, const M: usize>(
     // One pass per sub-step: a lane in free flight needs one, a lane in contact R
     // (contact refinement, `lane::trial_extent`); every pass computes all lanes.
     while active.iter().any(|&a| a) {
-        batch_pass(
+        batch_pass::<R, M, AVX512>(
             bc,
             &lanes(|l| &lc[l]),
             k,
@@ -630,7 +631,7 @@ fn batch_k<R: Real>(lane: &[Lane<R>; BATCH]) -> Option<u32> {
 /// scalar switch search, leaves `active` (the latter with its trial sub-step in
 /// `trial`, which the scalar stepper takes up instead of computing it again).
 #[inline(always)]
-fn batch_pass<R: Real, const M: usize>(
+fn batch_pass<R: Real, const M: usize, const AVX512: bool>(
     bc: &BatchConsts<R>,
     lc: &[&LaneConsts<R>; BATCH],
     k: u32,
@@ -642,8 +643,11 @@ fn batch_pass<R: Real, const M: usize>(
     let zero = R::lit(0.0);
     let one = R::lit(1.0);
     let mut x: [V<R>; STATE_DIM] = [[zero; BATCH]; STATE_DIM];
-    for (l, p) in part.iter().enumerate() {
-        set_lane(&mut x, l, p.x);
+    // SAFETY: only in the copy compiled for AVX-512 (`AVX512`, `per_instruction_set!`).
+    if !(AVX512 && unsafe { transpose::rows_in(part, &mut x) }) {
+        for (l, p) in part.iter().enumerate() {
+            set_lane(&mut x, l, p.x);
+        }
     }
     let contact: [bool; BATCH] = lanes(|l| part[l].contact);
     let s0: V<R> = lanes(|l| part[l].s);
@@ -748,6 +752,10 @@ fn batch_pass<R: Real, const M: usize>(
             }
         }
     }
+    // The accepted lanes' new states, by shuffles in the AVX-512 copy (f64), else
+    // lane by lane below.
+    // SAFETY: only in the copy compiled for AVX-512 (`AVX512`, `per_instruction_set!`).
+    let shuffled = AVX512 && unsafe { transpose::rows_out(&x1, part, &accept) };
     for l in 0..BATCH {
         if !active[l] {
             continue;
@@ -763,7 +771,9 @@ fn batch_pass<R: Real, const M: usize>(
         if search {
             p.max_g = p.max_g.max(max_g[l]);
         }
-        p.x = lane_of(&x1, l);
+        if !shuffled {
+            p.x = lane_of(&x1, l);
+        }
         p.s = extent[l].1;
         active[l] = p.s < one;
     }
@@ -833,7 +843,7 @@ impl<R> Default for GroupScratch<R> {
 /// (tests/ensemble_cpu.rs compares with the scalar stepper). Inlined, like the batch
 /// stepper, into the caller compiled for the CPU's instruction set.
 #[inline(always)]
-pub fn group_macro_step_tangent<R: Real, const M: usize>(
+pub fn group_macro_step_tangent<R: Real, const M: usize, const AVX512: bool>(
     bcs: &[BatchConsts<R>],
     lcs: &[[LaneConsts<R>; BATCH]],
     lane: &mut [[Lane<R>; BATCH]],
@@ -842,7 +852,7 @@ pub fn group_macro_step_tangent<R: Real, const M: usize>(
 ) {
     if let ([bc], [lc], [lane], [tan]) = (bcs, lcs, &mut *lane, &mut *tan) {
         // One batch: nothing to pack across, and no gathering.
-        batch_macro_step_tangent(bc, lc, lane, tan);
+        batch_macro_step_tangent::<R, M, AVX512>(bc, lc, lane, tan);
         return;
     }
     let (g, Some(first)) = (lane.len(), lane.first()) else {
@@ -875,7 +885,7 @@ pub fn group_macro_step_tangent<R: Real, const M: usize>(
         let Some(k) = ks[b] else { continue };
         let mut active: [bool; BATCH] =
             lanes(|l| !lane[b][l].status.is_frozen() && lane[b][l].k == k);
-        batch_pass(
+        batch_pass::<R, M, AVX512>(
             &bcs[b],
             &lanes(|l| &lcs[b][l]),
             k,
@@ -921,7 +931,7 @@ pub fn group_macro_step_tangent<R: Real, const M: usize>(
             });
             let mut active: [bool; BATCH] = lanes(|i| i < pack.len());
             let mut tr = [[R::lit(0.0); STATE_DIM]; BATCH];
-            batch_pass(
+            batch_pass::<R, M, AVX512>(
                 &BatchConsts::pick(bcs, &lanes(|i| (slot(i).1, slot(i).2)), &lc),
                 &lc,
                 k,

@@ -9,4 +9,5 @@ pub mod lane;
 pub mod rk4;
 pub mod switch;
 pub mod tangent;
+pub(crate) mod transpose;
 pub mod wide;
