@@ -12,28 +12,10 @@
 macro_rules! per_instruction_set {
     ($(#[$doc:meta])* $vis:vis fn $name:ident [$($gen:tt)*] [$($garg:tt)*]
      ($($arg:ident: $ty:ty),* $(,)?) -> $ret:ty = $inner:ident, avx512_on_amd: $wide:expr) => {
-        $(#[$doc])*
-        $vis fn $name<$($gen)*>($($arg: $ty),*) -> $ret {
-            #[cfg(target_arch = "x86_64")]
-            {
-                #[target_feature(enable = "avx512f,avx512dq,avx512vl")]
-                fn avx512<$($gen)*>($($arg: $ty),*) -> $ret {
-                    $inner::<$($garg)*>($($arg),*)
-                }
-                #[target_feature(enable = "avx2")]
-                fn avx2<$($gen)*>($($arg: $ty),*) -> $ret {
-                    $inner::<$($garg)*>($($arg),*)
-                }
-                if $crate::dispatch::use_avx512($wide) {
-                    // SAFETY: the CPU has been found to support AVX-512 F, DQ and VL.
-                    return unsafe { avx512::<$($garg)*>($($arg),*) };
-                }
-                if std::is_x86_feature_detected!("avx2") {
-                    // SAFETY: the CPU has just been found to support AVX2.
-                    return unsafe { avx2::<$($garg)*>($($arg),*) };
-                }
-            }
-            $inner::<$($garg)*>($($arg),*)
+        per_instruction_set! {
+            @copies $(#[$doc])* $vis fn $name [$($gen)*] [$($garg)*]
+            ($($arg: $ty),*) -> $ret = $inner, avx512_on_amd: $wide,
+            avx512: [$($garg)*], other: [$($garg)*]
         }
     };
     // The same, with `$inner` told whether it is the AVX-512 copy (a last const
@@ -42,17 +24,28 @@ macro_rules! per_instruction_set {
     ($(#[$doc:meta])* $vis:vis fn $name:ident [$($gen:tt)*] [$($garg:tt)*]
      ($($arg:ident: $ty:ty),* $(,)?) -> $ret:ty = $inner:ident, avx512_on_amd: $wide:expr,
      tells_avx512) => {
+        per_instruction_set! {
+            @copies $(#[$doc])* $vis fn $name [$($gen)*] [$($garg)*]
+            ($($arg: $ty),*) -> $ret = $inner, avx512_on_amd: $wide,
+            avx512: [$($garg)*, true], other: [$($garg)*, false]
+        }
+    };
+    // The copies, `$inner` instantiated with `[$a]` in the AVX-512 one and `[$o]` in
+    // the others.
+    (@copies $(#[$doc:meta])* $vis:vis fn $name:ident [$($gen:tt)*] [$($garg:tt)*]
+     ($($arg:ident: $ty:ty),*) -> $ret:ty = $inner:ident, avx512_on_amd: $wide:expr,
+     avx512: [$($a:tt)*], other: [$($o:tt)*]) => {
         $(#[$doc])*
         $vis fn $name<$($gen)*>($($arg: $ty),*) -> $ret {
             #[cfg(target_arch = "x86_64")]
             {
                 #[target_feature(enable = "avx512f,avx512dq,avx512vl")]
                 fn avx512<$($gen)*>($($arg: $ty),*) -> $ret {
-                    $inner::<$($garg)*, true>($($arg),*)
+                    $inner::<$($a)*>($($arg),*)
                 }
                 #[target_feature(enable = "avx2")]
                 fn avx2<$($gen)*>($($arg: $ty),*) -> $ret {
-                    $inner::<$($garg)*, false>($($arg),*)
+                    $inner::<$($o)*>($($arg),*)
                 }
                 if $crate::dispatch::use_avx512($wide) {
                     // SAFETY: the CPU has been found to support AVX-512 F, DQ and VL.
@@ -63,7 +56,7 @@ macro_rules! per_instruction_set {
                     return unsafe { avx2::<$($garg)*>($($arg),*) };
                 }
             }
-            $inner::<$($garg)*, false>($($arg),*)
+            $inner::<$($o)*>($($arg),*)
         }
     };
 }

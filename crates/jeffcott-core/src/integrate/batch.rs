@@ -87,16 +87,12 @@ impl<'t, R: Real> BatchConsts<'t, R> {
     /// held 2 % of the 1k-lane bench row's samples (perf, 2026-11-27).
     #[inline(always)]
     pub fn new(lc: &[LaneConsts<R>; BATCH], forcing: Option<&'t ForcingTable<R>>) -> Self {
-        let mut serves = true;
-        for l in lc {
-            serves &= forcing.is_some_and(|t| t.serves(l));
-        }
         BatchConsts {
             c: Coeffs::transpose(&lanes(|l| lc[l].c)),
             h: lanes(|l| lc[l].h),
             inv_n: lanes(|l| lc[l].inv_n),
             phase0: lanes(|l| lc[l].phase0),
-            forcing: if serves { forcing } else { None },
+            forcing: serving(forcing, &lanes(|l| &lc[l])),
         }
     }
 
@@ -110,19 +106,27 @@ impl<'t, R: Real> BatchConsts<'t, R> {
         slot: &[(usize, usize); BATCH],
         lc: &[&LaneConsts<R>; BATCH],
     ) -> Self {
-        let forcing = bcs.iter().find_map(|b| b.forcing);
-        let mut serves = true;
-        for l in lc {
-            serves &= forcing.is_some_and(|t| t.serves(l));
-        }
         BatchConsts {
             c: Coeffs::transpose(&lanes(|i| bcs[slot[i].0].c.lane(slot[i].1))),
             h: lanes(|i| bcs[slot[i].0].h[slot[i].1]),
             inv_n: lanes(|i| bcs[slot[i].0].inv_n[slot[i].1]),
             phase0: lanes(|i| bcs[slot[i].0].phase0[slot[i].1]),
-            forcing: if serves { forcing } else { None },
+            forcing: serving(bcs.iter().find_map(|b| b.forcing), lc),
         }
     }
+}
+
+/// `forcing` where it serves every lane of `lc` ([`ForcingTable::serves`]), else none.
+#[inline(always)]
+fn serving<'t, R: Real>(
+    forcing: Option<&'t ForcingTable<R>>,
+    lc: &[&LaneConsts<R>; BATCH],
+) -> Option<&'t ForcingTable<R>> {
+    let mut serves = true;
+    for l in lc {
+        serves &= forcing.is_some_and(|t| t.serves(l));
+    }
+    if serves { forcing } else { None }
 }
 
 /// The unbalance phasor at every fraction a batch pass asks for, tabulated (issue 28,

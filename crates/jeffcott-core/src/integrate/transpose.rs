@@ -12,15 +12,12 @@ use crate::integrate::wide::BATCH;
 use crate::model::STATE_DIM;
 use crate::real::Real;
 
-/// Whether the shuffles apply: f64 lanes on x86-64 (the batch holds 8 lanes of 8
+/// Whether the shuffles apply (on x86-64): f64 lanes (the batch holds 8 lanes of 8
 /// components, one 512-bit register each).
+#[cfg(target_arch = "x86_64")]
 #[inline(always)]
 fn applies<R: Real>() -> bool {
-    cfg!(target_arch = "x86_64")
-        && R::WGSL_NAME == "f64"
-        && std::mem::size_of::<R>() == 8
-        && BATCH == 8
-        && STATE_DIM == 8
+    R::WGSL_NAME == "f64" && std::mem::size_of::<R>() == 8 && BATCH == 8 && STATE_DIM == 8
 }
 
 /// The rows of the lanes' states `part[l].x` into `x`, when [`applies`]; `false` (and
