@@ -1,5 +1,5 @@
 //! The AVX-512 build of the SIMD batch code (the default on AMD CPUs for the grouped
-//! batches and the refilled ones with lambda_1; `JEFFCOTT_AVX512=1` or `0` decides)
+//! and the refilled batches; `JEFFCOTT_AVX512=1` or `0` decides)
 //! gives the same bits as the AVX2 build: the same operations in the same order, no FMA.
 
 mod common;

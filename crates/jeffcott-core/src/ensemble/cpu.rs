@@ -496,13 +496,13 @@ fn run_refill_inner<R: Real, const M: usize, const AVX512: bool>(
 
 per_instruction_set! {
     /// Lanes `lanes` through a refilled batch, with AVX2 where the CPU has it (AVX-512 on
-    /// an AMD CPU with lambda_1, or on request), as the batch code.
+    /// an AMD CPU or on request), as the batch code.
     fn run_refill[R: Real, const M: usize][R, M](
         spec: &EnsembleSpec,
         early: &EarlyExit,
         lanes: std::ops::Range<usize>,
         cancel: &Cancel,
-    ) -> Option<Vec<Ended>> = run_refill_inner, avx512_on_amd: M > 0, tells_avx512
+    ) -> Option<Vec<Ended>> = run_refill_inner, avx512_on_amd: true, tells_avx512
 }
 
 /// Runs the ensemble on the CPU with early exit (`super::early`): lanes recognised by
