@@ -68,9 +68,9 @@ macro_rules! per_instruction_set {
 /// ran 1.6 % faster in f64 and 6 % in f32 on `jeffcott bench`, the refilled batches with
 /// lambda_1 6.5 % faster on a brute force; the refilled batches without it, 5 % slower
 /// on a basin before the batch pass's transposes were written in AVX-512 shuffles, 36 %
-/// faster since (2026-11-27, night): docs/performance.md) and never on Intel's (on the 2-core
-/// Xeon it was measured on first, 8 % slower than AVX2). Either build gives the same bits
-/// (tests/avx512.rs).
+/// faster since: docs/performance.md, "The refilled batches in AVX-512") and never on
+/// Intel's (on the 2-core Xeon it was measured on first, 8 % slower than AVX2). Either
+/// build gives the same bits (tests/avx512.rs).
 #[cfg(target_arch = "x86_64")]
 pub(crate) fn use_avx512(wide_on_amd: bool) -> bool {
     static CHOICE: std::sync::OnceLock<(bool, Option<bool>)> = std::sync::OnceLock::new();
