@@ -2,8 +2,9 @@
 //! stepper (`integrate::batch`, which falls back to the scalar lane stepper that the
 //! GPU kernel mirrors for every step with a contact switch, and equals it to the bit).
 //! Lanes are independent and each batch is integrated by one thread from start to
-//! end, so the result is bit-identical for any number of threads. Where the CPU has
-//! AVX2 the batch code is compiled a second time for it and chosen at run time.
+//! end, so the result is bit-identical for any number of threads. The batch code is
+//! compiled again for AVX2 and for AVX-512 and the copy to run chosen at run time
+//! (`crate::dispatch`); every copy gives the same bits.
 
 use super::early::{EarlyExit, EarlyResult};
 use super::refill::{Ended, Refill, SlotLane, early_result};
