@@ -492,11 +492,12 @@ fn in_f32_early_exit_recognises_two_fixed_points_28_um_apart_but_not_2_um_apart(
     };
     assert_eq!(recognised(0.0), Some(0));
     assert_eq!(recognised(28e-6), Some(1));
-    // Within a quarter of the separation (7 um) of a point, not beyond, although the
-    // f32 identity floor is 10 um: no point is near both.
-    assert_eq!(recognised(6e-6), Some(0));
-    assert_eq!(recognised(8e-6), None);
-    assert_eq!(recognised(20e-6), None);
+    // Within the f32 identity floor (10 um, under the cap of 0.45 of the separation,
+    // 12.6 um) of a point, not beyond: no point is near both.
+    assert_eq!(recognised(9e-6), Some(0));
+    assert_eq!(recognised(11e-6), None);
+    assert_eq!(recognised(14e-6), None);
+    assert_eq!(recognised(19e-6), Some(1));
     // Two entries 2 um apart at the f64 floor's resolution stay unrecognised and named.
     let lanes: Vec<Vec<State>> = [0.0, 2e-6, 28e-6]
         .iter()

@@ -320,7 +320,19 @@ pub const RECOGNISE_REL: f64 = 0.1;
 
 /// Early exit's cycle tolerance at most this fraction of the cycle's distance to the
 /// nearest point of another catalogued attractor, so no point can match two of them.
-pub const RECOGNISE_SEPARATION: f64 = 0.25;
+/// 0.45 since 2026-11-28 (0.25 before): replaying the rule on the full-length records of
+/// the 100 x 100 basin at 133 rad/s, whose period-5 and period-4 cycles pass within
+/// 28 um of each other, no lane was misrecognised below a cap of 1.0 (7 of 10000 at 1.0,
+/// lanes lingering 7-30 um from the period-4 cycle near a saddle before leaving for the
+/// period-5), and 0.45 ran 29.7 % of the periods against 32.4 % (docs/early-exit.md,
+/// "Replaying the rule").
+pub const RECOGNISE_SEPARATION: f64 = 0.45;
+
+/// A cycle whose identity tolerance exceeds this fraction of its distance to another
+/// catalogued attractor (the two lie within four identity tolerances) is not recognised
+/// at all ([`too_close_to_recognise`]): such entries are usually one attractor whose
+/// lanes still converge.
+const NEVER_SEPARATION: f64 = 0.25;
 
 /// Points kept in an aperiodic attractor's reference cloud, at most.
 const CLOUD_POINTS: usize = 512;
@@ -336,7 +348,7 @@ pub enum Closeness {
     /// Close enough to take its label (a lane that retires): within [`RECOGNISE_REL`] of
     /// the cycle's diameter, never more than [`RECOGNISE_SEPARATION`] of its distance to
     /// the nearest point of another attractor, and not less than the identity tolerance
-    /// `max(match_rel * size, match_abs)` unless that quarter is; a cycle within four
+    /// `max(match_rel * size, match_abs)` unless that cap is; a cycle within four
     /// of its separation tolerances of another attractor is not recognised
     /// ([`SEPARATION_ABS`]).
     Label,
@@ -349,10 +361,10 @@ pub enum Closeness {
 
 /// Whether a cycle (tolerance `identity` of [`separation_identity`]) lies too close to an
 /// attractor at distance `separation` (nearest points) for early exit to recognise it:
-/// the quarter of that distance that caps its recognition tolerance would fall below
-/// that tolerance, so the two are likely one attractor whose lanes still converge.
+/// within four of its identity tolerances ([`NEVER_SEPARATION`]), so the two are likely
+/// one attractor whose lanes still converge.
 fn too_close_to_recognise(identity: f64, separation: f64) -> bool {
-    identity > RECOGNISE_SEPARATION * separation
+    identity > NEVER_SEPARATION * separation
 }
 
 /// A catalogued cycle's identity tolerance `max(match_rel * size, match_abs)`.
@@ -421,10 +433,11 @@ pub fn recogniser_of(
                             // it.
                             return crate::early::Known::Never;
                         }
-                        // Never more than a quarter of the separation, so that no point
-                        // matches two attractors, also where the identity floor (f32's)
-                        // exceeds that quarter. For f64 lanes with the default floor the
-                        // cap never binds (the rule above leaves identity <= sep / 4).
+                        // Never more than RECOGNISE_SEPARATION (under half) of the
+                        // separation, so that no point matches two attractors, also where
+                        // the identity floor (f32's) exceeds it. For f64 lanes with the
+                        // default floor the cap never binds on the floor (the rule above
+                        // leaves identity <= sep / 4).
                         let cap = RECOGNISE_SEPARATION * sep;
                         cycle_identity(cfg, a)
                             .max((RECOGNISE_REL * a.size_m).min(cap))

@@ -6,9 +6,9 @@
 //! point at the end of every period is compared with the catalogue. A periodic attractor
 //! is recognised when `early_exit_streak` points in a row, and at least two whole cycles,
 //! each lie within the recognition tolerance
-//! ([`CatalogueBuilder::recogniser`]: a tenth of the cycle's diameter, at most a quarter
+//! ([`CatalogueBuilder::recogniser`]: a tenth of the cycle's diameter, at most 0.45
 //! of its distance to any other attractor, at least the identity tolerance below that
-//! cap; a cycle whose cap would fall below its identity tolerance, the floor at most
+//! cap; a cycle within four identity tolerances of another attractor, the floor at most
 //! 1 um in f32 too, is not recognised) of the cycle
 //! point expected next, in its cyclic order (the analogue of the
 //! recurrence cells of Datseris and Wagemakers, Chaos 32, 023104 (2022)). Aperiodic
