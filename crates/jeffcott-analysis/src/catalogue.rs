@@ -327,6 +327,10 @@ pub const RECOGNISE_REL: f64 = 0.1;
 /// period-5), and 0.45 ran 29.7 % of the periods against 32.4 % (docs/early-exit.md,
 /// "Replaying the rule").
 pub const RECOGNISE_SEPARATION: f64 = 0.45;
+// At half the separation or more a point could be within the tolerance of two cycles;
+// and a cycle the never-recognise rule lets through has its identity tolerance under the
+// cap (`recogniser_of` relies on both).
+const _: () = assert!(RECOGNISE_SEPARATION < 0.5 && NEVER_SEPARATION <= RECOGNISE_SEPARATION);
 
 /// A cycle whose identity tolerance exceeds this fraction of its distance to another
 /// catalogued attractor (the two lie within four identity tolerances) is not recognised
