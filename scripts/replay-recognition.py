@@ -70,9 +70,12 @@ def replay(basin, ensemble, streaks, rels, seps, after):
                 tol = {}
                 for i, c, size in cycles:
                     ident = max(cfg["match_rel"] * size, cfg["match_abs"])
-                    cap = sepf * separation(i, c)
-                    if ident > 0.25 * separation(i, c):
-                        continue  # never recognised (four identity tolerances)
+                    sep = separation(i, c)
+                    cap = sepf * sep
+                    # Never recognised within four identity tolerances, the floor at
+                    # most 1 um (catalogue::separation_identity, SEPARATION_ABS).
+                    if max(cfg["match_rel"] * size, min(cfg["match_abs"], 1e-6)) > 0.25 * sep:
+                        continue
                     tol[i] = min(max(ident, min(rel * size, cap)), cap)
                 ret = np.full(n, k)
                 lab = np.full(n, -1)

@@ -498,6 +498,19 @@ fn in_f32_early_exit_recognises_two_fixed_points_28_um_apart_but_not_2_um_apart(
     assert_eq!(recognised(11e-6), None);
     assert_eq!(recognised(14e-6), None);
     assert_eq!(recognised(19e-6), Some(1));
+    // 21 um apart the cap (0.45 of it, 9.45 um) falls below the f32 floor and binds.
+    let lanes: Vec<Vec<State>> = [0.0, 21e-6].iter().map(|&d| vec![at(d); 32]).collect();
+    let (pts, rec) = flat(&lanes);
+    let mut b = CatalogueBuilder::new(W, cfg);
+    assert_eq!(b.add_block(&pts, rec, &[false; 2], None), vec![0, 1]);
+    let r = b.recogniser(4);
+    let recognised = |dx: f64| {
+        let mut t = Track::default();
+        (0..64).find_map(|_| r.observe(0, &mut t, &at(dx)))
+    };
+    assert_eq!(recognised(9e-6), Some(0));
+    assert_eq!(recognised(9.8e-6), None);
+    assert_eq!(recognised(12e-6), Some(1));
     // Two entries 2 um apart at the f64 floor's resolution stay unrecognised and named.
     let lanes: Vec<Vec<State>> = [0.0, 2e-6, 28e-6]
         .iter()
