@@ -552,7 +552,8 @@ fn class_counts(attractors: &serde_json::Value) -> Vec<(String, u64)> {
 fn a_brute_force_with_early_exit_records_lanes_that_classify_as_in_the_full_length_run() {
     // A lane recognised on a cycle of its speed during its transient records from
     // there; its record must classify as the full-length lane's does (it is recognised
-    // only within half the classifier's repeat tolerance).
+    // only within half the classifier's repeat tolerance, and runs again whole if its
+    // record does not repeat like the cycle).
     let (full, early) = (
         early_run(BRUTE_FORCE, "cpu", 0),
         early_run(BRUTE_FORCE, "cpu", 16),
@@ -696,6 +697,25 @@ fn a_map_with_early_exit_finds_the_attractors_of_the_full_length_run_in_every_ce
     assert!(saved["retired"].as_u64() > Some(10), "{saved}");
     assert!(saved["periods_run"].as_u64() < saved["periods_full"].as_u64());
     assert!(json(&full.1.join("run.json")).get("early_exit").is_none());
+}
+
+/// A lane recorded early must classify as the full-length lane does, also where its
+/// cycle's slowest multipliers are a complex pair near -1: at 133.19 rad/s the period-9
+/// cycle's are -0.81 +- 0.31i (`jeffcott orbits`), so a deviation within the
+/// recognition tolerance at the points the streak saw grows again as it turns, and
+/// before the check 4 of the cell's 16 start states made a "period-18" entry beside
+/// the full-length run's period-9 and period-4. Such lanes now run again whole.
+#[test]
+fn lanes_recorded_early_whose_record_does_not_repeat_like_their_cycle_run_whole() {
+    const LINE: &str = "map --x omega:133.19:133.2:2 --y e:0.001:0.001:1 --ics 16 \
+        --transient 1000 --no-lyapunov --no-plot --quiet";
+    let (full, early) = (early_run(LINE, "cpu", 0), early_run(LINE, "cpu", 16));
+    let cells = map_cells(&full.1);
+    assert_eq!(cells, map_cells(&early.1));
+    let kinds: Vec<String> = cells[0].iter().map(|c| c.0.clone()).collect();
+    assert_eq!(kinds, ["period-4", "period-9"], "{cells:?}");
+    let saved = &json(&early.1.join("run.json"))["early_exit"];
+    assert!(saved["retired"].as_u64() > Some(10), "{saved}");
 }
 
 #[test]

@@ -358,8 +358,11 @@ pub enum Closeness {
     Label,
     /// Close enough that a record taken from there classifies as the cycle (a lane that
     /// records early): within half the classifier's repeat tolerance
-    /// `max(rel_tol * size, abs_tol)`, so points a period apart already repeat within it,
-    /// and the lane, contracting onto the attractor, stays so.
+    /// `max(rel_tol * size, abs_tol)`, so points a period apart already repeat within it
+    /// while the lane, contracting onto the attractor, stays so. Where it does not (a
+    /// deviation that turns with a complex pair of multipliers near -1 grows again in
+    /// the metric), the lane's record does not repeat like the cycle and
+    /// `early::records_by_group` runs it again whole.
     Record,
 }
 

@@ -29,10 +29,11 @@
 //! (`CatalogueBuilder::rebuilt_in_lane_order`), as a pass without rounds builds it.
 
 use crate::backend::Engine;
-use crate::catalogue::{CatalogueBuilder, CatalogueConfig, LaneEnd};
+use crate::catalogue::{CatalogueBuilder, CatalogueConfig, LaneEnd, classify_lane};
+use crate::classify::Class;
 use crate::classify::distance;
 use jeffcott_core::control::Control;
-use jeffcott_core::ensemble::early::{EarlyExit, Recognise, Retired, Then, Track};
+use jeffcott_core::ensemble::early::{EarlyExit, EarlyResult, Recognise, Retired, Then, Track};
 use jeffcott_core::ensemble::{EnsembleSpec, RunInfo};
 use jeffcott_core::error::Result;
 use jeffcott_core::model::State;
@@ -87,6 +88,14 @@ impl Recogniser {
             omega,
             streak: streak.max(1),
             known,
+        }
+    }
+
+    /// The period of attractor `id` when it is a cycle this recogniser recognises.
+    pub fn cycle_period(&self, id: u32) -> Option<usize> {
+        match self.known.get(id as usize) {
+            Some(Known::Cycle { points, .. }) => Some(points.len()),
+            _ => None,
         }
     }
 
@@ -455,14 +464,15 @@ impl Recognise for ByGroup<'_> {
 /// Runs `ens` with early exit, each lane recognised by `rec` during its transient and
 /// then recording its own `recorded` periods from there ([`Then::Record`]), with its
 /// lambda_1 over that record when `lambda1`: for studies that classify or draw every
-/// lane's record (the brute force). What early exit saved comes with the result.
+/// lane's record (the brute force). What early exit saved comes with the result, and
+/// each lane's recognition.
 pub fn record_lanes(
     ens: &EnsembleSpec,
     rec: &dyn Recognise,
     lambda1: bool,
     engine: &Engine,
     ctl: Control,
-) -> Result<(jeffcott_core::ensemble::EnsembleResult, EarlySaved, RunInfo)> {
+) -> Result<(EarlyResult, EarlySaved, RunInfo)> {
     let early = EarlyExit {
         recognise: rec,
         after: ens.stepper.early_exit_after,
@@ -480,7 +490,7 @@ pub fn record_lanes(
             .count() as u64,
         ..EarlySaved::of(&r.retired, full)
     };
-    Ok((r.result, saved, info))
+    Ok((r, saved, info))
 }
 
 /// How [`records_by_group`] recognises its lanes.
@@ -567,7 +577,10 @@ pub fn records_by_group(
     // No lane may be left (one lane per group, or no lanes).
     let (r2, info) = if rest.is_empty() {
         (
-            EnsembleResult::with_capacity(0, ens.recorded, lambda1),
+            EarlyResult {
+                result: EnsembleResult::with_capacity(0, ens.recorded, lambda1),
+                retired: Vec::new(),
+            },
             None,
         )
     } else {
@@ -587,9 +600,57 @@ pub fn records_by_group(
         saved.add(&s);
         (r, Some(i))
     };
+    // A lane recorded early is recognised close to a cycle, but its record may still
+    // not repeat within the classifier's tolerance: where the cycle's slowest
+    // multipliers are a complex pair near -1 (the period-9 cycle at 133.19 rad/s,
+    // -0.81 +- 0.31i), a deviation that was within the recognition tolerance at the
+    // points the streak saw grows again as it turns, and 12 of 29 such lanes
+    // classified as period-18 (docs/early-exit.md). Such a lane runs again whole, as
+    // without early exit, so its record and class are the plain run's.
+    let redo: Vec<usize> = (0..rest.len())
+        .filter(|&k| match r2.retired[k] {
+            Some(ret) if ret.periods < full as u32 => {
+                let g = rest_group[k];
+                let lane = classify_lane(
+                    &r2.result.lane_states(k),
+                    omegas[g],
+                    r2.result.status[k].is_frozen(),
+                    None,
+                    &cfg,
+                );
+                known[g].cycle_period(ret.attractor).map(Class::Periodic) != Some(lane.class)
+            }
+            _ => false,
+        })
+        .collect();
+    let whole = if redo.is_empty() {
+        EnsembleResult::with_capacity(0, ens.recorded, lambda1)
+    } else {
+        let lanes: Vec<usize> = redo.iter().map(|&k| rest[k]).collect();
+        let quiet = |_: u64, _: u64| {};
+        let w = engine
+            .run(
+                &sub(&lanes),
+                lambda1,
+                Control {
+                    progress: &quiet,
+                    cancel: ctl.cancel,
+                },
+            )?
+            .0;
+        saved.retired -= redo.len() as u64;
+        saved.periods_run += redo.len() as u64 * full;
+        w
+    };
     // The records back in lane order.
-    let mut from: Vec<(usize, &EnsembleResult, usize)> =
-        rest.iter().enumerate().map(|(k, &i)| (i, &r2, k)).collect();
+    let mut from: Vec<(usize, &EnsembleResult, usize)> = rest
+        .iter()
+        .enumerate()
+        .map(|(k, &i)| (i, &r2.result, k))
+        .collect();
+    for (j, &k) in redo.iter().enumerate() {
+        from[k] = (rest[k], &whole, j);
+    }
     if let Some((firsts, r1)) = &first {
         from.extend(firsts.iter().enumerate().map(|(k, &i)| (i, r1, k)));
     }
