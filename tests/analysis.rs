@@ -463,6 +463,39 @@ fn early_exit_never_recognises_a_cycle_within_four_identity_tolerances_of_anothe
 }
 
 #[test]
+fn early_exit_never_recognises_a_period_2n_cycle_within_four_identity_tolerances_of_its_half_shift()
+{
+    use jeffcott_analysis::catalogue::CatalogueBuilder;
+    use jeffcott_core::ensemble::early::{Recognise, Track};
+    // Two period-2 lanes: one alternating between points 2 um apart, within four of the
+    // catalogue's identity tolerances (1 um) of being period-1 (a period-1 cycle whose
+    // lanes still converge near a period doubling, as the brute force's "period-18" at
+    // 133.08 rad/s is the period-9 cycle), and one alternating 1 mm apart, far away.
+    let at = fixed_point;
+    let two = |a: f64, b: f64| -> Vec<State> {
+        (0..32)
+            .map(|k| at(if k % 2 == 0 { a } else { b }))
+            .collect()
+    };
+    let lanes = vec![two(0.0, 2e-6), two(1e-2, 1.1e-2)];
+    let (pts, rec) = flat(&lanes);
+    let cfg = CatalogueConfig::default();
+    let mut b = CatalogueBuilder::new(W, cfg);
+    assert_eq!(b.add_block(&pts, rec, &[false; 2], None), vec![0, 1]);
+    let classes: Vec<String> = b.attractors().iter().map(|a| a.class.clone()).collect();
+    assert_eq!(classes, ["period-2", "period-2"]);
+    for r in [b.recogniser(4), b.recogniser_to_record(4)] {
+        let recognised = |a: f64, c: f64| {
+            let mut t = Track::default();
+            (0..64).find_map(|k| r.observe(0, &mut t, &at(if k % 2 == 0 { a } else { c })))
+        };
+        // The near-period-1 one: never (its lanes run whole); the true period-2: yes.
+        assert_eq!(recognised(0.0, 2e-6), None);
+        assert_eq!(recognised(1e-2, 1.1e-2), Some(1));
+    }
+}
+
+#[test]
 fn in_f32_early_exit_recognises_two_fixed_points_28_um_apart_but_not_2_um_apart() {
     use jeffcott_analysis::catalogue::CatalogueBuilder;
     use jeffcott_core::ensemble::Precision;

@@ -574,6 +574,27 @@ fn a_brute_force_with_early_exit_records_lanes_that_classify_as_in_the_full_leng
     );
 }
 
+/// Near a period doubling a cycle's lanes converge slowly, alternating: at 133.08 rad/s
+/// (the period-9 cycle stable since 133.072, `jeffcott orbits`) the brute force's first
+/// lane still looks period-18 at period 1000 and catalogues a "period-18" entry. Lanes
+/// recognised on it and recorded early kept the alternation the full-length run's had
+/// lost (one of 22 was period-18 instead of period-9). Such an entry, within four
+/// identity tolerances of itself shifted by half its period, is not recognised.
+#[test]
+fn a_brute_force_does_not_record_early_on_a_period_doubled_entry_of_a_converging_cycle() {
+    const LINE: &str = "bifurcation --omega 133.07:133.09:3 --ics 16 --brute-transient 1000 \
+        --periods 48 --max-seeds 6 --no-lyapunov --no-plot --quiet";
+    let (full, early) = (early_run(LINE, "cpu", 0), early_run(LINE, "cpu", 16));
+    let classes = brute_classes(&full.1);
+    assert_eq!(classes, brute_classes(&early.1));
+    let at_133_08: Vec<&str> = classes[1].iter().map(|c| c.0.as_str()).collect();
+    assert_eq!(
+        at_133_08,
+        ["period-18", "period-4", "period-9"],
+        "{classes:?}"
+    );
+}
+
 #[test]
 fn a_brute_force_with_early_exit_has_the_cpus_records_on_a_gpu() {
     let Some((cpu, gpu)) = on_cpu_and_gpu(BRUTE_FORCE) else {

@@ -405,6 +405,19 @@ fn apart(a: &Attractor, b: &Attractor, w: f64) -> f64 {
         .fold(f64::INFINITY, f64::min)
 }
 
+/// The largest distance at speed `w` between the points of cycle `a` half its period
+/// apart (infinite for an odd period): how far a period-2n entry lies from being a
+/// period-n one.
+fn half_shift(a: &Attractor, w: f64) -> f64 {
+    let p = a.points.len();
+    if p < 2 || p % 2 == 1 {
+        return f64::INFINITY;
+    }
+    (0..p)
+        .map(|j| distance(&a.points[j], &a.points[(j + p / 2) % p], w))
+        .fold(0.0, f64::max)
+}
+
 /// What early exit recognises lanes on at speed `omega`: the periodic attractors of
 /// `attractors`, a cycle point matching as `closeness` says (module docs). Aperiodic
 /// attractors are not recognised.
@@ -425,6 +438,19 @@ pub fn recogniser_of(
     let known = attractors
         .iter()
         .map(|a| match a.kind {
+            Class::Periodic(_)
+                if too_close_to_recognise(separation_identity(cfg, a), half_shift(a, omega)) =>
+            {
+                // A period-2n entry within four identity tolerances of itself shifted
+                // by n points: a period-n cycle whose lanes still converge near a
+                // period doubling (a multiplier near -1 makes their alternation decay
+                // slowly). At 133.08 rad/s the brute force's "period-18" entry is the
+                // period-9 cycle seen at T = 1000 (`jeffcott orbits`: the period-9
+                // cycle is stable there); lanes recorded early on it kept their
+                // alternation where the full-length run's had decayed to period-9
+                // (docs/early-exit.md). Its lanes run whole, as without early exit.
+                crate::early::Known::Never
+            }
             Class::Periodic(_) => {
                 let tol = match closeness {
                     Closeness::Label => {

@@ -9,7 +9,8 @@
 //! ([`CatalogueBuilder::recogniser`]: a tenth of the cycle's diameter, at most 0.45
 //! of its distance to any other attractor, at least the identity tolerance below that
 //! cap; a cycle within four identity tolerances of another attractor, the floor at most
-//! 1 um in f32 too, is not recognised) of the cycle
+//! 1 um in f32 too, or a period-2n cycle that close to itself shifted by n points, is not
+//! recognised) of the cycle
 //! point expected next, in its cyclic order (the analogue of the
 //! recurrence cells of Datseris and Wagemakers, Chaos 32, 023104 (2022)). Aperiodic
 //! attractors are not recognised: lanes still in a long transient form clouds that look
