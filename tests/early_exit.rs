@@ -327,9 +327,18 @@ fn with_lambda1_every_lane_not_retired_has_the_plain_runs_exponent_to_the_bit() 
 /// Labels of a basin at `omega` with and without early exit, and run.json's count.
 fn basin_pair(omega: f64, n: usize, extra: &str) -> (Vec<i32>, Vec<i32>, serde_json::Value) {
     let (full, early) = basin_runs(omega, n, &format!("--uncertainty-samples 0 {extra}"));
+    labels_and_saved(&full.1, &early.1)
+}
+
+/// The labels of a full-length basin and of one with early exit, and the latter's
+/// run.json count.
+fn labels_and_saved(
+    full: &std::path::Path,
+    early: &std::path::Path,
+) -> (Vec<i32>, Vec<i32>, serde_json::Value) {
     let labels = |dir: &std::path::Path| npy::<i32>(&dir.join("labels.npy")).1;
-    let run = json(&early.1.join("run.json"));
-    (labels(&full.1), labels(&early.1), run["early_exit"].clone())
+    let run = json(&early.join("run.json"));
+    (labels(full), labels(early), run["early_exit"].clone())
 }
 
 /// A basin at `omega` run without and with early exit (`extra`: more options); each
@@ -342,13 +351,28 @@ fn basin_runs(
     (tempfile::TempDir, std::path::PathBuf),
     (tempfile::TempDir, std::path::PathBuf),
 ) {
+    plane_runs(
+        &format!("--omega {omega} --x x_r:-0.006:0.006:{n} --y vx_r:-1:1:{n} {extra}"),
+        250,
+    )
+}
+
+/// A basin (`basin` with `args`: speed, plane, more options) run with transient
+/// `transient` without and with early exit; each run's temporary directory (kept
+/// alive) and output directory.
+fn plane_runs(
+    args: &str,
+    transient: u32,
+) -> (
+    (tempfile::TempDir, std::path::PathBuf),
+    (tempfile::TempDir, std::path::PathBuf),
+) {
     let run = |streak: u32| {
         let tmp = tempfile::tempdir().unwrap();
         let out = tmp.path().join("out");
         ok(&jeffcott(&words(&format!(
-            "basin --omega {omega} --x x_r:-0.006:0.006:{n} --y vx_r:-1:1:{n} --transient 250 \
-             --periods 32 --backend cpu --no-plot --quiet --early-exit-streak {streak} {extra} \
-             --out {}",
+            "basin {args} --transient {transient} --periods 32 --backend cpu --no-plot --quiet \
+             --early-exit-streak {streak} --out {}",
             out.display()
         ))));
         (tmp, out)
@@ -369,6 +393,60 @@ fn a_basin_at_133_with_early_exit_has_the_labels_of_the_full_length_run() {
     assert_eq!(saved["lanes"].as_u64(), Some(576));
     assert!(saved["retired"].as_u64().unwrap() > 400);
     assert!(run < all * 2 / 3, "{run} of {all} periods");
+}
+
+/// With friction (mu = 0.08) at 160 rad/s, above the rotor's natural frequency, three
+/// attractors well apart share the plane of x_r and vy_r (an initial whirl forward or
+/// backward): the free orbit (period-1, no contact), forward full annular rub (period-1)
+/// and backward whirl (aperiodic, in contact nearly all the time; docs/early-exit.md,
+/// "Three and four attractors well apart"). Lanes retire on the cycles only; the
+/// backward whirl's run whole.
+#[test]
+fn a_basin_with_three_attractors_well_apart_has_with_early_exit_the_labels_of_the_full_length_run()
+{
+    let (full, early) = plane_runs(
+        "--omega 160 --param mu=0.08 --x x_r:-0.006:0.006:12 --y vy_r:-3:3:12 \
+         --uncertainty-samples 0",
+        250,
+    );
+    let (full_labels, early_labels, saved) = labels_and_saved(&full.1, &early.1);
+    assert_eq!(full_labels, early_labels);
+    eprintln!("early exit: {saved}");
+    let att = json(&early.1.join("attractors.json"));
+    let mut kinds: Vec<(String, String)> = att["attractors"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|a| {
+            (
+                a["class"].as_str().unwrap().to_string(),
+                a["rub"]["regime"].as_str().unwrap().to_string(),
+            )
+        })
+        .collect();
+    kinds.sort();
+    assert_eq!(
+        kinds,
+        [
+            ("aperiodic".to_string(), "backward_whirl".to_string()),
+            ("period-1".to_string(), "full_annular_rub".to_string()),
+            ("period-1".to_string(), "no_contact".to_string()),
+        ]
+    );
+    // Every lane of the two cycles' basins is the most early exit can retire.
+    let on = |id: i64| full_labels.iter().filter(|&&l| l as i64 == id).count() as u64;
+    let cycles: u64 = att["attractors"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|a| a["class"] == "period-1")
+        .map(|a| on(a["id"].as_i64().unwrap()))
+        .sum();
+    let retired = saved["retired"].as_u64().unwrap();
+    assert!(
+        retired > 0 && retired <= cycles,
+        "{retired} retired, {cycles} on cycles"
+    );
 }
 
 #[test]
