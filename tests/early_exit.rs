@@ -449,6 +449,78 @@ fn a_basin_with_three_attractors_well_apart_has_with_early_exit_the_labels_of_th
     );
 }
 
+/// At 240 rad/s with mu = 0.12 four attractors share the plane of x_r and vy_r, two of
+/// them aperiodic (a chaotic partial rub and the backward whirl). Their clouds are
+/// recognised once the lanes that stayed in them ended on them (one unit of 576 lanes,
+/// so its second round has lanes to tell): more lanes retire than lie on the two
+/// cycles, and every label is the full-length run's.
+#[test]
+fn chaotic_attractors_confirmed_by_their_lanes_retire_lanes_with_the_labels_of_the_full_length_run()
+{
+    let (full, early) = plane_runs(
+        "--omega 240 --param mu=0.12 --x x_r:-0.006:0.006:24 --y vy_r:-3:3:24 \
+         --uncertainty-samples 0 --chunk 576",
+        250,
+    );
+    let (full_labels, early_labels, saved) = labels_and_saved(&full.1, &early.1);
+    assert_eq!(full_labels, early_labels);
+    eprintln!("early exit: {saved}");
+    let att = json(&early.1.join("attractors.json"));
+    let list = att["attractors"].as_array().unwrap();
+    let on = |class: &str| {
+        list.iter()
+            .filter(|a| a["class"] == class)
+            .map(|a| {
+                let id = a["id"].as_i64().unwrap();
+                full_labels.iter().filter(|&&l| l as i64 == id).count() as u64
+            })
+            .sum::<u64>()
+    };
+    let (cycles, clouds) = (on("period-1"), on("aperiodic"));
+    assert!(clouds > 50, "{clouds} lanes on aperiodic attractors");
+    let retired = saved["retired"].as_u64().unwrap();
+    assert!(
+        retired > cycles,
+        "{retired} retired, {cycles} on the cycles"
+    );
+}
+
+/// At 137.25 rad/s with T = 250 the lanes still in a long transient form "aperiodic"
+/// entries (docs/early-exit.md, "Transient clouds"). Lanes that stayed in them for the
+/// streak went on to the period-1 cycle, so no such cloud is recognised: no cell that
+/// the full-length run puts on the cycle is called aperiodic with early exit (a lane
+/// retired on a transient cloud would be). The converse happens: early exit labels lanes
+/// by the cycle they reach where the full-length run leaves them in transient
+/// (docs/early-exit.md).
+#[test]
+fn clouds_that_lanes_leave_are_never_recognised() {
+    let (full, early) = plane_runs(
+        "--omega 137.25 --x x_r:-0.006:0.006:24 --y vx_r:-1:1:24 --uncertainty-samples 0 \
+         --chunk 576",
+        250,
+    );
+    let (full_labels, early_labels, saved) = labels_and_saved(&full.1, &early.1);
+    eprintln!("early exit: {saved}");
+    let aperiodic = |dir: &std::path::Path| -> Vec<i32> {
+        json(&dir.join("attractors.json"))["attractors"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|a| a["class"] == "aperiodic")
+            .map(|a| a["id"].as_i64().unwrap() as i32)
+            .collect()
+    };
+    let (in_full, in_early) = (aperiodic(&full.1), aperiodic(&early.1));
+    let clouds = full_labels.iter().filter(|l| in_full.contains(l)).count();
+    assert!(
+        clouds > 100,
+        "{clouds} cells in transient clouds at T = 250"
+    );
+    for (f, e) in full_labels.iter().zip(&early_labels) {
+        assert!(!in_early.contains(e) || in_full.contains(f), "{f} -> {e}");
+    }
+}
+
 #[test]
 fn an_f32_basin_at_133_retires_lanes_as_f64_does_with_the_full_length_runs_attractors() {
     // f32 lanes raise the catalogue's identity floor to 10 um for their rounding noise;

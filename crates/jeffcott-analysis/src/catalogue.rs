@@ -427,6 +427,7 @@ pub fn recogniser_of(
     omega: f64,
     streak: u32,
     closeness: Closeness,
+    clouds: Option<&[bool]>,
 ) -> crate::early::Recogniser {
     let separation = |a: &Attractor| {
         attractors
@@ -435,6 +436,7 @@ pub fn recogniser_of(
             .map(|b| apart(a, b, omega))
             .fold(f64::INFINITY, f64::min)
     };
+    let cloud_of = cloud_groups(attractors, cfg, omega);
     let known = attractors
         .iter()
         .map(|a| match a.kind {
@@ -485,14 +487,82 @@ pub fn recogniser_of(
                     tol,
                 }
             }
-            // Aperiodic entries are never recognised: at 137.25 rad/s lanes still in
-            // a long transient form clouds of their own, and lanes crossing them were
-            // retired on them although they settle on a cycle later
-            // (docs/early-exit.md); such lanes run their whole record.
+            // Aperiodic entries: at 137.25 rad/s lanes still in a long transient form
+            // clouds of their own, and lanes crossing them were retired on them
+            // although they settle on a cycle later (docs/early-exit.md). So a cloud is
+            // recognised only where `clouds` says the lanes that stayed in it ended on
+            // it (`early::catalogue_groups` counts them), and watched until then;
+            // without `clouds` (records, finished catalogues) never.
+            // Entries of one cloud (`cloud_of`) are recognised as its first entry, on
+            // all their points, at most 0.45 of their distance to any other attractor.
+            k if aperiodic_family(k) && closeness == Closeness::Label => {
+                let Some(confirmed) = clouds else {
+                    return crate::early::Known::Never;
+                };
+                let rep = cloud_of[a.id as usize];
+                if rep != a.id {
+                    return crate::early::Known::Never;
+                }
+                let members: Vec<&Attractor> = attractors
+                    .iter()
+                    .filter(|b| cloud_of[b.id as usize] == rep)
+                    .collect();
+                let sep = attractors
+                    .iter()
+                    .filter(|b| cloud_of[b.id as usize] != rep)
+                    .flat_map(|b| members.iter().map(move |m| apart(m, b, omega)))
+                    .fold(f64::INFINITY, f64::min);
+                let size = members.iter().map(|m| m.size_m).fold(0.0, f64::max);
+                let identity = separation_identity(cfg, a);
+                let tol = (cfg.cloud_rel * size).min(RECOGNISE_SEPARATION * sep);
+                if too_close_to_recognise(identity, sep)
+                    || tol.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
+                {
+                    return crate::early::Known::Never;
+                }
+                let points = members
+                    .iter()
+                    .flat_map(|m| m.points.iter().copied())
+                    .collect();
+                if confirmed.get(a.id as usize).copied().unwrap_or(false) {
+                    crate::early::Known::Cloud { points, tol }
+                } else {
+                    crate::early::Known::Watch { points, tol }
+                }
+            }
             _ => crate::early::Known::Never,
         })
         .collect();
     crate::early::Recogniser::new(omega, streak, known)
+}
+
+/// For each of `attractors` (by id), the first entry of its cloud: aperiodic entries
+/// whose reference clouds come within `cloud_rel` of the larger diameter of each other,
+/// directly or through others, are one cloud (a lane compared early against a still
+/// sparse cloud opens a second entry of the same attractor, which `merge_clouds`
+/// merges at the end); every other entry is its own.
+fn cloud_groups(attractors: &[Attractor], cfg: &CatalogueConfig, omega: f64) -> Vec<u32> {
+    let mut rep: Vec<u32> = (0..attractors.len() as u32).collect();
+    fn root(rep: &mut [u32], mut i: u32) -> u32 {
+        while rep[i as usize] != i {
+            i = rep[i as usize];
+        }
+        i
+    }
+    for (i, a) in attractors.iter().enumerate() {
+        for b in &attractors[..i] {
+            if !(aperiodic_family(a.kind) && aperiodic_family(b.kind)) {
+                continue;
+            }
+            if apart(a, b, omega) <= cfg.cloud_rel * a.size_m.max(b.size_m) {
+                let (ra, rb) = (root(&mut rep, a.id), root(&mut rep, b.id));
+                rep[ra.max(rb) as usize] = ra.min(rb);
+            }
+        }
+    }
+    (0..attractors.len() as u32)
+        .map(|i| root(&mut rep, i))
+        .collect()
 }
 
 /// Builds a catalogue lane by lane (so basins can stream chunks with bounded memory).
@@ -615,7 +685,41 @@ impl CatalogueBuilder {
             self.omega,
             streak,
             Closeness::Label,
+            None,
         )
+    }
+
+    /// [`CatalogueBuilder::recogniser`] with the aperiodic attractors too: entry `i` a
+    /// recognised cloud where `confirmed[i]`, else watched (`early::Known`).
+    pub fn recogniser_with_clouds(
+        &self,
+        streak: u32,
+        confirmed: &[bool],
+    ) -> crate::early::Recogniser {
+        recogniser_of(
+            &self.attractors,
+            &self.cfg,
+            self.omega,
+            streak,
+            Closeness::Label,
+            Some(confirmed),
+        )
+    }
+
+    /// For each attractor so far (by id), the first entry of its cloud
+    /// (`cloud_groups`: aperiodic entries that are one attractor).
+    pub fn cloud_groups(&self) -> Vec<u32> {
+        cloud_groups(&self.attractors, &self.cfg, self.omega)
+    }
+
+    /// Attractors catalogued so far.
+    pub fn len(&self) -> usize {
+        self.attractors.len()
+    }
+
+    /// Whether nothing is catalogued yet.
+    pub fn is_empty(&self) -> bool {
+        self.attractors.is_empty()
     }
 
     /// What early exit recognises lanes on before they record ([`Closeness::Record`]).
@@ -626,6 +730,7 @@ impl CatalogueBuilder {
             self.omega,
             streak,
             Closeness::Record,
+            None,
         )
     }
 
@@ -1064,6 +1169,7 @@ impl Catalogue {
             self.omega,
             streak,
             Closeness::Label,
+            None,
         )
     }
 }

@@ -50,15 +50,38 @@ pub enum Known {
         /// Match tolerance (the metric of [`distance`]).
         tol: f64,
     },
-    /// Never recognised (aperiodic and unclassified entries).
+    /// An aperiodic attractor that the lanes which crossed it confirmed (every one of
+    /// them ended on it: [`catalogue_groups`]): a point matches within `tol` of any
+    /// point of its reference cloud.
+    Cloud {
+        /// The reference cloud.
+        points: Vec<State>,
+        /// Match tolerance.
+        tol: f64,
+    },
+    /// An aperiodic attractor not (yet) confirmed: lanes that stay in it for the streak
+    /// are noted ([`Seen::Watched`]), never retired. Lanes still in a long transient
+    /// form clouds that look like attractors (docs/early-exit.md), and only the lanes
+    /// that go on to the end tell the two apart.
+    Watch {
+        /// The reference cloud.
+        points: Vec<State>,
+        /// Match tolerance.
+        tol: f64,
+    },
+    /// Never recognised (aperiodic entries where no evidence is gathered, unclassified
+    /// entries, cycles too close to another attractor).
     Never,
 }
 
 impl Known {
-    /// Whether `x` matches point `j` of a cycle.
+    /// Whether `x` matches point `j` of a cycle, or any point of a cloud.
     fn matches(&self, x: &State, j: usize, w: f64) -> bool {
         match self {
             Known::Cycle { points, tol } => distance(x, &points[j], w) <= *tol,
+            Known::Cloud { points, tol } | Known::Watch { points, tol } => {
+                points.iter().any(|p| distance(x, p, w) <= *tol)
+            }
             Known::Never => false,
         }
     }
@@ -70,6 +93,17 @@ impl Known {
             _ => streak,
         }
     }
+}
+
+/// What one Poincare point did to a lane's track ([`Recogniser::step`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Seen {
+    /// Not recognised.
+    Nothing,
+    /// Recognised on this attractor: the lane retires (or records).
+    Retire(u32),
+    /// In this watched cloud for the whole streak: noted, the lane goes on.
+    Watched(u32),
 }
 
 /// Recognises lanes on a catalogue's attractors (module docs); built by
@@ -100,7 +134,10 @@ impl Recogniser {
         }
     }
 
-    /// Starts a streak at `x`: the first attractor (and cycle point) it matches.
+    /// Starts a streak at `x`: the first cycle (and cycle point) it matches, else the
+    /// first cloud. No point matches two attractors (the tolerances are capped under
+    /// half their separation), so the order only saves work: a cycle's few points are
+    /// tried before a cloud's hundreds.
     fn start(&self, x: &State) -> Track {
         for (id, k) in self.known.iter().enumerate() {
             let Known::Cycle { points, .. } = k else {
@@ -114,12 +151,22 @@ impl Recogniser {
                 };
             }
         }
+        for (id, k) in self.known.iter().enumerate() {
+            if matches!(k, Known::Cloud { .. } | Known::Watch { .. }) && k.matches(x, 0, self.omega)
+            {
+                return Track {
+                    attractor: id as u32,
+                    next: 0,
+                    streak: 1,
+                };
+            }
+        }
         Track::default()
     }
-}
 
-impl Recognise for Recogniser {
-    fn observe(&self, _lane: usize, t: &mut Track, x: &State) -> Option<u32> {
+    /// Takes lane's next Poincare point `x` into its track `t`: what [`Recognise::observe`]
+    /// decides, and where the lane has stayed in a watched cloud for the streak, that.
+    pub fn step(&self, t: &mut Track, x: &State) -> Seen {
         if t.streak > 0 {
             let k = &self.known[t.attractor as usize];
             if k.matches(x, t.next as usize, self.omega) {
@@ -134,8 +181,25 @@ impl Recognise for Recogniser {
         if t.streak == 0 {
             *t = self.start(x);
         }
-        let k = self.known.get(t.attractor as usize)?;
-        (t.streak > 0 && t.streak >= k.needs(self.streak)).then_some(t.attractor)
+        let Some(k) = self.known.get(t.attractor as usize) else {
+            return Seen::Nothing;
+        };
+        if t.streak == 0 || t.streak < k.needs(self.streak) {
+            return Seen::Nothing;
+        }
+        match k {
+            Known::Watch { .. } => Seen::Watched(t.attractor),
+            _ => Seen::Retire(t.attractor),
+        }
+    }
+}
+
+impl Recognise for Recogniser {
+    fn observe(&self, _lane: usize, t: &mut Track, x: &State) -> Option<u32> {
+        match self.step(t, x) {
+            Seen::Retire(id) => Some(id),
+            Seen::Nothing | Seen::Watched(_) => None,
+        }
     }
 }
 
@@ -260,6 +324,37 @@ pub fn catalogue_lanes(
     Ok(all.pop().expect("one group"))
 }
 
+/// How the lanes that stayed in a watched cloud for the streak ended ([`Known::Watch`]):
+/// on it, or elsewhere (another attractor, diverged, recognised on a cycle).
+#[derive(Clone, Copy, Debug, Default)]
+struct CloudVotes {
+    stayed: u32,
+    left: u32,
+}
+
+impl CloudVotes {
+    fn note(&mut self, stayed: bool) {
+        if stayed {
+            self.stayed += 1;
+        } else {
+            self.left += 1;
+        }
+    }
+
+    /// A cloud is recognised once [`CLOUD_CONFIRMATIONS`] lanes that stayed in it for
+    /// the streak ended on it and none ended elsewhere.
+    fn confirmed(&self) -> bool {
+        self.left == 0 && self.stayed >= CLOUD_CONFIRMATIONS
+    }
+}
+
+/// Lanes that must have stayed in a watched cloud for the streak and ended on it, with
+/// none ending elsewhere, before the cloud is recognised (docs/early-exit.md, "Chaotic
+/// attractors"). A cloud of lanes still in a long transient leaks: at 137.25 rad/s with
+/// T = 250 the first round's lanes that stayed in the largest "aperiodic" entry for 16
+/// periods mostly ended on the period-1 cycle.
+const CLOUD_CONFIRMATIONS: u32 = 3;
+
 /// Catalogues each group of lanes of `ens` on its own with early exit, in [`rounds`]:
 /// group g is the lanes `groups[g]` (consecutive), at speed `omegas[g]` (the groups of a
 /// continuation's unit are its parameter values, each with its own catalogue). A round
@@ -297,6 +392,9 @@ pub fn catalogue_groups(
     let mut ends: Vec<Vec<Option<LaneEnd>>> = groups.iter().map(|g| vec![None; g.len()]).collect();
     let group_rounds: Vec<Vec<Vec<usize>>> = groups.iter().map(|g| rounds(g.len())).collect();
     let count = group_rounds.iter().map(Vec::len).max().unwrap_or(0);
+    // Per group and catalogue entry, the lanes that stayed in it for a streak while it
+    // was watched, and how they ended: on it, or elsewhere (`CloudVotes`).
+    let mut votes: Vec<Vec<CloudVotes>> = vec![Vec::new(); groups.len()];
     let mut base = 0u64;
     for r in 0..count {
         // The round's lanes, group by group: (group, index in the group).
@@ -317,12 +415,24 @@ pub fn catalogue_groups(
         };
         let rec: Vec<Recogniser> = out
             .iter()
-            .map(|e| e.builder.recogniser(ens.stepper.early_exit_streak))
+            .zip(&votes)
+            .map(|(e, v)| {
+                let confirmed: Vec<bool> = (0..e.builder.len())
+                    .map(|i| v.get(i).is_some_and(CloudVotes::confirmed))
+                    .collect();
+                e.builder
+                    .recogniser_with_clouds(ens.stepper.early_exit_streak, &confirmed)
+            })
             .collect();
         let group: Vec<usize> = picks.iter().map(|p| p.0).collect();
+        let watched: Vec<std::sync::atomic::AtomicU32> = picks
+            .iter()
+            .map(|_| std::sync::atomic::AtomicU32::new(UNSEEN))
+            .collect();
         let by_group = ByGroup {
             recognisers: &rec,
             group: &group,
+            watched: Some(&watched),
         };
         let early = EarlyExit {
             recognise: &by_group,
@@ -344,7 +454,7 @@ pub fn catalogue_groups(
         let len = res.result.recorded * jeffcott_core::model::STATE_DIM;
         // Each group's lanes of the round are consecutive in `picks`.
         let mut at = 0;
-        for (g, (e, ends)) in out.iter_mut().zip(&mut ends).enumerate() {
+        for (g, ((e, ends), votes)) in out.iter_mut().zip(&mut ends).zip(&mut votes).enumerate() {
             let m = picks[at..].iter().take_while(|p| p.0 == g).count();
             let lanes = at..at + m;
             at += m;
@@ -358,21 +468,42 @@ pub fn catalogue_groups(
                 &frozen[lanes.clone()],
                 res.result.lambda1.as_ref().map(|l| &l[lanes.clone()]),
             );
-            for ((&(_, i), class), retired) in picks[lanes.clone()]
+            let mut crossed: Vec<(u32, i32)> = Vec::new();
+            for (((&(_, i), class), retired), seen) in picks[lanes.clone()]
                 .iter()
                 .zip(classes)
                 .zip(&res.retired[lanes.clone()])
+                .zip(&watched[lanes.clone()])
             {
-                // The rounds' catalogue only recognises: it needs the cycles of the
+                // The rounds' catalogue only recognises: it needs the attractors of the
                 // lanes that ran whole, not the recognised lanes' counts or labels
                 // (those come from the rebuild below).
-                ends[i] = Some(match retired {
-                    Some(ret) => LaneEnd::Recognised(ret.attractor),
+                let (end, on) = match retired {
+                    Some(ret) => (LaneEnd::Recognised(ret.attractor), ret.attractor as i32),
                     None => {
-                        e.builder.add_at(class.clone(), i as u64);
-                        LaneEnd::Whole(class)
+                        let id = e.builder.add_at(class.clone(), i as u64);
+                        (LaneEnd::Whole(class), id)
                     }
-                });
+                };
+                ends[i] = Some(end);
+                let seen = seen.load(std::sync::atomic::Ordering::Relaxed);
+                if seen != UNSEEN {
+                    crossed.push((seen, on));
+                }
+            }
+            // Ended on the cloud: on one of its entries as the catalogue now groups
+            // them (with the round's new entries: a lane compared against a still
+            // sparse cloud may open a second entry of the same attractor).
+            if !crossed.is_empty() {
+                let cloud_of = e.builder.cloud_groups();
+                for (seen, on) in crossed.drain(..) {
+                    let k = seen as usize;
+                    if votes.len() <= k {
+                        votes.resize(k + 1, CloudVotes::default());
+                    }
+                    let stayed = on >= 0 && cloud_of.get(on as usize) == cloud_of.get(k);
+                    votes[k].note(stayed);
+                }
             }
             e.saved.add(&EarlySaved::of(&res.retired[lanes], full));
         }
@@ -454,11 +585,33 @@ pub struct ByGroup<'a> {
     pub recognisers: &'a [Recogniser],
     /// Each lane's group.
     pub group: &'a [usize],
+    /// Where given, each lane's first watched cloud ([`Seen::Watched`]; [`UNSEEN`]
+    /// where none), noted as the runner's threads observe it.
+    pub watched: Option<&'a [std::sync::atomic::AtomicU32]>,
 }
+
+/// No watched cloud noted for a lane ([`ByGroup::watched`]).
+pub const UNSEEN: u32 = u32::MAX;
 
 impl Recognise for ByGroup<'_> {
     fn observe(&self, lane: usize, t: &mut Track, x: &State) -> Option<u32> {
-        self.recognisers[self.group[lane]].observe(lane, t, x)
+        match self.recognisers[self.group[lane]].step(t, x) {
+            Seen::Retire(id) => Some(id),
+            Seen::Watched(id) => {
+                if let Some(w) = self.watched {
+                    // The first cloud the lane stayed in; each lane is observed by one
+                    // thread at a time, so this is the same on any number of threads.
+                    let _ = w[lane].compare_exchange(
+                        UNSEEN,
+                        id,
+                        std::sync::atomic::Ordering::Relaxed,
+                        std::sync::atomic::Ordering::Relaxed,
+                    );
+                }
+                None
+            }
+            Seen::Nothing => None,
+        }
     }
 }
 
@@ -590,6 +743,7 @@ pub fn records_by_group(
             &ByGroup {
                 recognisers: &known,
                 group: &rest_group,
+                watched: None,
             },
             lambda1,
             engine,
@@ -730,6 +884,53 @@ mod tests {
         }
         // The visit of 5 points did not retire it; 8 in a row after its return did.
         assert_eq!(first, Some(8 + 7));
+    }
+
+    #[test]
+    fn a_watched_cloud_notes_a_lane_that_stays_for_the_streak_and_never_retires_it() {
+        let cloud = vec![pt(0.0), pt(1.0), pt(2.0)];
+        let watch = Known::Watch {
+            points: cloud.clone(),
+            tol: 0.3,
+        };
+        let r = Recogniser::new(100.0, 4, vec![watch]);
+        let mut t = Track::default();
+        let seen: Vec<Seen> = [0.1, 1.2, 5.0, 2.1, 0.0, 1.1, 1.9]
+            .iter()
+            .map(|&v| r.step(&mut t, &pt(v)))
+            .collect();
+        // 5.0 lies outside the cloud: the count starts again at 2.1, and the fourth
+        // point in a row (1.9) is noted, not retired.
+        assert_eq!(seen[..6], [Seen::Nothing; 6]);
+        assert_eq!(seen[6], Seen::Watched(0));
+        assert_eq!(r.observe(0, &mut t, &pt(0.2)), None);
+        // Confirmed, the same cloud retires the lane after the same streak.
+        let r = Recogniser::new(
+            100.0,
+            4,
+            vec![Known::Cloud {
+                points: cloud,
+                tol: 0.3,
+            }],
+        );
+        let mut t = Track::default();
+        let got: Vec<Option<u32>> = [0.1, 1.2, 2.1, 0.0]
+            .iter()
+            .map(|&v| r.observe(0, &mut t, &pt(v)))
+            .collect();
+        assert_eq!(got, [None, None, None, Some(0)]);
+    }
+
+    #[test]
+    fn a_cloud_is_confirmed_by_three_lanes_that_stayed_and_none_that_left() {
+        let mut v = CloudVotes::default();
+        v.note(true);
+        v.note(true);
+        assert!(!v.confirmed());
+        v.note(true);
+        assert!(v.confirmed());
+        v.note(false);
+        assert!(!v.confirmed(), "one lane that left keeps it watched");
     }
 
     #[test]
