@@ -666,6 +666,38 @@ fn on_cpu_and_gpu(
     gpu_f64_present().then(|| (early_run(line, "cpu", 16), early_run(line, "gpu", 16)))
 }
 
+/// The GPU's slot pool recognises clouds as the CPU's refilled batches do (the
+/// recogniser runs on the host for both): at 240 rad/s, mu = 0.12, the same labels and
+/// the same lanes retired, more of them than lie on the cycles.
+#[test]
+fn chaotic_attractors_are_recognised_on_a_gpu_as_on_the_cpu() {
+    let Some((cpu, gpu)) = on_cpu_and_gpu(
+        "basin --omega 240 --param mu=0.12 --x x_r:-0.006:0.006:16 --y vy_r:-3:3:16 \
+         --transient 250 --periods 16 --steps-per-period 200 --chunk 256 \
+         --uncertainty-samples 0 --no-plot --quiet",
+    ) else {
+        return;
+    };
+    let labels = |dir: &std::path::Path| npy::<i32>(&dir.join("labels.npy")).1;
+    let run = |dir: &std::path::Path| json(&dir.join("run.json"));
+    assert_eq!(run(&gpu.1)["backend"]["backend"], "gpu");
+    assert_eq!(labels(&cpu.1), labels(&gpu.1));
+    assert_eq!(run(&cpu.1)["early_exit"], run(&gpu.1)["early_exit"]);
+    let att = json(&cpu.1.join("attractors.json"));
+    let cycles: u64 = att["attractors"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|a| a["class"] == "period-1")
+        .map(|a| a["lanes"].as_u64().unwrap())
+        .sum();
+    let retired = run(&cpu.1)["early_exit"]["retired"].as_u64().unwrap();
+    assert!(
+        retired > cycles,
+        "{retired} retired, {cycles} on the cycles"
+    );
+}
+
 /// A brute force over 131..134.5 rad/s (periodic and aperiodic speeds), for
 /// [`early_run`].
 const BRUTE_FORCE: &str = "bifurcation --omega 131:134.5:12 --ics 4 --brute-transient 300 \

@@ -419,8 +419,9 @@ fn half_shift(a: &Attractor, w: f64) -> f64 {
 }
 
 /// What early exit recognises lanes on at speed `omega`: the periodic attractors of
-/// `attractors`, a cycle point matching as `closeness` says (module docs). Aperiodic
-/// attractors are not recognised.
+/// `attractors`, a cycle point matching as `closeness` says (module docs), and with
+/// `clouds` (entry i confirmed or not, [`Closeness::Label`] only) the aperiodic ones,
+/// recognised where confirmed and watched where not (`early::Known`).
 pub fn recogniser_of(
     attractors: &[Attractor],
     cfg: &CatalogueConfig,

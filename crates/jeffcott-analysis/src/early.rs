@@ -12,9 +12,14 @@
 //! 1 um in f32 too, or a period-2n cycle that close to itself shifted by n points, is not
 //! recognised) of the cycle
 //! point expected next, in its cyclic order (the analogue of the
-//! recurrence cells of Datseris and Wagemakers, Chaos 32, 023104 (2022)). Aperiodic
-//! attractors are not recognised: lanes still in a long transient form clouds that look
-//! like them (docs/early-exit.md), so their lanes run whole. A miss starts the count
+//! recurrence cells of Datseris and Wagemakers, Chaos 32, 023104 (2022)). An aperiodic
+//! attractor (a cloud) is recognised when `early_exit_streak` points in a row lie within
+//! a tenth of its diameter of its reference cloud (at most 0.45 of its distance to any
+//! other attractor), but only in studies that catalogue in rounds ([`catalogue_groups`])
+//! and only once it is confirmed: lanes still in a long transient form clouds that look
+//! like attractors (docs/early-exit.md), so a cloud is first watched ([`Known::Watch`]),
+//! and recognised ([`Known::Cloud`]) after [`CLOUD_CONFIRMATIONS`] lanes that stayed in
+//! it for the streak ended on it and none ended elsewhere. A miss starts the count
 //! again. Only attractors are catalogued, never saddles, so a lane that lingers near an
 //! unstable orbit is not matched by it; a lane that passes close to an attractor and
 //! leaves it again breaks its streak.
@@ -351,8 +356,10 @@ impl CloudVotes {
 /// Lanes that must have stayed in a watched cloud for the streak and ended on it, with
 /// none ending elsewhere, before the cloud is recognised (docs/early-exit.md, "Chaotic
 /// attractors"). A cloud of lanes still in a long transient leaks: at 137.25 rad/s with
-/// T = 250 the first round's lanes that stayed in the largest "aperiodic" entry for 16
-/// periods mostly ended on the period-1 cycle.
+/// T = 250, replayed on full-length records without the separation cap, the largest
+/// "aperiodic" entry would have retired 1253 of 1600 lanes that the full-length run
+/// puts elsewhere, most of them on the period-1 cycle, and every 8th lane, watched,
+/// marks it leaky (with the cap, the separation rule keeps it out already).
 const CLOUD_CONFIRMATIONS: u32 = 3;
 
 /// Catalogues each group of lanes of `ens` on its own with early exit, in [`rounds`]:
