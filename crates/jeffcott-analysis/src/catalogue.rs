@@ -1162,16 +1162,28 @@ impl Catalogue {
         out
     }
 
-    /// What early exit recognises lanes on against this catalogue ([`recogniser_of`]).
-    pub fn recogniser(&self, streak: u32) -> crate::early::Recogniser {
+    /// What early exit recognises lanes on against this catalogue ([`recogniser_of`]):
+    /// its cycles, and with `clouds` its aperiodic attractors, entry i recognised where
+    /// `clouds[i]` and watched where not.
+    pub fn recogniser(&self, streak: u32, clouds: Option<&[bool]>) -> crate::early::Recogniser {
         recogniser_of(
             &self.attractors,
             &self.config,
             self.omega,
             streak,
             Closeness::Label,
-            None,
+            clouds,
         )
+    }
+
+    /// For each attractor (by id), the first entry of its cloud ([`cloud_groups`]).
+    pub fn cloud_groups(&self) -> Vec<u32> {
+        cloud_groups(&self.attractors, &self.config, self.omega)
+    }
+
+    /// Whether any attractor is aperiodic (a cloud early exit may recognise).
+    pub fn has_clouds(&self) -> bool {
+        self.attractors.iter().any(|a| aperiodic_family(a.kind))
     }
 }
 

@@ -530,37 +530,115 @@ pub fn catalogue_groups(
 }
 
 /// The lanes of `ens` labelled against a finished `catalogue` (at the lanes' speed)
-/// with early exit: a lane recognised on one of its cycles takes that attractor's id,
-/// every other lane runs whole and is labelled from its record as
+/// with early exit: a lane recognised on one of its attractors takes that attractor's
+/// id, every other lane runs whole and is labelled from its record as
 /// [`crate::catalogue::Catalogue::label_lanes`] labels it (-1 diverged, -2 on no
 /// catalogued attractor). The catalogue is complete before the lanes start (the
-/// re-integrated points of a basin: its refinement and uncertainty draws), so there are
-/// no rounds: the recogniser is the whole catalogue's.
+/// re-integrated points of a basin: its refinement and uncertainty draws), so its
+/// cycles recognise from the first lane. Its clouds must be confirmed by these lanes
+/// first (module docs): where it has any, every 8th lane runs first with the clouds
+/// watched, and the rest with those its watched lanes confirmed; so the labels depend
+/// on the unit's lanes alone, as in [`catalogue_groups`].
 pub fn label_lanes(
     ens: &EnsembleSpec,
     catalogue: &crate::catalogue::Catalogue,
     engine: &Engine,
     ctl: Control,
 ) -> Result<(Vec<i32>, EarlySaved, RunInfo)> {
-    let rec = catalogue.recogniser(ens.stepper.early_exit_streak);
-    let early = EarlyExit {
-        recognise: &rec,
-        after: ens.stepper.early_exit_after,
-        then: Then::Retire,
-    };
-    let (r, info) = engine.run_early(ens, &early, false, ctl)?;
-    let labels = r
-        .retired
-        .iter()
-        .enumerate()
-        .map(|(i, ret)| match ret {
-            Some(ret) => ret.attractor as i32,
-            None => catalogue.label_lane(&r.result, i),
-        })
-        .collect();
+    let n = ens.lanes.len();
+    let streak = ens.stepper.early_exit_streak;
     let full = ens.transient + ens.recorded;
-    Ok((labels, EarlySaved::of(&r.retired, full), info))
+    let lanes_run = |lanes: &[usize],
+                     rec: &Recogniser,
+                     watched: Option<&[std::sync::atomic::AtomicU32]>,
+                     done: u64|
+     -> Result<(Vec<i32>, EarlySaved, RunInfo)> {
+        let sub = EnsembleSpec {
+            lanes: lanes.iter().map(|&i| ens.lanes[i]).collect(),
+            ..ens.clone()
+        };
+        let group = vec![0usize; lanes.len()];
+        let by = ByGroup {
+            recognisers: std::slice::from_ref(rec),
+            group: &group,
+            watched,
+        };
+        let early = EarlyExit {
+            recognise: &by,
+            after: ens.stepper.early_exit_after,
+            then: Then::Retire,
+        };
+        let report = |d: u64, _: u64| (ctl.progress)(done + d, n as u64 * full as u64);
+        let (r, info) = engine.run_early(
+            &sub,
+            &early,
+            false,
+            Control {
+                progress: &report,
+                cancel: ctl.cancel,
+            },
+        )?;
+        let labels = r
+            .retired
+            .iter()
+            .enumerate()
+            .map(|(i, ret)| match ret {
+                Some(ret) => ret.attractor as i32,
+                None => catalogue.label_lane(&r.result, i),
+            })
+            .collect();
+        Ok((labels, EarlySaved::of(&r.retired, full), info))
+    };
+    if !catalogue.has_clouds() {
+        let all: Vec<usize> = (0..n).collect();
+        return lanes_run(&all, &catalogue.recogniser(streak, None), None, 0);
+    }
+    // Every 8th lane with the clouds watched; a cloud is confirmed where the lanes that
+    // stayed in it for the streak ended on it (on one of its entries) and none left.
+    let (first, rest): (Vec<usize>, Vec<usize>) = (0..n).partition(|i| i % CLOUD_WATCH_STRIDE == 0);
+    let k = catalogue.attractors.len();
+    let watched: Vec<std::sync::atomic::AtomicU32> = first
+        .iter()
+        .map(|_| std::sync::atomic::AtomicU32::new(UNSEEN))
+        .collect();
+    let none = vec![false; k];
+    let (l1, mut saved, info1) = lanes_run(
+        &first,
+        &catalogue.recogniser(streak, Some(&none)),
+        Some(&watched),
+        0,
+    )?;
+    let cloud_of = catalogue.cloud_groups();
+    let mut votes = vec![CloudVotes::default(); k];
+    for (label, seen) in l1.iter().zip(&watched) {
+        let seen = seen.load(std::sync::atomic::Ordering::Relaxed);
+        if seen != UNSEEN {
+            let stayed =
+                *label >= 0 && cloud_of.get(*label as usize) == cloud_of.get(seen as usize);
+            votes[seen as usize].note(stayed);
+        }
+    }
+    if rest.is_empty() {
+        return Ok((l1, saved, info1));
+    }
+    let confirmed: Vec<bool> = votes.iter().map(CloudVotes::confirmed).collect();
+    let (l2, saved2, info) = lanes_run(
+        &rest,
+        &catalogue.recogniser(streak, Some(&confirmed)),
+        None,
+        first.len() as u64 * full as u64,
+    )?;
+    saved.add(&saved2);
+    let mut labels = vec![0i32; n];
+    for (i, l) in first.iter().zip(l1).chain(rest.iter().zip(l2)) {
+        labels[*i] = l;
+    }
+    Ok((labels, saved, info))
 }
+
+/// The stride of the lanes that watch a finished catalogue's clouds before the rest
+/// may retire on them ([`label_lanes`]), as the second of [`rounds`].
+const CLOUD_WATCH_STRIDE: usize = ROUND_STRIDES[1];
 
 /// A unit of lanes labelled against `catalogue` ([`label_lanes`]): its `labels` and
 /// what early exit saved (`early`), as the re-integration stages commit them.
