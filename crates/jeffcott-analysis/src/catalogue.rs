@@ -525,11 +525,8 @@ pub fn recogniser_of(
                     .iter()
                     .flat_map(|m| m.points.iter().copied())
                     .collect();
-                if confirmed.get(a.id as usize).copied().unwrap_or(false) {
-                    crate::early::Known::Cloud { points, tol }
-                } else {
-                    crate::early::Known::Watch { points, tol }
-                }
+                let confirmed = confirmed.get(a.id as usize).copied().unwrap_or(false);
+                crate::early::Known::cloud(points, tol, confirmed)
             }
             _ => crate::early::Known::Never,
         })

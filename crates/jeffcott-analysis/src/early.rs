@@ -42,7 +42,7 @@ use jeffcott_core::control::Control;
 use jeffcott_core::ensemble::early::{EarlyExit, EarlyResult, Recognise, Retired, Then, Track};
 use jeffcott_core::ensemble::{EnsembleSpec, RunInfo};
 use jeffcott_core::error::Result;
-use jeffcott_core::model::State;
+use jeffcott_core::model::{STATE_DIM, State};
 use serde::{Deserialize, Serialize};
 
 /// An attractor as early exit sees it.
@@ -63,6 +63,8 @@ pub enum Known {
         points: Vec<State>,
         /// Match tolerance.
         tol: f64,
+        /// The cloud's bounding box, lowest and highest coordinates ([`Known::cloud`]).
+        bounds: [State; 2],
     },
     /// An aperiodic attractor not (yet) confirmed: lanes that stay in it for the streak
     /// are noted ([`Seen::Watched`]), never retired. Lanes still in a long transient
@@ -73,6 +75,8 @@ pub enum Known {
         points: Vec<State>,
         /// Match tolerance.
         tol: f64,
+        /// The cloud's bounding box.
+        bounds: [State; 2],
     },
     /// Never recognised (aperiodic entries where no evidence is gathered, unclassified
     /// entries, cycles too close to another attractor).
@@ -80,11 +84,56 @@ pub enum Known {
 }
 
 impl Known {
+    /// A cloud of `points` matching within `tol`: recognised where `confirmed`, else
+    /// watched.
+    pub fn cloud(points: Vec<State>, tol: f64, confirmed: bool) -> Known {
+        let mut bounds = [[f64::INFINITY; STATE_DIM], [f64::NEG_INFINITY; STATE_DIM]];
+        for p in &points {
+            for i in 0..STATE_DIM {
+                bounds[0][i] = bounds[0][i].min(p[i]);
+                bounds[1][i] = bounds[1][i].max(p[i]);
+            }
+        }
+        if confirmed {
+            Known::Cloud {
+                points,
+                tol,
+                bounds,
+            }
+        } else {
+            Known::Watch {
+                points,
+                tol,
+                bounds,
+            }
+        }
+    }
+
     /// Whether `x` matches point `j` of a cycle, or any point of a cloud.
     fn matches(&self, x: &State, j: usize, w: f64) -> bool {
         match self {
             Known::Cycle { points, tol } => distance(x, &points[j], w) <= *tol,
-            Known::Cloud { points, tol } | Known::Watch { points, tol } => {
+            Known::Cloud {
+                points,
+                tol,
+                bounds,
+            }
+            | Known::Watch {
+                points,
+                tol,
+                bounds,
+            } => {
+                // Outside the box grown by the tolerance no point can match: in the
+                // coordinate where x lies beyond the box, every point's difference is
+                // at least the box's (rounded subtraction and division are monotone),
+                // so this skips exactly the scans that would find nothing.
+                for i in 0..STATE_DIM {
+                    let scale = if i % 2 == 1 { w } else { 1.0 };
+                    if (bounds[0][i] - x[i]) / scale > *tol || (x[i] - bounds[1][i]) / scale > *tol
+                    {
+                        return false;
+                    }
+                }
                 points.iter().any(|p| distance(x, p, w) <= *tol)
             }
             Known::Never => false,
@@ -974,10 +1023,7 @@ mod tests {
     #[test]
     fn a_watched_cloud_notes_a_lane_that_stays_for_the_streak_and_never_retires_it() {
         let cloud = vec![pt(0.0), pt(1.0), pt(2.0)];
-        let watch = Known::Watch {
-            points: cloud.clone(),
-            tol: 0.3,
-        };
+        let watch = Known::cloud(cloud.clone(), 0.3, false);
         let r = Recogniser::new(100.0, 4, vec![watch]);
         let mut t = Track::default();
         let seen: Vec<Seen> = [0.1, 1.2, 5.0, 2.1, 0.0, 1.1, 1.9]
@@ -990,14 +1036,7 @@ mod tests {
         assert_eq!(seen[6], Seen::Watched(0));
         assert_eq!(r.observe(0, &mut t, &pt(0.2)), None);
         // Confirmed, the same cloud retires the lane after the same streak.
-        let r = Recogniser::new(
-            100.0,
-            4,
-            vec![Known::Cloud {
-                points: cloud,
-                tol: 0.3,
-            }],
-        );
+        let r = Recogniser::new(100.0, 4, vec![Known::cloud(cloud, 0.3, true)]);
         let mut t = Track::default();
         let got: Vec<Option<u32>> = [0.1, 1.2, 2.1, 0.0]
             .iter()
