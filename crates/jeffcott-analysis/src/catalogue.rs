@@ -675,24 +675,17 @@ impl CatalogueBuilder {
         id as i32
     }
 
-    /// What early exit recognises lanes on: the attractors so far ([`recogniser_of`]).
+    /// What early exit recognises lanes on: the cycles so far ([`recogniser_of`]).
     pub fn recogniser(&self, streak: u32) -> crate::early::Recogniser {
-        recogniser_of(
-            &self.attractors,
-            &self.cfg,
-            self.omega,
-            streak,
-            Closeness::Label,
-            None,
-        )
+        self.recogniser_with_clouds(streak, None)
     }
 
-    /// [`CatalogueBuilder::recogniser`] with the aperiodic attractors too: entry `i` a
-    /// recognised cloud where `confirmed[i]`, else watched (`early::Known`).
+    /// [`CatalogueBuilder::recogniser`], with `clouds` the aperiodic attractors too:
+    /// entry `i` a recognised cloud where `clouds[i]`, else watched (`early::Known`).
     pub fn recogniser_with_clouds(
         &self,
         streak: u32,
-        confirmed: &[bool],
+        clouds: Option<&[bool]>,
     ) -> crate::early::Recogniser {
         recogniser_of(
             &self.attractors,
@@ -700,7 +693,7 @@ impl CatalogueBuilder {
             self.omega,
             streak,
             Closeness::Label,
-            Some(confirmed),
+            clouds,
         )
     }
 

@@ -17,8 +17,8 @@
 //! a tenth of its diameter of its reference cloud (at most 0.45 of its distance to any
 //! other attractor), but only in studies that catalogue in rounds ([`catalogue_groups`])
 //! and only once it is confirmed: lanes still in a long transient form clouds that look
-//! like attractors (docs/early-exit.md), so a cloud is first watched ([`Known::Watch`]),
-//! and recognised ([`Known::Cloud`]) after [`CLOUD_CONFIRMATIONS`] lanes that stayed in
+//! like attractors (docs/early-exit.md), so a cloud ([`Known::Cloud`]) is first watched,
+//! and recognised after [`CLOUD_CONFIRMATIONS`] lanes that stayed in
 //! it for the streak ended on it and none ended elsewhere. A miss starts the count
 //! again. Only attractors are catalogued, never saddles, so a lane that lingers near an
 //! unstable orbit is not matched by it; a lane that passes close to an attractor and
@@ -55,9 +55,12 @@ pub enum Known {
         /// Match tolerance (the metric of [`distance`]).
         tol: f64,
     },
-    /// An aperiodic attractor that the lanes which crossed it confirmed (every one of
-    /// them ended on it: [`catalogue_groups`]): a point matches within `tol` of any
-    /// point of its reference cloud.
+    /// An aperiodic attractor: a point matches within `tol` of any point of its
+    /// reference cloud. Lanes still in a long transient form clouds that look like
+    /// attractors (docs/early-exit.md), and only the lanes that go on to the end tell
+    /// the two apart: so a cloud is recognised only once `confirmed` (every lane that
+    /// stayed in it ended on it: [`catalogue_groups`]); until then it is watched, a
+    /// lane that stays in it for the streak noted ([`Seen::Watched`]), never retired.
     Cloud {
         /// The reference cloud.
         points: Vec<State>,
@@ -65,18 +68,8 @@ pub enum Known {
         tol: f64,
         /// The cloud's bounding box, lowest and highest coordinates ([`Known::cloud`]).
         bounds: [State; 2],
-    },
-    /// An aperiodic attractor not (yet) confirmed: lanes that stay in it for the streak
-    /// are noted ([`Seen::Watched`]), never retired. Lanes still in a long transient
-    /// form clouds that look like attractors (docs/early-exit.md), and only the lanes
-    /// that go on to the end tell the two apart.
-    Watch {
-        /// The reference cloud.
-        points: Vec<State>,
-        /// Match tolerance.
-        tol: f64,
-        /// The cloud's bounding box.
-        bounds: [State; 2],
+        /// Recognised (else watched).
+        confirmed: bool,
     },
     /// Never recognised (aperiodic entries where no evidence is gathered, unclassified
     /// entries, cycles too close to another attractor).
@@ -94,18 +87,11 @@ impl Known {
                 bounds[1][i] = bounds[1][i].max(p[i]);
             }
         }
-        if confirmed {
-            Known::Cloud {
-                points,
-                tol,
-                bounds,
-            }
-        } else {
-            Known::Watch {
-                points,
-                tol,
-                bounds,
-            }
+        Known::Cloud {
+            points,
+            tol,
+            bounds,
+            confirmed,
         }
     }
 
@@ -117,11 +103,7 @@ impl Known {
                 points,
                 tol,
                 bounds,
-            }
-            | Known::Watch {
-                points,
-                tol,
-                bounds,
+                ..
             } => {
                 // Outside the box grown by the tolerance no point can match: in the
                 // coordinate where x lies beyond the box, every point's difference is
@@ -206,8 +188,7 @@ impl Recogniser {
             }
         }
         for (id, k) in self.known.iter().enumerate() {
-            if matches!(k, Known::Cloud { .. } | Known::Watch { .. }) && k.matches(x, 0, self.omega)
-            {
+            if matches!(k, Known::Cloud { .. }) && k.matches(x, 0, self.omega) {
                 return Track {
                     attractor: id as u32,
                     next: 0,
@@ -242,7 +223,9 @@ impl Recogniser {
             return Seen::Nothing;
         }
         match k {
-            Known::Watch { .. } => Seen::Watched(t.attractor),
+            Known::Cloud {
+                confirmed: false, ..
+            } => Seen::Watched(t.attractor),
             _ => Seen::Retire(t.attractor),
         }
     }
@@ -378,7 +361,7 @@ pub fn catalogue_lanes(
     Ok(all.pop().expect("one group"))
 }
 
-/// How the lanes that stayed in a watched cloud for the streak ended ([`Known::Watch`]):
+/// How the lanes that stayed in a watched cloud for the streak ended ([`Known::Cloud`]):
 /// on it, or elsewhere (another attractor, diverged, recognised on a cycle).
 #[derive(Clone, Copy, Debug, Default)]
 struct CloudVotes {
@@ -400,6 +383,27 @@ impl CloudVotes {
     fn confirmed(&self) -> bool {
         self.left == 0 && self.stayed >= CLOUD_CONFIRMATIONS
     }
+}
+
+/// Counts, for each lane noted in a watched cloud `seen` that ended on entry `on` (-1
+/// diverged, -2 on none), whether it ended on that cloud: on one of its entries as
+/// `cloud_of` groups them (`catalogue::cloud_groups`: a lane compared against a still
+/// sparse cloud may open a second entry of the same attractor).
+fn tally(votes: &mut Vec<CloudVotes>, cloud_of: &[u32], ends: impl Iterator<Item = (u32, i32)>) {
+    for (seen, on) in ends {
+        let k = seen as usize;
+        if votes.len() <= k {
+            votes.resize(k + 1, CloudVotes::default());
+        }
+        votes[k].note(on >= 0 && cloud_of.get(on as usize) == cloud_of.get(k));
+    }
+}
+
+/// A log of `n` lanes' first watched cloud, none noted yet ([`ByGroup::watched`]).
+fn watch_log(n: usize) -> Vec<std::sync::atomic::AtomicU32> {
+    (0..n)
+        .map(|_| std::sync::atomic::AtomicU32::new(UNSEEN))
+        .collect()
 }
 
 /// Lanes that must have stayed in a watched cloud for the streak and ended on it, with
@@ -477,14 +481,11 @@ pub fn catalogue_groups(
                     .map(|i| v.get(i).is_some_and(CloudVotes::confirmed))
                     .collect();
                 e.builder
-                    .recogniser_with_clouds(ens.stepper.early_exit_streak, &confirmed)
+                    .recogniser_with_clouds(ens.stepper.early_exit_streak, Some(&confirmed))
             })
             .collect();
         let group: Vec<usize> = picks.iter().map(|p| p.0).collect();
-        let watched: Vec<std::sync::atomic::AtomicU32> = picks
-            .iter()
-            .map(|_| std::sync::atomic::AtomicU32::new(UNSEEN))
-            .collect();
+        let watched = watch_log(picks.len());
         let by_group = ByGroup {
             recognisers: &rec,
             group: &group,
@@ -547,19 +548,9 @@ pub fn catalogue_groups(
                     crossed.push((seen, on));
                 }
             }
-            // Ended on the cloud: on one of its entries as the catalogue now groups
-            // them (with the round's new entries: a lane compared against a still
-            // sparse cloud may open a second entry of the same attractor).
+            // Grouped as the catalogue now holds them, with the round's new entries.
             if !crossed.is_empty() {
-                let cloud_of = e.builder.cloud_groups();
-                for (seen, on) in crossed.drain(..) {
-                    let k = seen as usize;
-                    if votes.len() <= k {
-                        votes.resize(k + 1, CloudVotes::default());
-                    }
-                    let stayed = on >= 0 && cloud_of.get(on as usize) == cloud_of.get(k);
-                    votes[k].note(stayed);
-                }
+                tally(votes, &e.builder.cloud_groups(), crossed.into_iter());
             }
             e.saved.add(&EarlySaved::of(&res.retired[lanes], full));
         }
@@ -646,10 +637,7 @@ pub fn label_lanes(
     // stayed in it for the streak ended on it (on one of its entries) and none left.
     let (first, rest): (Vec<usize>, Vec<usize>) = (0..n).partition(|i| i % CLOUD_WATCH_STRIDE == 0);
     let k = catalogue.attractors.len();
-    let watched: Vec<std::sync::atomic::AtomicU32> = first
-        .iter()
-        .map(|_| std::sync::atomic::AtomicU32::new(UNSEEN))
-        .collect();
+    let watched = watch_log(first.len());
     let none = vec![false; k];
     let (l1, mut saved, info1) = lanes_run(
         &first,
@@ -657,16 +645,13 @@ pub fn label_lanes(
         Some(&watched),
         0,
     )?;
-    let cloud_of = catalogue.cloud_groups();
     let mut votes = vec![CloudVotes::default(); k];
-    for (label, seen) in l1.iter().zip(&watched) {
-        let seen = seen.load(std::sync::atomic::Ordering::Relaxed);
-        if seen != UNSEEN {
-            let stayed =
-                *label >= 0 && cloud_of.get(*label as usize) == cloud_of.get(seen as usize);
-            votes[seen as usize].note(stayed);
-        }
-    }
+    let ends = watched
+        .iter()
+        .zip(&l1)
+        .map(|(seen, &label)| (seen.load(std::sync::atomic::Ordering::Relaxed), label))
+        .filter(|&(seen, _)| seen != UNSEEN);
+    tally(&mut votes, &catalogue.cloud_groups(), ends);
     if rest.is_empty() {
         return Ok((l1, saved, info1));
     }
