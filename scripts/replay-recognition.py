@@ -13,11 +13,16 @@ recognised label with the lane's full-length label.
     python3 scripts/replay-recognition.py lanes B > lanes.csv
     jeffcott ensemble --lanes lanes.csv --omega 133 --transient 0 --periods 282 --out E
     python3 scripts/replay-recognition.py replay B E --streak 16 --sep 0.25 0.45 1.0
+    python3 scripts/replay-recognition.py replay B E --streak 8 --sep 0.75 1.0 --rho 0.8
 
 The replay has no rounds (every lane sees the basin's whole catalogue from its start),
 so its share of periods is that of a real run less its first round's full-length lanes
-(at 133 rad/s 32.4 % replayed against 33.7 % run). Needs numpy. docs/early-exit.md,
-"Replaying the rule", has what it found.
+(at 133 rad/s 32.4 % replayed against 33.7 % run). A streak is any run of points in
+one cycle's order (all cycles and phases at once, vectorised); where a cap of half the
+separation or more lets a point match two cycles, a lane takes the one whose streak
+completes first, where the recogniser takes the first it matched (at 133, streak 8,
+cap 1.0: 191 lanes wrong against the loop's 186). `--rho` adds the contraction guard.
+Needs numpy. docs/early-exit.md, "Replaying the rule", has what it found.
 """
 import argparse
 import json
@@ -39,7 +44,25 @@ def lanes(basin):
             print(f"{float(xv)!r},{float(yv)!r}")
 
 
-def replay(basin, ensemble, streaks, rels, seps, after):
+def run_lengths(ok):
+    """For each lane and period, how many points in a row up to it are `ok`."""
+    out = np.zeros(ok.shape, np.int32)
+    r = np.zeros(ok.shape[0], np.int32)
+    for p in range(ok.shape[1]):
+        r = np.where(ok[:, p], r + 1, 0)
+        out[:, p] = r
+    return out
+
+
+def sliding_max(e, width):
+    """max(e[:, p - width + 1 .. p]) for each p (fewer at the start)."""
+    out = e.copy()
+    for s in range(1, width):
+        out[:, s:] = np.maximum(out[:, s:], e[:, :-s])
+    return out
+
+
+def replay(basin, ensemble, streaks, rels, seps, rhos, after):
     att = json.load(open(os.path.join(basin, "attractors.json")))
     w = att["omega"]
     cfg = att["catalogue_config"]
@@ -56,7 +79,13 @@ def replay(basin, ensemble, streaks, rels, seps, after):
         for a in att["attractors"]
         if a["class"].startswith("period-")
     ]
-    dist = {i: np.abs(pts[:, :, None, :] - c[None, None]).max(-1) for i, c, _ in cycles}
+    # A streak in cyclic order is a run of points p, p + 1, ... within the tolerance
+    # of cycle points p + phi, p + 1 + phi, ... for one phase phi: e[i][phi][lane, p]
+    # is point p's distance to cycle point (p + phi) mod P.
+    e = {}
+    for i, c, _ in cycles:
+        d = np.abs(pts[:, :, None, :] - c[None, None]).max(-1)
+        e[i] = [d[:, np.arange(k), (np.arange(k) + phi) % len(c)] for phi in range(len(c))]
 
     def separation(i, c):
         return min(
@@ -67,44 +96,45 @@ def replay(basin, ensemble, streaks, rels, seps, after):
     for streak in streaks:
         for rel in rels:
             for sepf in seps:
-                tol = {}
-                for i, c, size in cycles:
-                    ident = max(cfg["match_rel"] * size, cfg["match_abs"])
-                    sep = separation(i, c)
-                    cap = sepf * sep
-                    # Never recognised within four identity tolerances, the floor at
-                    # most 1 um (catalogue::separation_identity, SEPARATION_ABS).
-                    if max(cfg["match_rel"] * size, min(cfg["match_abs"], 1e-6)) > 0.25 * sep:
-                        continue
-                    tol[i] = min(max(ident, min(rel * size, cap)), cap)
-                ret = np.full(n, k)
-                lab = np.full(n, -1)
-                for lane in range(n):
-                    cur, nxt, run = None, 0, 0
-                    for p in range(after - 1, k):
-                        if run > 0:
-                            if dist[cur][lane, p, nxt] <= tol[cur]:
-                                run += 1
-                                nxt = (nxt + 1) % dist[cur].shape[2]
-                            else:
-                                run = 0
-                        if run == 0:
-                            for i in tol:
-                                js = np.nonzero(dist[i][lane, p] <= tol[i])[0]
-                                if js.size:
-                                    cur, nxt, run = i, (js[0] + 1) % dist[i].shape[2], 1
-                                    break
-                        if run > 0 and run >= max(streak, 2 * dist[cur].shape[2]):
-                            ret[lane], lab[lane] = p + 1, cur
-                            break
-                done = lab >= 0
-                wrong = int((lab[done] != labels[done]).sum())
-                print(
-                    f"streak {streak:3d} rel {rel:5.2f} sep {sepf:5.2f}: "
-                    f"retired {int(done.sum())} of {n}, wrong {wrong}, "
-                    f"periods {100 * ret.sum() / (n * k):.1f} %, "
-                    f"median retirement {np.median(ret[done]) if done.any() else 0:.0f}"
-                )
+                for rho in rhos:
+                    tol = {}
+                    for i, c, size in cycles:
+                        ident = max(cfg["match_rel"] * size, cfg["match_abs"])
+                        sep = separation(i, c)
+                        cap = sepf * sep
+                        # Never recognised within four identity tolerances, the floor
+                        # at most 1 um (catalogue::separation_identity, SEPARATION_ABS).
+                        if max(cfg["match_rel"] * size, min(cfg["match_abs"], 1e-6)) > 0.25 * sep:
+                            continue
+                        tol[i] = min(max(ident, min(rel * size, cap)), cap)
+                    ret = np.full(n, k)
+                    lab = np.full(n, -1)
+                    for i in tol:
+                        period = len(e[i])
+                        need = max(streak, 2 * period)
+                        for ei in e[i]:
+                            fire = run_lengths(ei <= tol[i]) >= need
+                            if rho is not None:
+                                # The streak's last cycle no farther than rho times its
+                                # first (each the largest distance over a cycle).
+                                m = sliding_max(ei, period)
+                                first = np.full_like(m, np.inf)
+                                first[:, need - 1:] = m[:, period - 1: k - need + period]
+                                fire &= m <= rho * first
+                            fire[:, : after - 1] = False
+                            p = np.where(fire.any(1), fire.argmax(1), k)
+                            sooner = p + 1 < ret
+                            ret = np.where(sooner, p + 1, ret)
+                            lab = np.where(sooner, i, lab)
+                    done = lab >= 0
+                    wrong = int((lab[done] != labels[done]).sum())
+                    print(
+                        f"streak {streak:3d} rel {rel:5.2f} sep {sepf:5.2f} "
+                        f"rho {rho if rho is not None else '-':>4}: "
+                        f"retired {int(done.sum())} of {n}, wrong {wrong}, "
+                        f"periods {100 * ret.sum() / (n * k):.1f} %, "
+                        f"median retirement {np.median(ret[done]) if done.any() else 0:.0f}"
+                    )
 
 
 def main():
@@ -118,12 +148,19 @@ def main():
     r.add_argument("--streak", type=int, nargs="+", default=[16])
     r.add_argument("--rel", type=float, nargs="+", default=[0.1])
     r.add_argument("--sep", type=float, nargs="+", default=[0.45])
+    r.add_argument(
+        "--rho",
+        type=float,
+        nargs="+",
+        default=[None],
+        help="also require the streak's last cycle within RHO times its first",
+    )
     r.add_argument("--after", type=int, default=30)
     o = ap.parse_args()
     if o.cmd == "lanes":
         lanes(o.basin)
     else:
-        replay(o.basin, o.ensemble, o.streak, o.rel, o.sep, o.after)
+        replay(o.basin, o.ensemble, o.streak, o.rel, o.sep, o.rho, o.after)
 
 
 if __name__ == "__main__":
