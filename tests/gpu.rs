@@ -735,7 +735,8 @@ fn check_exact_free_flight<R: GpuReal>(runner: &GpuRunner) {
 #[test]
 fn the_kernel_reading_lane_constants_once_or_at_every_sub_step_gives_the_cpus_bits() {
     // Variant::consts_each_step: hardware reads a lane's constants at every sub-step
-    // (registers), lavapipe once (its loads are gathers). Each adapter runs one form by
+    // (registers) and keeps the committed lane in its buffer, lavapipe reads them once
+    // and holds the lane (its loads are gathers). Each adapter runs one form by
     // default; JEFFCOTT_GPU_CONSTS runs the other, so CI's lavapipe checks both forms,
     // with and without the exact free-flight map, in both precisions.
     let Some(runner) = runner_for::<f64>() else {

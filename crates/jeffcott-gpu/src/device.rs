@@ -166,8 +166,9 @@ fn shader_path(summary: &AdapterSummary) -> Result<ShaderPath> {
     }
 }
 
-/// The environment variable that says how the kernel reads a lane's constants: `once`
-/// (the default on software adapters) or `each-step` (the default on hardware); see
+/// The environment variable that says how the kernel reads a lane's constants (and
+/// holds the committed lane): `once`, in registers (the default on software adapters)
+/// or `each-step`, from their buffers (the default on hardware); see
 /// `shader::Variant::consts_each_step`. Both give the same bits.
 pub const CONSTS_VAR: &str = "JEFFCOTT_GPU_CONSTS";
 

@@ -97,7 +97,9 @@ pub struct Variant {
     /// spills (RADV's statistics for a virtual RDNA3 GPU, together with rk4_substep's
     /// k2 + k3 summed early: spilled VGPRs of the f64 kernel 220 -> 159, with the exact
     /// free-flight map 446 -> 190; docs/gpu.md), and what costs lavapipe a third of its
-    /// speed (its loads are 8-lane gathers). The arithmetic is the same either way.
+    /// speed (its loads are 8-lane gathers). The same form keeps the committed lane in
+    /// its buffer, read and written at every sub-step, rather than in registers across
+    /// the loop (159 -> 131 and 190 -> 162). The arithmetic is the same either way.
     pub consts_each_step: bool,
 }
 

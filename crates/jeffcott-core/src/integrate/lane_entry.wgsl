@@ -63,17 +63,27 @@ fn advance_lanes(@builtin(global_invocation_id) gid: vec3<u32>) {
     probe_n = params.probe;
     let period_end = params.period_end;
     let lc_once = consts[i];
-    var lane = lanes[i];
+    // The committed lane: in registers across the loop (`held`), or, in the hardware
+    // form (CONSTS_EACH_STEP), in its buffer, read at each iteration and written back
+    // at its end, so that its state and counters are not live across the loop beside
+    // the macro step's own (RADV's null device: 159 -> 131 spilled VGPRs in f64,
+    // docs/gpu.md). The buffer then always holds the last commit, as the final write
+    // of the registers form leaves it, also after a cut by the loop budget.
+    var held = lanes[i];
     var tv: array<Real, STATE_DIM>;
     if LYAPUNOV {
         tv = tangents[i];
     }
     var committed = false;
     // The lane's macro step in progress (`busy`) and its tangent vector.
-    var ms = macro_step_begin(lc_once, lane);
+    var ms = macro_step_begin(lc_once, held);
     var busy = false;
     var vw = tv;
     loop {
+        var lane = held;
+        if CONSTS_EACH_STEP {
+            lane = lanes[i];
+        }
         if lane.period >= period_end {
             break;
         }
@@ -120,8 +130,16 @@ fn advance_lanes(@builtin(global_invocation_id) gid: vec3<u32>) {
             lane.period += 1u;
             committed = true;
         }
+        if CONSTS_EACH_STEP {
+            lanes[i] = lane;
+        } else {
+            held = lane;
+        }
     }
-    lanes[i] = lane;
+    if !CONSTS_EACH_STEP {
+        lanes[i] = held;
+    }
+    let lane = lanes[i];
     if LYAPUNOV {
         tangents[i] = tv;
     }
