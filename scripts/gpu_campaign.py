@@ -230,9 +230,9 @@ class Campaign:
             text.append(info)
             _, info, _ = self.sh([self.jeffcott, "info"])
         text.append(info)
-        # The statistics of the other form of reading the lane constants too
-        # (JEFFCOTT_GPU_CONSTS; shader.rs's Variant::consts_each_step), so the registers
-        # it saves on this compiler are measured, not assumed.
+        # The statistics of the other form of reading the lane constants and holding the
+        # committed lane too (JEFFCOTT_GPU_CONSTS; shader.rs's Variant::consts_each_step),
+        # so the registers it saves on this compiler are measured, not assumed.
         once = ""
         if rc == 0:
             _, once, _ = self.sh([self.jeffcott, "info", "--kernel-stats"], timeout=90, check=False,
