@@ -153,10 +153,15 @@ pub struct Classification {
 pub fn distance(a: &State, b: &State, omega: f64) -> f64 {
     let mut d: f64 = 0.0;
     for i in 0..STATE_DIM {
-        let scale = if i % 2 == 1 { omega } else { 1.0 };
-        d = d.max((a[i] - b[i]).abs() / scale);
+        d = d.max((a[i] - b[i]).abs() / metric_scale(i, omega));
     }
     d
+}
+
+/// What [`distance`] divides coordinate `i`'s difference by: W for the velocities (odd
+/// indices), 1 for the positions.
+pub fn metric_scale(i: usize, omega: f64) -> f64 {
+    if i % 2 == 1 { omega } else { 1.0 }
 }
 
 /// Classifies a Poincare sequence taken after the transient. `frozen` lanes are

@@ -110,7 +110,7 @@ impl Known {
                 // at least the box's (rounded subtraction and division are monotone),
                 // so this skips exactly the scans that would find nothing.
                 for i in 0..STATE_DIM {
-                    let scale = if i % 2 == 1 { w } else { 1.0 };
+                    let scale = crate::classify::metric_scale(i, w);
                     if (bounds[0][i] - x[i]) / scale > *tol || (x[i] - bounds[1][i]) / scale > *tol
                     {
                         return false;
