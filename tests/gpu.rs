@@ -668,12 +668,15 @@ fn every_kernel_variant_compiles_through_raw_vulkan_with_the_drivers_statistics(
             .kernels
             .unwrap_or_else(|e| panic!("{}: the kernel does not compile: {e}", d.device));
         // f32 plain and lambda_1, and with f64 the f64 and driver's-f32 variants too;
-        // each with and without the exact free-flight step.
+        // each with and without the exact free-flight step; then the anatomy's five
+        // parts in f32, and in f64 where there is f64.
         assert!(
-            kernels.len() == 4 || kernels.len() == 12,
+            kernels.len() == 4 + 5 || kernels.len() == 12 + 10,
             "{} kernels",
             kernels.len()
         );
+        let parts = kernels.iter().filter(|k| k.kernel.starts_with("anatomy: "));
+        assert_eq!(parts.count(), if kernels.len() == 9 { 5 } else { 10 });
         if !d.offers_statistics {
             eprintln!("skipped: {} offers no pipeline statistics", d.device);
             continue;
@@ -780,5 +783,125 @@ fn the_kernel_reading_lane_constants_once_or_at_every_sub_step_gives_the_cpus_bi
                 );
             }
         }
+    }
+}
+
+#[test]
+fn every_part_of_the_kernels_anatomy_computes_its_cpu_reference_to_the_bit() {
+    // The anatomy (jeffcott_gpu::anatomy) times parts of the kernel alone on a GPU; a
+    // part that computed less than it claims (a loop the compiler removed, a search
+    // whose result is unused) would time nothing. Each must give its CPU reference's
+    // states, records and counters, through chunks and several time slices.
+    both_precisions!(check_anatomy);
+}
+
+fn check_anatomy<R: GpuReal>(runner: &GpuRunner) {
+    use jeffcott_gpu::anatomy::{Part, cpu_period};
+    let n = 66;
+    let periods = 3;
+    let (consts, init, _) = ensemble::<R>(n);
+    let schedule = Schedule {
+        max_lanes_per_chunk: Some(40),
+        ..Schedule::new(0, periods, 2)
+    };
+    let promised = identity_promised::<R>(runner, device_variant(runner, false));
+    let mut cpus = Vec::new();
+    for part in Part::ALL {
+        let (gpu, _) = runner
+            .run_anatomy(part, &consts, &init, &schedule)
+            .expect("anatomy run");
+        let cpu: Vec<LaneOutcome<R>> = consts
+            .iter()
+            .zip(&init)
+            .map(|(lc, lane0)| {
+                let mut lane = *lane0;
+                let poincare = (0..periods)
+                    .map(|_| {
+                        cpu_period(part, lc, &mut lane);
+                        lane.state_f64()
+                    })
+                    .collect();
+                LaneOutcome { poincare, lane }
+            })
+            .collect();
+        assert!(
+            cpu.iter()
+                .all(|o| o.lane.state_f64().iter().all(|v| v.is_finite())),
+            "{}: a lane left the finite numbers",
+            part.name()
+        );
+        let same = gpu
+            .iter()
+            .zip(&cpu)
+            .filter(|(g, c)| identical(g, c))
+            .count();
+        eprintln!(
+            "{} anatomy {}: {same}/{n} lanes bit-identical",
+            R::WGSL_NAME,
+            part.name()
+        );
+        if promised {
+            assert_eq!(same, n, "{}: lanes not bit-identical", part.name());
+        }
+        cpus.push(cpu);
+    }
+    // Each part does what it says: the vector form is the array form's arithmetic; the
+    // certainty test and the search leave the state alone and find lanes near the
+    // stator; contact changes the trajectories.
+    let [rk4, scalar, certain, search, contact] = &cpus[..] else {
+        unreachable!()
+    };
+    let state_bits = |o: &LaneOutcome<R>| o.lane.state_f64().map(f64::to_bits);
+    for other in [scalar, certain, search] {
+        assert!(
+            rk4.iter()
+                .zip(other)
+                .all(|(a, b)| state_bits(a) == state_bits(b))
+        );
+    }
+    assert!(certain.iter().any(|o| o.lane.counters.contact_steps > 0));
+    assert!(certain.iter().any(|o| o.lane.counters.contact_steps == 0));
+    assert!(search.iter().any(|o| o.lane.counters.switches > 0));
+    assert!(contact.iter().all(|o| o.lane.counters.extra_substeps > 0));
+    assert!(
+        rk4.iter()
+            .zip(contact)
+            .all(|(a, b)| state_bits(a) != state_bits(b))
+    );
+}
+
+#[test]
+fn bench_anatomy_rows_follow_the_kernels_row_and_bad_part_names_are_refused() {
+    let bench = |extra: &str, out: &std::path::Path| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_jeffcott"))
+            .args(common::words(&format!(
+                "bench --backend gpu --lanes 128 --lane-periods 512 --precision f32 \
+                 --twin-at 0 {extra} --out {}",
+                out.display()
+            )))
+            .output()
+            .unwrap()
+    };
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("bench.json");
+    let bad = bench("--anatomy rk4,rk5", &out);
+    assert!(!bad.status.success());
+    let err = String::from_utf8_lossy(&bad.stderr);
+    assert!(err.contains("anatomy") && err.contains("rk5"), "{err}");
+    if common::gpu::runner().is_none() {
+        return;
+    }
+    common::ok(&bench("--anatomy contact,rk4", &out));
+    let rows: serde_json::Value = serde_json::from_slice(&std::fs::read(&out).unwrap()).unwrap();
+    let kernels: Vec<&str> = rows
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r["kernel"].as_str().unwrap())
+        .collect();
+    assert_eq!(kernels, ["lane kernel", "anatomy: contact", "anatomy: rk4"]);
+    for r in rows.as_array().unwrap() {
+        assert!(r["lane_steps_per_s"].as_f64().unwrap() > 0.0);
+        assert_eq!(r["lanes"], 128);
     }
 }

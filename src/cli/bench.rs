@@ -4,7 +4,7 @@
 
 use clap::Args;
 use jeffcott_analysis::backend::Engine;
-use jeffcott_analysis::bench::{BenchRow, measure, periods_for};
+use jeffcott_analysis::bench::{BenchRow, measure, measure_anatomy, periods_for};
 use jeffcott_core::ensemble::{Backend, Precision};
 use jeffcott_core::error::{Error, Result};
 use std::path::PathBuf;
@@ -29,6 +29,12 @@ pub struct BenchArgs {
     /// due to contact; 0 to skip.
     #[arg(long, default_value_t = 16384)]
     pub twin_at: usize,
+    /// Also time parts of the GPU kernel alone on the same lanes, after each GPU row
+    /// (comma-separated: rk4, rk4-scalar, certain, search, contact, or all): where a
+    /// GPU's time per lane-step goes (jeffcott_gpu::anatomy, docs/gpu.md). The parts do
+    /// not integrate the model; they are timing instruments.
+    #[arg(long, value_name = "PARTS")]
+    pub anatomy: Option<String>,
     /// Write the rows as JSON here.
     #[arg(long, value_name = "FILE")]
     pub out: Option<PathBuf>,
@@ -85,6 +91,10 @@ pub fn run_bench(a: &BenchArgs) -> Result<()> {
             "ask for fewer --lane-periods or smaller --lanes",
         )?;
     }
+    let anatomy = match &a.anatomy {
+        Some(text) => jeffcott_gpu::anatomy::Part::parse_list("anatomy", text)?,
+        None => Vec::new(),
+    };
     let adapters = jeffcott_gpu::list_adapters();
     let gpu = adapters.iter().find(|s| s.compute);
     let backends = if a.backend.is_empty() {
@@ -98,6 +108,13 @@ pub fn run_bench(a: &BenchArgs) -> Result<()> {
     } else {
         a.backend.clone()
     };
+    if !anatomy.is_empty() && !backends.contains(&Backend::Gpu) {
+        return Err(Error::invalid(
+            "anatomy",
+            a.anatomy.as_deref().unwrap_or(""),
+            "times parts of the GPU kernel: needs --backend gpu (or a GPU adapter)",
+        ));
+    }
     if let Some(path) = &a.out {
         // Checked before any timing work: a --out that cannot be written (a directory,
         // a read-only place) is refused at once. It holds the rows measured so far.
@@ -111,9 +128,9 @@ pub fn run_bench(a: &BenchArgs) -> Result<()> {
         rayon::current_num_threads()
     );
     println!(
-        "| backend | device | precision | lanes | periods | wall s (set-up excluded) | lane-steps/s | periods/s | refinement sub-steps | contact steps | time due to contact |"
+        "| backend | device | kernel | precision | lanes | periods | wall s (set-up excluded) | lane-steps/s | periods/s | refinement sub-steps | contact steps | time due to contact |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
     let mut rows: Vec<BenchRow> = Vec::new();
     for &backend in &backends {
         // One engine per backend for all its rows. Opened for f32 so an adapter
@@ -134,29 +151,48 @@ pub fn run_bench(a: &BenchArgs) -> Result<()> {
             }
             for &lanes in &a.lanes {
                 let periods = periods_for(lanes, a.lane_periods);
-                let r = measure(lanes, periods, precision, &engine, lanes == a.twin_at)?;
-                println!(
-                    "| {} | {} | {:?} | {} | {} | {:.2} | {:.3e} | {:.3e} | {:.1}% | {:.1}% | {} |",
-                    r.backend,
-                    r.device,
-                    r.precision,
-                    r.lanes,
-                    r.periods,
-                    r.wall_s,
-                    r.lane_steps_per_s,
-                    r.lane_periods_per_s,
-                    100.0 * r.refinement_substep_share,
-                    100.0 * r.contact_step_share,
-                    r.contact_time_share
-                        .map_or("-".into(), |s| format!("{:.0}%", 100.0 * s))
-                );
-                rows.push(r);
-                if let Some(path) = &a.out {
-                    // Rewritten after every row, so an interrupted run keeps its rows.
-                    jeffcott_analysis::output::write_json(path, &rows)?;
+                let mut measured = vec![measure(
+                    lanes,
+                    periods,
+                    precision,
+                    &engine,
+                    lanes == a.twin_at,
+                )?];
+                if let Some(runner) = engine.runner() {
+                    for &part in &anatomy {
+                        measured.push(measure_anatomy(part, lanes, periods, precision, runner)?);
+                    }
+                }
+                for r in measured {
+                    print_row(&r);
+                    rows.push(r);
+                    if let Some(path) = &a.out {
+                        // Rewritten after every row, so an interrupted run keeps its rows.
+                        jeffcott_analysis::output::write_json(path, &rows)?;
+                    }
                 }
             }
         }
     }
     Ok(())
+}
+
+/// One row of the Markdown table.
+fn print_row(r: &BenchRow) {
+    println!(
+        "| {} | {} | {} | {:?} | {} | {} | {:.2} | {:.3e} | {:.3e} | {:.1}% | {:.1}% | {} |",
+        r.backend,
+        r.device,
+        r.kernel,
+        r.precision,
+        r.lanes,
+        r.periods,
+        r.wall_s,
+        r.lane_steps_per_s,
+        r.lane_periods_per_s,
+        100.0 * r.refinement_substep_share,
+        100.0 * r.contact_step_share,
+        r.contact_time_share
+            .map_or("-".into(), |s| format!("{:.0}%", 100.0 * s))
+    );
 }

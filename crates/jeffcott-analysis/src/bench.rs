@@ -71,6 +71,9 @@ pub struct BenchRow {
     pub backend: &'static str,
     /// CPU thread count or GPU adapter name.
     pub device: String,
+    /// What ran: "lane kernel" (the integrator), or "anatomy: PART", a part of the
+    /// kernel timed alone on the same lanes (`jeffcott_gpu::anatomy`; not the model).
+    pub kernel: String,
     /// Lane precision.
     pub precision: Precision,
     /// Lanes.
@@ -138,6 +141,7 @@ pub fn measure(
     Ok(BenchRow {
         backend,
         device,
+        kernel: "lane kernel".into(),
         precision,
         lanes,
         periods,
@@ -148,6 +152,68 @@ pub fn measure(
         contact_step_share: contact as f64 / steps.max(1) as f64,
         contact_time_share,
         flagged_lanes: flagged,
+    })
+}
+
+/// Times part `part` of the kernel's anatomy (`jeffcott_gpu::anatomy`) on the
+/// benchmark's lanes, as [`measure`] times the kernel (pipeline compilation excluded;
+/// the same chunks and time slices, the records read back): the rate to set beside the
+/// kernel's on the same GPU. Every lane must end finite.
+pub fn measure_anatomy(
+    part: jeffcott_gpu::anatomy::Part,
+    lanes: usize,
+    periods: u32,
+    precision: Precision,
+    runner: &jeffcott_gpu::GpuRunner,
+) -> Result<BenchRow> {
+    match precision {
+        Precision::F64 => measure_anatomy_in::<f64>(part, lanes, periods, precision, runner),
+        Precision::F32 => measure_anatomy_in::<f32>(part, lanes, periods, precision, runner),
+    }
+}
+
+fn measure_anatomy_in<R: jeffcott_gpu::GpuReal>(
+    part: jeffcott_gpu::anatomy::Part,
+    lanes: usize,
+    periods: u32,
+    precision: Precision,
+    runner: &jeffcott_gpu::GpuRunner,
+) -> Result<BenchRow> {
+    let spec = bench_spec(lanes, periods, precision, false);
+    let consts: Vec<_> = (0..lanes).map(|i| spec.lane_consts::<R>(i)).collect();
+    let init: Vec<_> = (0..lanes).map(|i| spec.initial_lane::<R>(i)).collect();
+    let per_period = lanes as u64 * spec.stepper.steps_per_period as u64;
+    let slice = (crate::backend::LANE_STEPS_PER_SLICE / per_period.max(1)).clamp(1, periods as u64);
+    let schedule = jeffcott_gpu::Schedule::new(0, periods, slice as u32);
+    let (out, wall) = runner.run_anatomy(part, &consts, &init, &schedule)?;
+    let device = runner.gpu().adapter().name.clone();
+    if out
+        .iter()
+        .any(|o| o.lane.state_f64().iter().any(|v| !v.is_finite()))
+    {
+        return Err(jeffcott_core::Error::Gpu {
+            message: format!(
+                "anatomy part {} on {device} produced non-finite states",
+                part.name()
+            ),
+        });
+    }
+    let steps: u64 = out.iter().map(|o| o.lane.counters.macro_steps).sum();
+    let extra: u64 = out.iter().map(|o| o.lane.counters.extra_substeps).sum();
+    Ok(BenchRow {
+        backend: "gpu",
+        device,
+        kernel: format!("anatomy: {}", part.name()),
+        precision,
+        lanes,
+        periods,
+        wall_s: wall,
+        lane_steps_per_s: steps as f64 / wall,
+        lane_periods_per_s: lanes as f64 * periods as f64 / wall,
+        refinement_substep_share: extra as f64 / (steps + extra).max(1) as f64,
+        contact_step_share: 0.0,
+        contact_time_share: None,
+        flagged_lanes: 0,
     })
 }
 

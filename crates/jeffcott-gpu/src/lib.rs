@@ -25,6 +25,7 @@
 //! The pipeline is built once per device and precision and kept, with its buffers
 //! (grown when a run needs more), in the [`GpuRunner`] (DESIGN.md 2.3).
 
+pub mod anatomy;
 pub mod device;
 pub mod layout;
 pub mod plan;
@@ -171,6 +172,37 @@ fn same_count(field: &str, want: usize, what: &str, got: usize) -> Result<()> {
     ))
 }
 
+/// Checks a run's lanes and schedule; returns its periods in all and the outcomes
+/// before it (each lane as given, no points yet).
+fn run_start<R: GpuReal>(
+    consts: &[LaneConsts<R>],
+    init: &[Lane<R>],
+    schedule: &Schedule,
+) -> Result<(u32, Vec<LaneOutcome<R>>)> {
+    same_count("lanes", consts.len(), "lane constants", init.len())?;
+    if schedule.periods_per_slice == 0 {
+        return Err(Error::invalid("periods_per_slice", 0, "must be >= 1"));
+    }
+    let total = schedule
+        .transient
+        .checked_add(schedule.recorded)
+        .ok_or_else(|| {
+            Error::invalid(
+                "periods",
+                schedule.recorded,
+                "transient + recorded overflows u32",
+            )
+        })?;
+    let out = init
+        .iter()
+        .map(|lane| LaneOutcome {
+            poincare: Vec::with_capacity(schedule.recorded as usize),
+            lane: *lane,
+        })
+        .collect();
+    Ok((total, out))
+}
+
 fn gpu_err(what: &str, e: impl std::fmt::Display) -> Error {
     Error::Gpu {
         message: format!("{what}: {e}"),
@@ -220,11 +252,8 @@ impl GpuRunner {
         &self.kernels[4 * exact as usize + precision + lyapunov as usize]
     }
 
-    fn build_pipeline<R: GpuReal>(
-        &self,
-        lyapunov: bool,
-        exact: bool,
-    ) -> Result<wgpu::ComputePipeline> {
+    /// An error where the device cannot run precision `R` (f64 without SHADER_F64).
+    fn check_precision<R: GpuReal>(&self) -> Result<()> {
         if R::WGSL_NAME == "f64" && !self.gpu.supports_f64() {
             return Err(Error::NoAdapter {
                 reason: format!(
@@ -233,18 +262,45 @@ impl GpuRunner {
                 ),
             });
         }
+        Ok(())
+    }
+
+    fn build_pipeline<R: GpuReal>(
+        &self,
+        lyapunov: bool,
+        exact: bool,
+    ) -> Result<wgpu::ComputePipeline> {
+        self.check_precision::<R>()?;
         // Fail early with naga's readable report rather than wgpu's summary.
         let v = self.kernel_variant(lyapunov, exact);
         shader::validate::<R>(v, shader::capabilities::<R>(v))
             .map_err(|e| gpu_err("lane kernel does not validate", e))?;
+        self.pipeline_for::<R>(
+            "lane kernel",
+            v,
+            &shader::source::<R>(v),
+            shader::ENTRY_POINT,
+        )
+    }
+
+    /// The compute pipeline of entry point `entry` of `source` (the kernel, or the
+    /// kernel with the anatomy's entry points) for variant `v`, with the kernel's
+    /// bindings.
+    fn pipeline_for<R: GpuReal>(
+        &self,
+        label: &str,
+        v: shader::Variant,
+        source: &str,
+        entry: &str,
+    ) -> Result<wgpu::ComputePipeline> {
         // An explicit layout, the same for both variants: the plain kernel never touches
         // `tangents` (binding 5), and an automatic layout might or might not list it.
         let rw = wgpu::BufferBindingType::Storage { read_only: false };
         let (pipeline, _) = self.gpu.compute_pipeline(
-            "lane kernel",
-            &shader::source::<R>(v),
+            label,
+            source,
             shader::capabilities::<R>(v),
-            shader::ENTRY_POINT,
+            entry,
             (shader::WORKGROUP_SIZE, 1, 1),
             &[
                 (0, wgpu::BufferBindingType::Uniform),
@@ -468,6 +524,50 @@ impl GpuRunner {
         self.run_inner(consts, init, Some(tangents), schedule, progress)
     }
 
+    /// Runs `consts.len()` lanes from `init` through part `part` of the kernel's
+    /// anatomy ([`anatomy`]) for `schedule`'s periods, cut into chunks and time slices
+    /// on buffers as [`GpuRunner::run`] runs the kernel; returns the outcomes and the
+    /// seconds the run took, the pipeline's compilation excluded. A timing instrument:
+    /// the parts do not integrate the model ([`anatomy::cpu_period`] is what they
+    /// compute).
+    pub fn run_anatomy<R: GpuReal>(
+        &self,
+        part: anatomy::Part,
+        consts: &[LaneConsts<R>],
+        init: &[Lane<R>],
+        schedule: &Schedule,
+    ) -> Result<(Vec<LaneOutcome<R>>, f64)> {
+        self.check_precision::<R>()?;
+        let (total, mut out) = run_start(consts, init, schedule)?;
+        if consts.is_empty() || total == 0 {
+            return Ok((out, 0.0));
+        }
+        let v = self.kernel_variant(false, false);
+        let pipeline =
+            self.pipeline_for::<R>("kernel anatomy", v, &anatomy::source::<R>(v), part.entry())?;
+        let chunk = self
+            .plan::<R>(consts.len(), schedule, false)?
+            .lanes_per_chunk;
+        let slots = schedule.periods_per_slice.min(total);
+        let bufs = self.buffers::<R>(
+            &pipeline,
+            chunk.min(consts.len()),
+            slots,
+            shader::record_dim(false),
+        );
+        let start = std::time::Instant::now();
+        self.run_chunks(
+            &pipeline,
+            &bufs,
+            (consts, init, None),
+            schedule,
+            (chunk, slots, total),
+            (&mut out, &mut [], &mut []),
+            &mut |_| true,
+        )?;
+        Ok((out, start.elapsed().as_secs_f64()))
+    }
+
     /// Dispatches one time slice of `n` lanes until every lane has reached the slice's
     /// end (the parameters are written); returns the number of dispatches.
     fn dispatch_slice(
@@ -629,30 +729,10 @@ impl GpuRunner {
         progress: &mut dyn FnMut(SliceReport) -> bool,
     ) -> Result<LyapunovOutcomes<R>> {
         let lyapunov = tangents.is_some();
-        same_count("lanes", consts.len(), "lane constants", init.len())?;
         // The exact free-flight kernel variant where some lane has the map.
         let exact = consts.iter().any(|lc| lc.exact.is_some());
-        if schedule.periods_per_slice == 0 {
-            return Err(Error::invalid("periods_per_slice", 0, "must be >= 1"));
-        }
-        let total = schedule
-            .transient
-            .checked_add(schedule.recorded)
-            .ok_or_else(|| {
-                Error::invalid(
-                    "periods",
-                    schedule.recorded,
-                    "transient + recorded overflows u32",
-                )
-            })?;
+        let (total, mut out) = run_start(consts, init, schedule)?;
         let n_total = consts.len();
-        let mut out: Vec<LaneOutcome<R>> = init
-            .iter()
-            .map(|lane| LaneOutcome {
-                poincare: Vec::with_capacity(schedule.recorded as usize),
-                lane: *lane,
-            })
-            .collect();
         let mut norms: Vec<Vec<f64>> = if lyapunov {
             vec![Vec::with_capacity(schedule.recorded as usize); n_total]
         } else {

@@ -12,10 +12,12 @@
 //! the runner's exact path ([`crate::spirv::exact_compute_words`]), so what is reported
 //! is what runs. `jeffcott info --kernel-stats` prints it.
 
+use crate::anatomy::Part;
 use crate::shader::{self, Variant};
 use ash::vk;
 use jeffcott_core::real::Real;
 use std::ffi::CStr;
+use wgpu::naga;
 
 /// One statistic of one executable of a compiled kernel.
 #[derive(Clone, Debug, PartialEq)]
@@ -68,12 +70,33 @@ fn vk_err(what: &str) -> impl Fn(vk::Result) -> String + '_ {
 /// without f64 runs), each plain and with lambda_1, with and without the exact
 /// free-flight step; an error (not a panic: the caller's Vulkan handles are live) when
 /// one does not compile.
-fn variants(has_f64: bool, each_step: bool) -> Result<Vec<(String, Vec<u32>)>, String> {
-    fn words<R: Real>(v: Variant) -> Result<Vec<u32>, String> {
+/// Then each part of the kernel's anatomy (`crate::anatomy`) in the plain kernel's
+/// precisions, so that a part's registers can be set beside the whole kernel's.
+fn variants(has_f64: bool, each_step: bool) -> Result<Vec<Compiled>, String> {
+    fn words<R: Real>(v: Variant) -> Result<(String, Vec<u32>), String> {
         let (module, info) = shader::validate::<R>(v, shader::capabilities::<R>(v))?;
-        crate::spirv::exact_compute_words(&module, &info, shader::ENTRY_POINT, &[0, 1, 2, 3, 4, 5])
+        let w = crate::spirv::exact_compute_words(
+            &module,
+            &info,
+            shader::ENTRY_POINT,
+            &[0, 1, 2, 3, 4, 5],
+        )?;
+        Ok((shader::ENTRY_POINT.to_string(), w))
     }
-    let mut out = Vec::new();
+    fn part_words<R: Real>(v: Variant, part: Part) -> Result<(String, Vec<u32>), String> {
+        let src = crate::anatomy::source::<R>(v);
+        let module = naga::front::wgsl::parse_str(&src).map_err(|e| e.emit_to_string(&src))?;
+        let info = naga::valid::Validator::new(
+            naga::valid::ValidationFlags::all(),
+            shader::capabilities::<R>(v),
+        )
+        .validate(&module)
+        .map_err(|e| e.emit_to_string(&src))?;
+        let w =
+            crate::spirv::exact_compute_words(&module, &info, part.entry(), &[0, 1, 2, 3, 4, 5])?;
+        Ok((part.entry().to_string(), w))
+    }
+    let mut out: Vec<Compiled> = Vec::new();
     for exact in [false, true] {
         for lyapunov in [false, true] {
             let tail = format!(
@@ -91,24 +114,39 @@ fn variants(has_f64: bool, each_step: bool) -> Result<Vec<(String, Vec<u32>)>, S
                 .with_exact_free_flight(exact)
                 .with_consts_each_step(each_step);
             if has_f64 {
-                out.push((format!("f64{tail}"), words::<f64>(device)?));
-                out.push((
+                out.push(with_label(format!("f64{tail}"), words::<f64>(device)?));
+                out.push(with_label(
                     format!("f32, / and sqrt through f64{tail}"),
                     words::<f32>(device)?,
                 ));
                 let own = Variant::on_device(lyapunov, false)
                     .with_exact_free_flight(exact)
                     .with_consts_each_step(each_step);
-                out.push((
+                out.push(with_label(
                     format!("f32, driver's / and sqrt{tail}"),
                     words::<f32>(own)?,
                 ));
             } else {
-                out.push((format!("f32{tail}"), words::<f32>(device)?));
+                out.push(with_label(format!("f32{tail}"), words::<f32>(device)?));
             }
         }
     }
+    let plain = Variant::on_device(false, has_f64);
+    for part in Part::ALL {
+        let label = |p: &str| format!("anatomy: {} ({p})", part.name());
+        if has_f64 {
+            out.push(with_label(label("f64"), part_words::<f64>(plain, part)?));
+        }
+        out.push(with_label(label("f32"), part_words::<f32>(plain, part)?));
+    }
     Ok(out)
+}
+
+/// A kernel built for the statistics: its label, entry point and SPIR-V words.
+type Compiled = (String, String, Vec<u32>);
+
+fn with_label(label: String, (entry, words): (String, Vec<u32>)) -> Compiled {
+    (label, entry, words)
 }
 
 /// The statistics of every kernel variant on every Vulkan device; `Err` when there is
@@ -236,9 +274,10 @@ unsafe fn device_stats(
         let out = layout.and_then(|layout| {
             let r = variants(has_f64, each_step)?
                 .into_iter()
-                .map(|(kernel, words)| {
-                    let (compile_s, executables) =
-                        unsafe { pipeline_stats(&device, loader.as_ref(), layout, &words) }?;
+                .map(|(kernel, entry, words)| {
+                    let (compile_s, executables) = unsafe {
+                        pipeline_stats(&device, loader.as_ref(), layout, &entry, &words)
+                    }?;
                     Ok(KernelStats {
                         device: name.to_string(),
                         kernel,
@@ -270,6 +309,7 @@ unsafe fn pipeline_stats(
     device: &ash::Device,
     loader: Option<&ash::khr::pipeline_executable_properties::Device>,
     layout: vk::PipelineLayout,
+    entry: &str,
     words: &[u32],
 ) -> Result<(f64, Executables), String> {
     // SAFETY: valid create infos on a live device (the caller's promise); the module and
@@ -278,7 +318,7 @@ unsafe fn pipeline_stats(
         device.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(words), None)
     }
     .map_err(vk_err("vkCreateShaderModule"))?;
-    let entry = std::ffi::CString::new(shader::ENTRY_POINT).expect("no NUL in the entry name");
+    let entry = std::ffi::CString::new(entry).expect("no NUL in the entry name");
     let stage = vk::PipelineShaderStageCreateInfo::default()
         .stage(vk::ShaderStageFlags::COMPUTE)
         .module(module)
