@@ -12,6 +12,10 @@ and a step that fails is recorded and the next one runs:
    campaigns that ran them last never reached them).
 4. bench: `jeffcott bench` on the GPU at 16k, 128k and 1M lanes (f64, f32), and on this
    machine's CPU for scale.
+4a. anatomy: where the GPU's time per lane-step goes, at 1M lanes in f64 and f32: the
+   kernel, its free-flight twin and each part of it timed alone on the same lanes
+   (`jeffcott bench --anatomy all`, jeffcott-gpu's anatomy.rs), then the kernel in its
+   other form of lane constants (JEFFCOTT_GPU_CONSTS).
 5. standard job (issue 28: 1024 lanes at W = 133, x_r0 evenly over [-4, 4] mm, 200
    periods from t = 0, error = worst lane's last Poincare position against a reference
    good to ~1e-9 m), replicated 128 times so it fills the GPU (the 1024 lanes alone
@@ -38,7 +42,7 @@ import traceback
 
 import numpy as np
 
-STEPS = ["adapter", "parity", "tests", "bench", "standard", "peer", "basin"]
+STEPS = ["adapter", "parity", "tests", "bench", "anatomy", "standard", "peer", "basin"]
 # GPU tests bound by one lane's serial speed (a few lanes for hundreds of periods): on
 # the H100 and H200 each ran past 90 s (2026-11-25, -27), on lavapipe seconds. On
 # hardware the tests step runs them last, one at a time (the rest of their executable
@@ -93,6 +97,8 @@ class Sizes:
         self.parity_lanes, self.parity_periods, self.parity_n = (64, 4, 500) if small else (1024, 20, 500)
         self.bench_gpu = ([256, 1024], 2048) if small else ([16384, 131072, 1048576], 8388608)
         self.bench_cpu = ([1024], 2048) if small else ([131072], 1048576)
+        # One size for the anatomy: 4 periods a lane at 1M lanes.
+        self.anatomy = (1024, 4096) if small else (1048576, 4194304)
         self.std_lanes = lanes or (64 if small else 1024)
         self.std_periods = periods or (20 if small else 200)
         self.replicas = 4 if small else 128
@@ -311,6 +317,38 @@ class Campaign:
                 with open(path) as f:
                     rows += json.load(f)
         return {"rows": rows, "gpu_utilisation": util}
+
+    # ---- 4a. the kernel's anatomy -------------------------------------------------
+
+    def anatomy(self):
+        """The kernel and its parts timed alone on the same lanes (f64, f32), then the
+        kernel in the other form of its lane constants: which part of a lane-step costs
+        what on this GPU, beside the CUDA peer's whole step (docs/gpu.md)."""
+        lanes, lp = self.sizes.anatomy
+        base = [self.jeffcott, "bench", "--backend", "gpu", "--lanes", lanes, "--lane-periods", lp,
+                "--precision", "f64,f32"]
+
+        def bench(tag, extra_args, env):
+            path = os.path.join(self.work, f"anatomy-{tag}.json")
+            self.sh(base + extra_args + ["--out", path], timeout=150, env=env, check=env is None)
+            if not os.path.exists(path):
+                return []
+            with open(path) as f:
+                return json.load(f)
+
+        rows = bench("default", ["--twin-at", lanes, "--anatomy", "all"], None)
+        for r in rows:
+            r["form"] = "default"
+        # The kernel in the form of lane constants this adapter does not take by default
+        # (`jeffcott info` says which it takes: "read at every sub-step" or "read once").
+        device = rows[0]["device"] if rows else ""
+        line = next((g for g in self.results["steps"].get("adapter", {}).get("gpus", [])
+                     if g.startswith(f"GPU: {device} [")), "")
+        other = "once" if "read at every sub-step" in line else "each-step"
+        for r in bench("other", ["--twin-at", 0], {"JEFFCOTT_GPU_CONSTS": other}):
+            r["form"] = f"JEFFCOTT_GPU_CONSTS={other}"
+            rows.append(r)
+        return {"rows": rows}
 
     # ---- 4. the standard job -------------------------------------------------------
 
@@ -545,6 +583,22 @@ class Campaign:
         for r in st.get("bench", {}).get("rows", []):
             md.append(f"| {r['backend']} | {r['device']} | {r['precision']} | {r['lanes']} | "
                       f"{r['lane_steps_per_s']:.3e} | {r['lane_periods_per_s']:.3e} | {r.get('contact_time_share')} |")
+        an = st.get("anatomy", {}).get("rows", [])
+        if an:
+            md += ["", "## Anatomy (the kernel's parts timed alone on the same lanes; `jeffcott bench --anatomy all`)", "",
+                   "| precision | kernel | constants | lane-steps/s | of the kernel's time per step | time due to contact |",
+                   "|---|---|---|---|---|---|"]
+            for prec in ("f64", "f32"):
+                whole = next((r for r in an if r["precision"] == prec and r["kernel"] == "lane kernel"
+                              and r["form"] == "default"), None)
+                for r in an:
+                    if r["precision"] != prec:
+                        continue
+                    share = f"{whole['lane_steps_per_s'] / r['lane_steps_per_s']:.3f}" if whole else "-"
+                    contact = r.get("contact_time_share")
+                    contact = "-" if contact is None else f"{100 * contact:.0f} %"
+                    md.append(f"| {prec} | {r['kernel']} | {r['form']} | {r['lane_steps_per_s']:.3e} | {share} | "
+                              f"{contact} |")
         sj = st.get("standard", {})
         md += ["", f"## Standard job (reference: {sj.get('reference')})", "",
                "| integrator | precision | N | lanes | lane-periods/s | worst lane [m] | p99 lane [m] |",
@@ -632,7 +686,7 @@ def main():
     if unknown:
         print(f"gpu_campaign: --only names unknown steps {sorted(unknown)}; steps: {', '.join(STEPS)}", file=sys.stderr)
         return 2
-    need = {"adapter": 5, "parity": 20, "bench": 60, "standard": 90, "peer": 30, "basin": 90, "tests": 30}
+    need = {"adapter": 5, "parity": 20, "bench": 60, "anatomy": 30, "standard": 90, "peer": 30, "basin": 90, "tests": 30}
     for name in ["adapter"] + order:
         c.step(name, getattr(c, name), need[name])
     text = c.summary()
