@@ -91,27 +91,30 @@ impl Part {
     /// Parses a comma-separated list of part names ("all" for every part); the error
     /// names `field` and the names allowed.
     pub fn parse_list(field: &str, text: &str) -> Result<Vec<Part>> {
-        let mut out = Vec::new();
+        let mut out: Vec<Part> = Vec::new();
         for name in text.split(',').map(str::trim).filter(|s| !s.is_empty()) {
-            if name == "all" {
-                out.extend(Part::ALL);
-                continue;
+            let named: Vec<Part> = if name == "all" {
+                Part::ALL.to_vec()
+            } else {
+                Part::ALL.into_iter().filter(|p| p.name() == name).collect()
+            };
+            if named.is_empty() {
+                return Err(Error::invalid(
+                    field,
+                    name,
+                    format!(
+                        "must be a comma-separated list of {} or all",
+                        Part::ALL.map(Part::name).join(", ")
+                    ),
+                ));
             }
-            match Part::ALL.iter().find(|p| p.name() == name) {
-                Some(&p) => out.push(p),
-                None => {
-                    return Err(Error::invalid(
-                        field,
-                        name,
-                        format!(
-                            "must be a comma-separated list of {} or all",
-                            Part::ALL.map(Part::name).join(", ")
-                        ),
-                    ));
+            // Each part once, in the order first named.
+            for p in named {
+                if !out.contains(&p) {
+                    out.push(p);
                 }
             }
         }
-        out.dedup();
         Ok(out)
     }
 }
@@ -173,4 +176,31 @@ pub fn cpu_period<R: Real>(part: Part, lc: &LaneConsts<R>, lane: &mut Lane<R>) {
         c.macro_steps += 1;
     }
     lane.x = x;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn part_lists_name_each_part_once_in_the_order_first_named() {
+        assert_eq!(
+            Part::parse_list("anatomy", "search, all,rk4").unwrap(),
+            [
+                Part::Search,
+                Part::Rk4,
+                Part::Rk4Scalar,
+                Part::Certain,
+                Part::Contact
+            ]
+        );
+        assert_eq!(Part::parse_list("anatomy", "").unwrap(), []);
+        let e = Part::parse_list("anatomy", "rk4,warp")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("anatomy") && e.contains("warp") && e.contains("rk4-scalar"),
+            "{e}"
+        );
+    }
 }
