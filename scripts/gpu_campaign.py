@@ -453,7 +453,14 @@ class Campaign:
         limit = self.left() - 30
         if backend == "gpu" and self.args.basin_timeout:
             limit = min(limit, self.args.basin_timeout)
-        _, _, wall = self.sh(cmd, timeout=limit)
+        rc, out, wall = self.sh(cmd, timeout=limit, check=False)
+        if rc != 0:
+            # A basin cut by the deadline still says how far it got: its committed units
+            # (the 1000 x 1000 grid at 250 + 32 periods is 283 units of 3546 lanes, run::unit_lanes).
+            units = os.path.join(d, "units")
+            done = len([u for u in os.listdir(units) if u.endswith(".unit")]) if os.path.isdir(units) else 0
+            raise RuntimeError(f"basin {tag} (rc {rc}) after {wall:.0f} s with {done} units committed: "
+                               f"{out.strip()[-400:]}")
         labels = np.load(os.path.join(d, "labels.npy"))
         with open(os.path.join(d, "attractors.json")) as f:
             attractors = json.load(f)
