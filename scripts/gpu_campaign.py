@@ -592,11 +592,13 @@ class Campaign:
                       f"{r['lane_steps_per_s']:.3e} | {r['lane_periods_per_s']:.3e} | {r.get('contact_time_share')} |")
         an = st.get("anatomy", {}).get("rows", [])
         if an:
-            md += ["", "## Anatomy (the kernel's parts timed alone on the same lanes; `jeffcott bench --anatomy all`)", "",
+            md += ["", "## Anatomy (the kernel's parts timed alone on the same lanes; `jeffcott bench --anatomy all`; "
+                   "anatomy rows per second of dispatches, the lane kernel's rows per wall second)", "",
                    "| precision | kernel | constants | lane-steps/s | of the kernel's time per step | time due to contact |",
                    "|---|---|---|---|---|---|"]
             for prec in ("f64", "f32"):
-                whole = next((r for r in an if r["precision"] == prec and r["kernel"] == "lane kernel"
+                # The kernel timed as the parts are (dispatches only): "anatomy: kernel".
+                whole = next((r for r in an if r["precision"] == prec and r["kernel"] == "anatomy: kernel"
                               and r["form"] == "default"), None)
                 for r in an:
                     if r["precision"] != prec:

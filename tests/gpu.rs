@@ -668,15 +668,16 @@ fn every_kernel_variant_compiles_through_raw_vulkan_with_the_drivers_statistics(
             .kernels
             .unwrap_or_else(|e| panic!("{}: the kernel does not compile: {e}", d.device));
         // f32 plain and lambda_1, and with f64 the f64 and driver's-f32 variants too;
-        // each with and without the exact free-flight step; then the anatomy's five
-        // parts in f32, and in f64 where there is f64.
+        // each with and without the exact free-flight step; then the anatomy's six
+        // parts (the kernel's entry point among them) in f32, and in f64 where there
+        // is f64.
         assert!(
-            kernels.len() == 4 + 5 || kernels.len() == 12 + 10,
+            kernels.len() == 4 + 6 || kernels.len() == 12 + 12,
             "{} kernels",
             kernels.len()
         );
         let parts = kernels.iter().filter(|k| k.kernel.starts_with("anatomy: "));
-        assert_eq!(parts.count(), if kernels.len() == 9 { 5 } else { 10 });
+        assert_eq!(parts.count(), if kernels.len() == 10 { 6 } else { 12 });
         if !d.offers_statistics {
             eprintln!("skipped: {} offers no pipeline statistics", d.device);
             continue;
@@ -791,7 +792,8 @@ fn every_part_of_the_kernels_anatomy_computes_its_cpu_reference_to_the_bit() {
     // The anatomy (jeffcott_gpu::anatomy) times parts of the kernel alone on a GPU; a
     // part that computed less than it claims (a loop the compiler removed, a search
     // whose result is unused) would time nothing. Each must give its CPU reference's
-    // states, records and counters, through chunks and several time slices.
+    // states, records and counters, through chunks and several time slices (the kernel
+    // itself, run the anatomy's way, the lane stepper's).
     both_precisions!(check_anatomy);
 }
 
@@ -847,8 +849,8 @@ fn check_anatomy<R: GpuReal>(runner: &GpuRunner) {
     }
     // Each part does what it says: the vector form is the array form's arithmetic; the
     // certainty test and the search leave the state alone and find lanes near the
-    // stator; contact changes the trajectories.
-    let [rk4, scalar, certain, search, contact] = &cpus[..] else {
+    // stator; contact changes the trajectories; the kernel locates switches.
+    let [kernel, rk4, scalar, certain, search, contact] = &cpus[..] else {
         unreachable!()
     };
     let state_bits = |o: &LaneOutcome<R>| o.lane.state_f64().map(f64::to_bits);
@@ -868,6 +870,7 @@ fn check_anatomy<R: GpuReal>(runner: &GpuRunner) {
             .zip(contact)
             .all(|(a, b)| state_bits(a) != state_bits(b))
     );
+    assert!(kernel.iter().any(|o| o.lane.counters.switches > 0));
 }
 
 #[test]

@@ -180,7 +180,7 @@ pub fn run_bench(a: &BenchArgs) -> Result<()> {
 /// One row of the Markdown table.
 fn print_row(r: &BenchRow) {
     println!(
-        "| {} | {} | {} | {:?} | {} | {} | {:.2} | {:.3e} | {:.3e} | {:.1}% | {:.1}% | {} |",
+        "| {} | {} | {} | {:?} | {} | {} | {:.2}{} | {:.3e} | {:.3e} | {:.1}% | {:.1}% | {} |",
         r.backend,
         r.device,
         r.kernel,
@@ -188,6 +188,9 @@ fn print_row(r: &BenchRow) {
         r.lanes,
         r.periods,
         r.wall_s,
+        // Anatomy rows: their rates are per second of dispatches (BenchRow::dispatch_s).
+        r.dispatch_s
+            .map_or(String::new(), |s| format!(" (dispatches {s:.2})")),
         r.lane_steps_per_s,
         r.lane_periods_per_s,
         100.0 * r.refinement_substep_share,

@@ -82,6 +82,10 @@ pub struct BenchRow {
     pub periods: u32,
     /// Wall time of the run [s] (GPU device and pipeline set-up excluded).
     pub wall_s: f64,
+    /// Anatomy rows: seconds in the GPU's dispatches alone (uploads and readbacks
+    /// excluded, which would hide a fast part's cost); their rates are per these
+    /// seconds. None for the kernel's own rows, whose rates are per wall second.
+    pub dispatch_s: Option<f64>,
     /// Macro steps (T/N) advanced per second, summed over lanes.
     pub lane_steps_per_s: f64,
     /// Forcing periods advanced per second, summed over lanes.
@@ -146,6 +150,7 @@ pub fn measure(
         lanes,
         periods,
         wall_s: wall,
+        dispatch_s: None,
         lane_steps_per_s: steps as f64 / wall,
         lane_periods_per_s: lanes as f64 * periods as f64 / wall,
         refinement_substep_share: extra as f64 / (steps + extra).max(1) as f64,
@@ -185,7 +190,7 @@ fn measure_anatomy_in<R: jeffcott_gpu::GpuReal>(
     let per_period = lanes as u64 * spec.stepper.steps_per_period as u64;
     let slice = (crate::backend::LANE_STEPS_PER_SLICE / per_period.max(1)).clamp(1, periods as u64);
     let schedule = jeffcott_gpu::Schedule::new(0, periods, slice as u32);
-    let (out, wall) = runner.run_anatomy(part, &consts, &init, &schedule)?;
+    let (out, times) = runner.run_anatomy(part, &consts, &init, &schedule)?;
     let device = runner.gpu().adapter().name.clone();
     if out
         .iter()
@@ -200,6 +205,15 @@ fn measure_anatomy_in<R: jeffcott_gpu::GpuReal>(
     }
     let steps: u64 = out.iter().map(|o| o.lane.counters.macro_steps).sum();
     let extra: u64 = out.iter().map(|o| o.lane.counters.extra_substeps).sum();
+    // Only the kernel counts macro steps in contact; the parts use the counter for
+    // their own tallies (anatomy::cpu_period).
+    let contact: u64 = match part {
+        jeffcott_gpu::anatomy::Part::Kernel => {
+            out.iter().map(|o| o.lane.counters.contact_steps).sum()
+        }
+        _ => 0,
+    };
+    let gpu_s = times.dispatch_s;
     Ok(BenchRow {
         backend: "gpu",
         device,
@@ -207,11 +221,12 @@ fn measure_anatomy_in<R: jeffcott_gpu::GpuReal>(
         precision,
         lanes,
         periods,
-        wall_s: wall,
-        lane_steps_per_s: steps as f64 / wall,
-        lane_periods_per_s: lanes as f64 * periods as f64 / wall,
+        wall_s: times.wall_s,
+        dispatch_s: Some(gpu_s),
+        lane_steps_per_s: steps as f64 / gpu_s,
+        lane_periods_per_s: lanes as f64 * periods as f64 / gpu_s,
         refinement_substep_share: extra as f64 / (steps + extra).max(1) as f64,
-        contact_step_share: 0.0,
+        contact_step_share: contact as f64 / steps.max(1) as f64,
         contact_time_share: None,
         flagged_lanes: 0,
     })

@@ -15,6 +15,8 @@
 //! vectors, and what the certainty test, the switch search and contact cost.
 //!
 //! The parts (anatomy.wgsl; the functions called are the kernel's own):
+//! - [`Part::Kernel`]: the whole kernel (`advance_lanes`) run the same way, so that the
+//!   parts and the kernel are timed alike (dispatches only, `AnatomyTimes`);
 //! - [`Part::Rk4`]: `rk4_substep` in free flight, one per macro step (ds = 1);
 //! - [`Part::Rk4Scalar`]: the same arithmetic with the state in two `vec4`s instead of
 //!   an array (`rk4_pair`), the same bits;
@@ -33,8 +35,8 @@
 use crate::shader::{self, Variant};
 use jeffcott_core::error::{Error, Result};
 use jeffcott_core::integrate::lane::{
-    Lane, LaneConsts, MAX_CONTACT_SUBSTEPS, find_switch, free_flight_certain, rk4_substep,
-    trial_extent,
+    Lane, LaneConsts, MAX_CONTACT_SUBSTEPS, advance_period, find_switch, free_flight_certain,
+    rk4_substep, trial_extent,
 };
 use jeffcott_core::real::Real;
 
@@ -44,6 +46,8 @@ pub const WGSL: &str = include_str!("anatomy.wgsl");
 /// A part of the lane kernel timed alone.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Part {
+    /// The whole kernel, `advance_lanes`: the model.
+    Kernel,
     /// `rk4_substep` in free flight, one per macro step.
     Rk4,
     /// The same with the state in two `vec4`s instead of an array.
@@ -58,7 +62,8 @@ pub enum Part {
 
 impl Part {
     /// Every part, in the order the bench reports them.
-    pub const ALL: [Part; 5] = [
+    pub const ALL: [Part; 6] = [
+        Part::Kernel,
         Part::Rk4,
         Part::Rk4Scalar,
         Part::Certain,
@@ -69,6 +74,7 @@ impl Part {
     /// The name `--anatomy` takes.
     pub fn name(self) -> &'static str {
         match self {
+            Part::Kernel => "kernel",
             Part::Rk4 => "rk4",
             Part::Rk4Scalar => "rk4-scalar",
             Part::Certain => "certain",
@@ -80,6 +86,7 @@ impl Part {
     /// The entry point in anatomy.wgsl.
     pub fn entry(self) -> &'static str {
         match self {
+            Part::Kernel => shader::ENTRY_POINT,
             Part::Rk4 => "anatomy_rk4",
             Part::Rk4Scalar => "anatomy_rk4_scalar",
             Part::Certain => "anatomy_certain",
@@ -129,18 +136,24 @@ pub fn source<R: Real>(v: Variant) -> String {
 }
 
 /// One forcing period of `part` on the CPU from `lane` (macro steps k = 0 .. N - 1),
-/// the reference the GPU's entry point must equal bit for bit: the state, and the
-/// counters it keeps (`macro_steps`; with [`Part::Certain`] the steps not certified in
+/// the reference the GPU's entry point must equal bit for bit: for [`Part::Kernel`] the
+/// lane stepper's `advance_period`; for the others the state, and the counters they keep (`macro_steps`; with [`Part::Certain`] the steps not certified in
 /// `contact_steps`; with [`Part::Search`] the steps with a switch in `switches` and the
 /// largest sampled g in `max_penetration`; with [`Part::Contact`] the sub-steps beyond
 /// one in `extra_substeps`).
 pub fn cpu_period<R: Real>(part: Part, lc: &LaneConsts<R>, lane: &mut Lane<R>) {
+    if part == Part::Kernel {
+        advance_period(lc, lane);
+        return;
+    }
     let (zero, one) = (R::lit(0.0), R::lit(1.0));
     let c = &mut lane.counters;
     let mut x = lane.x;
     for k in 0..lc.n {
         match part {
-            Part::Rk4 | Part::Rk4Scalar => x = rk4_substep(lc, &x, k, zero, one, false),
+            Part::Kernel | Part::Rk4 | Part::Rk4Scalar => {
+                x = rk4_substep(lc, &x, k, zero, one, false)
+            }
             Part::Certain => {
                 let x1 = rk4_substep(lc, &x, k, zero, one, false);
                 c.contact_steps += !free_flight_certain(lc, &x, &x1, one * lc.h) as u64;
@@ -188,6 +201,7 @@ mod tests {
             Part::parse_list("anatomy", "search, all,rk4").unwrap(),
             [
                 Part::Search,
+                Part::Kernel,
                 Part::Rk4,
                 Part::Rk4Scalar,
                 Part::Certain,

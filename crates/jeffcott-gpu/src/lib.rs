@@ -92,7 +92,7 @@ pub struct LaneOutcome<R> {
 }
 
 /// Progress of a run, reported after every time slice.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SliceReport {
     /// Lane-periods integrated so far.
     pub lane_periods_done: u64,
@@ -101,6 +101,20 @@ pub struct SliceReport {
     /// Dispatches so far (one per time slice and chunk, more where the driver cut
     /// invocations short).
     pub dispatches: u64,
+    /// Seconds so far from each dispatch's submission to its completion: the GPU's
+    /// work, without the host's packing, uploads and record readbacks.
+    pub dispatch_s: f64,
+}
+
+/// How long a [`GpuRunner::run_anatomy`] took.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct AnatomyTimes {
+    /// The whole run, the pipeline's compilation excluded: uploads, dispatches and
+    /// readbacks.
+    pub wall_s: f64,
+    /// The dispatches alone (`SliceReport::dispatch_s`): what the part costs the GPU,
+    /// which the host's transfers would hide for a fast part.
+    pub dispatch_s: f64,
 }
 
 /// Dispatches of one time slice before the runner gives up. A dispatch in which some
@@ -526,8 +540,9 @@ impl GpuRunner {
 
     /// Runs `consts.len()` lanes from `init` through part `part` of the kernel's
     /// anatomy ([`anatomy`]) for `schedule`'s periods, cut into chunks and time slices
-    /// on buffers as [`GpuRunner::run`] runs the kernel; returns the outcomes and the
-    /// seconds the run took, the pipeline's compilation excluded. A timing instrument:
+    /// on buffers as [`GpuRunner::run`] runs the kernel; returns the outcomes and how
+    /// long the run and its dispatches took, the pipeline's compilation excluded
+    /// ([`AnatomyTimes`]). A timing instrument:
     /// the parts do not integrate the model ([`anatomy::cpu_period`] is what they
     /// compute).
     pub fn run_anatomy<R: GpuReal>(
@@ -536,11 +551,11 @@ impl GpuRunner {
         consts: &[LaneConsts<R>],
         init: &[Lane<R>],
         schedule: &Schedule,
-    ) -> Result<(Vec<LaneOutcome<R>>, f64)> {
+    ) -> Result<(Vec<LaneOutcome<R>>, AnatomyTimes)> {
         self.check_precision::<R>()?;
         let (total, mut out) = run_start(consts, init, schedule)?;
         if consts.is_empty() || total == 0 {
-            return Ok((out, 0.0));
+            return Ok((out, AnatomyTimes::default()));
         }
         let v = self.kernel_variant(false, false);
         let pipeline =
@@ -556,6 +571,7 @@ impl GpuRunner {
             shader::record_dim(false),
         );
         let start = std::time::Instant::now();
+        let mut dispatch_s = 0.0;
         self.run_chunks(
             &pipeline,
             &bufs,
@@ -563,9 +579,16 @@ impl GpuRunner {
             schedule,
             (chunk, slots, total),
             (&mut out, &mut [], &mut []),
-            &mut |_| true,
+            &mut |r| {
+                dispatch_s = r.dispatch_s;
+                true
+            },
         )?;
-        Ok((out, start.elapsed().as_secs_f64()))
+        let times = AnatomyTimes {
+            wall_s: start.elapsed().as_secs_f64(),
+            dispatch_s,
+        };
+        Ok((out, times))
     }
 
     /// Dispatches one time slice of `n` lanes until every lane has reached the slice's
@@ -828,6 +851,7 @@ impl GpuRunner {
         let lane_periods_total = n_total as u64 * total as u64;
         let mut lane_periods_done = 0u64;
         let mut dispatches = 0u64;
+        let mut dispatch_s = 0.0;
         for start in (0..n_total).step_by(chunk) {
             let end = (start + chunk).min(n_total);
             let n = end - start;
@@ -860,7 +884,9 @@ impl GpuRunner {
                     pad: [0; 3],
                 };
                 queue.write_buffer(&bufs.params, 0, bytemuck::bytes_of(&params));
+                let t = std::time::Instant::now();
                 dispatches += self.dispatch_slice(pipeline, bufs, n)?;
+                dispatch_s += t.elapsed().as_secs_f64();
                 // Slots [first, periods) of this slice hold recorded periods.
                 let first = schedule.transient.saturating_sub(begin).min(periods);
                 let last = begin + periods == total;
@@ -875,6 +901,7 @@ impl GpuRunner {
                     lane_periods_done,
                     lane_periods_total,
                     dispatches,
+                    dispatch_s,
                 });
                 if !go_on {
                     return Err(Error::Interrupted {
