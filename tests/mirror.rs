@@ -21,10 +21,10 @@ use jeffcott_core::integrate::free_flight::{
     ExactFreeFlight, free_flight_step, free_flight_tangent,
 };
 use jeffcott_core::integrate::lane::{
-    Lane, LaneConsts, Status, StepperConfig, Tangent, exact_trial, find_switch, forcing_phasor,
-    free_flight_certain, hermite_gap, macro_step, macro_step_tangent, renormalise, rk4_substep,
-    rk4_tangent_substep, saltation, stage_partials, tangent_rhs, trial_extent, trial_tangent,
-    wrong_side,
+    Lane, LaneConsts, Status, StepperConfig, Tangent, control_points, exact_trial, find_switch,
+    forcing_phasor, free_flight_certain, hermite_gap, hull_reach_sq, in_contact_certain,
+    macro_step, macro_step_tangent, renormalise, rk4_substep, rk4_tangent_substep, saltation,
+    search_needless, stage_partials, tangent_rhs, trial_extent, trial_tangent, wrong_side,
 };
 use jeffcott_core::model::{
     Coeffs, Params, STATE_DIM, VX_R, VX_S, VY_R, VY_S, X_R, X_S, Y_R, Y_S, contact_force_per_kc,
@@ -176,7 +176,7 @@ const CONSTS: usize = 49;
 const COEFFS: usize = 11;
 const S: usize = STATE_DIM;
 
-const PROBES: [Probe; 22] = [
+const PROBES: [Probe; 26] = [
     Probe {
         name: "phasor_turns",
         inputs: 1,
@@ -357,6 +357,38 @@ const PROBES: [Probe; 22] = [
     out_bool(wrong_side(g, contact));",
     },
     Probe {
+        name: "control_points",
+        inputs: 2 * S + 1,
+        outputs: 8,
+        body: "let x0 = in_state();
+    let x1 = in_state();
+    let hs = in_real();
+    let p = control_points(x0, x1, hs);
+    out_real(p[0].x);
+    out_real(p[0].y);
+    out_real(p[1].x);
+    out_real(p[1].y);
+    out_real(p[2].x);
+    out_real(p[2].y);
+    out_real(p[3].x);
+    out_real(p[3].y);",
+    },
+    Probe {
+        name: "hull_reach_sq",
+        inputs: 8,
+        outputs: 1,
+        body: "let a = in_real();
+    let b = in_real();
+    let c = in_real();
+    let d = in_real();
+    let e = in_real();
+    let f = in_real();
+    let g = in_real();
+    let h = in_real();
+    let p = array<vec2<Real>, 4>(vec2<Real>(a, b), vec2<Real>(c, d), vec2<Real>(e, f), vec2<Real>(g, h));
+    out_real(hull_reach_sq(p));",
+    },
+    Probe {
         name: "free_flight_certain",
         inputs: CONSTS + 2 * S + 1,
         outputs: 1,
@@ -365,6 +397,29 @@ const PROBES: [Probe; 22] = [
     let x1 = in_state();
     let hs = in_real();
     out_bool(free_flight_certain(lc, x0, x1, hs));",
+    },
+    Probe {
+        name: "in_contact_certain",
+        inputs: 1 + 2 * S + 2,
+        outputs: 1,
+        body: "let delta = in_real();
+    let x0 = in_state();
+    let x1 = in_state();
+    let hs = in_real();
+    let max_pen = in_real();
+    out_bool(in_contact_certain(delta, x0, x1, hs, max_pen));",
+    },
+    Probe {
+        name: "search_needless",
+        inputs: 1 + 2 * S + 3,
+        outputs: 1,
+        body: "let delta = in_real();
+    let x0 = in_state();
+    let x1 = in_state();
+    let hs = in_real();
+    let contact = in_bool();
+    let max_pen = in_real();
+    out_bool(search_needless(delta, x0, x1, hs, contact, max_pen));",
     },
     Probe {
         name: "find_switch",
@@ -1307,6 +1362,71 @@ fn check_free_flight_certain<R: GpuReal>(runner: &GpuRunner) {
 #[test]
 fn free_flight_certain_on_the_gpu_equals_the_rust_function_bit_for_bit() {
     both_precisions!(check_free_flight_certain);
+}
+
+/// The certificates' parts and the contact certificate, on the switch inputs around
+/// contact, each step with several largest penetrations so far (none, the step's own
+/// largest g, half and twice it, and a NaN): control_points, hull_reach_sq (also on
+/// points with a NaN), in_contact_certain and search_needless, whose promise (no switch,
+/// no g above max_pen) is checked against find_switch here too.
+fn check_certificates<R: GpuReal>(runner: &GpuRunner) {
+    let (mut points, mut hulls, mut held, mut needless) = (vec![], vec![], vec![], vec![]);
+    let (mut certain, mut declined) = (0, 0);
+    for (lc, x0, x1, hs, contact) in switch_inputs::<R>() {
+        let delta = lc.c.delta;
+        let p = control_points(&x0, &x1, hs);
+        points.push(
+            Row::new()
+                .state(&x0)
+                .state(&x1)
+                .real(hs)
+                .expect(&p.concat()),
+        );
+        let mut q = p.concat();
+        hulls.push(Row::new().state(&q).expect(&[hull_reach_sq(&p)]));
+        q[3] = R::lit(f64::NAN);
+        let with_nan = [[q[0], q[1]], [q[2], q[3]], [q[4], q[5]], [q[6], q[7]]];
+        hulls.push(Row::new().state(&q).expect(&[hull_reach_sq(&with_nan)]));
+        let sw = find_switch(&lc, &x0, &x1, hs, contact);
+        let g = sw.max_g.to_f64().max(0.0);
+        for max_pen in [0.0, g, 0.5 * g, 2.0 * g, f64::NAN].map(R::lit) {
+            let c = in_contact_certain(delta, &x0, &x1, hs, max_pen);
+            let n = search_needless(delta, &x0, &x1, hs, contact, max_pen);
+            if n {
+                certain += 1;
+                // The promise: the search would change no bit.
+                assert!(sw.theta.to_f64() > 1.0, "a needless search switches");
+                assert!(
+                    sw.max_g <= max_pen || !contact,
+                    "a needless search raises max_pen"
+                );
+            } else {
+                declined += 1;
+            }
+            let args = |r: Row<R>| r.real(delta).state(&x0).state(&x1).real(hs);
+            held.push(args(Row::new()).real(max_pen).expect(&[flag(c)]));
+            needless.push(
+                args(Row::new())
+                    .flag(contact)
+                    .real(max_pen)
+                    .expect(&[flag(n)]),
+            );
+        }
+    }
+    eprintln!(
+        "search_needless ({}): {certain} needless, {declined} not",
+        R::WGSL_NAME
+    );
+    assert!(certain > 50 && declined > 50, "{certain} {declined}");
+    assert_mirrors(runner, "control_points", &points);
+    assert_mirrors(runner, "hull_reach_sq", &hulls);
+    assert_mirrors(runner, "in_contact_certain", &held);
+    assert_mirrors(runner, "search_needless", &needless);
+}
+
+#[test]
+fn the_search_certificates_on_the_gpu_equal_the_rust_functions_bit_for_bit() {
+    both_precisions!(check_certificates);
 }
 
 /// hermite_gap rows: at the samples j/8 that find_switch evaluates (`samples`), or at the

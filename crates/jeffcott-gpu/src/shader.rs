@@ -55,12 +55,8 @@ pub fn float_constants<R: Real>() -> Vec<(String, f64)> {
         ("TAU".to_string(), std::f64::consts::TAU),
         ("SIXTH".to_string(), 1.0 / 6.0),
         (
-            "HERMITE_SLOPE_BOUND".to_string(),
-            jeffcott_core::integrate::lane::HERMITE_SLOPE_BOUND,
-        ),
-        (
-            "FREE_FLIGHT_SAFETY".to_string(),
-            jeffcott_core::integrate::lane::free_flight_safety::<R>(),
+            "CERTIFICATE_SAFETY".to_string(),
+            jeffcott_core::integrate::lane::certificate_safety::<R>(),
         ),
     ];
     for n in 0..9 {
@@ -607,7 +603,11 @@ mod tests {
                 mirrored: &[
                     "hermite_gap",
                     "wrong_side",
+                    "control_points",
+                    "hull_reach_sq",
                     "free_flight_certain",
+                    "in_contact_certain",
+                    "search_needless",
                     "find_switch",
                 ],
                 kernel_only: &["scan_sample"],

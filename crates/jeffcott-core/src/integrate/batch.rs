@@ -22,7 +22,7 @@ use crate::integrate::lane::{
     Lane, LaneConsts, MacroStep, exact_trial, finish_macro_step, forcing_phasor, macro_step_begin,
     macro_step_end, macro_step_tangent, trial_extent,
 };
-use crate::integrate::switch::{GRAZE_SAMPLES, clear_of_stator, hermite_sq};
+use crate::integrate::switch::{GRAZE_SAMPLES, hermite_sq, search_needless};
 use crate::integrate::tangent::{Tangent, jacobian_trace, tangent_rhs};
 use crate::integrate::transpose;
 use crate::integrate::wide::Wide;
@@ -672,29 +672,26 @@ fn batch_pass<R: Real, const M: usize, const AVX512: bool>(
             set_lane(&mut x1, l, free_flight_step(ex, lc[l], &lane_of(&x, l), k));
         }
     }
-    // When every live lane's macro step is untouched and its trial step certainly stays
-    // clear of the stator (`lane::finish_macro_step`, the same test), the samples are
-    // not computed at all. A touched live lane needs the search anyway; otherwise the
-    // test runs for all 8 lanes at once, in a loop without branches that the compiler
-    // vectorises (four square roots per lane: stopping at the first lane that failed,
-    // a serial loop, held 8 % of the 1k-lane bench row's samples, perf 2026-11-27).
+    // When no live lane's search could change a bit (`switch::search_needless`, the
+    // test of `lane::finish_macro_step`: clear of the stator in free flight, held in
+    // contact below the lane's largest penetration), the samples are not computed at
+    // all. The test runs for all 8 lanes at once, in a loop without branches that the
+    // compiler vectorises (stopping at the first lane that failed, a serial loop, held
+    // 8 % of the 1k-lane bench row's samples, perf 2026-11-27).
+    let mut needless = [false; BATCH];
+    for l in 0..BATCH {
+        needless[l] = search_needless(
+            bc.c.delta[l],
+            &lane_of(&x, l),
+            &lane_of(&x1, l),
+            ds[l] * bc.h[l],
+            contact[l],
+            part[l].max_pen,
+        );
+    }
     let mut search = false;
     for l in 0..BATCH {
-        search |= active[l] & part[l].touched;
-    }
-    if !search {
-        let mut clear = [false; BATCH];
-        for l in 0..BATCH {
-            clear[l] = clear_of_stator(
-                bc.c.delta[l],
-                &lane_of(&x, l),
-                &lane_of(&x1, l),
-                ds[l] * bc.h[l],
-            );
-        }
-        for l in 0..BATCH {
-            search |= active[l] & !clear[l];
-        }
+        search |= active[l] & !needless[l];
     }
     // The switch search of `lane::find_switch`, kept only as far as deciding that
     // there is no switch: any sample on the wrong side, or an extremum heading
@@ -771,7 +768,8 @@ fn batch_pass<R: Real, const M: usize, const AVX512: bool>(
         }
         let p = &mut part[l];
         p.substeps += 1;
-        // Without a search every live lane is certified and untouched: no max_g.
+        // Without a search every live lane is certified: its samples could not raise
+        // its largest penetration, so max_g is left as it is.
         if search {
             p.max_g = p.max_g.max(max_g[l]);
         }

@@ -81,8 +81,9 @@ use crate::real::Real;
 use serde::Serialize;
 
 pub use super::switch::{
-    GRAZE_SAMPLES, HERMITE_SLOPE_BOUND, ROOT_MAX_ITERS, Switch, find_switch, free_flight_certain,
-    free_flight_safety, hermite_gap, wrong_side,
+    GRAZE_SAMPLES, ROOT_MAX_ITERS, Switch, certificate_safety, control_points, find_switch,
+    free_flight_certain, hermite_gap, hull_reach_sq, in_contact_certain, search_needless,
+    wrong_side,
 };
 pub use super::tangent::{
     LAMBDA1_START, Tangent, renormalise, rk4_tangent_substep, saltation, stage_partials,
@@ -521,6 +522,10 @@ pub(crate) struct MacroStep<R> {
     pub switches: u32,
     /// Largest g sampled so far.
     pub max_g: R,
+    /// The lane's largest penetration before this macro step
+    /// (`Counters::max_penetration`): a search whose samples cannot exceed it changes
+    /// no bit and is skipped ([`search_needless`]).
+    pub max_pen: R,
 }
 
 /// The start of `lane`'s next macro step (`macro_step_begin` in lane.wgsl).
@@ -534,6 +539,7 @@ pub(crate) fn macro_step_begin<R: Real>(lane: &Lane<R>) -> MacroStep<R> {
         substeps: 0,
         switches: 0,
         max_g: R::lit(f64::NEG_INFINITY),
+        max_pen: R::lit(lane.counters.max_penetration),
     }
 }
 
@@ -583,10 +589,10 @@ fn finish_macro_step_inner<R: Real, const M: usize>(
             (None, None) => rk4_substep(lc, &p.x, k, p.s, ds, p.contact),
         };
         p.substeps += 1;
-        // A macro step untouched so far is in free flight from its start (s = 0, ds = 1):
-        // where the trial step certainly stays clear of the stator the search would find
-        // nothing, and its max_g is never used (the step ends untouched).
-        let sw = if !p.touched && free_flight_certain(lc, &p.x, &x1, ds * lc.h) {
+        // Where the search certainly finds no switch and no g above the lane's largest
+        // penetration so far (search_needless), it would change no output bit: in free
+        // flight clear of the stator, in contact held in it.
+        let sw = if search_needless(lc.c.delta, &p.x, &x1, ds * lc.h, p.contact, p.max_pen) {
             Switch {
                 theta: R::lit(2.0),
                 max_g: p.max_g,

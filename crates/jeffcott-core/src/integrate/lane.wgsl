@@ -85,6 +85,8 @@ struct MacroStep {
     substeps: u32,
     switches: u32,
     max_g: Real,
+    // The lane's largest penetration before this macro step (lane.rs's MacroStep).
+    max_pen: Real,
     // Segments begun (lane.rs's loop counter) and the next sub-step.
     seg: u32,
     part: u32,
@@ -107,6 +109,7 @@ fn macro_step_begin(lc: LaneConsts, lane: Lane) -> MacroStep {
         0u,
         0u,
         -REAL_MAX,
+        lane.counters.max_penetration,
         0u,
         select(MS_TRIAL, MS_CAP, lc.max_segments == 0u),
     );
@@ -160,10 +163,11 @@ fn macro_step(
     var done = false;
     var next_part = part;
     if part == MS_TRIAL {
-        // lane.rs: no search in an untouched macro step whose trial step certainly stays
-        // clear of the stator (its max_g is never used).
+        // lane.rs: no search where it would change no output bit (search_needless:
+        // clear of the stator in free flight, held in contact below the lane's largest
+        // penetration so far).
         var sw = Switch(Real(2.0), (*ms).max_g);
-        if (*ms).touched || !free_flight_certain(lc, x, x1, ds * lc.h) {
+        if !search_needless(lc.c.delta, x, x1, ds * lc.h, contact, (*ms).max_pen) {
             sw = find_switch(lc, x, x1, ds * lc.h, contact);
         }
         (*ms).max_g = rmax((*ms).max_g, sw.max_g);

@@ -25,7 +25,7 @@
 // generated header that defines
 //   alias Real = f32 | f64;                 the precision (DESIGN.md 1)
 //   WORKGROUP_SIZE, STATE_DIM, X_R .. VY_S, GRAZE_SAMPLES, ROOT_MAX_ITERS, STATUS_*
-//   REAL_MAX, TAU, SIXTH, HERMITE_SLOPE_BOUND, FREE_FLIGHT_SAFETY, SIN_C0 .. SIN_C8, COS_C0 .. COS_C8
+//   REAL_MAX, TAU, SIXTH, CERTIFICATE_SAFETY, SIN_C0 .. SIN_C8, COS_C0 .. COS_C8
 //   LYAPUNOV (bool), RECORD_DIM                the pipeline variant (below)
 //   EXACT_FREE_FLIGHT (bool)                   lanes may take the exact free-flight step
 //   div_rn(a, b), sqrt_rn(x)                   every division and square root: a / b

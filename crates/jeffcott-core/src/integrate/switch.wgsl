@@ -54,23 +54,97 @@ fn wrong_side(g: Real, contact: bool) -> bool {
     return g > Real(0.0);
 }
 
+// switch.rs's control_points: the Bezier control points of the search's Hermite
+// interpolant (d(theta) lies in their convex hull).
+fn control_points(
+    x0: array<Real, STATE_DIM>,
+    x1: array<Real, STATE_DIM>,
+    hs: Real,
+) -> array<vec2<Real>, 4> {
+    let m0 = relative_motion(x0);
+    let m1 = relative_motion(x1);
+    let t = div_rn(hs, Real(3.0));
+    return array<vec2<Real>, 4>(
+        vec2<Real>(m0.x, m0.y),
+        vec2<Real>(m0.x + t * m0.z, m0.y + t * m0.w),
+        vec2<Real>(m1.x - t * m1.z, m1.y - t * m1.w),
+        vec2<Real>(m1.x, m1.y),
+    );
+}
+
+// The largest |P_i|^2, NaN when any is NaN (switch.rs's hull_reach_sq; written out, no
+// loop, which would count against llvmpipe's loop limit).
+fn hull_reach_sq(p: array<vec2<Real>, 4>) -> Real {
+    var b2 = Real(0.0);
+    let n0 = p[0].x * p[0].x + p[0].y * p[0].y;
+    b2 = select(n0, b2, n0 <= b2);
+    let n1 = p[1].x * p[1].x + p[1].y * p[1].y;
+    b2 = select(n1, b2, n1 <= b2);
+    let n2 = p[2].x * p[2].x + p[2].y * p[2].y;
+    b2 = select(n2, b2, n2 <= b2);
+    let n3 = p[3].x * p[3].x + p[3].y * p[3].y;
+    b2 = select(n3, b2, n3 <= b2);
+    return b2;
+}
+
 // True when the free-flight trial sub-step x0 -> x1 (duration hs) certainly stays
-// clear of the stator: the Hermite interpolant's reach bound, with a 64-ulp margin,
-// below delta (switch.rs has the proof). Then find_switch would find no switch.
+// clear of the stator: the convex hull of the control points inside the clearance,
+// with a 1024-ulp margin on the squares (switch.rs has the proof). Then find_switch
+// would find no switch and only negative g.
 fn free_flight_certain(
     lc: LaneConsts,
     x0: array<Real, STATE_DIM>,
     x1: array<Real, STATE_DIM>,
     hs: Real,
 ) -> bool {
-    let m0 = relative_motion(x0);
-    let m1 = relative_motion(x1);
-    let a0 = sqrt_rn(m0.x * m0.x + m0.y * m0.y);
-    let a1 = sqrt_rn(m1.x * m1.x + m1.y * m1.y);
-    let w0 = sqrt_rn(m0.z * m0.z + m0.w * m0.w);
-    let w1 = sqrt_rn(m1.z * m1.z + m1.w * m1.w);
-    let reach = rmax(a0, a1) + HERMITE_SLOPE_BOUND * abs(hs) * (w0 + w1);
-    return reach * FREE_FLIGHT_SAFETY < lc.c.delta;
+    let b2 = hull_reach_sq(control_points(x0, x1, hs));
+    return b2 * CERTIFICATE_SAFETY < lc.c.delta * lc.c.delta;
+}
+
+// True when the contact trial sub-step certainly stays in contact and no g the search
+// would compute exceeds max_pen (switch.rs's in_contact_certain has the proof).
+fn in_contact_certain(
+    delta: Real,
+    x0: array<Real, STATE_DIM>,
+    x1: array<Real, STATE_DIM>,
+    hs: Real,
+    max_pen: Real,
+) -> bool {
+    let zero = Real(0.0);
+    let p = control_points(x0, x1, hs);
+    let b2 = hull_reach_sq(p);
+    let safety = CERTIFICATE_SAFETY;
+    let mx = p[0].x + p[3].x;
+    let my = p[0].y + p[3].y;
+    let floor = (mx * mx + my * my) * (delta * delta + (safety - Real(1.0)) * b2);
+    let a0 = mx * p[0].x + my * p[0].y;
+    let a1 = mx * p[1].x + my * p[1].y;
+    let a2 = mx * p[2].x + my * p[2].y;
+    let a3 = mx * p[3].x + my * p[3].y;
+    var inside = (a0 > zero) & (a0 * a0 > floor);
+    inside = inside & (a1 > zero) & (a1 * a1 > floor);
+    inside = inside & (a2 > zero) & (a2 * a2 > floor);
+    inside = inside & (a3 > zero) & (a3 * a3 > floor);
+    let reach = max_pen + delta;
+    let below = (max_pen >= zero) & (b2 * safety < reach * reach);
+    return inside & below;
+}
+
+// True when the search of the trial sub-step in mode `contact` would change no output
+// bit (switch.rs's search_needless): clear of the stator in free flight, held in
+// contact below the lane's largest penetration so far (`max_pen`).
+fn search_needless(
+    delta: Real,
+    x0: array<Real, STATE_DIM>,
+    x1: array<Real, STATE_DIM>,
+    hs: Real,
+    contact: bool,
+    max_pen: Real,
+) -> bool {
+    let b2 = hull_reach_sq(control_points(x0, x1, hs));
+    let clear = (b2 * CERTIFICATE_SAFETY < delta * delta) & (max_pen >= Real(0.0));
+    let held = in_contact_certain(delta, x0, x1, hs, max_pen);
+    return (!contact & clear) | (contact & held);
 }
 
 // Result of the switch search over one trial sub-step.
