@@ -142,6 +142,14 @@ impl Engine {
 /// long enough to amortise the dispatch.
 pub(crate) const LANE_STEPS_PER_SLICE: u64 = 50_000_000;
 
+/// Forcing periods per GPU dispatch for `lanes` lanes of `steps_per_period` macro steps
+/// running `periods` periods: [`LANE_STEPS_PER_SLICE`] lane-steps, at least 1 and at
+/// most the run.
+pub(crate) fn periods_per_slice(lanes: usize, steps_per_period: u32, periods: u32) -> u32 {
+    let per_period = lanes as u64 * steps_per_period as u64;
+    (LANE_STEPS_PER_SLICE / per_period.max(1)).clamp(1, periods.max(1) as u64) as u32
+}
+
 /// The ensemble on the GPU, with each lane's lambda_1 when `lambda1`.
 fn run_gpu<R: jeffcott_gpu::GpuReal>(
     spec: &EnsembleSpec,
@@ -152,9 +160,11 @@ fn run_gpu<R: jeffcott_gpu::GpuReal>(
     let n = spec.lanes.len();
     let consts: Vec<LaneConsts<R>> = (0..n).map(|i| spec.lane_consts(i)).collect();
     let init: Vec<Lane<R>> = (0..n).map(|i| spec.initial_lane(i)).collect();
-    let per_period = n as u64 * spec.stepper.steps_per_period as u64;
-    let slice = (LANE_STEPS_PER_SLICE / per_period.max(1))
-        .clamp(1, (spec.transient + spec.recorded) as u64) as u32;
+    let slice = periods_per_slice(
+        n,
+        spec.stepper.steps_per_period,
+        spec.transient + spec.recorded,
+    );
     let schedule = jeffcott_gpu::Schedule {
         tangent_from: spec.stepper.tangent_from(spec.transient),
         ..jeffcott_gpu::Schedule::new(spec.transient, spec.recorded, slice)
@@ -291,11 +301,9 @@ fn gpu_flows(runner: &GpuRunner, asks: &[FlowAsk], stepper: &StepperConfig) -> R
                 tangents.push(v);
             }
         }
-        let per_period = consts.len() as u64 * stepper.steps_per_period as u64;
         // (0 periods: the runner hands back the start lanes and tangents untouched, and
         // the identity's columns with no growth are the CPU's monodromy too.)
-        let slice =
-            (LANE_STEPS_PER_SLICE / per_period.max(1)).clamp(1, periods.max(1) as u64) as u32;
+        let slice = periods_per_slice(consts.len(), stepper.steps_per_period, periods);
         let schedule = jeffcott_gpu::Schedule::new(0, periods, slice);
         let (lanes, norms, ends) =
             runner

@@ -187,9 +187,8 @@ fn measure_anatomy_in<R: jeffcott_gpu::GpuReal>(
     let spec = bench_spec(lanes, periods, precision, false);
     let consts: Vec<_> = (0..lanes).map(|i| spec.lane_consts::<R>(i)).collect();
     let init: Vec<_> = (0..lanes).map(|i| spec.initial_lane::<R>(i)).collect();
-    let per_period = lanes as u64 * spec.stepper.steps_per_period as u64;
-    let slice = (crate::backend::LANE_STEPS_PER_SLICE / per_period.max(1)).clamp(1, periods as u64);
-    let schedule = jeffcott_gpu::Schedule::new(0, periods, slice as u32);
+    let slice = crate::backend::periods_per_slice(lanes, spec.stepper.steps_per_period, periods);
+    let schedule = jeffcott_gpu::Schedule::new(0, periods, slice);
     let (out, times) = runner.run_anatomy(part, &consts, &init, &schedule)?;
     let device = runner.gpu().adapter().name.clone();
     if out

@@ -151,9 +151,8 @@ pub fn cpu_period<R: Real>(part: Part, lc: &LaneConsts<R>, lane: &mut Lane<R>) {
     let mut x = lane.x;
     for k in 0..lc.n {
         match part {
-            Part::Kernel | Part::Rk4 | Part::Rk4Scalar => {
-                x = rk4_substep(lc, &x, k, zero, one, false)
-            }
+            Part::Rk4 | Part::Rk4Scalar => x = rk4_substep(lc, &x, k, zero, one, false),
+            Part::Kernel => unreachable!("the kernel's period is advance_period, above"),
             Part::Certain => {
                 let x1 = rk4_substep(lc, &x, k, zero, one, false);
                 c.contact_steps += !free_flight_certain(lc, &x, &x1, one * lc.h) as u64;

@@ -87,6 +87,7 @@ fn anatomy_period(lc: LaneConsts, x0: array<Real, STATE_DIM>, part: u32, c: ptr<
             p = rk4_pair(lc, p, k, zero, one);
         }
         x = array_of(p);
+        (*c).macro_steps = sat_add((*c).macro_steps, lc.n);
     } else {
         for (var k = 0u; k < lc.n; k++) {
             if part == PART_CONTACT {
@@ -117,9 +118,6 @@ fn anatomy_period(lc: LaneConsts, x0: array<Real, STATE_DIM>, part: u32, c: ptr<
             }
             (*c).macro_steps = sat_add((*c).macro_steps, 1u);
         }
-    }
-    if part == PART_RK4_SCALAR {
-        (*c).macro_steps = sat_add((*c).macro_steps, lc.n);
     }
     return x;
 }

@@ -253,10 +253,14 @@ fn report<R: Real>(v: Variant, emitted: String, at: Option<naga::SourceLocation>
 /// Parses the kernel for precision `R` and variant `v`; the error is naga's report with
 /// source context.
 pub fn parse<R: Real>(v: Variant) -> Result<naga::Module, String> {
-    let src = source::<R>(v);
-    naga::front::wgsl::parse_str(&src).map_err(|e| {
-        let emitted = e.emit_to_string_with_path(&src, "lane kernel");
-        report::<R>(v, emitted, e.location(&src))
+    parse_source::<R>(v, &source::<R>(v))
+}
+
+/// [`parse`] for `src`, the kernel of precision `R` and variant `v` with more after it.
+fn parse_source<R: Real>(v: Variant, src: &str) -> Result<naga::Module, String> {
+    naga::front::wgsl::parse_str(src).map_err(|e| {
+        let emitted = e.emit_to_string_with_path(src, "lane kernel");
+        report::<R>(v, emitted, e.location(src))
     })
 }
 
@@ -266,13 +270,23 @@ pub fn validate<R: Real>(
     v: Variant,
     caps: naga::valid::Capabilities,
 ) -> Result<(naga::Module, naga::valid::ModuleInfo), String> {
-    let module = parse::<R>(v)?;
-    let src = source::<R>(v);
+    validate_source::<R>(v, &source::<R>(v), caps)
+}
+
+/// [`validate`] for `src`: the kernel of precision `R` and variant `v` with more after
+/// it (the anatomy's entry points, `crate::anatomy::source`); errors name the kernel's
+/// file and line as [`parse`] does.
+pub fn validate_source<R: Real>(
+    v: Variant,
+    src: &str,
+    caps: naga::valid::Capabilities,
+) -> Result<(naga::Module, naga::valid::ModuleInfo), String> {
+    let module = parse_source::<R>(v, src)?;
     let info = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), caps)
         .validate(&module)
         .map_err(|e| {
-            let emitted = e.emit_to_string_with_path(&src, "lane kernel");
-            report::<R>(v, emitted, e.location(&src))
+            let emitted = e.emit_to_string_with_path(src, "lane kernel");
+            report::<R>(v, emitted, e.location(src))
         })?;
     Ok((module, info))
 }

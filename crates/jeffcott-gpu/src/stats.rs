@@ -17,7 +17,6 @@ use crate::shader::{self, Variant};
 use ash::vk;
 use jeffcott_core::real::Real;
 use std::ffi::CStr;
-use wgpu::naga;
 
 /// One statistic of one executable of a compiled kernel.
 #[derive(Clone, Debug, PartialEq)]
@@ -85,13 +84,7 @@ fn variants(has_f64: bool, each_step: bool) -> Result<Vec<Compiled>, String> {
     }
     fn part_words<R: Real>(v: Variant, part: Part) -> Result<(String, Vec<u32>), String> {
         let src = crate::anatomy::source::<R>(v);
-        let module = naga::front::wgsl::parse_str(&src).map_err(|e| e.emit_to_string(&src))?;
-        let info = naga::valid::Validator::new(
-            naga::valid::ValidationFlags::all(),
-            shader::capabilities::<R>(v),
-        )
-        .validate(&module)
-        .map_err(|e| e.emit_to_string(&src))?;
+        let (module, info) = shader::validate_source::<R>(v, &src, shader::capabilities::<R>(v))?;
         let w =
             crate::spirv::exact_compute_words(&module, &info, part.entry(), &[0, 1, 2, 3, 4, 5])?;
         Ok((part.entry().to_string(), w))
