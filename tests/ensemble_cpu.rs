@@ -397,6 +397,18 @@ fn the_forcing_table_holds_the_polynomial_phasors_bit_for_bit_and_nothing_else()
                     "R {r}: a fraction off the grid"
                 );
                 assert!(shared.get(0, off[3]).is_none());
+                // Lanes at different fractions of the grid with one lane outside it (a
+                // negative fraction, one past the macro step, NaN): no answer either.
+                for bad in [-0.5 / two_r as f64, 1.0 + 1.0 / two_r as f64, f64::NAN] {
+                    let mut mixed: [R; BATCH] = std::array::from_fn(|l| {
+                        R::lit((l % (two_r as usize + 1)) as f64 / two_r as f64)
+                    });
+                    mixed[BATCH - 1] = R::lit(bad);
+                    assert!(
+                        table.lookup(0, &mixed).is_none(),
+                        "R {r}: fraction {bad} beside fractions of the grid"
+                    );
+                }
                 assert!(table.lookup(lc.n, &[R::lit(0.0); BATCH]).is_none());
                 assert!(shared.get(lc.n, R::lit(0.0)).is_none());
                 // Off the grid the scalar path evaluates the polynomial.
