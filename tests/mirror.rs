@@ -21,10 +21,11 @@ use jeffcott_core::integrate::free_flight::{
     ExactFreeFlight, free_flight_step, free_flight_tangent,
 };
 use jeffcott_core::integrate::lane::{
-    Lane, LaneConsts, Status, StepperConfig, Tangent, control_points, exact_trial, find_switch,
-    forcing_phasor, free_flight_certain, hermite_gap, hull_reach_sq, in_contact_certain,
-    macro_step, macro_step_tangent, renormalise, rk4_substep, rk4_tangent_substep, saltation,
-    search_needless, stage_partials, tangent_rhs, trial_extent, trial_tangent, wrong_side,
+    Lane, LaneConsts, Status, StepperConfig, Tangent, clear_of_stator, control_points, exact_trial,
+    find_switch, forcing_phasor, free_flight_certain, hermite_gap, hull_reach_sq,
+    in_contact_certain, macro_step, macro_step_tangent, renormalise, rk4_substep,
+    rk4_tangent_substep, saltation, search_needless, stage_partials, tangent_rhs, trial_extent,
+    trial_tangent, wrong_side,
 };
 use jeffcott_core::model::{
     Coeffs, Params, STATE_DIM, VX_R, VX_S, VY_R, VY_S, X_R, X_S, Y_R, Y_S, contact_force_per_kc,
@@ -176,7 +177,7 @@ const CONSTS: usize = 49;
 const COEFFS: usize = 11;
 const S: usize = STATE_DIM;
 
-const PROBES: [Probe; 26] = [
+const PROBES: [Probe; 27] = [
     Probe {
         name: "phasor_turns",
         inputs: 1,
@@ -397,6 +398,16 @@ const PROBES: [Probe; 26] = [
     let x1 = in_state();
     let hs = in_real();
     out_bool(free_flight_certain(lc, x0, x1, hs));",
+    },
+    Probe {
+        name: "clear_of_stator",
+        inputs: 1 + 2 * S + 1,
+        outputs: 1,
+        body: "let delta = in_real();
+    let x0 = in_state();
+    let x1 = in_state();
+    let hs = in_real();
+    out_bool(clear_of_stator(delta, x0, x1, hs));",
     },
     Probe {
         name: "in_contact_certain",
@@ -1367,10 +1378,11 @@ fn free_flight_certain_on_the_gpu_equals_the_rust_function_bit_for_bit() {
 /// The certificates' parts and the contact certificate, on the switch inputs around
 /// contact, each step with several largest penetrations so far (none, the step's own
 /// largest g, half and twice it, and a NaN): control_points, hull_reach_sq (also on
-/// points with a NaN), in_contact_certain and search_needless, whose promise (no switch,
+/// points with a NaN), clear_of_stator, in_contact_certain and search_needless, whose promise (no switch,
 /// no g above max_pen) is checked against find_switch here too.
 fn check_certificates<R: GpuReal>(runner: &GpuRunner) {
-    let (mut points, mut hulls, mut held, mut needless) = (vec![], vec![], vec![], vec![]);
+    let (mut points, mut hulls, mut clear, mut held, mut needless) =
+        (vec![], vec![], vec![], vec![], vec![]);
     let (mut certain, mut declined) = (0, 0);
     for (lc, x0, x1, hs, contact) in switch_inputs::<R>() {
         let delta = lc.c.delta;
@@ -1387,6 +1399,14 @@ fn check_certificates<R: GpuReal>(runner: &GpuRunner) {
         q[3] = R::lit(f64::NAN);
         let with_nan = [[q[0], q[1]], [q[2], q[3]], [q[4], q[5]], [q[6], q[7]]];
         hulls.push(Row::new().state(&q).expect(&[hull_reach_sq(&with_nan)]));
+        clear.push(
+            Row::new()
+                .real(delta)
+                .state(&x0)
+                .state(&x1)
+                .real(hs)
+                .expect(&[flag(clear_of_stator(delta, &x0, &x1, hs))]),
+        );
         let sw = find_switch(&lc, &x0, &x1, hs, contact);
         let g = sw.max_g.to_f64().max(0.0);
         for max_pen in [0.0, g, 0.5 * g, 2.0 * g, f64::NAN].map(R::lit) {
@@ -1420,6 +1440,7 @@ fn check_certificates<R: GpuReal>(runner: &GpuRunner) {
     assert!(certain > 50 && declined > 50, "{certain} {declined}");
     assert_mirrors(runner, "control_points", &points);
     assert_mirrors(runner, "hull_reach_sq", &hulls);
+    assert_mirrors(runner, "clear_of_stator", &clear);
     assert_mirrors(runner, "in_contact_certain", &held);
     assert_mirrors(runner, "search_needless", &needless);
 }

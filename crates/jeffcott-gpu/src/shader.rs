@@ -620,6 +620,7 @@ mod tests {
                     "control_points",
                     "hull_reach_sq",
                     "free_flight_certain",
+                    "clear_of_stator",
                     "in_contact_certain",
                     "search_needless",
                     "find_switch",

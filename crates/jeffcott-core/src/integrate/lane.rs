@@ -81,9 +81,9 @@ use crate::real::Real;
 use serde::Serialize;
 
 pub use super::switch::{
-    GRAZE_SAMPLES, ROOT_MAX_ITERS, Switch, certificate_safety, control_points, find_switch,
-    free_flight_certain, hermite_gap, hull_reach_sq, in_contact_certain, search_needless,
-    wrong_side,
+    GRAZE_SAMPLES, ROOT_MAX_ITERS, Switch, certificate_safety, clear_of_stator, control_points,
+    find_switch, free_flight_certain, hermite_gap, hull_reach_sq, in_contact_certain,
+    search_needless, wrong_side,
 };
 pub use super::tangent::{
     LAMBDA1_START, Tangent, renormalise, rk4_tangent_substep, saltation, stage_partials,

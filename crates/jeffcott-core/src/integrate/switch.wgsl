@@ -97,8 +97,19 @@ fn free_flight_certain(
     x1: array<Real, STATE_DIM>,
     hs: Real,
 ) -> bool {
+    return clear_of_stator(lc.c.delta, x0, x1, hs);
+}
+
+// free_flight_certain for clearance `delta`, the test search_needless makes in free
+// flight (switch.rs's clear_of_stator).
+fn clear_of_stator(
+    delta: Real,
+    x0: array<Real, STATE_DIM>,
+    x1: array<Real, STATE_DIM>,
+    hs: Real,
+) -> bool {
     let b2 = hull_reach_sq(control_points(x0, x1, hs));
-    return b2 * CERTIFICATE_SAFETY < lc.c.delta * lc.c.delta;
+    return b2 * CERTIFICATE_SAFETY < delta * delta;
 }
 
 // True when the contact trial sub-step certainly stays in contact and no g the search
@@ -141,8 +152,7 @@ fn search_needless(
     contact: bool,
     max_pen: Real,
 ) -> bool {
-    let b2 = hull_reach_sq(control_points(x0, x1, hs));
-    let clear = (b2 * CERTIFICATE_SAFETY < delta * delta) & (max_pen >= Real(0.0));
+    let clear = clear_of_stator(delta, x0, x1, hs) & (max_pen >= Real(0.0));
     let held = in_contact_certain(delta, x0, x1, hs, max_pen);
     return (!contact & clear) | (contact & held);
 }
