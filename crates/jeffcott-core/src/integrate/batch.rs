@@ -283,20 +283,17 @@ impl<R: Real> ForcingTable<R> {
             let [c, s] = self.values[base + self.index(sigma[0])?];
             return Some(([c; BATCH], [s; BATCH]));
         }
-        // Each lane's own entry, its index found without a branch, so that the loop
-        // vectorises: j = sigma 2R must be a whole number in 0..=2R (exact, as in
-        // `index`). A pass whose lanes begin in both modes asks for two fractions (a
-        // contact lane's sub-step is 1/R, a free lane's the whole macro step); with a
-        // branch per lane (`index`'s `?`) these look-ups held 5-10 % of the basin's
-        // samples (perf, 2026-11-28).
-        let two_r = self.two_r as f64;
+        // Each lane's own entry, its index found without a branch (`slot`), so that the
+        // loop vectorises. A pass whose lanes begin in both modes asks for two
+        // fractions (a contact lane's sub-step is 1/R, a free lane's the whole macro
+        // step); with a branch per lane (`index`'s `?`) these look-ups held 5-10 % of
+        // the basin's samples (perf, 2026-11-28).
         let mut held = true;
         let mut at = [0usize; BATCH];
         for l in 0..BATCH {
-            let j = sigma[l].to_f64() * two_r;
-            let whole = j as u32;
-            held &= (j >= 0.0) & (j <= two_r) & (whole as f64 == j);
-            at[l] = base + whole.min(self.two_r) as usize;
+            let (j, h) = self.slot(sigma[l]);
+            held &= h;
+            at[l] = base + j;
         }
         if !held {
             return None;
@@ -311,15 +308,24 @@ impl<R: Real> ForcingTable<R> {
     /// for a fraction the table does not hold.
     #[inline(always)]
     fn index(&self, sigma: R) -> Option<usize> {
+        let (at, held) = self.slot(sigma);
+        held.then_some(at)
+    }
+
+    /// [`ForcingTable::index`] without a branch, so that a loop over lanes vectorises:
+    /// the index (clamped into the table's row, whatever `sigma` is) and whether the
+    /// table holds `sigma`.
+    #[inline(always)]
+    fn slot(&self, sigma: R) -> (usize, bool) {
         // Exact: 2R is a power of two, so sigma * 2R is an integer only when sigma is
-        // exactly j / (2R); j <= 2R, so the conversion to usize and back is exact too
-        // (tested without `floor`, a libm call in the batch code's profile).
-        let j = sigma.to_f64() * self.two_r as f64;
-        if !(0.0..=self.two_r as f64).contains(&j) {
-            return None;
-        }
-        let at = j as usize;
-        (at as f64 == j).then_some(at)
+        // exactly j / (2R); j <= 2R, so the conversion to an integer and back is exact
+        // too (tested without `floor`, a libm call in the batch code's profile). A NaN
+        // converts to 0 and fails the comparison.
+        let two_r = self.two_r as f64;
+        let j = sigma.to_f64() * two_r;
+        let whole = j as u32;
+        let held = (j >= 0.0) & (j <= two_r) & (whole as f64 == j);
+        (whole.min(self.two_r) as usize, held)
     }
 }
 
