@@ -24,7 +24,9 @@ mod bench;
 mod bifurcation;
 mod cascade;
 mod continuation;
+mod exit;
 pub mod files;
+mod info;
 pub mod map;
 mod merge;
 pub mod orbits;
@@ -39,6 +41,8 @@ pub use bench::{BenchArgs, run_bench};
 pub use bifurcation::{BifurcationArgs, CatalogueArgs, SweepArg, run_bifurcation};
 pub use cascade::{CascadeArgs, run_cascade};
 pub use continuation::{ContinuationArgs, run_continuation};
+pub use exit::{EXIT_CODES, exit_code};
+pub use info::{InfoArgs, run_info};
 pub use map::{MapArgs, run_map};
 pub use merge::{MergeArgs, run_merge};
 pub use usage::one_line_usage_error;
@@ -52,7 +56,7 @@ pub use stability::{StabilityArgs, run_stability};
 /// System" (Mathematical Problems in Engineering, 2017) with its dimensional errors
 /// corrected. All quantities are SI: metres, seconds, radians, kilograms.
 #[derive(Parser, Debug)]
-#[command(name = "jeffcott", version, about, long_about)]
+#[command(name = "jeffcott", version, about, long_about, after_long_help = EXIT_CODES)]
 pub struct Cli {
     /// What to do.
     #[command(subcommand)]
@@ -239,6 +243,14 @@ fn ensemble_lanes(
         } else {
             Vec::new()
         };
+        table.refuse_set_by(
+            "init",
+            parse_assignment_lists("init", &a.init)?
+                .iter()
+                .map(|(n, _)| n.as_str()),
+        )?;
+        let overridden = a.lane.model.overridden()?;
+        table.refuse_set_by("param", overridden.iter().map(String::as_str))?;
         let init = |x: &mut State| apply_init(x, &a.init);
         // --omega with a table: one speed for lanes without an omega column.
         let omega = match &a.omega {
@@ -437,93 +449,6 @@ fn write_ensemble(
     Ok(())
 }
 
-/// Options of `jeffcott info`.
-#[derive(Args, Debug)]
-pub struct InfoArgs {
-    /// Also compile every lane-kernel variant on each Vulkan device and print what the
-    /// driver reports about it (registers, spills, local memory, instructions: whatever
-    /// it offers through VK_KHR_pipeline_executable_properties).
-    #[arg(long)]
-    pub kernel_stats: bool,
-}
-
-/// Runs `jeffcott info`.
-pub fn run_info(args: &InfoArgs) -> Result<()> {
-    let adapters = jeffcott_gpu::list_adapters();
-    println!("CPU: {} rayon threads", rayon::current_num_threads());
-    if adapters.is_empty() {
-        println!(
-            "GPU: no adapter found (install a Vulkan driver; Mesa's lavapipe: apt-get install mesa-vulkan-drivers)"
-        );
-    }
-    for s in adapters {
-        println!(
-            "GPU: {} [{} {}{}], driver {}, f64 {}, max storage binding {} MiB, max buffer {} MiB, workgroups/dim {}, invocations/workgroup {}, kernel as {}, f32 division and sqrt {}, lane constants read {} (JEFFCOTT_GPU_CONSTS)",
-            s.name,
-            s.backend,
-            s.device_type,
-            if s.software { ", software" } else { "" },
-            s.driver,
-            if s.f64 { "yes" } else { "no" },
-            s.max_storage_buffer_binding_size >> 20,
-            s.max_buffer_size >> 20,
-            s.max_compute_workgroups_per_dimension,
-            s.max_compute_invocations_per_workgroup,
-            if s.spirv_passthrough {
-                "exact SPIR-V (NoContraction; JEFFCOTT_GPU_SHADER=wgsl for WGSL)"
-            } else {
-                "WGSL (no SPIR-V passthrough: the driver may contract a*b+c)"
-            },
-            if s.f64 {
-                "through f64 (correctly rounded)"
-            } else {
-                "the driver's own"
-            },
-            // The runner's own choice (JEFFCOTT_GPU_CONSTS, else by adapter kind).
-            match jeffcott_gpu::device::consts_each_step(s.software) {
-                Ok(true) => "at every sub-step",
-                Ok(false) => "once",
-                Err(_) => "? (invalid value: once or each-step)",
-            }
-        );
-    }
-    if args.kernel_stats {
-        print_kernel_stats()?;
-    }
-    Ok(())
-}
-
-/// Prints the driver's statistics of every lane-kernel variant on every Vulkan device.
-fn print_kernel_stats() -> Result<()> {
-    let devices = jeffcott_gpu::stats::kernel_statistics()
-        .map_err(|message| jeffcott_core::Error::Gpu { message })?;
-    for d in devices {
-        let kernels = d.kernels.map_err(|e| jeffcott_core::Error::Gpu {
-            message: format!("compiling the lane kernel on {}: {e}", d.device),
-        })?;
-        if !d.offers_statistics {
-            println!(
-                "kernel statistics on {}: none (the driver does not offer VK_KHR_pipeline_executable_properties)",
-                d.device
-            );
-        }
-        for k in kernels {
-            println!(
-                "kernel {} on {}: compiled in {:.2} s",
-                k.kernel, k.device, k.compile_s
-            );
-            for (exe, stats) in &k.executables {
-                let list: Vec<String> = stats
-                    .iter()
-                    .map(|s| format!("{} = {}", s.name, s.value))
-                    .collect();
-                println!("  [{exe}] {}", list.join("; "));
-            }
-        }
-    }
-    Ok(())
-}
-
 /// Model parameters: Table 1 of the article unless a config file or `--param` says
 /// otherwise.
 #[derive(Args, Debug)]
@@ -552,6 +477,14 @@ impl ModelArgs {
         }
         p.validate()?;
         Ok(p)
+    }
+
+    /// The names `--param` sets (an axis over one of them refuses it).
+    pub fn overridden(&self) -> Result<Vec<String>> {
+        Ok(parse_assignment_lists("param", &self.param)?
+            .into_iter()
+            .map(|(name, _)| name)
+            .collect())
     }
 }
 
@@ -777,7 +710,7 @@ pub fn run_simulate(a: &SimulateArgs) -> Result<()> {
         "summary.json",
     ];
     outputs.extend_from_slice(rubout::FILES);
-    let run_dir = rundir::open(
+    let run_dir = rundir::open_whole(
         &a.out,
         "simulate",
         &SimulateRecord {

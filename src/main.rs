@@ -49,7 +49,7 @@ fn main() -> std::process::ExitCode {
             // The error's own text: an I/O error already says the operating system's
             // reason once (a `{:#}` chain would repeat it).
             eprintln!("error: {e}");
-            std::process::ExitCode::from(2)
+            std::process::ExitCode::from(jeffcott::cli::exit_code(&e))
         }
     }
 }

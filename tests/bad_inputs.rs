@@ -14,6 +14,45 @@ use common::{jeffcott, words};
 type Case = (&'static str, &'static [&'static str]);
 
 const CASES: &[Case] = &[
+    // Cases found by the hostile user's second probe: a bad bound blamed on itself, an
+    // override of the varied parameter refused, huge values short, dashed names.
+    (
+        "basin --omega 133 --x x_r:-0.006:0.006:4 --y vx_r:-1:1:4 --divergence-bound 0",
+        &["`divergence-bound`", "> 0"],
+    ),
+    (
+        "ensemble --omega 133 --divergence-bound -1",
+        &["`divergence-bound`"],
+    ),
+    (
+        "lyapunov --omega 133 --divergence-bound 0",
+        &["`divergence-bound`"],
+    ),
+    (
+        "continuation --vary mu:0:0.1:3 --omega 133 --param mu=0.05",
+        &["`param`", "varies mu"],
+    ),
+    (
+        "map --x mu:0:0.1:3 --y omega:132:133:2 --param mu=0.05",
+        &["`param`", "varies mu"],
+    ),
+    (
+        "simulate --omega 133 --init x_r=1e300",
+        &["`init x_r`", "1e300"],
+    ),
+    (
+        "simulate --omega 133 --timeseries-periods 1000000000",
+        &["`timeseries-periods`"],
+    ),
+    (
+        "simulate --omega 133 --config /dev/zero",
+        &["/dev/zero", "larger than"],
+    ),
+    (
+        "basin --omega 133 --x x_r:-0.006:0.006:4 --y vx_r:-1:1:4 --shard -1/3",
+        &["`shard`"],
+    ),
+    ("bench --out .", &["`out`", "is a directory"]),
     // simulate
     ("simulate --omega 133 --periods -1", &["`periods`", ">= 0"]),
     (
@@ -210,6 +249,48 @@ const CASES: &[Case] = &[
         &["`over`"],
     ),
     ("orbits", &["--param"]),
+    // A model parameter's range is checked at both ends, as continuation and map do.
+    (
+        "orbits --param k_c:-1:1e8 --omega 132",
+        &["`param`", "k_c = -1", "> 0"],
+    ),
+    (
+        "orbits --param e:-0.001:0.001 --omega 132",
+        &["`param`", "e = -0.001"],
+    ),
+    (
+        "orbits --param e_max:-1:1 --omega 132",
+        &["`param`", "e_max = -1"],
+    ),
+    (
+        "orbits --param m_r:0:50 --omega 132",
+        &["`param`", "m_r = 0"],
+    ),
+    (
+        "orbits --param xi_r:-0.5:0.5 --omega 132",
+        &["`param`", "xi_r = -0.5"],
+    ),
+    // The continued parameter overridden as well.
+    (
+        "orbits --param mu:0:0.1 --omega 132 --set mu=0.05",
+        &["`set`", "varies mu"],
+    ),
+    (
+        "orbits --param omega:131.7:132.4 --ds-max inf",
+        &["`ds-max`"],
+    ),
+    (
+        "orbits --param omega:131.7:132.4 --ds -1e-5",
+        &["`ds`", "> 0"],
+    ),
+    (
+        "orbits --param omega:131.7:132.4 --init x_r=1e300",
+        &["`init x_r`", "1e300", "divergence-bound"],
+    ),
+    (
+        "orbits --param spin:1:2 --omega 132",
+        &["`param`", "unknown", "omega, omega_r"],
+    ),
     // merge
     ("merge --out m", &["SHARD_DIR"]),
     ("merge /no/such/shard --out m", &["/no/such/shard"]),

@@ -450,8 +450,21 @@ fn the_orbits_command_draws_its_branches_over_a_brute_force_and_refuses_a_wrong_
             tmp.path().join("none").display()
         ),
         "orbits --param omega:131.7:132.4 --coord spin".to_string(),
+        // Another model's diagram, and a diagram of other speeds.
+        format!(
+            "orbits --param omega:131.7:132.4 --set mu=0.1 --over {}",
+            bif.display()
+        ),
+        format!("orbits --param omega:135:136 --over {}", bif.display()),
     ];
-    for (line, needle) in wrong.iter().zip(["over", "over", "coord"]) {
+    let needles = [
+        "over",
+        "over",
+        "coord",
+        "another model (mu = ",
+        "outside the branch's range",
+    ];
+    for (line, needle) in wrong.iter().zip(needles) {
         let o = common::jeffcott_out(line, tmp.path().join("refused"));
         assert!(!o.status.success(), "{line} was accepted");
         let err = String::from_utf8_lossy(&o.stderr);
@@ -659,8 +672,10 @@ fn the_orbits_command_on_a_gpu_writes_the_cpus_branch_files_to_the_byte() {
             ),
             &out,
         ));
+        // The backend is recorded, and is not part of the specification.
         let run = common::json(&out.join("run.json"));
-        assert_eq!(run["spec"]["backend"], backend, "{run}");
+        assert_eq!(run["backend"], backend, "{run}");
+        assert!(run["spec"].get("backend").is_none(), "{run}");
         out
     };
     let (cpu, gpu) = (run("cpu"), run("gpu"));
@@ -875,4 +890,50 @@ fn branches_of(line: &str) -> (tempfile::TempDir, std::path::PathBuf, serde_json
     let (tmp, out) = common::jeffcott_ok("orbits", line);
     let b = common::json(&out.join("branches.json"));
     (tmp, out, b)
+}
+
+#[test]
+fn a_period_1_orbit_shot_as_period_2_is_reported_as_period_1() {
+    let (_tmp, out, j) =
+        branches_of("orbits --param omega:131.0:131.5 --period 2 --max-points 5 --no-plot");
+    let b = &j["branches"][0];
+    assert_eq!(
+        (b["period"].as_u64(), b["minimal_period"].as_u64()),
+        (Some(2), Some(1))
+    );
+    let o = common::jeffcott_out(
+        "orbits --param omega:131.0:131.5 --period 2 --max-points 5 --no-plot",
+        &out,
+    );
+    common::ok(&o);
+    let said = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        said.contains("Period-1 branch (asked for period 2"),
+        "{said}"
+    );
+    // A genuine period-2 orbit stays period 2.
+    let (_tmp2, _, j) =
+        branches_of("orbits --param omega:132.2:132.4 --period 2 --max-points 5 --no-plot");
+    assert_eq!(j["branches"][0]["minimal_period"].as_u64(), Some(2));
+}
+
+#[test]
+fn orbits_from_a_run_that_is_still_running_is_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let basin = tmp.path().join("basin");
+    common::ok(&common::jeffcott_out(
+        "basin --omega 132.2 --x x_r:-0.004:0.004:4 --y vx_r:-0.5:0.5:3 --transient 200 \
+         --periods 16 --no-plot --backend cpu --quiet",
+        &basin,
+    ));
+    let run = basin.join("run.json");
+    let text = std::fs::read_to_string(&run).unwrap();
+    std::fs::write(&run, text.replace("\"complete\"", "\"running\"")).unwrap();
+    let o = common::jeffcott_out(
+        &format!("orbits --param omega:132:132.4 --from {}", basin.display()),
+        tmp.path().join("o"),
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("`from`") && err.contains("running"), "{err}");
 }

@@ -34,11 +34,16 @@ fn args(list: &[&str], out: &Path) -> Vec<String> {
     v
 }
 
-/// Runs `list` into `out`, demanding a refusal (exit code 2) whose stderr contains every
-/// one of `needles`.
+/// Runs `list` into `out`, demanding a refusal (exit code 2, bad input) whose stderr
+/// contains every one of `needles`.
 fn assert_refused(list: &[&str], out: &Path, needles: &[&str]) {
+    assert_refused_with(2, list, out, needles);
+}
+
+/// [`assert_refused`] with exit code `code`.
+fn assert_refused_with(code: i32, list: &[&str], out: &Path, needles: &[&str]) {
     let o = jeffcott(&args(list, out));
-    assert_eq!(o.status.code(), Some(2));
+    assert_eq!(o.status.code(), Some(code));
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(needles.iter().all(|n| err.contains(n)), "{err}");
 }
@@ -534,13 +539,14 @@ fn an_unwritable_out_is_refused_before_any_computing() {
     let t = Instant::now();
     let mut big: Vec<&str> = words(BASIN);
     big[4] = "x_r:-0.006:0.006:2000";
-    assert_refused(&big, &file, &["plain-file", "not a directory"]);
+    // A place that cannot be written is an I/O failure: exit code 3.
+    assert_refused_with(3, &big, &file, &["plain-file", "not a directory"]);
     assert!(
         t.elapsed() < Duration::from_secs(20),
         "refused before computing"
     );
     let unwritable = "/proc/jeffcott-cannot-write-here";
-    assert_refused(&big, Path::new(unwritable), &[unwritable]);
+    assert_refused_with(3, &big, Path::new(unwritable), &[unwritable]);
 }
 
 /// A small tmpfs (mounted here; the test runs as root in CI) fills during the run: the
@@ -588,7 +594,11 @@ fn a_full_disk_leaves_no_partial_file_and_the_run_resumes_after_space_is_freed()
     let out = mnt.join("b");
     let a = args(&words(BASIN), &out);
     let o = jeffcott(&a);
-    assert_eq!(o.status.code(), Some(2), "the run must fail on a full disk");
+    assert_eq!(
+        o.status.code(),
+        Some(3),
+        "the run must fail on a full disk (I/O)"
+    );
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("No space left on device"), "{err}");
     assert!(

@@ -273,6 +273,132 @@ fn merge_names_a_corrupt_truncated_or_swapped_unit_with_its_shard_and_writes_not
     ok(&jeffcott(&merge_args(&[], &out, &shards)));
 }
 
+/// The small basin as shards `0..n` of `n` into `root/{tag}{i}`, with `extra` arguments.
+fn shards_of(root: &Path, tag: &str, n: usize, extra: &[&str]) -> Vec<PathBuf> {
+    let small = small_basin();
+    let small: Vec<&str> = small.iter().map(|s| s.as_str()).collect();
+    (0..n)
+        .map(|i| {
+            let d = root.join(format!("{tag}{i}"));
+            let shard = format!("{i}/{n}");
+            let args = with(&small, extra);
+            let args: Vec<&str> = args.iter().map(|s| s.as_str()).collect();
+            ok(&jeffcott(&with(
+                &args,
+                &["--shard", &shard, "--out", p(&d)],
+            )));
+            d
+        })
+        .collect()
+}
+
+fn unit_count(d: &Path) -> usize {
+    std::fs::read_dir(d.join("units")).map_or(0, |r| r.count())
+}
+
+#[test]
+fn merge_refuses_an_out_that_is_holds_or_lies_inside_a_shard_and_leaves_the_shards_whole() {
+    let dir = tempfile::tempdir().unwrap();
+    let shards = shards_of(dir.path(), "s", 3, &[]);
+    let before: Vec<usize> = shards.iter().map(|d| unit_count(d)).collect();
+    let inside = shards[1].join("merged");
+    // Through a symbolic link too: the link resolves to shard 0.
+    let link = dir.path().join("link");
+    std::os::unix::fs::symlink(&shards[0], &link).unwrap();
+    for (out, how) in [
+        (shards[0].clone(), "is the shard directory"),
+        (dir.path().to_path_buf(), "contains the shard directory"),
+        (inside.clone(), "lies inside the shard directory"),
+        (link, "is the shard directory"),
+    ] {
+        let o = jeffcott(&merge_args(&["--overwrite"], &out, &shards));
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{}: {e}", out.display());
+        assert!(
+            e.contains("`--out`") && e.contains(how),
+            "{}: {e}",
+            out.display()
+        );
+    }
+    assert!(!inside.exists());
+    for (d, n) in shards.iter().zip(before) {
+        assert_eq!(unit_count(d), n, "{} lost units", d.display());
+        assert!(d.join("run.json").exists());
+    }
+    ok(&jeffcott(&merge_args(&[], &dir.path().join("m"), &shards)));
+}
+
+#[test]
+fn units_of_another_run_are_named_and_never_assembled_by_a_merge_or_a_rerun() {
+    let dir = tempfile::tempdir().unwrap();
+    let ours = shards_of(dir.path(), "a", 2, &[]);
+    let theirs = shards_of(dir.path(), "b", 2, &["--param", "mu=0.11"]);
+    let key = "basin-0000001.unit";
+    let (good, foreign) = (
+        ours[1].join("units").join(key),
+        theirs[1].join("units").join(key),
+    );
+    let kept = std::fs::read(&good).unwrap();
+    std::fs::copy(&foreign, &good).unwrap();
+    let out = dir.path().join("m");
+    let o = jeffcott(&merge_args(&[], &out, &ours));
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(e.contains(p(&good)) && e.contains("another run"), "{e}");
+    assert!(!out.exists(), "--out was made");
+    // Rerunning the shard whose units/ holds the foreign unit refuses it and keeps it.
+    let small = small_basin();
+    let small: Vec<&str> = small.iter().map(|s| s.as_str()).collect();
+    let o = jeffcott(&with(&small, &["--shard", "1/2", "--out", p(&ours[1])]));
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_ne!(o.status.code(), Some(0), "{e}");
+    assert!(e.contains(p(&good)) && e.contains("another run"), "{e}");
+    assert_eq!(
+        std::fs::read(&good).unwrap(),
+        std::fs::read(&foreign).unwrap()
+    );
+    // A complete unsharded run whose units/ gets another run's unit: no reassembly.
+    let whole = dir.path().join("whole");
+    ok(&jeffcott(&with(&small, &["--out", p(&whole)])));
+    std::fs::copy(&foreign, whole.join("units").join(key)).unwrap();
+    let o = jeffcott(&with(&small, &["--out", p(&whole)]));
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_ne!(o.status.code(), Some(0), "{e}");
+    assert!(e.contains("another run"), "{e}");
+    // Mended, the shard's command finishes it (its units kept) and the shards merge.
+    std::fs::write(&good, kept).unwrap();
+    ok(&jeffcott(&with(
+        &small,
+        &["--shard", "1/2", "--out", p(&ours[1])],
+    )));
+    ok(&jeffcott(&merge_args(&[], &out, &ours)));
+}
+
+#[test]
+fn merge_blames_the_shard_whose_run_json_lacks_a_key_and_a_fresh_merge_says_no_resume() {
+    let dir = tempfile::tempdir().unwrap();
+    let shards = shards_of(dir.path(), "s", 2, &[]);
+    let j = shards[1].join("run.json");
+    let text = std::fs::read_to_string(&j).unwrap();
+    let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    v.as_object_mut().unwrap().remove("spec");
+    std::fs::write(&j, v.to_string()).unwrap();
+    let out = dir.path().join("m");
+    let o = jeffcott(&merge_args(&[], &out, &shards));
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(
+        e.contains(p(&shards[1])) && e.contains("lacks `spec`"),
+        "{e}"
+    );
+    assert!(!e.contains(p(&shards[0])), "the good shard is blamed: {e}");
+    std::fs::write(&j, text).unwrap();
+    let o = jeffcott(&merge_args(&[], &out, &shards));
+    ok(&o);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(!e.contains("resuming"), "{e}");
+}
+
 fn cycle(n: usize, scale: f64) -> Vec<State> {
     (0..n)
         .map(|k| {

@@ -66,6 +66,61 @@ from ._jeffcott import (  # noqa: E402
     simulate,
 )
 
+
+# The extension's signatures show a default that is a named constant of the library as
+# `...`; the functions exported here carry their real defaults (from DEFAULTS), so
+# `inspect.signature` and `help()` show the numbers a call uses.
+import functools as _functools  # noqa: E402
+import inspect as _inspect  # noqa: E402
+
+# The group of DEFAULTS whose values a function's keywords take, where its name differs.
+_STUDY = {"basin_stability": "stability"}
+# Keywords whose default is a configuration's field of another name.
+_FIELD = {
+    ("simulate", "article_steps"): ("article", "steps_per_period"),
+    ("simulate", "article_alpha"): ("article", "alpha"),
+    ("lyapunov", "time"): ("spectrum", "max_time"),
+}
+# Configurations whose fields are keywords of the same name.
+_CONFIGS = ("classify", "spectrum")
+
+
+def _library_default(function, keyword):
+    """The default the library declares for `function`'s `keyword` (KeyError: none)."""
+    if (function, keyword) in _FIELD:
+        group, field = _FIELD[(function, keyword)]
+        return DEFAULTS[group][field]
+    study = DEFAULTS.get(_STUDY.get(function, function), {})
+    if keyword in study:
+        return study[keyword]
+    for group in _CONFIGS:
+        if keyword in DEFAULTS[group]:
+            return DEFAULTS[group][keyword]
+    raise KeyError(f"{function}({keyword}=...)")
+
+
+def _with_defaults(f):
+    sig = _inspect.signature(f)
+    params = [
+        p.replace(default=_library_default(f.__name__, p.name)) if p.default is Ellipsis else p
+        for p in sig.parameters.values()
+    ]
+
+    @_functools.wraps(f)
+    def call(*args, **kwargs):
+        return f(*args, **kwargs)
+
+    call.__signature__ = sig.replace(parameters=params)
+    return call
+
+
+(basin, basin_metrics, basin_stability, bifurcation, cascade, continuation, ensemble,
+ lyapunov, map, orbits, simulate) = (
+    _with_defaults(f)
+    for f in (basin, basin_metrics, basin_stability, bifurcation, cascade, continuation,
+              ensemble, lyapunov, map, orbits, simulate)
+)
+
 # `map` is not in __all__: a star import would shadow the builtin map.
 __all__ = [
     "COORD_NAMES",

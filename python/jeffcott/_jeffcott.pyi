@@ -91,7 +91,7 @@ def basin(
     precision: Precision = None,
     lyapunov: bool = False,
     refine: int = 0,
-    uncertainty_samples: int = 0,
+    uncertainty_samples: int = 100,
     entropy_box: Optional[int] = None,
     progress: Optional[Progress] = None,
     **stepper: Unpack[StepperOptions],

@@ -173,6 +173,22 @@ impl<'py> FromArg<'py> for String {
     }
 }
 
+/// A path: a string or any `os.PathLike` (a `pathlib.Path`), read through `os.fspath`;
+/// a bytes path is refused (jeffcott names files in text).
+impl<'py> FromArg<'py> for std::path::PathBuf {
+    fn what() -> String {
+        "a path (a str or an os.PathLike such as pathlib.Path)".into()
+    }
+    fn read(o: &Bound<'py, PyAny>) -> Result<Self, Bad> {
+        let fspath = o.py().import("os")?.getattr("fspath")?;
+        let p = fspath.call1((o,)).map_err(|_| Bad::Type(String::new()))?;
+        match p.cast::<PyString>() {
+            Ok(s) => Ok(std::path::PathBuf::from(s.to_cow()?.into_owned())),
+            Err(_) => Err(Bad::Type(String::new())),
+        }
+    }
+}
+
 /// Names mapped to numbers (`params`, `init`, `fix`): a dict or any mapping.
 impl<'py> FromArg<'py> for HashMap<String, f64> {
     fn what() -> String {
@@ -454,6 +470,7 @@ pub mod kw {
         ds,
         ds_max,
         follow_doublings,
+        start_from = "a path (a str or an os.PathLike such as pathlib.Path) of a basin, bifurcation or continuation output directory",
     }
 }
 

@@ -78,6 +78,7 @@ pub fn lane_specs(
     lanes: Option<PyReadonlyArray2<'_, f64>>,
     columns: Option<Vec<String>>,
     init: Option<HashMap<String, f64>>,
+    overridden: &[String],
     divergence_bound: f64,
 ) -> PyResult<(Vec<Params>, Vec<LaneSpec>)> {
     let init = sorted_pairs(init.unwrap_or_default());
@@ -101,6 +102,9 @@ pub fn lane_specs(
             columns,
             rows: a.rows().into_iter().map(|r| r.to_vec()).collect(),
         };
+        t.refuse_set_by("init", init.iter().map(|(n, _)| n.as_str()))
+            .and_then(|_| t.refuse_set_by("params", overridden.iter().map(String::as_str)))
+            .map_err(to_py_err)?;
         let omega = match omegas.as_deref() {
             None => None,
             Some([w]) => Some(*w),

@@ -374,3 +374,34 @@ def test_ctrl_c_stops_simulate_within_a_second(sigint_raises):
 def test_ctrl_c_stops_lyapunov_within_a_second(sigint_raises):
     late = interrupted_after(lambda: jeffcott.lyapunov(140, time=3000.0, min_time=3000.0))
     assert late < 1.0, f"control came back {late:.2f} s after Ctrl-C"
+
+
+def test_ctrl_c_stops_orbits_within_a_second_while_settling_and_while_continuing(sigint_raises):
+    # A settle of 10^6 periods (minutes of CPU work), then a long branch.
+    late = interrupted_after(lambda: jeffcott.orbits("omega:131.7:132.4", settle=1_000_000))
+    assert late < 1.0, f"settling: control came back {late:.2f} s after Ctrl-C"
+    late = interrupted_after(
+        lambda: jeffcott.orbits("omega:100:200", settle=0, max_points=1_000_000, ds=1e-6, ds_max=1e-6)
+    )
+    assert late < 1.0, f"continuing: control came back {late:.2f} s after Ctrl-C"
+
+
+def test_a_path_works_wherever_a_path_is_taken_and_other_kinds_name_the_keyword(tmp_path):
+    with pytest.raises(ValueError, match="`from`"):
+        jeffcott.orbits("omega:131.7:132.4", start_from=tmp_path / "no-such-result")
+    with pytest.raises(TypeError, match="`start_from`"):
+        jeffcott.orbits("omega:131.7:132.4", start_from=5)
+
+
+def test_the_varied_parameter_or_a_table_column_set_again_is_refused():
+    with pytest.raises(ValueError, match="`params`.*varies mu"):
+        jeffcott.continuation("mu:0:0.1:3", omega=133, params={"mu": 0.05})
+    with pytest.raises(ValueError, match="`params`.*varies mu"):
+        jeffcott.map("mu:0:0.1:3", "omega:132:133:2", params={"mu": 0.05})
+    with pytest.raises(ValueError, match="`params`.*varies mu"):
+        jeffcott.orbits("mu:0:0.1", omega=132, params={"mu": 0.05})
+    with pytest.raises(ValueError, match="`init`.*column x_r"):
+        jeffcott.ensemble(lanes=np.array([[133.0, 0.001]]), columns=["omega", "x_r"],
+                          init={"x_r": 0.002}, transient=1, periods=1, backend="cpu")
+    with pytest.raises(ValueError, match="`param`.*k_c = -1"):
+        jeffcott.orbits("k_c:-1:1e8", omega=132)

@@ -13,19 +13,6 @@ from jeffcott import _jeffcott
 
 STUB = Path(_jeffcott.__file__).with_name("_jeffcott.pyi")
 
-# The study of `analysis::defaults` whose defaults a function's keywords take, where its
-# name differs from the function's.
-STUDY = {"basin_stability": "stability"}
-# Keywords whose default is a configuration's field of another name.
-FIELD = {
-    ("simulate", "article_steps"): ("article", "steps_per_period"),
-    ("simulate", "article_alpha"): ("article", "alpha"),
-    ("lyapunov", "time"): ("spectrum", "max_time"),
-}
-# Configurations whose fields are keywords of the same name.
-CONFIGS = ("classify", "spectrum")
-
-
 def stub_tree():
     return ast.parse(STUB.read_text())
 
@@ -62,18 +49,11 @@ def extension_functions():
 
 
 def library_default(function, keyword):
-    """The default the library declares for a keyword whose extension signature shows
-    only `...` (a constant, not a literal)."""
-    if (function, keyword) in FIELD:
-        group, field = FIELD[(function, keyword)]
-        return jeffcott.DEFAULTS[group][field]
-    study = jeffcott.DEFAULTS.get(STUDY.get(function, function), {})
-    if keyword in study:
-        return study[keyword]
-    for group in CONFIGS:
-        if keyword in jeffcott.DEFAULTS[group]:
-            return jeffcott.DEFAULTS[group][keyword]
-    raise AssertionError(f"{function}({keyword}=...): no library default found")
+    """The default the library declares for a keyword (DEFAULTS), None where none."""
+    try:
+        return jeffcott._library_default(function, keyword)
+    except KeyError:
+        return None
 
 
 def test_the_stub_declares_exactly_the_extensions_functions():
@@ -104,6 +84,27 @@ def test_the_stubs_defaults_are_the_extensions(name):
         assert type(declared) is type(actual) and declared == actual, (
             f"{name}({keyword}): stub {declared!r}, extension {actual!r}"
         )
+
+
+@pytest.mark.parametrize("name", sorted(extension_functions()))
+def test_a_literal_default_is_the_one_DEFAULTS_lists_for_that_keyword(name):
+    for p in inspect.signature(getattr(_jeffcott, name)).parameters.values():
+        listed = library_default(name, p.name)
+        if p.default in (inspect.Parameter.empty, Ellipsis, None) or listed is None:
+            continue
+        assert p.default == listed, f"{name}({p.name}={p.default!r}), DEFAULTS says {listed!r}"
+
+
+@pytest.mark.parametrize("name", sorted(extension_functions()))
+def test_the_exported_functions_show_every_default_as_its_value(name):
+    exported = inspect.signature(getattr(jeffcott, name)).parameters
+    extension = inspect.signature(getattr(_jeffcott, name)).parameters
+    assert list(exported) == list(extension)
+    for p in exported.values():
+        assert p.default is not Ellipsis, f"{name}({p.name}) shows `...`"
+        if extension[p.name].default is Ellipsis:
+            assert p.default == library_default(name, p.name)
+    assert "..." not in str(inspect.signature(getattr(jeffcott, name)))
 
 
 def test_the_stepper_keywords_are_exactly_the_stepper_settings_with_their_kinds():

@@ -116,6 +116,13 @@ pub fn run_bench(a: &BenchArgs) -> Result<()> {
         ));
     }
     if let Some(path) = &a.out {
+        if path.is_dir() {
+            return Err(Error::invalid(
+                "out",
+                path.display(),
+                "is a directory; bench writes its rows to a JSON file: give the file's path",
+            ));
+        }
         // Checked before any timing work: a --out that cannot be written (a directory,
         // a read-only place) is refused at once. It holds the rows measured so far.
         jeffcott_analysis::output::write_json(path, &Vec::<BenchRow>::new())?;

@@ -101,6 +101,11 @@ impl ContinuationArgs {
             match_threshold: self.match_threshold.unwrap_or(f64::INFINITY),
             values_per_unit: None,
         };
+        (spec.param.var).check_not_overridden(
+            "vary",
+            "param",
+            &self.study.run.model.overridden()?,
+        )?;
         if spec.param.n < 2 {
             return Err(Error::invalid(
                 "vary",

@@ -68,6 +68,9 @@ impl MapArgs {
         let lane = self.study.settings(!self.no_lyapunov)?;
         let x = MapAxis::parse("x", &self.x, self.log_x)?;
         let y = MapAxis::parse("y", &self.y, self.log_y)?;
+        let overridden = self.study.run.model.overridden()?;
+        x.var.check_not_overridden("x", "param", &overridden)?;
+        y.var.check_not_overridden("y", "param", &overridden)?;
         jeffcott_analysis::map::check_size(&x, &y, self.ics)?;
         let spec = MapSpec {
             lane,

@@ -42,6 +42,7 @@ struct ShardRun {
     dir: PathBuf,
     command: String,
     spec: serde_json::Value,
+    version: String,
     write: serde_json::Value,
     index: usize,
     count: usize,
@@ -52,9 +53,12 @@ struct ShardRun {
 fn read_shard(dir: &Path) -> Result<ShardRun> {
     let path = dir.join(RUN_JSON);
     let bad = |why: &str| Error::invalid("SHARD_DIR", dir.display(), why.to_string());
-    let bytes = std::fs::read(&path).map_err(|source| Error::Io {
-        path: path.clone(),
-        source,
+    let bytes = std::fs::read(&path).map_err(|source| match source.kind() {
+        std::io::ErrorKind::NotFound => bad("has no run.json: not a shard directory"),
+        _ => Error::Io {
+            path: path.clone(),
+            source,
+        },
     })?;
     let j: serde_json::Value =
         serde_json::from_slice(&bytes).map_err(|_| bad("its run.json is not readable JSON"))?;
@@ -67,6 +71,13 @@ fn read_shard(dir: &Path) -> Result<ShardRun> {
     let (Some(index), Some(count)) = (shard["index"].as_u64(), shard["count"].as_u64()) else {
         return Err(bad("is not a shard directory (run.json has no shard)"));
     };
+    // A key the merge compares must be there: a shard without one would otherwise be
+    // compared as empty, and the good shards blamed for differing from it.
+    for key in ["command", "spec", "jeffcott_version"] {
+        if j.get(key).is_none_or(|v| v.is_null()) {
+            return Err(bad(&format!("its run.json lacks `{key}`")));
+        }
+    }
     let strings = |v: &serde_json::Value| -> Vec<String> {
         v.as_array()
             .map(|a| {
@@ -80,6 +91,10 @@ fn read_shard(dir: &Path) -> Result<ShardRun> {
         dir: dir.to_path_buf(),
         command: j["command"].as_str().unwrap_or_default().to_string(),
         spec: j["spec"].clone(),
+        version: j["jeffcott_version"]
+            .as_str()
+            .unwrap_or_default()
+            .to_string(),
         write: j["write"].clone(),
         index: index as usize,
         count: count as usize,
@@ -109,15 +124,79 @@ fn place(from: &Path, to: &Path) -> Result<()> {
     jeffcott_analysis::output::write_atomically(to, |w| std::io::Write::write_all(w, &bytes))
 }
 
-/// Runs `jeffcott merge`.
-pub fn run_merge(a: &MergeArgs) -> Result<()> {
-    let t = std::time::Instant::now();
-    let shards: Vec<ShardRun> = a
-        .shards
-        .iter()
-        .map(|d| read_shard(d))
-        .collect::<Result<_>>()?;
+/// `p` with every symbolic link and `..` resolved, also where its last components do not
+/// exist yet (those are appended to the resolved part that does).
+fn resolved(p: &Path) -> PathBuf {
+    let abs = std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf());
+    let mut tail = Vec::new();
+    let mut head = abs.as_path();
+    loop {
+        if let Ok(c) = head.canonicalize() {
+            return tail.iter().rev().fold(c, |acc, part| acc.join(part));
+        }
+        match (head.parent(), head.file_name()) {
+            (Some(parent), Some(name)) => {
+                tail.push(name.to_owned());
+                head = parent;
+            }
+            _ => return abs,
+        }
+    }
+}
+
+/// Refuses an `--out` that is one of the shard directories, holds one or lies inside
+/// one: `--overwrite` would remove a shard's units before they are read, and a merge
+/// inside a shard would mix its files with the shard's.
+fn check_out_apart(out: &Path, shards: &[PathBuf]) -> Result<()> {
+    let o = resolved(out);
+    for s in shards {
+        let d = resolved(s);
+        let how = if o == d {
+            "is"
+        } else if d.starts_with(&o) {
+            "contains"
+        } else if o.starts_with(&d) {
+            "lies inside"
+        } else {
+            continue;
+        };
+        return Err(Error::invalid(
+            "--out",
+            out.display(),
+            format!(
+                "{how} the shard directory {}: the merged run needs a directory of its own, apart from every shard",
+                s.display()
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// Checks that the shards are one run's, computed by one version, each of 0..n once;
+/// returns n.
+fn check_shards(shards: &[ShardRun], quiet: bool) -> Result<usize> {
     let first = &shards[0];
+    for s in &shards[1..] {
+        if s.version != first.version {
+            return Err(Error::invalid(
+                "SHARD_DIR",
+                s.dir.display(),
+                format!(
+                    "was computed by jeffcott {} and {} by jeffcott {}: the shards of one run come from one version; rerun them with one build",
+                    s.version,
+                    first.dir.display(),
+                    first.version
+                ),
+            ));
+        }
+    }
+    if first.version != env!("CARGO_PKG_VERSION") && !quiet {
+        eprintln!(
+            "note: the shards were computed by jeffcott {}; this is jeffcott {}, which assembles them",
+            first.version,
+            env!("CARGO_PKG_VERSION")
+        );
+    }
     for s in &shards[1..] {
         if s.command != first.command || s.spec != first.spec || s.count != first.count {
             return Err(Error::invalid(
@@ -132,7 +211,7 @@ pub fn run_merge(a: &MergeArgs) -> Result<()> {
     }
     let n = first.count;
     let mut by_index: Vec<Option<&ShardRun>> = vec![None; n];
-    for s in &shards {
+    for s in shards {
         if let Some(other) = by_index[s.index] {
             return Err(Error::invalid(
                 "SHARD_DIR",
@@ -161,7 +240,15 @@ pub fn run_merge(a: &MergeArgs) -> Result<()> {
             ),
         ));
     }
-    for s in &shards {
+    Ok(n)
+}
+
+/// Reads back every unit each shard lists, before anything is written to `--out`: a
+/// unit of another shard, a missing, corrupt or swapped file, or a unit another run
+/// committed (its fingerprint is not the run's) is named, with its shard.
+fn check_units(shards: &[ShardRun], n: usize, out: &Path) -> Result<()> {
+    let ours = jeffcott_analysis::run::run_fingerprint(&shards[0].command, &shards[0].spec);
+    for s in shards {
         for key in &s.units {
             match unit_index(key) {
                 Some(u) if u % n == s.index => {}
@@ -183,28 +270,47 @@ pub fn run_merge(a: &MergeArgs) -> Result<()> {
             }
             // Each unit is read back whole before anything is written to --out: a
             // corrupt, truncated or swapped file is named here, with its shard.
-            let why = match jeffcott_analysis::run::Unit::read(&f) {
-                Ok(u) if u.key == *key => None,
-                Ok(u) => Some(format!("holds unit {} instead", u.key)),
-                Err(e) => Some(match e {
-                    Error::Io { source, .. } => source.to_string(),
-                    e => e.to_string(),
-                }),
+            let recompute = "run that shard's command again (it recomputes the unit)";
+            let (what, remedy) = match jeffcott_analysis::run::Unit::read(&f) {
+                Ok(u) if u.key != *key => (
+                    format!("is corrupt (it holds unit {} instead)", u.key),
+                    recompute,
+                ),
+                Ok(u) if u.run != ours => (
+                    jeffcott_analysis::run::dir::foreign_reason(&u.run, &ours),
+                    "move it out of that shard's units/ and run the shard's command again (it computes the unit)",
+                ),
+                Ok(_) => continue,
+                Err(Error::Io { source, .. }) => (format!("is corrupt ({source})"), recompute),
+                Err(e) => (format!("is corrupt ({e})"), recompute),
             };
-            if let Some(why) = why {
-                return Err(Error::invalid(
-                    "SHARD_DIR",
-                    s.dir.display(),
-                    format!(
-                        "unit file {} of shard {}/{n} is corrupt ({why}); run that shard's command again (it recomputes the unit) and merge again; nothing was written to {}",
-                        f.display(),
-                        s.index,
-                        a.out.display()
-                    ),
-                ));
-            }
+            return Err(Error::invalid(
+                "SHARD_DIR",
+                s.dir.display(),
+                format!(
+                    "unit file {} of shard {}/{n} {what}; {remedy}, then merge again; nothing was written to {}",
+                    f.display(),
+                    s.index,
+                    out.display()
+                ),
+            ));
         }
     }
+    Ok(())
+}
+
+/// Runs `jeffcott merge`.
+pub fn run_merge(a: &MergeArgs) -> Result<()> {
+    let t = std::time::Instant::now();
+    check_out_apart(&a.out, &a.shards)?;
+    let shards: Vec<ShardRun> = a
+        .shards
+        .iter()
+        .map(|d| read_shard(d))
+        .collect::<Result<_>>()?;
+    let n = check_shards(&shards, a.run.quiet)?;
+    check_units(&shards, n, &a.out)?;
+    let first = &shards[0];
     let outputs: &[&str] = match first.command.as_str() {
         "basin" => super::basin::OUTPUTS,
         "ensemble" => super::ENSEMBLE_OUTPUTS,

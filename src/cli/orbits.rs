@@ -8,6 +8,7 @@ use jeffcott_analysis::orbits::{Branch, OrbitsRequest, run};
 use jeffcott_analysis::{defaults, output};
 use jeffcott_core::ensemble::{Backend, Precision};
 use jeffcott_core::error::Result;
+use jeffcott_core::integrate::lane::StepperConfig;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
@@ -59,10 +60,10 @@ pub struct OrbitsArgs {
     pub max_points: usize,
     /// First arclength step (positions in metres, velocities over W, the parameter at
     /// 1 mm per its range).
-    #[arg(long, default_value_t = defaults::orbits::DS, value_name = "DS")]
+    #[arg(long, default_value_t = defaults::orbits::DS, value_name = "DS", allow_hyphen_values = true)]
     pub ds: f64,
     /// Largest arclength step.
-    #[arg(long, default_value_t = defaults::orbits::DS_MAX, value_name = "DS")]
+    #[arg(long, default_value_t = defaults::orbits::DS_MAX, value_name = "DS", allow_hyphen_values = true)]
     pub ds_max: f64,
     /// Also continue the period-2n branch born at each period doubling of the branch.
     #[arg(long)]
@@ -117,9 +118,17 @@ struct Record<'a> {
     ds: f64,
     ds_max: f64,
     tol: f64,
-    backend: Backend,
     params: &'a jeffcott_core::model::Params,
-    stepper: &'a jeffcott_core::integrate::lane::StepperConfig,
+    #[serde(serialize_with = "StepperConfig::serialize_flow")]
+    stepper: StepperConfig,
+}
+
+/// What `run.json` adds once a branch is written: where its flows ran (not part of
+/// the specification: both backends give the same bits) and the wall time.
+#[derive(Serialize)]
+struct Finished {
+    backend: &'static str,
+    wall_time_s: f64,
 }
 
 /// `branches.json`: the branches and the list of files.
@@ -139,11 +148,11 @@ const OUTPUTS: &[&str] = &[
 
 /// Runs `jeffcott orbits`.
 pub fn run_orbits(a: &OrbitsArgs) -> Result<()> {
-    let params = ModelArgs {
+    let model = ModelArgs {
         config: a.config.clone(),
         param: a.set.clone(),
-    }
-    .params()?;
+    };
+    let params = model.params()?;
     let mut start = params.static_equilibrium();
     apply_init(&mut start, &a.init)?;
     let stepper = a.stepper.config();
@@ -166,13 +175,14 @@ pub fn run_orbits(a: &OrbitsArgs) -> Result<()> {
     let spec = &study.branch;
     let (lo, hi) = (spec.lo, spec.hi);
     let var = spec.var;
+    var.check_not_overridden("param", "set", &model.overridden()?)?;
     let coord = jeffcott_core::inputs::coord("coord", &a.coord)?;
     // The diagram to draw under the branches, read (and refused) before any work.
     let background = match &a.over {
-        Some(dir) if !a.no_plot => Some(diagram_points(dir, var, coord)?),
+        Some(dir) if !a.no_plot => Some(diagram_points(dir, var, coord, &params, (lo, hi))?),
         _ => None,
     };
-    let run_dir = rundir::open(
+    let run_dir = rundir::open_whole(
         &a.out,
         "orbits",
         &Record {
@@ -189,16 +199,15 @@ pub fn run_orbits(a: &OrbitsArgs) -> Result<()> {
             ds: a.ds,
             ds_max: a.ds_max,
             tol: spec.shoot.tol,
-            backend: a.backend,
             params: &params,
-            stepper: &stepper,
+            stepper,
         },
         OUTPUTS,
         a.run,
     )?;
     let t0 = std::time::Instant::now();
     let engine = jeffcott_analysis::backend::Engine::new(a.backend, Precision::F64)?;
-    let branches = run(&study, &engine)?;
+    let branches = run(&study, &engine, &rundir::cancel())?;
     write_files(&a.out, var.name(), &branches)?;
     if !a.no_plot {
         draw(
@@ -210,7 +219,12 @@ pub fn run_orbits(a: &OrbitsArgs) -> Result<()> {
         )?;
     }
     run_dir.finish(
-        &rundir::WallTime {
+        &Finished {
+            backend: if engine.runner().is_some() {
+                "gpu"
+            } else {
+                "cpu"
+            },
             wall_time_s: t0.elapsed().as_secs_f64(),
         },
         &rundir::written(&run_dir, OUTPUTS),
@@ -255,9 +269,21 @@ pub(crate) fn write_files(dir: &Path, name: &'static str, b: &[Branch]) -> Resul
 fn summary(name: &str, b: &Branch) -> String {
     let (first, last) = b.span();
     let found = b.found(&format!("{name} = "), 8);
+    let shot = if b.minimal_period == b.period {
+        String::new()
+    } else {
+        format!(
+            " (asked for period {}: the orbit closes after {} forcing period{}, so this is the period-{} orbit; its multipliers are those of {} periods)",
+            b.period,
+            b.minimal_period,
+            if b.minimal_period == 1 { "" } else { "s" },
+            b.minimal_period,
+            b.period
+        )
+    };
     format!(
-        "Period-{} branch: {} points from {name} = {first} to {last} ({}); bifurcations: {}.",
-        b.period,
+        "Period-{} branch{shot}: {} points from {name} = {first} to {last} ({}); bifurcations: {}.",
+        b.minimal_period,
         b.points.len(),
         b.stop,
         if found.is_empty() {
@@ -269,11 +295,14 @@ fn summary(name: &str, b: &Branch) -> String {
 }
 
 /// The Poincare points (W, coordinate `coord`) of the `jeffcott bifurcation` run in
-/// `dir` (field `over`): its brute force's and its sweeps'.
+/// `dir` (field `over`): its brute force's and its sweeps'. The run must be of the
+/// branch's model `params`, with speeds in the branch's range `lo..hi`.
 fn diagram_points(
     dir: &Path,
     var: jeffcott_analysis::map::MapVar,
     coord: usize,
+    params: &jeffcott_core::model::Params,
+    range: (f64, f64),
 ) -> Result<crate::plot::orbits::Backdrop> {
     if !matches!(var, jeffcott_analysis::map::MapVar::Omega) {
         return Err(jeffcott_core::error::Error::invalid(
@@ -282,6 +311,7 @@ fn diagram_points(
             "a brute force is drawn under a branch over omega only",
         ));
     }
+    jeffcott_analysis::orbit_starts::check_diagram("over", dir, params, range)?;
     let read = |name: &str| output::read_npy_f64("over", &dir.join(name));
     let (rs, rows) = read("bifurcation_rows.npy")?;
     let (ps, points) = read("bifurcation.npy")?;
@@ -336,7 +366,7 @@ pub(crate) fn draw(
                 }
             }
             BranchLine {
-                label: format!("period-{} orbits", b.period),
+                label: format!("period-{} orbits", b.minimal_period),
                 points,
             }
         })

@@ -39,7 +39,7 @@ pub struct StudyRunArgs {
     /// the files of the unsharded run, identical to the bit. A shard resumes like any run.
     /// (`bifurcation` shards its first brute-force pass only: the merge runs the sweeps
     /// and the seeded second pass, which need the whole first pass.)
-    #[arg(long, value_name = "i/n|slurm")]
+    #[arg(long, value_name = "i/n|slurm", allow_hyphen_values = true)]
     pub shard: Option<String>,
 }
 
@@ -245,7 +245,39 @@ fn resume_command() -> String {
         .join(" ")
 }
 
-static RUN_DIRS: Mutex<Vec<String>> = Mutex::new(Vec::new());
+/// The directories this process writes runs into, each with whether its run commits
+/// work units (false: a run computed whole, which a re-run starts over).
+static RUN_DIRS: Mutex<Vec<(String, bool)>> = Mutex::new(Vec::new());
+
+/// What the signal handler says of the directories: where committed units are kept,
+/// and which runs start over.
+fn interrupted_message(dirs: &[(String, bool)], command: &str) -> String {
+    let list = |units: bool| -> String {
+        let v: Vec<&str> = dirs
+            .iter()
+            .filter(|d| d.1 == units)
+            .map(|d| d.0.as_str())
+            .collect();
+        v.join(", ")
+    };
+    let (kept, whole) = (list(true), list(false));
+    let mut text = String::from("\njeffcott: interrupted.");
+    if !kept.is_empty() {
+        text += &format!(" Committed work units are kept in {kept}");
+    }
+    if !whole.is_empty() {
+        text += &format!(
+            "{}The run in {whole} is computed whole and keeps nothing",
+            if kept.is_empty() { " " } else { "; " }
+        );
+    }
+    let verb = if kept.is_empty() {
+        "run it again"
+    } else {
+        "resume"
+    };
+    text + &format!("; {verb} with:\n  {command}")
+}
 
 /// Installs (once) the handler of SIGINT and SIGTERM: it waits for a file being
 /// committed to be in place ([`jeffcott_analysis::output::commit_lock`]), prints which directory
@@ -257,14 +289,29 @@ fn install_signal_handler() {
     ONCE.get_or_init(|| {
         let _ = ctrlc::set_handler(|| {
             let _guard = jeffcott_analysis::output::commit_lock();
-            let dirs = RUN_DIRS.lock().map(|d| d.join(", ")).unwrap_or_default();
-            eprintln!(
-                "\njeffcott: interrupted. Committed work units are kept in {dirs}; resume with:\n  {}",
-                resume_command()
-            );
+            let dirs = RUN_DIRS.lock().map(|d| d.clone()).unwrap_or_default();
+            eprintln!("{}", interrupted_message(&dirs, &resume_command()));
             std::process::exit(130);
         });
     });
+}
+
+/// [`open`] for a run computed whole, without work units (`simulate`, `orbits`): an
+/// interruption keeps nothing, and the signal handler says so.
+pub fn open_whole(
+    dir: &Path,
+    command: &str,
+    spec: &impl serde::Serialize,
+    outputs: &[&str],
+    args: RunArgs,
+) -> Result<RunDir> {
+    let run_dir = open(dir, command, spec, outputs, args)?;
+    if let Ok(mut d) = RUN_DIRS.lock()
+        && let Some(entry) = d.iter_mut().find(|e| e.0 == dir.display().to_string())
+    {
+        entry.1 = false;
+    }
+    Ok(run_dir)
 }
 
 /// Opens `dir` for an unsharded run (see [`RunDir::open`]), says on stderr when it
@@ -311,14 +358,21 @@ impl Execution {
             ..header
         };
         let run_dir = RunDir::open(dir, header, outputs, self.run.overwrite)?;
-        if let Ok(mut d) = RUN_DIRS.lock() {
-            d.push(dir.display().to_string());
+        // A merge opens its --out twice (to place the units, then to assemble them):
+        // the directory is listed once.
+        if let Ok(mut d) = RUN_DIRS.lock()
+            && !d.iter().any(|e| e.0 == dir.display().to_string())
+        {
+            d.push((dir.display().to_string(), true));
         }
         install_signal_handler();
         if !self.run.quiet {
             match run_dir.found() {
+                // A merge's directory says running from the moment its units are placed;
+                // assembling them is no resumption.
+                Found::Unfinished if run_dir.merge_stages().is_some() => {}
                 Found::Unfinished => eprintln!(
-                    "resuming the unfinished run in {} (committed work units are kept)",
+                    "resuming the unfinished run in {} (committed work units, if any, are kept)",
                     dir.display()
                 ),
                 Found::Complete => eprintln!(
@@ -400,4 +454,21 @@ pub fn finish_study(
         },
         &written(run_dir, outputs),
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::interrupted_message;
+
+    #[test]
+    fn an_interrupted_run_says_what_it_keeps_and_a_whole_run_that_it_keeps_nothing() {
+        let units = interrupted_message(&[("b".into(), true)], "jeffcott basin");
+        assert!(
+            units.contains("kept in b; resume with:\n  jeffcott basin"),
+            "{units}"
+        );
+        let whole = interrupted_message(&[("o".into(), false)], "jeffcott orbits");
+        assert!(!whole.contains("kept in"), "{whole}");
+        assert!(whole.contains("o is computed whole and keeps nothing; run it again with"));
+    }
 }

@@ -79,7 +79,8 @@ impl StabilityArgs {
 
 study::plot_study! {
     Stability, "basin-stability", StabilityArgs => run_stability,
-    jeffcott_analysis::continuation::run, ContinuationSpec, ContinuationResult
+    jeffcott_analysis::continuation::run, ContinuationSpec, ContinuationResult,
+    names: &[("ics", "sample"), ("start_box", "box"), ("param", "omega")]
 }
 
 /// Writes a basin-stability study's files; returns its summary line.

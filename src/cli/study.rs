@@ -17,6 +17,8 @@ pub trait StudyCommand {
     const COMMAND: &'static str;
     /// Its final files (run.json aside).
     const OUTPUTS: &'static [&'static str];
+    /// Specification keys its options spell otherwise (key, option), for refusals.
+    const SPEC_NAMES: &'static [(&'static str, &'static str)] = &[];
     /// The study's specification: run.json's `spec` ([`StudySpec::resolved`]), the
     /// run's identity.
     type Spec: StudySpec;
@@ -57,6 +59,7 @@ pub fn execute<C: StudyCommand>(spec: &C::Spec, write: &C::Write, exec: &Executi
     let header = RunHeader {
         write: serde_json::to_value(write)
             .map_err(|e| Error::invalid("run specification", C::COMMAND, e.to_string()))?,
+        names: C::SPEC_NAMES,
         ..RunHeader::new(C::COMMAND, &spec.resolved())?
     };
     let run_dir = exec.open(header, C::OUTPUTS)?;
@@ -119,7 +122,8 @@ macro_rules! plot_study {
         $crate::cli::study::plot_study!($cmd, $name, $args => $run_cmd, $study, $spec, $outcome);
     };
     // The module's own `write_study(out, spec, outcome, plot)`, which returns the line.
-    ($cmd:ident, $name:literal, $args:ty => $run_cmd:ident, $study:path, $spec:ty, $outcome:ty) => {
+    ($cmd:ident, $name:literal, $args:ty => $run_cmd:ident, $study:path, $spec:ty, $outcome:ty
+     $(, names: $names:expr)?) => {
         #[doc = concat!("The spec of `jeffcott ", $name, "`.")]
         type Spec = $spec;
         #[doc = concat!("The computed study of `jeffcott ", $name, "`.")]
@@ -142,6 +146,7 @@ macro_rules! plot_study {
         impl $crate::cli::study::StudyCommand for $cmd {
             const COMMAND: &'static str = $name;
             const OUTPUTS: &'static [&'static str] = OUTPUTS;
+            $(const SPEC_NAMES: &'static [(&'static str, &'static str)] = $names;)?
             type Spec = $spec;
             type Write = $crate::cli::study::Plot;
             type Outcome = $outcome;

@@ -272,6 +272,18 @@ impl orbit::Flows for Engine {
             None => CpuFlows.flows(asks, stepper),
         }
     }
+
+    fn flows_until(
+        &self,
+        asks: &[FlowAsk],
+        stepper: &StepperConfig,
+        cancel: &jeffcott_core::control::Cancel,
+    ) -> Result<Vec<Flow>> {
+        match &self.gpu {
+            Some(runner) => gpu_flows(runner, asks, stepper),
+            None => CpuFlows.flows_until(asks, stepper, cancel),
+        }
+    }
 }
 
 /// [`orbit::Flows::flows`] on a GPU.

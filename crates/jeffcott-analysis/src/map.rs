@@ -36,6 +36,31 @@ pub enum MapVar {
 }
 
 impl MapVar {
+    /// Refuses an override (`override_option`, e.g. `param`) of the model parameter
+    /// this axis (`axis_option`) varies: the axis sets it at every value, so the
+    /// override would be recorded in run.json and never used. `overridden` lists the
+    /// names the override sets.
+    pub fn check_not_overridden<S: AsRef<str>>(
+        &self,
+        axis_option: &str,
+        override_option: &str,
+        overridden: &[S],
+    ) -> Result<()> {
+        let MapVar::Param(name) = self else {
+            return Ok(());
+        };
+        if overridden.iter().any(|o| o.as_ref() == *name) {
+            return Err(Error::invalid(
+                override_option,
+                name,
+                format!(
+                    "`{axis_option}` varies {name}, which sets it at every value; leave {name} out of `{override_option}`"
+                ),
+            ));
+        }
+        Ok(())
+    }
+
     /// Parses a name: `omega`, a parameter key or a coordinate name.
     pub fn parse(option: &str, name: &str) -> Result<MapVar> {
         if name == "omega" {

@@ -60,6 +60,7 @@ pub struct Attractors {
 /// nearest `near`.
 pub fn read(dir: &Path, var: MapVar, near: f64) -> Result<Attractors> {
     let bad = |why: String| Error::invalid("from", dir.display(), why);
+    check_complete("from", dir)?;
     let mut found = if dir.join("attractors.json").is_file() {
         from_basin(dir)?
     } else if dir.join("summary.json").is_file() && dir.join("bifurcation_rows.npy").is_file() {
@@ -128,6 +129,92 @@ fn from_continuation(dir: &Path, var: MapVar, near: f64) -> Result<Attractors> {
         });
     }
     Ok(Attractors { params, starts })
+}
+
+/// Refuses a result whose run.json says it is not complete (an unfinished or
+/// interrupted run: its files are an earlier run's or partial). A directory without
+/// run.json (files made elsewhere) is taken as it is.
+pub fn check_complete(field: &str, dir: &Path) -> Result<()> {
+    let Ok(text) = std::fs::read_to_string(dir.join("run.json")) else {
+        return Ok(());
+    };
+    let state = serde_json::from_str::<Value>(&text)
+        .ok()
+        .and_then(|j| j["state"].as_str().map(String::from));
+    match state.as_deref() {
+        Some("complete") => Ok(()),
+        other => Err(Error::invalid(
+            field,
+            dir.display(),
+            format!(
+                "its run.json says the run is {} (not complete): finish it first (run its command again)",
+                other.unwrap_or("unreadable")
+            ),
+        )),
+    }
+}
+
+/// Refuses a result in `dir` (field `field`) whose model parameters `theirs` are not
+/// `ours`, naming each one that differs.
+pub fn check_same_model(field: &str, dir: &Path, ours: &Params, theirs: &Params) -> Result<()> {
+    let (a, b) = (
+        serde_json::to_value(ours).expect("params serialise"),
+        serde_json::to_value(theirs).expect("params serialise"),
+    );
+    let (Some(a), Some(b)) = (a.as_object(), b.as_object()) else {
+        return Ok(());
+    };
+    let differ: Vec<String> = a
+        .iter()
+        .filter(|(k, v)| b.get(*k) != Some(*v))
+        .map(|(k, v)| format!("{k} = {} there, {v} here", b.get(k).unwrap_or(&Value::Null)))
+        .collect();
+    if differ.is_empty() {
+        return Ok(());
+    }
+    Err(Error::invalid(
+        field,
+        dir.display(),
+        format!(
+            "it belongs to another model ({}); give the same model options",
+            differ.join(", ")
+        ),
+    ))
+}
+
+/// Checks that the `jeffcott bifurcation` result in `dir` (field `field`) can be drawn
+/// under a branch over W from `lo` to `hi` in the model `ours`: the same model, and at
+/// least one of its speeds inside the range.
+pub fn check_diagram(field: &str, dir: &Path, ours: &Params, (lo, hi): (f64, f64)) -> Result<()> {
+    check_complete(field, dir)?;
+    let path = dir.join("summary.json");
+    let bad = |why: String| Error::invalid(field, dir.display(), why);
+    let text = std::fs::read_to_string(&path).map_err(|e| {
+        bad(format!(
+            "not a `jeffcott bifurcation` output: summary.json: {e}"
+        ))
+    })?;
+    let s: Value = serde_json::from_str(&text).map_err(|e| bad(format!("summary.json: {e}")))?;
+    let theirs: Params = serde_json::from_value(s["params"].clone())
+        .map_err(|e| bad(format!("its model parameters cannot be read: {e}")))?;
+    check_same_model(field, dir, ours, &theirs)?;
+    let speeds: Vec<f64> = s["per_omega"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .filter_map(|v| v["omega"].as_f64())
+        .collect();
+    if !speeds.iter().any(|w| (lo..=hi).contains(w)) {
+        let (a, b) = speeds
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &w| {
+                (a.min(w), b.max(w))
+            });
+        return Err(bad(format!(
+            "its speeds ({a}..{b} rad/s) lie outside the branch's range {lo}..{hi}"
+        )));
+    }
+    Ok(())
 }
 
 /// The JSON file `name` of `dir`.

@@ -214,6 +214,27 @@ pub fn write_json<T: serde::Serialize>(path: &Path, value: &T) -> Result<()> {
 /// Creates the output directory (and parents); an existing non-directory is an error
 /// naming it.
 pub fn ensure_dir(dir: &Path) -> Result<()> {
+    // A symbolic link that leads nowhere (dangling, or a loop) is not a directory to
+    // create: say so rather than the operating system's "File exists".
+    if let Ok(meta) = std::fs::symlink_metadata(dir)
+        && meta.file_type().is_symlink()
+        && let Err(e) = std::fs::metadata(dir)
+    {
+        let why = match std::fs::read_link(dir) {
+            Ok(to) if e.raw_os_error() == Some(40) => {
+                format!("is a symbolic link to {} that loops", to.display())
+            }
+            Ok(to) => format!(
+                "is a symbolic link to {}, which does not exist; create it or choose another directory",
+                to.display()
+            ),
+            Err(_) => "is a symbolic link that cannot be followed".to_string(),
+        };
+        return Err(Error::Io {
+            path: dir.to_path_buf(),
+            source: std::io::Error::new(std::io::ErrorKind::NotFound, why),
+        });
+    }
     if dir.exists() && !dir.is_dir() {
         return Err(Error::Io {
             path: dir.to_path_buf(),

@@ -46,7 +46,8 @@ pub struct SimulateSpec {
     pub timeseries_periods: u32,
     /// The integrator.
     pub integrator: Integrator,
-    /// Lane stepper settings.
+    /// Lane stepper settings (recorded without the options of many-lane studies).
+    #[serde(serialize_with = "StepperConfig::serialize_flow")]
     pub stepper: StepperConfig,
     /// Article scheme settings.
     pub article: ArticleConfig,
@@ -74,7 +75,7 @@ impl SimulateSpec {
         jeffcott_core::limits::check_periods("transient", self.transient, 0)?;
         if self.timeseries_periods == 0 || self.timeseries_periods > self.periods {
             return Err(Error::invalid(
-                "timeseries_periods",
+                "timeseries-periods",
                 self.timeseries_periods,
                 format!("must be in 1..=periods ({})", self.periods),
             ));
@@ -82,14 +83,14 @@ impl SimulateSpec {
         let a = &self.article;
         if !(8..=10_000_000).contains(&a.steps_per_period) {
             return Err(Error::invalid(
-                "article_steps",
+                "article-steps",
                 a.steps_per_period,
                 "must be in 8..=10000000",
             ));
         }
         if !(a.alpha.is_finite() && a.alpha > 0.0 && a.alpha <= 4.0) {
             return Err(Error::invalid(
-                "article_alpha",
+                "article-alpha",
                 a.alpha,
                 "must be in (0, 4]",
             ));
@@ -572,8 +573,6 @@ pub struct Summary<'a> {
     pub initial_state: NamedState,
     /// Final state by coordinate.
     pub final_state: NamedState,
-    /// Wall time of the run [s].
-    pub wall_time_s: f64,
     /// Lane stepper settings.
     pub stepper: StepperConfig,
     /// Article integrator settings.
@@ -683,7 +682,6 @@ pub fn summary<'a>(
         },
         initial_state: NamedState(spec.x0),
         final_state: NamedState(res.final_state),
-        wall_time_s: res.elapsed.as_secs_f64(),
         stepper: spec.stepper,
         article: spec.article,
         params: &spec.params,

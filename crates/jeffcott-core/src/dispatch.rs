@@ -61,18 +61,13 @@ macro_rules! per_instruction_set {
     };
 }
 
-/// Whether the AVX-512 copy runs, for code that `wide_on_amd` says ran faster with
-/// it on an AMD CPU: where the CPU has AVX-512 F, DQ and VL, `JEFFCOTT_AVX512=1` or `0`
-/// decides; unset, AVX-512 runs on AMD's CPUs for such code (Zen 4 executes 512-bit
-/// operations without lowering the clock; on the 2-core AMD EPYC VM the grouped batches
-/// ran 1.6 % faster in f64 and 6 % in f32 on `jeffcott bench`, the refilled batches with
-/// lambda_1 6.5 % faster on a brute force; the refilled batches without it, 5 % slower
-/// on a basin before the batch pass's transposes were written in AVX-512 shuffles, 36 %
-/// faster since: docs/performance.md, "The refilled batches in AVX-512") and never on
-/// Intel's (on the 2-core Xeon it was measured on first, 8 % slower than AVX2). Either
-/// build gives the same bits (tests/avx512.rs).
+/// Whether the AVX-512 copy runs, for code that `wide` says ran faster with it on the
+/// CPU families measured: where the CPU has AVX-512 F, DQ and VL, `JEFFCOTT_AVX512=1` or
+/// `0` decides; unset, AVX-512 runs for such code on the families where it was measured
+/// faster, decided by family rather than vendor ([`family_takes_avx512`]). Either build
+/// gives the same bits (tests/avx512.rs).
 #[cfg(target_arch = "x86_64")]
-pub(crate) fn use_avx512(wide_on_amd: bool) -> bool {
+pub(crate) fn use_avx512(wide: bool) -> bool {
     static CHOICE: std::sync::OnceLock<(bool, Option<bool>)> = std::sync::OnceLock::new();
     let (eligible, forced) = *CHOICE.get_or_init(|| {
         let has = std::is_x86_feature_detected!("avx512f")
@@ -83,9 +78,24 @@ pub(crate) fn use_avx512(wide_on_amd: bool) -> bool {
             Some(v) if v == "0" => Some(false),
             _ => None,
         };
-        (has && (forced.is_some() || cpu_is_amd()), forced)
+        (has && (forced.is_some() || family_takes_avx512()), forced)
     });
-    eligible && forced.unwrap_or(wide_on_amd)
+    eligible && forced.unwrap_or(wide)
+}
+
+/// Whether the CPU belongs to a family on which the 512-bit batches were measured
+/// faster than AVX2 (the basin at 133 rad/s, the standard job, `jeffcott bench`):
+///
+/// | family | how it is told | AVX-512 against AVX2 |
+/// |---|---|---|
+/// | AMD Zen 4 and Zen 5 (EPYC) | vendor AMD with AVX-512 | faster: grouped batches 1.6 % (f64) and 6 % (f32), refilled batches 36 % on a basin |
+/// | Intel Ice Lake and later (Xeon with IFMA and VBMI) | vendor Intel, AVX-512 IFMA and VBMI | faster: basin at 133 rad/s 17.4 / 16.5 s against 18.8 / 21.3 s, the standard job 43.7k against 32.0k lane-periods/s |
+/// | Intel Skylake-SP and Cascade Lake (AVX-512 without IFMA) | the rest | not measured since the transposes were written in AVX-512 shuffles (8 % slower before); AVX2 kept, as those cores lower their clock for 512-bit work |
+#[cfg(target_arch = "x86_64")]
+fn family_takes_avx512() -> bool {
+    cpu_is_amd()
+        || (std::is_x86_feature_detected!("avx512ifma")
+            && std::is_x86_feature_detected!("avx512vbmi"))
 }
 
 /// Whether the CPU's vendor string (CPUID leaf 0) is AMD's.

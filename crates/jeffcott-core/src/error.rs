@@ -83,7 +83,7 @@ impl Error {
     pub fn invalid(name: &str, value: impl ToString, reason: impl Into<String>) -> Self {
         Error::InvalidParameter {
             name: name.to_string(),
-            value: value.to_string(),
+            value: shortened(value.to_string()),
             reason: reason.into(),
         }
     }
@@ -91,3 +91,27 @@ impl Error {
 
 /// Result alias used across the crate.
 pub type Result<T> = std::result::Result<T, Error>;
+
+/// A value as an error shows it: a number Rust writes in full (1e300 is 301 digits)
+/// in exponent form, anything else as it is.
+fn shortened(text: String) -> String {
+    match text.parse::<f64>() {
+        Ok(v) if text.len() > 24 && v.is_finite() => format!("{v:e}"),
+        _ => text,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn a_huge_or_tiny_value_is_shown_in_exponent_form_and_text_as_it_is() {
+        let shown = |v: String| match super::Error::invalid("x", v, "r") {
+            super::Error::InvalidParameter { value, .. } => value,
+            _ => unreachable!(),
+        };
+        assert_eq!(shown(1e300.to_string()), "1e300");
+        assert_eq!(shown((-2.5e-200).to_string()), "-2.5e-200");
+        assert_eq!(shown("133.5".into()), "133.5");
+        assert_eq!(shown("x_r:-1:1:8".into()), "x_r:-1:1:8");
+    }
+}

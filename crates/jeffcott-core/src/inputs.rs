@@ -116,6 +116,14 @@ pub fn check_start_within_bound(option: &str, x0: &[f64; STATE_DIM], bound: f64)
 
 /// [`check_start_within_bound`] for one coordinate value (velocities always pass).
 pub fn check_coord_within_bound(option: &str, coord: usize, value: f64, bound: f64) -> Result<()> {
+    // The bound is checked first, so a bad bound is blamed on itself, not on the state.
+    if !(bound.is_finite() && bound > 0.0) {
+        return Err(Error::invalid(
+            "divergence-bound",
+            bound,
+            "must be finite and > 0 m",
+        ));
+    }
     let position = [X_R, Y_R, X_S, Y_S].contains(&coord);
     // NaN passes here: non-finite values have their own checks and messages.
     if position && value.abs() > bound {

@@ -241,7 +241,9 @@ pub struct Spectrum {
     /// Running estimates: (accumulation time [s], the eight exponents [1/s]) per period.
     #[serde(skip)]
     pub history: Vec<(f64, [f64; STATE_DIM])>,
-    /// Wall time of the computation [s].
+    /// Wall time of the computation [s]: the command line records it in run.json only,
+    /// so a re-run's spectrum.json is byte-identical.
+    #[serde(skip)]
     pub wall_time_s: f64,
 }
 

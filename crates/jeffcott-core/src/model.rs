@@ -212,10 +212,24 @@ impl Params {
     /// overrides (`--param`) first and validate the final set, so a config value that
     /// an override replaces is never judged. Read and parse errors are still errors.
     pub fn read_toml_file(path: &std::path::Path) -> Result<Params> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::Config {
+        use std::io::Read;
+        let bad = |message: String| Error::Config {
             path: path.to_path_buf(),
-            message: e.to_string(),
-        })?;
+            message,
+        };
+        // A parameter file is a few hundred bytes; reading stops past the limit, so a
+        // device such as /dev/zero or a huge file is refused, not read into memory.
+        let mut text = String::new();
+        std::fs::File::open(path)
+            .and_then(|f| f.take(MAX_CONFIG_BYTES + 1).read_to_string(&mut text))
+            .map_err(|e| bad(e.to_string()))?;
+        if text.len() as u64 > MAX_CONFIG_BYTES {
+            return Err(bad(format!(
+                "larger than {} KiB; a parameter file holds at most the {} keys of Table 1",
+                MAX_CONFIG_BYTES / 1024,
+                Params::FIELDS.len()
+            )));
+        }
         toml::from_str(&text).map_err(|e| Error::Config {
             path: path.to_path_buf(),
             message: e.to_string(),
@@ -240,6 +254,9 @@ impl Params {
         x
     }
 }
+
+/// Largest `--config` file read [bytes].
+pub const MAX_CONFIG_BYTES: u64 = 1 << 20;
 
 /// Largest rotor speed accepted [rad/s] (about 955,000 rpm): two orders of magnitude
 /// above the article's range (130..141 rad/s) and the rotor's natural frequency

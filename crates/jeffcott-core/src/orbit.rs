@@ -101,6 +101,20 @@ pub struct FlowAsk {
 pub trait Flows: Sync {
     /// The flows of `asks`, in order, with the lane stepper `stepper`.
     fn flows(&self, asks: &[FlowAsk], stepper: &StepperConfig) -> Result<Vec<Flow>>;
+
+    /// [`Flows::flows`], stopped with [`crate::Error::Interrupted`] once `cancel` is
+    /// set: within a forcing period where the engine looks between periods (the CPU's
+    /// end states, a settle of many periods), else after the call. The flows do not
+    /// depend on `cancel` otherwise.
+    fn flows_until(
+        &self,
+        asks: &[FlowAsk],
+        stepper: &StepperConfig,
+        cancel: &crate::control::Cancel,
+    ) -> Result<Vec<Flow>> {
+        let _ = cancel;
+        self.flows(asks, stepper)
+    }
 }
 
 /// The CPU's flows: [`flow`] and [`advance`] in parallel on rayon's pool.
@@ -109,14 +123,22 @@ pub struct CpuFlows;
 
 impl Flows for CpuFlows {
     fn flows(&self, asks: &[FlowAsk], stepper: &StepperConfig) -> Result<Vec<Flow>> {
+        self.flows_until(asks, stepper, &crate::control::Cancel::new())
+    }
+
+    fn flows_until(
+        &self,
+        asks: &[FlowAsk],
+        stepper: &StepperConfig,
+        cancel: &crate::control::Cancel,
+    ) -> Result<Vec<Flow>> {
         use rayon::prelude::*;
-        Ok(asks
-            .par_iter()
+        asks.par_iter()
             .map(|a| match a.want {
-                Want::Monodromy => flow(&a.params, a.omega, &a.x0, a.periods, stepper),
-                Want::End => end_of(&a.params, a.omega, &a.x0, a.periods, stepper),
+                Want::Monodromy => Ok(flow(&a.params, a.omega, &a.x0, a.periods, stepper)),
+                Want::End => end_of(&a.params, a.omega, &a.x0, a.periods, stepper, cancel),
             })
-            .collect())
+            .collect()
     }
 }
 
@@ -201,18 +223,31 @@ pub fn columns(
 }
 
 /// [`advance`] as a [`Flow`] of [`Want::End`]: no monodromy, no clearance (NaN).
-fn end_of(p: &Params, omega: f64, x0: &State, periods: u32, stepper: &StepperConfig) -> Flow {
+fn end_of(
+    p: &Params,
+    omega: f64,
+    x0: &State,
+    periods: u32,
+    stepper: &StepperConfig,
+    cancel: &crate::control::Cancel,
+) -> Result<Flow> {
     let lc = LaneConsts::<f64>::new(p, omega, stepper);
     let mut lane = Lane::<f64>::new(x0, p.delta);
     for _ in 0..periods {
+        if cancel.is_set() {
+            return Err(crate::error::Error::Interrupted {
+                committed: 0,
+                total: 1,
+            });
+        }
         crate::integrate::lane::advance_period(&lc, &mut lane);
     }
-    Flow {
+    Ok(Flow {
         end: lane.x,
         monodromy: None,
         min_clearance: f64::NAN,
         finite: !lane.status.is_frozen(),
-    }
+    })
 }
 
 /// The smallest clearance over `periods` periods from `x0` (no tangent vectors): the
@@ -288,7 +323,15 @@ pub fn advance(
     periods: u32,
     stepper: &StepperConfig,
 ) -> Option<State> {
-    let f = end_of(p, omega, x0, periods, stepper);
+    let f = end_of(
+        p,
+        omega,
+        x0,
+        periods,
+        stepper,
+        &crate::control::Cancel::new(),
+    )
+    .ok()?;
     f.finite.then_some(f.end)
 }
 

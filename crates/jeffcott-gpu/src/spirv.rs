@@ -213,6 +213,83 @@ pub fn contraction_census(words: &[u32]) -> Result<(usize, usize), String> {
     Ok((results.len(), n))
 }
 
+/// What a module holds that a driver is likely to keep in local (off-chip, per-thread)
+/// memory rather than in registers: NVIDIA's SPIR-V front end keeps a Function-storage
+/// array that is indexed with a run-time value in local memory, and naga writes an
+/// array *value* indexed at run time as a copy into such a variable (its SPIR-V back
+/// end's `spill_to_internal_variable`); and the counter of every loop naga bounds
+/// (`force_loop_bounding`: a Function-storage `vec2<u32>` per loop, set and tested each
+/// iteration). A static count of the module's words: what any driver receives.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LocalMemoryCensus {
+    /// Function-storage variables whose type is an array.
+    pub array_variables: usize,
+    /// `OpAccessChain`s into Function-storage memory with at least one index that is
+    /// not a constant.
+    pub dynamic_accesses: usize,
+    /// Loops (`OpLoopMerge`).
+    pub loops: usize,
+    /// Loop-bound counters (Function-storage `vec2<u32>` variables with an initialiser,
+    /// the form naga's loop bounding declares).
+    pub loop_counters: usize,
+}
+
+/// Counts what [`LocalMemoryCensus`] describes in the module `words`.
+pub fn local_memory_census(words: &[u32]) -> Result<LocalMemoryCensus, String> {
+    use std::collections::{HashMap, HashSet};
+    const FUNCTION: u32 = 7; // StorageClass Function (section 3.7)
+    let insts = instructions(words)?;
+    let mut arrays: HashSet<u32> = HashSet::new(); // OpTypeArray, OpTypeRuntimeArray
+    let mut uvec2: HashSet<u32> = HashSet::new(); // vec2 of a 32-bit unsigned int
+    let mut u32s: HashSet<u32> = HashSet::new();
+    let mut pointers: HashMap<u32, (u32, u32)> = HashMap::new(); // id -> (storage, pointee)
+    let mut constants: HashSet<u32> = HashSet::new();
+    let mut rooted: HashSet<u32> = HashSet::new(); // pointers into Function storage
+    let mut c = LocalMemoryCensus::default();
+    for &(at, opcode, count) in &insts {
+        let w = |k: usize| words[at + k];
+        match opcode {
+            21 if count == 4 && w(2) == 32 && w(3) == 0 => {
+                u32s.insert(w(1));
+            }
+            23 if count == 4 && u32s.contains(&w(2)) && w(3) == 2 => {
+                uvec2.insert(w(1));
+            }
+            28 | 29 => {
+                arrays.insert(w(1));
+            }
+            32 if count == 4 => {
+                pointers.insert(w(1), (w(2), w(3)));
+            }
+            // OpConstantTrue/False, OpConstant, OpConstantComposite, OpConstantNull,
+            // and the specialisation constants.
+            41..=46 | 48..=51 => {
+                constants.insert(w(2));
+            }
+            59 if count >= 4 && w(3) == FUNCTION => {
+                rooted.insert(w(2));
+                let pointee = pointers.get(&w(1)).map(|p| p.1);
+                if pointee.is_some_and(|t| arrays.contains(&t)) {
+                    c.array_variables += 1;
+                }
+                if count == 5 && pointee.is_some_and(|t| uvec2.contains(&t)) {
+                    c.loop_counters += 1;
+                }
+            }
+            // OpAccessChain, OpInBoundsAccessChain: result type, result, base, indices.
+            65 | 66 if count >= 4 && rooted.contains(&w(3)) => {
+                rooted.insert(w(2));
+                if (4..count).any(|k| !constants.contains(&w(k))) {
+                    c.dynamic_accesses += 1;
+                }
+            }
+            246 => c.loops += 1, // OpLoopMerge
+            _ => {}
+        }
+    }
+    Ok(c)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -243,6 +320,74 @@ mod tests {
             // The kernel has hundreds of float operations (RK4, the switch search...).
             assert!(ops > 200, "{what}: only {ops} float operations found");
             assert_eq!(marked, ops, "{what}: {marked} of {ops} marked");
+        }
+    }
+
+    /// The SPIR-V of a small WGSL compute shader `body` (f32, no bindings).
+    fn small_words(source: &str) -> Vec<u32> {
+        let module = naga::front::wgsl::parse_str(source).unwrap();
+        let info = naga::valid::Validator::new(
+            naga::valid::ValidationFlags::all(),
+            naga::valid::Capabilities::empty(),
+        )
+        .validate(&module)
+        .unwrap();
+        exact_compute_words(&module, &info, "main", &[]).unwrap()
+    }
+
+    #[test]
+    fn the_census_finds_an_array_value_indexed_at_run_time_and_not_a_constant_index() {
+        let shader = |index: &str| {
+            format!(
+                "var<workgroup> out: f32;
+                 fn pick(a: array<f32, 4>, i: u32) -> f32 {{ return a[{index}]; }}
+                 @compute @workgroup_size(1) fn main(@builtin(local_invocation_index) i: u32) {{
+                     var s = 0.0;
+                     for (var k = 0u; k < i; k++) {{ s += 1.0; }}
+                     out = pick(array<f32, 4>(1.0, 2.0, 3.0, s), i);
+                 }}"
+            )
+        };
+        let dynamic = local_memory_census(&small_words(&shader("i"))).unwrap();
+        assert_eq!(dynamic.dynamic_accesses, 1, "{dynamic:?}");
+        assert_eq!(dynamic.array_variables, 1, "{dynamic:?}");
+        assert_eq!(
+            (dynamic.loops, dynamic.loop_counters),
+            (1, 1),
+            "{dynamic:?}"
+        );
+        let constant = local_memory_census(&small_words(&shader("2"))).unwrap();
+        assert_eq!(constant.dynamic_accesses, 0, "{constant:?}");
+    }
+
+    /// The kernel's census today, every hardware variant alike (the switched-off parts
+    /// are still in each module): the ceiling no change may raise. The reshaped kernel
+    /// brings the run-time-indexed accesses and the loop counters of its hot path to 0.
+    const CEILING: LocalMemoryCensus = LocalMemoryCensus {
+        array_variables: 40,
+        dynamic_accesses: 59,
+        loops: 18,
+        loop_counters: 18,
+    };
+
+    #[test]
+    fn no_hardware_variant_holds_more_local_memory_than_the_ceiling() {
+        let variants = crate::stats::hardware_variants().unwrap();
+        assert_eq!(
+            variants.len(),
+            12,
+            "f64, f32 two ways, x lambda_1 x exact map"
+        );
+        for (file, label, words) in variants {
+            let c = local_memory_census(&words).unwrap();
+            assert!(file.ends_with(".spv") && !file.contains(' '), "{file}");
+            assert!(
+                c.array_variables <= CEILING.array_variables
+                    && c.dynamic_accesses <= CEILING.dynamic_accesses
+                    && c.loop_counters <= CEILING.loop_counters,
+                "{label}: {c:?} above the ceiling {CEILING:?}"
+            );
+            assert!(c.loop_counters <= c.loops, "{label}: {c:?}");
         }
     }
 

@@ -38,6 +38,9 @@ pub struct KernelStats {
     pub kernel: String,
     /// Seconds the driver took to compile the pipeline.
     pub compile_s: f64,
+    /// What its SPIR-V holds that a driver may keep in local memory (a static count of
+    /// the words the driver received).
+    pub census: crate::spirv::LocalMemoryCensus,
     /// Each executable (usually one for a compute pipeline): its name and statistics;
     /// empty where the driver offers no statistics.
     pub executables: Executables,
@@ -137,6 +140,35 @@ fn variants(has_f64: bool, each_step: bool) -> Result<Vec<Compiled>, String> {
 
 /// A kernel built for the statistics: its label, entry point and SPIR-V words.
 type Compiled = (String, String, Vec<u32>);
+
+/// Every variant of the lane kernel a hardware adapter with f64 may run, in the form of
+/// lane constants the runner takes there (`JEFFCOTT_GPU_CONSTS`, by default read at
+/// every sub-step on hardware), as (file name, label, SPIR-V words exactly as they go
+/// to the driver): f64, f32 with / and sqrt through f64, f32 with the driver's own (a
+/// device without f64), each plain, with lambda_1, with the exact free-flight map and
+/// with both.
+pub fn hardware_variants() -> Result<Vec<(String, String, Vec<u32>)>, String> {
+    let each_step = crate::device::consts_each_step(false).map_err(|e| e.to_string())?;
+    let kernels = variants(true, each_step)?;
+    Ok(kernels
+        .into_iter()
+        .filter(|(label, _, _)| !label.starts_with("anatomy"))
+        .map(|(label, _, words)| (file_name(&label), label, words))
+        .collect())
+}
+
+/// A variant's label as a file name: `f32, / and sqrt through f64, lambda_1` ->
+/// `f32-div-sqrt-through-f64-lambda1.spv`.
+fn file_name(label: &str) -> String {
+    let mut name = label
+        .replace(", / and sqrt through f64", "-div-sqrt-through-f64")
+        .replace(", driver's / and sqrt", "-driver-div-sqrt")
+        .replace(", lambda_1", "-lambda1")
+        .replace(", exact free flight", "-exact-free-flight")
+        .replace(", constants each sub-step", "-consts-each-step");
+    name.retain(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_');
+    name + ".spv"
+}
 
 fn with_label(label: String, (entry, words): (String, Vec<u32>)) -> Compiled {
     (label, entry, words)
@@ -275,6 +307,7 @@ unsafe fn device_stats(
                         device: name.to_string(),
                         kernel,
                         compile_s,
+                        census: crate::spirv::local_memory_census(&words)?,
                         executables,
                     })
                 })

@@ -38,7 +38,7 @@ struct BasinRun<'a> {
     omega, x, y, *, fix=None, params=None,
     transient=defaults::basin::TRANSIENT, periods=defaults::basin::PERIODS,
     backend="auto", precision=None, lyapunov=false,
-    refine=0, uncertainty_samples=0, entropy_box=None,
+    refine=0, uncertainty_samples=defaults::basin::UNCERTAINTY_SAMPLES, entropy_box=None,
     progress=None,
     **stepper,
 ))]

@@ -50,6 +50,7 @@ pub(crate) fn ensemble<'py>(
     jeffcott_core::limits::check_periods("transient", transient, 0).map_err(run::to_py_err)?;
     jeffcott_core::limits::check_periods("periods", periods, 1).map_err(run::to_py_err)?;
     let (backend, precision) = backend_precision(backend, precision)?;
+    let overridden: Vec<String> = params.iter().flat_map(|p| p.keys().cloned()).collect();
     let model = model_params(params)?;
     let omegas = match &omega {
         Some(w) => Some(speeds("omega", w, |text, n| {
@@ -73,6 +74,7 @@ pub(crate) fn ensemble<'py>(
         lanes.map(|t| t.0),
         columns,
         init,
+        &overridden,
         stepper.divergence_bound,
     )?;
     let spec = EnsembleSpec {

@@ -34,11 +34,14 @@ lane_study! {
         #[pyo3(from_py_with = kw::log_x)] log_x: bool,
         #[pyo3(from_py_with = kw::log_y)] log_y: bool,
     )
-    with (lane: lane, progress: progress)
+    with (lane: lane, progress: progress, overridden: overridden)
     {
         use jeffcott_analysis::map::MapSpec;
         let x = convert::map_axis("x", &x, log_x)?;
         let y = convert::map_axis("y", &y, log_y)?;
+        for (axis, a) in [("x", &x), ("y", &y)] {
+            (a.var).check_not_overridden(axis, "params", &overridden).map_err(run::to_py_err)?;
+        }
         jeffcott_analysis::map::check_size(&x, &y, ics).map_err(run::to_py_err)?;
         let spec = MapSpec {
             lane,
@@ -99,12 +102,13 @@ lane_study! {
         #[pyo3(from_py_with = kw::transient)] transient: u32,
         #[pyo3(from_py_with = kw::periods)] periods: u32,
     )
-    with (lane: lane, progress: progress)
+    with (lane: lane, progress: progress, overridden: overridden)
     {
         use jeffcott_analysis::continuation::ContinuationSpec;
         let directions =
             jeffcott_analysis::continuation::directions(direction).map_err(run::to_py_err)?;
         let param = convert::map_axis("param", &param, false)?;
+        (param.var).check_not_overridden("param", "params", &overridden).map_err(run::to_py_err)?;
         if param.n < 2 {
             return Err(run::to_py_err(Error::invalid(
                 "param",

@@ -19,7 +19,7 @@ macro_rules! lane_study {
         $(#[$($attr:tt)*])*
         signature = ($($sig:tt)*);
         fn $name:ident<$py:lifetime>($($arg:tt)*)
-        with (lane: $lane:ident, progress: $progress:ident)
+        with (lane: $lane:ident, progress: $progress:ident $(, overridden: $over:ident)?)
         { $($body:tt)* }
     ) => {
         $(#[$($attr)*])*
@@ -44,6 +44,10 @@ macro_rules! lane_study {
             >,
             stepper: Option<&pyo3::Bound<$py, pyo3::types::PyDict>>,
         ) -> pyo3::PyResult<pyo3::Bound<$py, pyo3::types::PyDict>> {
+            // The names `params` sets, where the study refuses an override of what it
+            // varies.
+            $(let $over: Vec<String> =
+                params.as_ref().map(|p| p.keys().cloned().collect()).unwrap_or_default();)?
             let $lane = crate::lane_settings(
                 stringify!($name),
                 params,

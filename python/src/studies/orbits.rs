@@ -44,12 +44,13 @@ pub(crate) fn orbits<'py>(
     #[pyo3(from_py_with = kw::ds)] ds: f64,
     #[pyo3(from_py_with = kw::ds_max)] ds_max: f64,
     #[pyo3(from_py_with = kw::follow_doublings)] follow_doublings: bool,
-    start_from: Option<String>,
+    #[pyo3(from_py_with = kw::start_from)] start_from: Option<std::path::PathBuf>,
     #[pyo3(from_py_with = kw::backend)] backend: &str,
     #[pyo3(from_py_with = kw::params)] params: Option<HashMap<String, f64>>,
     stepper: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let stepper = args::stepper("orbits", stepper)?;
+    let overridden: Vec<String> = params.iter().flat_map(|p| p.keys().cloned()).collect();
     let params = model_params(params)?;
     let start = start_state(&params, init)?;
     let study = OrbitsRequest {
@@ -65,18 +66,21 @@ pub(crate) fn orbits<'py>(
         ds_max,
         stepper,
         follow_doublings,
-        from: start_from.as_deref().map(std::path::Path::new),
+        from: start_from.as_deref(),
     }
     .study()
     .map_err(run::to_py_err)?;
+    (study.branch.var)
+        .check_not_overridden("param", "params", &overridden)
+        .map_err(run::to_py_err)?;
     let backend =
         jeffcott_core::ensemble::Backend::parse("backend", backend).map_err(run::to_py_err)?;
-    let branches = run::detached(py, None, |_| {
+    let branches = run::detached(py, None, |ctl| {
         let engine = jeffcott_analysis::backend::Engine::new(
             backend,
             jeffcott_core::ensemble::Precision::F64,
         )?;
-        jeffcott_analysis::orbits::run(&study, &engine)
+        jeffcott_analysis::orbits::run(&study, &engine, ctl.cancel)
     })?;
     let name = study.branch.var.name();
     let d = json_to_py(py, &jeffcott_analysis::orbits::record(name, &branches))?

@@ -101,6 +101,7 @@ pub(crate) fn simulate<'py>(
     let spec = study.spec;
     let summary = jeffcott_analysis::simulate::summary(&spec, &res, rub.as_ref());
     let d = json_to_py(py, &summary)?.cast_into::<PyDict>()?;
+    d.set_item("wall_time_s", res.elapsed.as_secs_f64())?;
     d.set_item(
         "poincare",
         array2(
@@ -198,6 +199,7 @@ pub(crate) fn lyapunov<'py>(
         LyapunovOutcome::Range(..) => unreachable!("one speed gives one spectrum"),
     };
     let d = json_to_py(py, &s.record())?.cast_into::<PyDict>()?;
+    d.set_item("wall_time_s", s.wall_time_s)?;
     let history: Vec<f64> = s
         .history
         .iter()

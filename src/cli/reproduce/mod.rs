@@ -96,7 +96,8 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
 
     // REPORT.md.
     say(a, &format!("[{STEPS}/{STEPS}] REPORT.md"));
-    rep.write(dir, &spec, &result, mode, backend)?;
+    // The whole run's time, every session of a resumed figure set included.
+    rep.write(dir, &spec, &result, mode, backend, run_dir.wall_time_s())?;
     run_dir.finish(
         &super::rundir::WallTime {
             wall_time_s: rep.started.elapsed().as_secs_f64(),
@@ -105,9 +106,9 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
     )?;
     if !a.run.quiet {
         println!(
-            "reproduce {mode}: figures and REPORT.md in {} ({:.1} s)",
+            "reproduce {mode}: figures and REPORT.md in {} ({:.1} s in all)",
             dir.display(),
-            rep.started.elapsed().as_secs_f64()
+            run_dir.wall_time_s()
         );
     }
     Ok(())

@@ -45,6 +45,7 @@ impl Report {
         result: &ReproduceResult,
         mode: &str,
         backend: &str,
+        total_s: f64,
     ) -> Result<()> {
         let ReproduceResult {
             survey,
@@ -59,7 +60,7 @@ impl Report {
             env!("CARGO_PKG_VERSION"),
             spec.precision,
             rayon::current_num_threads(),
-            self.started.elapsed().as_secs_f64()
+            total_s
         );
         head += "## Summary at the article's speeds\n\n| W [rad/s] | article | from the static equilibrium | lambda_1 [1/s] (full spectrum) | survey of seeded start states |\n|---|---|---|---|---|\n";
         for row in summary_rows(survey, static_class) {

@@ -126,8 +126,12 @@ pub struct Bifurcation {
 /// A continued branch.
 #[derive(Clone, Debug, Serialize)]
 pub struct Branch {
-    /// Period in forcing periods.
+    /// Period in forcing periods, as asked for (the shooting problem's).
     pub period: u32,
+    /// The smallest number of forcing periods after which the branch's first orbit
+    /// closes: a divisor of `period`, smaller when a period-1 orbit was shot as period 2
+    /// (its multipliers are then those of `period` forcing periods).
+    pub minimal_period: u32,
     /// Its points in the order continued.
     pub points: Vec<BranchPoint>,
     /// Its bifurcations in the order met.
@@ -187,6 +191,25 @@ impl BranchSpec {
         out
     }
 
+    /// The smallest d dividing the period after which the orbit through `x` at value
+    /// `v` closes: |P^d(x) - x| within a thousand times the shooting tolerance (in the
+    /// metric of the shooting), so the points of a genuine period-n orbit, which lie
+    /// apart by far more, are never taken for one.
+    pub fn minimal_period(&self, v: f64, x: &State) -> u32 {
+        let n = self.period;
+        let (_, w) = self.at(v);
+        let points = self.cycle(v, x, n);
+        (1..n)
+            .filter(|d| n.is_multiple_of(*d))
+            .find(|&d| {
+                points.get(d as usize).is_some_and(|y| {
+                    let diff: State = std::array::from_fn(|i| y[i] - x[i]);
+                    jeffcott_core::orbit::metric(&diff, w) <= 1e3 * self.shoot.tol
+                })
+            })
+            .unwrap_or(n)
+    }
+
     /// Checks the inputs; errors name the field and the allowed range.
     pub fn validate(&self) -> Result<()> {
         if matches!(self.var, MapVar::Coord(_)) {
@@ -203,6 +226,22 @@ impl BranchSpec {
                 "need finite lo < hi",
             ));
         }
+        // Both ends of the range are a model: every value between them is one too (each
+        // parameter's allowed set is an interval), so the branch never leaves the model.
+        for v in [self.lo, self.hi] {
+            let (p, w) = self.at(v);
+            let w_ok = match self.var {
+                MapVar::Omega => jeffcott_core::model::validate_omega(w),
+                _ => Ok(()), // the speed, checked by the request
+            };
+            w_ok.and_then(|_| p.validate()).map_err(|e| {
+                Error::invalid(
+                    "param",
+                    format!("{} = {v}", self.var.name()),
+                    format!("an end of the range is invalid: {e}"),
+                )
+            })?;
+        }
         if !(self.lo..=self.hi).contains(&self.start_value) {
             return Err(Error::invalid(
                 "start-value",
@@ -210,11 +249,14 @@ impl BranchSpec {
                 format!("must lie in the range {}..{}", self.lo, self.hi),
             ));
         }
-        if !(self.ds > 0.0 && self.ds_max >= self.ds && self.ds_max.is_finite()) {
+        if !(self.ds > 0.0 && self.ds.is_finite()) {
+            return Err(Error::invalid("ds", self.ds, "must be finite and > 0"));
+        }
+        if !(self.ds_max >= self.ds && self.ds_max.is_finite()) {
             return Err(Error::invalid(
-                "ds",
-                self.ds,
-                "need 0 < ds <= ds_max, finite",
+                "ds-max",
+                self.ds_max,
+                format!("must be finite and >= ds ({})", self.ds),
             ));
         }
         jeffcott_core::orbit::check_period(self.period)?;
@@ -713,8 +755,12 @@ pub fn continue_branch(spec: &BranchSpec, engine: &dyn Flows) -> Result<Branch> 
             ds = (ds * 1.5).min(spec.ds_max);
         }
     }
+    let minimal_period = points
+        .first()
+        .map_or(spec.period, |p| spec.minimal_period(p.value, &p.x));
     Ok(Branch {
         period: spec.period,
+        minimal_period,
         points,
         bifurcations,
         stop,

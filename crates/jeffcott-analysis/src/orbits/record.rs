@@ -22,6 +22,7 @@ pub struct BifurcationRecord<'a> {
 #[derive(Serialize)]
 pub struct BranchRecord<'a> {
     period: u32,
+    minimal_period: u32,
     points: &'a [BranchPoint],
     bifurcations: Vec<BifurcationRecord<'a>>,
     stop: &'a str,
@@ -52,6 +53,7 @@ pub fn record<'a>(name: &'static str, branches: &'a [Branch]) -> BranchesRecord<
             .collect();
         BranchRecord {
             period: branch.period,
+            minimal_period: branch.minimal_period,
             points: &branch.points,
             bifurcations,
             stop: &branch.stop,

@@ -21,14 +21,21 @@ pub fn parse_param(option: &str, text: &str) -> Result<(MapVar, f64, f64)> {
         ));
     };
     let num = |s: &str| crate::basin::finite_number(option, text, s);
-    let var = MapVar::parse(option, name)?;
-    if let MapVar::Coord(_) = var {
-        return Err(Error::invalid(
+    let var = match MapVar::parse(option, name) {
+        Ok(MapVar::Coord(_)) => Err("continue omega or a model parameter, not a start coordinate"),
+        Ok(var) => Ok(var),
+        Err(_) => Err("unknown parameter"),
+    }
+    .map_err(|why| {
+        Error::invalid(
             option,
             name,
-            "continue omega or a model parameter, not a start coordinate",
-        ));
-    }
+            format!(
+                "{why}; valid names: omega, {}",
+                jeffcott_core::model::Params::FIELDS.join(", ")
+            ),
+        )
+    })?;
     Ok((var, num(lo)?, num(hi)?))
 }
 
@@ -144,6 +151,13 @@ impl OrbitsRequest<'_> {
             },
         };
         jeffcott_core::limits::check_periods("settle", self.settle, 0)?;
+        // A start beyond the divergence bound is the start's fault, not the settling's.
+        self.stepper.validate()?;
+        jeffcott_core::inputs::check_start_within_bound(
+            "init",
+            &self.start,
+            self.stepper.divergence_bound,
+        )?;
         branch.validate()?;
         Ok(OrbitsStudy {
             branch,
@@ -169,23 +183,7 @@ impl OrbitsRequest<'_> {
             _ => omega,
         };
         let found = crate::orbit_starts::read(dir, var, near)?;
-        let (ours, theirs) = (
-            serde_json::to_value(&self.params).expect("params serialise"),
-            serde_json::to_value(&found.params).expect("params serialise"),
-        );
-        if let (Some(a), Some(b)) = (ours.as_object(), theirs.as_object()) {
-            let differ: Vec<String> = a
-                .iter()
-                .filter(|(k, v)| b.get(*k) != Some(*v))
-                .map(|(k, v)| format!("{k} = {} there, {v} here", b.get(k).unwrap_or(&v.clone())))
-                .collect();
-            if !differ.is_empty() {
-                return Err(bad(format!(
-                    "its attractors belong to another model ({}); give the same model options",
-                    differ.join(", ")
-                )));
-            }
-        }
+        crate::orbit_starts::check_same_model("from", dir, &self.params, &found.params)?;
         if found.starts.is_empty() {
             return Err(bad(
                 "the result has no periodic attractor to start from".into()
@@ -213,11 +211,43 @@ impl OrbitsRequest<'_> {
     }
 }
 
+/// An engine that stops once `cancel` is set: at its next call (every Newton iteration
+/// and branch step asks for flows of a few periods) or, on the CPU, within a forcing
+/// period of a long settle ([`Error::Interrupted`]).
+struct Stoppable<'a> {
+    engine: &'a dyn Flows,
+    cancel: &'a jeffcott_core::control::Cancel,
+}
+
+impl Flows for Stoppable<'_> {
+    fn flows(
+        &self,
+        asks: &[jeffcott_core::orbit::FlowAsk],
+        stepper: &jeffcott_core::integrate::lane::StepperConfig,
+    ) -> Result<Vec<jeffcott_core::orbit::Flow>> {
+        if self.cancel.is_set() {
+            // An orbits study commits no units: nothing is kept.
+            return Err(Error::Interrupted {
+                committed: 0,
+                total: 1,
+            });
+        }
+        self.engine.flows_until(asks, stepper, self.cancel)
+    }
+}
+
 /// Runs an orbits study: settle, shoot, continue; then, if asked, the doubled branch of
 /// every period doubling (a doubling whose doubled orbit is not found is skipped, its
 /// reason in that branch's place is not invented: the main branch still lists it).
-/// Errors name `settle` when the start state diverges while settling.
-pub fn run(study: &OrbitsStudy, engine: &dyn Flows) -> Result<Vec<Branch>> {
+/// Errors name `settle` when the start state diverges while settling. Stops with
+/// [`Error::Interrupted`] within one engine call once `cancel` is set.
+pub fn run(
+    study: &OrbitsStudy,
+    engine: &dyn Flows,
+    cancel: &jeffcott_core::control::Cancel,
+) -> Result<Vec<Branch>> {
+    let stoppable = Stoppable { engine, cancel };
+    let engine: &dyn Flows = &stoppable;
     let mains = if study.starts.is_empty() {
         vec![(study.branch.clone(), run_main(study, engine)?)]
     } else {
@@ -232,8 +262,10 @@ pub fn run(study: &OrbitsStudy, engine: &dyn Flows) -> Result<Vec<Branch>> {
                 .iter()
                 .filter(|b| b.kind == Crossing::PeriodDoubling)
             {
-                if let Ok(d) = doubled_branch(&spec, b, engine) {
-                    doubled.push(d);
+                match doubled_branch(&spec, b, engine) {
+                    Ok(d) => doubled.push(d),
+                    Err(e @ Error::Interrupted { .. }) => return Err(e),
+                    Err(_) => {}
                 }
             }
         }

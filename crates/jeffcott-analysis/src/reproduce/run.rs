@@ -237,7 +237,11 @@ pub fn reproduce<H: Host + Sync>(spec: &ReproduceSpec, host: &mut H) -> Result<R
         use rayon::prelude::*;
         let shared = &*host;
         rayon::join(
-            || timed(|| crate::orbits::run(&o, &jeffcott_core::orbit::CpuFlows)),
+            || {
+                timed(|| {
+                    crate::orbits::run(&o, &jeffcott_core::orbit::CpuFlows, &Default::default())
+                })
+            },
             || {
                 zooms
                     .par_iter()

@@ -19,7 +19,7 @@
 //!   file deleted mid-run would let a second run in, so the first stops instead of
 //!   mixing its files with the second's ([`RunDirError::LockLost`]).
 
-use super::unit::Unit;
+use super::unit::{Unit, run_fingerprint};
 use crate::output;
 use jeffcott_core::error::{Error, Result};
 use std::path::{Path, PathBuf};
@@ -61,6 +61,9 @@ pub struct RunHeader {
     /// `Null` for none): recorded, not part of the identity, so that `jeffcott merge`
     /// writes the files the shards' command would have.
     pub write: serde_json::Value,
+    /// Specification keys the command's options spell otherwise (`basin-stability`
+    /// records `--sample` as a continuation's `ics`): a refusal names the option.
+    pub names: &'static [(&'static str, &'static str)],
 }
 
 impl RunHeader {
@@ -74,6 +77,7 @@ impl RunHeader {
             shard: None,
             argv: Vec::new(),
             write: serde_json::Value::Null,
+            names: &[],
         })
     }
 }
@@ -84,6 +88,9 @@ pub struct RunDir {
     dir: PathBuf,
     command: String,
     spec: serde_json::Value,
+    /// [`run_fingerprint`] of the command and specification, stamped on every unit this
+    /// run commits and checked on every unit it reads.
+    fingerprint: String,
     shard: Option<super::Shard>,
     argv: Vec<String>,
     write: serde_json::Value,
@@ -95,6 +102,11 @@ pub struct RunDir {
     /// The stages the run's study asked about, in first-asked order (a shard lists
     /// them in run.json for the merge).
     stages: std::sync::Mutex<Vec<String>>,
+    /// When this session opened the directory, and the wall time of the sessions
+    /// before it (run.json's `wall_time_s`, kept up to date at every commit), so the
+    /// wall time recorded at the end is the whole run's, however often it was resumed.
+    opened: std::time::Instant,
+    earlier_s: f64,
     _lock: std::fs::File,
 }
 
@@ -102,6 +114,18 @@ fn io(path: &Path) -> impl FnOnce(std::io::Error) -> Error + '_ {
     move |source| Error::Io {
         path: path.to_path_buf(),
         source,
+    }
+}
+
+/// A differing key as the command's options spell it: its first component renamed by
+/// `names`, where listed.
+fn spelled(key: &str, names: &[(&str, &str)]) -> String {
+    let (head, rest) = key
+        .split_once('.')
+        .map_or((key, None), |(h, r)| (h, Some(r)));
+    match names.iter().find(|(k, _)| *k == head) {
+        Some((_, name)) => rest.map_or(name.to_string(), |r| format!("{name}.{r}")),
+        None => key.to_string(),
     }
 }
 
@@ -174,6 +198,7 @@ impl RunDir {
             shard,
             argv,
             write,
+            names,
         } = header;
         let command = command.as_str();
         output::ensure_dir(dir)?;
@@ -238,7 +263,11 @@ impl RunDir {
                     ),
                     (Some(c), Some(s)) if c == command => format!(
                         "another `{c}` run (its specification differs in: {})",
-                        differing_keys(s, &spec).join(", ")
+                        differing_keys(s, &spec)
+                            .iter()
+                            .map(|k| spelled(k, names))
+                            .collect::<Vec<_>>()
+                            .join(", ")
                     ),
                     (Some(c), Some(_)) => format!("a `{c}` run"),
                     _ => "files of an earlier run this version cannot resume".into(),
@@ -269,9 +298,18 @@ impl RunDir {
                 .and_then(|v| serde_json::from_value(v.clone()).ok()),
             _ => None,
         };
+        let earlier_s = match (&old, found) {
+            (Some(o), Found::Unfinished | Found::Complete) => o
+                .get("wall_time_s")
+                .and_then(|v| v.as_f64())
+                .filter(|s| s.is_finite() && *s >= 0.0)
+                .unwrap_or(0.0),
+            _ => 0.0,
+        };
         let run_dir = RunDir {
             dir: dir.to_path_buf(),
             command: command.to_string(),
+            fingerprint: run_fingerprint(command, &spec),
             spec,
             shard,
             argv,
@@ -279,9 +317,11 @@ impl RunDir {
             found,
             merge_stages,
             stages: Default::default(),
+            opened: std::time::Instant::now(),
+            earlier_s,
             _lock: lock,
         };
-        run_dir.write_state("running", &serde_json::Map::new(), &[])?;
+        run_dir.write_running()?;
         std::fs::create_dir_all(dir.join(UNITS)).map_err(io(&dir.join(UNITS)))?;
         Ok(run_dir)
     }
@@ -355,7 +395,19 @@ impl RunDir {
     /// it, requires every unit of those stages and computes none.
     pub fn begin_merge(&mut self, stages: Vec<String>) -> Result<()> {
         self.merge_stages = Some(stages);
-        self.write_state("running", &serde_json::Map::new(), &[])
+        self.write_running()
+    }
+
+    /// The run's wall time so far [s]: this session's and every earlier one's.
+    pub fn wall_time_s(&self) -> f64 {
+        self.earlier_s + self.opened.elapsed().as_secs_f64()
+    }
+
+    /// run.json with `state: "running"` and the wall time so far.
+    fn write_running(&self) -> Result<()> {
+        let mut time = serde_json::Map::new();
+        time.insert("wall_time_s".into(), self.wall_time_s().into());
+        self.write_state("running", &time, &[])
     }
 
     /// The stages whose units came from shards, while this directory is a merge.
@@ -398,7 +450,9 @@ impl RunDir {
 
     /// Indices of the units of `stage` committed so far and still readable. A unit file
     /// that does not read back (torn by a crash of the machine, altered) is removed, so
-    /// its unit is computed again.
+    /// its unit is computed again. A unit file of another run (copied in by hand, left by
+    /// another specification) is an error naming it ([`RunDirError::ForeignUnit`]): it
+    /// is neither assembled nor deleted.
     pub fn committed(&self, stage: &str, count: usize) -> Result<Vec<bool>> {
         if let Ok(mut s) = self.stages.lock()
             && !s.iter().any(|x| x == stage)
@@ -412,7 +466,10 @@ impl RunDir {
                 continue;
             }
             match Unit::read(&p) {
-                Ok(u) if u.key == unit_key(stage, i) => *d = true,
+                Ok(u) if u.key == unit_key(stage, i) => {
+                    self.check_owner(&p, &u)?;
+                    *d = true
+                }
                 _ => std::fs::remove_file(&p).map_err(io(&p))?,
             }
         }
@@ -438,28 +495,46 @@ impl RunDir {
         self.check_lock()?;
         let key = unit_key(stage, index);
         let path = self.unit_path(stage, index);
-        if unit.key == key {
-            unit.write(&path)
+        if unit.key == key && unit.run == self.fingerprint {
+            unit.write(&path)?;
         } else {
             let mut u = unit.clone();
             u.key = key;
-            u.write(&path)
+            u.run = self.fingerprint.clone();
+            u.write(&path)?;
         }
+        // The wall time so far goes with every unit, so a run killed now and resumed
+        // later still records its whole time.
+        self.write_running()
     }
 
-    /// Reads a committed unit.
+    /// Reads a committed unit (its key and its run checked).
     pub fn load(&self, stage: &str, index: usize) -> Result<Unit> {
-        let u = Unit::read(&self.unit_path(stage, index))?;
+        let path = self.unit_path(stage, index);
+        let u = Unit::read(&path)?;
         if u.key != unit_key(stage, index) {
             return Err(Error::Io {
-                path: self.unit_path(stage, index),
+                path,
                 source: std::io::Error::new(
                     std::io::ErrorKind::InvalidData,
                     "unit file holds another unit",
                 ),
             });
         }
+        self.check_owner(&path, &u)?;
         Ok(u)
+    }
+
+    /// Whether `u`, read from `path`, was committed by a run of this command and
+    /// specification.
+    fn check_owner(&self, path: &Path, u: &Unit) -> Result<()> {
+        if u.run == self.fingerprint {
+            return Ok(());
+        }
+        Err(Error::layer(RunDirError::ForeignUnit {
+            path: path.to_path_buf(),
+            reason: foreign_reason(&u.run, &self.fingerprint),
+        }))
     }
 
     /// Checks that the lock file is still the one this run locked: a lock file removed
@@ -493,6 +568,11 @@ impl RunDir {
             serde_json::Value::Object(m) => m,
             v => return Err(bad(format!("{v} is not an object"))),
         };
+        // The command measured this session; the run's wall time is every session's.
+        let mut map = map;
+        if let Some(w) = map.get("wall_time_s").and_then(|v| v.as_f64()) {
+            map.insert("wall_time_s".into(), (self.earlier_s + w).into());
+        }
         if let Some(k) = RUN_KEYS.iter().find(|k| map.contains_key(**k)) {
             return Err(bad(format!(
                 "the result may not set run.json's own key `{k}`"
@@ -582,6 +662,16 @@ fn same_file(_: &std::fs::Metadata, _: &std::fs::Metadata) -> bool {
     true
 }
 
+/// Why a unit stamped `found` is not a unit of the run `ours`.
+pub fn foreign_reason(found: &str, ours: &str) -> String {
+    if found.is_empty() {
+        "carries no run fingerprint (written by a jeffcott older than fingerprinted units)"
+            .to_string()
+    } else {
+        format!("was committed by another run (fingerprint {found}; this run's is {ours})")
+    }
+}
+
 /// The key of unit `index` of `stage`.
 pub fn unit_key(stage: &str, index: usize) -> String {
     format!("{stage}-{index:07}")
@@ -647,6 +737,33 @@ mod tests {
         }
         assert_eq!(d.stages_asked(), ["basin", "refine"]);
     }
+
+    #[test]
+    fn a_unit_of_another_run_copied_into_the_directory_is_refused_and_kept() {
+        let (a, b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+        let unit = Unit::new("x").with("l", super::super::Array::I32(vec![1, 2]));
+        open(a.path()).commit("basin", 0, &unit).unwrap();
+        let header = RunHeader::new("basin", &serde_json::json!({"n": 4})).unwrap();
+        let other = RunDir::open(b.path(), header, &[], false).unwrap();
+        let from = a.path().join(UNITS).join("basin-0000000.unit");
+        let to = b.path().join(UNITS).join("basin-0000000.unit");
+        std::fs::copy(&from, &to).unwrap();
+        for e in [
+            other.committed("basin", 1).unwrap_err(),
+            other.load("basin", 0).unwrap_err(),
+        ] {
+            let e = e
+                .layer_error::<RunDirError>()
+                .expect("a run directory error");
+            assert!(matches!(e, RunDirError::ForeignUnit { .. }), "{e}");
+            assert!(e.to_string().contains("basin-0000000.unit"), "{e}");
+        }
+        assert!(to.exists(), "the foreign unit was removed");
+        // The run's own unit reads back.
+        let own = open(a.path());
+        assert_eq!(own.committed("basin", 1).unwrap(), [true]);
+        assert_eq!(own.load("basin", 0).unwrap().i32s("l").unwrap(), [1, 2]);
+    }
 }
 
 /// What keeps a run from its output directory, or stops it there.
@@ -678,6 +795,17 @@ pub enum RunDirError {
         /// The output directory.
         path: PathBuf,
         /// What it holds.
+        reason: String,
+    },
+    /// A unit file in the directory belongs to another run (another command or
+    /// specification): it is never assembled into this run's files, nor removed.
+    #[error(
+        "unit file {path} {reason}; it is not this run's and was neither used nor removed: move it out of the directory and run the command again (its unit is then computed), or give --overwrite to start this run afresh"
+    )]
+    ForeignUnit {
+        /// The unit file.
+        path: PathBuf,
+        /// Whose it is.
         reason: String,
     },
 }

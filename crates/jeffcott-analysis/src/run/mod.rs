@@ -21,7 +21,7 @@ pub mod unit;
 
 pub use dir::{Found, RunDir, RunHeader};
 pub use host::{Host, MemoryHost, PrefixedHost, Stage};
-pub use unit::{Array, Unit};
+pub use unit::{Array, Unit, run_fingerprint};
 
 use jeffcott_core::error::{Error, Result};
 use std::collections::HashMap;

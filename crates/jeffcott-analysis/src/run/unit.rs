@@ -3,7 +3,7 @@
 //! on resume and at assembly.
 //!
 //! Layout: the magic `JCUNIT01`, the header length (u32 LE), the header (JSON: unit key,
-//! array names, types and lengths, metadata), the arrays (little-endian, in header
+//! the fingerprint of the run it belongs to, array names, types and lengths, metadata), the arrays (little-endian, in header
 //! order), then an FNV-1a 64 checksum (u64 LE) of everything before it. A file that
 //! fails the magic, the lengths or the checksum is not a unit: the run engine removes it
 //! and computes the unit again.
@@ -62,6 +62,8 @@ struct ArrayHeader {
 #[derive(Serialize, Deserialize)]
 struct Header {
     key: String,
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    run: String,
     arrays: Vec<ArrayHeader>,
     meta: serde_json::Value,
 }
@@ -72,6 +74,10 @@ struct Header {
 pub struct Unit {
     /// The unit's key within its run (`"0000042"`, `"up-0003"`...).
     pub key: String,
+    /// The fingerprint of the run that committed it ([`run_fingerprint`] of its command
+    /// and specification; empty until committed): a unit copied into another run's
+    /// directory is told from that run's own and never assembled there.
+    pub run: String,
     /// Named arrays, in the order written.
     pub arrays: Vec<(String, Array)>,
     /// Metadata (JSON; f64 values round-trip exactly).
@@ -99,6 +105,7 @@ impl Unit {
     pub fn new(key: impl Into<String>) -> Unit {
         Unit {
             key: key.into(),
+            run: String::new(),
             arrays: Vec::new(),
             meta: serde_json::Value::Null,
         }
@@ -174,6 +181,7 @@ impl Unit {
     pub fn encode(&self) -> Vec<u8> {
         let header = Header {
             key: self.key.clone(),
+            run: self.run.clone(),
             arrays: self
                 .arrays
                 .iter()
@@ -249,6 +257,7 @@ impl Unit {
         }
         Ok(Unit {
             key: header.key,
+            run: header.run,
             arrays,
             meta: header.meta,
         })
@@ -270,6 +279,17 @@ impl Unit {
     }
 }
 
+/// The fingerprint of a run: FNV-1a 64 of its command and its specification as
+/// run.json records it (serde_json writes an object's keys sorted, so equal
+/// specifications give equal bytes), as 16 hex digits. A shard's units carry the
+/// fingerprint of the unsharded run, since a shard's specification is the whole run's.
+pub fn run_fingerprint(command: &str, spec: &serde_json::Value) -> String {
+    let mut bytes = command.as_bytes().to_vec();
+    bytes.push(0);
+    bytes.extend(serde_json::to_vec(spec).unwrap_or_default());
+    format!("{:016x}", fnv1a(&bytes))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -281,10 +301,15 @@ mod tests {
             .with("l", Array::I32(vec![-1, 0, 7]))
             .with("s", Array::U32(vec![3]))
             .with_meta(&serde_json::json!({"x": 0.1 + 0.2, "n": 3}));
+        let u = Unit {
+            run: run_fingerprint("basin", &serde_json::json!({"omega": 133.0})),
+            ..u
+        };
         let bytes = u.encode();
         let back = Unit::decode(Path::new("u"), &bytes).unwrap();
         assert_eq!(back.key, u.key);
         assert_eq!(back.meta, u.meta);
+        assert_eq!(back.run, u.run);
         let bits =
             |u: &Unit| -> Vec<u64> { u.f64s("p").unwrap().iter().map(|v| v.to_bits()).collect() };
         assert_eq!(bits(&back), bits(&u));
@@ -295,5 +320,16 @@ mod tests {
             assert!(Unit::decode(Path::new("u"), &bad).is_err(), "flip at {i}");
         }
         assert!(Unit::decode(Path::new("u"), &bytes[..bytes.len() - 3]).is_err());
+    }
+
+    #[test]
+    fn runs_that_differ_in_one_value_or_in_their_command_have_different_fingerprints() {
+        let a = serde_json::json!({"omega": 133.0, "grid": {"n": 8}});
+        let b = serde_json::json!({"omega": 133.1, "grid": {"n": 8}});
+        let c = serde_json::json!({"grid": {"n": 8}, "omega": 133.0});
+        assert_ne!(run_fingerprint("basin", &a), run_fingerprint("basin", &b));
+        assert_ne!(run_fingerprint("basin", &a), run_fingerprint("map", &a));
+        assert_eq!(run_fingerprint("basin", &a), run_fingerprint("basin", &c));
+        assert_eq!(run_fingerprint("basin", &a).len(), 16);
     }
 }

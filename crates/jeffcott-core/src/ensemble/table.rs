@@ -33,6 +33,28 @@ fn table_err(path: &Path, why: impl std::fmt::Display) -> Error {
 }
 
 impl LaneTable {
+    /// Refuses a name that `option` (`init`, `param`) sets for every lane while the
+    /// table has a column of that name: the column sets it lane by lane, so the option
+    /// would be recorded and never used.
+    pub fn refuse_set_by<'a>(
+        &self,
+        option: &str,
+        names: impl IntoIterator<Item = &'a str>,
+    ) -> Result<()> {
+        for name in names {
+            if self.columns.iter().any(|c| c == name) {
+                return Err(Error::invalid(
+                    option,
+                    name,
+                    format!(
+                        "the lane table has a column {name}, which sets it in every lane; leave {name} out of `{option}` or drop the column"
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
     /// Reads a CSV file with a header row (numbers only; `#` starts a comment line).
     pub fn read_csv(path: &Path) -> Result<LaneTable> {
         let mut r = csv::ReaderBuilder::new()

@@ -210,7 +210,36 @@ fn no_contact_refinement() -> u32 {
     1
 }
 
+/// The stepper options one trajectory reads, as its run records them
+/// ([`StepperConfig::serialize_flow`]).
+#[derive(Serialize)]
+struct FlowStepper {
+    steps_per_period: u32,
+    max_segments: u32,
+    divergence_bound: f64,
+    contact_substeps: u32,
+    exact_free_flight: bool,
+}
+
 impl StepperConfig {
+    /// Writes the options a single trajectory or orbit reads (for `serialize_with`):
+    /// early exit and lambda_1's alignment belong to the studies of many lanes, so the
+    /// record of a run that never reads them leaves them out, and a re-run that
+    /// changes them is the same run.
+    pub fn serialize_flow<S: serde::Serializer>(
+        c: &StepperConfig,
+        s: S,
+    ) -> std::result::Result<S::Ok, S::Error> {
+        FlowStepper {
+            steps_per_period: c.steps_per_period,
+            max_segments: c.max_segments,
+            divergence_bound: c.divergence_bound,
+            contact_substeps: c.contact_substeps,
+            exact_free_flight: c.exact_free_flight,
+        }
+        .serialize(s)
+    }
+
     /// The period at which a lane whose record starts at period `record_from` starts
     /// its tangent vector afresh ([`StepperConfig::lyapunov_align`]; 0 with 0).
     pub fn tangent_from(&self, record_from: u32) -> u32 {
