@@ -249,6 +249,15 @@ fn resume_command() -> String {
 /// work units (false: a run computed whole, which a re-run starts over).
 static RUN_DIRS: Mutex<Vec<(String, bool)>> = Mutex::new(Vec::new());
 
+/// Adds `dir` to the directories the signal handler names, once (a merge opens its
+/// --out twice: to place the units, then to assemble them).
+fn remember(dirs: &mut Vec<(String, bool)>, dir: &Path) {
+    let name = dir.display().to_string();
+    if !dirs.iter().any(|e| e.0 == name) {
+        dirs.push((name, true));
+    }
+}
+
 /// What the signal handler says of the directories: where committed units are kept,
 /// and which runs start over.
 fn interrupted_message(dirs: &[(String, bool)], command: &str) -> String {
@@ -358,12 +367,8 @@ impl Execution {
             ..header
         };
         let run_dir = RunDir::open(dir, header, outputs, self.run.overwrite)?;
-        // A merge opens its --out twice (to place the units, then to assemble them):
-        // the directory is listed once.
-        if let Ok(mut d) = RUN_DIRS.lock()
-            && !d.iter().any(|e| e.0 == dir.display().to_string())
-        {
-            d.push((dir.display().to_string(), true));
+        if let Ok(mut d) = RUN_DIRS.lock() {
+            remember(&mut d, dir);
         }
         install_signal_handler();
         if !self.run.quiet {
@@ -458,7 +463,16 @@ pub fn finish_study(
 
 #[cfg(test)]
 mod tests {
-    use super::interrupted_message;
+    use super::{interrupted_message, remember};
+
+    #[test]
+    fn a_directory_opened_twice_is_named_once() {
+        let mut dirs = Vec::new();
+        remember(&mut dirs, std::path::Path::new("m"));
+        remember(&mut dirs, std::path::Path::new("m"));
+        remember(&mut dirs, std::path::Path::new("n"));
+        assert_eq!(dirs, [("m".to_string(), true), ("n".to_string(), true)]);
+    }
 
     #[test]
     fn an_interrupted_run_says_what_it_keeps_and_a_whole_run_that_it_keeps_nothing() {

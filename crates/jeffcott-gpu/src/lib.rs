@@ -33,6 +33,7 @@ pub mod pool;
 pub mod shader;
 pub mod spirv;
 pub mod stats;
+pub mod unroll;
 
 pub use device::{
     AdapterSummary, DeviceRequest, GpuDevice, SHADER_PATH_VAR, ShaderPath, list_adapters,

@@ -205,9 +205,11 @@ pub fn header<R: Real>(v: Variant) -> String {
 }
 
 /// The complete kernel source for precision `R` and variant `v`: the header, then
-/// [`KERNEL`].
+/// [`KERNEL`] with its counted loops written out ([`crate::unroll`]: every index a
+/// constant, so no array goes to local memory and no loop needs a bound counter).
 pub fn source<R: Real>(v: Variant) -> String {
-    header::<R>(v) + KERNEL
+    header::<R>(v)
+        + &crate::unroll::unroll_counted_loops(KERNEL, &[("STATE_DIM", STATE_DIM as u32)])
 }
 
 /// naga capabilities the kernel needs in precision `R` and variant `v`.

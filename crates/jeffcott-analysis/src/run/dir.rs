@@ -739,6 +739,27 @@ mod tests {
     }
 
     #[test]
+    fn the_wall_time_recorded_is_the_whole_runs_over_a_kill_and_a_resume() {
+        let tmp = tempfile::tempdir().unwrap();
+        let first = {
+            let d = open(tmp.path());
+            std::thread::sleep(std::time::Duration::from_millis(30));
+            d.commit("basin", 0, &Unit::new("x")).unwrap();
+            let j: serde_json::Value =
+                serde_json::from_slice(&std::fs::read(tmp.path().join(RUN_JSON)).unwrap()).unwrap();
+            j["wall_time_s"].as_f64().unwrap()
+        }; // killed here
+        assert!(first >= 0.03, "{first}");
+        let d = open(tmp.path());
+        assert!(d.wall_time_s() >= first);
+        d.finish(&serde_json::json!({"wall_time_s": 0.5}), &[])
+            .unwrap();
+        let j: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(tmp.path().join(RUN_JSON)).unwrap()).unwrap();
+        assert_eq!(j["wall_time_s"].as_f64().unwrap(), first + 0.5);
+    }
+
+    #[test]
     fn a_unit_of_another_run_copied_into_the_directory_is_refused_and_kept() {
         let (a, b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
         let unit = Unit::new("x").with("l", super::super::Array::I32(vec![1, 2]));
