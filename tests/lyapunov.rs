@@ -279,10 +279,12 @@ fn lyapunov_command_writes_the_spectrum_for_one_speed_and_a_range() {
         "trace_average",
         "saltation_log_det_rate",
         "integration_time",
-        "wall_time_s",
     ] {
         assert!(s[key].is_number(), "{key}");
     }
+    // The wall time is run.json's only, so a re-run's spectrum.json is byte-identical.
+    assert!(s.get("wall_time_s").is_none());
+    assert!(json(&one.join("run.json"))["wall_time_s"].is_number());
     assert_eq!(s["errors"].as_array().unwrap().len(), 8);
     assert!(is_png(&one.join("convergence.png")));
 
