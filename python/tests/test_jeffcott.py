@@ -344,7 +344,7 @@ def test_no_usable_gpu_raises_runtime_error_with_the_cli_message(tmp_path):
          "--periods", "1", "--out", str(tmp_path / "e")],
         capture_output=True, text=True, env=env,
     )
-    assert cl.returncode == 2
+    assert cl.returncode == 4  # no usable GPU (jeffcott --help lists the exit codes)
     assert py.stdout.strip().startswith("no usable GPU adapter"), py.stdout + py.stderr
     assert cl.stderr.strip() == "error: " + py.stdout.strip()
 
