@@ -249,12 +249,13 @@ fn resume_command() -> String {
 /// work units (false: a run computed whole, which a re-run starts over).
 static RUN_DIRS: Mutex<Vec<(String, bool)>> = Mutex::new(Vec::new());
 
-/// Adds `dir` to the directories the signal handler names, once (a merge opens its
-/// --out twice: to place the units, then to assemble them).
-fn remember(dirs: &mut Vec<(String, bool)>, dir: &Path) {
+/// Adds `dir`, whose run commits work units or not (`units`), to the directories the
+/// signal handler names, once (a merge opens its --out twice: to place the units, then
+/// to assemble them).
+fn remember(dirs: &mut Vec<(String, bool)>, dir: &Path, units: bool) {
     let name = dir.display().to_string();
     if !dirs.iter().any(|e| e.0 == name) {
-        dirs.push((name, true));
+        dirs.push((name, units));
     }
 }
 
@@ -314,13 +315,7 @@ pub fn open_whole(
     outputs: &[&str],
     args: RunArgs,
 ) -> Result<RunDir> {
-    let run_dir = open(dir, command, spec, outputs, args)?;
-    if let Ok(mut d) = RUN_DIRS.lock()
-        && let Some(entry) = d.iter_mut().find(|e| e.0 == dir.display().to_string())
-    {
-        entry.1 = false;
-    }
-    Ok(run_dir)
+    unsharded(dir, args).open_as(RunHeader::new(command, spec)?, outputs, false)
 }
 
 /// Opens `dir` for an unsharded run (see [`RunDir::open`]), says on stderr when it
@@ -332,13 +327,17 @@ pub fn open(
     outputs: &[&str],
     args: RunArgs,
 ) -> Result<RunDir> {
+    unsharded(dir, args).open(RunHeader::new(command, spec)?, outputs)
+}
+
+/// The execution of an unsharded run into `dir`.
+fn unsharded(dir: &Path, args: RunArgs) -> Execution {
     Execution {
         out: dir.to_path_buf(),
         run: args,
         shard: None,
         backend: jeffcott_core::ensemble::Backend::Auto,
     }
-    .open(RunHeader::new(command, spec)?, outputs)
 }
 
 /// How a command's run goes, whether the command line asked for it or `jeffcott merge`
@@ -360,6 +359,12 @@ impl Execution {
     /// Opens `--out` for the run `header` describes (its shard and command line filled
     /// in here), says on stderr when it resumes, and arms the signal handler.
     pub fn open(&self, header: RunHeader, outputs: &[&str]) -> Result<RunDir> {
+        self.open_as(header, outputs, true)
+    }
+
+    /// [`Execution::open`] for a run that commits work units or not (`units`: what the
+    /// signal handler says of its directory).
+    fn open_as(&self, header: RunHeader, outputs: &[&str], units: bool) -> Result<RunDir> {
         let dir = &self.out;
         let header = RunHeader {
             shard: self.shard,
@@ -368,7 +373,7 @@ impl Execution {
         };
         let run_dir = RunDir::open(dir, header, outputs, self.run.overwrite)?;
         if let Ok(mut d) = RUN_DIRS.lock() {
-            remember(&mut d, dir);
+            remember(&mut d, dir, units);
         }
         install_signal_handler();
         if !self.run.quiet {
@@ -468,9 +473,9 @@ mod tests {
     #[test]
     fn a_directory_opened_twice_is_named_once() {
         let mut dirs = Vec::new();
-        remember(&mut dirs, std::path::Path::new("m"));
-        remember(&mut dirs, std::path::Path::new("m"));
-        remember(&mut dirs, std::path::Path::new("n"));
+        remember(&mut dirs, std::path::Path::new("m"), true);
+        remember(&mut dirs, std::path::Path::new("m"), true);
+        remember(&mut dirs, std::path::Path::new("n"), true);
         assert_eq!(dirs, [("m".to_string(), true), ("n".to_string(), true)]);
     }
 

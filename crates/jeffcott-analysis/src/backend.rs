@@ -267,10 +267,7 @@ pub fn run(
 /// Both backends give the same bits in f64.
 impl orbit::Flows for Engine {
     fn flows(&self, asks: &[FlowAsk], stepper: &StepperConfig) -> Result<Vec<Flow>> {
-        match &self.gpu {
-            Some(runner) => gpu_flows(runner, asks, stepper),
-            None => CpuFlows.flows(asks, stepper),
-        }
+        self.flows_until(asks, stepper, &jeffcott_core::control::Cancel::new())
     }
 
     fn flows_until(
