@@ -5,34 +5,33 @@
 //! [`run`] is the resumable run engine (work units committed atomically, output
 //! directories that never lie); the rest classify Poincare records and build the
 //! studies on them. Nothing here parses arguments, draws or prints.
+//!
+//! The source is grouped by what it holds: `studies/` (every study but [`orbits`] and
+//! [`reproduce`], which keep their own folders), `attractors/` (classification, the
+//! catalogue, early exit, orbit starts from earlier results), and at the top what every
+//! study runs on: the backends ([`backend`], [`gpu_pool`], [`bench`]), the run engine
+//! ([`run`]), the files ([`output`], [`record`]) and the settings and defaults
+//! ([`settings`], [`defaults`]). Every module is reachable at the crate's root
+//! (`jeffcott_analysis::basin`), whatever folder holds it.
+
+mod attractors;
+mod studies;
 
 pub mod backend;
-pub mod basin;
 pub mod bench;
-pub mod bifurcation;
-pub mod cascade;
-pub mod catalogue;
-pub mod classify;
-pub mod continuation;
 pub mod defaults;
-pub mod early;
-pub mod ensemble;
 pub mod gpu_pool;
-pub mod lyapunov;
-pub mod map;
-pub mod measures;
-pub mod orbit_starts;
 pub mod orbits;
 pub mod output;
 pub mod record;
-pub mod refine;
 pub mod reproduce;
-pub mod rub;
 pub mod run;
 pub mod settings;
-pub mod simulate;
-pub mod spectrum;
-pub mod stability;
-pub mod uncertainty;
+
+pub use attractors::{catalogue, classify, early, orbit_starts};
+pub use studies::{
+    basin, bifurcation, cascade, continuation, ensemble, lyapunov, map, measures, refine, rub,
+    simulate, spectrum, stability, uncertainty,
+};
 
 pub use jeffcott_core::{Error, Result};

@@ -11,8 +11,8 @@
 //! assembled, since they are labelled by its catalogue; with early exit a lane
 //! recognised on one of its cycles retires with that label ([`crate::early::label_lanes`]).
 
-use super::basin::BasinSpec;
-use super::catalogue::Catalogue;
+use crate::basin::BasinSpec;
+use crate::catalogue::Catalogue;
 use crate::run::lanes::{Control, LaneUnits, Split};
 use crate::run::{Array, Unit, UnitStore};
 use jeffcott_core::ensemble::{EnsembleResult, EnsembleSpec};
@@ -90,7 +90,7 @@ impl Reintegration {
 fn lane_start(spec: &BasinSpec, seed: u64, l: usize) -> State {
     let (d, k) = (l / PER_DRAW, l % PER_DRAW);
     let u =
-        |salt: u64| 0.5 * (super::bifurcation::unit(d as u64, seed.wrapping_mul(8) + salt) + 1.0);
+        |salt: u64| 0.5 * (crate::bifurcation::unit(d as u64, seed.wrapping_mul(8) + salt) + 1.0);
     let (sx, sy) = (spec.x.hi - spec.x.lo, spec.y.hi - spec.y.lo);
     let mut x = spec.base;
     // Draws keep a margin of the largest displacement inside the box.
@@ -177,7 +177,7 @@ pub fn fit(labels: &[i32], samples: usize) -> Reintegration {
     let used: Vec<(f64, f64)> = points.iter().copied().filter(|p| p.1 > 0.0).collect();
     let x: Vec<f64> = used.iter().map(|p| p.0).collect();
     let y: Vec<f64> = used.iter().map(|p| p.1).collect();
-    match super::measures::log_log_line(&x, &y) {
+    match crate::measures::log_log_line(&x, &y) {
         Some((slope, _, se)) => Reintegration {
             samples,
             points,

@@ -23,7 +23,7 @@
 //! family on one cloud are one attractor whatever their own short-time lambda1, and the
 //! attractor's class follows the mean lambda1 of its lanes.
 
-use super::classify::{Class, Classification, ClassifyConfig, classify, distance};
+use crate::classify::{Class, Classification, ClassifyConfig, classify, distance};
 use jeffcott_core::error::{Error, Result};
 use jeffcott_core::model::{STATE_DIM, State, X_R};
 use rayon::prelude::*;

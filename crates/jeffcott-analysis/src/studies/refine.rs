@@ -13,8 +13,8 @@
 //! with early exit a lane recognised on one of its cycles retires with that label
 //! ([`crate::early::label_lanes`]).
 
-use super::basin::BasinSpec;
-use super::catalogue::Catalogue;
+use crate::basin::BasinSpec;
+use crate::catalogue::Catalogue;
 use crate::run::lanes::{Control, LaneUnits, Split};
 use crate::run::{Array, Unit, UnitStore};
 use jeffcott_core::ensemble::{EnsembleResult, EnsembleSpec};
@@ -68,7 +68,7 @@ pub fn on_boundary(labels: &[i32], nx: usize, ny: usize, i: usize, j: usize) -> 
 
 /// Checks a refinement of `levels` of a basin of `nx` x `ny` cells (field `refine`):
 /// at most [`MAX_LEVELS`], labels only (no lambda_1), and a finest grid of at most
-/// [`super::basin::MAX_BASIN_CELLS`] points.
+/// [`crate::basin::MAX_BASIN_CELLS`] points.
 pub fn check_levels(levels: u32, lyapunov: bool, nx: usize, ny: usize) -> Result<()> {
     if levels > MAX_LEVELS {
         return Err(Error::invalid(
@@ -86,7 +86,7 @@ pub fn check_levels(levels: u32, lyapunov: bool, nx: usize, ny: usize) -> Result
     }
     let side = |n: usize| ((n as u64).saturating_sub(1) << levels) + 1;
     let fine = side(nx).saturating_mul(side(ny));
-    let max = super::basin::MAX_BASIN_CELLS;
+    let max = crate::basin::MAX_BASIN_CELLS;
     if fine > max {
         return Err(Error::invalid(
             "refine",
@@ -101,9 +101,9 @@ pub fn check_levels(levels: u32, lyapunov: bool, nx: usize, ny: usize) -> Result
 /// catalogue's basin and diverged fractions recounted over it.
 pub fn refined_basin(
     spec: &BasinSpec,
-    mut res: super::basin::BasinResult,
+    mut res: crate::basin::BasinResult,
     f: &Refined,
-) -> (BasinSpec, super::basin::BasinResult) {
+) -> (BasinSpec, crate::basin::BasinResult) {
     let mut fine = spec.clone();
     fine.x.n = f.nx;
     fine.y.n = f.ny;
@@ -179,8 +179,8 @@ pub fn refine(
         // The level's axes: the same bounds, more points (the coarse points keep their
         // values bit for bit, range_value's index scaling by a power of 2).
         let (ax, ay) = (
-            super::basin::Axis { n: fx, ..spec.x },
-            super::basin::Axis { n: fy, ..spec.y },
+            crate::basin::Axis { n: fx, ..spec.x },
+            crate::basin::Axis { n: fy, ..spec.y },
         );
         let start = |p: usize| {
             let mut x = spec.base;

@@ -7,11 +7,11 @@
 //! with its spectra, rub regimes and the state the next unit starts from: an interrupted
 //! cascade resumes where it stopped, bit for bit.
 
-use super::rub::{RubRegime, rub_figures};
-use super::spectrum::{full_spectrum, orbit};
 use crate::record::Span;
+use crate::rub::{RubRegime, rub_figures};
 use crate::run::{Array, Cancel, MemoryStore, Unit, UnitStore};
 use crate::simulate::{Integrator, SimulateSpec, simulate};
+use crate::spectrum::{full_spectrum, orbit};
 use jeffcott_core::control::Control;
 use jeffcott_core::error::{Error, Result};
 use jeffcott_core::integrate::lane::StepperConfig;
@@ -173,7 +173,7 @@ pub struct Sweep {
     pub rotor: Vec<f64>,
     /// Stator amplitudes [speeds, orders] [m].
     pub stator: Vec<f64>,
-    /// Rub regime code per speed ([`super::rub::RubRegime::code`]).
+    /// Rub regime code per speed ([`crate::rub::RubRegime::code`]).
     pub regime: Vec<i32>,
 }
 
@@ -447,7 +447,7 @@ fn sweep_units(
                     None => {
                         rotor.extend(std::iter::repeat_n(f64::NAN, nb));
                         stator.extend(std::iter::repeat_n(f64::NAN, nb));
-                        regime.push(super::rub::RubRegime::Diverged.code());
+                        regime.push(crate::rub::RubRegime::Diverged.code());
                         state = [f64::NAN; STATE_DIM];
                     }
                 }

@@ -7,7 +7,7 @@
 //! and the peak force is the largest sampled one, a lower bound of the true peak within
 //! one step. At the default N = 500 a grid step is 1/500 of a revolution.
 
-use super::spectrum::{Whirl, full_spectrum, orbit, whirl};
+use crate::spectrum::{Whirl, full_spectrum, orbit, whirl};
 use jeffcott_core::error::Result;
 use jeffcott_core::integrate::lane::StepperConfig;
 use jeffcott_core::model::{Params, STATE_DIM, State, VX_R, VX_S, VY_R, VY_S, X_R, X_S, Y_R, Y_S};
@@ -226,7 +226,7 @@ pub fn rub_on_attractor(
 /// representative Poincare point (`None` if that stretch diverged or it has no point).
 pub fn attractor_rub(
     p: &Params,
-    a: &super::catalogue::Attractor,
+    a: &crate::catalogue::Attractor,
     stepper: &StepperConfig,
 ) -> Result<Option<RubFigures>> {
     match a.points.first() {
@@ -263,7 +263,7 @@ impl From<Option<RubFigures>> for RubEntry {
 pub struct AttractorWithRub<'a> {
     /// The attractor, its fields at the top level.
     #[serde(flatten)]
-    pub attractor: &'a super::catalogue::Attractor,
+    pub attractor: &'a crate::catalogue::Attractor,
     /// Its rub figures.
     pub rub: RubEntry,
 }
@@ -271,7 +271,7 @@ pub struct AttractorWithRub<'a> {
 /// The catalogue's attractors, each with its rub figures (computed in parallel).
 pub fn attractors_with_rub<'a>(
     p: &Params,
-    attractors: &'a [super::catalogue::Attractor],
+    attractors: &'a [crate::catalogue::Attractor],
     stepper: &StepperConfig,
 ) -> Result<Vec<AttractorWithRub<'a>>> {
     use rayon::prelude::*;

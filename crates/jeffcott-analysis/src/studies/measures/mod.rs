@@ -1,7 +1,7 @@
 //! Measures of a labelled basin grid: the numbers researchers quantify basins with.
 //!
 //! Input: labels row-major `[ny, nx]` (row `iy`, column `ix`, cell `iy * nx + ix`),
-//! attractor ids `>= 0` and `-1` for diverged cells, as [`super::basin`] writes them.
+//! attractor ids `>= 0` and `-1` for diverged cells, as [`crate::basin`] writes them.
 //! Every measure here treats `-1` as a class of its own: a cell that diverges next to a
 //! cell that settles is on a boundary, and a box holding both has entropy. The Wada test
 //! is the exception: by default the diverged cells are not a basin there (they are

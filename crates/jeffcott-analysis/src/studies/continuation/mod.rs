@@ -36,7 +36,7 @@ pub use ramp::{Ramp, Step, Tracked};
 pub use record::{Lifetime, RampRecord, Summary, id_name, summary};
 pub use spec::{ContinuationSpec, Direction, Fields, directions, parse_box, uniform_in_box};
 
-use super::catalogue::CatalogueBuilder;
+use crate::catalogue::CatalogueBuilder;
 use crate::run::lanes::{Control, LaneUnits, Split};
 use crate::run::{Unit, UnitStore, Units};
 use jeffcott_core::ensemble::{EnsembleResult, EnsembleSpec, RunInfo};
@@ -178,7 +178,7 @@ fn fresh_unit(values: impl Iterator<Item = (CatalogueBuilder, Vec<i32>)>) -> Uni
     let mut metas = Vec::new();
     for (j, (b, labels)) in values.enumerate() {
         let (parts, labels, diverged) = b.finish_part(labels);
-        let part = super::catalogue::part_unit(labels, &parts, diverged);
+        let part = crate::catalogue::part_unit(labels, &parts, diverged);
         for (name, a) in part.arrays {
             unit = unit.with(&format!("{name}.{j}"), a);
         }

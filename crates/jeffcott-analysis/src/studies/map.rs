@@ -9,9 +9,9 @@
 //! figures and attractor lists, so a map resumes and shards like a basin, and a cell's
 //! figures depend on that cell alone (lanes are independent).
 
-use super::catalogue::CatalogueBuilder;
-use super::classify::Class;
-use super::rub::{RubFigures, rub_on_attractor, rub_periods};
+use crate::catalogue::CatalogueBuilder;
+use crate::classify::Class;
+use crate::rub::{RubFigures, rub_on_attractor, rub_periods};
 use crate::run::Host;
 use crate::run::lanes::{Control, LaneUnits, Split};
 use crate::run::{Array, Unit, Units};
@@ -141,13 +141,13 @@ pub struct MapAxis {
 }
 
 /// Cells per map axis at most (the basin's bound).
-pub use super::basin::MAX_CELLS_PER_AXIS;
+pub use crate::basin::MAX_CELLS_PER_AXIS;
 
 impl MapAxis {
     /// Parses `NAME:lo:hi:n`; `option` names the CLI option in errors.
     pub fn parse(option: &str, text: &str, log: bool) -> Result<MapAxis> {
         let (name, lo, hi, n) =
-            super::basin::parse_named_range(option, text, "omega:130:141:200 or e:0:0.002:100")?;
+            crate::basin::parse_named_range(option, text, "omega:130:141:200 or e:0:0.002:100")?;
         let axis = MapAxis {
             var: MapVar::parse(option, name)?,
             lo,
@@ -161,7 +161,7 @@ impl MapAxis {
 
     /// Checks count, order and (for `log`) positivity; `option` names the axis.
     pub fn validate(&self, option: &str) -> Result<()> {
-        super::basin::check_axis(option, self.lo, self.hi, self.n)?;
+        crate::basin::check_axis(option, self.lo, self.hi, self.n)?;
         if self.log && self.lo <= 0.0 {
             return Err(Error::invalid(
                 option,
@@ -368,13 +368,13 @@ impl MapSpec {
     }
 
     /// The K start states of cell (ix, iy): the static equilibrium of the cell's
-    /// parameters, then the seeded draws of [`super::bifurcation::start_states`] with
+    /// parameters, then the seeded draws of [`crate::bifurcation::start_states`] with
     /// rotor velocities scaled by the cell's own speed (so a cell's start states, like
     /// its results, depend on the cell alone); a coordinate axis sets its coordinate in
     /// all of them.
     pub fn cell_starts(&self, ix: usize, iy: usize) -> Vec<State> {
         let (p, w) = self.cell_params(ix, iy);
-        let mut starts = super::bifurcation::start_states(&p, self.ics, w, self.seed);
+        let mut starts = crate::bifurcation::start_states(&p, self.ics, w, self.seed);
         for (axis, i) in [(&self.x, ix), (&self.y, iy)] {
             if let MapVar::Coord(c) = axis.var {
                 for s in &mut starts {
@@ -682,7 +682,7 @@ impl MapResult {
             .push(rub.map(|r| r.peak_force_n).unwrap_or(f64::NAN));
         self.regime.push(
             rub.map(|r| r.regime)
-                .unwrap_or(super::rub::RubRegime::Diverged)
+                .unwrap_or(crate::rub::RubRegime::Diverged)
                 .code(),
         );
         self.cells.push(cell);

@@ -1,6 +1,6 @@
 //! Basins of attraction (MODEL.md 5): a grid over two initial coordinates at one W,
 //! every other coordinate fixed, each cell labelled with the id of the attractor its
-//! lane settles on (the catalogue of [`super::catalogue`]), -1 for diverged lanes.
+//! lane settles on (the catalogue of [`crate::catalogue`]), -1 for diverged lanes.
 //!
 //! The grid is cut into work units of lanes ([`crate::run`]): each unit is run,
 //! catalogued on its own (labels plus a partial catalogue) and committed; the assembly
@@ -17,7 +17,7 @@
 
 pub mod study;
 
-use super::catalogue::{Catalogue, CatalogueBuilder, part_unit, unit_parts};
+use crate::catalogue::{Catalogue, CatalogueBuilder, part_unit, unit_parts};
 use crate::run::lanes::{Control, LaneUnits, Split};
 use crate::run::{Array, Units};
 use crate::settings::LaneSettings;
