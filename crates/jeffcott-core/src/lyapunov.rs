@@ -311,78 +311,17 @@ pub fn spectrum_with(
     }
     let mut tan = Tangent::<f64, STATE_DIM>::new(identity);
     tan.saltation = cfg.saltation;
-    let max_periods = (cfg.max_time / period).ceil().max(1.0) as u64;
-    let min_periods = (cfg.min_time / period).ceil() as u64;
-    let mut sums = [0.0; STATE_DIM];
-    let mut increments: Vec<[f64; STATE_DIM]> = Vec::new();
-    let mut history: Vec<(f64, [f64; STATE_DIM])> = Vec::new();
-    let mut stop = StopReason::MaxTime;
-    let mut acc_trace = 0.0;
-    let mut acc_log_det = 0.0;
-    let mut acc_saltations = 0u64;
-    let mut max_dev: f64 = 0.0;
-    let mut accumulated = 0u64;
-    let mut p_count = 0u64;
-    loop {
-        if lane.status.is_frozen() {
-            stop = StopReason::LaneFrozen;
-            break;
-        }
-        if cancel.is_set() {
-            return Err(stopped());
-        }
-        let accumulating = p_count >= cfg.tangent_transient as u64;
-        let (tr0, ld0, ns0) = (tan.trace_integral, tan.saltation_log_det, tan.saltations);
-        let dev0 = tan.max_saltation_deviation;
-        tan.max_saltation_deviation = 0.0;
-        for _ in 0..lc.n {
-            macro_step_tangent(&lc, &mut lane, &mut tan);
-        }
-        p_count += 1;
-        // Re-orthonormalise: columns of m are the tangent vectors.
-        let m = Mat8::from_fn(|i, j| tan.v[j][i]);
-        let qr = m.qr();
-        let r = qr.r();
-        let q = qr.q();
-        for (j, v) in tan.v.iter_mut().enumerate() {
-            for (i, vi) in v.iter_mut().enumerate() {
-                *vi = q[(i, j)];
-            }
-        }
-        if !accumulating {
-            tan.max_saltation_deviation = dev0;
-            continue;
-        }
-        let mut inc = [0.0; STATE_DIM];
-        for (i, d) in inc.iter_mut().enumerate() {
-            *d = r[(i, i)].abs().ln();
-            sums[i] += *d;
-        }
-        acc_trace += tan.trace_integral - tr0;
-        acc_log_det += tan.saltation_log_det - ld0;
-        acc_saltations += tan.saltations - ns0;
-        max_dev = max_dev.max(tan.max_saltation_deviation);
-        increments.push(inc);
-        accumulated += 1;
-        let t = accumulated as f64 * period;
-        history.push((t, sums.map(|s| s / t)));
-        if accumulated >= max_periods {
-            break;
-        }
-        if accumulated >= min_periods.max(cfg.window as u64 + 1)
-            && accumulated.is_multiple_of(cfg.window as u64)
-        {
-            let now = history[history.len() - 1].1;
-            let before = history[history.len() - 1 - cfg.window as usize].1;
-            let change = (0..STATE_DIM)
-                .map(|i| (now[i] - before[i]).abs())
-                .fold(0.0, f64::max);
-            if change < cfg.tol {
-                stop = StopReason::Converged;
-                break;
-            }
-        }
-    }
+    let Accumulated {
+        sums,
+        increments,
+        history,
+        stop,
+        acc_trace,
+        acc_log_det,
+        acc_saltations,
+        max_dev,
+        accumulated,
+    } = accumulate(&lc, &mut lane, &mut tan, cfg, period, cancel).ok_or_else(stopped)?;
     let t = accumulated as f64 * period;
     let exponents = if accumulated > 0 {
         sums.map(|s| s / t)
@@ -420,6 +359,136 @@ pub fn spectrum_with(
         history,
         wall_time_s: start.elapsed().as_secs_f64(),
     })
+}
+
+/// What [`accumulate`] gathers over the periods after the tangent transient.
+struct Accumulated {
+    /// Sums of the log stretches per direction.
+    sums: [f64; STATE_DIM],
+    /// Each accumulated period's log stretches.
+    increments: Vec<[f64; STATE_DIM]>,
+    /// The running estimates, with their times.
+    history: Vec<(f64, [f64; STATE_DIM])>,
+    /// Why it stopped.
+    stop: StopReason,
+    /// The trace integral accumulated.
+    acc_trace: f64,
+    /// The saltation matrices' log-determinant accumulated.
+    acc_log_det: f64,
+    /// Saltations while accumulating.
+    acc_saltations: u64,
+    /// The largest saltation deviation while accumulating.
+    max_dev: f64,
+    /// Periods accumulated.
+    accumulated: u64,
+}
+
+/// Steps `lane` and its tangent vectors `tan` period by period, re-orthonormalising
+/// after each, and accumulates the log stretches after the tangent transient until the
+/// estimates settle, the lane freezes or the time runs out. `None` once `cancel` is set.
+fn accumulate(
+    lc: &LaneConsts<f64>,
+    lane: &mut Lane<f64>,
+    tan: &mut Tangent<f64, STATE_DIM>,
+    cfg: &SpectrumConfig,
+    period: f64,
+    cancel: &crate::control::Cancel,
+) -> Option<Accumulated> {
+    let max_periods = (cfg.max_time / period).ceil().max(1.0) as u64;
+    let min_periods = (cfg.min_time / period).ceil() as u64;
+    let mut sums = [0.0; STATE_DIM];
+    let mut increments: Vec<[f64; STATE_DIM]> = Vec::new();
+    let mut history: Vec<(f64, [f64; STATE_DIM])> = Vec::new();
+    let mut stop = StopReason::MaxTime;
+    let mut acc_trace = 0.0;
+    let mut acc_log_det = 0.0;
+    let mut acc_saltations = 0u64;
+    let mut max_dev: f64 = 0.0;
+    let mut accumulated = 0u64;
+    let mut p_count = 0u64;
+    loop {
+        if lane.status.is_frozen() {
+            stop = StopReason::LaneFrozen;
+            break;
+        }
+        if cancel.is_set() {
+            return None;
+        }
+        let accumulating = p_count >= cfg.tangent_transient as u64;
+        let (tr0, ld0, ns0) = (tan.trace_integral, tan.saltation_log_det, tan.saltations);
+        let dev0 = tan.max_saltation_deviation;
+        tan.max_saltation_deviation = 0.0;
+        for _ in 0..lc.n {
+            macro_step_tangent(lc, lane, tan);
+        }
+        p_count += 1;
+        let r = reorthonormalise(tan);
+        if !accumulating {
+            tan.max_saltation_deviation = dev0;
+            continue;
+        }
+        let mut inc = [0.0; STATE_DIM];
+        for (i, d) in inc.iter_mut().enumerate() {
+            *d = r[i].abs().ln();
+            sums[i] += *d;
+        }
+        acc_trace += tan.trace_integral - tr0;
+        acc_log_det += tan.saltation_log_det - ld0;
+        acc_saltations += tan.saltations - ns0;
+        max_dev = max_dev.max(tan.max_saltation_deviation);
+        increments.push(inc);
+        accumulated += 1;
+        let t = accumulated as f64 * period;
+        history.push((t, sums.map(|s| s / t)));
+        if accumulated >= max_periods {
+            break;
+        }
+        if accumulated >= min_periods.max(cfg.window as u64 + 1)
+            && accumulated.is_multiple_of(cfg.window as u64)
+            && window_settled(&history, cfg)
+        {
+            stop = StopReason::Converged;
+            break;
+        }
+    }
+    Some(Accumulated {
+        sums,
+        increments,
+        history,
+        stop,
+        acc_trace,
+        acc_log_det,
+        acc_saltations,
+        max_dev,
+        accumulated,
+    })
+}
+
+/// Re-orthonormalises the tangent vectors (the columns of m) by QR; returns the
+/// diagonal of R, each vector's stretch over the period.
+#[inline(always)]
+fn reorthonormalise(tan: &mut Tangent<f64, STATE_DIM>) -> [f64; STATE_DIM] {
+    let m = Mat8::from_fn(|i, j| tan.v[j][i]);
+    let qr = m.qr();
+    let r = qr.r();
+    let q = qr.q();
+    for (j, v) in tan.v.iter_mut().enumerate() {
+        for (i, vi) in v.iter_mut().enumerate() {
+            *vi = q[(i, j)];
+        }
+    }
+    std::array::from_fn(|i| r[(i, i)])
+}
+
+/// Whether the running estimates changed by less than `cfg.tol` over the last window.
+#[inline(always)]
+fn window_settled(history: &[(f64, [f64; STATE_DIM])], cfg: &SpectrumConfig) -> bool {
+    let now = history[history.len() - 1].1;
+    let before = history[history.len() - 1 - cfg.window as usize].1;
+    let change = (0..STATE_DIM)
+        .map(|i| (now[i] - before[i]).abs())
+        .fold(0.0, f64::max);
+    change < cfg.tol
 }
 
 /// Standard error of the mean rate (per second) by batch means: the per-period

@@ -164,30 +164,56 @@ fn run_batch_inner<R: Real, const M: usize, const AVX512: bool>(
         for _ in 0..n {
             group_macro_step_tangent::<R, M, AVX512>(&bc, &lc, &mut lanes, &mut tan, &mut scratch);
         }
-        for (i, (lane, t)) in lanes
-            .iter()
-            .flatten()
-            .zip(tan.iter_mut().flatten())
-            .enumerate()
-        {
-            if M > 0 {
-                // A lane frozen before this period is skipped by `run_lane_lambda1` in
-                // the transient; it is frozen now too, so it is not renormalised here
-                // either, and its 1.0 is kept only when recording, as there.
-                let norm = if lane.status.is_frozen() {
-                    1.0
-                } else {
-                    renormalise(&mut t.v[0]).to_f64()
-                };
-                if recording {
-                    norms[i].push(norm);
-                }
-            }
+        period_end(&lanes, &mut tan, recording, &mut norms, &mut points);
+    }
+    lane_results::<R, M>(spec, first, lanes, points, norms)
+}
+
+/// The end of a period of [`run_batch_inner`]: each lane's tangent renormalised (its
+/// norm kept while recording) and, while recording, its Poincare point.
+#[inline(always)]
+fn period_end<R: Real, const M: usize>(
+    lanes: &[[Lane<R>; BATCH]],
+    tan: &mut [[Tangent<R, M>; BATCH]],
+    recording: bool,
+    norms: &mut [Vec<f64>],
+    points: &mut [Vec<f64>],
+) {
+    for (i, (lane, t)) in lanes
+        .iter()
+        .flatten()
+        .zip(tan.iter_mut().flatten())
+        .enumerate()
+    {
+        if M > 0 {
+            // A lane frozen before this period is skipped by `run_lane_lambda1` in
+            // the transient; it is frozen now too, so it is not renormalised here
+            // either, and its 1.0 is kept only when recording, as there.
+            let norm = if lane.status.is_frozen() {
+                1.0
+            } else {
+                renormalise(&mut t.v[0]).to_f64()
+            };
             if recording {
-                points[i].extend(lane.x.iter().map(|v| v.to_f64()));
+                norms[i].push(norm);
             }
         }
+        if recording {
+            points[i].extend(lane.x.iter().map(|v| v.to_f64()));
+        }
     }
+}
+
+/// The results of the lanes of [`run_batch_inner`] from lane `first` on: their points,
+/// final states and counters, and lambda_1 from their tangents' norms when `M > 0`.
+#[inline(always)]
+fn lane_results<R: Real, const M: usize>(
+    spec: &EnsembleSpec,
+    first: usize,
+    lanes: Vec<[Lane<R>; BATCH]>,
+    points: Vec<Vec<f64>>,
+    norms: Vec<Vec<f64>>,
+) -> Vec<LaneResult> {
     points
         .into_iter()
         .zip(lanes.into_iter().flatten())

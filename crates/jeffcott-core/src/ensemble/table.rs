@@ -238,6 +238,49 @@ pub struct TableDefaults<'a> {
 /// The lanes of a table: one per row, each with its own parameter set where the row
 /// changes parameters (identical sets are shared). Returns the parameter sets and lanes.
 pub fn lanes_from_table(t: &LaneTable, d: &TableDefaults) -> Result<(Vec<Params>, Vec<LaneSpec>)> {
+    let cols = table_columns(t, d)?;
+    let mut sets: Vec<Params> = Vec::new();
+    let mut index: std::collections::HashMap<Vec<u64>, u32> = Default::default();
+    let mut lanes = Vec::with_capacity(t.rows.len());
+    for (r, row) in t.rows.iter().enumerate() {
+        let at = |c: usize| format!("lanes row {}, column {}", r + 1, t.columns[c]);
+        let p = row_params(t, d, &cols, row, r + 1)?;
+        let omega = match cols.iter().position(|c| *c == Column::Omega) {
+            Some(c) => row[c],
+            None => d.omega.unwrap_or(f64::NAN),
+        };
+        crate::model::validate_omega(omega).map_err(|_| {
+            let name = match cols.iter().position(|c| *c == Column::Omega) {
+                Some(c) => at(c),
+                None => "omega".to_string(),
+            };
+            Error::invalid(
+                &name,
+                crate::model::short_number(omega),
+                crate::model::OMEGA_RANGE,
+            )
+        })?;
+        let x0 = row_start(d, &cols, row, &p, &at)?;
+        let key: Vec<u64> = Params::FIELDS
+            .iter()
+            .map(|k| p.get(k).unwrap_or(f64::NAN).to_bits())
+            .collect();
+        let set = *index.entry(key).or_insert_with(|| {
+            sets.push(p.clone());
+            (sets.len() - 1) as u32
+        });
+        lanes.push(LaneSpec {
+            omega,
+            x0,
+            param_set: set,
+        });
+    }
+    Ok((sets, lanes))
+}
+
+/// The table's columns, checked: each sets something of its own, the table has rows,
+/// and every lane gets a speed (a column or the default).
+fn table_columns(t: &LaneTable, d: &TableDefaults) -> Result<Vec<Column>> {
     let cols: Vec<Column> = t.columns.iter().map(|c| column(c)).collect::<Result<_>>()?;
     for (i, c) in t.columns.iter().enumerate() {
         if let Some(j) = (0..i).find(|&j| cols[j] == cols[i]) {
@@ -258,108 +301,98 @@ pub fn lanes_from_table(t: &LaneTable, d: &TableDefaults) -> Result<(Vec<Params>
             "the lane table has no omega column: give --omega W for every lane",
         ));
     }
-    let mut sets: Vec<Params> = Vec::new();
-    let mut index: std::collections::HashMap<Vec<u64>, u32> = Default::default();
-    let mut lanes = Vec::with_capacity(t.rows.len());
-    for (r, row) in t.rows.iter().enumerate() {
-        let rown = r + 1;
-        let at = |c: usize| format!("lanes row {rown}, column {}", t.columns[c]);
-        // Parameters: the base (or the indexed set), then the row's parameter columns.
-        let mut p = d.params.clone();
-        if let Some(c) = cols.iter().position(|c| *c == Column::ParamSet) {
+    Ok(cols)
+}
+
+/// The parameters of table row `row` (number `rown`, from 1): the base (or the indexed
+/// set), then the row's parameter columns, validated; errors name the row and column.
+fn row_params(
+    t: &LaneTable,
+    d: &TableDefaults,
+    cols: &[Column],
+    row: &[f64],
+    rown: usize,
+) -> Result<Params> {
+    let at = |c: usize| format!("lanes row {rown}, column {}", t.columns[c]);
+    let mut p = d.params.clone();
+    if let Some(c) = cols.iter().position(|c| *c == Column::ParamSet) {
+        let v = row[c];
+        let ok = v >= 0.0 && v.fract() == 0.0 && (v as usize) < d.param_sets.len().max(1);
+        if !ok {
+            return Err(Error::invalid(
+                &at(c),
+                v,
+                format!(
+                    "must be a parameter set index in 0..{} ({})",
+                    d.param_sets.len().max(1),
+                    if d.param_sets.is_empty() {
+                        "no params.npy beside the table: only 0, the base parameters"
+                    } else {
+                        "the rows of the params.npy beside the table"
+                    }
+                ),
+            ));
+        }
+        if let Some(s) = d.param_sets.get(v as usize) {
+            p = s.clone();
+        }
+    }
+    for (c, col) in cols.iter().enumerate() {
+        if let Column::Param(k) = col {
+            p.set(k, row[c])?;
+        }
+    }
+    p.validate().map_err(|e| match e {
+        Error::InvalidParameter {
+            name,
+            value,
+            reason,
+        } => match t.columns.iter().position(|c| *c == name) {
+            Some(c) => Error::invalid(&at(c), value, reason),
+            None => Error::invalid(&format!("lanes row {rown}: {name}"), value, reason),
+        },
+        e => e,
+    })?;
+    Ok(p)
+}
+
+/// The start state of a row with parameters `p`: their static equilibrium, `d.init`,
+/// then the row's coordinate columns (finite, positions within the divergence bound);
+/// `at(c)` names column c of the row in errors.
+fn row_start(
+    d: &TableDefaults,
+    cols: &[Column],
+    row: &[f64],
+    p: &Params,
+    at: &dyn Fn(usize) -> String,
+) -> Result<State> {
+    let mut x0 = p.static_equilibrium();
+    (d.init)(&mut x0)?;
+    for (c, col) in cols.iter().enumerate() {
+        if let Column::Coord(i) = col {
             let v = row[c];
-            let ok = v >= 0.0 && v.fract() == 0.0 && (v as usize) < d.param_sets.len().max(1);
-            if !ok {
+            if !v.is_finite() {
+                return Err(Error::invalid(
+                    &at(c),
+                    v,
+                    "start coordinates must be finite",
+                ));
+            }
+            let position = i % 2 == 0;
+            if position && v.abs() > d.divergence_bound {
                 return Err(Error::invalid(
                     &at(c),
                     v,
                     format!(
-                        "must be a parameter set index in 0..{} ({})",
-                        d.param_sets.len().max(1),
-                        if d.param_sets.is_empty() {
-                            "no params.npy beside the table: only 0, the base parameters"
-                        } else {
-                            "the rows of the params.npy beside the table"
-                        }
+                        "start position beyond --divergence-bound {b} m; must be in -{b}..={b} m",
+                        b = d.divergence_bound
                     ),
                 ));
             }
-            if let Some(s) = d.param_sets.get(v as usize) {
-                p = s.clone();
-            }
+            x0[*i] = v;
         }
-        for (c, col) in cols.iter().enumerate() {
-            if let Column::Param(k) = col {
-                p.set(k, row[c])?;
-            }
-        }
-        p.validate().map_err(|e| match e {
-            Error::InvalidParameter {
-                name,
-                value,
-                reason,
-            } => match t.columns.iter().position(|c| *c == name) {
-                Some(c) => Error::invalid(&at(c), value, reason),
-                None => Error::invalid(&format!("lanes row {rown}: {name}"), value, reason),
-            },
-            e => e,
-        })?;
-        let omega = match cols.iter().position(|c| *c == Column::Omega) {
-            Some(c) => row[c],
-            None => d.omega.unwrap_or(f64::NAN),
-        };
-        crate::model::validate_omega(omega).map_err(|_| {
-            let name = match cols.iter().position(|c| *c == Column::Omega) {
-                Some(c) => at(c),
-                None => "omega".to_string(),
-            };
-            Error::invalid(
-                &name,
-                crate::model::short_number(omega),
-                crate::model::OMEGA_RANGE,
-            )
-        })?;
-        let mut x0 = p.static_equilibrium();
-        (d.init)(&mut x0)?;
-        for (c, col) in cols.iter().enumerate() {
-            if let Column::Coord(i) = col {
-                let v = row[c];
-                if !v.is_finite() {
-                    return Err(Error::invalid(
-                        &at(c),
-                        v,
-                        "start coordinates must be finite",
-                    ));
-                }
-                let position = i % 2 == 0;
-                if position && v.abs() > d.divergence_bound {
-                    return Err(Error::invalid(
-                        &at(c),
-                        v,
-                        format!(
-                            "start position beyond --divergence-bound {b} m; must be in -{b}..={b} m",
-                            b = d.divergence_bound
-                        ),
-                    ));
-                }
-                x0[*i] = v;
-            }
-        }
-        let key: Vec<u64> = Params::FIELDS
-            .iter()
-            .map(|k| p.get(k).unwrap_or(f64::NAN).to_bits())
-            .collect();
-        let set = *index.entry(key).or_insert_with(|| {
-            sets.push(p.clone());
-            (sets.len() - 1) as u32
-        });
-        lanes.push(LaneSpec {
-            omega,
-            x0,
-            param_set: set,
-        });
     }
-    Ok((sets, lanes))
+    Ok(x0)
 }
 
 /// Parameter sets as a table [sets, 14] in [`Params::FIELDS`] order (`params.npy`).

@@ -43,7 +43,7 @@ type V<R> = [R; BATCH];
 /// instruction set the batch stepper is built for (`cpu::run_batch`'s per-instruction-
 /// set copies). perf found 14 % of the f64 bench's samples in such SSE2 copies
 /// (`Map::fold`, `Iterator::try_fold`); written as loops, the same work ran 1-3 %
-/// faster (2026-11-27).
+/// faster.
 #[inline(always)]
 fn lanes<R: Copy>(mut f: impl FnMut(usize) -> R) -> [R; BATCH] {
     let mut out = [f(0); BATCH];
@@ -84,7 +84,7 @@ impl<'t, R: Real> BatchConsts<'t, R> {
     ///
     /// Inlined and written as loops (see [`lanes`]): the group stepper builds one per
     /// packed pass, and out of line, without the batch code's instruction set, this
-    /// held 2 % of the 1k-lane bench row's samples (perf, 2026-11-27).
+    /// held 2 % of the 1k-lane bench row's samples (perf).
     #[inline(always)]
     pub fn new(lc: &[LaneConsts<R>; BATCH], forcing: Option<&'t ForcingTable<R>>) -> Self {
         BatchConsts {
@@ -129,8 +129,8 @@ fn serving<'t, R: Real>(
     if serves { forcing } else { None }
 }
 
-/// The unbalance phasor at every fraction a batch pass asks for, tabulated (issue 28,
-/// item 3): `lane::forcing_phasor` at sigma = j/(2R), j = 0..=2R, for every macro step
+/// The unbalance phasor at every fraction a batch pass asks for, tabulated:
+/// `lane::forcing_phasor` at sigma = j/(2R), j = 0..=2R, for every macro step
 /// k < N. A pass starts its sub-steps at multiples of 1/R (a lane that meets a switch
 /// leaves the batch), so its stages sit at such fractions, and a lookup replaces three
 /// ~40-flop polynomials per sub-step. The phasor's argument, (k + sigma)/N - phi0/(2 pi)
@@ -287,7 +287,7 @@ impl<R: Real> ForcingTable<R> {
         // loop vectorises. A pass whose lanes begin in both modes asks for two
         // fractions (a contact lane's sub-step is 1/R, a free lane's the whole macro
         // step); with a branch per lane (`index`'s `?`) these look-ups held 5-10 % of
-        // the basin's samples (perf, 2026-11-28).
+        // the basin's samples (perf).
         let mut held = true;
         let mut at = [0usize; BATCH];
         for l in 0..BATCH {
@@ -460,7 +460,7 @@ fn rk4_step<R: Real>(
     // unrolls the inner loop and vectorises the outer one, so with the lanes inside it
     // vectorised across the components (STATE_DIM = BATCH), reading and writing the
     // lane-major arrays through gathers and scatters: 23 % of the f64 bench's samples
-    // (perf, 2026-11-27).
+    // (perf).
     let sixth = R::lit(1.0 / 6.0);
     let mut out = [[R::lit(0.0); BATCH]; STATE_DIM];
     for l in 0..BATCH {
@@ -584,7 +584,7 @@ fn samples<R: Real>(
     theta: R,
 ) -> (V<R>, V<R>) {
     // Per lane on `lane_of` its state: written on whole rows (`Wide`, the definition
-    // made generic) the f64 bench ran 3-6 % slower (2026-11-27).
+    // made generic) the f64 bench ran 3-6 % slower.
     let mut sq = [R::lit(0.0); BATCH];
     let mut dot = [R::lit(0.0); BATCH];
     for l in 0..BATCH {
@@ -665,7 +665,6 @@ fn batch_pass<R: Real, const M: usize, const AVX512: bool>(
     trial: &mut [[R; STATE_DIM]; BATCH],
 ) {
     let zero = R::lit(0.0);
-    let one = R::lit(1.0);
     let mut x: [V<R>; STATE_DIM] = [[zero; BATCH]; STATE_DIM];
     // SAFETY: only in the copy compiled for AVX-512 (`AVX512`, `per_instruction_set!`).
     if !(AVX512 && unsafe { transpose::rows_in(part, &mut x) }) {
@@ -692,18 +691,114 @@ fn batch_pass<R: Real, const M: usize, const AVX512: bool>(
             set_lane(&mut x1, l, free_flight_step(ex, lc[l], &lane_of(&x, l), k));
         }
     }
+    let (search, switch, max_g) = trial_switches(bc, part, active, &x, &x1, &ds, &contact);
+    // No switch: accept the trial sub-step as `finish_macro_step` does.
+    let accept: [bool; BATCH] = lanes(|l| active[l] && !switch[l]);
+    if M > 0 {
+        // RK4's tangent step on the stages, or the exact map's own (`lane::trial_tangent`).
+        let by_rk4: [bool; BATCH] = lanes(|l| accept[l] && exact[l].is_none());
+        if by_rk4.iter().any(|&a| a) {
+            let hs: V<R> = lanes(|l| ds[l] * bc.h[l]);
+            tangent_step(bc, lc, &stages, &hs, &contact, &by_rk4, tan);
+        }
+        for l in 0..BATCH {
+            if let (true, Some(ex)) = (accept[l], exact[l]) {
+                free_flight_tangent(ex, lc[l], &mut tan[l]);
+            }
+        }
+    }
+    let done = Trial {
+        x1: &x1,
+        extent: &extent,
+        switch: &switch,
+        accept: &accept,
+        search,
+        max_g: &max_g,
+    };
+    commit_trials::<R, AVX512>(&done, part, active, trial);
+}
+
+/// A pass's trial sub-steps and what the switch search made of them.
+struct Trial<'a, R> {
+    /// Each lane's state after its trial sub-step.
+    x1: &'a [V<R>; STATE_DIM],
+    /// Each lane's trial extent and the fraction of the macro step it ends at.
+    extent: &'a [(R, R); BATCH],
+    /// The lanes whose sub-step may hold a switch (handed to the scalar stepper).
+    switch: &'a [bool; BATCH],
+    /// The active lanes without a switch.
+    accept: &'a [bool; BATCH],
+    /// Whether the samples were computed at all (else every live lane is certified).
+    search: bool,
+    /// Each lane's largest g over the samples, where they were computed.
+    max_g: &'a V<R>,
+}
+
+/// Ends a pass: an active lane with a switch leaves `active` with its trial sub-step in
+/// `trial`; an accepted one takes its new state and fraction of the macro step, and
+/// stays active while the macro step goes on.
+#[inline(always)]
+fn commit_trials<R: Real, const AVX512: bool>(
+    t: &Trial<'_, R>,
+    part: &mut [MacroStep<R>; BATCH],
+    active: &mut [bool; BATCH],
+    trial: &mut [[R; STATE_DIM]; BATCH],
+) {
+    let one = R::lit(1.0);
+    // The accepted lanes' new states, by shuffles in the AVX-512 copy (f64), else
+    // lane by lane below.
+    // SAFETY: only in the copy compiled for AVX-512 (`AVX512`, `per_instruction_set!`).
+    let shuffled = AVX512 && unsafe { transpose::rows_out(t.x1, part, t.accept) };
+    for l in 0..BATCH {
+        if !active[l] {
+            continue;
+        }
+        if t.switch[l] {
+            active[l] = false;
+            trial[l] = lane_of(t.x1, l);
+            continue;
+        }
+        let p = &mut part[l];
+        p.substeps += 1;
+        // Without a search every live lane is certified: its samples could not raise
+        // its largest penetration, so max_g is left as it is.
+        if t.search {
+            p.max_g = p.max_g.max(t.max_g[l]);
+        }
+        if !shuffled {
+            p.x = lane_of(t.x1, l);
+        }
+        p.s = t.extent[l].1;
+        active[l] = p.s < one;
+    }
+}
+
+/// The switch search of a pass's trial sub-steps from `x` to `x1`: whether any active
+/// lane needed one (`search`), which lanes may hold a switch, and each lane's largest
+/// g over the samples.
+#[inline(always)]
+fn trial_switches<R: Real>(
+    bc: &BatchConsts<R>,
+    part: &[MacroStep<R>; BATCH],
+    active: &[bool; BATCH],
+    x: &[V<R>; STATE_DIM],
+    x1: &[V<R>; STATE_DIM],
+    ds: &V<R>,
+    contact: &[bool; BATCH],
+) -> (bool, [bool; BATCH], V<R>) {
+    let zero = R::lit(0.0);
     // When no live lane's search could change a bit (`switch::search_needless`, the
     // test of `lane::finish_macro_step`: clear of the stator in free flight, held in
     // contact below the lane's largest penetration), the samples are not computed at
     // all. The test runs for all 8 lanes at once, in a loop without branches that the
     // compiler vectorises (stopping at the first lane that failed, a serial loop, held
-    // 8 % of the 1k-lane bench row's samples, perf 2026-11-27).
+    // 8 % of the 1k-lane bench row's samples in perf).
     let mut needless = [false; BATCH];
     for l in 0..BATCH {
         needless[l] = search_needless(
             bc.c.delta[l],
-            &lane_of(&x, l),
-            &lane_of(&x1, l),
+            &lane_of(x, l),
+            &lane_of(x1, l),
             ds[l] * bc.h[l],
             contact[l],
             part[l].max_pen,
@@ -728,12 +823,12 @@ fn batch_pass<R: Real, const M: usize, const AVX512: bool>(
     let mut max_g = [zero; BATCH];
     let mut switch = [false; BATCH];
     if search {
-        let (sq0, mut dot_lo) = samples(bc, &x, &x1, &ds, zero);
+        let (sq0, mut dot_lo) = samples(bc, x, x1, ds, zero);
         let mut sq_hi = [R::lit(f64::NEG_INFINITY); BATCH];
         let mut sq_lo = [R::lit(f64::INFINITY); BATCH];
         for j in 1..=GRAZE_SAMPLES {
             let th = R::lit(j as f64 / GRAZE_SAMPLES as f64);
-            let (sq_th, dot_th) = samples(bc, &x, &x1, &ds, th);
+            let (sq_th, dot_th) = samples(bc, x, x1, ds, th);
             // Both headings formed and the mode's selected, without `&&` or a branch
             // per lane: written with them, this loop compiled to a compare and jump per
             // lane with |d|^2's extremes kept lane by lane in scalar registers.
@@ -758,47 +853,7 @@ fn batch_pass<R: Real, const M: usize, const AVX512: bool>(
             max_g[l] = sq0[l].max(sq_hi[l]).sqrt() - delta;
         }
     }
-    // No switch: accept the trial sub-step as `finish_macro_step` does.
-    let accept: [bool; BATCH] = lanes(|l| active[l] && !switch[l]);
-    if M > 0 {
-        // RK4's tangent step on the stages, or the exact map's own (`lane::trial_tangent`).
-        let by_rk4: [bool; BATCH] = lanes(|l| accept[l] && exact[l].is_none());
-        if by_rk4.iter().any(|&a| a) {
-            let hs: V<R> = lanes(|l| ds[l] * bc.h[l]);
-            tangent_step(bc, lc, &stages, &hs, &contact, &by_rk4, tan);
-        }
-        for l in 0..BATCH {
-            if let (true, Some(ex)) = (accept[l], exact[l]) {
-                free_flight_tangent(ex, lc[l], &mut tan[l]);
-            }
-        }
-    }
-    // The accepted lanes' new states, by shuffles in the AVX-512 copy (f64), else
-    // lane by lane below.
-    // SAFETY: only in the copy compiled for AVX-512 (`AVX512`, `per_instruction_set!`).
-    let shuffled = AVX512 && unsafe { transpose::rows_out(&x1, part, &accept) };
-    for l in 0..BATCH {
-        if !active[l] {
-            continue;
-        }
-        if switch[l] {
-            active[l] = false;
-            trial[l] = lane_of(&x1, l);
-            continue;
-        }
-        let p = &mut part[l];
-        p.substeps += 1;
-        // Without a search every live lane is certified: its samples could not raise
-        // its largest penetration, so max_g is left as it is.
-        if search {
-            p.max_g = p.max_g.max(max_g[l]);
-        }
-        if !shuffled {
-            p.x = lane_of(&x1, l);
-        }
-        p.s = extent[l].1;
-        active[l] = p.s < one;
-    }
+    (search, switch, max_g)
 }
 
 /// The end of a batch's macro step: lanes done go through the checks and counters, lanes
@@ -857,7 +912,7 @@ impl<R> Default for GroupScratch<R> {
 }
 
 /// [`batch_macro_step_tangent`] for a group of batches at once, with full batches for
-/// the sub-steps after the first (issue 28, item 4): every batch takes its first pass,
+/// the sub-steps after the first: every batch takes its first pass,
 /// then the lanes still in their macro step (in contact: R sub-steps; the rest are done)
 /// are packed into batches of [`BATCH`] for each further pass, so a pass never computes
 /// 8 lanes for one. Each lane's arithmetic is that of the single-batch stepper (lanes
@@ -933,45 +988,7 @@ pub fn group_macro_step_tangent<R: Real, const M: usize, const AVX512: bool>(
                     .take(BATCH)
                     .take_while(|q| q.0 == k)
                     .count();
-            let pack = &queue[at..end];
-            // Slots past the pack repeat its last lane, inactive (computed, not kept).
-            let slot = |i: usize| pack[i.min(pack.len() - 1)];
-            // The slots' constants by reference, and their batch constants picked
-            // from their batches' rows: copying each slot's `LaneConsts` (392 bytes in
-            // f64) and transposing them held 6 % of the f64 bench's samples (perf).
-            let lc: [&LaneConsts<R>; BATCH] = lanes(|i| {
-                let (_, b, l) = slot(i);
-                &lcs[b][l]
-            });
-            let mut part: [MacroStep<R>; BATCH] = lanes(|i| {
-                let (_, b, l) = slot(i);
-                parts[b][l]
-            });
-            let mut tn: [Tangent<R, M>; BATCH] = lanes(|i| {
-                let (_, b, l) = slot(i);
-                tan[b][l]
-            });
-            let mut active: [bool; BATCH] = lanes(|i| i < pack.len());
-            let mut tr = [[R::lit(0.0); STATE_DIM]; BATCH];
-            batch_pass::<R, M, AVX512>(
-                &BatchConsts::pick(bcs, &lanes(|i| (slot(i).1, slot(i).2)), &lc),
-                &lc,
-                k,
-                &mut part,
-                &mut active,
-                &mut tn,
-                &mut tr,
-            );
-            for (i, &(_, b, l)) in pack.iter().enumerate() {
-                parts[b][l] = part[i];
-                tan[b][l] = tn[i];
-                if active[i] {
-                    next.push((k, b, l));
-                } else if part[i].s < R::lit(1.0) {
-                    // Handed over to the scalar stepper.
-                    trials[b][l] = tr[i];
-                }
-            }
+            pack_pass::<R, M, AVX512>(bcs, lcs, tan, parts, trials, &queue[at..end], k, next);
             at = end;
         }
         std::mem::swap(queue, next);
@@ -979,6 +996,61 @@ pub fn group_macro_step_tangent<R: Real, const M: usize, const AVX512: bool>(
     for b in 0..g {
         if let Some(k) = ks[b] {
             batch_finish(&lcs[b], &mut lane[b], &mut tan[b], k, &parts[b], &trials[b]);
+        }
+    }
+}
+
+/// One pass of a pack of up to [`BATCH`] queued lanes `pack` (batch and lane of each, all
+/// at index `k`) of [`group_macro_step_tangent`]: the lanes gathered into one batch,
+/// passed, and scattered back; those still in their macro step go to `next`.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn pack_pass<R: Real, const M: usize, const AVX512: bool>(
+    bcs: &[BatchConsts<R>],
+    lcs: &[[LaneConsts<R>; BATCH]],
+    tan: &mut [[Tangent<R, M>; BATCH]],
+    parts: &mut [[MacroStep<R>; BATCH]],
+    trials: &mut [[[R; STATE_DIM]; BATCH]],
+    pack: &[(u32, usize, usize)],
+    k: u32,
+    next: &mut Vec<(u32, usize, usize)>,
+) {
+    // Slots past the pack repeat its last lane, inactive (computed, not kept).
+    let slot = |i: usize| pack[i.min(pack.len() - 1)];
+    // The slots' constants by reference, and their batch constants picked
+    // from their batches' rows: copying each slot's `LaneConsts` (392 bytes in
+    // f64) and transposing them held 6 % of the f64 bench's samples (perf).
+    let lc: [&LaneConsts<R>; BATCH] = lanes(|i| {
+        let (_, b, l) = slot(i);
+        &lcs[b][l]
+    });
+    let mut part: [MacroStep<R>; BATCH] = lanes(|i| {
+        let (_, b, l) = slot(i);
+        parts[b][l]
+    });
+    let mut tn: [Tangent<R, M>; BATCH] = lanes(|i| {
+        let (_, b, l) = slot(i);
+        tan[b][l]
+    });
+    let mut active: [bool; BATCH] = lanes(|i| i < pack.len());
+    let mut tr = [[R::lit(0.0); STATE_DIM]; BATCH];
+    batch_pass::<R, M, AVX512>(
+        &BatchConsts::pick(bcs, &lanes(|i| (slot(i).1, slot(i).2)), &lc),
+        &lc,
+        k,
+        &mut part,
+        &mut active,
+        &mut tn,
+        &mut tr,
+    );
+    for (i, &(_, b, l)) in pack.iter().enumerate() {
+        parts[b][l] = part[i];
+        tan[b][l] = tn[i];
+        if active[i] {
+            next.push((k, b, l));
+        } else if part[i].s < R::lit(1.0) {
+            // Handed over to the scalar stepper.
+            trials[b][l] = tr[i];
         }
     }
 }

@@ -126,8 +126,7 @@ pub fn hull_reach_sq<R: Real>(p: &[[R; 2]; 4]) -> R {
 
 /// True when the free-flight trial sub-step x0 -> x1 (duration hs) certainly stays
 /// clear of the stator, so that [`find_switch`] in free flight would find no switch
-/// and every g it computes is negative (issue 28: no switch search where no switch can
-/// happen).
+/// and every g it computes is negative: no switch search where no switch can happen.
 ///
 /// The search evaluates g only on the cubic Hermite interpolant d(theta) of the relative
 /// displacement (see [`hermite_gap`]), at fractions theta in [0, 1]; d(theta) is a convex
@@ -256,7 +255,7 @@ pub fn find_switch<R: Real>(
     // as two branch-free loops over the samples so that the compiler vectorises them
     // (the square roots and divisions of 4 or 8 samples in one instruction each),
     // where evaluating each sample as the walk reaches it waited on its square root
-    // and division in turn (the scalar stepper's profile, 2026-11-27). A sample past
+    // and division in turn (the scalar stepper's profile). A sample past
     // the walk's end is not used, so nothing else changes; the WGSL find_switch
     // evaluates them first too.
     const S: usize = GRAZE_SAMPLES as usize + 1;
@@ -303,40 +302,8 @@ pub fn find_switch<R: Real>(
                 // its mode's flow leaves to the other side; flip now.
                 return Switch { theta: lo, max_g };
             }
-            // Illinois (modified regula falsi) on [lo, hi]; `a` stays on the mode's side,
-            // `b` on the other. Returns `b`, so the next segment starts on its own side.
-            let (mut a, mut ga, mut b, mut gb) = (lo, g_lo, hi, g_hi);
-            let mut last_kept_a = false;
-            let mut last_kept_b = false;
-            for _ in 0..ROOT_MAX_ITERS {
-                if b - a <= lc.root_tol {
-                    break;
-                }
-                let mut m = b - gb * (b - a) / (gb - ga);
-                if !(m > a && m < b) {
-                    m = R::lit(0.5) * (a + b);
-                }
-                let (gm, _) = hermite_gap(delta, x0, x1, hs, m);
-                if wrong_side(gm, contact) {
-                    b = m;
-                    gb = gm;
-                    if last_kept_a {
-                        ga = R::lit(0.5) * ga;
-                    }
-                    last_kept_a = true;
-                    last_kept_b = false;
-                } else {
-                    a = m;
-                    ga = gm;
-                    max_g = max_g.max(gm);
-                    if last_kept_b {
-                        gb = R::lit(0.5) * gb;
-                    }
-                    last_kept_b = true;
-                    last_kept_a = false;
-                }
-            }
-            return Switch { theta: b, max_g };
+            let theta = illinois(lc, x0, x1, hs, contact, (lo, g_lo), (hi, g_hi), &mut max_g);
+            return Switch { theta, max_g };
         }
         max_g = max_g.max(g_th);
         lo = th;
@@ -347,4 +314,54 @@ pub fn find_switch<R: Real>(
         theta: R::lit(2.0),
         max_g,
     }
+}
+
+/// The switch of [`find_switch`] located in the bracket from `(a, g(a))` on the mode's
+/// side to `(b, g(b))` on the other, by Illinois (modified regula falsi): `a` stays on
+/// the mode's side, `b` on the other. Returns `b`, so the next segment starts on its own
+/// side; `max_g` takes the g of every iterate on the mode's side.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn illinois<R: Real>(
+    lc: &LaneConsts<R>,
+    x0: &[R; STATE_DIM],
+    x1: &[R; STATE_DIM],
+    hs: R,
+    contact: bool,
+    (mut a, mut ga): (R, R),
+    (mut b, mut gb): (R, R),
+    max_g: &mut R,
+) -> R {
+    let delta = lc.c.delta;
+    let mut last_kept_a = false;
+    let mut last_kept_b = false;
+    for _ in 0..ROOT_MAX_ITERS {
+        if b - a <= lc.root_tol {
+            break;
+        }
+        let mut m = b - gb * (b - a) / (gb - ga);
+        if !(m > a && m < b) {
+            m = R::lit(0.5) * (a + b);
+        }
+        let (gm, _) = hermite_gap(delta, x0, x1, hs, m);
+        if wrong_side(gm, contact) {
+            b = m;
+            gb = gm;
+            if last_kept_a {
+                ga = R::lit(0.5) * ga;
+            }
+            last_kept_a = true;
+            last_kept_b = false;
+        } else {
+            a = m;
+            ga = gm;
+            *max_g = max_g.max(gm);
+            if last_kept_b {
+                gb = R::lit(0.5) * gb;
+            }
+            last_kept_b = true;
+            last_kept_a = false;
+        }
+    }
+    b
 }
