@@ -320,7 +320,7 @@ fn a_period_doubling_is_found_where_the_brute_force_sees_period_1_turn_into_peri
 
 #[test]
 fn the_orbits_command_writes_the_branch_and_names_the_period_doubling_under_omega() {
-    let (_tmp, out, b) = branches_of("orbits --param omega:131.7:132.4 --quiet");
+    let (_tmp, out, b) = branches_of("orbits --vary omega:131.7:132.4 --quiet");
     assert_eq!(b["param"], "omega");
     let branch = &b["branches"][0];
     assert_eq!(branch["period"], 1);
@@ -385,7 +385,7 @@ fn the_doubled_branch_born_at_the_period_doubling_holds_the_period_2_attractor_o
 
 #[test]
 fn the_orbits_command_follows_the_doubled_branch_when_asked() {
-    let (_tmp, out, b) = branches_of("orbits --param omega:131.7:132.4 --follow-doublings --quiet");
+    let (_tmp, out, b) = branches_of("orbits --vary omega:131.7:132.4 --follow-doublings --quiet");
     let branches = b["branches"].as_array().unwrap();
     assert_eq!(branches.len(), 2);
     assert_eq!(
@@ -424,7 +424,7 @@ fn the_orbits_command_draws_its_branches_over_a_brute_force_and_refuses_a_wrong_
         &bif,
     ));
     let line = format!(
-        "orbits --param omega:131.7:132.4 --follow-doublings --coord vx_s --quiet --over {}",
+        "orbits --vary omega:131.7:132.4 --follow-doublings --coord vx_s --quiet --over {}",
         bif.display()
     );
     common::ok(&common::jeffcott_out(&line, &out));
@@ -442,20 +442,20 @@ fn the_orbits_command_draws_its_branches_over_a_brute_force_and_refuses_a_wrong_
     // A brute force is drawn under a branch over omega only, and must be one.
     let wrong = [
         format!(
-            "orbits --param e:0.0008:0.0012 --omega 132.2 --over {}",
+            "orbits --vary e:0.0008:0.0012 --omega 132.2 --over {}",
             bif.display()
         ),
         format!(
-            "orbits --param omega:131.7:132.4 --over {}",
+            "orbits --vary omega:131.7:132.4 --over {}",
             tmp.path().join("none").display()
         ),
-        "orbits --param omega:131.7:132.4 --coord spin".to_string(),
+        "orbits --vary omega:131.7:132.4 --coord spin".to_string(),
         // Another model's diagram, and a diagram of other speeds.
         format!(
-            "orbits --param omega:131.7:132.4 --set mu=0.1 --over {}",
+            "orbits --vary omega:131.7:132.4 --param mu=0.1 --over {}",
             bif.display()
         ),
-        format!("orbits --param omega:135:136 --over {}", bif.display()),
+        format!("orbits --vary omega:135:136 --over {}", bif.display()),
     ];
     let needles = [
         "over",
@@ -667,7 +667,7 @@ fn the_orbits_command_on_a_gpu_writes_the_cpus_branch_files_to_the_byte() {
         let out = tmp.path().join(backend);
         common::ok(&common::jeffcott_out(
             &format!(
-                "orbits --param omega:132.0:132.2 --max-points 14 --follow-doublings \
+                "orbits --vary omega:132.0:132.2 --max-points 14 --follow-doublings \
                  --backend {backend} --no-plot --quiet"
             ),
             &out,
@@ -783,14 +783,14 @@ fn the_orbits_command_starts_from_the_periodic_attractors_of_a_basin_a_bifurcati
     );
     // ... over its own parameter only.
     let line = format!(
-        "orbits --param e:0.0009:0.0011 --from {} --no-plot --quiet",
+        "orbits --vary e:0.0009:0.0011 --from {} --no-plot --quiet",
         cont.display()
     );
     let refused = common::jeffcott_out(&line, tmp.path().join("refused-var"));
     common::assert_refused_naming(&refused, &line, &["continuation over omega"]);
     // Another model's attractors are refused, naming the parameter.
     let line = format!(
-        "orbits --param omega:131.9:132.4 --from {} --set mu=0.1 --no-plot --quiet",
+        "orbits --vary omega:131.9:132.4 --from {} --param mu=0.1 --no-plot --quiet",
         basin.display()
     );
     let refused = common::jeffcott_out(&line, tmp.path().join("refused"));
@@ -801,7 +801,7 @@ fn the_orbits_command_starts_from_the_periodic_attractors_of_a_basin_a_bifurcati
 fn a_closed_branch_stops_when_it_comes_back_to_its_first_orbit() {
     use jeffcott_analysis::orbits::Crossing;
     // The period-2 branch born at the period doubling of the period-1 branch near
-    // 137.30 rad/s (`orbits --param omega:130:141 --follow-doublings` reaches it there):
+    // 137.30 rad/s (`orbits --vary omega:130:141 --follow-doublings` reaches it there):
     // a loop that leaves it and comes back through the doubling at 136.42. The guess is
     // that run's first doubled-branch point; Newton re-shoots it here.
     let p = Params::default();
@@ -895,14 +895,14 @@ fn branches_of(line: &str) -> (tempfile::TempDir, std::path::PathBuf, serde_json
 #[test]
 fn a_period_1_orbit_shot_as_period_2_is_reported_as_period_1() {
     let (_tmp, out, j) =
-        branches_of("orbits --param omega:131.0:131.5 --period 2 --max-points 5 --no-plot");
+        branches_of("orbits --vary omega:131.0:131.5 --period 2 --max-points 5 --no-plot");
     let b = &j["branches"][0];
     assert_eq!(
         (b["period"].as_u64(), b["minimal_period"].as_u64()),
         (Some(2), Some(1))
     );
     let o = common::jeffcott_out(
-        "orbits --param omega:131.0:131.5 --period 2 --max-points 5 --no-plot",
+        "orbits --vary omega:131.0:131.5 --period 2 --max-points 5 --no-plot",
         &out,
     );
     common::ok(&o);
@@ -913,7 +913,7 @@ fn a_period_1_orbit_shot_as_period_2_is_reported_as_period_1() {
     );
     // A genuine period-2 orbit stays period 2.
     let (_tmp2, _, j) =
-        branches_of("orbits --param omega:132.2:132.4 --period 2 --max-points 5 --no-plot");
+        branches_of("orbits --vary omega:132.2:132.4 --period 2 --max-points 5 --no-plot");
     assert_eq!(j["branches"][0]["minimal_period"].as_u64(), Some(2));
 }
 
@@ -930,10 +930,44 @@ fn orbits_from_a_run_that_is_still_running_is_refused() {
     let text = std::fs::read_to_string(&run).unwrap();
     std::fs::write(&run, text.replace("\"complete\"", "\"running\"")).unwrap();
     let o = common::jeffcott_out(
-        &format!("orbits --param omega:132:132.4 --from {}", basin.display()),
+        &format!("orbits --vary omega:132:132.4 --from {}", basin.display()),
         tmp.path().join("o"),
     );
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(err.contains("`from`") && err.contains("running"), "{err}");
+}
+
+#[test]
+fn the_former_spellings_param_range_and_set_still_run_the_same_branch_with_a_warning() {
+    // `--vary NAME:lo:hi` and `--param NAME=VALUE`, as every other command spells them,
+    // against the spellings of the release before (`--param NAME:lo:hi`, `--set`).
+    let new = "orbits --vary omega:131.0:131.2 --param mu=0.1 --max-points 3 --no-plot --quiet";
+    let old = "orbits --param omega:131.0:131.2 --set mu=0.1 --max-points 3 --no-plot --quiet";
+    let (_a, out_new, b_new) = branches_of(new);
+    let (tmp, out_old) = common::temp_out("old");
+    let o = common::jeffcott_out(old, &out_old);
+    common::ok(&o);
+    let warned = String::from_utf8_lossy(&o.stderr);
+    for needle in ["--vary omega:131.0:131.2", "--param mu=0.1", "deprecated"] {
+        assert!(warned.contains(needle), "{needle} not in: {warned}");
+    }
+    assert_eq!(b_new, common::json(&out_old.join("branches.json")));
+    assert_eq!(
+        std::fs::read(out_new.join("branch.npy")).unwrap(),
+        std::fs::read(out_old.join("branch.npy")).unwrap()
+    );
+    // Read the old way, the continued parameter overridden is refused as it is the new
+    // way.
+    let clash = common::jeffcott_out(
+        "orbits --param mu:0:0.1 --omega 132 --set mu=0.05 --no-plot --quiet",
+        out_old.join("clash"),
+    );
+    assert_eq!(clash.status.code(), Some(2));
+    let said = String::from_utf8_lossy(&clash.stderr);
+    assert!(
+        said.contains("varies mu") && said.contains("`param`"),
+        "{said}"
+    );
+    drop(tmp);
 }

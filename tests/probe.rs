@@ -48,7 +48,7 @@ fn options_a_run_never_reads_do_not_make_it_another_run() {
         &sim,
     ));
     let orbits = tmp.path().join("orbits");
-    let line = "orbits --param omega:131.0:131.2 --max-points 3 --no-plot --quiet";
+    let line = "orbits --vary omega:131.0:131.2 --max-points 3 --no-plot --quiet";
     ok(&jeffcott_out(&format!("{line} --backend cpu"), &orbits));
     ok(&jeffcott_out(
         &format!("{line} --backend auto --early-exit-after 50"),

@@ -7,7 +7,7 @@ use clap::{Args, ValueEnum};
 use jeffcott_analysis::orbits::{Branch, OrbitsRequest, run};
 use jeffcott_analysis::{defaults, output};
 use jeffcott_core::ensemble::{Backend, Precision};
-use jeffcott_core::error::Result;
+use jeffcott_core::error::{Error, Result};
 use jeffcott_core::integrate::lane::StepperConfig;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -26,9 +26,10 @@ pub enum Direction {
 #[derive(Args, Debug)]
 pub struct OrbitsArgs {
     /// The continued parameter and its range, NAME:lo:hi (NAME: omega or a model
-    /// parameter), e.g. `omega:131.7:132.4`.
+    /// parameter), e.g. `--vary omega:131.7:132.4`, as `continuation --vary` names its
+    /// parameter.
     #[arg(long, value_name = "NAME:lo:hi", allow_hyphen_values = true)]
-    pub param: String,
+    pub vary: Option<String>,
     /// Rotor speed W [rad/s] when the continued parameter is not omega.
     #[arg(long, value_name = "W")]
     pub omega: Option<f64>,
@@ -85,18 +86,15 @@ pub struct OrbitsArgs {
     /// few lanes per Newton step, too few to fill a GPU. Both give the same bits.
     #[arg(long, value_enum, default_value_t = Backend::Cpu)]
     pub backend: Backend,
-    /// TOML file of model parameters (as every command's `--config`).
-    #[arg(long, value_name = "FILE")]
-    pub config: Option<PathBuf>,
-    /// Override model parameters, e.g. `--set mu=0.1,k_c=2e8` (applied after --config;
-    /// repeatable): every other command's `--param NAME=VALUE`, which here names the
-    /// continued parameter.
-    #[arg(long, value_name = "NAME=VALUE,...")]
+    #[command(flatten)]
+    pub model: ModelArgs,
+    /// The former spelling of `--param NAME=VALUE` here; still read, with a warning.
+    #[arg(long, value_name = "NAME=VALUE,...", hide = true)]
     pub set: Vec<String>,
     #[command(flatten)]
     pub stepper: StepperArgs,
     /// Output directory.
-    #[arg(long, default_value = "jeffcott-out/orbits")]
+    #[arg(long, value_name = "DIR", default_value = "jeffcott-out/orbits")]
     pub out: PathBuf,
     #[command(flatten)]
     pub run: rundir::RunArgs,
@@ -148,17 +146,15 @@ const OUTPUTS: &[&str] = &[
 
 /// Runs `jeffcott orbits`.
 pub fn run_orbits(a: &OrbitsArgs) -> Result<()> {
-    let model = ModelArgs {
-        config: a.config.clone(),
-        param: a.set.clone(),
-    };
+    let (vary, model) = vocabulary(a)?;
     let params = model.params()?;
     let mut start = params.static_equilibrium();
     apply_init(&mut start, &a.init)?;
     let stepper = a.stepper.config();
     let study = OrbitsRequest {
         params: params.clone(),
-        param: &a.param,
+        param: &vary,
+        param_field: "vary",
         omega: a.omega,
         period: a.period,
         up: a.direction == Direction::Up,
@@ -175,7 +171,7 @@ pub fn run_orbits(a: &OrbitsArgs) -> Result<()> {
     let spec = &study.branch;
     let (lo, hi) = (spec.lo, spec.hi);
     let var = spec.var;
-    var.check_not_overridden("param", "set", &model.overridden()?)?;
+    var.check_not_overridden("vary", "param", &model.overridden()?)?;
     let coord = jeffcott_core::inputs::coord("coord", &a.coord)?;
     // The diagram to draw under the branches, read (and refused) before any work.
     let background = match &a.over {
@@ -236,6 +232,53 @@ pub fn run_orbits(a: &OrbitsArgs) -> Result<()> {
         println!("Files in {}.", a.out.display());
     }
     Ok(())
+}
+
+/// The continued parameter (`--vary`) and the model overrides (`--param`), read from
+/// the spellings of earlier releases too, each with a warning that names the new one:
+/// `--param NAME:lo:hi` (no `=`) for `--vary`, and `--set NAME=VALUE` for `--param`.
+fn vocabulary(a: &OrbitsArgs) -> Result<(String, ModelArgs)> {
+    let (old, param): (Vec<&String>, Vec<&String>) = a
+        .model
+        .param
+        .iter()
+        .partition(|p| !p.contains('=') && p.contains(':'));
+    let vary = match (&a.vary, old.as_slice()) {
+        (Some(v), []) => v.clone(),
+        (None, [v]) => {
+            deprecated(&format!("--param {v}"), &format!("--vary {v}"));
+            (*v).clone()
+        }
+        (Some(_), [v, ..]) | (None, [_, v, ..]) => {
+            return Err(Error::invalid(
+                "param",
+                v,
+                "NAME=VALUE (the continued parameter is --vary NAME:lo:hi, given once)",
+            ));
+        }
+        (None, []) => {
+            return Err(Error::invalid(
+                "vary",
+                "(missing)",
+                "NAME:lo:hi, the continued parameter and its range, e.g. --vary omega:131.7:132.4",
+            ));
+        }
+    };
+    for s in &a.set {
+        deprecated(&format!("--set {s}"), &format!("--param {s}"));
+    }
+    let model = ModelArgs {
+        config: a.model.config.clone(),
+        param: param.into_iter().chain(&a.set).cloned().collect(),
+    };
+    Ok((vary, model))
+}
+
+/// Tells the user on stderr that a spelling of an earlier release was read.
+fn deprecated(old: &str, new: &str) {
+    eprintln!(
+        "warning: `jeffcott orbits {old}` is read as `{new}`; the old spelling is deprecated and goes in the next release"
+    );
 }
 
 /// Writes `branches.json`, `branch.npy` and `multipliers.npy`.

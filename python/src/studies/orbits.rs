@@ -56,6 +56,7 @@ pub(crate) fn orbits<'py>(
     let study = OrbitsRequest {
         params,
         param: &param,
+        param_field: "param",
         omega,
         period,
         up: direction == "up",

@@ -183,7 +183,7 @@ pub(super) fn orbits_section(
             text.join("; ")
         ),
         &format!(
-            "jeffcott orbits --param omega:130:141 --max-points {} --follow-doublings --coord vx_s --over {}/bifurcation --out {}/orbits",
+            "jeffcott orbits --vary omega:130:141 --max-points {} --follow-doublings --coord vx_s --over {}/bifurcation --out {}/orbits",
             study.branch.max_points,
             dir.display(),
             dir.display()

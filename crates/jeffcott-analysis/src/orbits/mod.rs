@@ -212,16 +212,22 @@ impl BranchSpec {
 
     /// Checks the inputs; errors name the field and the allowed range.
     pub fn validate(&self) -> Result<()> {
+        self.validate_as("param")
+    }
+
+    /// [`Self::validate`], the continued parameter's range named `field` (the front
+    /// end's name for it: the CLI's `vary`, Python's `param`).
+    pub fn validate_as(&self, field: &str) -> Result<()> {
         if matches!(self.var, MapVar::Coord(_)) {
             return Err(Error::invalid(
-                "param",
+                field,
                 self.var.name(),
                 "continue W (omega) or a model parameter, not a start coordinate",
             ));
         }
         if !(self.lo.is_finite() && self.hi.is_finite() && self.lo < self.hi) {
             return Err(Error::invalid(
-                "param",
+                field,
                 format!("{}..{}", self.lo, self.hi),
                 "need finite lo < hi",
             ));
@@ -236,7 +242,7 @@ impl BranchSpec {
             };
             w_ok.and_then(|_| p.validate()).map_err(|e| {
                 Error::invalid(
-                    "param",
+                    field,
                     format!("{} = {v}", self.var.name()),
                     format!("an end of the range is invalid: {e}"),
                 )

@@ -66,8 +66,11 @@ pub const MAX_POINTS: usize = 1_000_000;
 pub struct OrbitsRequest<'a> {
     /// Model parameters.
     pub params: Params,
-    /// `NAME:lo:hi` (field `param`).
+    /// `NAME:lo:hi`.
     pub param: &'a str,
+    /// The front end's name for `param` in error messages (the CLI's `vary`, Python's
+    /// `param`).
+    pub param_field: &'static str,
     /// W when the parameter is not W (field `omega`).
     pub omega: Option<f64>,
     /// Period in forcing periods.
@@ -96,7 +99,7 @@ pub struct OrbitsRequest<'a> {
 impl OrbitsRequest<'_> {
     /// The study asked for, checked; errors name the field and the allowed range.
     pub fn study(&self) -> Result<OrbitsStudy> {
-        let (var, lo, hi) = parse_param("param", self.param)?;
+        let (var, lo, hi) = parse_param(self.param_field, self.param)?;
         let omega = match (var, self.omega) {
             (MapVar::Omega, Some(w)) => {
                 return Err(Error::invalid(
@@ -158,7 +161,7 @@ impl OrbitsRequest<'_> {
             &self.start,
             self.stepper.divergence_bound,
         )?;
-        branch.validate()?;
+        branch.validate_as(self.param_field)?;
         Ok(OrbitsStudy {
             branch,
             settle: self.settle,
