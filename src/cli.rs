@@ -107,12 +107,12 @@ pub enum Command {
     #[command(name = "basin-stability", allow_negative_numbers = true)]
     BasinStability(StabilityArgs),
     /// Regenerate the article's figures (Figs. 3-12, plus down-sweep and brute-force
-    /// diagrams) and a REPORT.md; --quick (default) takes under 10 minutes on 2 CPU cores.
+    /// diagrams) and a REPORT.md; --quick (default) takes about two minutes on 2 CPU cores.
     Reproduce(ReproduceArgs),
     /// List GPU adapters, their backends, f64 support and limits, and the CPU threads.
     Info(InfoArgs),
     /// Measure lane-steps and forcing periods per second of each backend and precision
-    /// at W = 133 (a contact-heavy regime) and print the README's table.
+    /// at W = 133 (a contact-heavy regime) and print them as a table (docs/performance.md).
     Bench(BenchArgs),
     /// Compute the Lyapunov spectrum (8 exponents, saltation at contact switches) at one
     /// speed or over a range of speeds.
@@ -510,7 +510,7 @@ pub struct StepperArgs {
     pub early_exit_after: u32,
     /// Early exit: Poincare points in a row on a known attractor that retire a lane
     /// (basin; docs/early-exit.md); 0 turns early exit off (every lane runs its whole
-    /// transient and record, as before early exit existed).
+    /// transient and record).
     #[arg(long, default_value_t = StepperConfig::DEFAULT.early_exit_streak, value_name = "M")]
     pub early_exit_streak: u32,
     /// Macro steps begun in free flight take the exact flow map of the free motion
@@ -520,7 +520,7 @@ pub struct StepperArgs {
     #[arg(long)]
     pub exact_free_flight: bool,
     /// lambda_1: periods the tangent vector aligns before each lane's record (it starts
-    /// afresh then; 0: over the whole transient, as before 2026-11-27; docs/performance.md).
+    /// afresh then; 0: over the whole transient; docs/performance.md).
     #[arg(long, default_value_t = StepperConfig::DEFAULT.lyapunov_align, value_name = "PERIODS")]
     pub lyapunov_align: u32,
 }

@@ -25,7 +25,7 @@ use std::time::Instant;
 /// Arguments of `jeffcott reproduce`.
 #[derive(Args, Debug)]
 pub struct ReproduceArgs {
-    /// Reduced resolution that finishes in under 10 minutes on a 2-core CPU (the default).
+    /// Reduced resolution, about two minutes on a 2-core CPU (the default).
     #[arg(long, conflicts_with = "full")]
     pub quick: bool,
     /// Publication resolution (2000 speeds, a 1000 x 1000 basin): meant for a GPU.

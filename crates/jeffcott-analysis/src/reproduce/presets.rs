@@ -76,18 +76,19 @@ pub struct Preset {
     pub basin_refine: u32,
 }
 
-/// Reduced resolution that finishes in under 10 minutes on a 2-core CPU (the default).
+/// Reduced resolution, sized to finish within two minutes on a 2-core CPU of any
+/// x86-64 family (the default).
 pub const QUICK: Preset = Preset {
     name: "quick",
-    speeds: 400,
+    speeds: 240,
     sweep_first: 1000,
     sweep_transient: 150,
     ics: 4,
     brute_transient: 400,
     periods: 48,
     max_seeds: 6,
-    zoom_speeds: 200,
-    basin_n: 80,
+    zoom_speeds: 120,
+    basin_n: 56,
     basin_transient: 250,
     basin_periods: 32,
     section_transient: 500,
@@ -98,12 +99,12 @@ pub const QUICK: Preset = Preset {
     spectrum_transient: 1000,
     spectrum_min_time: 20.0,
     spectrum_max_time: 100.0,
-    map_nx: 56,
-    map_ny: 20,
+    map_nx: 40,
+    map_ny: 16,
     map_ics: 1,
     map_transient: 300,
     map_periods: 32,
-    cont_values: 45,
+    cont_values: 30,
     cont_ics: 16,
     cont_transient: 400,
     cont_periods: 48,
@@ -112,7 +113,7 @@ pub const QUICK: Preset = Preset {
     cascade_speeds: 101,
     uncertainty_samples: 100,
     basin_refine: 1,
-    orbit_points: 400,
+    orbit_points: 240,
 };
 
 /// Publication resolution (2000 speeds, a 1000 x 1000 basin): meant for a GPU.
