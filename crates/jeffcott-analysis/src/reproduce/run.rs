@@ -211,11 +211,26 @@ pub struct ReproduceResult {
 /// `host` as they come. Every lane study keeps its units in `host.store()` under its own
 /// prefix, so a set interrupted and started again resumes where it stopped.
 pub fn reproduce<H: Host + Sync>(spec: &ReproduceSpec, host: &mut H) -> Result<ReproduceResult> {
-    use std::time::Instant;
     let engine = crate::backend::Engine::new(spec.backend, spec.precision)?;
-    let p = spec.preset;
-    let lambda_tol = spec.catalogue.lambda_tol;
+    diagram_orbits_and_zooms(spec, host)?;
+    let survey = survey_and_spectra(spec, &engine, host)?;
+    let mut static_class = Vec::new();
+    portraits_and_basin(spec, &engine, host, &survey, &mut static_class)?;
+    // Every article speed is classified by now: shoot the periodic ones' orbits, for
+    // the report's Floquet spectra.
+    let floquet = floquet(spec, &survey, &static_class);
+    design_chart_and_continuation(spec, &engine, host)?;
+    rub_regimes(spec, &engine, host)?;
+    Ok(ReproduceResult {
+        survey,
+        static_class,
+        floquet,
+    })
+}
 
+/// Sections 1 and 2: the bifurcation diagram, then the periodic orbits behind it and
+/// its enlargements.
+fn diagram_orbits_and_zooms<H: Host + Sync>(spec: &ReproduceSpec, host: &mut H) -> Result<()> {
     host.begin(1, "bifurcation diagram over 130..141 rad/s");
     let b = spec.bifurcation()?;
     let res = crate::bifurcation::run(&b, &host.prefixed("bifurcation"))?;
@@ -223,7 +238,7 @@ pub fn reproduce<H: Host + Sync>(spec: &ReproduceSpec, host: &mut H) -> Result<R
         spec: &b,
         res: &res,
     })?;
-    // The periodic orbits behind the diagram, stable and unstable (issue 26), and the
+    // The periodic orbits behind the diagram, stable and unstable, and the
     // enlargements: independent of each other (the orbits read the diagram only to be
     // drawn over it), each mostly on one core (a continuation is a chain of Newton
     // steps, an enlargement one quasistatic sweep), so they run side by side; their
@@ -273,40 +288,61 @@ pub fn reproduce<H: Host + Sync>(spec: &ReproduceSpec, host: &mut H) -> Result<R
         })?;
     }
 
+    Ok(())
+}
+
+/// Sections 3 and 4: the attractor survey and the Lyapunov spectra at the article's
+/// speeds.
+fn survey_and_spectra<H: Host + Sync>(
+    spec: &ReproduceSpec,
+    engine: &crate::backend::Engine,
+    host: &mut H,
+) -> Result<Survey> {
+    let p = spec.preset;
     host.begin(3, "attractor survey at the article's speeds");
     let per_lane = (p.survey_transient + p.survey_periods) as u64;
     let lanes = ARTICLE_SPEEDS.len() as u64 * p.survey_ics as u64;
     let (catalogues, seconds) = host.progress(
         crate::run::Stage::new("survey", lanes * per_lane, per_lane),
-        |ctl| Survey::run_survey(spec, &engine, ctl),
+        |ctl| Survey::run_survey(spec, engine, ctl),
     )?;
     host.begin(4, "Lyapunov spectra at the article's speeds");
     let (spectra, spectra_seconds) = Survey::run_spectra(spec)?;
-    let survey = Survey {
+    Ok(Survey {
         catalogues,
         seconds,
         spectra,
         spectra_seconds,
-    };
-    let mut static_class = Vec::new();
+    })
+}
 
+/// Sections 5 to 7: the phase portraits, the basin at 133 rad/s and the Poincare
+/// sections, each speed's class from the static equilibrium added to `static_class`.
+fn portraits_and_basin<H: Host + Sync>(
+    spec: &ReproduceSpec,
+    engine: &crate::backend::Engine,
+    host: &mut H,
+    survey: &Survey,
+    static_class: &mut Vec<(f64, Class)>,
+) -> Result<()> {
+    let lambda_tol = spec.catalogue.lambda_tol;
     host.begin(5, "phase portraits at 131.7 and 132.2 rad/s");
     for (figure, omega) in [(5, 131.7), (6, 132.2)] {
         let sim = spec.portrait(omega);
-        let at = AtSpeed::run(&sim, omega, &survey, lambda_tol, &mut static_class)?;
+        let at = AtSpeed::run(&sim, omega, survey, lambda_tol, static_class)?;
         host.section(Section::Portrait { figure, at: &at })?;
     }
 
     host.begin(6, "basin of attraction at 133 rad/s");
-    let t = Instant::now();
+    let t = std::time::Instant::now();
     let outcome =
-        crate::basin::study::run(&spec.basin_study(), &engine, &host.prefixed("basin_133"))?;
+        crate::basin::study::run(&spec.basin_study(), engine, &host.prefixed("basin_133"))?;
     let sim = spec.portrait(133.0);
-    let class = AtSpeed::run(&sim, 133.0, &survey, lambda_tol, &mut static_class)?.class;
+    let class = AtSpeed::run(&sim, 133.0, survey, lambda_tol, static_class)?.class;
     host.section(Section::Basin {
         outcome: &outcome,
         class,
-        survey: &survey,
+        survey,
         seconds: t.elapsed().as_secs_f64(),
     })?;
     drop(outcome);
@@ -317,16 +353,22 @@ pub fn reproduce<H: Host + Sync>(spec: &ReproduceSpec, host: &mut H) -> Result<R
     );
     for (index, omega) in [(3, 135.0), (4, 140.0)] {
         let sim = spec.section(omega);
-        let at = AtSpeed::run(&sim, omega, &survey, lambda_tol, &mut static_class)?;
+        let at = AtSpeed::run(&sim, omega, survey, lambda_tol, static_class)?;
         host.section(Section::PoincareSection { index, at: &at })?;
     }
-    // Every article speed is classified by now: shoot the periodic ones' orbits
-    // (issue 26, item 5), for the report's Floquet spectra.
-    let floquet = floquet(spec, &survey, &static_class);
+    Ok(())
+}
 
+/// Sections 8 and 9: the design chart (speed against unbalance) and the attractor
+/// continuation.
+fn design_chart_and_continuation<H: Host + Sync>(
+    spec: &ReproduceSpec,
+    engine: &crate::backend::Engine,
+    host: &mut H,
+) -> Result<()> {
     host.begin(8, "design chart: speed against unbalance");
     let m = spec.design_map();
-    let (res, seconds) = timed(|| crate::map::run(&m, &engine, &host.prefixed("map_w_e")))?;
+    let (res, seconds) = timed(|| crate::map::run(&m, engine, &host.prefixed("map_w_e")))?;
     host.section(Section::DesignChart {
         spec: &m,
         res: &res,
@@ -338,7 +380,7 @@ pub fn reproduce<H: Host + Sync>(spec: &ReproduceSpec, host: &mut H) -> Result<R
     host.begin(9, "attractor continuation over 130..141 rad/s");
     let c = spec.continuation();
     let (res, seconds) =
-        timed(|| crate::continuation::run(&c, &engine, &host.prefixed("continuation")))?;
+        timed(|| crate::continuation::run(&c, engine, &host.prefixed("continuation")))?;
     let ramps: Vec<RampFindings> = res.ramps.iter().map(RampFindings::of).collect();
     host.section(Section::Continuation {
         spec: &c,
@@ -348,13 +390,23 @@ pub fn reproduce<H: Host + Sync>(spec: &ReproduceSpec, host: &mut H) -> Result<R
     })?;
     drop(res);
 
+    Ok(())
+}
+
+/// Section 10: the rub regimes, as a (W, mu) map with the backward-whirl throws, a
+/// full-spectrum cascade and the full spectrum at 132.2 rad/s.
+fn rub_regimes<H: Host + Sync>(
+    spec: &ReproduceSpec,
+    engine: &crate::backend::Engine,
+    host: &mut H,
+) -> Result<()> {
     host.begin(
         10,
         "rub regimes: (W, mu) map, full-spectrum cascade, full spectrum at 132.2",
     );
-    let t = Instant::now();
+    let t = std::time::Instant::now();
     let r = spec.rub_map();
-    let res = crate::map::run(&r, &engine, &host.prefixed("map_w_mu"))?;
+    let res = crate::map::run(&r, engine, &host.prefixed("map_w_mu"))?;
     // Backward whirl from a backward throw, stiff and soft contact (docs/rub.md).
     let throws = [(0.3, 1e8), (0.25, 1e6)]
         .into_iter()
@@ -399,9 +451,5 @@ pub fn reproduce<H: Host + Sync>(spec: &ReproduceSpec, host: &mut H) -> Result<R
         rub: s.rub.as_ref(),
         seconds,
     })?;
-    Ok(ReproduceResult {
-        survey,
-        static_class,
-        floquet,
-    })
+    Ok(())
 }

@@ -180,6 +180,32 @@ fn plain_name(name: &str) -> bool {
             .all(|c| !c.is_empty() && c != "." && c != "..")
 }
 
+/// What occupies a directory whose `run.json` (`o`) is not of this run (`command` with
+/// `spec`), in words for the refusal; `names` spells the specification's keys.
+fn other_run(
+    o: &serde_json::Value,
+    command: &str,
+    spec: &serde_json::Value,
+    names: &[(&str, &str)],
+) -> String {
+    match (o.get("command").and_then(|c| c.as_str()), o.get("spec")) {
+        (Some(c), Some(s)) if c == command && s == spec => format!(
+            "another shard of this `{c}` run ({})",
+            o.get("shard").map_or("unsharded".into(), |s| s.to_string())
+        ),
+        (Some(c), Some(s)) if c == command => format!(
+            "another `{c}` run (its specification differs in: {})",
+            differing_keys(s, spec)
+                .iter()
+                .map(|k| spelled(k, names))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+        (Some(c), Some(_)) => format!("a `{c}` run"),
+        _ => "files of an earlier run this version cannot resume".into(),
+    }
+}
+
 impl RunDir {
     /// Opens `dir` for the run `header` describes, whose final files are named
     /// `outputs`. Creates the
@@ -201,37 +227,8 @@ impl RunDir {
             names,
         } = header;
         let command = command.as_str();
-        output::ensure_dir(dir)?;
-        let lock_path = dir.join(LOCK);
-        let lock = std::fs::OpenOptions::new()
-            .create(true)
-            .truncate(false)
-            .write(true)
-            .open(&lock_path)
-            .map_err(io(&lock_path))?;
-        match lock.try_lock() {
-            Ok(()) => {}
-            Err(std::fs::TryLockError::WouldBlock) => {
-                return Err(Error::layer(RunDirError::Busy {
-                    path: dir.to_path_buf(),
-                }));
-            }
-            Err(std::fs::TryLockError::Error(e)) => return Err(io(&lock_path)(e)),
-        }
-        // Writability before any computing: a probe file through the same atomic path
-        // every output takes.
-        let probe = dir.join(".write-probe");
-        output::write_atomically(&probe, |_| Ok(()))?;
-        std::fs::remove_file(&probe).map_err(io(&probe))?;
-        output::remove_temporaries(dir)?;
-        output::remove_temporaries(&dir.join(UNITS))?;
-
-        let run_json = dir.join(RUN_JSON);
-        let old: Option<serde_json::Value> = match std::fs::read(&run_json) {
-            Ok(bytes) => Some(serde_json::from_slice(&bytes).unwrap_or(serde_json::Value::Null)),
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
-            Err(e) => return Err(io(&run_json)(e)),
-        };
+        let lock = Self::lock_and_clean(dir)?;
+        let old = Self::read_run_json(dir)?;
         let units_exist = dir.join(UNITS).exists();
         let outputs_exist: Vec<&str> = outputs
             .iter()
@@ -256,25 +253,9 @@ impl RunDir {
                 Found::Overwritten
             }
             Some(o) => {
-                let what = match (o.get("command").and_then(|c| c.as_str()), o.get("spec")) {
-                    (Some(c), Some(s)) if c == command && s == &spec => format!(
-                        "another shard of this `{c}` run ({})",
-                        o.get("shard").map_or("unsharded".into(), |s| s.to_string())
-                    ),
-                    (Some(c), Some(s)) if c == command => format!(
-                        "another `{c}` run (its specification differs in: {})",
-                        differing_keys(s, &spec)
-                            .iter()
-                            .map(|k| spelled(k, names))
-                            .collect::<Vec<_>>()
-                            .join(", ")
-                    ),
-                    (Some(c), Some(_)) => format!("a `{c}` run"),
-                    _ => "files of an earlier run this version cannot resume".into(),
-                };
                 return Err(Error::layer(RunDirError::Occupied {
                     path: dir.to_path_buf(),
-                    reason: what,
+                    reason: other_run(o, command, &spec, names),
                 }));
             }
             None => {
@@ -324,6 +305,48 @@ impl RunDir {
         run_dir.write_running()?;
         std::fs::create_dir_all(dir.join(UNITS)).map_err(io(&dir.join(UNITS)))?;
         Ok(run_dir)
+    }
+
+    /// Creates `dir`, takes its lock (held by the returned file), checks that files can
+    /// be written there and removes the temporaries a killed run left.
+    fn lock_and_clean(dir: &Path) -> Result<std::fs::File> {
+        output::ensure_dir(dir)?;
+        let lock_path = dir.join(LOCK);
+        let lock = std::fs::OpenOptions::new()
+            .create(true)
+            .truncate(false)
+            .write(true)
+            .open(&lock_path)
+            .map_err(io(&lock_path))?;
+        match lock.try_lock() {
+            Ok(()) => {}
+            Err(std::fs::TryLockError::WouldBlock) => {
+                return Err(Error::layer(RunDirError::Busy {
+                    path: dir.to_path_buf(),
+                }));
+            }
+            Err(std::fs::TryLockError::Error(e)) => return Err(io(&lock_path)(e)),
+        }
+        // Writability before any computing: a probe file through the same atomic path
+        // every output takes.
+        let probe = dir.join(".write-probe");
+        output::write_atomically(&probe, |_| Ok(()))?;
+        std::fs::remove_file(&probe).map_err(io(&probe))?;
+        output::remove_temporaries(dir)?;
+        output::remove_temporaries(&dir.join(UNITS))?;
+        Ok(lock)
+    }
+
+    /// The directory's `run.json`, if it has one (`Null` where it is not JSON).
+    fn read_run_json(dir: &Path) -> Result<Option<serde_json::Value>> {
+        let run_json = dir.join(RUN_JSON);
+        match std::fs::read(&run_json) {
+            Ok(bytes) => Ok(Some(
+                serde_json::from_slice(&bytes).unwrap_or(serde_json::Value::Null),
+            )),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+            Err(e) => Err(io(&run_json)(e)),
+        }
     }
 
     /// Removes the files of the run recorded in `old` (its `outputs`, and the `files` of

@@ -211,15 +211,26 @@ fn run_units(
     let record_bytes = probe.recorded as usize * STATE_DIM * 8;
     drop(probe);
     let lanes_of: Vec<usize> = (0..count).map(|i| units.unit_lanes(i)).collect();
-    let work = |i: usize| lanes_of[i] as u64 * per_lane;
-    let total: u64 = (0..count).map(work).sum();
-    let mut base: u64 = (0..count).filter(|&i| done[i]).map(work).sum();
-    (ctl.progress)(base, total);
+    let mut pass = Pass {
+        store,
+        engine,
+        units,
+        ctl,
+        lanes_of,
+        per_lane,
+        count,
+        committed: 0,
+        total: 0,
+        base: 0,
+        info: None,
+    };
+    pass.total = (0..count).map(|i| pass.work(i)).sum();
+    pass.base = (0..count).filter(|&i| done[i]).map(|i| pass.work(i)).sum();
+    (ctl.progress)(pass.base, pass.total);
     let pending: Vec<usize> = (0..count).filter(|&i| !done[i]).collect();
-    let mut committed = count - pending.len();
+    pass.committed = count - pending.len();
     let gpu = engine.runner().is_some();
     let mut batch_work_target: u64 = 0; // 0: one unit (before a speed was measured)
-    let mut info = None;
     let mut next = 0;
     // On the CPU every unit is computed whole, several at a time where one alone
     // leaves threads idle: a plain unit's lanes in one run of the engine (a small unit,
@@ -243,95 +254,143 @@ fn run_units(
     };
     while next < pending.len() {
         if ctl.cancel.is_set() {
-            return Err(Error::Interrupted {
-                committed,
-                total: count,
-            });
+            return Err(pass.interrupted());
         }
-        if let Some(compute) = whole {
-            // Units computed whole, committed in order: on a GPU one at a time; on the
-            // CPU up to 2 per thread, early-exit units always, plain units only as many
-            // as give every thread 8 batches of lanes (a large unit runs alone, so a
-            // kill loses no more than it did).
-            let threads = rayon::current_num_threads().max(1);
-            let width = if gpu {
-                1
-            } else if units.computed_by.is_some() {
-                2 * threads
-            } else {
-                let fill = 8 * jeffcott_core::integrate::batch::BATCH * threads;
-                fill.div_ceil(lanes_of[pending[next]].max(1))
-                    .clamp(1, 2 * threads)
-            };
-            let group: Vec<usize> = pending[next..].iter().copied().take(width).collect();
-            let done_in: Vec<std::sync::atomic::AtomicU64> =
-                group.iter().map(|_| Default::default()).collect();
-            let b = base;
-            let report = |k: usize, d: u64| {
-                done_in[k].store(d, std::sync::atomic::Ordering::Relaxed);
-                let sum: u64 = done_in
-                    .iter()
-                    .map(|a| a.load(std::sync::atomic::Ordering::Relaxed))
-                    .sum();
-                (ctl.progress)(b + sum, total);
-            };
-            use rayon::prelude::*;
-            let results: Vec<Result<(Unit, Option<RunInfo>)>> = group
-                .par_iter()
-                .enumerate()
-                .map(|(k, &i)| {
-                    let spec = (units.ensemble)(i);
-                    let r = |d: u64, _t: u64| report(k, d);
-                    compute(
-                        i,
-                        &spec,
-                        engine,
-                        Control {
-                            progress: &r,
-                            cancel: ctl.cancel,
-                        },
-                    )
-                })
-                .collect();
-            for (&i, r) in group.iter().zip(results) {
-                let (mut unit, i_info) = match r {
-                    Err(Error::Interrupted { .. }) => {
-                        return Err(Error::Interrupted {
-                            committed,
-                            total: count,
-                        });
-                    }
-                    r => r?,
-                };
-                info = i_info.or(info);
-                unit.key = super::dir::unit_key(units.stage, i);
-                store.commit(units.stage, i, &unit)?;
-                committed += 1;
-                base += work(i);
-            }
-            (ctl.progress)(base, total);
-            next += group.len();
-            continue;
+        next += match whole {
+            Some(compute) => pass.run_whole(compute, &pending[next..], gpu)?,
+            None => pass.run_batch(&pending[next..], record_bytes, &mut batch_work_target)?,
+        };
+    }
+    Ok(pass.info)
+}
+
+/// Where [`run_units`] stands in a stage's units.
+struct Pass<'p, 'u> {
+    store: &'p dyn UnitStore,
+    engine: &'p Engine,
+    units: &'p LaneUnits<'u>,
+    ctl: Control<'p>,
+    /// Each unit's lanes.
+    lanes_of: Vec<usize>,
+    /// Lane-periods of one lane.
+    per_lane: u64,
+    /// Units in all.
+    count: usize,
+    /// Units committed.
+    committed: usize,
+    /// Lane-periods in all.
+    total: u64,
+    /// Lane-periods of the committed units.
+    base: u64,
+    /// How the last batch was run.
+    info: Option<RunInfo>,
+}
+
+impl Pass<'_, '_> {
+    /// Lane-periods of unit `i`.
+    fn work(&self, i: usize) -> u64 {
+        self.lanes_of[i] as u64 * self.per_lane
+    }
+
+    /// The error of a run stopped now: what is committed stays.
+    fn interrupted(&self) -> Error {
+        Error::Interrupted {
+            committed: self.committed,
+            total: self.count,
         }
-        // Consecutive pending units up to the batch target (at least one).
-        let mut batch = vec![pending[next]];
-        let mut bw = work(pending[next]);
-        let mut lanes = lanes_of[pending[next]];
-        while gpu && next + batch.len() < pending.len() {
-            let j = pending[next + batch.len()];
-            let rec_bytes = (lanes + lanes_of[j]) * record_bytes;
-            if bw + work(j) > batch_work_target || rec_bytes > GPU_BATCH_RECORD_BYTES {
+    }
+
+    /// Computes the first units of `pending` whole with `compute`, side by side, and
+    /// commits them in order; returns how many it took. On a GPU one at a time; on the
+    /// CPU up to 2 per thread, early-exit units always, plain units only as many as
+    /// give every thread 8 batches of lanes (a large unit runs alone, so a kill loses
+    /// no more than it did).
+    fn run_whole(&mut self, compute: &ComputeUnit, pending: &[usize], gpu: bool) -> Result<usize> {
+        let (units, ctl, total) = (self.units, self.ctl, self.total);
+        let threads = rayon::current_num_threads().max(1);
+        let width = if gpu {
+            1
+        } else if units.computed_by.is_some() {
+            2 * threads
+        } else {
+            let fill = 8 * jeffcott_core::integrate::batch::BATCH * threads;
+            fill.div_ceil(self.lanes_of[pending[0]].max(1))
+                .clamp(1, 2 * threads)
+        };
+        let group: Vec<usize> = pending.iter().copied().take(width).collect();
+        let done_in: Vec<std::sync::atomic::AtomicU64> =
+            group.iter().map(|_| Default::default()).collect();
+        let b = self.base;
+        let report = |k: usize, d: u64| {
+            done_in[k].store(d, std::sync::atomic::Ordering::Relaxed);
+            let sum: u64 = done_in
+                .iter()
+                .map(|a| a.load(std::sync::atomic::Ordering::Relaxed))
+                .sum();
+            (ctl.progress)(b + sum, total);
+        };
+        use rayon::prelude::*;
+        let engine = self.engine;
+        let results: Vec<Result<(Unit, Option<RunInfo>)>> = group
+            .par_iter()
+            .enumerate()
+            .map(|(k, &i)| {
+                let spec = (units.ensemble)(i);
+                let r = |d: u64, _t: u64| report(k, d);
+                compute(
+                    i,
+                    &spec,
+                    engine,
+                    Control {
+                        progress: &r,
+                        cancel: ctl.cancel,
+                    },
+                )
+            })
+            .collect();
+        for (&i, r) in group.iter().zip(results) {
+            let (mut unit, i_info) = match r {
+                Err(Error::Interrupted { .. }) => return Err(self.interrupted()),
+                r => r?,
+            };
+            self.info = i_info.or(self.info.take());
+            unit.key = super::dir::unit_key(units.stage, i);
+            self.store.commit(units.stage, i, &unit)?;
+            self.committed += 1;
+            self.base += self.work(i);
+        }
+        (ctl.progress)(self.base, total);
+        Ok(group.len())
+    }
+
+    /// Runs the first units of `pending` as one batch on the GPU, consecutive units up
+    /// to the batch target (at least one), and commits them; returns how many it took.
+    /// The target follows the measured speed (`batch_work_target`).
+    fn run_batch(
+        &mut self,
+        pending: &[usize],
+        record_bytes: usize,
+        batch_work_target: &mut u64,
+    ) -> Result<usize> {
+        let (units, ctl, total) = (self.units, self.ctl, self.total);
+        let mut batch = vec![pending[0]];
+        let mut bw = self.work(pending[0]);
+        let mut lanes = self.lanes_of[pending[0]];
+        while batch.len() < pending.len() {
+            let j = pending[batch.len()];
+            let rec_bytes = (lanes + self.lanes_of[j]) * record_bytes;
+            if bw + self.work(j) > *batch_work_target || rec_bytes > GPU_BATCH_RECORD_BYTES {
                 break;
             }
-            bw += work(j);
-            lanes += lanes_of[j];
+            bw += self.work(j);
+            lanes += self.lanes_of[j];
             batch.push(j);
         }
         let specs: Vec<EnsembleSpec> = batch.iter().map(|&i| (units.ensemble)(i)).collect();
         let counts: Vec<usize> = specs.iter().map(|s| s.lanes.len()).collect();
         let spec = concat(&specs);
         let t = std::time::Instant::now();
-        let b = base;
+        let b = self.base;
         let report = |d: u64, _t: u64| (ctl.progress)(b + d, total);
         let res = if spec.lanes.is_empty() {
             // A unit may have no lanes (a speed group without seeds): nothing to run.
@@ -341,33 +400,27 @@ fn run_units(
                 progress: &report,
                 cancel: ctl.cancel,
             };
-            let (res, i) = match engine.run(&spec, units.lambda1, ctl_batch) {
+            let (res, i) = match self.engine.run(&spec, units.lambda1, ctl_batch) {
                 // A cancel inside the batch: what is committed stays, as between batches.
-                Err(Error::Interrupted { .. }) => {
-                    return Err(Error::Interrupted {
-                        committed,
-                        total: count,
-                    });
-                }
+                Err(Error::Interrupted { .. }) => return Err(self.interrupted()),
                 r => r?,
             };
-            info = Some(i);
+            self.info = Some(i);
             res
         };
         let secs = t.elapsed().as_secs_f64().max(1e-3);
         // About GPU_BATCH_SECONDS of work, and never more than 1/MIN_UNITS of the run,
         // so a SIGKILL loses at most that much (a batch is committed as a whole).
-        batch_work_target =
+        *batch_work_target =
             (((bw as f64 / secs) * GPU_BATCH_SECONDS) as u64).min(total / super::MIN_UNITS as u64);
         for ((k, s), r) in batch.iter().zip(&specs).zip(split(res, &counts)) {
             let mut unit = (units.reduce)(*k, s, r)?;
             unit.key = super::dir::unit_key(units.stage, *k);
-            store.commit(units.stage, *k, &unit)?;
-            committed += 1;
+            self.store.commit(units.stage, *k, &unit)?;
+            self.committed += 1;
         }
-        base += bw;
-        (ctl.progress)(base, total);
-        next += batch.len();
+        self.base += bw;
+        (ctl.progress)(self.base, total);
+        Ok(batch.len())
     }
-    Ok(info)
 }

@@ -384,7 +384,6 @@ fn sweep_units(
     let count = n.div_ceil(UNIT_SPEEDS);
     let committed = store.committed(stage, count)?;
     let nb = orders.len();
-    let kmax = (nb / 2) as i64;
     let mut out = Sweep {
         omegas: omegas.clone(),
         rotor: Vec::with_capacity(n * nb),
@@ -403,61 +402,7 @@ fn sweep_units(
                     total: count,
                 });
             }
-            let (mut rotor, mut stator, mut regime) = (Vec::new(), Vec::new(), Vec::new());
-            for (j, &w) in omegas[range.clone()].iter().enumerate() {
-                let first = u == 0 && j == 0;
-                let r = if state.iter().all(|v| v.is_finite()) {
-                    Some(simulate(&SimulateSpec {
-                        params: spec.params.clone(),
-                        omega: w,
-                        x0: state,
-                        transient: if first {
-                            spec.transient_first
-                        } else {
-                            spec.transient
-                        },
-                        periods: spec.periods,
-                        timeseries_periods: spec.periods,
-                        integrator: Integrator::Lane,
-                        stepper: spec.stepper,
-                        article: Default::default(),
-                        classify: Default::default(),
-                    })?)
-                } else {
-                    None
-                };
-                match r.filter(|r| !r.status.is_frozen()) {
-                    Some(r) => {
-                        let m = full_spectrum(&orbit(&r.timeseries, false), spec.periods, w);
-                        let s = full_spectrum(&orbit(&r.timeseries, true), spec.periods, w);
-                        // Bins of order k / P sit at index k + M/2 of the shifted spectrum.
-                        let half = (m.order.len() / 2) as i64;
-                        for k in -kmax..=kmax {
-                            let idx = (k + half) as usize;
-                            rotor.push(m.amplitude.get(idx).copied().unwrap_or(f64::NAN));
-                            stator.push(s.amplitude.get(idx).copied().unwrap_or(f64::NAN));
-                        }
-                        regime.push(
-                            rub_figures(&spec.params, w, &r.timeseries, spec.periods)
-                                .regime
-                                .code(),
-                        );
-                        state = r.final_state;
-                    }
-                    None => {
-                        rotor.extend(std::iter::repeat_n(f64::NAN, nb));
-                        stator.extend(std::iter::repeat_n(f64::NAN, nb));
-                        regime.push(crate::rub::RubRegime::Diverged.code());
-                        state = [f64::NAN; STATE_DIM];
-                    }
-                }
-                tick();
-            }
-            let unit = Unit::new("")
-                .with("rotor", Array::F64(rotor))
-                .with("stator", Array::F64(stator))
-                .with("regime", Array::I32(regime))
-                .with("state", Array::F64(state.to_vec()));
+            let unit = sweep_unit(spec, &omegas[range.clone()], u == 0, &mut state, nb, tick)?;
             store.commit(stage, u, &unit)?;
             unit
         };
@@ -473,4 +418,74 @@ fn sweep_units(
         state = s.try_into().unwrap_or([f64::NAN; STATE_DIM]);
     }
     Ok(out)
+}
+
+/// The unit of the sweep's speeds `omegas` from `state` (the unit's first speed the
+/// sweep's first when `first_unit`): each speed's full spectra of the rotor's and
+/// stator's orbits (`nb` orders), its rub regime, and `state` left at its final state
+/// for the next (not finite once a speed diverged).
+fn sweep_unit(
+    spec: &CascadeSpec,
+    omegas: &[f64],
+    first_unit: bool,
+    state: &mut State,
+    nb: usize,
+    tick: &(dyn Fn() + Sync),
+) -> Result<Unit> {
+    let kmax = (nb / 2) as i64;
+    let (mut rotor, mut stator, mut regime) = (Vec::new(), Vec::new(), Vec::new());
+    for (j, &w) in omegas.iter().enumerate() {
+        let first = first_unit && j == 0;
+        let r = if state.iter().all(|v| v.is_finite()) {
+            Some(simulate(&SimulateSpec {
+                params: spec.params.clone(),
+                omega: w,
+                x0: *state,
+                transient: if first {
+                    spec.transient_first
+                } else {
+                    spec.transient
+                },
+                periods: spec.periods,
+                timeseries_periods: spec.periods,
+                integrator: Integrator::Lane,
+                stepper: spec.stepper,
+                article: Default::default(),
+                classify: Default::default(),
+            })?)
+        } else {
+            None
+        };
+        match r.filter(|r| !r.status.is_frozen()) {
+            Some(r) => {
+                let m = full_spectrum(&orbit(&r.timeseries, false), spec.periods, w);
+                let s = full_spectrum(&orbit(&r.timeseries, true), spec.periods, w);
+                // Bins of order k / P sit at index k + M/2 of the shifted spectrum.
+                let half = (m.order.len() / 2) as i64;
+                for k in -kmax..=kmax {
+                    let idx = (k + half) as usize;
+                    rotor.push(m.amplitude.get(idx).copied().unwrap_or(f64::NAN));
+                    stator.push(s.amplitude.get(idx).copied().unwrap_or(f64::NAN));
+                }
+                regime.push(
+                    rub_figures(&spec.params, w, &r.timeseries, spec.periods)
+                        .regime
+                        .code(),
+                );
+                *state = r.final_state;
+            }
+            None => {
+                rotor.extend(std::iter::repeat_n(f64::NAN, nb));
+                stator.extend(std::iter::repeat_n(f64::NAN, nb));
+                regime.push(crate::rub::RubRegime::Diverged.code());
+                *state = [f64::NAN; STATE_DIM];
+            }
+        }
+        tick();
+    }
+    Ok(Unit::new("")
+        .with("rotor", Array::F64(rotor))
+        .with("stator", Array::F64(stator))
+        .with("regime", Array::I32(regime))
+        .with("state", Array::F64(state.to_vec())))
 }

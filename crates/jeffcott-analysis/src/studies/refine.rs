@@ -117,6 +117,54 @@ pub fn refined_basin(
     (fine, res)
 }
 
+/// The next level's labels and computed flags (both [fy, fx], fx = 2 nx - 1) filled
+/// from their parents at level `cur` ([ny, nx]): the even-even points are the previous
+/// level's, and only they keep their computed flag.
+fn from_parents(cur: &[i32], computed: &[u8], nx: usize, ny: usize) -> (Vec<i32>, Vec<u8>) {
+    let (fx, fy) = ((nx - 1) * 2 + 1, (ny - 1) * 2 + 1);
+    let mut next = vec![0i32; fx * fy];
+    let mut comp = vec![0u8; fx * fy];
+    for b in 0..fy {
+        for a in 0..fx {
+            next[b * fx + a] = cur[(b / 2) * nx + a / 2];
+            if a % 2 == 0 && b % 2 == 0 {
+                comp[b * fx + a] = computed[(b / 2) * nx + a / 2];
+            }
+        }
+    }
+    (next, comp)
+}
+
+/// The new points of the next level (indices into its [fy, fx] grid, row-major)
+/// around the boundary points of level `cur` ([ny, nx]), and how many boundary points
+/// that level has.
+fn new_points_near_boundary(cur: &[i32], nx: usize, ny: usize) -> (Vec<usize>, usize) {
+    let (fx, fy) = ((nx - 1) * 2 + 1, (ny - 1) * 2 + 1);
+    let mut todo = vec![false; fx * fy];
+    let mut boundary = 0;
+    for j in 0..ny {
+        for i in 0..nx {
+            if !on_boundary(cur, nx, ny, i, j) {
+                continue;
+            }
+            boundary += 1;
+            for db in -1i64..=1 {
+                for da in -1i64..=1 {
+                    let (a, b) = (2 * i as i64 + da, 2 * j as i64 + db);
+                    if a < 0 || b < 0 || a >= fx as i64 || b >= fy as i64 {
+                        continue;
+                    }
+                    let (a, b) = (a as usize, b as usize);
+                    if a % 2 == 1 || b % 2 == 1 {
+                        todo[b * fx + a] = true;
+                    }
+                }
+            }
+        }
+    }
+    ((0..fx * fy).filter(|&p| todo[p]).collect(), boundary)
+}
+
 /// Refines `labels` ([ny, nx], the basin of `spec`) `levels` times.
 #[allow(clippy::too_many_arguments)]
 pub fn refine(
@@ -141,41 +189,8 @@ pub fn refine(
     let mut out_levels = Vec::new();
     for k in 1..=levels {
         let (fx, fy) = ((nx - 1) * 2 + 1, (ny - 1) * 2 + 1);
-        // Parents fill every point; the even-even points are the previous level's.
-        let mut next = vec![0i32; fx * fy];
-        let mut comp = vec![0u8; fx * fy];
-        for b in 0..fy {
-            for a in 0..fx {
-                next[b * fx + a] = cur[(b / 2) * nx + a / 2];
-                if a % 2 == 0 && b % 2 == 0 {
-                    comp[b * fx + a] = computed[(b / 2) * nx + a / 2];
-                }
-            }
-        }
-        // The new points around the previous level's boundary points, in row-major order.
-        let mut todo = vec![false; fx * fy];
-        let mut boundary = 0;
-        for j in 0..ny {
-            for i in 0..nx {
-                if !on_boundary(&cur, nx, ny, i, j) {
-                    continue;
-                }
-                boundary += 1;
-                for db in -1i64..=1 {
-                    for da in -1i64..=1 {
-                        let (a, b) = (2 * i as i64 + da, 2 * j as i64 + db);
-                        if a < 0 || b < 0 || a >= fx as i64 || b >= fy as i64 {
-                            continue;
-                        }
-                        let (a, b) = (a as usize, b as usize);
-                        if a % 2 == 1 || b % 2 == 1 {
-                            todo[b * fx + a] = true;
-                        }
-                    }
-                }
-            }
-        }
-        let points: Vec<usize> = (0..fx * fy).filter(|&p| todo[p]).collect();
+        let (mut next, mut comp) = from_parents(&cur, &computed, nx, ny);
+        let (points, boundary) = new_points_near_boundary(&cur, nx, ny);
         // The level's axes: the same bounds, more points (the coarse points keep their
         // values bit for bit, range_value's index scaling by a power of 2).
         let (ax, ay) = (

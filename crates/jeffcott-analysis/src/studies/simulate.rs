@@ -300,24 +300,9 @@ pub fn simulate_with(spec: &SimulateSpec, cancel: &Cancel) -> Result<SimulateRes
         Integrator::Article => {
             let mut st = ArticleStepper::new(p, spec.omega, spec.article, spec.x0);
             let mut status = Status::Ok;
+            let bound = spec.stepper.divergence_bound;
             integrate(spec.article.steps_per_period, st.x, &mut || {
-                let before = st.x;
-                st.advance_grid_step();
-                if st.x.iter().any(|v| !v.is_finite()) {
-                    st.x = before;
-                    status = Status::NonFinite;
-                    return None;
-                }
-                let reach = [0, 2, 4, 6]
-                    .iter()
-                    .map(|&i| st.x[i].abs())
-                    .fold(0.0, f64::max);
-                if reach > spec.stepper.divergence_bound {
-                    st.x = before;
-                    status = Status::Diverged;
-                    return None;
-                }
-                Some(st.x)
+                article_step(&mut st, &mut status, bound)
             })?;
             if status == Status::Ok && st.counters.capped > 0 {
                 status = Status::RefinementCap;
@@ -341,6 +326,28 @@ pub fn simulate_with(spec: &SimulateSpec, cancel: &Cancel) -> Result<SimulateRes
         classification,
         elapsed,
     })
+}
+
+/// One grid step of the article's stepper: the new state, or `None` (the state kept,
+/// `status` set) where it is not finite or a position lies beyond `bound`.
+fn article_step(st: &mut ArticleStepper, status: &mut Status, bound: f64) -> Option<State> {
+    let before = st.x;
+    st.advance_grid_step();
+    if st.x.iter().any(|v| !v.is_finite()) {
+        st.x = before;
+        *status = Status::NonFinite;
+        return None;
+    }
+    let reach = [0, 2, 4, 6]
+        .iter()
+        .map(|&i| st.x[i].abs())
+        .fold(0.0, f64::max);
+    if reach > bound {
+        st.x = before;
+        *status = Status::Diverged;
+        return None;
+    }
+    Some(st.x)
 }
 
 /// The rub outputs of a trajectory.

@@ -210,6 +210,42 @@ pub(super) type FirstPass = (
     Option<RunInfo>,
 );
 
+/// The second pass's starts at each W: the sweeps' states at the neighbouring W first
+/// (they are the branches a continuation follows), then one point (a state at t = kT)
+/// of every attractor the first pass found there, `spec.max_seeds` at most.
+fn second_pass_seeds(
+    spec: &BifurcationSpec,
+    up: &[SweepPoint],
+    down: &[SweepPoint],
+    builders: &[CatalogueBuilder],
+) -> Vec<Vec<State>> {
+    let n = spec.omegas.len();
+    let mut seeds: Vec<Vec<State>> = vec![Vec::new(); n];
+    for (wi, s) in seeds.iter_mut().enumerate() {
+        let mut cand: Vec<State> = Vec::new();
+        let neighbours = [wi.wrapping_sub(1), wi + 1];
+        for &nj in &neighbours {
+            for sw in [up, down] {
+                if let Some(p) = sw.get(nj)
+                    && !p.status.is_frozen()
+                {
+                    cand.push(p.points[p.points.len() - 1]);
+                }
+            }
+        }
+        for &nj in &neighbours {
+            if nj < n {
+                for a in builders[nj].attractors() {
+                    cand.push(a.points[a.points.len() - 1]);
+                }
+            }
+        }
+        cand.truncate(spec.max_seeds);
+        *s = cand;
+    }
+    seeds
+}
+
 pub(super) fn brute_force(
     spec: &BifurcationSpec,
     up: &[SweepPoint],
@@ -240,33 +276,7 @@ pub(super) fn brute_force(
         ));
         builders.push(b);
     }
-    // Second pass: at each W, start from the attractors of the neighbouring W (one point
-    // of each, a state at t = kT) and from the sweeps' states there.
-    let mut seeds: Vec<Vec<State>> = vec![Vec::new(); n];
-    for (wi, s) in seeds.iter_mut().enumerate() {
-        // The sweeps' states first (they are the branches a continuation follows), then
-        // one point of every attractor found at the neighbouring W.
-        let mut cand: Vec<State> = Vec::new();
-        let neighbours = [wi.wrapping_sub(1), wi + 1];
-        for &nj in &neighbours {
-            for sw in [up, down] {
-                if let Some(p) = sw.get(nj)
-                    && !p.status.is_frozen()
-                {
-                    cand.push(p.points[p.points.len() - 1]);
-                }
-            }
-        }
-        for &nj in &neighbours {
-            if nj < n {
-                for a in builders[nj].attractors() {
-                    cand.push(a.points[a.points.len() - 1]);
-                }
-            }
-        }
-        cand.truncate(spec.max_seeds);
-        *s = cand;
-    }
+    let seeds = second_pass_seeds(spec, up, down, &builders);
     let (res2, info2) = if seeds.iter().all(|s| s.is_empty()) {
         (None, None)
     } else {

@@ -137,24 +137,7 @@ pub fn wada_merge_test(grid: &LabelGrid, options: &WadaOptions) -> Result<WadaTe
     }
     result.applicable = true;
     let k = tested.len();
-    // slot[class] = position of the class among the tested basins.
-    let mut slot = vec![usize::MAX; grid.labels.len()];
-    for (s, &c) in tested.iter().enumerate() {
-        slot[c as usize] = s;
-    }
-    // Every boundary cell's memberships, as (cell, slot) pairs: a cell is on the merged
-    // boundary of its own basin and of each foreign neighbour's basin.
-    let mut members: Vec<(u32, u32)> = Vec::new();
-    grid.for_each_boundary_cell(|cell, own, foreign| {
-        if slot[own as usize] != usize::MAX {
-            members.push((cell as u32, slot[own as usize] as u32));
-        }
-        for &c in foreign {
-            if slot[c as usize] != usize::MAX {
-                members.push((cell as u32, slot[c as usize] as u32));
-            }
-        }
-    });
+    let members = boundary_members(grid, &tested);
     let mut sizes = vec![0usize; k];
     for &(_, s) in &members {
         sizes[s as usize] += 1;
@@ -165,30 +148,8 @@ pub fn wada_merge_test(grid: &LabelGrid, options: &WadaOptions) -> Result<WadaTe
             cells: sizes[s],
         })
         .collect();
-    // far[j][i][r - 1] = cells of boundary i farther than r from boundary j.
     let r_max = options.r_max;
-    let mut far = vec![vec![vec![0usize; r_max]; k]; k];
-    let mut mask = vec![false; grid.cells()];
-    for (j, far_j) in far.iter_mut().enumerate() {
-        mask.fill(false);
-        for &(cell, s) in &members {
-            if s as usize == j {
-                mask[cell as usize] = true;
-            }
-        }
-        let dist = chebyshev_distance(grid.nx, grid.ny, &mask);
-        for &(cell, s) in &members {
-            let i = s as usize;
-            if i == j {
-                continue;
-            }
-            let d = dist[cell as usize] as usize;
-            // Farther than r for r = 1..min(d - 1, r_max).
-            for slot in far_j[i].iter_mut().take(d.saturating_sub(1).min(r_max)) {
-                *slot += 1;
-            }
-        }
-    }
+    let far = far_counts(grid, &members, k, r_max);
     let share = |i: usize, j: usize, r: usize| -> f64 {
         if sizes[i] == 0 {
             0.0
@@ -226,4 +187,60 @@ pub fn wada_merge_test(grid: &LabelGrid, options: &WadaOptions) -> Result<WadaTe
     result.max_mismatch = worst(r);
     result.wada = result.max_mismatch <= options.tolerance;
     Ok(result)
+}
+
+/// Every boundary cell's memberships among the `tested` classes, as (cell, position in
+/// `tested`) pairs: a cell is on the merged boundary of its own basin and of each
+/// foreign neighbour's basin.
+fn boundary_members(grid: &LabelGrid, tested: &[u32]) -> Vec<(u32, u32)> {
+    // slot[class] = position of the class among the tested basins.
+    let mut slot = vec![usize::MAX; grid.labels.len()];
+    for (s, &c) in tested.iter().enumerate() {
+        slot[c as usize] = s;
+    }
+    let mut members: Vec<(u32, u32)> = Vec::new();
+    grid.for_each_boundary_cell(|cell, own, foreign| {
+        if slot[own as usize] != usize::MAX {
+            members.push((cell as u32, slot[own as usize] as u32));
+        }
+        for &c in foreign {
+            if slot[c as usize] != usize::MAX {
+                members.push((cell as u32, slot[c as usize] as u32));
+            }
+        }
+    });
+    members
+}
+
+/// `far[j][i][r - 1]`: the cells of boundary i (of `k`, from `members`) farther than r
+/// from boundary j, for r = 1..=`r_max`.
+fn far_counts(
+    grid: &LabelGrid,
+    members: &[(u32, u32)],
+    k: usize,
+    r_max: usize,
+) -> Vec<Vec<Vec<usize>>> {
+    let mut far = vec![vec![vec![0usize; r_max]; k]; k];
+    let mut mask = vec![false; grid.cells()];
+    for (j, far_j) in far.iter_mut().enumerate() {
+        mask.fill(false);
+        for &(cell, s) in members {
+            if s as usize == j {
+                mask[cell as usize] = true;
+            }
+        }
+        let dist = chebyshev_distance(grid.nx, grid.ny, &mask);
+        for &(cell, s) in members {
+            let i = s as usize;
+            if i == j {
+                continue;
+            }
+            let d = dist[cell as usize] as usize;
+            // Farther than r for r = 1..min(d - 1, r_max).
+            for slot in far_j[i].iter_mut().take(d.saturating_sub(1).min(r_max)) {
+                *slot += 1;
+            }
+        }
+    }
+    far
 }
