@@ -244,3 +244,22 @@ fn ensemble_rejects_bad_ranges_with_the_syntax() {
         assert!(!out.join("run.json").exists());
     }
 }
+
+#[test]
+fn the_cli_reference_in_docs_is_the_one_the_binary_generates() {
+    // docs/cli.md is `jeffcott info --cli-reference`: a flag added, renamed or described
+    // anew without regenerating it fails here.
+    let o = jeffcott(&["info", "--cli-reference"]);
+    ok(&o);
+    let generated = String::from_utf8(o.stdout).unwrap();
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/cli.md");
+    let committed = std::fs::read_to_string(&path).unwrap_or_default();
+    assert!(
+        generated.contains("## `jeffcott orbits`") && generated.contains("--vary"),
+        "{generated}"
+    );
+    assert!(
+        committed == generated,
+        "docs/cli.md is not current: regenerate it with `cargo run --release -- info --cli-reference > docs/cli.md`"
+    );
+}

@@ -19,10 +19,18 @@ pub struct InfoArgs {
     /// memory. Needs no GPU.
     #[arg(long, value_name = "DIR")]
     pub write_spirv: Option<std::path::PathBuf>,
+    /// Print the reference of every command and option as Markdown, generated from the
+    /// definitions `--help` shows (docs/cli.md is this output), and nothing else.
+    #[arg(long, conflicts_with_all = ["kernel_stats", "write_spirv"])]
+    pub cli_reference: bool,
 }
 
 /// Runs `jeffcott info`.
 pub fn run_info(args: &InfoArgs) -> Result<()> {
+    if args.cli_reference {
+        print!("{}", clap_markdown::help_markdown::<super::Cli>());
+        return Ok(());
+    }
     let adapters = jeffcott_gpu::list_adapters();
     println!("CPU: {} rayon threads", rayon::current_num_threads());
     if adapters.is_empty() {
