@@ -468,49 +468,7 @@ fn write_basin(dir: &Path, o: &BasinOutcome, plot_it: bool) -> Result<String> {
     output::write_npy(&dir.join("y.npy"), &[ny], &ys)?;
     let cat = &res.catalogue;
     if plot_it {
-        let legend: Vec<(i32, String)> = cat
-            .attractors
-            .iter()
-            .map(|a| (a.id as i32, legend_name(a)))
-            .chain((cat.diverged > 0).then(|| {
-                (
-                    -1,
-                    format!("diverged, {:.1} %", 100.0 * cat.diverged_fraction),
-                )
-            }))
-            .collect();
-        let grid = map_grid(spec);
-        let title = format!(
-            "Basin of attraction at W = {} rad/s ({} x {} start states, {} attractor{})",
-            spec.omega,
-            nx,
-            ny,
-            cat.attractors.len(),
-            if cat.attractors.len() == 1 { "" } else { "s" }
-        );
-        basin_map(&dir.join("basin.png"), &title, &res.labels, &grid, &legend)?;
-        if let Some(l1) = &res.lambda1 {
-            lambda1_map(
-                &dir.join("basin_lambda1.png"),
-                &format!(
-                    "Largest Lyapunov exponent per start state at W = {} rad/s ({} x {})",
-                    spec.omega, nx, ny
-                ),
-                l1,
-                &grid,
-            )?;
-        }
-        if !o.traces.is_empty() {
-            let traces = plot_traces(&o.traces, &cat.attractors);
-            coexisting_attractors(
-                &dir.join("attractors.png"),
-                &format!(
-                    "Coexisting attractors at W = {} rad/s (lines: one pass over the attractor; dots: Poincare points)",
-                    spec.omega
-                ),
-                &traces,
-            )?;
-        }
+        plot_basin(dir, o)?;
     }
     let with_rub = o.attractors();
     let rub_line = with_rub
@@ -550,45 +508,99 @@ fn write_basin(dir: &Path, o: &BasinOutcome, plot_it: bool) -> Result<String> {
             catalogue_config: &cat.config,
             params: &spec.lane.params,
         },
-        &[
-            (
-                "labels.npy",
-                "int32 [ny, nx]: attractor id per start state (row iy has y = y.npy[iy], column ix has x = x.npy[ix]); -1 diverged; -2 (with --refine) an attractor the coarse grid did not find",
-            ),
-            (
-                "refined.npy",
-                "uint8 [ny, nx] (with --refine): 1 where the label was integrated, 0 where it was filled from the parent point; labels.npy is at the finest resolution",
-            ),
-            ("x.npy", "f64 [nx], the x-axis start values"),
-            ("y.npy", "f64 [ny], the y-axis start values"),
-            (
-                "lambda1.npy",
-                "f64 [ny, nx]: largest Lyapunov exponent per start state over the recorded periods [1/s], NaN diverged (only with --lyapunov)",
-            ),
-            (
-                "attractors.json",
-                "this file: the catalogue (id, class, period, basin fraction, mean lambda_1 and its range over the attractor's cells with --lyapunov, representative Poincare points in state order, rub figures and regime on the attractor: docs/rub.md)",
-            ),
-            (
-                "basin.png",
-                "the labels as a picture, legend by class and period",
-            ),
-            (
-                "basin_lambda1.png",
-                "lambda1.npy as a picture (blue negative, white 0, red positive; only with --lyapunov)",
-            ),
-            (
-                "attractors.png",
-                "phase portraits of the attractors, overlaid",
-            ),
-            (
-                "run.json",
-                "the run: state (running or complete), command, specification, backend and wall time",
-            ),
-        ],
+        BASIN_FILES,
     );
     output::write_json(&dir.join("attractors.json"), &json)?;
     Ok(rub_line)
+}
+
+/// The files of a basin's directory and what each holds (attractors.json's `files`).
+const BASIN_FILES: &[(&str, &str)] = &[
+    (
+        "labels.npy",
+        "int32 [ny, nx]: attractor id per start state (row iy has y = y.npy[iy], column ix has x = x.npy[ix]); -1 diverged; -2 (with --refine) an attractor the coarse grid did not find",
+    ),
+    (
+        "refined.npy",
+        "uint8 [ny, nx] (with --refine): 1 where the label was integrated, 0 where it was filled from the parent point; labels.npy is at the finest resolution",
+    ),
+    ("x.npy", "f64 [nx], the x-axis start values"),
+    ("y.npy", "f64 [ny], the y-axis start values"),
+    (
+        "lambda1.npy",
+        "f64 [ny, nx]: largest Lyapunov exponent per start state over the recorded periods [1/s], NaN diverged (only with --lyapunov)",
+    ),
+    (
+        "attractors.json",
+        "this file: the catalogue (id, class, period, basin fraction, mean lambda_1 and its range over the attractor's cells with --lyapunov, representative Poincare points in state order, rub figures and regime on the attractor: docs/rub.md)",
+    ),
+    (
+        "basin.png",
+        "the labels as a picture, legend by class and period",
+    ),
+    (
+        "basin_lambda1.png",
+        "lambda1.npy as a picture (blue negative, white 0, red positive; only with --lyapunov)",
+    ),
+    (
+        "attractors.png",
+        "phase portraits of the attractors, overlaid",
+    ),
+    (
+        "run.json",
+        "the run: state (running or complete), command, specification, backend and wall time",
+    ),
+];
+
+/// Draws basin.png, basin_lambda1.png (with lambda_1) and attractors.png (with traces).
+fn plot_basin(dir: &Path, o: &BasinOutcome) -> Result<()> {
+    let (spec, res) = (&o.spec, &o.result);
+    let (nx, ny) = (spec.x.n, spec.y.n);
+    let cat = &res.catalogue;
+    let legend: Vec<(i32, String)> = cat
+        .attractors
+        .iter()
+        .map(|a| (a.id as i32, legend_name(a)))
+        .chain((cat.diverged > 0).then(|| {
+            (
+                -1,
+                format!("diverged, {:.1} %", 100.0 * cat.diverged_fraction),
+            )
+        }))
+        .collect();
+    let grid = map_grid(spec);
+    let title = format!(
+        "Basin of attraction at W = {} rad/s ({} x {} start states, {} attractor{})",
+        spec.omega,
+        nx,
+        ny,
+        cat.attractors.len(),
+        if cat.attractors.len() == 1 { "" } else { "s" }
+    );
+    basin_map(&dir.join("basin.png"), &title, &res.labels, &grid, &legend)?;
+    if let Some(l1) = &res.lambda1 {
+        lambda1_map(
+            &dir.join("basin_lambda1.png"),
+            &format!(
+                "Largest Lyapunov exponent per start state at W = {} rad/s ({} x {})",
+                spec.omega, nx, ny
+            ),
+            l1,
+            &grid,
+        )?;
+    }
+    if !o.traces.is_empty() {
+        let traces = plot_traces(&o.traces, &cat.attractors);
+        coexisting_attractors(
+            &dir.join("attractors.png"),
+            &format!(
+                "Coexisting attractors at W = {} rad/s (lines: one pass over the attractor; dots: Poincare points)",
+                spec.omega
+            ),
+            &traces,
+        )?;
+    }
+    Ok(())
 }
 
 /// `attractors.json`: the grid, the settings, and the catalogue with each attractor's

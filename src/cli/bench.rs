@@ -42,55 +42,7 @@ pub struct BenchArgs {
 
 /// Runs `jeffcott bench`.
 pub fn run_bench(a: &BenchArgs) -> Result<()> {
-    if let Some(&bad) = a.lanes.iter().find(|&&n| n == 0 || n > 1 << 24) {
-        return Err(Error::invalid(
-            "lanes",
-            bad,
-            "each size must be in 1..=16777216",
-        ));
-    }
-    if a.lane_periods == 0 {
-        return Err(Error::invalid("lane_periods", 0, "must be >= 1"));
-    }
-    // The twin is timed at one of the sizes measured; any other value would silently
-    // measure no twin at all.
-    if a.twin_at != 0 && !a.lanes.contains(&a.twin_at) {
-        return Err(Error::invalid(
-            "twin-at",
-            a.twin_at,
-            format!(
-                "must be 0 (no free-flight twin) or one of the --lanes sizes ({})",
-                a.lanes
-                    .iter()
-                    .map(|n| n.to_string())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ),
-        ));
-    }
-    for &lanes in &a.lanes {
-        let periods = periods_for(lanes, a.lane_periods);
-        jeffcott_core::limits::check_periods("lane-periods", periods, 1).map_err(|_| {
-            Error::invalid(
-                "lane-periods",
-                a.lane_periods,
-                format!(
-                    "gives {periods} periods per lane at {lanes} lanes; at most {} periods per lane",
-                    jeffcott_core::limits::MAX_PERIODS
-                ),
-            )
-        })?;
-        jeffcott_core::limits::check_memory(
-            "lane-periods",
-            a.lane_periods,
-            jeffcott_core::ensemble::EnsembleSpec::memory_estimate_for(
-                lanes as u64,
-                periods as u64,
-            ),
-            &format!("{lanes} lanes x {periods} periods"),
-            "ask for fewer --lane-periods or smaller --lanes",
-        )?;
-    }
+    check_sizes(a)?;
     let anatomy = match &a.anatomy {
         Some(text) => jeffcott_gpu::anatomy::Part::parse_list("anatomy", text)?,
         None => Vec::new(),
@@ -180,6 +132,61 @@ pub fn run_bench(a: &BenchArgs) -> Result<()> {
                 }
             }
         }
+    }
+    Ok(())
+}
+
+/// Checks the sizes asked for before anything runs: lanes and lane-periods in range,
+/// the twin at one of the sizes, and every row within the period and memory limits.
+fn check_sizes(a: &BenchArgs) -> Result<()> {
+    if let Some(&bad) = a.lanes.iter().find(|&&n| n == 0 || n > 1 << 24) {
+        return Err(Error::invalid(
+            "lanes",
+            bad,
+            "each size must be in 1..=16777216",
+        ));
+    }
+    if a.lane_periods == 0 {
+        return Err(Error::invalid("lane_periods", 0, "must be >= 1"));
+    }
+    // The twin is timed at one of the sizes measured; any other value would silently
+    // measure no twin at all.
+    if a.twin_at != 0 && !a.lanes.contains(&a.twin_at) {
+        return Err(Error::invalid(
+            "twin-at",
+            a.twin_at,
+            format!(
+                "must be 0 (no free-flight twin) or one of the --lanes sizes ({})",
+                a.lanes
+                    .iter()
+                    .map(|n| n.to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        ));
+    }
+    for &lanes in &a.lanes {
+        let periods = periods_for(lanes, a.lane_periods);
+        jeffcott_core::limits::check_periods("lane-periods", periods, 1).map_err(|_| {
+            Error::invalid(
+                "lane-periods",
+                a.lane_periods,
+                format!(
+                    "gives {periods} periods per lane at {lanes} lanes; at most {} periods per lane",
+                    jeffcott_core::limits::MAX_PERIODS
+                ),
+            )
+        })?;
+        jeffcott_core::limits::check_memory(
+            "lane-periods",
+            a.lane_periods,
+            jeffcott_core::ensemble::EnsembleSpec::memory_estimate_for(
+                lanes as u64,
+                periods as u64,
+            ),
+            &format!("{lanes} lanes x {periods} periods"),
+            "ask for fewer --lane-periods or smaller --lanes",
+        )?;
     }
     Ok(())
 }

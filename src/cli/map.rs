@@ -222,135 +222,143 @@ pub fn write_map(dir: &Path, spec: &MapSpec, res: &MapResult, plot_it: bool) -> 
     output::write_npy(&dir.join("x.npy"), &[nx], &spec.x.values())?;
     output::write_npy(&dir.join("y.npy"), &[ny], &spec.y.values())?;
     if plot_it {
-        let (lx, x_range) = axis_label(&spec.x);
-        let (ly, y_range) = axis_label(&spec.y);
-        let grid = MapGrid {
-            cells: (nx, ny),
-            x_range,
-            y_range,
-            axes: (lx, ly),
-        };
-        let what = format!("{} x {} cells, {} start state(s) each", nx, ny, spec.ics);
-        // A category map: file, quantity, codes, legend, colour of a code.
-        type Category<'a> = (
-            &'a str,
-            &'a str,
-            &'a [i32],
-            Vec<(i32, String)>,
-            fn(i32) -> plotters::style::RGBColor,
-        );
-        let categories: [Category; 2] = [
-            (
-                "map_period.png",
-                "Response",
-                &res.class,
-                class_legend(&res.class),
-                class_colour,
-            ),
-            (
-                "map_regime.png",
-                "Rub regime",
-                &res.regime,
-                regime_legend(&res.regime),
-                regime_colour,
-            ),
-        ];
-        for (file, quantity, codes, legend, colour) in categories {
-            category_map(
-                &dir.join(file),
-                &format!("{quantity} from the static equilibrium ({what})"),
-                codes,
-                &grid,
-                &legend,
-                &colour,
-            )?;
-        }
-        if spec.lane.lyapunov {
-            lambda1_map(
-                &dir.join("map_lambda1.png"),
-                &format!("Largest Lyapunov exponent from the static equilibrium ({what})"),
-                &res.lambda1,
-                &grid,
-            )?;
-        }
-        let most = res.attractors.iter().copied().max().unwrap_or(0).max(1);
-        let counts: Vec<i32> = res.attractors.iter().map(|&n| n - 1).collect();
-        let legend: Vec<(i32, String)> = (1..=most)
-            .filter(|n| res.attractors.contains(n))
-            .map(|n| {
-                (
-                    n - 1,
-                    format!("{n} attractor{}", if n == 1 { "" } else { "s" }),
-                )
-            })
-            .chain(
-                res.attractors
-                    .contains(&0)
-                    .then(|| (-1, "none (all diverged)".to_string())),
-            )
-            .collect();
-        basin_map(
-            &dir.join("map_multistability.png"),
-            &format!("Coexisting attractors ({what})"),
-            &counts,
+        plot_map(dir, spec, res)?;
+    }
+    let json = super::files::Documented::new(jeffcott_analysis::map::summary(spec, res), MAP_FILES);
+    output::write_json(&dir.join("map.json"), &json)
+}
+
+/// The files of a map's directory and what each holds (map.json's `files`).
+const MAP_FILES: &[(&str, &str)] = &[
+    (
+        "period.npy",
+        "int32 [ny, nx]: period of the attractor reached from the static equilibrium; 0 aperiodic (quasiperiodic, chaotic or undecided), -1 diverged",
+    ),
+    (
+        "class.npy",
+        "int32 [ny, nx]: its class code: n > 0 period-n, 0 aperiodic, -1 diverged, -2 quasiperiodic, -3 chaotic, -4 unclassified",
+    ),
+    (
+        "lambda1.npy",
+        "f64 [ny, nx]: its mean largest Lyapunov exponent [1/s] (NaN when diverged or with --no-lyapunov)",
+    ),
+    (
+        "attractors.npy",
+        "int32 [ny, nx]: number of coexisting attractors found from the cell's start states",
+    ),
+    (
+        "contact.npy",
+        "f64 [ny, nx]: fraction of time in contact on the attractor from the static equilibrium (NaN when diverged)",
+    ),
+    (
+        "peak_force.npy",
+        "f64 [ny, nx]: peak normal contact force on it [N] (NaN when diverged)",
+    ),
+    (
+        "regime.npy",
+        "int32 [ny, nx]: its rub regime: 0 no_contact, 1 partial_rub, 2 full_annular_rub, 3 backward_whirl, -1 diverged (docs/rub.md)",
+    ),
+    ("map_regime.png", "regime.npy as a picture"),
+    ("x.npy", "f64 [nx]: the x-axis values"),
+    ("y.npy", "f64 [ny]: the y-axis values"),
+    (
+        "map.json",
+        "this file; cell_attractors lists every cell's attractors (class, period, start states reaching it, lambda_1, rub figures: contact fraction, impacts per revolution, peak and mean normal force [N], peak penetration [m])",
+    ),
+    (
+        "map_period.png",
+        "isoperiodic map: class of the response from the static equilibrium",
+    ),
+    (
+        "map_lambda1.png",
+        "lambda1.npy (blue negative, white 0, red positive)",
+    ),
+    ("map_multistability.png", "attractors.npy"),
+    (
+        "run.json",
+        "the run: state, command, specification, backend and wall time",
+    ),
+];
+
+/// Draws the map's pictures: the response and rub regime maps, lambda_1 where it was
+/// computed, and the number of coexisting attractors.
+fn plot_map(dir: &Path, spec: &MapSpec, res: &MapResult) -> Result<()> {
+    let (nx, ny) = (spec.x.n, spec.y.n);
+    let (lx, x_range) = axis_label(&spec.x);
+    let (ly, y_range) = axis_label(&spec.y);
+    let grid = MapGrid {
+        cells: (nx, ny),
+        x_range,
+        y_range,
+        axes: (lx, ly),
+    };
+    let what = format!("{} x {} cells, {} start state(s) each", nx, ny, spec.ics);
+    // A category map: file, quantity, codes, legend, colour of a code.
+    type Category<'a> = (
+        &'a str,
+        &'a str,
+        &'a [i32],
+        Vec<(i32, String)>,
+        fn(i32) -> plotters::style::RGBColor,
+    );
+    let categories: [Category; 2] = [
+        (
+            "map_period.png",
+            "Response",
+            &res.class,
+            class_legend(&res.class),
+            class_colour,
+        ),
+        (
+            "map_regime.png",
+            "Rub regime",
+            &res.regime,
+            regime_legend(&res.regime),
+            regime_colour,
+        ),
+    ];
+    for (file, quantity, codes, legend, colour) in categories {
+        category_map(
+            &dir.join(file),
+            &format!("{quantity} from the static equilibrium ({what})"),
+            codes,
             &grid,
             &legend,
+            &colour,
         )?;
     }
-    let json = super::files::Documented::new(
-        jeffcott_analysis::map::summary(spec, res),
-        &[
+    if spec.lane.lyapunov {
+        lambda1_map(
+            &dir.join("map_lambda1.png"),
+            &format!("Largest Lyapunov exponent from the static equilibrium ({what})"),
+            &res.lambda1,
+            &grid,
+        )?;
+    }
+    let most = res.attractors.iter().copied().max().unwrap_or(0).max(1);
+    let counts: Vec<i32> = res.attractors.iter().map(|&n| n - 1).collect();
+    let legend: Vec<(i32, String)> = (1..=most)
+        .filter(|n| res.attractors.contains(n))
+        .map(|n| {
             (
-                "period.npy",
-                "int32 [ny, nx]: period of the attractor reached from the static equilibrium; 0 aperiodic (quasiperiodic, chaotic or undecided), -1 diverged",
-            ),
-            (
-                "class.npy",
-                "int32 [ny, nx]: its class code: n > 0 period-n, 0 aperiodic, -1 diverged, -2 quasiperiodic, -3 chaotic, -4 unclassified",
-            ),
-            (
-                "lambda1.npy",
-                "f64 [ny, nx]: its mean largest Lyapunov exponent [1/s] (NaN when diverged or with --no-lyapunov)",
-            ),
-            (
-                "attractors.npy",
-                "int32 [ny, nx]: number of coexisting attractors found from the cell's start states",
-            ),
-            (
-                "contact.npy",
-                "f64 [ny, nx]: fraction of time in contact on the attractor from the static equilibrium (NaN when diverged)",
-            ),
-            (
-                "peak_force.npy",
-                "f64 [ny, nx]: peak normal contact force on it [N] (NaN when diverged)",
-            ),
-            (
-                "regime.npy",
-                "int32 [ny, nx]: its rub regime: 0 no_contact, 1 partial_rub, 2 full_annular_rub, 3 backward_whirl, -1 diverged (docs/rub.md)",
-            ),
-            ("map_regime.png", "regime.npy as a picture"),
-            ("x.npy", "f64 [nx]: the x-axis values"),
-            ("y.npy", "f64 [ny]: the y-axis values"),
-            (
-                "map.json",
-                "this file; cell_attractors lists every cell's attractors (class, period, start states reaching it, lambda_1, rub figures: contact fraction, impacts per revolution, peak and mean normal force [N], peak penetration [m])",
-            ),
-            (
-                "map_period.png",
-                "isoperiodic map: class of the response from the static equilibrium",
-            ),
-            (
-                "map_lambda1.png",
-                "lambda1.npy (blue negative, white 0, red positive)",
-            ),
-            ("map_multistability.png", "attractors.npy"),
-            (
-                "run.json",
-                "the run: state, command, specification, backend and wall time",
-            ),
-        ],
-    );
-    output::write_json(&dir.join("map.json"), &json)
+                n - 1,
+                format!("{n} attractor{}", if n == 1 { "" } else { "s" }),
+            )
+        })
+        .chain(
+            res.attractors
+                .contains(&0)
+                .then(|| (-1, "none (all diverged)".to_string())),
+        )
+        .collect();
+    basin_map(
+        &dir.join("map_multistability.png"),
+        &format!("Coexisting attractors ({what})"),
+        &counts,
+        &grid,
+        &legend,
+    )?;
+    Ok(())
 }
 
 fn human_summary(spec: &MapSpec, res: &MapResult, dir: &Path) -> String {

@@ -8,10 +8,11 @@
 use super::study::{self};
 use crate::plot::{PALETTE, StackedPanel, stacked_fractions};
 use clap::Args;
-use jeffcott_analysis::continuation::{ContinuationResult, ContinuationSpec};
+use jeffcott_analysis::continuation::{ContinuationResult, ContinuationSpec, Ramp};
 use jeffcott_analysis::defaults;
 use jeffcott_analysis::output;
 use jeffcott_core::error::Result;
+use plotters::style::RGBColor;
 use std::path::Path;
 
 /// Arguments of `jeffcott basin-stability`.
@@ -93,6 +94,38 @@ fn write_study(out: &Path, spec: &Spec, res: &Outcome, plot: bool) -> Result<Str
     ))
 }
 
+/// The bands of the stacked plot: each attractor id's fraction per speed (`f`, of
+/// shape [n, ids + 1]) named by its most frequent class, then the diverged lanes',
+/// bands that are never positive left out.
+fn stability_bands(ramp: &Ramp, f: &[f64], n: usize) -> Vec<(String, RGBColor, Vec<f64>)> {
+    let g = ramp.ids + 1;
+    (0..ramp.ids)
+        .map(|id| {
+            let name = ramp
+                .steps
+                .iter()
+                .flat_map(|s| s.attractors.iter())
+                .filter(|a| a.id == id as u32)
+                .max_by(|a, b| a.fraction.total_cmp(&b.fraction))
+                .map(|a| format!("#{id} {}", a.class))
+                .unwrap_or_else(|| format!("#{id}"));
+            (
+                name,
+                PALETTE[id % PALETTE.len()],
+                (0..n).map(|s| f[s * g + id]).collect::<Vec<f64>>(),
+            )
+        })
+        .filter(|b| b.2.iter().any(|&v| v > 0.0))
+        .chain((0..n).any(|s| f[s * g + ramp.ids] > 0.0).then(|| {
+            (
+                "diverged".to_string(),
+                plotters::style::RGBColor(0, 0, 0),
+                (0..n).map(|s| f[s * g + ramp.ids]).collect(),
+            )
+        }))
+        .collect()
+}
+
 /// Writes the arrays, basin_stability.json and the plot; returns the summary line.
 pub fn write_stability(
     dir: &Path,
@@ -130,31 +163,7 @@ pub fn write_stability(
     );
     output::write_json(&dir.join("basin_stability.json"), &json)?;
     if plot_it && n >= 2 {
-        let bands: Vec<(String, plotters::style::RGBColor, Vec<f64>)> = (0..ramp.ids)
-            .map(|id| {
-                let name = ramp
-                    .steps
-                    .iter()
-                    .flat_map(|s| s.attractors.iter())
-                    .filter(|a| a.id == id as u32)
-                    .max_by(|a, b| a.fraction.total_cmp(&b.fraction))
-                    .map(|a| format!("#{id} {}", a.class))
-                    .unwrap_or_else(|| format!("#{id}"));
-                (
-                    name,
-                    PALETTE[id % PALETTE.len()],
-                    (0..n).map(|s| f[s * g + id]).collect::<Vec<f64>>(),
-                )
-            })
-            .filter(|b| b.2.iter().any(|&v| v > 0.0))
-            .chain((0..n).any(|s| f[s * g + ramp.ids] > 0.0).then(|| {
-                (
-                    "diverged".to_string(),
-                    plotters::style::RGBColor(0, 0, 0),
-                    (0..n).map(|s| f[s * g + ramp.ids]).collect(),
-                )
-            }))
-            .collect();
+        let bands = stability_bands(ramp, &f, n);
         stacked_fractions(
             &dir.join("basin_stability.png"),
             &format!(

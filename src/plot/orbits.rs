@@ -60,17 +60,7 @@ pub fn branches(
             .chain(&background.down)
     };
     let (s, y_desc) = coord_axis(coord);
-    let scaled: Vec<BranchLine> = branches
-        .iter()
-        .map(|b| BranchLine {
-            label: b.label.clone(),
-            points: b
-                .points
-                .iter()
-                .map(|p| (p.0, p.1.iter().map(|v| v * s).collect(), p.2))
-                .collect(),
-        })
-        .collect();
+    let scaled = scaled_lines(branches, s);
     let branches = &scaled;
     figure(path, (1600, 900), |root| {
         let xr = padded_range(
@@ -128,13 +118,7 @@ pub fn branches(
                 }
             }
         }
-        let kinds: Vec<&str> = {
-            let mut k: Vec<&str> = marks.iter().map(|m| m.kind.as_str()).collect();
-            k.sort_unstable();
-            k.dedup();
-            k
-        };
-        for (i, kind) in kinds.iter().enumerate() {
+        for (i, kind) in mark_kinds(marks).iter().enumerate() {
             let c = PALETTE[(i + 5) % PALETTE.len()];
             chart
                 .draw_series(
@@ -149,6 +133,29 @@ pub fn branches(
         legend(&mut chart, SeriesLabelPosition::UpperLeft, 16)?;
         Ok(())
     })
+}
+
+/// `branches` with every coordinate value multiplied by `s` (the axis' unit).
+fn scaled_lines(branches: &[BranchLine], s: f64) -> Vec<BranchLine> {
+    branches
+        .iter()
+        .map(|b| BranchLine {
+            label: b.label.clone(),
+            points: b
+                .points
+                .iter()
+                .map(|p| (p.0, p.1.iter().map(|v| v * s).collect(), p.2))
+                .collect(),
+        })
+        .collect()
+}
+
+/// The kinds of `marks`, each once, sorted (one legend entry and colour each).
+fn mark_kinds(marks: &[Mark]) -> Vec<&str> {
+    let mut k: Vec<&str> = marks.iter().map(|m| m.kind.as_str()).collect();
+    k.sort_unstable();
+    k.dedup();
+    k
 }
 
 /// The curves of a branch: each of the orbit's Poincare points traces one, cut where

@@ -8,11 +8,11 @@ use crate::cli::basin::write_basin_files;
 use crate::cli::bifurcation::{diagram_series, lambda1_series, write_bifurcation};
 use crate::plot;
 use jeffcott_analysis::basin::study::BasinOutcome;
-use jeffcott_analysis::bifurcation::{BifurcationResult, BifurcationSpec};
+use jeffcott_analysis::bifurcation::{BifurcationResult, BifurcationSpec, SweepPoint};
 use jeffcott_analysis::classify::Class;
 use jeffcott_analysis::reproduce::{
-    ARTICLE_SPEEDS, AtSpeed, BruteCounts, Lambda1Row, Survey, ZOOMS, leaves_period1, periods_seen,
-    up_down_differ,
+    ARTICLE_SPEEDS, AtSpeed, BruteCounts, Lambda1Row, Preset, Survey, ZOOMS, leaves_period1,
+    periods_seen, up_down_differ,
 };
 use jeffcott_core::error::Result;
 use jeffcott_core::model::{VX_R, VX_S, X_R, X_S, Y_R, Y_S};
@@ -27,33 +27,9 @@ pub(super) fn bifurcation_figures(
     let (dir, backend, p, rep) = (c.dir, c.backend.as_str(), c.spec.preset, &mut c.rep);
     let cfg = c.spec.catalogue;
     write_bifurcation(&dir.join("bifurcation"), spec, res, &[VX_S, VX_R], true)?;
-    let bif_cmd = format!(
-        "jeffcott bifurcation --omega 130:141:{} --coord vx_s,vx_r --sweep both --ics {} --transient {} --transient-first {} --brute-transient {} --periods {} --max-seeds {} --backend {backend} --out {}/bifurcation",
-        p.speeds,
-        p.ics,
-        p.sweep_transient,
-        p.sweep_first,
-        p.brute_transient,
-        p.periods,
-        p.max_seeds,
-        dir.display()
-    );
+    let bif_cmd = bifurcation_command(dir, backend, &p);
     let w = (130.0, 141.0);
-    // What the lambda_1 row under a sweep shows.
-    let l1_row = |sw: &[jeffcott_analysis::bifurcation::SweepPoint]| -> String {
-        let r = Lambda1Row::of(sw, cfg.lambda_tol, &[131.7, 140.0]);
-        let at =
-            |a: Option<(f64, f64)>| a.map_or("-".into(), |(l, w)| format!("{l:.2} 1/s at {w:.3}"));
-        format!(
-            "positive (> {} 1/s) at {} of {} speeds, largest {:.1} 1/s; {} and {}",
-            r.tol,
-            r.positive,
-            r.finite,
-            r.largest,
-            at(r.at[0]),
-            at(r.at[1])
-        )
-    };
+    let l1_row = |sw: &[SweepPoint]| lambda1_row(sw, cfg.lambda_tol);
     let first_non_p1 = leaves_period1(&res.up);
     for (fig, coord, name) in [
         (
@@ -106,19 +82,7 @@ pub(super) fn bifurcation_figures(
             sweep_found(&res.down),
             differ.len(),
             res.up.len(),
-            if differ.is_empty() {
-                String::new()
-            } else {
-                format!(
-                    " (e.g. {})",
-                    differ
-                        .iter()
-                        .take(8)
-                        .map(|w| format!("{w:.3}"))
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                )
-            }
+            for_example(&differ)
         ),
         &bif_cmd,
         res.sweep_seconds,
@@ -152,6 +116,53 @@ pub(super) fn bifurcation_figures(
         res.brute_seconds,
     );
     Ok(())
+}
+
+/// The command that computes the bifurcation study of the set at preset `p`.
+fn bifurcation_command(dir: &std::path::Path, backend: &str, p: &Preset) -> String {
+    format!(
+        "jeffcott bifurcation --omega 130:141:{} --coord vx_s,vx_r --sweep both --ics {} --transient {} --transient-first {} --brute-transient {} --periods {} --max-seeds {} --backend {backend} --out {}/bifurcation",
+        p.speeds,
+        p.ics,
+        p.sweep_transient,
+        p.sweep_first,
+        p.brute_transient,
+        p.periods,
+        p.max_seeds,
+        dir.display()
+    )
+}
+
+/// What the lambda_1 row under a sweep shows (`tol`: the catalogue's lambda_tol).
+fn lambda1_row(sw: &[SweepPoint], tol: f64) -> String {
+    let r = Lambda1Row::of(sw, tol, &[131.7, 140.0]);
+    let at = |a: Option<(f64, f64)>| a.map_or("-".into(), |(l, w)| format!("{l:.2} 1/s at {w:.3}"));
+    format!(
+        "positive (> {} 1/s) at {} of {} speeds, largest {:.1} 1/s; {} and {}",
+        r.tol,
+        r.positive,
+        r.finite,
+        r.largest,
+        at(r.at[0]),
+        at(r.at[1])
+    )
+}
+
+/// " (e.g. W1, W2, ...)" for up to 8 of the speeds `differ`, empty when there are none.
+fn for_example(differ: &[f64]) -> String {
+    if differ.is_empty() {
+        String::new()
+    } else {
+        format!(
+            " (e.g. {})",
+            differ
+                .iter()
+                .take(8)
+                .map(|w| format!("{w:.3}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+    }
 }
 
 /// Enlargement `k` of Fig. 3 (an up sweep over one of the article's zoom ranges).
