@@ -639,42 +639,8 @@ fn corner_step(
 /// Continues the branch of `spec` (see the module docs), every flow on `engine`.
 pub fn continue_branch(spec: &BranchSpec, engine: &dyn Flows) -> Result<Branch> {
     spec.validate()?;
-    let start = spec.start_at(&spec.start, spec.start_value, spec.period);
-    let orbit = shoot_one(engine, start, &spec.shoot)??;
-    let (f0, fp0) = spec
-        .linearise(engine, &orbit.x, spec.start_value)?
-        .ok_or_else(|| {
-            Error::invalid(
-                "start",
-                spec.start_value,
-                "the orbit leaves the divergence bound",
-            )
-        })?;
-    let mut along = [0.0; STATE_DIM + 1];
-    along[STATE_DIM] = spec.direction.signum();
-    let t0 = tangent(spec, &f0, &fp0, spec.start_value, &along).ok_or_else(|| {
-        Error::invalid(
-            "start-value",
-            spec.start_value,
-            "the start lies on a singular point of the branch (a fold or branch point)",
-        )
-    })?;
-    let mut points = vec![point(&Solved {
-        x: orbit.x,
-        v: spec.start_value,
-        flow: f0,
-        tangent: t0,
-        iterations: 0,
-    })];
-    // The first orbit's other Poincare points, for the closed-branch test.
-    let images: Vec<FlowAsk> = (1..spec.period)
-        .map(|k| spec.ask(&orbit.x, spec.start_value, k, Want::End))
-        .collect();
-    let shifted: Vec<State> = engine
-        .flows(&images, &spec.shoot.stepper)?
-        .into_iter()
-        .map(|f| f.end)
-        .collect();
+    let (first, shifted) = first_point(spec, engine)?;
+    let mut points = vec![first];
     let mut bifurcations = Vec::new();
     let mut ds = spec.ds;
     let stop;
@@ -715,34 +681,8 @@ pub fn continue_branch(spec: &BranchSpec, engine: &dyn Flows) -> Result<Branch> 
             continue;
         };
         let next = point(&s);
-        for kind in [
-            Crossing::Fold,
-            Crossing::PeriodDoubling,
-            Crossing::NeimarkSacker,
-            Crossing::Grazing,
-        ] {
-            if crosses(kind, last, &next)
-                && let Some(b) = locate(spec, engine, last, ds, kind)?
-            {
-                // A closed period-2n loop meets each orbit at its n Poincare points, so
-                // it crosses a bifurcation once per point: listed once (two orbits
-                // bifurcating alike at one parameter value, to 1e-7, are not generic).
-                let seen = bifurcations
-                    .iter()
-                    .any(|x: &Bifurcation| x.kind == kind && (x.value - b.value).abs() < 1e-7);
-                if seen {
-                    continue;
-                }
-                bifurcations.push(Bifurcation {
-                    kind,
-                    value: b.value,
-                    x: b.x,
-                    multipliers: b.multipliers.clone(),
-                    min_clearance: b.min_clearance,
-                    after_point: points.len() - 1,
-                });
-            }
-        }
+        let step = (last, &next, ds, points.len() - 1);
+        add_crossings(spec, engine, step, &mut bifurcations)?;
         let outside = !(spec.lo..=spec.hi).contains(&next.value);
         let closed = points.len() >= 3 && passes_start(spec, &points[0], &shifted, last, &next);
         points.push(next);
@@ -771,6 +711,88 @@ pub fn continue_branch(spec: &BranchSpec, engine: &dyn Flows) -> Result<Branch> 
         bifurcations,
         stop,
     })
+}
+
+/// The first point of the branch of `spec` (its start shot onto the orbit, with the
+/// branch's tangent along `spec.direction`) and the orbit's other Poincare points, for
+/// the closed-branch test.
+fn first_point(spec: &BranchSpec, engine: &dyn Flows) -> Result<(BranchPoint, Vec<State>)> {
+    let start = spec.start_at(&spec.start, spec.start_value, spec.period);
+    let orbit = shoot_one(engine, start, &spec.shoot)??;
+    let (f0, fp0) = spec
+        .linearise(engine, &orbit.x, spec.start_value)?
+        .ok_or_else(|| {
+            Error::invalid(
+                "start",
+                spec.start_value,
+                "the orbit leaves the divergence bound",
+            )
+        })?;
+    let mut along = [0.0; STATE_DIM + 1];
+    along[STATE_DIM] = spec.direction.signum();
+    let t0 = tangent(spec, &f0, &fp0, spec.start_value, &along).ok_or_else(|| {
+        Error::invalid(
+            "start-value",
+            spec.start_value,
+            "the start lies on a singular point of the branch (a fold or branch point)",
+        )
+    })?;
+    let first = point(&Solved {
+        x: orbit.x,
+        v: spec.start_value,
+        flow: f0,
+        tangent: t0,
+        iterations: 0,
+    });
+    // The first orbit's other Poincare points, for the closed-branch test.
+    let images: Vec<FlowAsk> = (1..spec.period)
+        .map(|k| spec.ask(&orbit.x, spec.start_value, k, Want::End))
+        .collect();
+    let shifted: Vec<State> = engine
+        .flows(&images, &spec.shoot.stepper)?
+        .into_iter()
+        .map(|f| f.end)
+        .collect();
+    Ok((first, shifted))
+}
+
+/// Adds to `bifurcations` those the step from `last` to `next` (arclength `ds`, after
+/// point `after_point`) crosses, each located by bisection. A closed period-2n loop
+/// meets each orbit at its n Poincare points, so it crosses a bifurcation once per
+/// point: listed once (two orbits bifurcating alike at one parameter value, to 1e-7,
+/// are not generic).
+fn add_crossings(
+    spec: &BranchSpec,
+    engine: &dyn Flows,
+    (last, next, ds, after_point): (&BranchPoint, &BranchPoint, f64, usize),
+    bifurcations: &mut Vec<Bifurcation>,
+) -> Result<()> {
+    for kind in [
+        Crossing::Fold,
+        Crossing::PeriodDoubling,
+        Crossing::NeimarkSacker,
+        Crossing::Grazing,
+    ] {
+        if crosses(kind, last, next)
+            && let Some(b) = locate(spec, engine, last, ds, kind)?
+        {
+            let seen = bifurcations
+                .iter()
+                .any(|x: &Bifurcation| x.kind == kind && (x.value - b.value).abs() < 1e-7);
+            if seen {
+                continue;
+            }
+            bifurcations.push(Bifurcation {
+                kind,
+                value: b.value,
+                x: b.x,
+                multipliers: b.multipliers.clone(),
+                min_clearance: b.min_clearance,
+                after_point,
+            });
+        }
+    }
+    Ok(())
 }
 
 /// The branch of period-2n orbits born at the period doubling `b` of a period-n branch
