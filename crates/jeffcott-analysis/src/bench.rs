@@ -1,4 +1,4 @@
-//! Throughput measurement of the ensemble backends (issue 3's benchmark), shared by
+//! Throughput measurement of the ensemble backends, shared by
 //! `jeffcott bench`, `benches/ensemble.rs` (criterion) and the hand-written baseline
 //! (`benches/handwritten/rk4_loop.c`, which builds the same lanes).
 //!

@@ -1,4 +1,4 @@
-//! Early exit on a GPU (issue 24): a slot pool (`jeffcott_gpu::pool`) driven by the
+//! Early exit on a GPU: a slot pool (`jeffcott_gpu::pool`) driven by the
 //! same per-slot bookkeeping as the CPU's refilled batches
 //! (`jeffcott_core::ensemble::refill`). Each time slice runs until the first period end
 //! at which some slot's lane could be recognised or end its record

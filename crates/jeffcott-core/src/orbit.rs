@@ -1,5 +1,5 @@
 //! Periodic orbits by Newton shooting on the stroboscopic map, with their Floquet
-//! multipliers (issue 26, first part).
+//! multipliers.
 //!
 //! A period-n orbit (n forcing periods T = 2 pi / W) is a fixed point of P^n, the map
 //! that advances a state at t = kT by n periods with the lane stepper (RK4 with switches
@@ -463,7 +463,7 @@ struct Newton {
 
 /// Shoots orbits from many starts at once, each of its own period: every Newton
 /// iteration (and every halving of its step) of all starts not yet converged is one
-/// call of `engine`, so a GPU runs them as lanes side by side (issue 26: many orbits at
+/// call of `engine`, so a GPU runs them as lanes side by side (many orbits at
 /// once). Each start goes exactly the way [`shoot`] takes it alone, so its orbit does
 /// not depend on the others. The outer error refuses a `period` out of range or
 /// reports the engine's failure; each start's own result says whether it converged

@@ -1,5 +1,5 @@
 //! Starts for periodic-orbit branches from an earlier result's periodic attractors
-//! (`jeffcott orbits --from DIR`, issue 26): a point of each attractor is a state at a
+//! (`jeffcott orbits --from DIR`): a point of each attractor is a state at a
 //! whole number of forcing periods (t = kT, where the Poincare section lies), so Newton
 //! shooting of P^n from it starts on the orbit up to the attractor's transient.
 //!

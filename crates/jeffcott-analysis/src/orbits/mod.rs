@@ -1,5 +1,5 @@
 //! Branches of periodic orbits over W or a model parameter, continued by
-//! pseudo-arclength through folds, with their bifurcations located (issue 26).
+//! pseudo-arclength through folds, with their bifurcations located.
 //!
 //! A branch point is (x, p): x a fixed point of P^n at parameter value p
 //! (`jeffcott_core::orbit`). From a converged point the tangent t of the solution curve

@@ -1,5 +1,5 @@
-//! What REPORT.md sets beside jeffcott's QR spectra at the article's speeds (issue 26,
-//! item 5): the article's own spectra ([`ARTICLE_SPECTRA`], printed in bits/s), and,
+//! What REPORT.md sets beside jeffcott's QR spectra at the article's speeds: the
+//! article's own spectra ([`ARTICLE_SPECTRA`], printed in bits/s), and,
 //! where the response from the static equilibrium is periodic, the Floquet spectrum of
 //! its orbit shot by Newton. A periodic orbit's Lyapunov exponents are its Floquet
 //! exponents ln|mu| / (nT), so the QR average over thousands of periods and the

@@ -1,5 +1,5 @@
 //! Early exit: lanes that retire once they are recognised on a known attractor, their
-//! slots refilled with the next lanes (issue 24). The core knows nothing of attractors:
+//! slots refilled with the next lanes. The core knows nothing of attractors:
 //! a study gives a [`Recognise`] (the analysis crate builds one from its catalogue) and
 //! the runner shows it each live lane's Poincare point at the end of every period from
 //! [`EarlyExit::after`] on; a lane it recognises ends there with that attractor's id.

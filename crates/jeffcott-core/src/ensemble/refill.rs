@@ -1,4 +1,4 @@
-//! The bookkeeping of refilled slots under early exit (issue 24): which lane a free slot
+//! The bookkeeping of refilled slots under early exit: which lane a free slot
 //! takes next, what a slot's lane does at the end of each period (its record, its
 //! tangent's growth, recognition, whether it ends), and the run's result from the lanes
 //! that ended. One definition for both backends: the CPU's refilled batches

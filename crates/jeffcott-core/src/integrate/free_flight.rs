@@ -1,4 +1,4 @@
-//! Exact free flight (issue 28, item 5; `--exact-free-flight`): between contacts the model is
+//! Exact free flight (`--exact-free-flight`): between contacts the model is
 //! four uncoupled damped oscillators (MODEL.md 2 with f = 0), the rotor's forced by the
 //! unbalance at the rotor speed and both by gravity, so a macro step spent wholly in
 //! free flight has an exact flow map: per oscillator the particular (steady forced)

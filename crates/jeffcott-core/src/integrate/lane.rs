@@ -177,7 +177,7 @@ pub struct StepperConfig {
     pub contact_substeps: u32,
     /// Early exit (`ensemble::early`): periods a lane integrates before it may retire
     /// on a known attractor. Only the attractor-labelling studies use it. Default 30
-    /// since 2026-11-27 (100 before): the same labels at 133, 137.25 and 166 rad/s
+    /// (against 100): the same labels at 133, 137.25 and 166 rad/s
     /// (k_c = 1e6) and 9.5 % less time at 133 (docs/early-exit.md).
     #[serde(default)]
     pub early_exit_after: u32,

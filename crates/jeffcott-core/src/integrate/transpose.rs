@@ -4,7 +4,7 @@
 //! (`unpacklo/hi_pd`, then `permutex2var_pd` twice over), each lane's state read or
 //! written with one vector load or store. Written as loops, the compiler emits 64 scalar
 //! moves each way, and the vector loads that follow wait on store forwarding (about 8 %
-//! of the f64 bench's samples, perf 2026-11-27); it makes no shuffles from any portable
+//! of the f64 bench's samples in perf); it makes no shuffles from any portable
 //! form tried (docs/performance.md). Data movement only: the bits are those of the loops.
 
 use crate::integrate::lane::MacroStep;
