@@ -2,7 +2,8 @@
 # Runs jeffcott's test suite in release mode (the physics tests integrate many periods),
 # then the Python package's (scripts/python-test.sh: builds the wheel with maturin in a
 # virtual environment python/.venv, installing maturin, numpy, pytest and matplotlib
-# there when absent, and runs pytest and the example), then the GPU campaign's local
+# there when absent, and runs pytest and the example), then every command of the
+# README's tour and of docs/guide.md (scripts/docs-commands.sh), then the GPU campaign's local
 # mode (scripts/gpu-campaign.sh --local --small), then the refactoring check's
 # self-test (scripts/golden.sh selftest: its command set runs twice to identical
 # outputs), then the real-Slurm test of the
@@ -31,7 +32,8 @@ fi
 
 cargo test --release "$@"
 bash scripts/python-test.sh target/release/jeffcott
-# The GPU campaign's local mode (issue 25): every step of what a lent H100 runs, at small
+bash scripts/docs-commands.sh target/release/jeffcott python/.venv/bin/python
+# The GPU campaign's local mode: every step of what a lent H100 runs, at small
 # sizes on the adapter at hand, so the campaign cannot rot between the rare GPU sessions.
 bash scripts/gpu-campaign.sh --local --small --out target/campaign-small
 # The refactoring check (scripts/golden.sh: a fixed command set, every study and every
