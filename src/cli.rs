@@ -1,5 +1,5 @@
 //! Command-line interface: argument parsing, file writing, human summaries. Nothing
-//! numerical lives here (DESIGN.md 1).
+//! numerical lives here (docs/architecture.md).
 
 use crate::plot;
 use clap::{Args, Parser, Subcommand};

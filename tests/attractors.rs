@@ -1,4 +1,4 @@
-//! The article's reported responses (MODEL.md 6), reproduced from the static equilibrium.
+//! The article's reported responses (docs/model.md 6), reproduced from the static equilibrium.
 
 use jeffcott_analysis::classify::{Class, ClassifyConfig};
 use jeffcott_analysis::simulate::{Integrator, SimulateSpec, simulate};

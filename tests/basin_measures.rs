@@ -558,7 +558,7 @@ fn disk_fraction_error_is_within_the_boundary_cell_bound() {
 
 #[test]
 fn measures_of_a_2000_by_2000_grid_run_in_linear_passes() {
-    // No time is asserted (DESIGN.md 2.7); the times are printed for the record.
+    // No time is asserted (docs/architecture.md); the times are printed for the record.
     let n = 2000;
     let labels = newton_labels(3, n);
     let t = std::time::Instant::now();

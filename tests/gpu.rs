@@ -26,7 +26,7 @@ const RECORDED: u32 = 10;
 /// The kinds of lanes in the parity ensemble.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Kind {
-    /// Static equilibrium (MODEL.md 3).
+    /// Static equilibrium (docs/model.md 4).
     Equilibrium,
     /// Thrown against the stator: x_r = 5.8 mm, vx_r = +0.8 m/s.
     ThrownOut,

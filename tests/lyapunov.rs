@@ -1,4 +1,4 @@
-//! Lyapunov spectra (MODEL.md 5 and 6): the sum rule, the analytic free-flight
+//! Lyapunov spectra (docs/model.md 5 and 6): the sum rule, the analytic free-flight
 //! exponents, a periodic attractor, the saltation matrix at contact switches, and the
 //! largest exponent of the ensemble lanes against the full spectrum.
 
@@ -12,7 +12,7 @@ use jeffcott_core::model::{Params, STATE_DIM, State};
 mod common;
 use common::{jeffcott, jeffcott_ok, jeffcott_out, json, ok, words};
 
-/// -2 (2 xi_r w_r + 2 xi_s w_s) for Table 1 (MODEL.md 6) [1/s].
+/// -2 (2 xi_r w_r + 2 xi_s w_s) for Table 1 (docs/model.md 6) [1/s].
 const TABLE1_TRACE: f64 = -2.0 * (2.0 * 0.02 * 140.0 + 2.0 * 0.05 * 540.0);
 
 fn config(max_time: f64) -> SpectrumConfig {

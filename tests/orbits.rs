@@ -19,7 +19,7 @@ fn contact_free() -> Params {
     }
 }
 
-/// The steady unbalance response at t = 0 (MODEL.md 2 without contact): the rotor on a
+/// The steady unbalance response at t = 0 (docs/model.md 2 without contact): the rotor on a
 /// circle of radius A = e W^2 / |w_r^2 - W^2 + 2 i xi_r w_r W| lagging the unbalance by
 /// psi, sagged by gravity; the stator at rest at its static deflection.
 fn analytic_response(p: &Params, w: f64) -> State {

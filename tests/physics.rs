@@ -1,4 +1,4 @@
-//! Physics statements the model and the integrators must satisfy (MODEL.md 6). Each test
+//! Physics statements the model and the integrators must satisfy (docs/model.md 6). Each test
 //! is named by what it proves.
 
 use jeffcott_core::integrate::article::{ArticleConfig, ArticleStepper, ErrorNorm};
@@ -250,7 +250,7 @@ fn rubbing_transient() -> (Params, f64, State) {
 #[test]
 fn lane_stepper_converges_at_fourth_order_through_contact() {
     // The located crossings keep fourth order although the field is only C0 at g = 0
-    // (MODEL.md 4.2). Error: worst position error over 20 Poincare points of a rubbing
+    // (docs/numerics.md). Error: worst position error over 20 Poincare points of a rubbing
     // transient; successive ratios wander (error contributions of both signs), so the
     // claim is on the least-squares order over N = 250..2000, with every ratio above 2^3.5.
     let (p, omega, x0) = rubbing_transient();

@@ -279,7 +279,7 @@ def test_bad_input_raises_value_error_naming_the_field(call, field):
 
 
 def test_lyapunov_spectrum_sums_to_the_damping_trace():
-    # MODEL.md 6: the exponents sum to <tr J> = -2 (2 xi_r w_r + 2 xi_s w_s) = -119.2 1/s.
+    # docs/model.md 6: the exponents sum to <tr J> = -2 (2 xi_r w_r + 2 xi_s w_s) = -119.2 1/s.
     s = jeffcott.lyapunov(131.7, time=30.0, transient=300)
     assert len(s["exponents"]) == 8
     assert abs(s["sum"] + 119.2) < 0.5

@@ -138,7 +138,7 @@ impl Engine {
     }
 }
 
-/// Lane-steps per GPU dispatch aimed at: short enough for a watchdog (DESIGN.md 3),
+/// Lane-steps per GPU dispatch aimed at: short enough for a watchdog (docs/gpu.md),
 /// long enough to amortise the dispatch.
 pub(crate) const LANE_STEPS_PER_SLICE: u64 = 50_000_000;
 

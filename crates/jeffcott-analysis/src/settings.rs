@@ -1,4 +1,4 @@
-//! What every lane study shares (MODEL.md 4-5): the model parameters, how a lane is
+//! What every lane study shares (docs/numerics.md-5): the model parameters, how a lane is
 //! integrated (stepper, precision, backend), how its Poincare records are classified,
 //! and whether its largest Lyapunov exponent is computed. Each study's spec holds one
 //! [`LaneSettings`], flattened: run.json keeps its flat keys (`params`, `stepper`, ...).

@@ -1,9 +1,9 @@
-//! The library's one error type (DESIGN.md 2.4).
+//! The library's one error type (docs/architecture.md).
 
 use std::path::PathBuf;
 
 /// Everything that can go wrong in the library. Per-lane numerical outcomes are *not*
-/// errors: they are [`crate::integrate::lane::Status`] values (DESIGN.md 2.5).
+/// errors: they are [`crate::integrate::lane::Status`] values (docs/architecture.md).
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum Error {

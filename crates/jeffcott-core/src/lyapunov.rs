@@ -1,4 +1,4 @@
-//! Lyapunov exponents of the nonsmooth rotor-stator system (MODEL.md 5 and 6).
+//! Lyapunov exponents of the nonsmooth rotor-stator system (docs/model.md 5 and 6).
 //!
 //! The full spectrum ([`spectrum`]) is computed on the CPU in `f64` by the method of
 //! Benettin et al. with Mueller's transition conditions: the state and eight tangent
@@ -16,7 +16,7 @@
 //! proportional to g, so it vanishes on g = 0 from both sides: f+ = f- and S = I. With
 //! the optional contact damping `c_c` the force jumps by c_c dg/dt and S != I. In both
 //! cases det S = 1: n = grad g has position components only, the two fields share their
-//! position rows (the velocities), so n^T f+ = n^T f-. The sum rule (MODEL.md 6)
+//! position rows (the velocities), so n^T f+ = n^T f-. The sum rule (docs/model.md 6)
 //! therefore reads sum = <tr J> + (saltation log-det rate = 0) for any c_c; what S
 //! changes is the individual exponents (the shear it applies moves volume between
 //! directions), which the tests show against finite differences of the flow map.
@@ -249,7 +249,7 @@ pub struct Spectrum {
 
 /// A spectrum as `spectrum.json` holds it (NaN and infinities as null, as serde_json
 /// writes every non-finite number): the spectrum and the residual of its sum rule
-/// (MODEL.md: sum = <tr J> + saltation rate). The command line adds its settings; the
+/// (docs/model.md: sum = <tr J> + saltation rate). The command line adds its settings; the
 /// Python package returns it as a dictionary.
 #[derive(Clone, Debug, Serialize)]
 pub struct SpectrumRecord<'a> {

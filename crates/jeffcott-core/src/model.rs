@@ -1,4 +1,4 @@
-//! The rotor-stator model of MODEL.md sections 1-3: parameters, state layout, the
+//! The rotor-stator model of docs/model.md sections 1-3: parameters, state layout, the
 //! corrected equations of motion, the contact force, the analytic Jacobian and the
 //! energy. Pure functions; the `f64` entry points here are the reference that the
 //! integrators and the GPU kernel are tested against.
@@ -17,7 +17,7 @@ pub const WGSL: &str = include_str!("model.wgsl");
 
 /// Number of state components.
 pub const STATE_DIM: usize = 8;
-/// A state vector in the order of MODEL.md 1: `[x_r, vx_r, y_r, vy_r, x_s, vx_s, y_s, vy_s]`.
+/// A state vector in the order of docs/model.md 1: `[x_r, vx_r, y_r, vy_r, x_s, vx_s, y_s, vy_s]`.
 pub type State = [f64; STATE_DIM];
 
 /// Index of `x_r` in the state.
@@ -49,7 +49,7 @@ pub fn coord_index(name: &str) -> Option<usize> {
     COORD_NAMES.iter().position(|n| *n == name)
 }
 
-/// Model parameters. `Default` is the article's Table 1 (after Demailly), MODEL.md 3.
+/// Model parameters. `Default` is the article's Table 1 (after Demailly), docs/model.md 4.
 ///
 /// The rotor speed `W` is not a parameter here: it is the control parameter of every
 /// study and is passed alongside.
@@ -85,7 +85,7 @@ pub struct Params {
     /// (see `lyapunov` for the saltation matrix this needs). Per unit mass, as the
     /// rest of the model: c_c / m_r on the rotor, c_c / m_s on the stator.
     pub c_c: f64,
-    /// Local error bound of the article's variable-step scheme (MODEL.md 4.1) [m].
+    /// Local error bound of the article's variable-step scheme (docs/numerics.md, the article's scheme) [m].
     pub e_max: f64,
     /// Gravitational acceleration, acting in -y on both bodies [m/s^2].
     pub a_g: f64,
@@ -246,7 +246,7 @@ impl Params {
         self.m_s * self.omega_s * self.omega_s
     }
 
-    /// The default initial state: static equilibrium without contact (MODEL.md 3).
+    /// The default initial state: static equilibrium without contact (docs/model.md 4).
     pub fn static_equilibrium(&self) -> State {
         let mut x = [0.0; STATE_DIM];
         x[Y_R] = -self.a_g / (self.omega_r * self.omega_r);
@@ -287,7 +287,7 @@ pub fn short_number(v: f64) -> String {
     }
 }
 
-/// The coefficients of the equations of motion per unit mass (MODEL.md 2) for one rotor
+/// The coefficients of the equations of motion per unit mass (docs/model.md 2) for one rotor
 /// speed, in the lane's precision. Computed once in `f64` on the host and rounded, so
 /// the CPU and GPU lanes see identical constants.
 ///
@@ -409,7 +409,7 @@ impl<R: Copy, const B: usize> Coeffs<[R; B]> {
 }
 
 /// The rotor's displacement and velocity relative to the stator, [dx, dy, dvx, dvy]
-/// (MODEL.md 2).
+/// (docs/model.md 2).
 #[inline(always)]
 pub fn relative_motion<T: Arith>(x: &[T; STATE_DIM]) -> [T; 4] {
     [
@@ -421,7 +421,7 @@ pub fn relative_motion<T: Arith>(x: &[T; STATE_DIM]) -> [T; 4] {
 }
 
 /// Penetration g = |d| - delta with d the rotor centre relative to the stator centre
-/// (MODEL.md 2). Contact is `g > 0`.
+/// (docs/model.md 2). Contact is `g > 0`.
 #[inline(always)]
 pub fn penetration<R: Real>(delta: R, x: &[R; STATE_DIM]) -> R {
     let [dx, dy, _, _] = relative_motion(x);
@@ -430,7 +430,7 @@ pub fn penetration<R: Real>(delta: R, x: &[R; STATE_DIM]) -> R {
 
 /// Contact force on the rotor divided by k_c, as a function of the relative position
 /// d = (dx, dy) and relative velocity (dvx, dvy), evaluated with the contact formula
-/// whatever the sign of g (the caller decides whether contact is on; MODEL.md 4.2 holds
+/// whatever the sign of g (the caller decides whether contact is on; docs/numerics.md holds
 /// the contact state fixed over a step, which needs this analytic continuation).
 /// Returns (fx, fy) in metres.
 ///
@@ -519,7 +519,7 @@ pub fn contact_partials_off_centre<T: Arith>(c: &Coeffs<T>, x: &[T; STATE_DIM]) 
     ]
 }
 
-/// Right-hand side of the corrected equations of motion (MODEL.md 2) with the contact
+/// Right-hand side of the corrected equations of motion (docs/model.md 2) with the contact
 /// state given (`contact`) and the unbalance phasor (cos(Wt - phi0), sin(Wt - phi0))
 /// given, so the caller chooses how the forcing is evaluated.
 ///
@@ -565,7 +565,7 @@ pub fn rhs_with_force<R: Real>(
     ]
 }
 
-/// The reference right-hand side dX/dt at time t (MODEL.md 2), `f64`, forcing from
+/// The reference right-hand side dX/dt at time t (docs/model.md 2), `f64`, forcing from
 /// `std` trigonometry, contact on exactly when g > 0.
 pub fn rhs(p: &Params, omega: f64, t: f64, x: &State) -> State {
     let c = Coeffs::<f64>::new(p, omega);
@@ -629,7 +629,7 @@ pub fn jacobian(p: &Params, x: &State) -> [[f64; STATE_DIM]; STATE_DIM] {
 
 /// Total mechanical energy [J]: kinetic, shaft and suspension springs, gravity (zero at
 /// y = 0) and the contact potential k_c g^2 / 2 for g > 0. Conserved when xi_r = xi_s =
-/// e = mu = c_c = 0 (MODEL.md 6).
+/// e = mu = c_c = 0 (docs/model.md 6).
 pub fn energy(p: &Params, x: &State) -> f64 {
     let kinetic = 0.5 * p.m_r * (x[VX_R] * x[VX_R] + x[VY_R] * x[VY_R])
         + 0.5 * p.m_s * (x[VX_S] * x[VX_S] + x[VY_S] * x[VY_S]);
@@ -642,7 +642,7 @@ pub fn energy(p: &Params, x: &State) -> f64 {
 }
 
 /// Steady-state amplitude [m] and phase lag [rad] of the rotor's linear unbalance
-/// response without contact (MODEL.md 6): x_r = A cos(W t - phi0 - lag) about the static
+/// response without contact (docs/model.md 6): x_r = A cos(W t - phi0 - lag) about the static
 /// deflection, y_r likewise with sin.
 pub fn linear_unbalance_response(p: &Params, omega: f64) -> (f64, f64) {
     let r = omega / p.omega_r;

@@ -3,7 +3,7 @@
 //!
 //! A period-n orbit (n forcing periods T = 2 pi / W) is a fixed point of P^n, the map
 //! that advances a state at t = kT by n periods with the lane stepper (RK4 with switches
-//! located, MODEL.md 4): F(x) = P^n(x) - x = 0. Its Jacobian is M - I, with M the
+//! located, docs/numerics.md): F(x) = P^n(x) - x = 0. Its Jacobian is M - I, with M the
 //! monodromy matrix dP^n/dx: the 8 tangent vectors e_1 .. e_8 advanced through the same
 //! steps, Mueller's saltation matrix applied at every switch (`integrate::tangent`), so M
 //! is the derivative of the nonsmooth flow and Newton converges quadratically also for

@@ -1,11 +1,11 @@
 //! The floating-point type a lane is integrated in.
 //!
 //! The ensemble stepper is generic over `f32` and `f64` so that the CPU path can run
-//! exactly the arithmetic the WGSL kernel runs in either precision (DESIGN.md 1, "the
+//! exactly the arithmetic the WGSL kernel runs in either precision (docs/architecture.md, "the
 //! precision is chosen the same way"). The trait exposes only what the kernel may use:
 //! `+ - * /`, `sqrt`, `floor`, comparisons. No trigonometry: the forcing phasor is a
 //! polynomial (see `integrate::forcing`), because f64 trigonometry is wrong on some
-//! Vulkan drivers (DESIGN.md 3).
+//! Vulkan drivers (docs/gpu.md).
 
 use std::fmt::Debug;
 use std::ops::{Add, AddAssign, Div, Mul, Neg, Sub};

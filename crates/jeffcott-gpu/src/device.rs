@@ -1,4 +1,4 @@
-//! Adapter discovery and device creation, kept apart from the work (DESIGN.md 2.3) so
+//! Adapter discovery and device creation, kept apart from the work (docs/architecture.md) so
 //! that tests and the CLI can choose and share a device.
 //!
 //! The device is created with the adapter's own limits (so lane chunks can use all the

@@ -6,7 +6,7 @@
 //!
 //! - **chunks of lanes**, so that every buffer stays inside the device's
 //!   `max_storage_buffer_binding_size` / `max_buffer_size` and every dispatch inside
-//!   `max_compute_workgroups_per_dimension` (DESIGN.md 3). Chunks run one after the
+//!   `max_compute_workgroups_per_dimension` (docs/gpu.md). Chunks run one after the
 //!   other on the same (cached) buffers.
 //! - **time slices** of at most `periods_per_slice` forcing periods per dispatch, so no
 //!   dispatch runs long enough for a watchdog (Windows TDR: 2 s) and the host can
@@ -23,7 +23,7 @@
 //! host cut the work (tested bit for bit in `tests/gpu.rs`).
 //!
 //! The pipeline is built once per device and precision and kept, with its buffers
-//! (grown when a run needs more), in the [`GpuRunner`] (DESIGN.md 2.3).
+//! (grown when a run needs more), in the [`GpuRunner`] (docs/architecture.md).
 
 pub mod anatomy;
 pub mod device;

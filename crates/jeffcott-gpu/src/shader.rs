@@ -1,6 +1,6 @@
 //! Assembles the lane kernel: a header generated from the Rust constants, then the
 //! kernel's parts (`integrate::lane::WGSL_FILES`, each beside the Rust module it mirrors,
-//! concatenated in a fixed order). DESIGN.md 1: constants shared with the kernel are
+//! concatenated in a fixed order). docs/architecture.md: constants shared with the kernel are
 //! defined once, here and in `integrate::lane` / `model`, and written into the source
 //! when the pipeline is built.
 //!

@@ -1,4 +1,4 @@
-//! Attractor classification from stroboscopic Poincare points (MODEL.md 5).
+//! Attractor classification from stroboscopic Poincare points (docs/model.md 5).
 //!
 //! Points are compared in a metric with one unit, metres: positions as they are and
 //! velocities divided by W (a velocity v on an orbit of radius A at frequency W has

@@ -591,7 +591,7 @@ fn near_chord(spec: &BranchSpec, x: &State, v: f64, a: &BranchPoint, b: &BranchP
 /// Past a corner of the branch, where the pseudo-arclength corrector fails at every
 /// step: a contact episode begins or ends somewhere in the period (the grazing of a
 /// further contact, which the smallest clearance, already negative, does not show), and
-/// the stiff penalty contact turns the branch within nanometres of arclength (MODEL.md:
+/// the stiff penalty contact turns the branch within nanometres of arclength (docs/model.md:
 /// k_c = 1e8 N/m). The parameter itself is stepped instead (a natural-parameter step:
 /// the orbit shot at the new value from the last one), by 1e-6, 1e-5, then 1e-4 of the
 /// range along the branch's direction; the first that converges to a nearby orbit (moved

@@ -1,5 +1,5 @@
 //! `reproduce` as a study: the article's figure set (Figs. 3-12 of "Nonlinear Dynamics
-//! and Chaos of a Nonsmooth Rotor-Stator System", MODEL.md 6) and the studies beyond it,
+//! and Chaos of a Nonsmooth Rotor-Stator System", docs/model.md 6) and the studies beyond it,
 //! at one of three resolutions.
 //!
 //! This module holds what the figure set computes and what it finds, typed:

@@ -194,7 +194,7 @@ pub const SMOKE: Preset = Preset {
     orbit_points: 12,
 };
 
-/// The article's speeds and what it reports there (MODEL.md 6).
+/// The article's speeds and what it reports there (docs/model.md 6).
 pub const ARTICLE_SPEEDS: [(f64, &str); 5] = [
     (131.7, "period-1 (Fig. 5)"),
     (132.2, "period-2 (Fig. 6)"),
@@ -224,7 +224,7 @@ pub struct ArticleSpectrum {
 
 /// The article's own Lyapunov spectra, at 135 rad/s (with Figs. 9-10) and 140 rad/s
 /// (with Figs. 11-12), in bits/s as it prints them. Its sums, -171.4 and -171.7 bits/s,
-/// are -118.8 and -119.0 1/s: the trace rule's -119.2 1/s (MODEL.md 6) to 0.4 %, which
+/// are -118.8 and -119.0 1/s: the trace rule's -119.2 1/s (docs/model.md 6) to 0.4 %, which
 /// says the unit is bits/s (in 1/s they would break the rule by a factor 1.44). REPORT.md
 /// sets them beside jeffcott's spectra at the same speeds.
 pub const ARTICLE_SPECTRA: [ArticleSpectrum; 2] = [

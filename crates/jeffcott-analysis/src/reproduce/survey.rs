@@ -86,7 +86,7 @@ impl Survey {
 }
 
 /// The sum of the Lyapunov exponents for viscous damping with no saltation (S = I),
-/// MODEL.md 6: -2 (2 xi_r w_r + 2 xi_s w_s) [1/s].
+/// docs/model.md 6: -2 (2 xi_r w_r + 2 xi_s w_s) [1/s].
 pub fn sum_rule(p: &Params) -> f64 {
     -2.0 * (2.0 * p.xi_r * p.omega_r + 2.0 * p.xi_s * p.omega_s)
 }

@@ -1,7 +1,7 @@
 //! The Lyapunov spectrum study: the full spectrum of one speed (with its running
 //! estimates), or of a range of speeds in resumable work units. The numerics are
 //! [`jeffcott_core::lyapunov`]'s (QR re-orthonormalisation with saltation matrices at
-//! the switches, MODEL.md); this module sets a run up once for every front end (the
+//! the switches, docs/model.md); this module sets a run up once for every front end (the
 //! command line, Python) and runs it on a [`Host`].
 
 use crate::record::{Span, StudySpec};

@@ -1,5 +1,5 @@
 //! Rub figures of a trajectory on its attractor: how much and how hard the rotor touches
-//! the stator, from a dense time series on the lane stepper's grid (MODEL.md 2: contact
+//! the stator, from a dense time series on the lane stepper's grid (docs/model.md 2: contact
 //! is g = |d| - delta > 0, the normal force k_c g + c_c dg/dt).
 //!
 //! The figures are sampled on the integrator's grid (N points per forcing period): a
@@ -126,7 +126,7 @@ pub struct RubFigures {
 }
 
 /// Normal contact force on the rotor [N] at state `x` (positive pushes the rotor back
-/// towards the centre, MODEL.md 2 with the optional dashpot), 0 out of contact.
+/// towards the centre, docs/model.md 2 with the optional dashpot), 0 out of contact.
 pub fn normal_force(p: &Params, x: &State) -> f64 {
     let (dx, dy) = (x[X_R] - x[X_S], x[Y_R] - x[Y_S]);
     let r = (dx * dx + dy * dy).sqrt();

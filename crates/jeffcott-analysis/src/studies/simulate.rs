@@ -23,9 +23,9 @@ use std::time::{Duration, Instant};
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "snake_case")]
 pub enum Integrator {
-    /// The ensemble lane stepper (MODEL.md 4.2), the default.
+    /// The ensemble lane stepper (docs/numerics.md), the default.
     Lane,
-    /// The article's variable-step scheme (MODEL.md 4.1), a cross-check.
+    /// The article's variable-step scheme (docs/numerics.md, the article's scheme), a cross-check.
     Article,
 }
 

@@ -1,6 +1,6 @@
 //! Ensembles: many independent lanes (each its own speed W, start state and, optionally,
 //! parameter set) run by one call on either backend, with results identical in shape.
-//! Bifurcation sweeps, basins and parameter-plane maps are all ensembles (DESIGN.md 1).
+//! Bifurcation sweeps, basins and parameter-plane maps are all ensembles (docs/architecture.md).
 
 pub mod cpu;
 pub mod early;

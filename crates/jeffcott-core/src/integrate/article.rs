@@ -1,4 +1,4 @@
-//! The article's variable-step RK4 (MODEL.md 4.1), for single trajectories and as an
+//! The article's variable-step RK4 (docs/numerics.md, the article's scheme), for single trajectories and as an
 //! independent cross-check of the ensemble stepper.
 //!
 //! A fixed standard step T/N outside contact. A step in which any RK4 stage sees contact
@@ -8,7 +8,7 @@
 //! kept while contact lasts and the standard step returns on the first step without
 //! contact. Steps never cross the standard grid, so Poincare times t = kT are hit exactly.
 //!
-//! Known properties (MODEL.md 4.2 measurements): positions-only error at T/200 does not
+//! Known properties (docs/numerics.md measurements): positions-only error at T/200 does not
 //! settle periodic orbits, at T/500 it can mistake the period, at T/1000 it is correct;
 //! all-component error is accurate but costs tens of thousands of steps per period. Not
 //! the default integrator.

@@ -1,6 +1,6 @@
 //! The unbalance phasor (cos, sin) of 2 pi * turns, from + - * and `floor` only.
 //!
-//! Why not `cos`/`sin`: f64 trigonometry is silently wrong on Vulkan (DESIGN.md 3), and
+//! Why not `cos`/`sin`: f64 trigonometry is silently wrong on Vulkan (docs/gpu.md), and
 //! the CPU lane must compute exactly what the kernel computes. The argument is reduced in
 //! turns (exact: subtracting a multiple of 1/4 from a number in [0, 1) is exact in binary
 //! floating point) to an angle in [-pi/4, pi/4], where Taylor polynomials of degree 17

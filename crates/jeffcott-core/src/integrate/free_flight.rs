@@ -1,5 +1,5 @@
 //! Exact free flight (`--exact-free-flight`): between contacts the model is
-//! four uncoupled damped oscillators (MODEL.md 2 with f = 0), the rotor's forced by the
+//! four uncoupled damped oscillators (docs/model.md 2 with f = 0), the rotor's forced by the
 //! unbalance at the rotor speed and both by gravity, so a macro step spent wholly in
 //! free flight has an exact flow map: per oscillator the particular (steady forced)
 //! solution, and a 2x2 transition of the homogeneous rest over h.

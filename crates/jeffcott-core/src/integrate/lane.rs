@@ -1,9 +1,9 @@
-//! The ensemble lane stepper (MODEL.md 4.2): one trajectory, advanced one macro step at
+//! The ensemble lane stepper (docs/numerics.md): one trajectory, advanced one macro step at
 //! a time on a fixed grid of N steps per forcing period, with the contact crossings
 //! located and the step split there.
 //!
 //! Why crossing location rather than error-controlled sub-stepping: the vector field is
-//! only C0 at g = 0 (MODEL.md 2), and a kink inside an RK4 step drops the method to low
+//! only C0 at g = 0 (docs/model.md 2), and a kink inside an RK4 step drops the method to low
 //! order. Holding the contact state fixed over each RK4 stage sequence (the contact
 //! formula is continued analytically across g = 0) and splitting the step at the located
 //! crossing restores fourth order; the convergence study (docs/convergence.md) measured
@@ -90,7 +90,7 @@ pub use super::tangent::{
     tangent_rhs,
 };
 
-/// Per-lane outcome (DESIGN.md 2.5). Ordered by severity: a worse status replaces a
+/// Per-lane outcome (docs/architecture.md). Ordered by severity: a worse status replaces a
 /// milder one, never the reverse.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize)]
 #[serde(rename_all = "snake_case")]

@@ -1,6 +1,6 @@
 // The ensemble lane stepper on the GPU, part 1 of 8: the buffers and the helpers that
 // stand in for the Real trait. One invocation advances one lane (one trajectory of the
-// rotor-stator system, MODEL.md 4.2) by a time slice of whole forcing periods, with the
+// rotor-stator system, docs/numerics.md) by a time slice of whole forcing periods, with the
 // state held in registers for the whole slice.
 //
 // The kernel is eight files, each beside the Rust module it mirrors, concatenated in this
@@ -23,7 +23,7 @@
 //
 // The concatenation is not valid WGSL on its own: jeffcott-gpu's shader.rs prepends a
 // generated header that defines
-//   alias Real = f32 | f64;                 the precision (DESIGN.md 1)
+//   alias Real = f32 | f64;                 the precision (docs/architecture.md)
 //   WORKGROUP_SIZE, STATE_DIM, X_R .. VY_S, GRAZE_SAMPLES, ROOT_MAX_ITERS, STATUS_*
 //   REAL_MAX, TAU, SIXTH, CERTIFICATE_SAFETY, SIN_C0 .. SIN_C8, COS_C0 .. COS_C8
 //   LYAPUNOV (bool), RECORD_DIM                the pipeline variant (below)
@@ -43,9 +43,9 @@
 // sub-step (rk4_tangent_substep), mapped by the saltation matrix at every located
 // switch (saltation), and renormalised at the end of every forcing period; its length
 // before renormalisation is written after the state in each record (RECORD_DIM = 9)
-// and the host sums the logarithms (no f64 `log` on the GPU, DESIGN.md 3).
+// and the host sums the logarithms (no f64 `log` on the GPU, docs/gpu.md).
 //
-// Rules kept in every part (DESIGN.md 3): no trigonometry at all (the forcing phasor is
+// Rules kept in every part (docs/gpu.md): no trigonometry at all (the forcing phasor is
 // a polynomial), no recursion, every loop bounded by a constant or a lane constant.
 // Builtins whose NaN behaviour is implementation-defined (`max`, `min`) are not used:
 // `rmax` spells out the CPU's comparison instead.

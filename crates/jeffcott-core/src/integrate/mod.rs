@@ -1,5 +1,5 @@
-//! Integrators: the reference RK4 step, the article's variable-step scheme (MODEL.md 4.1)
-//! and the ensemble lane stepper (MODEL.md 4.2) with its trigonometry-free forcing.
+//! Integrators: the reference RK4 step, the article's variable-step scheme (docs/numerics.md, the article's scheme)
+//! and the ensemble lane stepper (docs/numerics.md) with its trigonometry-free forcing.
 
 pub mod article;
 pub mod batch;

@@ -1,4 +1,4 @@
-//! The switch search of one trial sub-step (MODEL.md 4.2; the lane module's docs, step
+//! The switch search of one trial sub-step (docs/numerics.md; the lane module's docs, step
 //! 2): the penetration g sampled on the cubic Hermite interpolant of the relative
 //! displacement ([`hermite_gap`]), the first sample on the wrong side of g = 0 for the
 //! contact mode ([`wrong_side`]), grazing extrema between samples, and the Illinois

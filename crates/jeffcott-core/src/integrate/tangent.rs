@@ -1,4 +1,4 @@
-//! Tangent vectors along a lane (MODEL.md 5 and 6): the variational equations
+//! Tangent vectors along a lane (docs/model.md 5 and 6): the variational equations
 //! dV/dt = J(x(t)) V advanced by RK4 on the state's own stages in the same frozen
 //! contact mode ([`rk4_tangent_substep`]), Mueller's saltation matrix at every located
 //! switch ([`saltation`]) and the renormalisation behind lambda_1 ([`renormalise`]).
@@ -14,7 +14,7 @@ use crate::model::{
 use crate::real::{Arith, Real};
 
 /// Tangent vectors carried along a lane, with what the Lyapunov spectrum needs to
-/// account for them (MODEL.md 5 and 6). `M = 0` is the plain lane.
+/// account for them (docs/model.md 5 and 6). `M = 0` is the plain lane.
 #[derive(Clone, Copy, Debug)]
 pub struct Tangent<R, const M: usize> {
     /// The tangent vectors, each a state-space direction.

@@ -1,4 +1,4 @@
-//! The attractor catalogue of an ensemble at one rotor speed W (MODEL.md 5): every lane
+//! The attractor catalogue of an ensemble at one rotor speed W (docs/model.md 5): every lane
 //! is classified from its Poincare points ([`classify`](crate::classify::classify)) and given the id of the
 //! attractor it settled on; lanes on the same orbit get the same id even when their
 //! Poincare sequences are shifted in phase.

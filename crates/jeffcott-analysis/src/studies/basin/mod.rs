@@ -1,4 +1,4 @@
-//! Basins of attraction (MODEL.md 5): a grid over two initial coordinates at one W,
+//! Basins of attraction (docs/model.md 5): a grid over two initial coordinates at one W,
 //! every other coordinate fixed, each cell labelled with the id of the attractor its
 //! lane settles on (the catalogue of [`crate::catalogue`]), -1 for diverged lanes.
 //!

@@ -1,4 +1,4 @@
-//! Bifurcation diagrams over the rotor speed W (MODEL.md 5), two ways:
+//! Bifurcation diagrams over the rotor speed W (docs/model.md 5), two ways:
 //!
 //! - **quasistatic sweeps**: the final state at one W is the start state of the next, W
 //!   increasing (up) and decreasing (down), so hysteresis shows. A sweep is serial in W
