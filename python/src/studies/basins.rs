@@ -31,8 +31,13 @@ struct BasinRun<'a> {
 /// `x` and `y` are `(name, lo, hi, n)` tuples or `"name:lo:hi:n"` strings (e.g.
 /// `("x_r", -0.006, 0.006, 80)`); `fix` sets other start coordinates (default: the
 /// static equilibrium). Returns `labels` (int32 `[ny, nx]`, attractor ids, -1
-/// diverged), `x`, `y` (the axis values), `attractors` (the list of `attractors.json`),
-/// `diverged`, with `lyapunov=True` `lambda1` `[ny, nx]`, and `run` (backend, wall time).
+/// diverged, -2 an attractor a refinement found that the coarse grid did not), `x`,
+/// `y` (the axis values), `attractors` (the list of `attractors.json`, each with its
+/// rub figures under `rub`), `diverged`, `metrics` (`basin_metrics.json`'s keys:
+/// fractions, entropies, uncertainty exponent, box-counting dimension, Wada test; with
+/// `uncertainty_samples > 0` the re-integration estimate), with `refine > 0` `refined`
+/// (uint8 `[ny, nx]`, 1 where the label was integrated), with `lyapunov=True`
+/// `lambda1` `[ny, nx]`, and `run` (backend, wall time).
 #[pyfunction]
 #[pyo3(signature = (
     omega, x, y, *, fix=None, params=None,
