@@ -36,7 +36,7 @@ root, binary = sys.argv[1], sys.argv[2]
 absroot = os.path.abspath(root)
 # Keys whose values change from run to run of the same command.
 VOLATILE = {"wall_time_s", "seconds", "elapsed_s", "started", "finished", "created",
-            "version", "host", "hostname", "pid", "device", "adapter", "adapters",
+            "version", "jeffcott_version", "jeffcott_commit", "host", "hostname", "pid", "device", "adapter", "adapters",
             "driver", "threads", "backend_info", "time_s", "command_time_s"}
 def scrub(v):
     if isinstance(v, dict):
@@ -121,8 +121,8 @@ run_set() {
   step continuation "$bin" continuation --vary omega:132:134:3 --ics 6 --transient 60 --periods 12 "${j[@]}" --out "$out/continuation"
   step cascade "$bin" cascade --omega 130:140:4 --transient-first 40 --transient 20 --periods 24 --csv --quiet --out "$out/cascade"
   step basin-stability "$bin" basin-stability --omega 132:134:2 --sample 12 --box x_r:-0.004:0.004,vx_r:-0.5:0.5 --transient 60 --periods 12 "${j[@]}" --out "$out/basin-stability"
-  step orbits "$bin" orbits --param omega:131.7:132.4 --follow-doublings --coord vx_s --over "$out/bifurcation" --quiet --out "$out/orbits"
-  step orbits-from "$bin" orbits --param omega:131:131.5 --from "$out/bifurcation" --no-plot --quiet --out "$out/orbits-from"
+  step orbits "$bin" orbits --vary omega:131.7:132.4 --follow-doublings --coord vx_s --over "$out/bifurcation" --quiet --out "$out/orbits"
+  step orbits-from "$bin" orbits --vary omega:131:131.5 --from "$out/bifurcation" --no-plot --quiet --out "$out/orbits-from"
   step lyapunov "$bin" lyapunov --omega 135 --transient 40 --time 3 --min-time 3 --quiet --out "$out/lyapunov"
   step lyapunov-range "$bin" lyapunov --omega 131:135:6 --transient 40 --time 2 --min-time 2 --quiet --out "$out/lyapunov-range"
   if [ -n "$py" ]; then

@@ -56,7 +56,13 @@ pub use stability::{StabilityArgs, run_stability};
 /// System" (Mathematical Problems in Engineering, 2017) with its dimensional errors
 /// corrected. All quantities are SI: metres, seconds, radians, kilograms.
 #[derive(Parser, Debug)]
-#[command(name = "jeffcott", version, about, long_about, after_long_help = EXIT_CODES)]
+#[command(
+    name = "jeffcott",
+    version = jeffcott_analysis::LONG_VERSION,
+    about,
+    long_about,
+    after_long_help = EXIT_CODES
+)]
 pub struct Cli {
     /// What to do.
     #[command(subcommand)]

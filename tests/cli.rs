@@ -263,3 +263,38 @@ fn the_cli_reference_in_docs_is_the_one_the_binary_generates() {
         "docs/cli.md is not current: regenerate it with `cargo run --release -- info --cli-reference > docs/cli.md`"
     );
 }
+
+#[test]
+fn run_json_records_the_version_and_commit_that_jeffcott_version_reports() {
+    let v = jeffcott(&["--version"]);
+    ok(&v);
+    let said = String::from_utf8(v.stdout).unwrap();
+    // "jeffcott 0.2.0 (commit 0123456789ab)"
+    let commit = said
+        .split("(commit ")
+        .nth(1)
+        .and_then(|r| r.split(')').next())
+        .unwrap_or_else(|| panic!("no commit in --version: {said}"))
+        .to_string();
+    assert!(said.starts_with(&format!("jeffcott {} ", env!("CARGO_PKG_VERSION"))));
+    assert!(!commit.is_empty(), "{said}");
+    let (_dir, out, o) = jeffcott_temp(
+        "ver",
+        "simulate --omega 131.7 --transient 10 --periods 4 --no-plot --quiet",
+    );
+    ok(&o);
+    let run = common::json(&out.join("run.json"));
+    assert_eq!(run["jeffcott_version"], env!("CARGO_PKG_VERSION"));
+    assert_eq!(run["jeffcott_commit"], commit.as_str());
+    // Built from a git checkout (as the test suite is), the commit is its HEAD's.
+    let head = std::process::Command::new("git")
+        .args(["rev-parse", "--short=12", "HEAD"])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output();
+    match head {
+        Ok(h) if h.status.success() => {
+            assert_eq!(String::from_utf8_lossy(&h.stdout).trim(), commit)
+        }
+        _ => eprintln!("skipped: the commit against git (no git here)"),
+    }
+}

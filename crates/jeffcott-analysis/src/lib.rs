@@ -35,3 +35,15 @@ pub use studies::{
 };
 
 pub use jeffcott_core::{Error, Result};
+
+/// The git commit this build comes from (`JEFFCOTT_COMMIT` at build time, else `git
+/// rev-parse --short=12 HEAD`, else `unknown`), recorded in every run.json.
+pub const COMMIT: &str = env!("JEFFCOTT_COMMIT");
+
+/// The version as `jeffcott --version` shows it: the package version and the commit.
+pub const LONG_VERSION: &str = concat!(
+    env!("CARGO_PKG_VERSION"),
+    " (commit ",
+    env!("JEFFCOTT_COMMIT"),
+    ")"
+);

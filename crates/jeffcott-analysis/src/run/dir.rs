@@ -398,6 +398,7 @@ impl RunDir {
             units_dir: UNITS,
             outputs,
             jeffcott_version: env!("CARGO_PKG_VERSION"),
+            jeffcott_commit: crate::COMMIT,
             result,
         };
         output::write_json(&self.dir.join(RUN_JSON), &run)
@@ -625,7 +626,7 @@ impl RunDir {
 
 /// The keys of `run.json` the run itself writes (a result's `jeffcott_version`, where it
 /// has one, is its own).
-pub const RUN_KEYS: [&str; 9] = [
+pub const RUN_KEYS: [&str; 10] = [
     "state",
     "command",
     "spec",
@@ -635,6 +636,7 @@ pub const RUN_KEYS: [&str; 9] = [
     "merge_stages",
     "units_dir",
     "outputs",
+    "jeffcott_commit",
 ];
 
 /// `run.json`: how far the run got, what it computes (command, specification, shard,
@@ -666,6 +668,9 @@ struct RunJson<'a> {
     outputs: &'a [String],
     /// The version that wrote the file.
     jeffcott_version: &'static str,
+    /// The git commit of the build that wrote it (the version alone cannot tell two
+    /// builds apart).
+    jeffcott_commit: &'static str,
     /// The command's result record, at the top level (its own `jeffcott_version` wins).
     #[serde(flatten)]
     result: &'a serde_json::Map<String, serde_json::Value>,
