@@ -1,5 +1,5 @@
 //! The kernel's anatomy: parts of the lane kernel timed alone on a GPU (`jeffcott bench
-//! --anatomy`, issue 25's campaign).
+//! --anatomy`, the GPU campaign).
 //!
 //! The H100 and H200 ran the lane kernel at about 3.4e8 f64 lane-steps/s where a
 //! hand-written CUDA RK4 of the same model ran 2.1e10 (docs/gpu.md), and the kernel's

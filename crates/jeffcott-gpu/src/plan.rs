@@ -1,6 +1,6 @@
 //! How a run is cut to fit a device: lanes per chunk from the buffer and dispatch
 //! limits, as a pure function so that a 10M-lane run on an 80 GB GPU can be planned and
-//! checked anywhere (issue 25, "scale").
+//! checked anywhere.
 //!
 //! A chunk's buffers are sized for its lanes: per lane the constants, the state and the
 //! records of one time slice (`periods_per_slice` Poincare points); each buffer must fit

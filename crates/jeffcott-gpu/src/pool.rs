@@ -1,5 +1,5 @@
 //! A pool of lane slots refilled between time slices: the GPU's side of early exit
-//! (issue 24). The kernel is the same; the host keeps a fixed number of slots busy,
+//! (`jeffcott_core::ensemble::refill` on the host). The kernel is the same; the host keeps a fixed number of slots busy,
 //! reads back every slice's Poincare points and each slot's lane, and writes the next
 //! lanes into the slots whose lanes ended. What a slot's lane does at a period's end
 //! (recognised, recorded, ended) is decided by a [`PoolHost`]
@@ -96,58 +96,15 @@ impl GpuRunner {
         max_periods: u32,
         host: &mut dyn PoolHost<R>,
     ) -> Result<u64> {
-        let queue = self.gpu.queue();
-        let rec_dim = shader::record_dim(lyapunov);
-        let lane_size = size_of::<R::Lane>();
+        let w = SlotWriter::<R> {
+            queue: self.gpu.queue(),
+            bufs,
+            lyapunov,
+            _real: std::marker::PhantomData,
+        };
         // The pool's period count: every slot's `Lane::period` at the next slice's start.
         let mut period = 0u32;
-        let pack = |p: Option<PoolLane<R>>, period: u32| {
-            let (consts, mut lane, tangent) = match p {
-                Some(p) => (
-                    R::pack_consts(&p.consts),
-                    R::pack_lane(&p.lane),
-                    p.tangent.unwrap_or([R::lit(0.0); STATE_DIM]),
-                ),
-                // N = 0: the kernel records the lane each period and steps nothing.
-                None => (
-                    R::Consts::zeroed(),
-                    R::Lane::zeroed(),
-                    [R::lit(0.0); STATE_DIM],
-                ),
-            };
-            R::set_period(&mut lane, period);
-            (consts, lane, tangent)
-        };
-        let mut consts = Vec::with_capacity(slots);
-        let mut lanes = Vec::with_capacity(slots);
-        let mut tangents = Vec::with_capacity(slots);
-        let mut occupied = vec![false; slots];
-        for (s, occ) in occupied.iter_mut().enumerate() {
-            let p = host.fill(s);
-            *occ = p.is_some();
-            let (c, l, t) = pack(p, period);
-            consts.push(c);
-            lanes.push(l);
-            tangents.push(t);
-        }
-        queue.write_buffer(&bufs.consts, 0, bytemuck::cast_slice(&consts));
-        queue.write_buffer(&bufs.lanes, 0, bytemuck::cast_slice(&lanes));
-        if lyapunov {
-            queue.write_buffer(&bufs.tangents, 0, bytemuck::cast_slice(&tangents));
-        }
-        let tangent_size = STATE_DIM * size_of::<R>();
-        let write = |s: usize, c: &R::Consts, l: &R::Lane, t: &[R]| {
-            let at = |size: usize| (s * size) as u64;
-            queue.write_buffer(
-                &bufs.consts,
-                at(size_of::<R::Consts>()),
-                bytemuck::bytes_of(c),
-            );
-            queue.write_buffer(&bufs.lanes, at(lane_size), bytemuck::bytes_of(l));
-            if lyapunov {
-                queue.write_buffer(&bufs.tangents, at(tangent_size), bytemuck::cast_slice(t));
-            }
-        };
+        let (mut consts, mut occupied) = w.fill_all(slots, host);
         // Slots dispatched: those below `active` (the rest are empty).
         let mut active = slots;
         let mut dispatches = 0u64;
@@ -167,112 +124,215 @@ impl GpuRunner {
                 probe: PROBE_ITERS,
                 pad: [0; 3],
             };
-            queue.write_buffer(&bufs.params, 0, bytemuck::bytes_of(&params));
+            w.queue
+                .write_buffer(&bufs.params, 0, bytemuck::bytes_of(&params));
             dispatches += self.dispatch_slice(pipeline, bufs, active)?;
-            let rec_bytes = periods as usize * active * rec_dim * size_of::<R>();
-            let lane_bytes = active * lane_size;
-            let mut enc =
-                self.gpu
-                    .device()
-                    .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                        label: Some("pool readback"),
-                    });
-            enc.copy_buffer_to_buffer(
-                &bufs.records,
-                0,
-                &bufs.records_staging,
-                0,
-                Some(rec_bytes as u64),
-            );
-            enc.copy_buffer_to_buffer(
-                &bufs.lanes,
-                0,
-                &bufs.lanes_staging,
-                0,
-                Some(lane_bytes as u64),
-            );
-            if lyapunov {
-                enc.copy_buffer_to_buffer(
-                    &bufs.tangents,
-                    0,
-                    &bufs.tangents_staging,
-                    0,
-                    Some((active * tangent_size) as u64),
-                );
-            }
-            queue.submit(Some(enc.finish()));
-            let records: Vec<R> = self.read_back(&bufs.records_staging, rec_bytes)?;
-            let mut gpu_lanes: Vec<R::Lane> = self.read_back(&bufs.lanes_staging, lane_bytes)?;
-            let mut gpu_tangents: Vec<R> = if lyapunov {
-                self.read_back(&bufs.tangents_staging, active * tangent_size)?
-            } else {
-                Vec::new()
-            };
-            let unpacked = gpu_lanes
-                .iter()
-                .enumerate()
-                .map(|(s, g)| {
-                    R::unpack_lane(g).ok_or_else(|| Error::Gpu {
-                        message: format!("pool slot {s} came back with an unknown status"),
-                    })
-                })
-                .collect::<Result<Vec<_>>>()?;
+            let mut back = self.read_pool_slice::<R>(bufs, lyapunov, periods, active)?;
             period = end;
-            for s in host.after_slice(periods, &records, &unpacked)? {
-                if s >= active {
-                    return Err(Error::invalid("slot", s, format!("the pool runs {active}")));
-                }
+            for s in host.after_slice(periods, &back.records, &back.unpacked)? {
+                check_slot(s, active)?;
                 let p = host.fill(s);
                 occupied[s] = p.is_some();
                 let (c, l, t) = pack(p, period);
                 consts[s] = c;
-                write(s, &c, &l, &t);
+                w.write(s, &c, &l, &t);
             }
             if lyapunov {
                 for (s, t) in host.tangent_restarts() {
-                    if s >= active {
-                        return Err(Error::invalid("slot", s, format!("the pool runs {active}")));
-                    }
+                    check_slot(s, active)?;
                     // Also in the copy read back, which the compaction below moves.
-                    gpu_tangents[s * STATE_DIM..][..STATE_DIM].copy_from_slice(&t);
-                    queue.write_buffer(
-                        &bufs.tangents,
-                        (s * tangent_size) as u64,
-                        bytemuck::cast_slice(&t),
-                    );
+                    back.tangents[s * STATE_DIM..][..STATE_DIM].copy_from_slice(&t);
+                    w.write_tangent(s, &t);
                 }
             }
-            // Nothing left to fill with: the running lanes move down, each from the
-            // highest occupied slot into the lowest empty one, with the state, counters
-            // and tangent the slice left it.
-            let (mut lo, mut hi) = (0, active);
-            loop {
-                while lo < hi && occupied[lo] {
-                    lo += 1;
-                }
-                while hi > lo && !occupied[hi - 1] {
-                    hi -= 1;
-                }
-                if hi <= lo + 1 {
-                    break;
-                }
-                let from = hi - 1;
-                R::set_period(&mut gpu_lanes[from], period);
-                let t = if lyapunov {
-                    &gpu_tangents[from * STATE_DIM..][..STATE_DIM]
-                } else {
-                    &[][..]
-                };
-                consts[lo] = consts[from];
-                write(lo, &consts[from], &gpu_lanes[from], t);
-                occupied.swap(lo, from);
-                host.moved(from, lo);
-            }
+            w.compact(&mut back, &mut consts, &mut occupied, active, period, host);
             active = occupied
                 .iter()
                 .rposition(|&o| o)
                 .map_or(0, |i| i + 1)
                 .max(1);
+        }
+    }
+
+    /// Copies a slice's records, lanes and (lambda_1) tangents of the first `active`
+    /// slots to the host and reads them back.
+    fn read_pool_slice<R: GpuReal>(
+        &self,
+        bufs: &Buffers,
+        lyapunov: bool,
+        periods: u32,
+        active: usize,
+    ) -> Result<SliceBack<R>> {
+        let rec_bytes = periods as usize * active * shader::record_dim(lyapunov) * size_of::<R>();
+        let lane_bytes = active * size_of::<R::Lane>();
+        let tangent_bytes = active * STATE_DIM * size_of::<R>();
+        let mut enc = self
+            .gpu
+            .device()
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("pool readback"),
+            });
+        let mut copy = |from: &wgpu::Buffer, to: &wgpu::Buffer, bytes: usize| {
+            enc.copy_buffer_to_buffer(from, 0, to, 0, Some(bytes as u64));
+        };
+        copy(&bufs.records, &bufs.records_staging, rec_bytes);
+        copy(&bufs.lanes, &bufs.lanes_staging, lane_bytes);
+        if lyapunov {
+            copy(&bufs.tangents, &bufs.tangents_staging, tangent_bytes);
+        }
+        self.gpu.queue().submit(Some(enc.finish()));
+        let records: Vec<R> = self.read_back(&bufs.records_staging, rec_bytes)?;
+        let lanes: Vec<R::Lane> = self.read_back(&bufs.lanes_staging, lane_bytes)?;
+        let tangents: Vec<R> = if lyapunov {
+            self.read_back(&bufs.tangents_staging, tangent_bytes)?
+        } else {
+            Vec::new()
+        };
+        let unpacked = lanes
+            .iter()
+            .enumerate()
+            .map(|(s, g)| {
+                R::unpack_lane(g).ok_or_else(|| Error::Gpu {
+                    message: format!("pool slot {s} came back with an unknown status"),
+                })
+            })
+            .collect::<Result<Vec<_>>>()?;
+        Ok(SliceBack {
+            records,
+            lanes,
+            tangents,
+            unpacked,
+        })
+    }
+}
+
+/// What a slice left on the device, read back: the records, each slot's lane as the
+/// kernel stores it and unpacked, and (lambda_1) each slot's tangent.
+struct SliceBack<R: GpuReal> {
+    records: Vec<R>,
+    lanes: Vec<R::Lane>,
+    tangents: Vec<R>,
+    unpacked: Vec<Lane<R>>,
+}
+
+/// Refuses a slot the host names beyond the `active` slots the slice ran.
+fn check_slot(s: usize, active: usize) -> Result<()> {
+    if s >= active {
+        return Err(Error::invalid("slot", s, format!("the pool runs {active}")));
+    }
+    Ok(())
+}
+
+/// A slot's constants, lane (its period count set to the pool's) and tangent as the
+/// kernel reads them; an empty slot (`None`) holds a lane with N = 0, which the kernel
+/// records each period and does not step.
+fn pack<R: GpuReal>(p: Option<PoolLane<R>>, period: u32) -> (R::Consts, R::Lane, [R; STATE_DIM]) {
+    let (consts, mut lane, tangent) = match p {
+        Some(p) => (
+            R::pack_consts(&p.consts),
+            R::pack_lane(&p.lane),
+            p.tangent.unwrap_or([R::lit(0.0); STATE_DIM]),
+        ),
+        None => (
+            R::Consts::zeroed(),
+            R::Lane::zeroed(),
+            [R::lit(0.0); STATE_DIM],
+        ),
+    };
+    R::set_period(&mut lane, period);
+    (consts, lane, tangent)
+}
+
+/// Writes slots into the kernel's buffers.
+struct SlotWriter<'a, R> {
+    queue: &'a wgpu::Queue,
+    bufs: &'a Buffers,
+    lyapunov: bool,
+    _real: std::marker::PhantomData<R>,
+}
+
+impl<R: GpuReal> SlotWriter<'_, R> {
+    /// Fills every slot from `host` at period 0 and writes them all at once: the slots'
+    /// constants and which are occupied.
+    fn fill_all(&self, slots: usize, host: &mut dyn PoolHost<R>) -> (Vec<R::Consts>, Vec<bool>) {
+        let mut consts = Vec::with_capacity(slots);
+        let mut lanes = Vec::with_capacity(slots);
+        let mut tangents = Vec::with_capacity(slots);
+        let mut occupied = vec![false; slots];
+        for (s, occ) in occupied.iter_mut().enumerate() {
+            let p = host.fill(s);
+            *occ = p.is_some();
+            let (c, l, t) = pack(p, 0);
+            consts.push(c);
+            lanes.push(l);
+            tangents.push(t);
+        }
+        let b = self.bufs;
+        self.queue
+            .write_buffer(&b.consts, 0, bytemuck::cast_slice(&consts));
+        self.queue
+            .write_buffer(&b.lanes, 0, bytemuck::cast_slice(&lanes));
+        if self.lyapunov {
+            self.queue
+                .write_buffer(&b.tangents, 0, bytemuck::cast_slice(&tangents));
+        }
+        (consts, occupied)
+    }
+
+    /// Writes slot `s`: its constants, lane and (lambda_1) tangent.
+    fn write(&self, s: usize, c: &R::Consts, l: &R::Lane, t: &[R]) {
+        let at = |size: usize| (s * size) as u64;
+        let b = self.bufs;
+        self.queue
+            .write_buffer(&b.consts, at(size_of::<R::Consts>()), bytemuck::bytes_of(c));
+        self.queue
+            .write_buffer(&b.lanes, at(size_of::<R::Lane>()), bytemuck::bytes_of(l));
+        if self.lyapunov {
+            self.write_tangent(s, t);
+        }
+    }
+
+    /// Writes slot `s`'s tangent vector.
+    fn write_tangent(&self, s: usize, t: &[R]) {
+        let at = (s * STATE_DIM * size_of::<R>()) as u64;
+        self.queue
+            .write_buffer(&self.bufs.tangents, at, bytemuck::cast_slice(t));
+    }
+
+    /// Once nothing is left to fill slots with, the running lanes move down, each from
+    /// the highest occupied slot into the lowest empty one, with the state, counters
+    /// and tangent the slice left it.
+    fn compact(
+        &self,
+        back: &mut SliceBack<R>,
+        consts: &mut [R::Consts],
+        occupied: &mut [bool],
+        active: usize,
+        period: u32,
+        host: &mut dyn PoolHost<R>,
+    ) {
+        let (mut lo, mut hi) = (0, active);
+        loop {
+            while lo < hi && occupied[lo] {
+                lo += 1;
+            }
+            while hi > lo && !occupied[hi - 1] {
+                hi -= 1;
+            }
+            if hi <= lo + 1 {
+                break;
+            }
+            let from = hi - 1;
+            R::set_period(&mut back.lanes[from], period);
+            let t = if self.lyapunov {
+                &back.tangents[from * STATE_DIM..][..STATE_DIM]
+            } else {
+                &[][..]
+            };
+            consts[lo] = consts[from];
+            self.write(lo, &consts[from], &back.lanes[from], t);
+            occupied.swap(lo, from);
+            host.moved(from, lo);
         }
     }
 }

@@ -1,5 +1,5 @@
 //! The kernel as SPIR-V in which every floating-point operation is exact as written: the
-//! parity path for hardware drivers (issue 25, docs/gpu.md).
+//! parity path for hardware drivers (docs/gpu.md).
 //!
 //! naga's SPIR-V carries no `NoContraction` decoration, so a Vulkan driver may fuse
 //! `a * b + c` into one FMA (one rounding instead of two) and reassociate sums. NVIDIA's
