@@ -21,15 +21,16 @@ fn main() {
         .unwrap_or_else(|| "unknown".into());
     println!("cargo:rustc-env=JEFFCOTT_COMMIT={commit}");
     // Built again when HEAD moves: the HEAD file, the branch it names and the packed
-    // refs (where git keeps a branch after `git gc`).
-    for name in ["HEAD", "packed-refs"] {
-        if let Some(path) = git(&["rev-parse", "--git-path", name]) {
+    // refs (where git keeps a branch after `git gc`). Only files that exist are named:
+    // Cargo runs a build script again at every build while a named file is missing.
+    let branch = git(&["symbolic-ref", "-q", "HEAD"]);
+    let names = ["HEAD", "packed-refs"].into_iter().chain(branch.as_deref());
+    println!("cargo:rerun-if-changed=build.rs");
+    for name in names {
+        if let Some(path) = git(&["rev-parse", "--git-path", name])
+            && std::path::Path::new(&path).exists()
+        {
             println!("cargo:rerun-if-changed={path}");
         }
-    }
-    if let Some(branch) = git(&["symbolic-ref", "-q", "HEAD"])
-        && let Some(path) = git(&["rev-parse", "--git-path", &branch])
-    {
-        println!("cargo:rerun-if-changed={path}");
     }
 }
