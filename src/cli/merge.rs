@@ -313,7 +313,7 @@ pub fn run_merge(a: &MergeArgs) -> Result<()> {
     let first = &shards[0];
     let outputs: &[&str] = match first.command.as_str() {
         "basin" => super::basin::OUTPUTS,
-        "ensemble" => super::ENSEMBLE_OUTPUTS,
+        "ensemble" => super::ensemble::ENSEMBLE_OUTPUTS,
         "bifurcation" => super::bifurcation::OUTPUTS,
         "map" => super::map::OUTPUTS,
         "continuation" => super::continuation::OUTPUTS,
