@@ -642,34 +642,43 @@ fn a_refined_and_reintegrated_basin_with_early_exit_has_the_cpus_labels_on_a_gpu
     }
     // The GPU's slot pool ends the same lanes at the same periods as the CPU's refilled
     // batches: the same labels at every stage (every refined and re-integrated lane
-    // retires here).
-    let run = |backend: &str| {
+    // retires here), in either form of the kernel (JEFFCOTT_GPU_CONSTS; the pool's lanes
+    // share their constants, so the GPU reads one set for all).
+    let run_form = |backend: &str, form: &str| {
         let tmp = tempfile::tempdir().unwrap();
         let out = tmp.path().join("out");
-        ok(&jeffcott(&words(&format!(
-            "basin --omega 133 --x x_r:-0.006:0.006:5 --y vx_r:-1:1:5 --transient 250 \
-             --periods 16 --steps-per-period 200 --refine 1 \
-             --uncertainty-samples 3 --backend {backend} --precision f64 --no-plot --quiet \
-             --out {}",
-            out.display()
-        ))));
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_jeffcott"))
+            .args(words(&format!(
+                "basin --omega 133 --x x_r:-0.006:0.006:5 --y vx_r:-1:1:5 --transient 250 \
+                 --periods 16 --steps-per-period 200 --refine 1 \
+                 --uncertainty-samples 3 --backend {backend} --precision f64 --no-plot \
+                 --quiet --out {}",
+                out.display()
+            )))
+            .env(jeffcott_gpu::device::CONSTS_VAR, form)
+            .output()
+            .unwrap();
+        ok(&o);
         let run = json(&out.join("run.json"));
         let f =
             json(&out.join("basin_metrics.json"))["uncertainty_reintegration"]["points"].clone();
         (npy::<i32>(&out.join("labels.npy")).1, f, run, tmp)
     };
-    let (cpu, gpu) = (run("cpu"), run("gpu"));
-    assert_eq!(gpu.2["backend"]["backend"], "gpu", "{}", gpu.2);
-    assert_eq!(cpu.0, gpu.0);
-    assert_eq!(cpu.1, gpu.1);
-    for r in [&cpu.2, &gpu.2] {
-        let level = &r["refinement"]["levels"][0];
-        assert_eq!(level["early_exit"]["retired"], level["lanes"], "{level}");
+    let cpu = run_form("cpu", "");
+    for form in ["once", "each-step"] {
+        let gpu = run_form("gpu", form);
+        assert_eq!(gpu.2["backend"]["backend"], "gpu", "{}", gpu.2);
+        assert_eq!(cpu.0, gpu.0, "{form}");
+        assert_eq!(cpu.1, gpu.1, "{form}");
+        for r in [&cpu.2, &gpu.2] {
+            let level = &r["refinement"]["levels"][0];
+            assert_eq!(level["early_exit"]["retired"], level["lanes"], "{level}");
+        }
+        assert_eq!(
+            cpu.2["uncertainty_early_exit"], gpu.2["uncertainty_early_exit"],
+            "{form}"
+        );
     }
-    assert_eq!(
-        cpu.2["uncertainty_early_exit"],
-        gpu.2["uncertainty_early_exit"]
-    );
 }
 
 /// Runs `line` (a study command) in f64 on `backend` with early exit at `streak` (0:

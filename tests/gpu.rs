@@ -668,16 +668,16 @@ fn every_kernel_variant_compiles_through_raw_vulkan_with_the_drivers_statistics(
             .kernels
             .unwrap_or_else(|e| panic!("{}: the kernel does not compile: {e}", d.device));
         // f32 plain and lambda_1, and with f64 the f64 and driver's-f32 variants too;
-        // each with and without the exact free-flight step; then the anatomy's six
-        // parts (the kernel's entry point among them) in f32, and in f64 where there
-        // is f64.
+        // each with and without the exact free-flight step, each with its constants per
+        // lane, shared but the speed's and shared; then the anatomy's six parts (the
+        // kernel's entry point among them) in f32, and in f64 where there is f64.
         assert!(
-            kernels.len() == 4 + 6 || kernels.len() == 12 + 12,
+            kernels.len() == 12 + 6 || kernels.len() == 36 + 12,
             "{} kernels",
             kernels.len()
         );
         let parts = kernels.iter().filter(|k| k.kernel.starts_with("anatomy: "));
-        assert_eq!(parts.count(), if kernels.len() == 10 { 6 } else { 12 });
+        assert_eq!(parts.count(), if kernels.len() == 18 { 6 } else { 12 });
         if !d.offers_statistics {
             eprintln!("skipped: {} offers no pipeline statistics", d.device);
             continue;
@@ -737,12 +737,14 @@ fn check_exact_free_flight<R: GpuReal>(runner: &GpuRunner) {
 }
 
 #[test]
-fn the_kernel_reading_lane_constants_once_or_at_every_sub_step_gives_the_cpus_bits() {
-    // Variant::consts_each_step: hardware reads a lane's constants at every sub-step
-    // (registers) and keeps the committed lane in its buffer, lavapipe reads them once
-    // and holds the lane (its loads are gathers). Each adapter runs one form by
-    // default; JEFFCOTT_GPU_CONSTS runs the other, so CI's lavapipe checks both forms,
-    // with and without the exact free-flight map, in both precisions.
+fn the_kernel_in_either_form_with_shared_or_per_lane_constants_gives_the_cpus_bits() {
+    // Variant::consts_each_step: hardware reads a lane's constants at every sub-step and
+    // keeps the committed lane in its buffer (advance_buffered), lavapipe reads them once
+    // and holds the lane (advance_held; its loads are gathers). Each adapter runs one
+    // form by default; JEFFCOTT_GPU_CONSTS runs the other, so CI's lavapipe checks both
+    // forms, with and without the exact free-flight map, in both precisions, for lanes
+    // that share their constants (one speed: Variant::shared_fields) and for lanes that
+    // share only some (a speed and a friction coefficient per lane).
     let Some(runner) = runner_for::<f64>() else {
         return;
     };
@@ -751,20 +753,32 @@ fn the_kernel_reading_lane_constants_once_or_at_every_sub_step_gives_the_cpus_bi
         return;
     }
     let tmp = tempfile::tempdir().unwrap();
-    let table = tmp.path().join("lanes.csv");
-    let xr: Vec<String> = (0..48)
-        .map(|i| format!("{}", -0.004 + 0.008 * i as f64 / 47.0))
+    let xr = |i: usize| -0.004 + 0.008 * i as f64 / 47.0;
+    let shared = tmp.path().join("shared.csv");
+    let rows: Vec<String> = (0..48).map(|i| format!("{}", xr(i))).collect();
+    std::fs::write(&shared, format!("x_r\n{}\n", rows.join("\n"))).unwrap();
+    let per_lane = tmp.path().join("per-lane.csv");
+    let rows: Vec<String> = (0..48)
+        .map(|i| {
+            format!(
+                "{},{},{}",
+                130.0 + 0.125 * i as f64,
+                0.1 + 0.002 * i as f64,
+                xr(i)
+            )
+        })
         .collect();
-    std::fs::write(&table, format!("x_r\n{}\n", xr.join("\n"))).unwrap();
-    let run = |backend: &str, precision: &str, extra: &str, consts: &str| {
-        let out = tmp
-            .path()
-            .join(format!("{backend}-{precision}-{}-{consts}", extra.len()));
+    std::fs::write(&per_lane, format!("omega,mu,x_r\n{}\n", rows.join("\n"))).unwrap();
+    let run = |backend: &str, precision: &str, lanes: &str, extra: &str, consts: &str| {
+        let out = tmp.path().join(format!(
+            "{backend}-{precision}-{}-{}-{consts}",
+            lanes.len(),
+            extra.len()
+        ));
         let o = std::process::Command::new(env!("CARGO_BIN_EXE_jeffcott"))
             .args(common::words(&format!(
-                "ensemble --lanes {} --omega 133 --transient 0 --periods 12 --steps-per-period 400 \
+                "ensemble {lanes} --transient 0 --periods 12 --steps-per-period 400 \
                  --backend {backend} --precision {precision} --quiet {extra} --out {}",
-                table.display(),
                 out.display()
             )))
             .env(jeffcott_gpu::device::CONSTS_VAR, consts)
@@ -773,15 +787,21 @@ fn the_kernel_reading_lane_constants_once_or_at_every_sub_step_gives_the_cpus_bi
         common::ok(&o);
         ["poincare.npy", "status.npy"].map(|f| std::fs::read(out.join(f)).unwrap())
     };
-    for precision in ["f64", "f32"] {
-        for extra in ["", "--exact-free-flight --contact-substeps 4"] {
-            let cpu = run("cpu", precision, extra, "");
-            for consts in ["once", "each-step"] {
-                let gpu = run("gpu", precision, extra, consts);
-                assert!(
-                    gpu == cpu,
-                    "{precision} {extra} with {consts}: the GPU's lanes differ from the CPU's"
-                );
+    let tables = [
+        format!("--lanes {} --omega 133", shared.display()),
+        format!("--lanes {}", per_lane.display()),
+    ];
+    for lanes in &tables {
+        for precision in ["f64", "f32"] {
+            for extra in ["", "--exact-free-flight --contact-substeps 4"] {
+                let cpu = run("cpu", precision, lanes, extra, "");
+                for consts in ["once", "each-step"] {
+                    let gpu = run("gpu", precision, lanes, extra, consts);
+                    assert!(
+                        gpu == cpu,
+                        "{precision} {extra} {lanes} with {consts}: the GPU's lanes differ from the CPU's"
+                    );
+                }
             }
         }
     }

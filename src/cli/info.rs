@@ -40,7 +40,7 @@ pub fn run_info(args: &InfoArgs) -> Result<()> {
     }
     for s in adapters {
         println!(
-            "GPU: {} [{} {}{}], driver {}, f64 {}, max storage binding {} MiB, max buffer {} MiB, workgroups/dim {}, invocations/workgroup {}, kernel as {}, f32 division and sqrt {}, lane constants read {} (JEFFCOTT_GPU_CONSTS)",
+            "GPU: {} [{} {}{}], driver {}, f64 {}, max storage binding {} MiB, max buffer {} MiB, workgroups/dim {}, invocations/workgroup {}, kernel as {}, f32 division and sqrt {}, kernel form {} (JEFFCOTT_GPU_CONSTS)",
             s.name,
             s.backend,
             s.device_type,
@@ -63,8 +63,8 @@ pub fn run_info(args: &InfoArgs) -> Result<()> {
             },
             // The runner's own choice (JEFFCOTT_GPU_CONSTS, else by adapter kind).
             match jeffcott_gpu::device::consts_each_step(s.software) {
-                Ok(true) => "at every sub-step",
-                Ok(false) => "once",
+                Ok(true) => "GPU (constants at every sub-step, the lane in its buffer)",
+                Ok(false) => "software (constants and the lane held in registers)",
                 Err(_) => "? (invalid value: once or each-step)",
             }
         );

@@ -13,7 +13,7 @@ use jeffcott_core::ensemble::EnsembleSpec;
 use jeffcott_core::ensemble::early::{EarlyExit, EarlyResult};
 use jeffcott_core::ensemble::refill::{Ended, Refill, SlotLane, early_result};
 use jeffcott_core::error::{Error, Result};
-use jeffcott_core::integrate::lane::{LAMBDA1_START, Lane};
+use jeffcott_core::integrate::lane::{LAMBDA1_START, Lane, LaneConsts};
 use jeffcott_core::model::{STATE_DIM, State};
 use jeffcott_gpu::pool::{PoolHost, PoolLane};
 use jeffcott_gpu::{GpuReal, GpuRunner, Schedule};
@@ -179,6 +179,19 @@ pub fn run_early_gpu<R: GpuReal>(
         done: 0,
         restarts: Vec::new(),
     };
-    runner.run_pool::<R>(slots, (lambda1, exact), max_periods, &mut host)?;
+    let shared = shared_fields::<R>(spec);
+    runner.run_pool::<R>(slots, (lambda1, exact, shared), max_periods, &mut host)?;
     Ok(early_result(spec, host.ended, lambda1))
+}
+
+/// The constants' fields every lane of `spec` has equal (the GPU's kernel reads those at
+/// one address for every slot: `jeffcott_gpu::layout::shared_fields`), found over the
+/// lanes' distinct parameter sets and speeds, which alone decide a lane's constants.
+fn shared_fields<R: GpuReal>(spec: &EnsembleSpec) -> u32 {
+    let mut seen = std::collections::HashSet::new();
+    let distinct: Vec<LaneConsts<R>> = (0..spec.lanes.len())
+        .filter(|&i| seen.insert((spec.lanes[i].param_set, spec.lanes[i].omega.to_bits())))
+        .map(|i| spec.lane_consts(i))
+        .collect();
+    jeffcott_gpu::layout::shared_fields(&distinct)
 }

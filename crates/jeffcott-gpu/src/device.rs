@@ -166,10 +166,11 @@ fn shader_path(summary: &AdapterSummary) -> Result<ShaderPath> {
     }
 }
 
-/// The environment variable that says how the kernel reads a lane's constants (and
-/// holds the committed lane): `once`, in registers (the default on software adapters)
-/// or `each-step`, from their buffers (the default on hardware); see
-/// `shader::Variant::consts_each_step`. Both give the same bits.
+/// The environment variable that picks the kernel's form: `once`, the software form
+/// (constants and the committed lane held in registers, the default on software
+/// adapters) or `each-step`, the GPU form (constants read at every sub-step, the lane
+/// kept in its buffer, the default on hardware); see `shader::Variant::consts_each_step`.
+/// Both give the same bits.
 pub const CONSTS_VAR: &str = "JEFFCOTT_GPU_CONSTS";
 
 /// Whether the kernel on an adapter (`software` or not) reads a lane's constants at

@@ -122,6 +122,74 @@ macro_rules! gpu_layout {
 gpu_layout!(layout_f32, f32);
 gpu_layout!(layout_f64, f64);
 
+/// The fields of the GPU `LaneConsts` that a lane kernel may read at one address for
+/// every lane (`shader::Variant::shared_fields`, bit `k` for field `k`), as WGSL paths
+/// from a `LaneConsts` value, in the struct's order: each equation coefficient, each
+/// stepper constant, the exact free-flight map as one field, and `n` standing for the
+/// four integers.
+pub const CONST_FIELDS: [&str; 19] = [
+    "c.wr2",
+    "c.dr",
+    "c.ws2",
+    "c.ds",
+    "c.unbalance",
+    "c.a_g",
+    "c.kc_mr",
+    "c.kc_ms",
+    "c.mu",
+    "c.delta",
+    "c.tau_c",
+    "h",
+    "inv_n",
+    "phase0",
+    "bound",
+    "root_tol",
+    "inv_r",
+    "ff",
+    "n",
+];
+
+/// Every field of [`CONST_FIELDS`] shared.
+pub const ALL_FIELDS: u32 = (1 << CONST_FIELDS.len()) - 1;
+
+/// The bytes of field `k` of [`CONST_FIELDS`] in a packed `LaneConsts` of precision
+/// `R` (the struct is its 46 reals, then its four u32; the test
+/// `const_fields_name_the_bytes_they_compare_in_both_precisions` ties the names to the
+/// bytes through the WGSL layout).
+pub fn const_field_bytes<R: GpuReal>(packed: &R::Consts, k: usize) -> &[u8] {
+    let real = size_of::<R>();
+    let bytes = bytemuck::bytes_of(packed);
+    let reals = bytes.len() - 16;
+    match k {
+        0..=16 => &bytes[k * real..(k + 1) * real],
+        17 => &bytes[17 * real..reals],
+        _ => &bytes[reals..],
+    }
+}
+
+/// The mask of [`CONST_FIELDS`] that every lane of `consts` has equal, byte for byte, to
+/// the first lane's (0 for no lanes).
+pub fn shared_fields<R: GpuReal>(consts: &[LaneConsts<R>]) -> u32 {
+    let Some(first) = consts.first().map(R::pack_consts) else {
+        return 0;
+    };
+    let mut mask = ALL_FIELDS;
+    for lc in &consts[1..] {
+        let p = R::pack_consts(lc);
+        for k in 0..CONST_FIELDS.len() {
+            if mask & (1 << k) != 0
+                && const_field_bytes::<R>(&p, k) != const_field_bytes::<R>(&first, k)
+            {
+                mask &= !(1 << k);
+            }
+        }
+        if mask == 0 {
+            break;
+        }
+    }
+    mask
+}
+
 /// A precision the lane kernel can run in: `f32` or `f64`, with its GPU structs and the
 /// conversions from and to the CPU lane types.
 pub trait GpuReal: Real + Pod {
@@ -349,6 +417,68 @@ mod tests {
         assert_eq!(size_of::<layout_f32::GpuLane>(), 9 * 4 + 8 * 4);
         assert_eq!(size_of::<layout_f64::GpuLane>(), 9 * 8 + 8 * 4);
         assert_eq!(size_of::<Params>(), 32);
+    }
+
+    /// Offset of WGSL path `path` (`"c.wr2"`, `"h"`) in `LaneConsts`.
+    fn wgsl_offset(module: &naga::Module, path: &str) -> u32 {
+        let mut structs = ["LaneConsts", "Coeffs"].iter();
+        let mut offset = 0;
+        for name in path.split('.') {
+            let (_, members) = wgsl_struct(module, structs.next().expect("two levels"));
+            offset += members
+                .iter()
+                .find(|(m, _)| m == name)
+                .unwrap_or_else(|| panic!("{path}: no member {name}"))
+                .1;
+        }
+        offset
+    }
+
+    fn check_const_fields<R: GpuReal>() {
+        let module = shader::parse::<R>(shader::Variant::on_device(true, true)).unwrap();
+        let real = size_of::<R>();
+        let p = jeffcott_core::model::Params::default();
+        let cfg = jeffcott_core::integrate::lane::StepperConfig {
+            exact_free_flight: true,
+            ..Default::default()
+        };
+        let base = LaneConsts::<R>::new(&p, 133.0, &cfg);
+        let packed = R::pack_consts(&base);
+        let total = bytemuck::bytes_of(&packed).len();
+        for (k, path) in CONST_FIELDS.iter().enumerate() {
+            // The field's bytes start where the WGSL struct has the field.
+            let bytes = const_field_bytes::<R>(&packed, k);
+            let start = bytes.as_ptr() as usize - bytemuck::bytes_of(&packed).as_ptr() as usize;
+            assert_eq!(start as u32, wgsl_offset(&module, path), "{path}");
+            let len = match k {
+                0..=16 => real,
+                17 => 29 * real,
+                _ => 16,
+            };
+            assert_eq!(bytes.len(), len, "{path}");
+        }
+        assert_eq!(
+            const_field_bytes::<R>(&packed, 18).as_ptr() as usize + 16,
+            bytemuck::bytes_of(&packed).as_ptr() as usize + total
+        );
+        // A speed sweep shares every field but the unbalance, the macro step and the
+        // exact map; one lane or equal lanes share all; no lanes share nothing.
+        let other = LaneConsts::<R>::new(&p, 140.0, &cfg);
+        let sweep = ALL_FIELDS & !(1 << 4) & !(1 << 11) & !(1 << 17);
+        assert_eq!(shared_fields(&[base, other, base]), sweep);
+        assert_eq!(shared_fields(&[base, base]), ALL_FIELDS);
+        assert_eq!(shared_fields(&[base]), ALL_FIELDS);
+        assert_eq!(shared_fields::<R>(&[]), 0);
+        let mut mu = p.clone();
+        mu.mu = 0.2;
+        let mu = LaneConsts::<R>::new(&mu, 133.0, &cfg);
+        assert_eq!(shared_fields(&[base, mu]), ALL_FIELDS & !(1 << 8));
+    }
+
+    #[test]
+    fn const_fields_name_the_bytes_they_compare_in_both_precisions() {
+        check_const_fields::<f32>();
+        check_const_fields::<f64>();
     }
 
     #[test]

@@ -154,6 +154,14 @@ struct Kernel {
     buffers: Option<Buffers>,
 }
 
+/// Which lane kernel a run takes: (lambda_1, the exact free-flight step, the constants'
+/// fields every lane shares); the device decides the rest
+/// ([`GpuRunner::kernel_variant`]).
+type KernelKey = (bool, bool, u32);
+
+/// A compiled kernel and its buffers, built on first use.
+type KernelSlot = std::sync::Arc<Mutex<Option<Kernel>>>;
+
 /// Runs lanes on one device; builds each precision's pipeline (plain, or with the
 /// lambda_1 tangent vector) on first use and reuses it (and its buffers) for every
 /// later run.
@@ -162,9 +170,8 @@ pub struct GpuRunner {
     /// The limits runs are planned for: the device's, or smaller ones
     /// ([`GpuRunner::with_limits`]).
     limits: plan::PlanLimits,
-    /// [f32 plain, f32 lambda_1, f64 plain, f64 lambda_1], then the same four with the
-    /// exact free-flight step (`slot`).
-    kernels: [Mutex<Option<Kernel>>; 8],
+    /// Each precision's (`true`: f64) kernels by variant (`slot`).
+    kernels: Mutex<std::collections::HashMap<(bool, KernelKey), KernelSlot>>,
 }
 
 impl std::fmt::Debug for GpuRunner {
@@ -254,17 +261,24 @@ impl GpuRunner {
     }
 
     /// The kernel this runner's device runs: `lyapunov` or not, with the exact
-    /// free-flight step or not, f32's division and sqrt through f64 where the device has
+    /// free-flight step or not, reading the constants' fields of mask `shared` at one
+    /// address for every lane, f32's division and sqrt through f64 where the device has
     /// SHADER_F64 ([`shader::Variant`]).
-    pub fn kernel_variant(&self, lyapunov: bool, exact: bool) -> shader::Variant {
+    pub fn kernel_variant(&self, lyapunov: bool, exact: bool, shared: u32) -> shader::Variant {
         shader::Variant::on_device(lyapunov, self.gpu.supports_f64())
             .with_exact_free_flight(exact)
             .with_consts_each_step(self.gpu.consts_each_step())
+            .with_shared_fields(shared)
     }
 
-    fn slot<R: GpuReal>(&self, lyapunov: bool, exact: bool) -> &Mutex<Option<Kernel>> {
-        let precision = if R::WGSL_NAME == "f64" { 2 } else { 0 };
-        &self.kernels[4 * exact as usize + precision + lyapunov as usize]
+    fn slot<R: GpuReal>(&self, key: KernelKey) -> Result<KernelSlot> {
+        let mut kernels = self.kernels.lock().map_err(|_| Error::Gpu {
+            message: "a previous GPU run panicked".into(),
+        })?;
+        Ok(kernels
+            .entry((R::WGSL_NAME == "f64", key))
+            .or_default()
+            .clone())
     }
 
     /// An error where the device cannot run precision `R` (f64 without SHADER_F64).
@@ -282,12 +296,11 @@ impl GpuRunner {
 
     fn build_pipeline<R: GpuReal>(
         &self,
-        lyapunov: bool,
-        exact: bool,
+        (lyapunov, exact, shared): KernelKey,
     ) -> Result<wgpu::ComputePipeline> {
         self.check_precision::<R>()?;
         // Fail early with naga's readable report rather than wgpu's summary.
-        let v = self.kernel_variant(lyapunov, exact);
+        let v = self.kernel_variant(lyapunov, exact, shared);
         shader::validate::<R>(v, shader::capabilities::<R>(v))
             .map_err(|e| gpu_err("lane kernel does not validate", e))?;
         self.pipeline_for::<R>(
@@ -558,7 +571,7 @@ impl GpuRunner {
         if consts.is_empty() || total == 0 {
             return Ok((out, AnatomyTimes::default()));
         }
-        let v = self.kernel_variant(false, false);
+        let v = self.kernel_variant(false, false, 0);
         let pipeline =
             self.pipeline_for::<R>("kernel anatomy", v, &anatomy::source::<R>(v), part.entry())?;
         let chunk = self
@@ -755,6 +768,7 @@ impl GpuRunner {
         let lyapunov = tangents.is_some();
         // The exact free-flight kernel variant where some lane has the map.
         let exact = consts.iter().any(|lc| lc.exact.is_some());
+        let shared = layout::shared_fields(consts);
         let (total, mut out) = run_start(consts, init, schedule)?;
         let n_total = consts.len();
         let mut norms: Vec<Vec<f64>> = if lyapunov {
@@ -771,7 +785,8 @@ impl GpuRunner {
         let slots = schedule.periods_per_slice.min(total);
 
         let lanes_cap = chunk.min(n_total);
-        self.with_kernel::<R, _>(lyapunov, exact, lanes_cap, slots, |pipeline, bufs| {
+        let key = (lyapunov, exact, shared);
+        self.with_kernel::<R, _>(key, lanes_cap, slots, |pipeline, bufs| {
             self.run_chunks(
                 pipeline,
                 bufs,
@@ -790,22 +805,19 @@ impl GpuRunner {
     /// holding the kernel's lock.
     fn with_kernel<R: GpuReal, T>(
         &self,
-        lyapunov: bool,
-        exact: bool,
+        key: KernelKey,
         lanes_cap: usize,
         slots_cap: u32,
         f: impl FnOnce(&wgpu::ComputePipeline, &Buffers) -> Result<T>,
     ) -> Result<T> {
-        let rec_dim = shader::record_dim(lyapunov);
-        let mut guard = self
-            .slot::<R>(lyapunov, exact)
-            .lock()
-            .map_err(|_| Error::Gpu {
-                message: "a previous GPU run panicked".into(),
-            })?;
+        let rec_dim = shader::record_dim(key.0);
+        let slot = self.slot::<R>(key)?;
+        let mut guard = slot.lock().map_err(|_| Error::Gpu {
+            message: "a previous GPU run panicked".into(),
+        })?;
         if guard.is_none() {
             *guard = Some(Kernel {
-                pipeline: self.build_pipeline::<R>(lyapunov, exact)?,
+                pipeline: self.build_pipeline::<R>(key)?,
                 buffers: None,
             });
         }

@@ -10,14 +10,15 @@
 //! Every slot's `Lane::period` is the pool's period count at the start of each slice,
 //! and the slice records every period, so a slot's records are its lane's points
 //! whatever period of its own life the lane is at (the kernel only uses the count to
-//! place records and to stop). Empty slots hold a lane with N = 0, which the kernel
-//! does not step: it only writes its record each period. Once no lane is left to fill
+//! place records and to stop). Empty slots hold a frozen lane with N = 0, which the
+//! kernel does not step: it only writes its record each period. Once no lane is left to fill
 //! a slot with, the lanes still running move to the lowest slots and only those are
 //! dispatched and read back: on a GPU a warp runs as long as its slowest lane, so the
 //! few lanes that run whole would otherwise keep most warps busy to the end.
 
 use super::*;
 use bytemuck::Zeroable;
+use jeffcott_core::integrate::lane::Status;
 
 /// A lane for a slot of the pool.
 #[derive(Clone, Copy, Debug)]
@@ -56,13 +57,16 @@ pub trait PoolHost<R: GpuReal> {
 
 impl GpuRunner {
     /// Runs a pool of `slots` lane slots, with the lambda_1 kernel variant when
-    /// `lyapunov` and the exact free-flight variant when `exact`, in time slices of at
-    /// most `max_periods` forcing periods, until `host` says it is done (see the module
-    /// docs). Returns the number of dispatches.
+    /// `lyapunov`, the exact free-flight variant when `exact` and the variant that reads
+    /// the constants' fields of mask `shared` at one address for every slot
+    /// ([`crate::layout::shared_fields`]; every lane the host fills must have those
+    /// fields equal, or the run ends with an error), in time slices of at most
+    /// `max_periods` forcing periods, until `host` says it is done (see the module docs).
+    /// Returns the number of dispatches.
     pub fn run_pool<R: GpuReal>(
         &self,
         slots: usize,
-        (lyapunov, exact): (bool, bool),
+        (lyapunov, exact, shared): (bool, bool, u32),
         max_periods: u32,
         host: &mut dyn PoolHost<R>,
     ) -> Result<u64> {
@@ -81,8 +85,9 @@ impl GpuRunner {
                 format!("a slot pool must fit one chunk of this device ({chunk} lanes)"),
             ));
         }
-        self.with_kernel::<R, _>(lyapunov, exact, slots, max_periods, |pipeline, bufs| {
-            self.pool_slices(pipeline, bufs, slots, lyapunov, max_periods, host)
+        let key = (lyapunov, exact, shared);
+        self.with_kernel::<R, _>(key, slots, max_periods, |pipeline, bufs| {
+            self.pool_slices(pipeline, bufs, slots, (lyapunov, shared), max_periods, host)
         })
     }
 
@@ -92,7 +97,7 @@ impl GpuRunner {
         pipeline: &wgpu::ComputePipeline,
         bufs: &Buffers,
         slots: usize,
-        lyapunov: bool,
+        (lyapunov, shared): (bool, u32),
         max_periods: u32,
         host: &mut dyn PoolHost<R>,
     ) -> Result<u64> {
@@ -105,6 +110,28 @@ impl GpuRunner {
         // The pool's period count: every slot's `Lane::period` at the next slice's start.
         let mut period = 0u32;
         let (mut consts, mut occupied) = w.fill_all(slots, host);
+        // With shared fields the kernel reads slot 0's for every slot: each lane's must
+        // equal the first lane's, and an empty slot holds the first lane's constants
+        // (it is told apart by its frozen lane), so that slot 0 always holds them.
+        let first = (shared != 0)
+            .then(|| {
+                consts
+                    .iter()
+                    .zip(&occupied)
+                    .find(|(_, o)| **o)
+                    .map(|(c, _)| *c)
+            })
+            .flatten();
+        if let Some(first) = first {
+            for (s, c) in consts.iter_mut().enumerate() {
+                if occupied[s] {
+                    check_shared::<R>(shared, s, c, &first)?;
+                } else {
+                    *c = first;
+                }
+            }
+            w.write_consts(&consts);
+        }
         // Slots dispatched: those below `active` (the rest are empty).
         let mut active = slots;
         let mut dispatches = 0u64;
@@ -133,7 +160,17 @@ impl GpuRunner {
                 check_slot(s, active)?;
                 let p = host.fill(s);
                 occupied[s] = p.is_some();
-                let (c, l, t) = pack(p, period);
+                let (mut c, l, t) = pack(p, period);
+                if shared != 0 {
+                    let first = first.ok_or_else(|| {
+                        Error::invalid("slot constants", s, "no first lane to share with")
+                    })?;
+                    if occupied[s] {
+                        check_shared::<R>(shared, s, &c, &first)?;
+                    } else {
+                        c = first;
+                    }
+                }
                 consts[s] = c;
                 w.write(s, &c, &l, &t);
             }
@@ -224,8 +261,9 @@ fn check_slot(s: usize, active: usize) -> Result<()> {
 }
 
 /// A slot's constants, lane (its period count set to the pool's) and tangent as the
-/// kernel reads them; an empty slot (`None`) holds a lane with N = 0, which the kernel
-/// records each period and does not step.
+/// kernel reads them; an empty slot (`None`) holds a frozen lane with N = 0, which the
+/// kernel records each period and does not step (frozen, because with shared constants
+/// the kernel reads the first slot's N for every slot).
 fn pack<R: GpuReal>(p: Option<PoolLane<R>>, period: u32) -> (R::Consts, R::Lane, [R; STATE_DIM]) {
     let (consts, mut lane, tangent) = match p {
         Some(p) => (
@@ -235,12 +273,38 @@ fn pack<R: GpuReal>(p: Option<PoolLane<R>>, period: u32) -> (R::Consts, R::Lane,
         ),
         None => (
             R::Consts::zeroed(),
-            R::Lane::zeroed(),
+            R::pack_lane(&empty_lane()),
             [R::lit(0.0); STATE_DIM],
         ),
     };
     R::set_period(&mut lane, period);
     (consts, lane, tangent)
+}
+
+/// The lane of an empty slot: zero, frozen (`Status::NonFinite`).
+fn empty_lane<R: GpuReal>() -> Lane<R> {
+    let mut lane = Lane::new(&[0.0; STATE_DIM], 0.0);
+    lane.status = Status::NonFinite;
+    lane
+}
+
+/// An error unless constants `c` of slot `s` equal `first`, the first lane's, in every
+/// field of mask `shared` (the pool runs the kernel variant that reads those at one
+/// address for every slot).
+fn check_shared<R: GpuReal>(shared: u32, s: usize, c: &R::Consts, first: &R::Consts) -> Result<()> {
+    let differs = (0..crate::layout::CONST_FIELDS.len()).any(|k| {
+        shared & (1 << k) != 0
+            && crate::layout::const_field_bytes::<R>(c, k)
+                != crate::layout::const_field_bytes::<R>(first, k)
+    });
+    if differs {
+        return Err(Error::invalid(
+            "slot constants",
+            s,
+            "differ from the first lane's in a field the pool's kernel reads as shared",
+        ));
+    }
+    Ok(())
 }
 
 /// Writes slots into the kernel's buffers.
@@ -277,6 +341,12 @@ impl<R: GpuReal> SlotWriter<'_, R> {
                 .write_buffer(&b.tangents, 0, bytemuck::cast_slice(&tangents));
         }
         (consts, occupied)
+    }
+
+    /// Writes every slot's constants.
+    fn write_consts(&self, consts: &[R::Consts]) {
+        self.queue
+            .write_buffer(&self.bufs.consts, 0, bytemuck::cast_slice(consts));
     }
 
     /// Writes slot `s`: its constants, lane and (lambda_1) tangent.

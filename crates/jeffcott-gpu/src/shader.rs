@@ -87,16 +87,26 @@ pub struct Variant {
     /// and removed: llvmpipe would otherwise run it at every sub-step (it executes both
     /// arms of an `if`).
     pub exact_free_flight: bool,
-    /// The entry point reads the lane's constants from their buffer at every sub-step
-    /// instead of once (`CONSTS_EACH_STEP` in the header): what a SIMT GPU needs, where
-    /// constants held across the loop take registers that push the f64 kernel into
-    /// spills (RADV's statistics for a virtual RDNA3 GPU, together with rk4_substep's
-    /// k2 + k3 summed early: spilled VGPRs of the f64 kernel 220 -> 159, with the exact
-    /// free-flight map 446 -> 190; docs/gpu.md), and what costs lavapipe a third of its
-    /// speed (its loads are 8-lane gathers). The same form keeps the committed lane in
-    /// its buffer, read and written at every sub-step, rather than in registers across
-    /// the loop (159 -> 131 and 190 -> 162). The arithmetic is the same either way.
+    /// The GPU form of the entry point (`CONSTS_EACH_STEP` in the header:
+    /// `advance_buffered` in lane_entry.wgsl, docs/gpu.md): the lane's constants read at
+    /// every sub-step, the committed lane and its tangent kept in their buffers, the
+    /// switch search's samples evaluated as its scan reaches them, so that few values
+    /// are live across the loop (a SIMT GPU holds them all in registers; RADV's
+    /// statistics for a virtual RDNA3 GPU: the f64 kernel's spilled VGPRs 151 -> 20 with
+    /// per-lane constants). Off, the software form (`advance_held`): constants and lane
+    /// held in registers, the samples hoisted, what lavapipe needs (its loads are 8-lane
+    /// gathers, and it runs every arm of every `if`). The arithmetic is the same.
     pub consts_each_step: bool,
+    /// The fields of the lane constants ([`crate::layout::CONST_FIELDS`], bit `k` for
+    /// field `k`) that every lane of the run has equal, read from the buffer's first
+    /// element (`lane_consts` in the header): one address for the whole dispatch, which
+    /// a GPU reads once per wave into scalar registers or its constant cache instead of
+    /// holding a copy per invocation in vector registers (RADV, the f64 kernel's GPU
+    /// form: 20 spilled VGPRs with every field per lane, 0 with all shared, 0 for a
+    /// speed sweep's mask; docs/gpu.md). The runner sets the fields equal byte for byte
+    /// across the run's lanes ([`crate::layout::shared_fields`]): all of them in a
+    /// basin or the standard job, all but the speed's in a speed sweep.
+    pub shared_fields: u32,
 }
 
 impl Variant {
@@ -108,6 +118,7 @@ impl Variant {
             f32_through_f64: device_has_f64,
             exact_free_flight: false,
             consts_each_step: false,
+            shared_fields: 0,
         }
     }
 
@@ -115,6 +126,15 @@ impl Variant {
     pub fn with_consts_each_step(self, on: bool) -> Self {
         Self {
             consts_each_step: on,
+            ..self
+        }
+    }
+
+    /// This variant reading the fields of `mask` at one address for every lane, the
+    /// others each lane's own.
+    pub fn with_shared_fields(self, mask: u32) -> Self {
+        Self {
+            shared_fields: mask,
             ..self
         }
     }
@@ -133,6 +153,7 @@ impl Variant {
         f32_through_f64: false,
         exact_free_flight: false,
         consts_each_step: false,
+        shared_fields: 0,
     };
 
     /// True when precision `R`'s kernel uses f64 arithmetic (and needs FLOAT64).
@@ -200,8 +221,35 @@ pub fn header<R: Real>(v: Variant) -> String {
         line("fn sqrt_rn(x: Real) -> Real { return sqrt(x); }".into());
     }
     let mut s = h;
+    s.push_str(&lane_consts_fn(v.shared_fields));
     let _ = writeln!(s);
     s
+}
+
+/// The kernel's `lane_consts(i)`: lane `i`'s constants, the fields of `mask` read from
+/// the first lane's (see [`Variant::shared_fields`]).
+fn lane_consts_fn(mask: u32) -> String {
+    use crate::layout::{ALL_FIELDS, CONST_FIELDS};
+    let mut f = String::from("fn lane_consts(i: u32) -> LaneConsts {\n");
+    if mask & ALL_FIELDS == ALL_FIELDS {
+        f.push_str("    return consts[0];\n}\n");
+        return f;
+    }
+    f.push_str("    var lc = consts[i];\n");
+    for (k, path) in CONST_FIELDS.iter().enumerate() {
+        if mask & (1 << k) == 0 {
+            continue;
+        }
+        if *path == "n" {
+            for int in ["n", "max_segments", "exact"] {
+                let _ = writeln!(f, "    lc.{int} = consts[0].{int};");
+            }
+        } else {
+            let _ = writeln!(f, "    lc.{path} = consts[0].{path};");
+        }
+    }
+    f.push_str("    return lc;\n}\n");
+    f
 }
 
 /// The complete kernel source for precision `R` and variant `v`: the header, then
@@ -305,12 +353,15 @@ mod tests {
             for f32_through_f64 in [false, true] {
                 for exact_free_flight in [false, true] {
                     for consts_each_step in [false, true] {
-                        v.push(Variant {
-                            lyapunov,
-                            f32_through_f64,
-                            exact_free_flight,
-                            consts_each_step,
-                        });
+                        for shared_fields in [0, 1 << 4, crate::layout::ALL_FIELDS] {
+                            v.push(Variant {
+                                lyapunov,
+                                f32_through_f64,
+                                exact_free_flight,
+                                consts_each_step,
+                                shared_fields,
+                            });
+                        }
                     }
                 }
             }
@@ -654,7 +705,15 @@ mod tests {
                 wgsl: "integrate/lane_entry.wgsl",
                 rs: None,
                 mirrored: &[],
-                kernel_only: &["loop_budget_left", "record", "advance_lanes"],
+                kernel_only: &[
+                    "loop_budget_left",
+                    "record",
+                    "advance_lanes",
+                    "advance_held",
+                    "advance_buffered",
+                    "lean_free_flight",
+                    "in_bounds",
+                ],
             },
         ];
         assert_eq!(

@@ -396,13 +396,15 @@ mod tests {
 
     /// The kernel's census with its counted loops written out (`crate::unroll`), every
     /// hardware variant alike: no access into Function-storage memory at a run-time
-    /// index (59 with the loops kept), three loops left (the sub-step loop, the loop
-    /// budget probe and the switch search's passes) and no loop-bound counter (every
-    /// loop is finite by construction, see `exact_compute_words`).
+    /// index (59 with the loops kept), six loops left (each entry form's sub-step loop,
+    /// both in every module, the GPU form's lean free-flight loop, the loop budget
+    /// probe, the switch search's passes and the GPU form's sample scan) and no
+    /// loop-bound counter (every loop is finite by construction, see
+    /// `exact_compute_words`).
     const CEILING: LocalMemoryCensus = LocalMemoryCensus {
-        array_variables: 11,
+        array_variables: 14,
         dynamic_accesses: 0,
-        loops: 3,
+        loops: 6,
         loop_counters: 0,
     };
 
@@ -411,8 +413,9 @@ mod tests {
         let variants = crate::stats::hardware_variants().unwrap();
         assert_eq!(
             variants.len(),
-            12,
-            "f64, f32 two ways, x lambda_1 x exact map"
+            36,
+            "f64, f32 two ways, x lambda_1 x exact map x constants per lane, shared but the \
+             speed's, shared"
         );
         for (file, label, words) in variants {
             let c = local_memory_census(&words).unwrap();

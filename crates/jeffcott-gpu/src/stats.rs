@@ -93,38 +93,43 @@ fn variants(has_f64: bool, each_step: bool) -> Result<Vec<Compiled>, String> {
         Ok((part.entry().to_string(), w))
     }
     let mut out: Vec<Compiled> = Vec::new();
-    for exact in [false, true] {
-        for lyapunov in [false, true] {
-            let tail = format!(
-                "{}{}{}",
-                if lyapunov { ", lambda_1" } else { "" },
-                if exact { ", exact free flight" } else { "" },
-                if each_step {
-                    ", constants each sub-step"
-                } else {
-                    ""
-                }
-            );
-            // Lane constants as the runner reads them on this device (Variant).
-            let device = Variant::on_device(lyapunov, has_f64)
-                .with_exact_free_flight(exact)
-                .with_consts_each_step(each_step);
-            if has_f64 {
-                out.push(with_label(format!("f64{tail}"), words::<f64>(device)?));
-                out.push(with_label(
-                    format!("f32, / and sqrt through f64{tail}"),
-                    words::<f32>(device)?,
-                ));
-                let own = Variant::on_device(lyapunov, false)
-                    .with_exact_free_flight(exact)
-                    .with_consts_each_step(each_step);
-                out.push(with_label(
-                    format!("f32, driver's / and sqrt{tail}"),
-                    words::<f32>(own)?,
-                ));
+    for (exact, lyapunov, shared) in variant_keys() {
+        let tail = format!(
+            "{}{}{}{}",
+            if lyapunov { ", lambda_1" } else { "" },
+            if exact { ", exact free flight" } else { "" },
+            if each_step {
+                ", constants each sub-step"
             } else {
-                out.push(with_label(format!("f32{tail}"), words::<f32>(device)?));
-            }
+                ""
+            },
+            match shared {
+                0 => "",
+                SPEED_SWEEP => ", constants shared but the speed's",
+                _ => ", constants shared",
+            },
+        );
+        // Lane constants as the runner reads them on this device (Variant).
+        let device = Variant::on_device(lyapunov, has_f64)
+            .with_exact_free_flight(exact)
+            .with_consts_each_step(each_step)
+            .with_shared_fields(shared);
+        if has_f64 {
+            out.push(with_label(format!("f64{tail}"), words::<f64>(device)?));
+            out.push(with_label(
+                format!("f32, / and sqrt through f64{tail}"),
+                words::<f32>(device)?,
+            ));
+            let own = Variant::on_device(lyapunov, false)
+                .with_exact_free_flight(exact)
+                .with_consts_each_step(each_step)
+                .with_shared_fields(shared);
+            out.push(with_label(
+                format!("f32, driver's / and sqrt{tail}"),
+                words::<f32>(own)?,
+            ));
+        } else {
+            out.push(with_label(format!("f32{tail}"), words::<f32>(device)?));
         }
     }
     let plain = Variant::on_device(false, has_f64);
@@ -165,10 +170,34 @@ fn file_name(label: &str) -> String {
         .replace(", driver's / and sqrt", "-driver-div-sqrt")
         .replace(", lambda_1", "-lambda1")
         .replace(", exact free flight", "-exact-free-flight")
-        .replace(", constants each sub-step", "-consts-each-step");
+        .replace(", constants each sub-step", "-consts-each-step")
+        .replace(
+            ", constants shared but the speed's",
+            "-consts-shared-but-speed",
+        )
+        .replace(", constants shared", "-consts-shared");
     name.retain(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_');
     name + ".spv"
 }
+
+/// (exact free flight, lambda_1, constants' fields shared) of every kernel variant the
+/// statistics cover: every field per lane, then a speed sweep's mask (all but the
+/// unbalance, the macro step and the exact map), then every field shared.
+fn variant_keys() -> Vec<(bool, bool, u32)> {
+    let mut keys = Vec::new();
+    for shared in [0, SPEED_SWEEP, crate::layout::ALL_FIELDS] {
+        for exact in [false, true] {
+            for lyapunov in [false, true] {
+                keys.push((exact, lyapunov, shared));
+            }
+        }
+    }
+    keys
+}
+
+/// The constants' fields a sweep over the rotor speed shares: all but the unbalance
+/// (e omega^2), the macro step (T / N) and the exact free-flight map.
+pub const SPEED_SWEEP: u32 = crate::layout::ALL_FIELDS & !(1 << 4) & !(1 << 11) & !(1 << 17);
 
 fn with_label(label: String, (entry, words): (String, Vec<u32>)) -> Compiled {
     (label, entry, words)

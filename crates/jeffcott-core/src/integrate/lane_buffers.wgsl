@@ -28,6 +28,11 @@
 //   REAL_MAX, TAU, SIXTH, CERTIFICATE_SAFETY, SIN_C0 .. SIN_C8, COS_C0 .. COS_C8
 //   LYAPUNOV (bool), RECORD_DIM                the pipeline variant (below)
 //   EXACT_FREE_FLIGHT (bool)                   lanes may take the exact free-flight step
+//   CONSTS_EACH_STEP (bool)                    the GPU form of the entry point
+//                                              (lane_entry.wgsl)
+//   lane_consts(i)                             lane i's constants, the fields every
+//                                              lane of the run shares read from the
+//                                              first lane's (shader.rs's Variant)
 //   div_rn(a, b), sqrt_rn(x)                   every division and square root: a / b
 //                                              and sqrt(x), in f32 done in f64 where
 //                                              the device has f64 (correctly rounded on

@@ -61,14 +61,27 @@ fn advance_lanes(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     probe_n = params.probe;
+    var committed: bool;
+    if CONSTS_EACH_STEP {
+        committed = advance_buffered(i);
+    } else {
+        committed = advance_held(i);
+    }
+    if lanes[i].period < params.period_end {
+        atomicAdd(&unfinished[0], 1u);
+        if !committed {
+            atomicAdd(&unfinished[1], 1u);
+        }
+    }
+}
+
+// advance_lanes on a software adapter: the committed lane (`held`), its tangent and its
+// constants in registers across the loop, written back once at the end. Returns true
+// when the lane committed anything. (`lane_consts`, in the generated header, reads the
+// fields every lane of the run shares from the first lane's constants.)
+fn advance_held(i: u32) -> bool {
     let period_end = params.period_end;
-    let lc_once = consts[i];
-    // The committed lane: in registers across the loop (`held`), or, in the hardware
-    // form (CONSTS_EACH_STEP), in its buffer, read at each iteration and written back
-    // at its end, so that its state and counters are not live across the loop beside
-    // the macro step's own (RADV's null device: 159 -> 131 spilled VGPRs in f64,
-    // docs/gpu.md). The buffer then always holds the last commit, as the final write
-    // of the registers form leaves it, also after a cut by the loop budget.
+    let lc = lane_consts(i);
     var held = lanes[i];
     var tv: array<Real, STATE_DIM>;
     if LYAPUNOV {
@@ -76,14 +89,11 @@ fn advance_lanes(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     var committed = false;
     // The lane's macro step in progress (`busy`) and its tangent vector.
-    var ms = macro_step_begin(lc_once, held);
+    var ms = macro_step_begin(lc, held);
     var busy = false;
     var vw = tv;
     loop {
         var lane = held;
-        if CONSTS_EACH_STEP {
-            lane = lanes[i];
-        }
         if lane.period >= period_end {
             break;
         }
@@ -91,13 +101,6 @@ fn advance_lanes(@builtin(global_invocation_id) gid: vec3<u32>) {
         // iteration on lavapipe, which executes both arms of every `if`).
         var recorded = false;
         var norm = Real(1.0);
-        // The lane's constants, read once before the loop or here at every sub-step
-        // (shader.rs's Variant::consts_each_step: registers on a GPU, gathers on
-        // lavapipe).
-        var lc = lc_once;
-        if CONSTS_EACH_STEP {
-            lc = consts[i];
-        }
         if is_frozen(lane.status) || lc.n == 0u {
             recorded = true;
         } else {
@@ -130,23 +133,182 @@ fn advance_lanes(@builtin(global_invocation_id) gid: vec3<u32>) {
             lane.period += 1u;
             committed = true;
         }
-        if CONSTS_EACH_STEP {
-            lanes[i] = lane;
-        } else {
-            held = lane;
-        }
+        held = lane;
     }
-    if !CONSTS_EACH_STEP {
-        lanes[i] = held;
-    }
-    let lane = lanes[i];
+    lanes[i] = held;
     if LYAPUNOV {
         tangents[i] = tv;
     }
-    if lane.period < period_end {
-        atomicAdd(&unfinished[0], 1u);
-        if !committed {
-            atomicAdd(&unfinished[1], 1u);
+    return committed;
+}
+
+// advance_lanes on a GPU (CONSTS_EACH_STEP): the committed lane and its tangent stay in
+// their buffers, read where needed and written at each commit, and the constants are
+// read at every sub-step, so that nothing but the macro step in progress is live across
+// the loop (a SIMT GPU holds every live value of every invocation in registers; RADV's
+// null device, docs/gpu.md). The buffers hold the last commit at every moment, also
+// after a cut by the loop budget. The same sub-steps in the same order as advance_held.
+//
+// A lane in free flight at a macro step's start takes the lean path (lean_free_flight)
+// until a macro step needs the full one; after that full macro step it tries the lean
+// path again.
+fn advance_buffered(i: u32) -> bool {
+    let period_end = params.period_end;
+    var committed = false;
+    var ms: MacroStep;
+    var busy = false;
+    var vw: array<Real, STATE_DIM>;
+    var lean = true;
+    loop {
+        let period = lanes[i].period;
+        if period >= period_end {
+            break;
+        }
+        let lc = lane_consts(i);
+        var recorded = false;
+        var norm = Real(1.0);
+        if is_frozen(lanes[i].status) || lc.n == 0u {
+            recorded = true;
+        } else {
+            if !LYAPUNOV && lean && !busy && lanes[i].contact == 0u {
+                let r = lean_free_flight(i, period_end);
+                committed = committed || r.committed;
+                if r.end == LEAN_BUDGET {
+                    break;
+                }
+                lean = r.end != LEAN_FULL;
+                continue;
+            }
+            if !busy {
+                ms = macro_step_begin(lc, lanes[i]);
+                if LYAPUNOV {
+                    vw = tangents[i];
+                }
+                busy = true;
+            }
+            // The lane's largest penetration, constant while its macro step runs: read
+            // again rather than held across the loop.
+            ms.max_pen = lanes[i].counters.max_penetration;
+            macro_step(lc, lanes[i].k, &ms, &vw);
+            if !loop_budget_left() {
+                break;
+            }
+            if ms.done {
+                var next = lanes[i];
+                macro_step_end(lc, &next, ms);
+                lanes[i] = next;
+                committed = true;
+                busy = false;
+                lean = true;
+                if next.k == 0u && !is_frozen(next.status) {
+                    if LYAPUNOV {
+                        norm = renormalise(&vw);
+                    }
+                    recorded = true;
+                }
+                if LYAPUNOV {
+                    tangents[i] = vw;
+                }
+            }
+        }
+        if recorded {
+            record(period, i, lanes[i].x, norm);
+            lanes[i].period = period + 1u;
+            committed = true;
         }
     }
+    return committed;
+}
+
+// Why lean_free_flight stopped, and whether it committed anything.
+struct Lean {
+    end: u32,
+    committed: bool,
+}
+
+const LEAN_FULL: u32 = 0u; // the next macro step needs the full step
+const LEAN_BUDGET: u32 = 1u; // the loop budget ran out (see loop_budget_left)
+const LEAN_END: u32 = 2u; // the slice's last period is complete
+const LEAN_MORE: u32 = 3u; // LEAN_STEPS taken: back to the entry's loop, then on
+
+// Macro steps lean_free_flight takes at most per call. The lanes of a SIMD group that
+// need the full step wait while the others run the lean loop (a GPU's warp runs one
+// branch at a time; lavapipe's 8 lanes share one loop budget, which an unbounded lean
+// loop spent before a waiting lane committed anything). Bounded, a waiting lane gets
+// one sub-step per LEAN_STEPS lean steps of its neighbours, and a lean step's cost is
+// amortised over many.
+const LEAN_STEPS: u32 = 32u;
+
+// The GPU form's lean path (advance_buffered): the macro steps of a lane in free flight,
+// one after the other with the state in registers and nothing of the switch search,
+// contact or tangent code live, the lane written back once at the end. It takes a
+// macro step only where the full one would do nothing else: the same sub-step over the
+// whole macro step (rk4_substep from s = 0 with ds = 1, or the exact map), no search
+// needed (search_needless, the same test), the state finite and within the bound
+// (macro_step_end's checks), and then the same commit (one macro step more, no
+// contact, switch or extra sub-step). A macro step that fails a test is not
+// committed: the full step takes it from the same state and computes the same x1.
+fn lean_free_flight(i: u32, period_end: u32) -> Lean {
+    var x = lanes[i].x;
+    var k = lanes[i].k;
+    var period = lanes[i].period;
+    let max_pen = lanes[i].counters.max_penetration;
+    var steps = 0u;
+    var end = LEAN_FULL;
+    loop {
+        // The constants read at every step, as in the full path, none held across the
+        // loop: the index is i (k < N <= u32::MAX, so k is never u32::MAX), written so
+        // that the compiler cannot hoist the loads out of the loop (RADV: the exact map
+        // of a speed sweep held in registers spilled 66 VGPRs).
+        let lc = lane_consts(select(i, 0u, k == 0xffffffffu));
+        var x1: array<Real, STATE_DIM>;
+        if EXACT_FREE_FLIGHT && lc.exact != 0u {
+            x1 = free_flight_step(lc, x, k);
+        } else {
+            x1 = rk4_substep(lc, x, k, Real(0.0), Real(1.0), false);
+        }
+        if !loop_budget_left() {
+            end = LEAN_BUDGET;
+            break;
+        }
+        if !search_needless(lc.c.delta, x, x1, lc.h, false, max_pen) || !in_bounds(lc, x1) {
+            break;
+        }
+        x = x1;
+        steps += 1u;
+        k = select(k + 1u, 0u, k + 1u == lc.n);
+        if k == 0u {
+            record(period, i, x, Real(1.0));
+            period += 1u;
+            if period >= period_end {
+                end = LEAN_END;
+                break;
+            }
+        }
+        if steps == LEAN_STEPS {
+            end = LEAN_MORE;
+            break;
+        }
+    }
+    // After the loop whatever ended it, a cut by llvmpipe's loop limit included: x, k and
+    // period are the last committed values.
+    if steps > 0u {
+        let lc = lane_consts(i);
+        lanes[i].x = x;
+        lanes[i].k = k;
+        lanes[i].period = period;
+        lanes[i].counters.macro_steps = sat_add(lanes[i].counters.macro_steps, steps);
+    }
+    return Lean(end, steps > 0u);
+}
+
+// macro_step_end's status checks passed: every component finite and the reach within
+// the divergence bound.
+fn in_bounds(lc: LaneConsts, x: array<Real, STATE_DIM>) -> bool {
+    var finite = true;
+    for (var i = 0u; i < STATE_DIM; i++) {
+        finite = finite && is_finite(x[i]);
+    }
+    let reach = rmax(rmax(rmax(abs(x[X_R]), abs(x[Y_R])), abs(x[X_S])), abs(x[Y_S]));
+    return finite && !(reach > lc.bound);
 }

@@ -271,14 +271,24 @@ fn find_switch(
     // correctly rounded, equal to Rust's f64 quotient rounded to Real.
     const_assert GRAZE_SAMPLES == 8u;
     let s0 = hermite_gap(delta, x0, x1, hs, Real(0u) / Real(GRAZE_SAMPLES));
-    let s1 = hermite_gap(delta, x0, x1, hs, Real(1u) / Real(GRAZE_SAMPLES));
-    let s2 = hermite_gap(delta, x0, x1, hs, Real(2u) / Real(GRAZE_SAMPLES));
-    let s3 = hermite_gap(delta, x0, x1, hs, Real(3u) / Real(GRAZE_SAMPLES));
-    let s4 = hermite_gap(delta, x0, x1, hs, Real(4u) / Real(GRAZE_SAMPLES));
-    let s5 = hermite_gap(delta, x0, x1, hs, Real(5u) / Real(GRAZE_SAMPLES));
-    let s6 = hermite_gap(delta, x0, x1, hs, Real(6u) / Real(GRAZE_SAMPLES));
-    let s7 = hermite_gap(delta, x0, x1, hs, Real(7u) / Real(GRAZE_SAMPLES));
-    let s8 = hermite_gap(delta, x0, x1, hs, Real(8u) / Real(GRAZE_SAMPLES));
+    var s1 = s0;
+    var s2 = s0;
+    var s3 = s0;
+    var s4 = s0;
+    var s5 = s0;
+    var s6 = s0;
+    var s7 = s0;
+    var s8 = s0;
+    if !CONSTS_EACH_STEP {
+        s1 = hermite_gap(delta, x0, x1, hs, Real(1u) / Real(GRAZE_SAMPLES));
+        s2 = hermite_gap(delta, x0, x1, hs, Real(2u) / Real(GRAZE_SAMPLES));
+        s3 = hermite_gap(delta, x0, x1, hs, Real(3u) / Real(GRAZE_SAMPLES));
+        s4 = hermite_gap(delta, x0, x1, hs, Real(4u) / Real(GRAZE_SAMPLES));
+        s5 = hermite_gap(delta, x0, x1, hs, Real(5u) / Real(GRAZE_SAMPLES));
+        s6 = hermite_gap(delta, x0, x1, hs, Real(6u) / Real(GRAZE_SAMPLES));
+        s7 = hermite_gap(delta, x0, x1, hs, Real(7u) / Real(GRAZE_SAMPLES));
+        s8 = hermite_gap(delta, x0, x1, hs, Real(8u) / Real(GRAZE_SAMPLES));
+    }
     var max_g = s0.x;
     var phase = FS_SCAN;
     // The next sample to examine; the sample whose extremum is checked.
@@ -290,11 +300,11 @@ fn find_switch(
     var g_th = zero;
     // Where the pass evaluates (an extremum or an Illinois iterate).
     var theta = zero;
-    // Illinois (modified regula falsi); `a` stays on the mode's side, `b` on the other.
-    var a = zero;
-    var ga = zero;
-    var b = zero;
-    var gb = zero;
+    // Illinois (modified regula falsi) keeps its bracket in the scan's variables, dead
+    // once the root phase begins (only FS_DONE follows it): switch.rs's a and ga (on the
+    // mode's side) in `lo` and `g_lo`, its b and gb (on the other side) in `th` and
+    // `g_th`. Fewer values live across the loop, which a SIMT GPU holds in registers;
+    // the same arithmetic.
     var last_kept_a = false;
     var last_kept_b = false;
     var it = 0u;
@@ -322,26 +332,26 @@ fn find_switch(
         } else if phase == FS_ROOT {
             let m = theta;
             if wrong_side(gp, contact) {
-                b = m;
-                gb = gp;
+                th = m;
+                g_th = gp;
                 if last_kept_a {
-                    ga = Real(0.5) * ga;
+                    g_lo = Real(0.5) * g_lo;
                 }
                 last_kept_a = true;
                 last_kept_b = false;
             } else {
-                a = m;
-                ga = gp;
+                lo = m;
+                g_lo = gp;
                 max_g = rmax(max_g, gp);
                 if last_kept_b {
-                    gb = Real(0.5) * gb;
+                    g_th = Real(0.5) * g_th;
                 }
                 last_kept_b = true;
                 last_kept_a = false;
             }
             it += 1u;
             if it == ROOT_MAX_ITERS {
-                result = b;
+                result = th;
                 phase = FS_DONE;
             }
         }
@@ -349,14 +359,26 @@ fn find_switch(
             // switch.rs's sample loop from sample jn, up to the first sample on the wrong
             // side or with an extremum heading there before it.
             var sc = Scan(false, false, 0u, zero, zero, zero, max_g, lo, g_lo);
-            scan_sample(&sc, jn, 1u, s1.x, s0.y, s1.y, contact);
-            scan_sample(&sc, jn, 2u, s2.x, s1.y, s2.y, contact);
-            scan_sample(&sc, jn, 3u, s3.x, s2.y, s3.y, contact);
-            scan_sample(&sc, jn, 4u, s4.x, s3.y, s4.y, contact);
-            scan_sample(&sc, jn, 5u, s5.x, s4.y, s5.y, contact);
-            scan_sample(&sc, jn, 6u, s6.x, s5.y, s6.y, contact);
-            scan_sample(&sc, jn, 7u, s7.x, s6.y, s7.y, contact);
-            scan_sample(&sc, jn, 8u, s8.x, s7.y, s8.y, contact);
+            if CONSTS_EACH_STEP {
+                var prev = hermite_gap(delta, x0, x1, hs, div_rn(Real(jn - 1u), Real(GRAZE_SAMPLES)));
+                for (var j = jn; j <= GRAZE_SAMPLES; j++) {
+                    let cur = hermite_gap(delta, x0, x1, hs, div_rn(Real(j), Real(GRAZE_SAMPLES)));
+                    scan_sample(&sc, jn, j, cur.x, prev.y, cur.y, contact);
+                    if sc.found {
+                        break;
+                    }
+                    prev = cur;
+                }
+            } else {
+                scan_sample(&sc, jn, 1u, s1.x, s0.y, s1.y, contact);
+                scan_sample(&sc, jn, 2u, s2.x, s1.y, s2.y, contact);
+                scan_sample(&sc, jn, 3u, s3.x, s2.y, s3.y, contact);
+                scan_sample(&sc, jn, 4u, s4.x, s3.y, s4.y, contact);
+                scan_sample(&sc, jn, 5u, s5.x, s4.y, s5.y, contact);
+                scan_sample(&sc, jn, 6u, s6.x, s5.y, s6.y, contact);
+                scan_sample(&sc, jn, 7u, s7.x, s6.y, s7.y, contact);
+                scan_sample(&sc, jn, 8u, s8.x, s7.y, s8.y, contact);
+            }
             max_g = sc.max_g;
             lo = sc.lo;
             g_lo = sc.g_lo;
@@ -384,22 +406,21 @@ fn find_switch(
                 result = lo;
                 phase = FS_DONE;
             } else {
-                a = lo;
-                ga = g_lo;
-                b = hi;
-                gb = g_hi;
+                // a = lo and ga = g_lo already (see above).
+                th = hi;
+                g_th = g_hi;
                 phase = FS_ROOT;
             }
         }
         if phase == FS_ROOT {
             // switch.rs's Illinois loop head: stop at the tolerance, else the next iterate.
-            if b - a <= lc.root_tol {
-                result = b;
+            if th - lo <= lc.root_tol {
+                result = th;
                 phase = FS_DONE;
             } else {
-                var m = b - div_rn(gb * (b - a), gb - ga);
-                if !(m > a && m < b) {
-                    m = Real(0.5) * (a + b);
+                var m = th - div_rn(g_th * (th - lo), g_th - g_lo);
+                if !(m > lo && m < th) {
+                    m = Real(0.5) * (lo + th);
                 }
                 theta = m;
             }
