@@ -9,14 +9,25 @@
 #   gl/*.deb            the Vulkan loader and GL vendor-neutral dispatch (libvulkan1,
 #                       libglvnd0 and its GL/EGL/GLX front ends): NVIDIA's Vulkan ICD is
 #                       libGLX_nvidia, which needs libglvnd's libGLdispatch to load
+#   bin/jeffcott-previous.gz
+#                       with --previous REV only: the stripped release binary of git
+#                       revision REV, built in a worktree of its own (target/previous,
+#                       ignored; a cold build, minutes), which the campaign measures
+#                       beside this build (old against new on the same GPU)
 #   ref/std_L1024_P200.npy
 #                       the standard job's reference (lane stepper, CPU f64, N = 8000;
 #                       N = 4000 beside it says how converged it is), so the device
 #                       spends no time on it
-# Usage: bash scripts/gpu-campaign-prepare.sh
+# Usage: bash scripts/gpu-campaign-prepare.sh [--previous REV]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 export PATH="$HOME/.cargo/bin:$PATH"
+previous=""
+if [ "${1:-}" = "--previous" ]; then
+  previous="${2:?--previous needs a git revision}"
+  git rev-parse --verify --quiet "$previous^{commit}" >/dev/null ||
+    { echo "prepare: --previous $previous is not a commit of this repository" >&2; exit 2; }
+fi
 dst=.campaign
 rm -rf "$dst/bin" "$dst/tests" "$dst/gl"
 mkdir -p "$dst/bin" "$dst/tests" "$dst/gl" "$dst/ref"
@@ -25,6 +36,17 @@ mkdir -p "$dst/bin" "$dst/tests" "$dst/gl" "$dst/ref"
 cargo build --release --quiet
 strip -o "$dst/bin/jeffcott" target/release/jeffcott
 echo "$PWD/target/release/jeffcott" >"$dst/bin/exe-path"
+if [ -n "$previous" ]; then
+  wt=target/previous/src
+  rm -rf "$wt"
+  git worktree prune
+  git worktree add --detach "$wt" "$previous" >/dev/null
+  (cd "$wt" && CARGO_TARGET_DIR="$PWD/../build" cargo build --release --quiet --bin jeffcott)
+  echo "prepare: previous build $(target/previous/build/release/jeffcott --version)"
+  strip -o "$dst/bin/jeffcott-previous" target/previous/build/release/jeffcott
+  gzip -9f "$dst/bin/jeffcott-previous"
+  git worktree remove --force "$wt"
+fi
 # The test targets that drive a GPU adapter (they fail, not skip, with
 # JEFFCOTT_REQUIRE_GPU=1) and the GPU crate's own unit tests.
 gpu_tests=(gpu mirror basin_gpu early_exit lyapunov orbits map runs shards input_checks jeffcott_gpu)

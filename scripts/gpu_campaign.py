@@ -26,6 +26,12 @@ and a step that fails is recorded and the next one runs:
 6. basin: 1000 x 1000 at W = 133 (250 + 32 periods) end to end in f32 and f64, the two
    label sets compared, and a 100 x 100 subgrid computed on the CPU compared with both.
 
+With a previous build of jeffcott beside this one (--previous, or
+.campaign/bin/jeffcott-previous.gz, which scripts/gpu-campaign-prepare.sh --previous REV
+builds), the adapter, bench, standard and basin steps measure it too, on the same
+lanes in the same call, so a change of the kernel is measured old against new on the
+same GPU.
+
 Results go to --out as at most 8 files: summary.md (also printed last), results.json,
 info.txt, campaign.log (every command and its output) and tests.log.
 """
@@ -65,6 +71,8 @@ def parse_args():
     ap.add_argument("--local", action="store_true", help="use this machine as it is (no loader set-up, target/release/jeffcott)")
     ap.add_argument("--small", action="store_true", help="small sizes, for CI and lavapipe")
     ap.add_argument("--jeffcott", help="the binary (default .campaign/bin/jeffcott, else target/release/jeffcott)")
+    ap.add_argument("--previous", help="a previous build to measure beside it (default "
+                    ".campaign/bin/jeffcott-previous.gz where present; 'none': none)")
     ap.add_argument("--deadline", type=float, help="seconds for all steps (default 530, small 600)")
     ap.add_argument("--reference-only", action="store_true", help="only build the standard job's reference into --ref-dir")
     ap.add_argument("--ref-dir", default=".campaign/ref")
@@ -135,6 +143,10 @@ class Campaign:
                         # SPIR-V where the adapter takes it, unless JEFFCOTT_GPU_SHADER says wgsl.
                         "JEFFCOTT_GPU_SHADER": os.environ.get("JEFFCOTT_GPU_SHADER", "")}
         self.jeffcott = os.path.abspath(self.pick_binary())
+        self.previous = self.pick_previous()
+        if self.previous:
+            _, version, _ = self.sh([self.previous, "--version"], check=False)
+            self.results["previous"] = {"binary": self.previous, "version": version.strip()}
 
     def pick_binary(self):
         if self.args.jeffcott:
@@ -143,6 +155,24 @@ class Campaign:
         if not self.args.local and os.path.exists(carried):
             return carried
         return os.path.join(ROOT, "target/release/jeffcott")
+
+    def pick_previous(self):
+        if self.args.previous == "none":
+            return None
+        if self.args.previous:
+            return os.path.abspath(self.args.previous)
+        carried = os.path.join(ROOT, ".campaign/bin/jeffcott-previous.gz")
+        if not os.path.exists(carried):
+            return None
+        path = os.path.join(self.work, "jeffcott-previous")
+        with gzip.open(carried) as src, open(path, "wb") as dst:
+            shutil.copyfileobj(src, dst)
+        os.chmod(path, 0o755)
+        return path
+
+    def builds(self):
+        """(label, binary) of this build, then of the previous one where there is one."""
+        return [("current", self.jeffcott)] + ([("previous", self.previous)] if self.previous else [])
 
     def left(self):
         return self.deadline - (time.monotonic() - self.t0)
@@ -200,7 +230,7 @@ class Campaign:
 
     # ---- jeffcott runs -------------------------------------------------------------
 
-    def ensemble(self, tag, xr, periods, transient, n, backend, precision, timeout=None, extra=()):
+    def ensemble(self, tag, xr, periods, transient, n, backend, precision, timeout=None, extra=(), binary=None):
         """`jeffcott ensemble` on lanes x_r0 = xr at W = 133 (the rest at the static
         equilibrium): (poincare [lanes, periods, 8], run.json, lanes.npy)."""
         d = os.path.join(self.work, tag)
@@ -209,7 +239,7 @@ class Campaign:
         if not os.path.exists(table):
             with open(table, "w") as f:
                 f.write("x_r\n" + "".join(f"{v!r}\n" for v in xr.tolist()))
-        self.sh([self.jeffcott, "ensemble", "--lanes", table, "--omega", OMEGA, "--transient", transient,
+        self.sh([binary or self.jeffcott, "ensemble", "--lanes", table, "--omega", OMEGA, "--transient", transient,
                  "--periods", periods, "--steps-per-period", n, "--backend", backend, "--precision", precision,
                  "--out", d, "--quiet", *extra], timeout=timeout)
         with open(os.path.join(d, "run.json")) as f:
@@ -244,6 +274,11 @@ class Campaign:
             _, once, _ = self.sh([self.jeffcott, "info", "--kernel-stats"], timeout=90, check=False,
                                  env={"JEFFCOTT_GPU_CONSTS": "once"})
             text.append("JEFFCOTT_GPU_CONSTS=once:\n" + once)
+        # The previous build's kernels on the same driver: old against new.
+        previous = ""
+        if self.previous:
+            _, previous, _ = self.sh([self.previous, "info", "--kernel-stats"], timeout=90, check=False)
+            text.append("previous build:\n" + previous)
         with open(os.path.join(self.out, "info.txt"), "w") as f:
             f.write("\n".join(text))
         gpus = [line for line in info.splitlines() if line.startswith("GPU:")]
@@ -257,8 +292,9 @@ class Campaign:
             raise Fatal("no hardware Vulkan adapter with f64: " + dbg.strip()[-800:])
         kernels = [line.strip() for line in info.splitlines() if line.startswith(("kernel", "  ["))]
         kernels_once = [line.strip() for line in once.splitlines() if line.startswith(("kernel", "  ["))]
+        kernels_prev = [line.strip() for line in previous.splitlines() if line.startswith(("kernel", "  ["))]
         return {"jeffcott_info": info.strip().splitlines(), "gpus": gpus, "kernel_stats": kernels,
-                "kernel_stats_constants_once": kernels_once}
+                "kernel_stats_constants_once": kernels_once, "kernel_stats_previous": kernels_prev}
 
     # ---- 2. parity -----------------------------------------------------------------
 
@@ -291,20 +327,22 @@ class Campaign:
     def bench(self):
         rows, util = [], None
         backends = self.args.bench_backends.split(",")
-        for backend, (lanes, lp) in (("gpu", self.sizes.bench_gpu), ("cpu", self.sizes.bench_cpu)):
+        runs = [("gpu", build, binary, self.sizes.bench_gpu) for build, binary in self.builds()]
+        runs.append(("cpu", "current", self.jeffcott, self.sizes.bench_cpu))
+        for backend, build, binary, (lanes, lp) in runs:
             if backend not in backends:
                 continue
-            path = os.path.join(self.work, f"bench-{backend}.json")
+            path = os.path.join(self.work, f"bench-{backend}-{build}.json")
             sampler = None
-            if backend == "gpu" and shutil.which("nvidia-smi"):
+            if backend == "gpu" and build == "current" and shutil.which("nvidia-smi"):
                 # Is the GPU busy while the bench runs (a slow kernel), or waiting on the host?
                 sampler = subprocess.Popen(["nvidia-smi", "--query-gpu=utilization.gpu,clocks.sm,power.draw,memory.used",
                                             "--format=csv,noheader,nounits", "-lms", "250"],
                                            stdout=subprocess.PIPE, text=True)
             twin = self.args.twin_at if backend == "gpu" else 0
-            rc, out, _ = self.sh([self.jeffcott, "bench", "--backend", backend, "--lanes", ",".join(map(str, lanes)),
+            rc, out, _ = self.sh([binary, "bench", "--backend", backend, "--lanes", ",".join(map(str, lanes)),
                                   "--lane-periods", lp, "--precision", "f64,f32", "--twin-at", twin, "--out", path],
-                                 check=(backend == "gpu"), timeout=240)
+                                 check=(backend == "gpu" and build == "current"), timeout=240)
             if sampler:
                 sampler.terminate()
                 samples = [line.split(",") for line in sampler.communicate()[0].splitlines() if line.count(",") == 3]
@@ -315,7 +353,9 @@ class Campaign:
                 self.say(f"   GPU while benched: {util}")
             if rc == 0:
                 with open(path) as f:
-                    rows += json.load(f)
+                    for r in json.load(f):
+                        r["build"] = build
+                        rows.append(r)
         return {"rows": rows, "gpu_utilisation": util}
 
     # ---- 4a. the kernel's anatomy -------------------------------------------------
@@ -390,12 +430,15 @@ class Campaign:
             if keep is not None and i not in keep:
                 continue
             xs = np.tile(xr, lanes_mult)
-            pts, run, _ = self.ensemble(f"std-{prec}-{n}", xs, 1, P - 1, n, "gpu", prec, timeout=120, extra=extra)
-            compute = run["wall_time_s"] - run.get("setup_time_s", 0.0)
-            name = "jeffcott-gpu exact-ff R=4" if extra else "jeffcott-gpu"
-            add({"integrator": name, "device": run["device"], "precision": prec, "N": n,
-                 "lanes": len(xs), "wall_s": run["wall_time_s"], "setup_s": run.get("setup_time_s"),
-                 "lane_periods_per_s": len(xs) * P / compute}, pts[:, -1, :])
+            for build, binary in self.builds():
+                pts, run, _ = self.ensemble(f"std-{prec}-{n}-{build}", xs, 1, P - 1, n, "gpu", prec, timeout=120,
+                                            extra=extra, binary=binary)
+                compute = run["wall_time_s"] - run.get("setup_time_s", 0.0)
+                name = "jeffcott-gpu exact-ff R=4" if extra else "jeffcott-gpu"
+                name += " (previous build)" if build == "previous" else ""
+                add({"integrator": name, "device": run["device"], "precision": prec, "N": n,
+                     "lanes": len(xs), "wall_s": run["wall_time_s"], "setup_s": run.get("setup_time_s"),
+                     "lane_periods_per_s": len(xs) * P / compute}, pts[:, -1, :])
         # this machine's CPU on the 1024 lanes, at the N that meets 1e-7 m on the 2-core VM
         pts, run, _ = self.ensemble("std-cpu", xr, 1, P - 1, 700 if not s.small else 500, "cpu", "f64", timeout=120)
         add({"integrator": "jeffcott-cpu", "device": run["device"], "precision": "f64", "N": run["steps_per_period"],
@@ -443,11 +486,11 @@ class Campaign:
 
     # ---- 5. the basin --------------------------------------------------------------
 
-    def basin_run(self, tag, n, hi_x, hi_y, backend, prec):
+    def basin_run(self, tag, n, hi_x, hi_y, backend, prec, binary=None):
         s = self.sizes
         d = os.path.join(self.work, tag)
         shutil.rmtree(d, ignore_errors=True)
-        cmd = [self.jeffcott, "basin", "--omega", OMEGA, "--x", f"x_r:-0.006:{hi_x!r}:{n}", "--y", f"vx_r:-1:{hi_y!r}:{n}",
+        cmd = [binary or self.jeffcott, "basin", "--omega", OMEGA, "--x", f"x_r:-0.006:{hi_x!r}:{n}", "--y", f"vx_r:-1:{hi_y!r}:{n}",
                "--transient", s.basin_t, "--periods", s.basin_p, "--backend", backend, "--precision", prec,
                "--out", d, "--quiet"]
         limit = self.left() - 30
@@ -477,6 +520,15 @@ class Campaign:
             out[prec] = {"cells": int(lab.size), "end_to_end_s": wall, "attractors": summarize_attractors(att),
                          "label_counts": np.unique(lab, return_counts=True)[1].tolist()}
             self.say(f"   {n} x {n} {prec}: {wall:.1f} s end to end")
+            if self.previous and self.left() > 60:
+                # The previous build on the same grid: its time, and whether its labels agree.
+                try:
+                    plab, _, pwall = self.basin_run(f"basin-prev-{prec}", n, 0.006, 1.0, "gpu", prec,
+                                                    binary=self.previous)
+                    out[f"previous_{prec}"] = {"end_to_end_s": pwall, "labels_equal": bool(np.array_equal(plab, lab))}
+                except Exception as e:  # cut by the deadline or the timeout: say so, keep the rest
+                    out[f"previous_{prec}"] = {"error": str(e)[-300:]}
+                self.say(f"   previous build {prec}: {out[f'previous_{prec}']}")
         if "f32" in labels and "f64" in labels:
             out["f32_vs_f64_agreement"] = agreement(labels["f32"], labels["f64"])
         # The CPU on every k-th cell in each direction (the same start states up to
@@ -573,8 +625,11 @@ class Campaign:
             md += ["## The kernel as the driver compiled it (`jeffcott info --kernel-stats`)", ""]
             md += [f"    {line}" for line in a["kernel_stats"]] + [""]
         if a.get("kernel_stats_constants_once"):
-            md += ["With the lane constants read once (`JEFFCOTT_GPU_CONSTS=once`):", ""]
+            md += ["In the software form (`JEFFCOTT_GPU_CONSTS=once`):", ""]
             md += [f"    {line}" for line in a["kernel_stats_constants_once"]] + [""]
+        if a.get("kernel_stats_previous"):
+            md += [f"The previous build ({self.results.get('previous', {}).get('version')}):", ""]
+            md += [f"    {line}" for line in a["kernel_stats_previous"]] + [""]
         p = st.get("parity", {})
         md += ["## Parity (CPU against GPU, the standard job's lanes)", "",
                "| precision | lanes bit-identical | largest position difference [m] | first period differing | regime |",
@@ -585,11 +640,12 @@ class Campaign:
                 md.append(f"| {prec} | {r['bit_identical_lanes']}/{r['lanes']} | "
                           f"{max(r['max_position_diff_m_per_period']):.3e} | {r['first_period_with_a_difference']} | {r['regime']} |")
         md += ["", f"## Bench (W = 133, 500 steps/period; GPU while benched: {st.get('bench', {}).get('gpu_utilisation')})", "",
-               "| backend | device | precision | lanes | lane-steps/s | lane-periods/s | time due to contact |",
-               "|---|---|---|---|---|---|---|"]
+               "| backend | build | device | precision | lanes | lane-steps/s | lane-periods/s | time due to contact |",
+               "|---|---|---|---|---|---|---|---|"]
         for r in st.get("bench", {}).get("rows", []):
-            md.append(f"| {r['backend']} | {r['device']} | {r['precision']} | {r['lanes']} | "
-                      f"{r['lane_steps_per_s']:.3e} | {r['lane_periods_per_s']:.3e} | {r.get('contact_time_share')} |")
+            md.append(f"| {r['backend']} | {r.get('build', 'current')} | {r['device']} | {r['precision']} | "
+                      f"{r['lanes']} | {r['lane_steps_per_s']:.3e} | {r['lane_periods_per_s']:.3e} | "
+                      f"{r.get('contact_time_share')} |")
         an = st.get("anatomy", {}).get("rows", [])
         if an:
             md += ["", "## Anatomy (the kernel's parts timed alone on the same lanes; `jeffcott bench --anatomy all`; "
@@ -624,7 +680,8 @@ class Campaign:
             if prec in b:
                 md.append(f"- {prec}: {b[prec]['cells']} cells in {b[prec]['end_to_end_s']:.1f} s end to end; "
                           f"attractors {b[prec]['attractors']}")
-        for key in ("f32_vs_f64_agreement", "cpu_subgrid_vs_gpu_f32", "cpu_subgrid_vs_gpu_f64"):
+        for key in ("previous_f32", "previous_f64", "f32_vs_f64_agreement", "cpu_subgrid_vs_gpu_f32",
+                    "cpu_subgrid_vs_gpu_f64"):
             if key in b:
                 md.append(f"- {key}: {b[key]}")
         md += ["", "## GPU tests (JEFFCOTT_REQUIRE_GPU=1)", ""]
