@@ -9,6 +9,8 @@
 //! accepts), and every request the command line refuses for its size is refused here by
 //! the same library check before anything is allocated.
 
+#[macro_use]
+mod docs;
 mod args;
 mod convert;
 mod run;
@@ -93,6 +95,9 @@ pub(crate) fn speeds(
 
 /// The model's parameters (Table 1 of the article, SI units) with `params` applied, as
 /// a dictionary keyed like the TOML file; raises ValueError naming a bad key or value.
+///
+/// Parameters:
+#[doc = param_doc!(params)]
 #[pyfunction]
 #[pyo3(signature = (params=None))]
 fn parameters<'py>(

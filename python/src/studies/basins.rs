@@ -28,9 +28,7 @@ struct BasinRun<'a> {
 /// A basin of attraction over two start coordinates at one speed: the command line's
 /// `basin`.
 ///
-/// `x` and `y` are `(name, lo, hi, n)` tuples or `"name:lo:hi:n"` strings (e.g.
-/// `("x_r", -0.006, 0.006, 80)`); `fix` sets other start coordinates (default: the
-/// static equilibrium). Returns `labels` (int32 `[ny, nx]`, attractor ids, -1
+/// Returns `labels` (int32 `[ny, nx]`, attractor ids, -1
 /// diverged, -2 an attractor a refinement found that the coarse grid did not), `x`,
 /// `y` (the axis values), `attractors` (the list of `attractors.json`, each with its
 /// rub figures under `rub`), `diverged`, `metrics` (`basin_metrics.json`'s keys:
@@ -38,6 +36,32 @@ struct BasinRun<'a> {
 /// `uncertainty_samples > 0` the re-integration estimate), with `refine > 0` `refined`
 /// (uint8 `[ny, nx]`, 1 where the label was integrated), with `lyapunov=True`
 /// `lambda1` `[ny, nx]`, and `run` (backend, wall time).
+///
+/// Parameters:
+/// - `omega`: the rotor speed W [rad/s].
+/// - `x`, `y`: the horizontal and vertical axes, each a start coordinate with its
+///   range and count, `(name, lo, hi, n)` tuples or `"name:lo:hi:n"` strings (n values
+///   from lo to hi inclusive [m or m/s]), e.g. `("x_r", -0.006, 0.006, 80)`.
+/// - `fix`: other start coordinates, `{name: value}` (default: the static
+///   equilibrium).
+#[doc = param_doc!(params)]
+/// - `transient`: forcing periods integrated and discarded.
+/// - `periods`: forcing periods recorded per cell (at least 2 n to see period n).
+#[doc = param_doc!(backend)]
+#[doc = param_doc!(precision)]
+/// - `lyapunov`: also compute every cell's largest Lyapunov exponent lambda_1 (one
+///   tangent vector per lane): `lambda1`, lambda_1 per attractor, and aperiodic
+///   attractors split into quasiperiodic and chaotic (not with `refine`).
+/// - `refine`: levels of boundary refinement (0: none), each a 2 x 2 subdivision
+///   around every cell with a differently labelled neighbour, interiors filled from
+///   their parent; the labels and measures are then on the finest grid, of
+///   (n - 1) 2^levels + 1 points per axis.
+/// - `uncertainty_samples`: draws of the uncertainty exponent by re-integration (each
+///   draw integrated as it is and displaced along both axes); 0 skips it.
+/// - `entropy_box`: the side of the basin entropy's boxes in cells; None: 5, or the
+///   grid's shorter side if smaller.
+#[doc = param_doc!(progress)]
+#[doc = param_doc!(stepper)]
 #[pyfunction]
 #[pyo3(signature = (
     omega, x, y, *, fix=None, params=None,
@@ -136,10 +160,19 @@ pub(crate) fn basin<'py>(
 lane_study! {
     /// Basin stability (Menck et al. 2013): the command line's `basin-stability`.
     ///
-    /// `omega` is a speed or `"a:b:n"`; `start_box` the box of start coordinates drawn
-    /// from uniformly, e.g. `"x_r:-0.006:0.006,vx_r:-1:1"`. Returns `omega` `[n]`,
-    /// `fractions` `[n, ids + 1]` (last column diverged), `ci_low` and `ci_high` (95 %
-    /// Wilson intervals) and `summary`, the dictionary of `basin_stability.json`.
+    /// Returns `omega` `[n]`, `fractions` `[n, ids + 1]` (last column diverged), `ci_low`
+    /// and `ci_high` (95 % Wilson intervals) and `summary`, the dictionary of
+    /// `basin_stability.json`.
+    ///
+    /// Parameters:
+    /// - `omega`: the rotor speed W [rad/s], or `"a:b:n"` for the fractions against W.
+    /// - `start_box`: the box of start coordinates drawn from uniformly,
+    ///   `"NAME:lo:hi,..."` over any start coordinates (the others at the static
+    ///   equilibrium), e.g. `"x_r:-0.006:0.006,vx_r:-1:1"` (the command line's `--box`).
+    /// - `sample`: start states drawn per speed.
+    /// - `seed`: the seed of the draws (the same draws at every speed).
+    /// - `transient`: forcing periods integrated and discarded per lane.
+    /// - `periods`: forcing periods recorded per lane.
     signature = (
         omega, start_box, *, sample=defaults::stability::SAMPLE, seed=defaults::stability::SEED,
         transient=defaults::stability::TRANSIENT, periods=defaults::stability::PERIODS,
@@ -194,10 +227,15 @@ lane_study! {
 
 /// The basin measures of any 2-D integer label array (`basin_metrics.json` of the
 /// command line's `basin`, docs/basin-measures.md): fractions with their errors, basin
-/// entropy S_b and boundary basin entropy S_bb (boxes of `entropy_box` cells, default
-/// min(5, shorter side)), the uncertainty exponent and boundary dimension on the grid,
-/// the box-counting dimension and the Wada test. Labels are ids >= 0, -1 for diverged
-/// (a basin of its own), -2 for a refinement's attractor the coarse catalogue lacks.
+/// entropy S_b and boundary basin entropy S_bb (boxes of `entropy_box` cells), the
+/// uncertainty exponent and boundary dimension on the grid, the box-counting dimension
+/// and the Wada test. Labels are ids >= 0, -1 for diverged (a basin of its own), -2 for
+/// a refinement's attractor the coarse catalogue lacks.
+///
+/// Parameters:
+/// - `labels`: a non-empty 2-D integer array-like `[ny, nx]` of any integer dtype.
+/// - `entropy_box`: the side of the basin entropy's boxes in cells; None: min(5,
+///   shorter side).
 #[pyfunction]
 #[pyo3(signature = (labels, *, entropy_box=None))]
 pub(crate) fn basin_metrics<'py>(

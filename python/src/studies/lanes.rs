@@ -15,13 +15,32 @@ use std::collections::HashMap;
 
 /// Many independent lanes: the command line's `ensemble`.
 ///
-/// `omega` is a speed, a sequence of speeds or `"a:b:n"`; or give `lanes`, a 2-D array
-/// with one lane per row and `columns` naming its columns (omega, parameter keys, start
-/// coordinates, param_set), as `--lanes` with `--columns`. Returns `poincare`
-/// `[lanes, periods, 8]` (NaN from the period a lane froze in), `status` (uint32: 0 ok,
-/// 1 refinement_cap, 2 diverged, 3 non_finite), `lanes` `[lanes, 10]`, `params`
-/// `[sets, 14]`, with `lyapunov=True` `lambda1` `[lanes]`, and `run`, the dictionary of
-/// `run.json` (backend, device, precision, counters, status counts, speed).
+/// The lanes are speeds (`omega`) from one start state, or the rows of a table
+/// (`lanes`). Returns `poincare` `[lanes, periods, 8]` (NaN from the period a lane froze
+/// in), `status` (uint32: 0 ok, 1 refinement_cap, 2 diverged, 3 non_finite), `lanes`
+/// `[lanes, 10]`, `params` `[sets, 14]`, with `lyapunov=True` `lambda1` `[lanes]`, and
+/// `run`, the dictionary of `run.json` (backend, device, precision, counters, status
+/// counts, speed).
+///
+/// Parameters:
+/// - `omega`: a speed [rad/s], a sequence of speeds or `"a:b:n"` (n speeds from a to b
+///   inclusive), one lane each; with `lanes`, the one speed of lanes whose table has no
+///   omega column.
+/// - `lanes`: a 2-D array-like of numbers (read as float64), one lane per row, as the
+///   command line's `--lanes`: its columns may be omega, parameter keys, start
+///   coordinates and param_set; absent ones take `omega`, `params` and the static
+///   equilibrium with `init`.
+/// - `columns`: the names of the columns of `lanes` (needed with it).
+#[doc = param_doc!(params)]
+#[doc = param_doc!(init)]
+/// - `transient`: forcing periods integrated and discarded.
+/// - `periods`: forcing periods recorded per lane.
+#[doc = param_doc!(backend)]
+#[doc = param_doc!(precision)]
+/// - `lyapunov`: also compute each lane's largest Lyapunov exponent lambda_1 [1/s]
+///   (`lambda1`) from a tangent vector renormalised every period.
+#[doc = param_doc!(progress)]
+#[doc = param_doc!(stepper)]
 #[pyfunction]
 #[pyo3(signature = (
     omega=None, *, lanes=None, columns=None, params=None, init=None,
@@ -131,6 +150,21 @@ lane_study! {
     /// Returns `omega` `[W]`, `rows` `[rows, 4]` (W, sweep 0 up / 1 down / 2 brute force,
     /// lane, attractor id), `points` `[rows, periods, 8]` (each row's Poincare points),
     /// `lambda1` `[rows]` and `summary`, the dictionary of `summary.json`.
+    ///
+    /// Parameters:
+    /// - `omega`: the rotor speeds [rad/s]: `"a:b:n"` (n speeds from a to b inclusive),
+    ///   a sequence of speeds or one speed.
+    /// - `sweep`: the quasistatic sweeps, `"up"`, `"down"` or `"both"` (run
+    ///   concurrently), or `"none"` (brute force only; needs `ics` >= 1).
+    /// - `ics`: brute-force start states per W (the static equilibrium and a seeded
+    ///   random set); 0 disables the brute force.
+    /// - `seed`: the seed of the random start states.
+    /// - `transient`: forcing periods of transient per W of the quasistatic sweeps.
+    /// - `transient_first`: forcing periods of transient at the first W of each sweep,
+    ///   from the static equilibrium.
+    /// - `brute_transient`: forcing periods of transient of the brute-force lanes.
+    /// - `periods`: recorded periods (Poincare points) per lane.
+    /// - `max_seeds`: neighbour seeds per W in the brute force's second pass, at most.
     signature = (
         omega, *, sweep="both", ics=defaults::bifurcation::ICS, seed=defaults::bifurcation::SEED,
         transient=defaults::bifurcation::TRANSIENT,
@@ -217,12 +251,26 @@ lane_study! {
 /// Full-spectrum cascade of a quasistatic run-up and run-down: the command line's
 /// `cascade` (docs/rub.md).
 ///
-/// `omega` is `"a:b:n"` (n >= 2 speeds); `direction` is `"up"`, `"down"` or `"both"`.
 /// Returns `omega` `[n]` (ascending), `orders` `[bins]` (frequency / W, < 0 backward
 /// whirl), `cascade` and `cascade_stator` (f64 `[sweeps, n, bins]`, full-spectrum
 /// amplitudes [m], NaN after a divergence), `regime` (int32 `[sweeps, n]`: 0 no_contact,
 /// 1 partial_rub, 2 full_annular_rub, 3 backward_whirl, -1 diverged) and `summary`, the
-/// dictionary of `cascade.json` (its `sweeps` name the blocks). Progress counts speeds.
+/// dictionary of `cascade.json` (its `sweeps` name the blocks).
+///
+/// Parameters:
+/// - `omega`: the rotor speeds, `"a:b:n"` (n >= 2 speeds from a to b inclusive)
+///   [rad/s], swept quasistatically.
+#[doc = param_doc!(params)]
+/// - `transient_first`: forcing periods at the first speed of each sweep, from the
+///   static equilibrium.
+/// - `transient`: forcing periods at each later speed before its spectrum is taken.
+/// - `periods`: forcing periods of each spectrum (a multiple of 6 puts 1/2X, 1/3X and
+///   2/3X on bins).
+/// - `max_order`: the orders kept, -max..=max (frequency / W).
+/// - `direction`: `"up"` (run-up), `"down"` (run-down) or `"both"`.
+/// - `progress`: a callable `f(done, total)` called as the run advances (in speeds),
+///   or None.
+#[doc = param_doc!(stepper)]
 #[pyfunction]
 #[pyo3(signature = (
     omega, *, params=None,

@@ -11,12 +11,22 @@ use pyo3::types::PyDict;
 lane_study! {
     /// A two-parameter map (design chart): the command line's `map`.
     ///
-    /// `x` and `y` are `(name, lo, hi, n)` tuples or `"name:lo:hi:n"` strings over `omega`,
-    /// any model parameter or start coordinate (geometric spacing with `log_x`/`log_y`);
-    /// `omega` is the speed of every cell unless an axis is `omega`. Returns `period`,
-    /// `class`, `attractors`, `regime` (int32 `[ny, nx]`), `lambda1`, `contact`,
-    /// `peak_force` (f64 `[ny, nx]`), `x`, `y` (the axis values) and `summary`, the
-    /// dictionary of `map.json` (every cell's attractors under `cell_attractors`).
+    /// Returns `period`, `class`, `attractors`, `regime` (int32 `[ny, nx]`), `lambda1`,
+    /// `contact`, `peak_force` (f64 `[ny, nx]`), `x`, `y` (the axis values) and `summary`,
+    /// the dictionary of `map.json` (every cell's attractors under `cell_attractors`).
+    ///
+    /// Parameters:
+    /// - `x`, `y`: the horizontal and vertical axes, `(name, lo, hi, n)` tuples or
+    ///   `"name:lo:hi:n"` strings (n values from lo to hi inclusive) over `omega`, any
+    ///   model parameter or start coordinate, e.g. `"omega:130:141:200"`.
+    /// - `omega`: the rotor speed W of every cell when neither axis is omega [rad/s].
+    /// - `ics`: start states per cell: the static equilibrium of the cell's parameters
+    ///   and `ics` - 1 seeded ones (the same draws in every cell); 1 is the classical
+    ///   diagram from the static equilibrium.
+    /// - `seed`: the seed of the start states.
+    /// - `transient`: forcing periods integrated and discarded.
+    /// - `periods`: forcing periods recorded per lane (at least 2 n to see period n).
+    /// - `log_x`, `log_y`: space the x or y values geometrically (lo > 0).
     signature = (
         x, y, *, omega=None, ics=defaults::map::ICS, seed=defaults::map::SEED,
         transient=defaults::map::TRANSIENT, periods=defaults::map::PERIODS,
@@ -79,12 +89,27 @@ lane_study! {
     /// Attractors followed over a parameter, run-up and run-down: the command line's
     /// `continuation` (Attractors.jl's seeded find-and-match).
     ///
-    /// `param` is `(name, lo, hi, n)` or `"name:lo:hi:n"` over `omega` or a model parameter;
-    /// `start_box` (the CLI's `--box`), e.g. `"x_r:-0.006:0.006,vx_r:-1:1"`, draws the fresh
-    /// start states uniformly in a box. Returns `values` `[n]` and per ramp (`up`, `down`)
-    /// `fractions_<dir>` `[n, ids + 1]` (last column diverged), `fraction_errors_<dir>` and
-    /// `tipping_<dir>` `[n - 1, ids + 1, ids + 1]`, and `summary`, the dictionary of
-    /// `continuation.json`.
+    /// Returns `values` `[n]` and per ramp (`up`, `down`) `fractions_<dir>`
+    /// `[n, ids + 1]` (last column diverged), `fraction_errors_<dir>` and `tipping_<dir>`
+    /// `[n - 1, ids + 1, ids + 1]`, and `summary`, the dictionary of `continuation.json`.
+    ///
+    /// Parameters:
+    /// - `param`: the continued parameter, `(name, lo, hi, n)` or `"name:lo:hi:n"` over
+    ///   `omega` or a model parameter (n >= 2 values from lo to hi inclusive).
+    /// - `omega`: the rotor speed W when the parameter is not omega [rad/s].
+    /// - `ics`: fresh start states per value (the static equilibrium plus seeded draws,
+    ///   the same at every value): they give the basin fractions and tipping
+    ///   probabilities.
+    /// - `start_box`: draw the fresh start states uniformly in a box of start coordinates
+    ///   instead, e.g. `"x_r:-0.006:0.006,vx_r:-1:1"` (the command line's `--box`): the
+    ///   fractions are then the basin stability of that box.
+    /// - `seed`: the seed of the start states.
+    /// - `direction`: `"up"` (run-up), `"down"` (run-down) or `"both"`.
+    /// - `match_threshold`: the largest Poincare-set distance at which attractors of
+    ///   consecutive values are one attractor [m; velocities count divided by W]; None:
+    ///   no limit, always the nearest.
+    /// - `transient`: forcing periods integrated and discarded per lane.
+    /// - `periods`: forcing periods recorded per lane.
     signature = (
         param, *, omega=None, ics=defaults::continuation::ICS, start_box=None,
         seed=defaults::continuation::SEED, direction="both", match_threshold=None,

@@ -9,11 +9,12 @@
 /// settings. Written once here, the shared tail cannot drift between the functions (a
 /// default, a reader or the order of the keywords, which the type stub mirrors).
 ///
-/// The invocation gives the function's own signature up to that tail (ending in a
-/// comma), its own arguments, the names under which the body sees the lane settings
-/// ([`crate::lane_settings`], read first: an unknown stepper keyword is named before
-/// anything else) and the `progress` callback, and the body; the function returns the
-/// result dictionary.
+/// The invocation gives the function's docstring, ending in its `Parameters:` list of
+/// its own parameters (the macro adds the tail's items), its own signature up to that
+/// tail (ending in a comma), its own arguments, the names under which the body sees the
+/// lane settings ([`crate::lane_settings`], read first: an unknown stepper keyword is
+/// named before anything else) and the `progress` callback, and the body; the function
+/// returns the result dictionary.
 macro_rules! lane_study {
     (
         $(#[$($attr:tt)*])*
@@ -23,6 +24,14 @@ macro_rules! lane_study {
         { $($body:tt)* }
     ) => {
         $(#[$($attr)*])*
+        #[doc = param_doc!(params)]
+        #[doc = param_doc!(backend)]
+        #[doc = param_doc!(precision)]
+        /// - `lyapunov`: compute every lane's largest Lyapunov exponent lambda_1 (one
+        ///   tangent vector per lane); without it aperiodic attractors are not told
+        ///   apart as quasiperiodic or chaotic.
+        #[doc = param_doc!(progress)]
+        #[doc = param_doc!(stepper)]
         #[pyo3::pyfunction]
         #[pyo3(signature = (
             $($sig)*

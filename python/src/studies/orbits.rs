@@ -9,9 +9,8 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::collections::HashMap;
 
-/// A branch of period-`period` orbits continued over `param` (`"NAME:lo:hi"`, NAME
-/// `omega` or a model parameter; `omega` gives W when NAME is not omega) by Newton
-/// shooting and pseudo-arclength: the command line's `orbits`.
+/// A branch of period-`period` orbits continued over `param` by Newton shooting and
+/// pseudo-arclength: the command line's `orbits`.
 ///
 /// Returns the dictionary of `branches.json` (`param`; `branches`, each with its
 /// `points` (value, orbit state `x`, `multipliers` [re, im], `stable`,
@@ -19,10 +18,30 @@ use std::collections::HashMap;
 /// or grazing, and the parameter's value under its name) and why it `stop`ped; with
 /// `follow_doublings` also the period-2n branch of each period doubling) with the arrays
 /// `branch` `[points, 13]` (branch index, value, state, largest |mu|, smallest
-/// clearance, stable) and `multipliers` `[points, 8, 2]`. `start_from`: a basin or
-/// bifurcation output directory whose periodic attractors start the branches (the
-/// command line's `--from`). `backend`: where the flows
-/// run, always in f64 (`"cpu"`, `"gpu"`, `"auto"`; the same bits on each).
+/// clearance, stable) and `multipliers` `[points, 8, 2]`.
+///
+/// Parameters:
+/// - `param`: the continued parameter and its range, `"NAME:lo:hi"` (NAME `omega` or a
+///   model parameter), e.g. `"omega:131.7:132.4"`.
+/// - `omega`: the rotor speed W [rad/s] when the continued parameter is not omega.
+/// - `period`: the period of the orbits in forcing periods.
+/// - `direction`: which way the parameter first moves, `"up"` (the branch starts at
+///   lo) or `"down"` (at hi).
+/// - `settle`: forcing periods integrated from the start state before shooting, so
+///   Newton starts near the attractor there (0: shoot from the start state itself).
+#[doc = param_doc!(init)]
+/// - `max_points`: branch points at most.
+/// - `ds`: the first arclength step (positions in metres, velocities over W, the
+///   parameter at 1 mm per its range).
+/// - `ds_max`: the largest arclength step.
+/// - `follow_doublings`: also continue the period-2n branch born at each period
+///   doubling.
+/// - `start_from`: a basin, bifurcation or continuation output directory whose
+///   periodic attractors start the branches (the command line's `--from`).
+/// - `backend`: where the flows run, always in f64 (`"cpu"`, `"gpu"`, `"auto"`; the
+///   same bits on each).
+#[doc = param_doc!(params)]
+#[doc = param_doc!(stepper)]
 #[pyfunction]
 #[pyo3(signature = (
     param, *, omega=None, period=defaults::orbits::PERIOD, direction="up",

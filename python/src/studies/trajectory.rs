@@ -25,6 +25,30 @@ use std::collections::HashMap;
 /// run diverged, `full_spectrum` `[bins, 4]` and `contact_history` `[M, 5]` (the files
 /// `full_spectrum.npy` and `contact.npy`) of the stretch of
 /// `spectrum_periods` periods continued from the final state.
+///
+/// Parameters:
+/// - `omega`: the rotor speed W [rad/s]; the article's interesting range is 130..141.
+#[doc = param_doc!(params)]
+#[doc = param_doc!(init)]
+/// - `transient`: forcing periods T = 2 pi / W integrated and discarded before the
+///   record.
+/// - `periods`: forcing periods recorded, one Poincare point each (at least 2 n for
+///   period n to be detectable).
+/// - `timeseries_periods`: the last recorded periods returned in `timeseries`; None:
+///   min(8, `periods`).
+/// - `integrator`: `"lane"` (the ensemble lane stepper, crossing-located RK4) or
+///   `"article"` (the article's variable-step RK4, a cross-check; slower).
+/// - `spectrum_periods`: forcing periods of the stretch, continued from the final
+///   state, that the rub figures, full spectrum and contact history are taken over (a
+///   multiple of 6 puts the 1/2X, 1/3X and 2/3X lines on bins).
+/// - `n_max`: the largest period the classifier looks for.
+/// - `rel_tol`: the classifier's repeat tolerance relative to the Poincare set's size.
+/// - `abs_tol`: the classifier's repeat tolerance floor [m].
+/// - `article_steps`: standard steps per period of the article's scheme (with
+///   `integrator="article"`).
+/// - `article_alpha`: exponent alpha of the article scheme's step reduction
+///   dt (E_max/E)^alpha.
+#[doc = param_doc!(stepper)]
 #[pyfunction]
 #[pyo3(signature = (
     omega, *, params=None, init=None,
@@ -138,6 +162,21 @@ pub(crate) fn simulate<'py>(
 /// Returns the dictionary of `spectrum.json` (`exponents` [1/s], `errors`, `sum`,
 /// `trace_average`, `stop`, ...) and `history` `[periods, 9]` (accumulation time, then
 /// the eight running estimates).
+///
+/// Parameters:
+/// - `omega`: the rotor speed W [rad/s].
+#[doc = param_doc!(params)]
+#[doc = param_doc!(init)]
+/// - `time`: the largest accumulation time [s] (the stopping rule's maximum).
+/// - `min_time`: accumulation time before the stopping rule may stop [s], at most
+///   `time`; None: 20 s, or `time` if that is shorter.
+/// - `transient`: forcing periods of the state alone before the tangent vectors start.
+/// - `tangent_transient`: forcing periods in which the tangent vectors align, not
+///   accumulated.
+/// - `tol`: stop when no exponent changed by more than this over the last `window`
+///   [1/s].
+/// - `window`: the stopping rule's window [forcing periods].
+#[doc = param_doc!(stepper)]
 #[pyfunction]
 #[pyo3(signature = (
     omega, *, params=None, init=None,
