@@ -14,6 +14,8 @@
 //! ([`settings`], [`defaults`]). Every module is reachable at the crate's root
 //! (`jeffcott_analysis::basin`), whatever folder holds it.
 
+#![warn(missing_docs)]
+
 mod attractors;
 mod studies;
 

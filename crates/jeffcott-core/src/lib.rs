@@ -27,6 +27,8 @@
 //! 5. [`limits`], [`error`]: input ranges and the one error type; [`control`]: the one
 //!    progress callback and the cancel flag of every run.
 
+#![warn(missing_docs)]
+
 pub mod control;
 #[macro_use]
 mod dispatch;

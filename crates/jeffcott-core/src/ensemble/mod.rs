@@ -38,6 +38,35 @@ pub struct LaneSpec {
 }
 
 /// What an ensemble run integrates.
+///
+/// # Example
+///
+/// Four speeds from the static equilibrium, run on the CPU backend:
+///
+/// ```
+/// use jeffcott_core::control::Control;
+/// use jeffcott_core::ensemble::{EnsembleSpec, LaneSpec, Precision, cpu};
+/// use jeffcott_core::integrate::lane::{Status, StepperConfig};
+/// use jeffcott_core::model::{Params, STATE_DIM};
+///
+/// let params = Params::default();
+/// let x0 = params.static_equilibrium();
+/// let spec = EnsembleSpec {
+///     lanes: LaneSpec::at_speeds(&[130.0, 133.0, 136.0, 139.0], x0),
+///     param_sets: vec![params],
+///     transient: 20,
+///     recorded: 4,
+///     stepper: StepperConfig::default(),
+///     precision: Precision::F64,
+/// };
+/// spec.validate()?;
+/// let result = cpu::run(&spec, false, Control::none())?;
+/// // One Poincare point (a state) per lane and recorded period, lane-major.
+/// assert_eq!(result.poincare.len(), 4 * 4 * STATE_DIM);
+/// assert_eq!(result.status, vec![Status::Ok; 4]);
+/// assert!(result.lambda1.is_none()); // not asked for
+/// # Ok::<(), jeffcott_core::Error>(())
+/// ```
 #[derive(Clone, Debug, Serialize)]
 pub struct EnsembleSpec {
     /// Parameter sets the lanes refer to (at least one).

@@ -60,6 +60,48 @@ pub enum Sweep {
 /// What a bifurcation study computes. It is its own record: `run.json` holds it as it
 /// serializes (not the backend: units computed on any backend may be combined), and it
 /// reads back from there.
+///
+/// # Example
+///
+/// An up sweep and a brute force of two start states per speed at three speeds, on the
+/// CPU, run in memory with [`bifurcation()`]:
+///
+/// ```
+/// use jeffcott_analysis::bifurcation::{BifurcationSpec, Sweep, bifurcation};
+/// use jeffcott_analysis::settings::LaneSettings;
+/// use jeffcott_core::control::Control;
+/// use jeffcott_core::ensemble::{Backend, Precision};
+///
+/// let spec = BifurcationSpec {
+///     lane: LaneSettings {
+///         backend: Backend::Cpu,
+///         ..LaneSettings::new(Precision::F64)
+///     },
+///     omegas: vec![131.0, 132.0, 133.0],
+///     sweep: Some(Sweep::Up),
+///     transient_first: 50,
+///     transient: 20,
+///     ics: 2,
+///     brute_transient: 50,
+///     periods: 8,
+///     seed: 1,
+///     max_seeds: 2,
+/// };
+/// spec.validate()?;
+/// let res = bifurcation(&spec, Control::none())?;
+/// // The up sweep: one point per speed, by increasing W, each with its record.
+/// assert_eq!(res.up.iter().map(|p| p.omega).collect::<Vec<_>>(), spec.omegas);
+/// assert!(res.up.iter().all(|p| p.points.len() == 8));
+/// assert!(res.down.is_empty());
+/// // The brute force: per speed, every lane labelled with an attractor of its catalogue
+/// // (or -1, diverged).
+/// assert_eq!(res.brute.len(), 3);
+/// for b in &res.brute {
+///     assert_eq!(b.catalogue.labels.len(), b.starts.len());
+///     assert!(b.catalogue.labels.iter().all(|&l| l < b.catalogue.attractors.len() as i32));
+/// }
+/// # Ok::<(), jeffcott_core::Error>(())
+/// ```
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct BifurcationSpec {
     /// Model, stepper, precision, backend, classification, lambda_1.
