@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Builds, here, what the GPU campaign (scripts/gpu-campaign.sh, issue 25) needs on a lent
+# Builds, here, what the GPU campaign (scripts/gpu-campaign.sh, docs/gpu.md) needs on a lent
 # GPU machine that has no Rust toolchain and no network, into the ignored folder
 # .campaign/ (carried to the device with `carry: [".campaign"]`, 64 MiB in all):
 #   bin/jeffcott        the stripped release binary
@@ -70,9 +70,9 @@ rm "$dst/tests/all.txt"
 # into /; ../.library/device/README.md names the same set).
 (cd "$dst/gl" && apt-get download libvulkan1 libegl1 libglvnd0 libopengl0 libgl1 libglx0 libgles2 2>/dev/null)
 
-# The standard job's reference (issue 28): 1024 lanes at W = 133, x_r0 evenly over
-# [-4, 4] mm, the rest at the static equilibrium, 200 periods from t = 0; the final state
-# by the lane stepper at N = 8000 (as examples/work_precision.rs), and at N = 4000.
+# The standard job's reference (docs/performance.md): 1024 lanes at W = 133, x_r0 evenly
+# over [-4, 4] mm, the rest at the static equilibrium, 200 periods from t = 0; the final
+# state by the lane stepper at N = 8000 (as examples/work_precision.rs) and at N = 4000.
 if [ ! -f "$dst/ref/std_L1024_P200.npy" ]; then
   bash scripts/gpu-campaign.sh --reference-only --lanes 1024 --periods 200 \
     --jeffcott target/release/jeffcott --ref-dir "$dst/ref"

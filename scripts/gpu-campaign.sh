@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The GPU campaign of issue 25: everything a lent GPU machine should measure, in one
+# The GPU campaign (docs/gpu.md): everything a lent GPU machine should measure, in one
 # command of at most 9 minutes that writes at most 8 result files.
 #
 # On the GPU machine (after `bash scripts/gpu-campaign-prepare.sh` here, carrying

@@ -1,4 +1,4 @@
-"""The GPU campaign of issue 25, run by scripts/gpu-campaign.sh (read it first).
+"""The GPU campaign (docs/gpu.md), run by scripts/gpu-campaign.sh (read it first).
 
 Steps, in order of what a short lease must not miss; each has a share of one deadline
 and a step that fails is recorded and the next one runs:
@@ -16,13 +16,13 @@ and a step that fails is recorded and the next one runs:
    kernel, its free-flight twin and each part of it timed alone on the same lanes
    (`jeffcott bench --anatomy all`, jeffcott-gpu's anatomy.rs), then the kernel in its
    other form of lane constants (JEFFCOTT_GPU_CONSTS).
-5. standard job (issue 28: 1024 lanes at W = 133, x_r0 evenly over [-4, 4] mm, 200
-   periods from t = 0, error = worst lane's last Poincare position against a reference
-   good to ~1e-9 m), replicated 128 times so it fills the GPU (the 1024 lanes alone
-   leave the H100 latency-bound: 5.2e3-7.1e3 lane-periods/s in f64, two campaigns), by
-   jeffcott's GPU kernel and by the hand-written CUDA kernel of the numba loop's
-   algorithm (benches/peer/rk4_cuda.py, through cupy): lane-periods per second and
-   worst-lane error for each.
+5. standard job (docs/performance.md: 1024 lanes at W = 133, x_r0 evenly over
+   [-4, 4] mm, 200 periods from t = 0, error = worst lane's last Poincare position
+   against a reference good to ~1e-9 m), replicated 128 times so it fills the GPU (the
+   1024 lanes alone leave the H100 latency-bound: 5.2e3-7.1e3 lane-periods/s in f64, two
+   campaigns), by jeffcott's GPU kernel and by the hand-written CUDA kernel of the numba
+   loop's algorithm (benches/peer/rk4_cuda.py, through cupy): lane-periods per second
+   and worst-lane error for each.
 6. basin: 1000 x 1000 at W = 133 (250 + 32 periods) end to end in f32 and f64, the two
    label sets compared, and a 100 x 100 subgrid computed on the CPU compared with both.
 
@@ -112,8 +112,9 @@ class Sizes:
         self.replicas = 4 if small else 128
         # (lanes multiple, precision, N): N = 700 f64 and the peer's N = 6144 meet the
         # same worst-lane error (1.57e-8 and 1.48e-8 m on the H100).
-        # The exact free-flight step (issue 28 item 5) at half the N and twice the R: on the
-        # 2-core CPU N = 350, R = 4 met N = 700, R = 2's worst lane 1.30-1.44x faster.
+        # The exact free-flight step (--exact-free-flight) at half the N and twice the
+        # R: on the 2-core CPU N = 350, R = 4 met N = 700, R = 2's worst lane 1.30-1.44x
+        # faster.
         exact = ["--contact-substeps", "4", "--exact-free-flight"]
         self.jeffcott_rows = [(1, "f64", 500, []), (self.replicas, "f64", 500, []), (self.replicas, "f32", 500, []),
                               (1, "f64", 250, exact)] if small \

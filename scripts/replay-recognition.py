@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""Replays early exit's recognition rule on full-length Poincare records (issue 24).
+"""Replays early exit's recognition rule on full-length Poincare records (how its
+tolerances were chosen; docs/early-exit.md).
 
 How far can the recognition tolerance go before a lane is retired on the wrong
 attractor, and what does each setting save? Answered offline, without re-running the
