@@ -92,7 +92,7 @@ pub struct Variant {
     /// every sub-step, the committed lane and its tangent kept in their buffers, the
     /// switch search's samples evaluated as its scan reaches them, so that few values
     /// are live across the loop (a SIMT GPU holds them all in registers; RADV's
-    /// statistics for a virtual RDNA3 GPU: the f64 kernel's spilled VGPRs 151 -> 20 with
+    /// statistics for a virtual RDNA3 GPU: the f64 kernel's spilled VGPRs 151 -> 23 with
     /// per-lane constants). Off, the software form (`advance_held`): constants and lane
     /// held in registers, the samples hoisted, what lavapipe needs (its loads are 8-lane
     /// gathers, and it runs every arm of every `if`). The arithmetic is the same.
@@ -102,7 +102,7 @@ pub struct Variant {
     /// element (`lane_consts` in the header): one address for the whole dispatch, which
     /// a GPU reads once per wave into scalar registers or its constant cache instead of
     /// holding a copy per invocation in vector registers (RADV, the f64 kernel's GPU
-    /// form: 20 spilled VGPRs with every field per lane, 0 with all shared, 0 for a
+    /// form: 23 spilled VGPRs with every field per lane, 0 with all shared, 0 for a
     /// speed sweep's mask; docs/gpu.md). The runner sets the fields equal byte for byte
     /// across the run's lanes ([`crate::layout::shared_fields`]): all of them in a
     /// basin or the standard job, all but the speed's in a speed sweep.
