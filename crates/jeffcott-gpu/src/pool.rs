@@ -122,13 +122,9 @@ impl GpuRunner {
                     .map(|(c, _)| *c)
             })
             .flatten();
-        if let Some(first) = first {
+        if first.is_some() {
             for (s, c) in consts.iter_mut().enumerate() {
-                if occupied[s] {
-                    check_shared::<R>(shared, s, c, &first)?;
-                } else {
-                    *c = first;
-                }
+                share_consts::<R>(shared, first, s, occupied[s], c)?;
             }
             w.write_consts(&consts);
         }
@@ -161,16 +157,7 @@ impl GpuRunner {
                 let p = host.fill(s);
                 occupied[s] = p.is_some();
                 let (mut c, l, t) = pack(p, period);
-                if shared != 0 {
-                    let first = first.ok_or_else(|| {
-                        Error::invalid("slot constants", s, "no first lane to share with")
-                    })?;
-                    if occupied[s] {
-                        check_shared::<R>(shared, s, &c, &first)?;
-                    } else {
-                        c = first;
-                    }
-                }
+                share_consts::<R>(shared, first, s, occupied[s], &mut c)?;
                 consts[s] = c;
                 w.write(s, &c, &l, &t);
             }
@@ -286,6 +273,29 @@ fn empty_lane<R: GpuReal>() -> Lane<R> {
     let mut lane = Lane::new(&[0.0; STATE_DIM], 0.0);
     lane.status = Status::NonFinite;
     lane
+}
+
+/// Slot `s`'s constants `c` where the pool's kernel reads the fields of mask `shared`
+/// (none: `c` as it is) from slot 0: an occupied slot's must equal `first`, the first
+/// lane's, in those fields (else an error); an empty slot gets `first`'s.
+fn share_consts<R: GpuReal>(
+    shared: u32,
+    first: Option<R::Consts>,
+    s: usize,
+    occupied: bool,
+    c: &mut R::Consts,
+) -> Result<()> {
+    if shared == 0 {
+        return Ok(());
+    }
+    let first =
+        first.ok_or_else(|| Error::invalid("slot constants", s, "no first lane to share with"))?;
+    if occupied {
+        check_shared::<R>(shared, s, c, &first)
+    } else {
+        *c = first;
+        Ok(())
+    }
 }
 
 /// An error unless constants `c` of slot `s` equal `first`, the first lane's, in every

@@ -713,6 +713,8 @@ mod tests {
                     "advance_buffered",
                     "lean_free_flight",
                     "in_bounds",
+                    "state_finite",
+                    "state_reach",
                 ],
             },
         ];

@@ -261,16 +261,11 @@ fn macro_step_end(lc: LaneConsts, lane: ptr<function, Lane>, ms: MacroStep) {
     let x = ms.x;
     let k = (*lane).k;
     // Status checks: freeze at the last good state rather than poison anything.
-    var finite = true;
-    for (var i = 0u; i < STATE_DIM; i++) {
-        finite = finite && is_finite(x[i]);
-    }
-    if !finite {
+    if !state_finite(x) {
         (*lane).status = STATUS_NON_FINITE;
         return;
     }
-    let reach = rmax(rmax(rmax(abs(x[X_R]), abs(x[Y_R])), abs(x[X_S])), abs(x[Y_S]));
-    if reach > lc.bound {
+    if state_reach(x) > lc.bound {
         (*lane).status = STATUS_DIVERGED;
         return;
     }

@@ -293,7 +293,6 @@ fn lean_free_flight(i: u32, period_end: u32) -> Lean {
     // After the loop whatever ended it, a cut by llvmpipe's loop limit included: x, k and
     // period are the last committed values.
     if steps > 0u {
-        let lc = lane_consts(i);
         lanes[i].x = x;
         lanes[i].k = k;
         lanes[i].period = period;
@@ -305,10 +304,20 @@ fn lean_free_flight(i: u32, period_end: u32) -> Lean {
 // macro_step_end's status checks passed: every component finite and the reach within
 // the divergence bound.
 fn in_bounds(lc: LaneConsts, x: array<Real, STATE_DIM>) -> bool {
+    return state_finite(x) && !(state_reach(x) > lc.bound);
+}
+
+// True when every component of `x` is finite (macro_step_end's first status check).
+fn state_finite(x: array<Real, STATE_DIM>) -> bool {
     var finite = true;
     for (var i = 0u; i < STATE_DIM; i++) {
         finite = finite && is_finite(x[i]);
     }
-    let reach = rmax(rmax(rmax(abs(x[X_R]), abs(x[Y_R])), abs(x[X_S])), abs(x[Y_S]));
-    return finite && !(reach > lc.bound);
+    return finite;
+}
+
+// The largest displacement of rotor or stator along either axis (macro_step_end's
+// divergence check compares it with the bound).
+fn state_reach(x: array<Real, STATE_DIM>) -> Real {
+    return rmax(rmax(rmax(abs(x[X_R]), abs(x[Y_R])), abs(x[X_S])), abs(x[Y_S]));
 }
