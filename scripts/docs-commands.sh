@@ -5,7 +5,8 @@
 # PYTHON (an interpreter with the jeffcott package, numpy and matplotlib), each of the
 # guide's ```python blocks runs too. All run in one fresh directory that links the
 # repository's examples/, in the order the pages give them (later commands read earlier
-# outputs, as a reader's would). The set-up commands (`cargo run`, `bash scripts/...`)
+# outputs, as a reader's would). A `jeffcott explore` line starts the server without a
+# browser, fetches its page and /api/info, and stops it. The set-up commands (`cargo run`, `bash scripts/...`)
 # are the test suite's own business and are not run here.
 #
 #   scripts/docs-commands.sh BIN [PYTHON]
@@ -53,11 +54,39 @@ def run(label, argv, shown):
         sys.exit(1)
     print(f"docs-commands: ok {time.time() - t0:6.1f} s  {label}: {shown}", flush=True)
 
+def serve(label, argv, shown):
+    """A server command (`jeffcott explore`): started without a browser on a free port,
+    its page and its /api/info fetched, then stopped."""
+    import urllib.request
+    t0 = time.time()
+    argv = argv + ["--no-browser", "--port", "0"]
+    p = subprocess.Popen(argv, cwd=work, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        line = p.stdout.readline()
+        m = re.search(r"(http://\S+)", line)
+        if not m:
+            raise RuntimeError(f"no address printed: {line!r} {p.stderr.read() if p.poll() is not None else ''}")
+        url = m.group(1)
+        page = urllib.request.urlopen(url, timeout=30).read().decode()
+        info = urllib.request.urlopen(url.rstrip("/") + "/api/info", timeout=30).read().decode()
+        if "app.js" not in page or '"params"' not in info:
+            raise RuntimeError("the page or /api/info is not what the explorer serves")
+    except Exception as e:
+        sys.stderr.write(f"docs-commands: FAILED ({label}): {shown}: {e}\n")
+        sys.exit(1)
+    finally:
+        p.terminate()
+        p.wait(timeout=10)
+    print(f"docs-commands: ok {time.time() - t0:6.1f} s  {label}: {shown} (served, page fetched)", flush=True)
+
 ran = 0
 for page in ["README.md", "docs/guide.md"]:
     for block in blocks(page, "sh"):
         for cmd in commands(block):
-            run(page, ["bash", "-c", binary + cmd[len("jeffcott"):]], cmd)
+            if cmd.startswith("jeffcott explore"):
+                serve(page, [binary] + cmd.split()[1:], cmd)
+            else:
+                run(page, ["bash", "-c", binary + cmd[len("jeffcott"):]], cmd)
             ran += 1
 if python:
     for i, block in enumerate(blocks("docs/guide.md", "python")):

@@ -2,7 +2,10 @@
 # Runs jeffcott's test suite in release mode (the physics tests integrate many periods),
 # then the Python package's (scripts/python-test.sh: builds the wheel with maturin in a
 # virtual environment python/.venv, installing maturin, numpy, pytest and matplotlib
-# there when absent, and runs pytest and the example), then every command of the
+# there when absent, and runs pytest and the example), then the explorer's page in a real
+# browser (scripts/browser-test.sh: Debian's chromium, installed when absent, driven by
+# selenium; JEFFCOTT_REQUIRE_BROWSER=1 makes a missing browser fail instead of skip, as
+# in CI), then every command of the
 # README's tour and of docs/guide.md (scripts/docs-commands.sh), then the GPU campaign's local
 # mode (scripts/gpu-campaign.sh --local --small), then the refactoring check's
 # self-test (scripts/golden.sh selftest: its command set runs twice to identical
@@ -32,6 +35,7 @@ fi
 
 cargo test --release "$@"
 bash scripts/python-test.sh target/release/jeffcott
+bash scripts/browser-test.sh target/release/jeffcott python/.venv/bin/python
 bash scripts/docs-commands.sh target/release/jeffcott python/.venv/bin/python
 # The GPU campaign's local mode: every step of what a lent H100 runs, at small
 # sizes on the adapter at hand, so the campaign cannot rot between the rare GPU sessions.

@@ -16,6 +16,7 @@ mod cascade;
 mod continuation;
 mod ensemble;
 mod exit;
+mod explore;
 pub mod files;
 mod info;
 pub mod map;
@@ -35,6 +36,7 @@ pub use cascade::{CascadeArgs, run_cascade};
 pub use continuation::{ContinuationArgs, run_continuation};
 pub use ensemble::{Ensemble, EnsembleArgs, run_ensemble};
 pub use exit::{EXIT_CODES, exit_code};
+pub use explore::{ExploreArgs, run_explore};
 pub use info::{InfoArgs, run_info};
 pub use map::{MapArgs, run_map};
 pub use merge::{MergeArgs, run_merge};
@@ -126,6 +128,11 @@ pub enum Command {
     /// doubling, Neimark-Sacker and grazing bifurcations.
     #[command(allow_negative_numbers = true)]
     Orbits(orbits::OrbitsArgs),
+    /// Explore in the browser: a local web server and its page, with a bifurcation
+    /// diagram and a basin whose zoom recomputes the region, and a click that opens one
+    /// lane's trajectory, attractor and Floquet multipliers (docs/explore.md).
+    #[command(allow_negative_numbers = true)]
+    Explore(ExploreArgs),
 }
 
 /// Runs a parsed command.
@@ -145,6 +152,7 @@ pub fn dispatch(command: &Command) -> Result<()> {
         Command::Lyapunov(a) => lyapunov::run_lyapunov(a),
         Command::Merge(a) => run_merge(a),
         Command::Orbits(a) => orbits::run_orbits(a),
+        Command::Explore(a) => run_explore(a),
     }
 }
 /// The writer options of a command that has none (run.json's `write` is `{}`).

@@ -60,6 +60,11 @@ impl Engine {
         }
     }
 
+    /// The device lanes run on: the GPU adapter's name, or the CPU's rayon threads.
+    pub fn device(&self) -> &str {
+        &self.device
+    }
+
     /// The GPU runner, when the backend resolved to a GPU.
     pub fn runner(&self) -> Option<&GpuRunner> {
         self.gpu.as_ref()

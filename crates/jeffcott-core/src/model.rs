@@ -114,12 +114,67 @@ impl Default for Params {
     }
 }
 
+/// Symbol, unit and meaning of a parameter by name.
+fn describe(name: &str) -> (&'static str, &'static str, &'static str) {
+    match name {
+        "omega_r" => ("w_r", "rad/s", "rotor natural frequency sqrt(k_r / m_r)"),
+        "omega_s" => ("w_s", "rad/s", "stator natural frequency sqrt(k_s / m_s)"),
+        "xi_r" => ("xi_r", "-", "rotor damping ratio"),
+        "xi_s" => ("xi_s", "-", "stator damping ratio"),
+        "delta" => ("delta", "m", "radial rotor-stator gap"),
+        "mu" => ("mu", "-", "Coulomb friction coefficient at the contact"),
+        "m_r" => ("m_r", "kg", "rotor mass"),
+        "m_s" => ("m_s", "kg", "stator mass"),
+        "e" => ("e", "m", "mass eccentricity of the rotor"),
+        "k_c" => ("k_c", "N/m", "contact (penalty) stiffness"),
+        "c_c" => ("c_c", "N s/m", "contact damping, in contact only"),
+        "e_max" => (
+            "E_max",
+            "m",
+            "error bound of the article's variable-step scheme",
+        ),
+        "a_g" => ("a_g", "m/s^2", "gravity, in -y on both bodies"),
+        "phi0" => ("phi0", "rad", "phase of the unbalance at t = 0"),
+        _ => ("?", "-", "unknown parameter"),
+    }
+}
+
 /// Allowed range of a field, for validation and error messages.
 #[derive(Clone, Copy)]
 enum Range {
     Positive,
     NonNegative,
     Finite,
+}
+
+impl Range {
+    /// The rule as an error message and the parameter table say it.
+    fn allowed(self) -> &'static str {
+        match self {
+            Range::Positive => "must be finite and > 0",
+            Range::NonNegative => "must be finite and >= 0",
+            Range::Finite => "must be finite",
+        }
+    }
+}
+
+/// What a user needs to know of one model parameter: its name (the TOML key and the
+/// `--param` name), its symbol, its SI unit, its default and its allowed range
+/// (docs/parameters.md holds the same table).
+#[derive(Clone, Debug, Serialize)]
+pub struct ParamInfo {
+    /// The TOML key and `--param` name.
+    pub name: &'static str,
+    /// The symbol in the equations (docs/model.md).
+    pub symbol: &'static str,
+    /// SI unit ("-" for a ratio).
+    pub unit: &'static str,
+    /// Table 1's value.
+    pub default: f64,
+    /// The allowed range, as [`Params::validate`]'s errors say it.
+    pub allowed: &'static str,
+    /// What it is, in a few words.
+    pub meaning: &'static str,
 }
 
 impl Params {
@@ -148,6 +203,36 @@ impl Params {
             "phi0" => (&mut self.phi0, Finite),
             _ => return None,
         })
+    }
+
+    /// Every parameter's name, symbol, unit, default and allowed range, in
+    /// [`Params::FIELDS`] order.
+    pub fn info() -> Vec<ParamInfo> {
+        let d = Params::default();
+        Params::FIELDS
+            .iter()
+            .map(|&name| {
+                let (symbol, unit, meaning) = describe(name);
+                let (_, range) = d
+                    .clone()
+                    .field_mut(name)
+                    .map(|(v, r)| (*v, r))
+                    .expect("known");
+                ParamInfo {
+                    name,
+                    symbol,
+                    unit,
+                    default: d.get(name).expect("known"),
+                    allowed: range.allowed(),
+                    meaning,
+                }
+            })
+            .collect()
+    }
+
+    /// The SI unit of a parameter ("-" for a ratio or an unknown name).
+    pub fn unit(name: &str) -> &'static str {
+        describe(name).1
     }
 
     /// One field by name (as in the TOML file), `None` for an unknown name.
@@ -189,12 +274,7 @@ impl Params {
                     Range::Finite => true,
                 };
             if !ok {
-                let allowed = match range {
-                    Range::Positive => "must be finite and > 0",
-                    Range::NonNegative => "must be finite and >= 0",
-                    Range::Finite => "must be finite",
-                };
-                return Err(Error::invalid(name, v, allowed));
+                return Err(Error::invalid(name, v, range.allowed()));
             }
         }
         Ok(())

@@ -97,16 +97,7 @@ impl MapVar {
         match self {
             MapVar::Omega => "rad/s",
             MapVar::Coord(i) => jeffcott_core::model::COORD_UNITS[*i],
-            MapVar::Param(k) => match *k {
-                "omega_r" | "omega_s" => "rad/s",
-                "delta" | "e" | "e_max" => "m",
-                "m_r" | "m_s" => "kg",
-                "k_c" => "N/m",
-                "c_c" => "N s/m",
-                "a_g" => "m/s^2",
-                "phi0" => "rad",
-                _ => "-",
-            },
+            MapVar::Param(k) => jeffcott_core::model::Params::unit(k),
         }
     }
 }
