@@ -48,7 +48,7 @@ import traceback
 
 import numpy as np
 
-STEPS = ["adapter", "parity", "tests", "bench", "anatomy", "standard", "peer", "basin"]
+STEPS = ["adapter", "parity", "tests", "bench", "anatomy", "standard", "peer", "basin", "explore"]
 # GPU tests bound by one lane's serial speed (a few lanes for hundreds of periods): on
 # the H100 and H200 each ran past 90 s (2026-11-25, -27), on lavapipe seconds. On
 # hardware the tests step runs them last, one at a time (the rest of their executable
@@ -544,6 +544,37 @@ class Campaign:
                 out[f"cpu_subgrid_vs_gpu_{prec}"] = agreement(lab, labels[prec][::k, ::k][:m, :m])
         return out
 
+    # ---- the explorer on this GPU ------------------------------------------------
+
+    def explore(self):
+        """`jeffcott explore --backend gpu` over HTTP, as its page asks: the first slice of
+        the default bifurcation view (every 32nd of 400 columns, 4 starts), the whole view
+        in one request, and the 128 x 128 basin at 133 rad/s (the page's last level)."""
+        import re
+        import urllib.request
+        n, k, cells = (48, 2, 16) if self.small else (400, 4, 128)
+        p = subprocess.Popen([self.jeffcott, "explore", "--no-browser", "--port", "0", "--backend", "gpu"],
+                             stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+        try:
+            url = re.search(r"(http://\S+)", p.stdout.readline()).group(1).rstrip("/")
+
+            def get(q):
+                t = time.monotonic()
+                urllib.request.urlopen(url + q, timeout=max(10, self.left() - 20)).read()
+                return time.monotonic() - t
+
+            info = json.loads(urllib.request.urlopen(url + "/api/info").read())
+            out = {"device": info["device"], "precision": info["precision"]}
+            step = 32 if n > 64 else 8
+            out["bifurcation_first_slice_s"] = get(f"/api/bifurcation?tab=c&n={n}&from=0&step={step}&count={(n - 1) // step + 1}&k={k}")
+            out["bifurcation_whole_view_s"] = get(f"/api/bifurcation?tab=c&n={n}&k={k}")
+            out[f"basin_{cells}x{cells}_s"] = get(f"/api/basin?tab=c&n={cells}")
+        finally:
+            p.terminate()
+            p.wait(timeout=10)
+        self.say(f"   explore: {out}")
+        return out
+
     # ---- 6. the GPU tests ----------------------------------------------------------
 
     def tests(self):
@@ -753,7 +784,7 @@ def main():
     if unknown:
         print(f"gpu_campaign: --only names unknown steps {sorted(unknown)}; steps: {', '.join(STEPS)}", file=sys.stderr)
         return 2
-    need = {"adapter": 5, "parity": 20, "bench": 60, "anatomy": 30, "standard": 90, "peer": 30, "basin": 90, "tests": 30}
+    need = {"adapter": 5, "parity": 20, "bench": 60, "anatomy": 30, "standard": 90, "peer": 30, "basin": 90, "tests": 30, "explore": 60}
     for name in ["adapter"] + order:
         c.step(name, getattr(c, name), need[name])
     text = c.summary()

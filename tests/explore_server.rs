@@ -377,3 +377,59 @@ fn the_page_shows_the_parameter_table_of_the_docs() {
         assert_eq!(cells[5], allowed, "{}", i.name);
     }
 }
+
+#[test]
+fn a_basin_view_is_the_basin_its_command_computes() {
+    use jeffcott_analysis::basin::{Axis, BasinSpec, base_state, basin};
+    use jeffcott_analysis::catalogue::CatalogueConfig;
+    use jeffcott_analysis::settings::LaneSettings;
+    let r = start(false);
+    let (status, body) = get(
+        r.ex.addr(),
+        "/api/basin?tab=t&omega=133&x=x_r&xlo=-0.006&xhi=0.006&y=vx_r&ylo=-1&yhi=1&n=6&transient=80&periods=8",
+    );
+    assert_eq!(status, 200, "{}", String::from_utf8_lossy(&body));
+    let view = json(&body);
+    let p = Params::default();
+    let x = Axis {
+        coord: 0,
+        lo: -0.006,
+        hi: 0.006,
+        n: 6,
+    };
+    let y = Axis {
+        coord: 1,
+        lo: -1.0,
+        hi: 1.0,
+        n: 6,
+    };
+    let spec = BasinSpec {
+        base: base_state(&p, &x, &y, &[], StepperConfig::DEFAULT.divergence_bound).unwrap(),
+        lane: LaneSettings {
+            params: p,
+            stepper: StepperConfig::DEFAULT,
+            precision: Precision::F64,
+            backend: Backend::Cpu,
+            catalogue: CatalogueConfig::for_precision(Precision::F64),
+            lyapunov: false,
+        },
+        omega: 133.0,
+        x,
+        y,
+        transient: 80,
+        periods: 8,
+        lanes_per_unit: None,
+    };
+    let want = basin(&spec, Control::none()).unwrap();
+    let got: Vec<i32> = view["labels"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_i64().unwrap() as i32)
+        .collect();
+    assert_eq!(got, want.labels);
+    assert_eq!(
+        view["attractors"].as_array().unwrap().len(),
+        want.catalogue.attractors.len()
+    );
+}

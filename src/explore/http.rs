@@ -288,7 +288,7 @@ fn api(state: &State, req: tiny_http::Request, path: &str, q: &Query) {
         return respond_json(req, 409, &json!({"error": "cancelled by a newer request"}));
     };
     let (b, e, c) = (&state.base, &state.engine, &*claim.cancel);
-    let result = match view {
+    let result = slot.install(|| match view {
         "bifurcation" => views::bifurcation(e, b, q, c).map(|v| {
             let bytes: Vec<u8> = v.iter().flat_map(|x| x.to_le_bytes()).collect();
             (bytes, "application/octet-stream")
@@ -297,7 +297,7 @@ fn api(state: &State, req: tiny_http::Request, path: &str, q: &Query) {
             views::basin(e, b, q, c).map(|v| (v.to_string().into_bytes(), "application/json"))
         }
         _ => views::trajectory(b, q, c).map(|v| (v.to_string().into_bytes(), "application/json")),
-    };
+    });
     drop(slot);
     match result {
         Ok((body, kind)) => respond(req, 200, kind, body),

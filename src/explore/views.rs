@@ -148,7 +148,7 @@ impl Columns {
             count,
             starts,
             omega: q.number("omega", Some(133.0))?,
-            coord: q.coord("coord", "x_r")?,
+            coord: q.coord("coord", "vx_s")?,
             transient,
             periods,
         })

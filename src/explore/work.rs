@@ -2,7 +2,11 @@
 //! by the `tab` field it sends) has at most one request per view at work, a newer one
 //! cancelling the older; requests from all pages take turns for a few compute slots in
 //! the order they came, so two tabs progress side by side and the memory in use is
-//! bounded by the slots, whatever the sequence of requests.
+//! bounded by the slots, whatever the sequence of requests. Each slot has a rayon pool
+//! of its own as wide as the machine: in one shared pool a long request's many batches
+//! would fill the workers' queues and a second request's batches would wait behind
+//! them (rayon takes work from outside the pool only when a worker's own queue is
+//! empty); with a pool per slot the operating system shares the cores between them.
 
 use jeffcott_core::control::Cancel;
 use std::collections::{HashMap, VecDeque};
@@ -13,16 +17,39 @@ use std::time::Duration;
 pub const SLOTS: usize = 2;
 
 /// The work of every page: cancel flags by (tab, view), and the compute slots.
-#[derive(Default)]
 pub struct Work {
     current: Mutex<HashMap<(String, String), Arc<Cancel>>>,
     slots: Mutex<Slots>,
     turn: Condvar,
+    pools: Vec<rayon::ThreadPool>,
+}
+
+impl Default for Work {
+    fn default() -> Self {
+        let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+        Work {
+            current: Mutex::default(),
+            slots: Mutex::new(Slots {
+                free: (0..SLOTS).collect(),
+                ..Slots::default()
+            }),
+            turn: Condvar::new(),
+            pools: (0..SLOTS)
+                .map(|i| {
+                    rayon::ThreadPoolBuilder::new()
+                        .num_threads(threads)
+                        .thread_name(move |t| format!("explore-{i}-{t}"))
+                        .build()
+                        .expect("a thread pool")
+                })
+                .collect(),
+        }
+    }
 }
 
 #[derive(Default)]
 struct Slots {
-    busy: usize,
+    free: Vec<usize>,
     next: u64,
     queue: VecDeque<u64>,
 }
@@ -36,7 +63,14 @@ pub struct Claim<'a> {
 }
 
 /// A held compute slot, given back when dropped.
-pub struct Slot<'a>(&'a Work);
+pub struct Slot<'a>(&'a Work, usize);
+
+impl Slot<'_> {
+    /// Runs `f` with this slot's thread pool as the pool of its parallel loops.
+    pub fn install<R: Send>(&self, f: impl FnOnce() -> R + Send) -> R {
+        self.0.pools[self.1].install(f)
+    }
+}
 
 impl Work {
     /// Claims (tab, view) for a new request, cancelling the one before it.
@@ -85,12 +119,12 @@ impl Work {
                 self.turn.notify_all();
                 return None;
             }
-            if s.busy < SLOTS && s.queue.front() == Some(&ticket) {
+            if !s.free.is_empty() && s.queue.front() == Some(&ticket) {
                 s.queue.pop_front();
-                s.busy += 1;
+                let pool = s.free.pop().expect("a free slot");
                 // The next in line may fit in another free slot.
                 self.turn.notify_all();
-                return Some(Slot(self));
+                return Some(Slot(self, pool));
             }
             s = self
                 .turn
@@ -115,7 +149,7 @@ impl Drop for Claim<'_> {
 
 impl Drop for Slot<'_> {
     fn drop(&mut self) {
-        self.0.slots.lock().expect("slots").busy -= 1;
+        self.0.slots.lock().expect("slots").free.push(self.1);
         self.0.turn.notify_all();
     }
 }

@@ -96,6 +96,17 @@ return n;
 """
 
 
+FIRST_INK = """
+const c = document.getElementById(arguments[0]);
+const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+for (let y = 20; y < c.height - 20; y++) for (let x = 20; x < c.width - 20; x++) {
+  const i = 4 * (y * c.width + x);
+  if (d[i] < 150) return [x, y];
+}
+return null;
+"""
+
+
 def ink(d, canvas):
     """Pixels of `canvas` that are not blank (not white, not transparent)."""
     return d.execute_script(INK, canvas)
@@ -158,6 +169,14 @@ def test_the_page_draws_zooms_drills_down_and_recomputes(server, browser):
     assert ink(d, "bif-canvas") > 200 and ink(d, "bif-canvas") != ink_before
     assert float(d.find_element("css selector", "#bif-form [name=lo]").get_attribute("value")) == lo
     d.save_screenshot(f"{SHOTS}/2-zoomed.png")
+
+    # A click on a point of the diagram opens that lane's trajectory.
+    x, y = d.execute_script(FIRST_INK, "bif-canvas")
+    ActionChains(d).move_to_element_with_offset(overlay, int(x - w / 2), int(y - h / 2)).click().perform()
+    wait("the point's trajectory", lambda: "status" in d.find_element("id", "traj-summary").text)
+    t = requests(d, "/api/trajectory")[-1]
+    assert "start" in t and lo <= float(t["omega"]) <= hi, t
+    assert "jeffcott simulate --omega" in d.find_element("id", "traj-cmd").text
 
     # A click on a basin cell opens its trajectory.
     wait("the basin", lambda: "12 x 12" in d.find_element("id", "basin-status").text)

@@ -134,7 +134,7 @@ const fmt = (v) => (Math.abs(v) >= 1e4 || (Math.abs(v) < 1e-2 && v !== 0) ? v.to
 // ---------------------------------------------------------------- bifurcation view
 const bif = {
   form: $("bif-form"), canvas: $("bif-canvas"), gen: 0, hist: null, data: null,
-  settings: { param: "omega", lo: "125", hi: "145", omega: "133", coord: "x_r", n: "400", k: "4", transient: "200", periods: "32" },
+  settings: { param: "omega", lo: "125", hi: "145", omega: "133", coord: "vx_s", n: "400", k: "4", transient: "200", periods: "32" },
 };
 bif.margin = 16;
 
@@ -172,8 +172,8 @@ async function bifCompute() {
         if (gen !== bif.gen) return;
         for (let c = 0; c < count; c++) bif.data.cols[from + c * pass.step] = vals.subarray(c * k * per, (c + 1) * k * per);
         const dt = Math.max(1, performance.now() - t);
-        // Aim at a slice of about half a second at the rate the last one had.
-        target = Math.min(5e7, Math.max(500, ((count * cost) / dt) * 500));
+        // Aim at a slice of about 0.4 s at the rate the last one had.
+        target = Math.min(5e7, Math.max(500, ((count * cost) / dt) * 400));
         i += count;
         done += count;
         bifDraw();
@@ -462,6 +462,14 @@ function applyParams() {
 }
 
 // ---------------------------------------------------------------- start
+// The buttons above each view: action, label, tooltip.
+const BAR = [
+  ["back", "Back", "the previous window"],
+  ["forward", "Forward", "the next window"],
+  ["reset", "Reset", "the first window"],
+  ["npy", "Save .npy", "the view's data into the server's --out"],
+  ["png", "Save .png", "the picture into the server's --out"],
+];
 async function main() {
   try {
     INFO = await api("/api/info", {});
@@ -488,6 +496,12 @@ async function main() {
   pointer($("basin-overlay"), basinBox, basinClick);
   for (const [view, redo] of [[bif, bifCompute], [basin, basinCompute]]) {
     const sec = view.form.parentElement;
+    sec.querySelector(".bar").prepend(...BAR.map(([act, label, title]) => {
+      const b = document.createElement("button");
+      Object.assign(b, { textContent: label, title });
+      b.dataset.act = act;
+      return b;
+    }));
     sec.querySelector(".bar").addEventListener("click", (e) => {
       const act = e.target.dataset && e.target.dataset.act;
       if (!act) return;
