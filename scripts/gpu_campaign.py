@@ -552,7 +552,7 @@ class Campaign:
         in one request, and the 128 x 128 basin at 133 rad/s (the page's last level)."""
         import re
         import urllib.request
-        n, k, cells = (48, 2, 16) if self.small else (400, 4, 128)
+        n, k, cells = (48, 2, 16) if self.sizes.small else (400, 4, 128)
         p = subprocess.Popen([self.jeffcott, "explore", "--no-browser", "--port", "0", "--backend", "gpu"],
                              stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
         try:
