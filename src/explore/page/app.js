@@ -445,7 +445,8 @@ function paramsTable() {
   for (const p of INFO.params) {
     const tr = tb.insertRow();
     tr.title = `${p.name}: ${p.meaning}; ${p.allowed}; default ${p.default}`;
-    tr.innerHTML = `<td>${p.symbol}</td><td><input name="${p.name}" value="${p.value}"></td><td>${p.unit}</td>`;
+    const allowed = p.allowed.replace("must be finite and ", "").replace("must be finite", "any");
+    tr.innerHTML = `<td>${p.symbol}</td><td><input name="${p.name}" value="${p.value}"></td><td>${p.unit}</td><td class="allowed">${allowed}</td>`;
   }
 }
 
@@ -485,6 +486,8 @@ async function main() {
   fillSelect(basin.form.elements.y, names, basin.settings.y);
   const delta = INFO.params.find((p) => p.name === "delta").value;
   basin.settings.xlo = String(-delta); basin.settings.xhi = String(delta);
+  // One column per pixel of the plot: a zoom is recomputed at the screen's resolution.
+  bif.settings.n = String(bif.canvas.width - 2 * bif.margin);
   fillForm(bif.form, bif.settings);
   fillForm(basin.form, basin.settings);
   paramsTable();
