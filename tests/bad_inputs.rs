@@ -246,6 +246,11 @@ const CASES: &[Case] = &[
         &["`over`"],
     ),
     ("orbits", &["`vary`", "missing", "NAME:lo:hi"]),
+    // The explorer refuses a bad model or stepper before it listens.
+    ("explore --no-browser --param delta=-1", &["delta", "> 0"]),
+    ("explore --no-browser --contact-substeps 3", &["contact"]),
+    ("explore --no-browser --port 70000", &["`port`", "70000"]),
+    ("explore --no-browser --host localhost-ish", &["`host`"]),
     // A model parameter's range is checked at both ends, as continuation and map do.
     (
         "orbits --vary k_c:-1:1e8 --omega 132",
