@@ -2,7 +2,6 @@
 //! errors naming the field, its value and what is allowed.
 
 use jeffcott_core::error::{Error, Result};
-use jeffcott_core::model::coord_index;
 use std::collections::HashMap;
 
 /// Fields of one query at most.
@@ -78,26 +77,13 @@ impl Query {
 
     /// A start coordinate by name (x_r, vx_r, ...), or `default`.
     pub fn coord(&self, key: &str, default: &str) -> Result<usize> {
-        let name = self.text(key, default)?;
-        coord_index(name).ok_or_else(|| {
-            Error::invalid(
-                key,
-                name,
-                format!(
-                    "unknown coordinate; valid names: {}",
-                    jeffcott_core::model::COORD_NAMES.join(", ")
-                ),
-            )
-        })
+        jeffcott_core::inputs::coord(key, self.text(key, default)?)
     }
 }
 
-/// A finite number from text, the error naming `field`.
+/// A finite number from text (spaces around it allowed), the error naming `field`.
 pub fn number(field: &str, text: &str) -> Result<f64> {
-    match text.trim().parse::<f64>() {
-        Ok(v) if v.is_finite() => Ok(v),
-        _ => Err(Error::invalid(field, text, "must be a finite number")),
-    }
+    jeffcott_analysis::basin::finite_number(field, text, text.trim())
 }
 
 #[cfg(test)]

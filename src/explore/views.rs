@@ -202,9 +202,9 @@ fn column(var: &MapVar, params: &Params, v: f64, omega: f64) -> Result<(Params, 
     let mut p = params.clone();
     let omega = match var {
         MapVar::Omega => v,
+        // The parameters are validated with the ensemble (EnsembleSpec::validate).
         MapVar::Param(name) => {
             p.set(name, v)?;
-            p.validate()?;
             omega
         }
         MapVar::Coord(_) => unreachable!("column_var refuses coordinates"),

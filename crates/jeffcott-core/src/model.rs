@@ -213,16 +213,16 @@ impl Params {
             .iter()
             .map(|&name| {
                 let (symbol, unit, meaning) = describe(name);
-                let (_, range) = d
+                let (default, range) = d
                     .clone()
                     .field_mut(name)
                     .map(|(v, r)| (*v, r))
-                    .expect("known");
+                    .expect("FIELDS lists only known names");
                 ParamInfo {
                     name,
                     symbol,
                     unit,
-                    default: d.get(name).expect("known"),
+                    default,
                     allowed: range.allowed(),
                     meaning,
                 }
