@@ -6,6 +6,7 @@ use super::query::Query;
 use super::views::{self, Base};
 use super::work::Work;
 use jeffcott_analysis::backend::Engine;
+use jeffcott_analysis::output;
 use jeffcott_core::error::{Error, Result};
 use jeffcott_core::model::{COORD_NAMES, COORD_UNITS, Params};
 use serde_json::json;
@@ -396,12 +397,24 @@ fn write_saved(
             .create_new(true)
             .open(&path)
         {
-            Ok(mut f) => {
+            Ok(reserved) => {
+                // The name is reserved; the data replaces the empty reservation whole
+                // (written beside it, renamed into place), and a failed write takes the
+                // reservation away, so no file under a saved name is ever partial.
+                drop(reserved);
                 use std::io::Write;
-                f.write_all(body).map_err(|e| io(&path, e))?;
-                if !note.is_empty() {
-                    let txt = path.with_extension(format!("{kind}.txt"));
-                    std::fs::write(&txt, format!("{note}\n")).map_err(|e| io(&txt, e))?;
+                let written = output::write_atomically(&path, |w| w.write_all(body)).and_then(
+                    |()| match note {
+                        "" => Ok(()),
+                        _ => output::write_atomically(
+                            &path.with_extension(format!("{kind}.txt")),
+                            |w| writeln!(w, "{note}"),
+                        ),
+                    },
+                );
+                if let Err(e) = written {
+                    let _ = std::fs::remove_file(&path);
+                    return Err(e);
                 }
                 return Ok(path.display().to_string());
             }
