@@ -1,5 +1,5 @@
-//! The convergence study that fixes the lane stepper's default N (issue 2, README
-//! "Convergence"). For W in {131.7, 132.2, 135}, from the static equilibrium, compares the
+//! The convergence study that fixes the lane stepper's default N (docs/numerics.md,
+//! convergence). For W in {131.7, 132.2, 135}, from the static equilibrium, compares the
 //! Poincare point after 200 periods with a reference at 16x finer steps, for the lane
 //! stepper and, for context, the article's scheme (MODEL.md 4.1, error on positions) at
 //! the Table 1 bound E_max = 1e-9 m. Left out because 200 periods take many minutes: the

@@ -1,7 +1,7 @@
 //! Counts the floating-point arithmetic of one lane-step of the benchmark workload
 //! (`jeffcott bench`: W = 133, default stepper) by running the lane stepper itself in a
 //! counting number type, then times the CPU ensemble path on the same workload and
-//! reports the fraction of the machine's f64 peak it reaches (issue 12, item 3).
+//! reports the fraction of the machine's f64 peak it reaches.
 //!
 //! The count is exact for the code as written: every `+ - * /`, `sqrt`, comparison and
 //! negation the scalar stepper executes (the SIMD batch path executes the same
@@ -159,7 +159,7 @@ fn main() -> anyhow::Result<()> {
     );
 
     // The forcing phasors among them: three per RK4 sub-step, which the f64 batch path
-    // looks up in its table (`batch::ForcingTable`, issue 28 item 3) instead.
+    // looks up in its table (`batch::ForcingTable`) instead.
     OPS.with(|c| c.set([0; 6]));
     let _ = jeffcott_core::integrate::forcing::phasor_turns(Counted(0.3));
     let one = OPS.with(|c| c.get());

@@ -1,4 +1,4 @@
-//! The hand-written baseline comparison of issue 3: accuracy and speed of a
+//! The hand-written baseline comparison: accuracy and speed of a
 //! straightforward per-trajectory RK4 loop in C (`benches/handwritten/rk4_loop.c`,
 //! contact switched per stage, no crossing location) against the lane stepper on the
 //! same lanes (`jeffcott_analysis::bench`, W = 133).

@@ -1,4 +1,4 @@
-//! The work-precision diagram of issues 12 and 28 (`bash benches/baseline/run.sh`): the
+//! The work-precision diagram (`bash benches/baseline/run.sh`): the
 //! lane stepper against the strongest simple peer (`benches/peer/rk4_numba.py`: numba
 //! RK4, steps whose stages disagree on the contact state redone as 8 sub-steps, prange),
 //! the C loop (`benches/baseline/rk4_switch.c`: steps whose contact state changes redone
@@ -186,7 +186,7 @@ fn main() -> anyhow::Result<()> {
             record(&name(r), n, Some(steps), &s, w);
         }
     }
-    // The exact free-flight step (issue 28 item 5): its error is contact's alone, so
+    // The exact free-flight step: its error is contact's alone, so
     // half the N at twice the R.
     let exact_name = |r: u32| format!("jeffcott CPU f64 (2 threads), exact free flight, R = {r}");
     let exact_study: [(u32, &[u32]); 2] = [(4, &[250, 350, 500]), (8, &[175, 250, 350])];

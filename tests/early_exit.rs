@@ -1,4 +1,4 @@
-//! Early exit (issue 24): lanes recognised on a catalogued attractor retire and their
+//! Early exit: lanes recognised on a catalogued attractor retire and their
 //! slots are refilled. What must hold: refill changes no lane's arithmetic (a lane not
 //! retired has the record of the run without early exit, to the bit, in both
 //! precisions, whatever the thread count); a GPU's slot pool ends the same lanes at the
@@ -918,7 +918,7 @@ fn map_cells(dir: &std::path::Path) -> Vec<Vec<(String, u64)>> {
         .collect()
 }
 
-/// Early exit in a map (issue 24, item 3): each cell's first start state (the static
+/// Early exit in a map: each cell's first start state (the static
 /// equilibrium) runs whole and catalogues the cell, the others are recognised on it and
 /// record from there. The cells find the attractors of the full-length run, with the
 /// same start-state counts; the per-cell figures of the equilibrium's attractor are

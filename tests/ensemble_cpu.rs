@@ -341,7 +341,7 @@ fn grouped_batches_packing_lanes_across_batches_equal_the_scalar_stepper_to_the_
     );
 }
 
-/// The forcing table (issue 28, item 3) holds, for every macro step and every fraction
+/// The forcing table holds, for every macro step and every fraction
 /// j/(2R), exactly the bits of the polynomial `forcing::phasor_turns` (what the GPU
 /// kernel's `forcing_phasor` evaluates), in both precisions and for every R and phase,
 /// for the batch's lookup and the scalar one (`lane::forcing_phasor`, through the table

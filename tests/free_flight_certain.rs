@@ -1,4 +1,4 @@
-//! The free-flight certificate (issue 28, item 2: no switch search where no switch can
+//! The free-flight certificate (no switch search where no switch can
 //! happen): wherever `free_flight_certain` says a free-flight trial step stays clear of
 //! the stator, the full search finds no switch and the Hermite interpolant it searches
 //! stays below the gap at every fraction; and on real runs (the standard job, grazing

@@ -287,7 +287,7 @@ fn lyapunov_range_killed_and_resumed_equals_an_uninterrupted_run() {
 #[test]
 fn cascade_killed_and_resumed_keeps_its_committed_units_and_equals_an_uninterrupted_run() {
     // Its units were once committed under an empty key and thrown away on resume, so a
-    // resumed cascade computed everything again (issue 27, item 1): the harness fails
+    // resumed cascade computed everything again: the harness fails
     // when a unit committed before the kill is computed again.
     killed_and_resumed_equals_uninterrupted(
         "cascade --omega 120:150:100 --transient 200 --transient-first 200 --periods 48 \

@@ -1,5 +1,5 @@
 /*
- * The strong baseline of issue 12: what a competent user writes instead of jeffcott.
+ * The strong baseline: what a competent user writes instead of jeffcott.
  * Fixed-step RK4, T/N per step, the contact force switched per stage (g > 0), and every
  * step whose contact state changes between its start and its end redone as SUB sub-steps
  * of h/SUB (so a switch costs the step its order only inside one short sub-step), lanes
@@ -8,7 +8,7 @@
  * by the step's number, as a careful user would (libm cos/sin only in redone sub-steps). `plain` mode skips the redo
  * (the event-free loop of benches/handwritten).
  *
- * The lanes are the standard job of issue 12: W = 133 rad/s, x_r0 evenly spread over
+ * The lanes are the standard job: W = 133 rad/s, x_r0 evenly spread over
  * [-4, 4] mm, every other coordinate at the static equilibrium, from t = 0.
  *
  * Usage: rk4_switch plain|substep N PERIODS LANES OUT.bin -> LANES x 8 f64 final states

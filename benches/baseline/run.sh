@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The work-precision diagram of issues 12 and 28: builds the C loop (OpenMP), sets up the
+# The work-precision diagram: builds the C loop (OpenMP), sets up the
 # numba peer's interpreter (a virtual environment target/peer-venv with numpy and numba,
 # made once) and runs examples/work_precision.rs, which writes docs/work-precision.png and
 # .csv and prints the ratios against both loops.

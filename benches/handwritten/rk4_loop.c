@@ -1,5 +1,5 @@
 /*
- * The baseline of the performance target in issue 3: a straightforward hand-written
+ * The hand-written baseline: a straightforward hand-written
  * per-trajectory RK4 loop in C, the way one would write it without this tool. Fixed
  * step T/N, the contact force switched on whenever g > 0 at a stage (no crossing
  * location), the forcing from libm cos/sin at every stage, one trajectory after the

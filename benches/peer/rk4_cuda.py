@@ -1,4 +1,4 @@
-"""The strongest simple GPU peer (issue 25): what a competent user writes in an afternoon
+"""The strongest simple GPU peer: what a competent user writes in an afternoon
 with cupy, a hand-written CUDA C kernel run through cupy.RawKernel, on the benchmark's own
 job.
 

@@ -1,4 +1,4 @@
-"""The strongest simple peer (issue 28): the loop a competent user writes in an
+"""The strongest simple peer: the loop a competent user writes in an
 afternoon with numba, run on the benchmark's own job beside the C loop and the lane
 stepper (examples/work_precision.rs, `bash benches/baseline/run.sh`).
 

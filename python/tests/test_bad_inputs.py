@@ -1,4 +1,4 @@
-"""The hostile user's probe of the Python package (issue 27), kept: a table of bad inputs
+"""The hostile user's probe of the Python package, kept: a table of bad inputs
 for every public function, and the fixes it found, each proved on its own.
 
 What it proves: every bad input raises ValueError (a value out of range, a request too

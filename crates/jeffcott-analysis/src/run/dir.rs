@@ -2,7 +2,7 @@
 //! computing, marked `running` then `complete` in `run.json`, holding the committed
 //! units under `units/`.
 //!
-//! Rules (issue "Runs that survive"):
+//! Rules (runs that survive an interruption, docs/runs.md):
 //! - `run.json` is written first, with `state: "running"`, the command and the full
 //!   specification; it is rewritten last with `state: "complete"`. A directory whose
 //!   `run.json` says `running` is an unfinished run, whatever else it holds.
