@@ -101,10 +101,15 @@ fn dechunk(mut b: &[u8]) -> Vec<u8> {
 }
 
 fn get(addr: SocketAddr, path: &str) -> (u16, Vec<u8>) {
-    let raw = format!(
-        "GET {path} HTTP/1.1\r\nHost: 127.0.0.1:{}\r\nConnection: close\r\n\r\n",
-        addr.port()
-    );
+    get_as(addr, "127.0.0.1", "", path)
+}
+
+/// A GET with Host `host`:port and the extra header lines `headers` (each ending in
+/// CRLF).
+fn get_as(addr: SocketAddr, host: &str, headers: &str, path: &str) -> (u16, Vec<u8>) {
+    let port = addr.port();
+    let raw =
+        format!("GET {path} HTTP/1.1\r\nHost: {host}:{port}\r\n{headers}Connection: close\r\n\r\n");
     send(addr, raw.as_bytes())
 }
 
@@ -219,6 +224,18 @@ fn bad_values_name_the_field_and_the_server_lives_on() {
     );
 }
 
+/// A server with a long diagram request of page `tab` under way (given 300 ms to
+/// start): the server (kept alive by the caller), its address and the request's thread.
+fn long_request(
+    tab: &'static str,
+) -> (Running, SocketAddr, std::thread::JoinHandle<(u16, Vec<u8>)>) {
+    let r = start(false);
+    let a = r.ex.addr();
+    let old = std::thread::spawn(move || get(a, &long_path(tab)));
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    (r, a, old)
+}
+
 /// A request of many lanes over many periods: seconds of work on two cores.
 fn long_path(tab: &str) -> String {
     format!("/api/bifurcation?tab={tab}&n=64&k=16&transient=3000&periods=8")
@@ -226,10 +243,7 @@ fn long_path(tab: &str) -> String {
 
 #[test]
 fn a_newer_request_of_the_same_page_and_view_cancels_the_older() {
-    let r = start(false);
-    let a = r.ex.addr();
-    let old = std::thread::spawn(move || get(a, &long_path("same")));
-    std::thread::sleep(std::time::Duration::from_millis(300));
+    let (_r, a, old) = long_request("same");
     let (status, _) = get(a, "/api/bifurcation?tab=same&n=2&k=1&transient=2&periods=2");
     assert_eq!(status, 200);
     let (old_status, body) = old.join().unwrap();
@@ -238,10 +252,7 @@ fn a_newer_request_of_the_same_page_and_view_cancels_the_older() {
 
 #[test]
 fn a_closed_page_stops_its_work() {
-    let r = start(false);
-    let a = r.ex.addr();
-    let old = std::thread::spawn(move || get(a, &long_path("gone")));
-    std::thread::sleep(std::time::Duration::from_millis(300));
+    let (_r, a, old) = long_request("gone");
     let (status, body) = get(a, "/api/close?tab=gone");
     assert_eq!(status, 200);
     assert_eq!(json(&body)["cancelled"], 1);
@@ -304,11 +315,7 @@ fn loopback_answers_only_its_own_address() {
     let r = start(false);
     let a = r.ex.addr();
     assert!(a.ip().is_loopback());
-    let raw = format!(
-        "GET /api/info HTTP/1.1\r\nHost: attacker.example:{}\r\nConnection: close\r\n\r\n",
-        a.port()
-    );
-    assert_eq!(send(a, raw.as_bytes()).0, 403);
+    assert_eq!(get_as(a, "attacker.example", "", "/api/info").0, 403);
 }
 
 #[test]
@@ -321,11 +328,8 @@ fn with_a_host_every_request_needs_the_token() {
     assert_eq!(get(a, "/api/info").0, 401);
     assert_eq!(get(a, "/api/info?token=0123").0, 401);
     assert_eq!(get(a, &format!("/api/info?token={token}")).0, 200);
-    let raw = format!(
-        "GET /api/info HTTP/1.1\r\nHost: 127.0.0.1:{}\r\nX-Jeffcott-Token: {token}\r\nConnection: close\r\n\r\n",
-        a.port()
-    );
-    assert_eq!(send(a, raw.as_bytes()).0, 200);
+    let header = format!("X-Jeffcott-Token: {token}\r\n");
+    assert_eq!(get_as(a, "127.0.0.1", &header, "/api/info").0, 200);
 }
 
 #[test]

@@ -148,6 +148,11 @@ fn identical<R: GpuReal>(a: &LaneOutcome<R>, b: &LaneOutcome<R>) -> bool {
         && a.lane.counters == b.lane.counters
 }
 
+/// How many lanes of `a` and `b` are [`identical`], pairwise.
+fn count_identical<R: GpuReal>(a: &[LaneOutcome<R>], b: &[LaneOutcome<R>]) -> usize {
+    a.iter().zip(b).filter(|(x, y)| identical(x, y)).count()
+}
+
 /// Largest difference between GPU and CPU Poincare points of one lane, relative to the
 /// lane's extent in that coordinate (its largest |value| over the CPU records).
 fn worst_relative(gpu: &[[f64; STATE_DIM]], cpu: &[[f64; STATE_DIM]]) -> f64 {
@@ -449,7 +454,7 @@ fn one_dispatch_and_many_slices_and_chunks_are_bit_identical() {
     both_precisions!(slicing_does_not_change_results);
 }
 
-/// Scale (issue 25): a device whose limits admit only a few lanes per dispatch and per
+/// Scale: a device whose limits admit only a few lanes per dispatch and per
 /// buffer (2 workgroups of 64, 4 KiB bindings: 10 f64 lanes, whose constants of 384
 /// bytes bind before their 4-period slices of records, 20 f32) runs a 700-lane ensemble
 /// in 70 or 35 chunks one after the other, bit-identical to the
@@ -496,8 +501,7 @@ fn small_device_limits_cut_a_run_into_many_chunks_without_changing_a_bit() {
 /// Poisons lanes 3, 4, 5 and 6 of a small ensemble and checks they are flagged as the CPU
 /// flags them while every other lane is identical to the clean run.
 fn poisoned_lanes_are_frozen_and_isolated<R: GpuReal>(runner: &GpuRunner) {
-    let n = 70;
-    let (consts, init, _) = ensemble::<R>(n);
+    let (consts, init, _) = ensemble::<R>(70);
     let schedule = Schedule::new(5, 5, 3);
     let clean = runner.run(&consts, &init, &schedule).expect("clean run");
 
@@ -543,7 +547,7 @@ fn poisoned_lanes_are_frozen_and_isolated<R: GpuReal>(runner: &GpuRunner) {
         );
         assert_eq!(bits(&g.poincare), bits(&cpu[j].poincare));
     }
-    for i in (0..n).filter(|i| !(3..7).contains(i)) {
+    for i in (0..consts.len()).filter(|i| !(3..7).contains(i)) {
         assert!(
             identical(&clean[i], &poisoned[i]),
             "{}: neighbour lane {i} changed",
@@ -714,11 +718,7 @@ fn check_exact_free_flight<R: GpuReal>(runner: &GpuRunner) {
     let schedule = Schedule::new(TRANSIENT, RECORDED, 10);
     let gpu = runner.run(&consts, &init, &schedule).expect("GPU run");
     let cpu = cpu_run(&consts, &init, TRANSIENT, RECORDED);
-    let same = gpu
-        .iter()
-        .zip(&cpu)
-        .filter(|(g, c)| identical(g, c))
-        .count();
+    let same = count_identical(&gpu, &cpu);
     eprintln!(
         "{} exact free flight: {same}/{n} lanes bit-identical",
         R::WGSL_NAME
@@ -852,11 +852,7 @@ fn check_anatomy<R: GpuReal>(runner: &GpuRunner) {
             "{}: a lane left the finite numbers",
             part.name()
         );
-        let same = gpu
-            .iter()
-            .zip(&cpu)
-            .filter(|(g, c)| identical(g, c))
-            .count();
+        let same = count_identical(&gpu, &cpu);
         eprintln!(
             "{} anatomy {}: {same}/{n} lanes bit-identical",
             R::WGSL_NAME,

@@ -1,4 +1,4 @@
-//! Periodic orbits by Newton shooting (issue 26): what must hold for the orbit and its
+//! Periodic orbits by Newton shooting: what must hold for the orbit and its
 //! Floquet multipliers. Without contact the system is linear: the period-1 orbit is the
 //! analytic unbalance response and the monodromy matrix is the RK4 map's, whose
 //! eigenvalues are known in closed form. With contact, Liouville's formula fixes the
@@ -247,7 +247,7 @@ fn of_kind(
         "{} points, stop: {}, bifurcations {:?}",
         b.points.len(),
         b.stop,
-        b.found("", 8)
+        b.found("", 8, "none")
     );
     b.bifurcations.iter().filter(|x| x.kind == kind).collect()
 }
@@ -651,7 +651,7 @@ fn gpu_and_cpu_give_the_same_orbits_and_branch_to_the_bit_in_f64() {
     assert!(
         !of_kind(&cpu_branch, Crossing::PeriodDoubling).is_empty(),
         "the branch reaches the period doubling: {:?}",
-        cpu_branch.found("omega", 5)
+        cpu_branch.found("omega", 5, "none")
     );
     assert_eq!(cpu_branch.points.len(), gpu_branch.points.len());
     assert_eq!(branch_bits(&cpu_branch), branch_bits(&gpu_branch));
@@ -842,7 +842,7 @@ fn a_closed_branch_stops_when_it_comes_back_to_its_first_orbit() {
     // The loop meets the period doubling at 136.4237 at both of an orbit's Poincare
     // points: listed once.
     let pd = of_kind(&b, Crossing::PeriodDoubling);
-    assert!(!pd.is_empty(), "{:?}", b.found("omega", 5));
+    assert!(!pd.is_empty(), "{:?}", b.found("omega", 5, "none"));
     for (i, x) in pd.iter().enumerate() {
         for y in &pd[i + 1..] {
             assert!((x.value - y.value).abs() > 1e-7, "{} twice", x.value);
@@ -870,7 +870,7 @@ fn the_branch_from_the_contact_free_orbit_passes_grazing_and_the_corner_after_it
     assert!(
         (graze[0].value - 129.12968804).abs() < 1e-6,
         "{:?}",
-        b.found("omega", 8)
+        b.found("omega", 8, "none")
     );
     let ns_below: Vec<f64> = of_kind(&b, Crossing::NeimarkSacker)
         .iter()

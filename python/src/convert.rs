@@ -25,12 +25,17 @@ pub fn model_params(params: Option<HashMap<String, f64>>) -> PyResult<Params> {
     jeffcott_core::inputs::params_with(&sorted_pairs(params.unwrap_or_default())).map_err(to_py_err)
 }
 
-/// The static equilibrium with the coordinates of `init` set.
-pub fn start_state(p: &Params, init: Option<HashMap<String, f64>>) -> PyResult<State> {
+/// The model of `params` ([`model_params`]) and its static equilibrium with the
+/// coordinates of `init` set: a single trajectory's start.
+pub fn model_and_start(
+    params: Option<HashMap<String, f64>>,
+    init: Option<HashMap<String, f64>>,
+) -> PyResult<(Params, State)> {
+    let p = model_params(params)?;
     let mut x0 = p.static_equilibrium();
     jeffcott_core::inputs::set_coords("init", &mut x0, &sorted_pairs(init.unwrap_or_default()))
         .map_err(to_py_err)?;
-    Ok(x0)
+    Ok((p, x0))
 }
 
 /// An axis from `(name, lo, hi, n)` or `"name:lo:hi:n"`.

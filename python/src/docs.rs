@@ -31,4 +31,8 @@ macro_rules! param_doc {
          `contact_substeps`, `exact_free_flight`, ...: the names of `STEPPER_DEFAULTS`,\n  \
          which holds their defaults; the command line's options of those names)."
     };
+    // Several keywords at once, one line each, as separate `#[doc]` lines would give.
+    ($first:ident, $($rest:ident),+) => {
+        concat!(param_doc!($first), "\n", param_doc!($($rest),+))
+    };
 }

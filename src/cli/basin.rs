@@ -258,15 +258,14 @@ fn report_basin(
             );
         }
         if let Some(f) = &o.refined {
-            let lanes: usize = f.levels.iter().map(|l| l.lanes).sum();
             println!(
                 "Refined {} level(s) to {} x {}: {} lanes integrated besides the coarse grid, against {} for the full fine grid ({:.1} %).",
                 f.levels.len(),
                 f.nx,
                 f.ny,
-                lanes,
-                f.nx * f.ny,
-                100.0 * lanes as f64 / (f.nx * f.ny) as f64
+                f.lanes(),
+                f.points(),
+                100.0 * f.lanes() as f64 / f.points() as f64
             );
         }
         println!(
@@ -386,7 +385,7 @@ fn refinement_record<'a>(
     RefinementRecord {
         levels: &f.levels,
         finest: [f.nx, f.ny],
-        lanes: f.levels.iter().map(|l| l.lanes).sum(),
+        lanes: f.lanes(),
         full_fine_grid_lanes: f.nx * f.ny,
         computed_points: f.computed.iter().filter(|&&c| c == 1).count(),
         not_in_the_coarse_catalogue: f.labels.iter().filter(|&&l| l == -2).count(),

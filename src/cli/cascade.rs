@@ -89,7 +89,14 @@ impl CascadeArgs {
 /// Runs `jeffcott cascade`.
 pub fn run_cascade(a: &CascadeArgs) -> Result<()> {
     let spec = a.spec()?;
-    let run_dir = rundir::open(&a.out, "cascade", &spec, OUTPUTS, a.run)?;
+    let run_dir = rundir::open(
+        &a.out,
+        "cascade",
+        &spec,
+        OUTPUTS,
+        a.run,
+        rundir::Work::Units,
+    )?;
     let t = std::time::Instant::now();
     let res =
         jeffcott_analysis::cascade::run(&spec, &rundir::CommandHost::new(&run_dir, a.run.quiet))?;

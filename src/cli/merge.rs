@@ -175,19 +175,20 @@ fn check_out_apart(out: &Path, shards: &[PathBuf]) -> Result<()> {
 /// Checks that the shards are one run's, computed by one version, each of 0..n once;
 /// returns n.
 fn check_shards(shards: &[ShardRun], quiet: bool) -> Result<usize> {
+    // Every refusal names the shard directory at fault.
+    let refuse = |s: &ShardRun, why: String| Err(Error::invalid("SHARD_DIR", s.dir.display(), why));
     let first = &shards[0];
     for s in &shards[1..] {
         if s.version != first.version {
-            return Err(Error::invalid(
-                "SHARD_DIR",
-                s.dir.display(),
+            return refuse(
+                s,
                 format!(
                     "was computed by jeffcott {} and {} by jeffcott {}: the shards of one run come from one version; rerun them with one build",
                     s.version,
                     first.dir.display(),
                     first.version
                 ),
-            ));
+            );
         }
     }
     if first.version != env!("CARGO_PKG_VERSION") && !quiet {
@@ -199,29 +200,27 @@ fn check_shards(shards: &[ShardRun], quiet: bool) -> Result<usize> {
     }
     for s in &shards[1..] {
         if s.command != first.command || s.spec != first.spec || s.count != first.count {
-            return Err(Error::invalid(
-                "SHARD_DIR",
-                s.dir.display(),
+            return refuse(
+                s,
                 format!(
                     "is a shard of another run than {} (command, specification or shard count differ)",
                     first.dir.display()
                 ),
-            ));
+            );
         }
     }
     let n = first.count;
     let mut by_index: Vec<Option<&ShardRun>> = vec![None; n];
     for s in shards {
         if let Some(other) = by_index[s.index] {
-            return Err(Error::invalid(
-                "SHARD_DIR",
-                s.dir.display(),
+            return refuse(
+                s,
                 format!(
                     "duplicates shard {}/{n}, already given as {}",
                     s.index,
                     other.dir.display()
                 ),
-            ));
+            );
         }
         by_index[s.index] = Some(s);
     }
@@ -331,7 +330,14 @@ pub fn run_merge(a: &MergeArgs) -> Result<()> {
     stages.sort();
     stages.dedup();
     {
-        let mut run_dir = rundir::open(&a.out, &first.command, &first.spec, outputs, a.run)?;
+        let mut run_dir = rundir::open(
+            &a.out,
+            &first.command,
+            &first.spec,
+            outputs,
+            a.run,
+            rundir::Work::Units,
+        )?;
         run_dir.begin_merge(stages)?;
         for s in &shards {
             for key in &s.units {

@@ -178,7 +178,7 @@ pub fn run_orbits(a: &OrbitsArgs) -> Result<()> {
         Some(dir) if !a.no_plot => Some(diagram_points(dir, var, coord, &params, (lo, hi))?),
         _ => None,
     };
-    let run_dir = rundir::open_whole(
+    let run_dir = rundir::open(
         &a.out,
         "orbits",
         &Record {
@@ -200,6 +200,7 @@ pub fn run_orbits(a: &OrbitsArgs) -> Result<()> {
         },
         OUTPUTS,
         a.run,
+        rundir::Work::Whole,
     )?;
     let t0 = std::time::Instant::now();
     let engine = jeffcott_analysis::backend::Engine::new(a.backend, Precision::F64)?;
@@ -311,7 +312,7 @@ pub(crate) fn write_files(dir: &Path, name: &'static str, b: &[Branch]) -> Resul
 /// What the command prints of a branch.
 fn summary(name: &str, b: &Branch) -> String {
     let (first, last) = b.span();
-    let found = b.found(&format!("{name} = "), 8);
+    let found = b.found(&format!("{name} = "), 8, "none");
     let shot = if b.minimal_period == b.period {
         String::new()
     } else {
@@ -329,11 +330,7 @@ fn summary(name: &str, b: &Branch) -> String {
         b.minimal_period,
         b.points.len(),
         b.stop,
-        if found.is_empty() {
-            "none".to_string()
-        } else {
-            found.join(", ")
-        }
+        found
     )
 }
 

@@ -306,16 +306,15 @@ fn install_signal_handler() {
     });
 }
 
-/// [`open`] for a run computed whole, without work units (`simulate`, `orbits`): an
-/// interruption keeps nothing, and the signal handler says so.
-pub fn open_whole(
-    dir: &Path,
-    command: &str,
-    spec: &impl serde::Serialize,
-    outputs: &[&str],
-    args: RunArgs,
-) -> Result<RunDir> {
-    unsharded(dir, args).open_as(RunHeader::new(command, spec)?, outputs, false)
+/// How a run commits its work: in units that an interrupted run keeps and resumes, or
+/// whole (`simulate`, `orbits`), where an interruption keeps nothing and the signal
+/// handler says so.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Work {
+    /// Work units, committed as they finish.
+    Units,
+    /// The whole run at its end.
+    Whole,
 }
 
 /// Opens `dir` for an unsharded run (see [`RunDir::open`]), says on stderr when it
@@ -326,8 +325,10 @@ pub fn open(
     spec: &impl serde::Serialize,
     outputs: &[&str],
     args: RunArgs,
+    work: Work,
 ) -> Result<RunDir> {
-    unsharded(dir, args).open(RunHeader::new(command, spec)?, outputs)
+    let header = RunHeader::new(command, spec)?;
+    unsharded(dir, args).open_as(header, outputs, work == Work::Units)
 }
 
 /// The execution of an unsharded run into `dir`.

@@ -121,7 +121,7 @@ pub fn run_simulate(a: &SimulateArgs) -> Result<()> {
         "summary.json",
     ];
     outputs.extend_from_slice(rubout::FILES);
-    let run_dir = rundir::open_whole(
+    let run_dir = rundir::open(
         &a.out,
         "simulate",
         &SimulateRecord {
@@ -130,6 +130,7 @@ pub fn run_simulate(a: &SimulateArgs) -> Result<()> {
         },
         &outputs,
         a.run,
+        rundir::Work::Whole,
     )?;
     let SimulateOutcome { result: res, rub } = run_study(&study, &rundir::cancel())?;
     let spec = study.spec;

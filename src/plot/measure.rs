@@ -171,19 +171,22 @@ pub fn work_precision(
         (f64::INFINITY, 0.0),
         (target, target),
     );
+    // The axes' ranges, padded; the target line spans the x range.
+    let (xs, ys) = (x0 * 0.7..x1 * 1.4, y0 * 0.3..y1 * 3.0);
+    let target_line = vec![(xs.start, target), (xs.end, target)];
     figure(path, (1200, 850), |root| {
         let mut chart = log_log_chart(
             root,
             title,
-            x0 * 0.7..x1 * 1.4,
-            y0 * 0.3..y1 * 3.0,
+            xs.clone(),
+            ys.clone(),
             (
                 "throughput [lane-periods per second] (higher is better)",
                 "position error after 200 periods [m] (lower is better)",
             ),
         )?;
         chart.draw_series(std::iter::once(PathElement::new(
-            vec![(x0 * 0.7, target), (x1 * 1.4, target)],
+            target_line.clone(),
             RGBColor(150, 150, 150).stroke_width(1),
         )))?;
         for (name, c, dashed, p) in series {

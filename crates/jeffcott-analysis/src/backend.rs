@@ -271,10 +271,6 @@ pub fn run(
 /// track, comes from the CPU ([`orbit::min_clearance`]: the same states, the same value).
 /// Both backends give the same bits in f64.
 impl orbit::Flows for Engine {
-    fn flows(&self, asks: &[FlowAsk], stepper: &StepperConfig) -> Result<Vec<Flow>> {
-        self.flows_until(asks, stepper, &jeffcott_core::control::Cancel::new())
-    }
-
     fn flows_until(
         &self,
         asks: &[FlowAsk],

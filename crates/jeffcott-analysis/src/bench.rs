@@ -171,20 +171,20 @@ pub fn measure_anatomy(
     precision: Precision,
     runner: &jeffcott_gpu::GpuRunner,
 ) -> Result<BenchRow> {
+    let spec = bench_spec(lanes, periods, precision, false);
     match precision {
-        Precision::F64 => measure_anatomy_in::<f64>(part, lanes, periods, precision, runner),
-        Precision::F32 => measure_anatomy_in::<f32>(part, lanes, periods, precision, runner),
+        Precision::F64 => measure_anatomy_in::<f64>(part, &spec, runner),
+        Precision::F32 => measure_anatomy_in::<f32>(part, &spec, runner),
     }
 }
 
+/// [`measure_anatomy`] of the benchmark's ensemble `spec` in precision `R`.
 fn measure_anatomy_in<R: jeffcott_gpu::GpuReal>(
     part: jeffcott_gpu::anatomy::Part,
-    lanes: usize,
-    periods: u32,
-    precision: Precision,
+    spec: &EnsembleSpec,
     runner: &jeffcott_gpu::GpuRunner,
 ) -> Result<BenchRow> {
-    let spec = bench_spec(lanes, periods, precision, false);
+    let (lanes, periods) = (spec.lanes.len(), spec.recorded);
     let consts: Vec<_> = (0..lanes).map(|i| spec.lane_consts::<R>(i)).collect();
     let init: Vec<_> = (0..lanes).map(|i| spec.initial_lane::<R>(i)).collect();
     let slice = crate::backend::periods_per_slice(lanes, spec.stepper.steps_per_period, periods);
@@ -217,7 +217,7 @@ fn measure_anatomy_in<R: jeffcott_gpu::GpuReal>(
         backend: "gpu",
         device,
         kernel: format!("anatomy: {}", part.name()),
-        precision,
+        precision: spec.precision,
         lanes,
         periods,
         wall_s: times.wall_s,

@@ -103,6 +103,25 @@ pub fn params_with(pairs: &[(String, f64)]) -> Result<Params> {
     Ok(p)
 }
 
+/// Refuses a value of option `option` that is not finite and > 0; `unit` (e.g. "m",
+/// "1/s", or "" for a ratio) follows the bound in the message.
+pub fn check_positive(option: &str, value: f64, unit: &str) -> Result<()> {
+    if value.is_finite() && value > 0.0 {
+        Ok(())
+    } else {
+        let unit = if unit.is_empty() {
+            String::new()
+        } else {
+            format!(" {unit}")
+        };
+        Err(Error::invalid(
+            option,
+            value,
+            format!("must be finite and > 0{unit}"),
+        ))
+    }
+}
+
 /// Refuses a start state with a position coordinate beyond the divergence bound: the
 /// lane stepper declares a lane diverged when |x_r|, |y_r|, |x_s| or |y_s| exceeds it,
 /// so such a start would only report "diverged" without integrating anything.
@@ -117,13 +136,7 @@ pub fn check_start_within_bound(option: &str, x0: &[f64; STATE_DIM], bound: f64)
 /// [`check_start_within_bound`] for one coordinate value (velocities always pass).
 pub fn check_coord_within_bound(option: &str, coord: usize, value: f64, bound: f64) -> Result<()> {
     // The bound is checked first, so a bad bound is blamed on itself, not on the state.
-    if !(bound.is_finite() && bound > 0.0) {
-        return Err(Error::invalid(
-            "divergence-bound",
-            bound,
-            "must be finite and > 0 m",
-        ));
-    }
+    check_positive("divergence-bound", bound, "m")?;
     let position = [X_R, Y_R, X_S, Y_S].contains(&coord);
     // NaN passes here: non-finite values have their own checks and messages.
     if position && value.abs() > bound {

@@ -93,14 +93,8 @@ impl SpectrumConfig {
     /// Checks the settings; errors name the field and the allowed range.
     pub fn validate(&self) -> Result<()> {
         self.stepper.validate()?;
-        if !(self.max_time.is_finite() && self.max_time > 0.0) {
-            // Named as the command line (`--time`) and Python (`time=`) spell it.
-            return Err(Error::invalid(
-                "time",
-                self.max_time,
-                "must be finite and > 0 s",
-            ));
-        }
+        // Named as the command line (`--time`) and Python (`time=`) spell it.
+        crate::inputs::check_positive("time", self.max_time, "s")?;
         if !(self.min_time.is_finite() && self.min_time >= 0.0) {
             return Err(Error::invalid(
                 "min-time",
@@ -111,13 +105,7 @@ impl SpectrumConfig {
         if self.window == 0 {
             return Err(Error::invalid("window", 0, "must be >= 1 period"));
         }
-        if !(self.tol.is_finite() && self.tol > 0.0) {
-            return Err(Error::invalid(
-                "tol",
-                self.tol,
-                "must be finite and > 0 1/s",
-            ));
-        }
+        crate::inputs::check_positive("tol", self.tol, "1/s")?;
         if self.blocks < 2 {
             return Err(Error::invalid("blocks", self.blocks, "must be >= 2"));
         }
@@ -311,23 +299,14 @@ pub fn spectrum_with(
     }
     let mut tan = Tangent::<f64, STATE_DIM>::new(identity);
     tan.saltation = cfg.saltation;
-    let Accumulated {
-        sums,
-        increments,
-        history,
-        stop,
-        acc_trace,
-        acc_log_det,
-        acc_saltations,
-        max_dev,
-        accumulated,
-    } = accumulate(&lc, &mut lane, &mut tan, cfg, period, cancel).ok_or_else(stopped)?;
-    let t = accumulated as f64 * period;
-    let exponents = if accumulated > 0 {
-        sums.map(|s| s / t)
+    let acc = accumulate(&lc, &mut lane, &mut tan, cfg, period, cancel).ok_or_else(stopped)?;
+    let t = acc.accumulated as f64 * period;
+    let exponents = if acc.accumulated > 0 {
+        acc.sums.map(|s| s / t)
     } else {
         [f64::NAN; STATE_DIM]
     };
+    let history = acc.history;
     let window_change = match history.len().checked_sub(1 + cfg.window as usize) {
         Some(b) => {
             let now = history[history.len() - 1].1;
@@ -336,7 +315,7 @@ pub fn spectrum_with(
         }
         None => [f64::NAN; STATE_DIM],
     };
-    let block_stderr = batch_means_stderr(&increments, cfg.blocks as usize, period);
+    let block_stderr = batch_means_stderr(&acc.increments, cfg.blocks as usize, period);
     let errors = std::array::from_fn(|i| block_stderr[i].max(window_change[i]));
     Ok(Spectrum {
         omega,
@@ -346,13 +325,13 @@ pub fn spectrum_with(
         block_stderr,
         window_change,
         sum: exponents.iter().sum(),
-        trace_average: acc_trace / t,
-        saltation_log_det_rate: acc_log_det / t,
+        trace_average: acc.acc_trace / t,
+        saltation_log_det_rate: acc.acc_log_det / t,
         integration_time: t,
-        periods: accumulated as u32,
-        stop,
-        saltations: acc_saltations,
-        max_saltation_deviation: max_dev,
+        periods: acc.accumulated as u32,
+        stop: acc.stop,
+        saltations: acc.acc_saltations,
+        max_saltation_deviation: acc.max_dev,
         status: lane.status,
         counters: lane.counters,
         final_state: lane.state_f64(),

@@ -100,7 +100,9 @@ pub struct FlowAsk {
 /// variant). Every implementation returns the same bits: [`flow`]'s arithmetic.
 pub trait Flows: Sync {
     /// The flows of `asks`, in order, with the lane stepper `stepper`.
-    fn flows(&self, asks: &[FlowAsk], stepper: &StepperConfig) -> Result<Vec<Flow>>;
+    fn flows(&self, asks: &[FlowAsk], stepper: &StepperConfig) -> Result<Vec<Flow>> {
+        self.flows_until(asks, stepper, &crate::control::Cancel::new())
+    }
 
     /// [`Flows::flows`], stopped with [`crate::Error::Interrupted`] once `cancel` is
     /// set: within a forcing period where the engine looks between periods (the CPU's
@@ -111,10 +113,7 @@ pub trait Flows: Sync {
         asks: &[FlowAsk],
         stepper: &StepperConfig,
         cancel: &crate::control::Cancel,
-    ) -> Result<Vec<Flow>> {
-        let _ = cancel;
-        self.flows(asks, stepper)
-    }
+    ) -> Result<Vec<Flow>>;
 }
 
 /// The CPU's flows: [`flow`] and [`advance`] in parallel on rayon's pool.
@@ -122,10 +121,6 @@ pub trait Flows: Sync {
 pub struct CpuFlows;
 
 impl Flows for CpuFlows {
-    fn flows(&self, asks: &[FlowAsk], stepper: &StepperConfig) -> Result<Vec<Flow>> {
-        self.flows_until(asks, stepper, &crate::control::Cancel::new())
-    }
-
     fn flows_until(
         &self,
         asks: &[FlowAsk],

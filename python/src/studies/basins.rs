@@ -47,8 +47,7 @@ struct BasinRun<'a> {
 #[doc = param_doc!(params)]
 /// - `transient`: forcing periods integrated and discarded.
 /// - `periods`: forcing periods recorded per cell (at least 2 n to see period n).
-#[doc = param_doc!(backend)]
-#[doc = param_doc!(precision)]
+#[doc = param_doc!(backend, precision)]
 /// - `lyapunov`: also compute every cell's largest Lyapunov exponent lambda_1 (one
 ///   tangent vector per lane): `lambda1`, lambda_1 per attractor, and aperiodic
 ///   attractors split into quasiperiodic and chaotic (not with `refine`).

@@ -31,12 +31,10 @@ use std::collections::HashMap;
 ///   coordinates and param_set; absent ones take `omega`, `params` and the static
 ///   equilibrium with `init`.
 /// - `columns`: the names of the columns of `lanes` (needed with it).
-#[doc = param_doc!(params)]
-#[doc = param_doc!(init)]
+#[doc = param_doc!(params, init)]
 /// - `transient`: forcing periods integrated and discarded.
 /// - `periods`: forcing periods recorded per lane.
-#[doc = param_doc!(backend)]
-#[doc = param_doc!(precision)]
+#[doc = param_doc!(backend, precision)]
 /// - `lyapunov`: also compute each lane's largest Lyapunov exponent lambda_1 [1/s]
 ///   (`lambda1`) from a tangent vector renormalised every period.
 #[doc = param_doc!(progress)]

@@ -1,7 +1,7 @@
 //! Periodic orbits: `orbits`.
 
 use crate::args::{self, kw};
-use crate::convert::{array_nd, array2, json_to_py, model_params, start_state};
+use crate::convert::{array_nd, array2, json_to_py, model_and_start};
 use crate::run;
 use jeffcott_analysis::defaults;
 use jeffcott_analysis::orbits::OrbitsRequest;
@@ -70,8 +70,7 @@ pub(crate) fn orbits<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     let stepper = args::stepper("orbits", stepper)?;
     let overridden: Vec<String> = params.iter().flat_map(|p| p.keys().cloned()).collect();
-    let params = model_params(params)?;
-    let start = start_state(&params, init)?;
+    let (params, start) = model_and_start(params, init)?;
     let study = OrbitsRequest {
         params,
         param: &param,

@@ -1,7 +1,7 @@
 //! One trajectory and its Lyapunov spectrum: `simulate` and `lyapunov`.
 
 use crate::args::{self, kw};
-use crate::convert::{array2, json_to_py, model_params, start_state};
+use crate::convert::{array2, json_to_py, model_and_start};
 use crate::run;
 use jeffcott_analysis::classify::ClassifyConfig;
 use jeffcott_analysis::defaults;
@@ -28,8 +28,7 @@ use std::collections::HashMap;
 ///
 /// Parameters:
 /// - `omega`: the rotor speed W [rad/s]; the article's interesting range is 130..141.
-#[doc = param_doc!(params)]
-#[doc = param_doc!(init)]
+#[doc = param_doc!(params, init)]
 /// - `transient`: forcing periods T = 2 pi / W integrated and discarded before the
 ///   record.
 /// - `periods`: forcing periods recorded, one Poincare point each (at least 2 n for
@@ -80,8 +79,7 @@ pub(crate) fn simulate<'py>(
     stepper: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let stepper = args::stepper("simulate", stepper)?;
-    let params = model_params(params)?;
-    let x0 = start_state(&params, init)?;
+    let (params, x0) = model_and_start(params, init)?;
     let integrator = match integrator {
         "lane" => Integrator::Lane,
         "article" => Integrator::Article,
@@ -165,8 +163,7 @@ pub(crate) fn simulate<'py>(
 ///
 /// Parameters:
 /// - `omega`: the rotor speed W [rad/s].
-#[doc = param_doc!(params)]
-#[doc = param_doc!(init)]
+#[doc = param_doc!(params, init)]
 /// - `time`: the largest accumulation time [s] (the stopping rule's maximum).
 /// - `min_time`: accumulation time before the stopping rule may stop [s], at most
 ///   `time`; None: 20 s, or `time` if that is shorter.
@@ -201,8 +198,7 @@ pub(crate) fn lyapunov<'py>(
     stepper: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let stepper = args::stepper("lyapunov", stepper)?;
-    let params = model_params(params)?;
-    let x0 = start_state(&params, init)?;
+    let (params, x0) = model_and_start(params, init)?;
     let config = SpectrumOptions {
         transient,
         tangent_transient,

@@ -254,15 +254,14 @@ pub(super) fn basin_section(c: &mut Ctx, f: &BasinFigures) -> Result<()> {
     let bdir = dir.join("basin_133");
     let refine_text = match refined {
         Some(f) => {
-            let lanes: usize = f.levels.iter().map(|l| l.lanes).sum();
             format!(
                 " Refined {} level(s) around the boundary to {} x {} points: {} lanes besides the {n} x {n} grid, {:.0} % of the {} of the full fine grid (`--refine {}`, refined.npy).",
                 f.levels.len(),
                 f.nx,
                 f.ny,
-                lanes,
-                100.0 * (lanes + n * n) as f64 / (f.nx * f.ny) as f64,
-                f.nx * f.ny,
+                f.lanes(),
+                100.0 * (f.lanes() + n * n) as f64 / f.points() as f64,
+                f.points(),
                 f.levels.len()
             )
         }

@@ -160,18 +160,14 @@ pub(super) fn orbits_section(
         Some(&under),
     )?;
     let found = |b: &jeffcott_analysis::orbits::Branch| -> String {
-        let list = b.found("", 4);
+        let list = b.found("", 4, "no bifurcation");
         let (from, to) = b.span();
         format!(
             "period-{} branch, {} points from {from:.3} to {to:.3} rad/s ({}): {}",
             b.period,
             b.points.len(),
             b.stop,
-            if list.is_empty() {
-                "no bifurcation".into()
-            } else {
-                list.join(", ")
-            }
+            list
         )
     };
     let text: Vec<String> = branches.iter().map(found).collect();

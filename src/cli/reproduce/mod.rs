@@ -73,6 +73,7 @@ pub fn run_reproduce(a: &ReproduceArgs) -> Result<()> {
         },
         &["REPORT.md"],
         a.run,
+        super::rundir::Work::Units,
     )?;
     let mut c = Ctx {
         args: a,

@@ -45,21 +45,8 @@ impl ClassifyConfig {
         if !(1..=4096).contains(&self.n_max) {
             return Err(Error::invalid("n-max", self.n_max, "must be in 1..=4096"));
         }
-        if !(self.rel_tol.is_finite() && self.rel_tol > 0.0) {
-            return Err(Error::invalid(
-                "rel-tol",
-                self.rel_tol,
-                "must be finite and > 0",
-            ));
-        }
-        if !(self.abs_tol.is_finite() && self.abs_tol > 0.0) {
-            return Err(Error::invalid(
-                "abs-tol",
-                self.abs_tol,
-                "must be finite and > 0 m",
-            ));
-        }
-        Ok(())
+        jeffcott_core::inputs::check_positive("rel-tol", self.rel_tol, "")?;
+        jeffcott_core::inputs::check_positive("abs-tol", self.abs_tol, "m")
     }
 
     /// The defaults for lanes integrated in `precision`. In f32 the state carries a

@@ -149,13 +149,18 @@ impl Branch {
         )
     }
 
-    /// Its bifurcations in words, in the order met: "period doubling at {at}{value}",
-    /// the value to `decimals` places.
-    pub fn found(&self, at: &str, decimals: usize) -> Vec<String> {
-        self.bifurcations
+    /// Its bifurcations in words, in the order met and joined by commas: "period
+    /// doubling at {at}{value}", the value to `decimals` places; `none` when it has none.
+    pub fn found(&self, at: &str, decimals: usize, none: &str) -> String {
+        if self.bifurcations.is_empty() {
+            return none.to_string();
+        }
+        let words: Vec<String> = self
+            .bifurcations
             .iter()
             .map(|x| format!("{} at {at}{:.*}", x.kind.label(), decimals, x.value))
-            .collect()
+            .collect();
+        words.join(", ")
     }
 }
 
@@ -255,9 +260,7 @@ impl BranchSpec {
                 format!("must lie in the range {}..{}", self.lo, self.hi),
             ));
         }
-        if !(self.ds > 0.0 && self.ds.is_finite()) {
-            return Err(Error::invalid("ds", self.ds, "must be finite and > 0"));
-        }
+        jeffcott_core::inputs::check_positive("ds", self.ds, "")?;
         if !(self.ds_max >= self.ds && self.ds_max.is_finite()) {
             return Err(Error::invalid(
                 "ds-max",

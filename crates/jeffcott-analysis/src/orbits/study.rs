@@ -12,15 +12,7 @@ use jeffcott_core::orbit::{Flows, ShootConfig, Start, Want, shoot_many};
 /// Parses the continued parameter and its range, `NAME:lo:hi` (`option` names it in
 /// errors): W (`omega`) or a model parameter, finite bounds.
 pub fn parse_param(option: &str, text: &str) -> Result<(MapVar, f64, f64)> {
-    let parts: Vec<&str> = text.split(':').map(str::trim).collect();
-    let [name, lo, hi] = parts.as_slice() else {
-        return Err(Error::invalid(
-            option,
-            text,
-            "expected NAME:lo:hi, e.g. omega:131.7:132.4",
-        ));
-    };
-    let num = |s: &str| crate::basin::finite_number(option, text, s);
+    let (name, lo, hi) = crate::basin::parse_name_bounds(option, text, "omega:131.7:132.4")?;
     let var = match MapVar::parse(option, name) {
         Ok(MapVar::Coord(_)) => Err("continue omega or a model parameter, not a start coordinate"),
         Ok(var) => Ok(var),
@@ -36,7 +28,7 @@ pub fn parse_param(option: &str, text: &str) -> Result<(MapVar, f64, f64)> {
             ),
         )
     })?;
-    Ok((var, num(lo)?, num(hi)?))
+    Ok((var, lo, hi))
 }
 
 /// A branch study: `branch`, whose start state is first integrated `settle` periods at
@@ -223,10 +215,12 @@ struct Stoppable<'a> {
 }
 
 impl Flows for Stoppable<'_> {
-    fn flows(
+    /// Its own `cancel` stops it; the one passed in is the default's, never set.
+    fn flows_until(
         &self,
         asks: &[jeffcott_core::orbit::FlowAsk],
         stepper: &jeffcott_core::integrate::lane::StepperConfig,
+        _unused: &jeffcott_core::control::Cancel,
     ) -> Result<Vec<jeffcott_core::orbit::Flow>> {
         if self.cancel.is_set() {
             // An orbits study commits no units: nothing is kept.

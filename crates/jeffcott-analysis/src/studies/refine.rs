@@ -39,6 +39,18 @@ pub struct Refined {
     pub levels: Vec<Level>,
 }
 
+impl Refined {
+    /// Lanes integrated by all levels, besides the coarse grid.
+    pub fn lanes(&self) -> usize {
+        self.levels.iter().map(|l| l.lanes).sum()
+    }
+
+    /// Points of the finest grid.
+    pub fn points(&self) -> usize {
+        self.nx * self.ny
+    }
+}
+
 /// One refinement level.
 #[derive(Clone, Copy, Debug, Serialize)]
 pub struct Level {

@@ -314,13 +314,7 @@ impl StepperConfig {
                 "must be in 2..=256",
             ));
         }
-        if !(self.divergence_bound.is_finite() && self.divergence_bound > 0.0) {
-            return Err(Error::invalid(
-                "divergence-bound",
-                self.divergence_bound,
-                "must be finite and > 0 m",
-            ));
-        }
+        crate::inputs::check_positive("divergence-bound", self.divergence_bound, "m")?;
         // Powers of two only: then 1/R and every sum of it from 0 are exact in binary
         // floating point, so R sub-steps of 1/R end exactly at the macro step's end and
         // no sliver of a sub-step is left over from rounding.

@@ -42,7 +42,7 @@ pub use recognise::{
 
 use crate::classify::{Class, ClassifyConfig};
 use identity::{aperiodic_family, find};
-use jeffcott_core::error::{Error, Result};
+use jeffcott_core::error::Result;
 use jeffcott_core::model::State;
 use recognise::{apart, cloud_groups, separation_identity, too_close_to_recognise};
 use serde::Serialize;
@@ -121,9 +121,7 @@ impl CatalogueConfig {
             ("cloud-rel", self.cloud_rel),
             ("lambda-tol", self.lambda_tol),
         ] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(Error::invalid(name, v, "must be finite and > 0"));
-            }
+            jeffcott_core::inputs::check_positive(name, v, "")?;
         }
         Ok(())
     }

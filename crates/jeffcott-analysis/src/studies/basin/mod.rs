@@ -48,6 +48,25 @@ pub fn parse_named_range<'a>(
     Ok((name, num(lo)?, num(hi)?, n))
 }
 
+/// Splits `NAME:lo:hi` into its name and finite bounds (the name unchecked); `option`
+/// names the CLI option and `example` shows the form in errors.
+pub fn parse_name_bounds<'a>(
+    option: &str,
+    text: &'a str,
+    example: &str,
+) -> Result<(&'a str, f64, f64)> {
+    let parts: Vec<&str> = text.split(':').map(str::trim).collect();
+    let [name, lo, hi] = parts.as_slice() else {
+        return Err(Error::invalid(
+            option,
+            text,
+            format!("expected NAME:lo:hi, e.g. {example}"),
+        ));
+    };
+    let num = |s: &str| finite_number(option, text, s);
+    Ok((name, num(lo)?, num(hi)?))
+}
+
 /// The finite number `s`, a part of option `option`'s text `text` (named in the error).
 pub fn finite_number(option: &str, text: &str, s: &str) -> Result<f64> {
     s.parse::<f64>()
@@ -196,13 +215,6 @@ impl BasinSpec {
                 "y",
                 COORD_NAMES[self.y.coord],
                 "the two axes must be different coordinates",
-            ));
-        }
-        if self.periods < 2 {
-            return Err(Error::invalid(
-                "periods",
-                self.periods,
-                "at least 2 periods must be recorded",
             ));
         }
         jeffcott_core::limits::check_periods("transient", self.transient, 0)?;

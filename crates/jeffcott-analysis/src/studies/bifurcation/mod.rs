@@ -151,13 +151,6 @@ impl BifurcationSpec {
                 "speeds must increase (write a:b:n with a < b)",
             ));
         }
-        if self.periods < 2 {
-            return Err(Error::invalid(
-                "periods",
-                self.periods,
-                "at least 2 periods must be recorded",
-            ));
-        }
         if self.sweep.is_none() && self.ics == 0 {
             return Err(Error::invalid(
                 "ics",

@@ -312,14 +312,7 @@ pub fn uniform_in_box(base: &State, b: &[(usize, f64, f64)], k: u32, seed: u64) 
 pub fn parse_box(option: &str, text: &str) -> Result<Vec<(usize, f64, f64)>> {
     let mut out: Vec<(usize, f64, f64)> = Vec::new();
     for part in text.split(',').map(str::trim).filter(|s| !s.is_empty()) {
-        let f: Vec<&str> = part.split(':').map(str::trim).collect();
-        let [name, lo, hi] = f.as_slice() else {
-            return Err(Error::invalid(
-                option,
-                part,
-                "expected NAME:lo:hi, e.g. x_r:-0.006:0.006",
-            ));
-        };
+        let (name, lo, hi) = crate::basin::parse_name_bounds(option, part, "x_r:-0.006:0.006")?;
         let c = jeffcott_core::model::coord_index(name).ok_or_else(|| {
             Error::invalid(
                 option,
@@ -330,8 +323,6 @@ pub fn parse_box(option: &str, text: &str) -> Result<Vec<(usize, f64, f64)>> {
                 ),
             )
         })?;
-        let num = |s: &str| crate::basin::finite_number(option, part, s);
-        let (lo, hi) = (num(lo)?, num(hi)?);
         if lo > hi {
             return Err(Error::invalid(option, part, "need lo <= hi"));
         }
