@@ -156,7 +156,9 @@ pub fn run_simulate(a: &SimulateArgs) -> Result<()> {
         println!("{}", human_summary(&spec, &res, &a.out));
         match &rub {
             Some(o) => println!("{}", rubout::rub_sentence(o)),
-            None => println!("Rub regime: diverged."),
+            None => println!(
+                "Rub regime: diverged (no bounded stretch to take rub figures, spectra or their CSV files from)."
+            ),
         }
     }
     Ok(())
@@ -292,23 +294,47 @@ fn human_summary(
     } else {
         "no recorded points".to_string()
     };
+    // A lane that froze stopped where it was: say where, not the periods asked for.
+    let recorded = res.poincare.iter().filter(|p| p[0].is_finite()).count();
+    let integrated = if !res.status.is_frozen() {
+        format!("Integrated {} periods", spec.transient + spec.periods)
+    } else if recorded == 0 {
+        format!("Stopped within the {} transient periods", spec.transient)
+    } else {
+        format!(
+            "Stopped after the {} transient and {recorded} of {} recorded periods",
+            spec.transient, spec.periods
+        )
+    };
+    let contact = if recorded == 0 && res.status.is_frozen() {
+        "no recorded grid points to measure contact on".to_string()
+    } else {
+        format!(
+            "the rotor is in contact at {:.1}% of recorded grid points",
+            100.0 * res.contact_fraction
+        )
+    };
+    let settles = if res.status.is_frozen() {
+        format!("the rotor reaches {what}")
+    } else {
+        format!(
+            "after {} transient periods the rotor settles on {what}",
+            spec.transient
+        )
+    };
     format!(
-        "At W = {} rad/s, started from ({}), after {} transient periods the rotor settles on {}. \
-         Rotor-stator distance at the Poincare points: {} (gap {} mm); the rotor is in \
-         contact at {:.1}% of recorded grid points. Integrated {} periods with the {:?} integrator in \
-         {:.2} s (status {:?}). Files in {}: poincare.npy, timeseries.npy, summary.json{}.",
+        "At W = {} rad/s, started from ({}), {settles}. \
+         Rotor-stator distance at the Poincare points: {} (gap {} mm); {contact}. \
+         {integrated} with the {:?} integrator in {:.2} s (status {:?}). \
+         Files in {}: poincare.npy, timeseries.npy, summary.json{}.",
         spec.omega,
         if spec.x0 == spec.params.static_equilibrium() {
             "static equilibrium".to_string()
         } else {
             "the given state".to_string()
         },
-        spec.transient,
-        what,
         distance,
         spec.params.delta * 1e3,
-        100.0 * res.contact_fraction,
-        spec.transient + spec.periods,
         spec.integrator,
         res.elapsed.as_secs_f64(),
         res.status,

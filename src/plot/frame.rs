@@ -64,6 +64,28 @@ pub(crate) fn chart<'a, 'b, X: AsRangedCoord, Y: AsRangedCoord>(
 /// Formats a tick value into its label.
 pub(crate) type Ticks<'m> = &'m dyn Fn(&f64) -> String;
 
+/// Tick labels for an axis from `lo` to `hi`: enough digits to tell apart ticks a tenth
+/// of the span apart, in scientific notation where the values are below 1e-3 or from 1e5
+/// up (a map over unbalances of 1e-5 m read 0.0000 on every tick with four decimals).
+pub(crate) fn axis_ticks(lo: f64, hi: f64) -> impl Fn(&f64) -> String {
+    let step = ((hi - lo).abs() / 10.0).max(f64::MIN_POSITIVE);
+    let mag = lo.abs().max(hi.abs());
+    let sci = mag > 0.0 && !(1e-3..1e5).contains(&mag);
+    let digits = if sci {
+        // Mantissa decimals: the largest value over the step, in digits, less one.
+        ((mag / step).log10().ceil() - 1.0).clamp(0.0, 6.0) as usize
+    } else {
+        (-step.log10()).ceil().clamp(0.0, 8.0) as usize
+    };
+    move |v: &f64| {
+        if sci {
+            format!("{v:.digits$e}")
+        } else {
+            format!("{v:.digits$}")
+        }
+    }
+}
+
 /// How a chart's axes are drawn: descriptions, font sizes, tick labels and grid lines.
 pub(crate) struct Mesh<'m> {
     x_desc: &'m str,
@@ -163,4 +185,24 @@ pub(crate) fn extent(values: impl IntoIterator<Item = f64>, start: (f64, f64)) -
     values
         .into_iter()
         .fold(start, |(lo, hi), v| (lo.min(v), hi.max(v)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn axis_ticks_tell_neighbouring_ticks_apart_at_any_scale() {
+        let e = axis_ticks(2e-5, 1.2e-4);
+        assert_eq!(
+            [e(&2e-5), e(&4e-5), e(&1.2e-4)],
+            ["2.0e-5", "4.0e-5", "1.2e-4"]
+        );
+        let w = axis_ticks(100.0, 200.0);
+        assert_eq!([w(&100.0), w(&120.0)], ["100", "120"]);
+        let mu = axis_ticks(0.0, 0.3);
+        assert_eq!([mu(&0.0), mu(&0.05)], ["0.00", "0.05"]);
+        let w = axis_ticks(131.7, 132.4);
+        assert_eq!([w(&131.7), w(&131.75)], ["131.70", "131.75"]);
+    }
 }

@@ -2,7 +2,7 @@
 //! maps with a legend, and lambda_1 maps with a diverging colour bar.
 
 use super::attractor_color;
-use super::frame::{Area, Drawn, Mesh, chart, extent, figure};
+use super::frame::{Area, Drawn, Mesh, axis_ticks, chart, extent, figure};
 use jeffcott_core::error::Result;
 use plotters::prelude::*;
 use std::path::Path;
@@ -83,10 +83,12 @@ fn grid_map(
             x_range.0..x_range.1,
             y_range.0..y_range.1,
         )?;
+        let x_ticks = axis_ticks(x_range.0, x_range.1);
+        let y_ticks = axis_ticks(y_range.0, y_range.1);
         Mesh::new(&grid.axes.0, &grid.axes.1)
             .no_grid()
             .fonts(16, 19)
-            .ticks(&|v| format!("{v:.4}"), &|v| format!("{v:.4}"))
+            .ticks(&x_ticks, &y_ticks)
             .draw(&mut chart)?;
         let (pw, ph) = chart.plotting_area().dim_in_pixel();
         let mut buf = vec![0u8; (pw * ph * 3) as usize];

@@ -25,6 +25,8 @@
 //! The pipeline is built once per device and precision and kept, with its buffers
 //! (grown when a run needs more), in the [`GpuRunner`] (docs/architecture.md).
 
+#![warn(missing_docs)]
+
 pub mod anatomy;
 pub mod device;
 pub mod layout;

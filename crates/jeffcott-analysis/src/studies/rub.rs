@@ -179,11 +179,24 @@ pub fn rub_figures(
     }
     f.impacts_per_rev = entries as f64 / periods.max(1) as f64;
     f.contact_arc_deg = arc(&mut angles);
-    let (w, share) = whirl(&full_spectrum(&orbit(rows, false), periods, omega));
+    let (w, share) = orbit_whirl(rows, periods, omega);
     f.whirl = w;
     f.forward_share = share;
     f.regime = regime(&f);
     f
+}
+
+/// Whirl of the rotor's orbit in time-series rows (as [`rub_figures`] takes them): the
+/// [`whirl`] of the full spectrum of its motion about its mean position. The mean (the
+/// static sag under gravity, a rub's offset) is taken out first: through the Hann window
+/// a 0X line leaks into the bins at orders +-1/P of a P-period record, and on a short
+/// record (an attractor's rub stretch is 8 periods) a sag larger than the orbit would
+/// otherwise decide the direction and the forward share.
+pub fn orbit_whirl(rows: &[[f64; STATE_DIM + 1]], periods: u32, omega: f64) -> (Whirl, f64) {
+    let z = orbit(rows, false);
+    let mean = z.iter().sum::<rustfft::num_complex::Complex64>() / z.len().max(1) as f64;
+    let about_mean: Vec<_> = z.iter().map(|v| v - mean).collect();
+    whirl(&full_spectrum(&about_mean, periods, omega))
 }
 
 /// 360 deg minus the largest gap between sorted directions (0 for fewer than 2).
@@ -324,6 +337,37 @@ pub fn natural_frequencies(p: &Params) -> Vec<(String, f64)> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A circular orbit of radius r at 1X, forward or backward, about a centre sagged by
+    /// 2.5 r, sampled 64 times per period over `periods` periods.
+    fn sagged_circle(periods: u32, forward: bool) -> Vec<[f64; STATE_DIM + 1]> {
+        let (omega, r, sag) = (190.0, 0.16e-3, 0.4e-3);
+        let dt = std::f64::consts::TAU / omega / 64.0;
+        let sign = if forward { 1.0 } else { -1.0 };
+        (0..=64 * periods)
+            .map(|i| {
+                let t = i as f64 * dt;
+                let mut row = [0.0; STATE_DIM + 1];
+                row[0] = t;
+                row[1] = r * (omega * t).cos();
+                row[3] = -sag + sign * r * (omega * t).sin();
+                row
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_sag_larger_than_the_orbit_does_not_decide_its_whirl_on_a_short_record() {
+        use crate::spectrum::Whirl;
+        for periods in [8, 48] {
+            let (w, share) = orbit_whirl(&sagged_circle(periods, true), periods, 190.0);
+            assert_eq!(w, Whirl::Forward, "{periods} periods");
+            assert!(share > 0.999, "{periods} periods: forward share {share}");
+            let (w, share) = orbit_whirl(&sagged_circle(periods, false), periods, 190.0);
+            assert_eq!(w, Whirl::Backward, "{periods} periods");
+            assert!(share < 0.001, "{periods} periods: forward share {share}");
+        }
+    }
 
     #[test]
     fn the_contact_arc_is_360_minus_the_largest_gap() {
