@@ -164,11 +164,13 @@ pub struct NoOptions {}
 #[derive(Args, Debug)]
 pub struct ModelArgs {
     /// TOML file of model parameters (keys: omega_r, omega_s, xi_r, xi_s, delta, mu, m_r,
-    /// m_s, e, k_c, c_c, e_max, a_g, phi0; SI units; absent keys keep Table 1 values).
+    /// m_s, e, k_c, c_c, e_max, a_g, phi0, or a machine's k_r, c_r, k_s, c_s [N/m, N s/m]
+    /// and unbalance [kg m] in place of omega_r, xi_r, omega_s, xi_s and e; SI units;
+    /// absent keys keep Table 1 values).
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
-    /// Override model parameters, e.g. `--param mu=0.1,k_c=2e8` (applied after --config;
-    /// repeatable).
+    /// Override model parameters, e.g. `--param mu=0.1,k_c=2e8` (the config file's keys;
+    /// applied after --config; repeatable).
     #[arg(long, value_name = "NAME=VALUE,...")]
     pub param: Vec<String>,
 }
@@ -182,9 +184,8 @@ impl ModelArgs {
             Some(path) => Params::read_toml_file(path)?,
             None => Params::default(),
         };
-        for (name, value) in parse_assignment_lists("param", &self.param)? {
-            p.set(&name, value)?;
-        }
+        let pairs = parse_assignment_lists("param", &self.param)?;
+        jeffcott_core::inputs::apply_pairs(&mut p, &pairs)?;
         p.validate()?;
         Ok(p)
     }

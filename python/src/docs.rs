@@ -8,7 +8,8 @@
 macro_rules! param_doc {
     (params) => {
         "- `params`: model parameters replacing Table 1's, `{key: value}` (the keys of\n  \
-         `PARAM_KEYS`, SI units; the command line's `--param`); None: Table 1."
+         `PARAM_KEYS`, or a machine's `k_r`, `c_r`, `k_s`, `c_s`, `unbalance`; SI units;\n  \
+         the command line's `--param`); None: Table 1."
     };
     (init) => {
         "- `init`: start coordinates replacing the static equilibrium's, `{name: value}`\n  \

@@ -52,7 +52,7 @@ pub fn write_rub_outputs(
         crate::plot::rub::contact(
             &dir.join("contact.png"),
             &format!(
-                "{title}: {} , contact {:.1} % of the time, peak normal force {:.0} N",
+                "{title}: {}, contact {:.1} % of the time, peak normal force {:.0} N",
                 o.figures.regime.label(),
                 100.0 * o.figures.contact_fraction,
                 o.figures.peak_force_n

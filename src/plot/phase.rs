@@ -1,11 +1,12 @@
 //! Phase portraits and state-space traces: one run's portraits with its Poincare
 //! points, coexisting attractors on common axes, and Poincare sections.
 
-use super::frame::{Mesh, chart, dot_key, figure, line_key};
+use super::frame::{Mesh, axis_ticks, chart, dot_key, figure, line_key};
 use super::{coord_axis, legend, padded_range};
 use jeffcott_core::error::Result;
 use jeffcott_core::model::{STATE_DIM, State, VX_R, VX_S, X_R, X_S, Y_R, Y_S};
 use plotters::prelude::*;
+use std::ops::Range;
 use std::path::Path;
 
 /// One panel: which state components go on the axes, their scale and labels.
@@ -22,9 +23,10 @@ struct Panel {
 /// Margin and label areas of a portrait panel (the four panels share one layout).
 const PORTRAIT: (u32, u32, u32) = (12, 48, 80);
 
-/// The axes of a portrait panel, ticks to three decimals.
-fn portrait_mesh<'m>(x_desc: &'m str, y_desc: &'m str) -> Mesh<'m> {
-    Mesh::new(x_desc, y_desc).ticks(&|v| format!("{v:.3}"), &|v| format!("{v:.3}"))
+/// Tick labels for a panel's ranges, at their scale (a stator that barely moves gets
+/// digits enough to tell its ticks apart).
+fn ticks_for(xr: &Range<f64>, yr: &Range<f64>) -> [impl Fn(&f64) -> String + use<>; 2] {
+    [axis_ticks(xr.start, xr.end), axis_ticks(yr.start, yr.end)]
 }
 
 /// Draws the phase portraits of `simulate`: rotor and stator (x, vx) and (x, y), the
@@ -87,8 +89,11 @@ pub fn phase_portraits(
                 .collect();
             let xr = padded_range(line.iter().chain(dots.iter()).map(|p| p.0));
             let yr = padded_range(line.iter().chain(dots.iter()).map(|p| p.1));
+            let [tx, ty] = ticks_for(&xr, &yr);
             let mut chart = chart(area, Some((pn.title, 20)), PORTRAIT, xr, yr)?;
-            portrait_mesh(pn.x_label, pn.y_label).draw(&mut chart)?;
+            Mesh::new(pn.x_label, pn.y_label)
+                .ticks(&tx, &ty)
+                .draw(&mut chart)?;
             chart
                 .draw_series(LineSeries::new(line, BLUE.mix(0.55).stroke_width(1)))?
                 .label("trajectory")
@@ -141,8 +146,9 @@ pub fn coexisting_attractors(path: &Path, title: &str, traces: &[AttractorTrace]
             };
             let xr = padded_range(all().map(|p| p.0));
             let yr = padded_range(all().map(|p| p.1));
+            let [tx, ty] = ticks_for(&xr, &yr);
             let mut chart = chart(area, Some((name, 20)), PORTRAIT, xr, yr)?;
-            portrait_mesh(&xl, &yl).draw(&mut chart)?;
+            Mesh::new(&xl, &yl).ticks(&tx, &ty).draw(&mut chart)?;
             for t in traces {
                 let c = t.color;
                 chart
@@ -207,10 +213,11 @@ pub fn poincare_sections(
                 .into_iter()
                 .filter(|p| xr.contains(&p.0) && yr.contains(&p.1))
                 .collect();
+            let [tx, ty] = ticks_for(&xr, &yr);
             let mut chart = chart(area, None, (12, 48, 85), xr, yr)?;
             Mesh::new(&xl, &yl)
                 .no_light_lines()
-                .ticks(&|v| format!("{v:.4}"), &|v| format!("{v:.4}"))
+                .ticks(&tx, &ty)
                 .draw(&mut chart)?;
             let r = if inside.len() > 5000 { 1 } else { 2 };
             chart.draw_series(

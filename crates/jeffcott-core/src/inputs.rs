@@ -92,15 +92,105 @@ pub fn coord(option: &str, name: &str) -> Result<usize> {
     })
 }
 
-/// Model parameters from Table 1 with `pairs` (TOML keys) applied, validated: errors
-/// name the key and its allowed range.
+/// Model parameters from Table 1 with `pairs` applied ([`apply_pairs`]), validated:
+/// errors name the key and its allowed range.
 pub fn params_with(pairs: &[(String, f64)]) -> Result<Params> {
     let mut p = Params::default();
-    for (name, value) in pairs {
-        p.set(name, *value)?;
-    }
+    apply_pairs(&mut p, pairs)?;
     p.validate()?;
     Ok(p)
+}
+
+/// Keys that describe a machine as an engineer measures it, each in place of one model
+/// parameter: (key, the parameter it sets, what it is). docs/parameters.md.
+pub const MACHINE_KEYS: [(&str, &str, &str); 5] = [
+    (
+        "k_r",
+        "omega_r",
+        "shaft stiffness [N/m]: omega_r = sqrt(k_r / m_r)",
+    ),
+    (
+        "c_r",
+        "xi_r",
+        "shaft damping [N s/m]: xi_r = c_r / (2 m_r omega_r)",
+    ),
+    (
+        "k_s",
+        "omega_s",
+        "stator suspension stiffness [N/m]: omega_s = sqrt(k_s / m_s)",
+    ),
+    (
+        "c_s",
+        "xi_s",
+        "stator suspension damping [N s/m]: xi_s = c_s / (2 m_s omega_s)",
+    ),
+    (
+        "unbalance",
+        "e",
+        "rotor unbalance [kg m]: e = unbalance / m_r",
+    ),
+];
+
+/// Applies `pairs` to `p`: the model's parameters (as in a parameter file) first, in
+/// order, then the [`MACHINE_KEYS`], converted with the masses and frequencies as they
+/// then stand, so that a list's order does not matter. A machine key given together
+/// with the parameter it sets is refused, naming both. Values are checked by
+/// [`Params::validate`] afterwards, machine keys here (their own ranges).
+pub fn apply_pairs(p: &mut Params, pairs: &[(String, f64)]) -> Result<()> {
+    let is_machine = |name: &str| MACHINE_KEYS.iter().any(|k| k.0 == name);
+    for (name, value) in pairs.iter().filter(|(n, _)| !is_machine(n)) {
+        if !Params::FIELDS.contains(&name.as_str()) {
+            let machine: Vec<&str> = MACHINE_KEYS.iter().map(|k| k.0).collect();
+            return Err(Error::invalid(
+                name,
+                value,
+                format!(
+                    "unknown parameter; valid names: {}, or a machine's {}",
+                    Params::FIELDS.join(", "),
+                    machine.join(", ")
+                ),
+            ));
+        }
+        p.set(name, *value)?;
+    }
+    // In MACHINE_KEYS' order: a stiffness before the damping that converts with it.
+    for (key, model, _) in MACHINE_KEYS {
+        let Some((_, value)) = pairs.iter().rev().find(|(n, _)| n == key) else {
+            continue;
+        };
+        if pairs.iter().any(|(n, _)| n == model) {
+            return Err(Error::invalid(
+                key,
+                value,
+                format!("sets `{model}`, which is given too: give one of `{key}` and `{model}`"),
+            ));
+        }
+        set_machine_key(p, key, *value)?;
+    }
+    Ok(())
+}
+
+/// Sets the model parameter of machine key `key` from its value (stiffnesses first, so
+/// that a damping converts with the frequency its stiffness gives).
+fn set_machine_key(p: &mut Params, key: &str, v: f64) -> Result<()> {
+    check_positive("m_r", p.m_r, "kg")?;
+    check_positive("m_s", p.m_s, "kg")?;
+    match key {
+        "k_r" | "k_s" => check_positive(key, v, "N/m")?,
+        _ if !(v.is_finite() && v >= 0.0) => {
+            return Err(Error::invalid(key, v, "must be finite and >= 0"));
+        }
+        _ => {}
+    }
+    match key {
+        "k_r" => p.omega_r = (v / p.m_r).sqrt(),
+        "k_s" => p.omega_s = (v / p.m_s).sqrt(),
+        "c_r" => p.xi_r = v / (2.0 * p.m_r * p.omega_r),
+        "c_s" => p.xi_s = v / (2.0 * p.m_s * p.omega_s),
+        "unbalance" => p.e = v / p.m_r,
+        _ => unreachable!("MACHINE_KEYS lists these"),
+    }
+    Ok(())
 }
 
 /// Refuses a value of option `option` that is not finite and > 0; `unit` (e.g. "m",
@@ -150,4 +240,68 @@ pub fn check_coord_within_bound(option: &str, coord: usize, value: f64, bound: f
         ));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pairs(list: &[(&str, f64)]) -> Vec<(String, f64)> {
+        list.iter().map(|(k, v)| (k.to_string(), *v)).collect()
+    }
+
+    #[test]
+    fn a_machine_given_by_stiffness_damping_and_unbalance_is_the_model_of_the_formulas() {
+        let machine = [
+            ("c_r", 170.0),
+            ("k_r", 6.0e5),
+            ("m_r", 30.0),
+            ("unbalance", 0.024),
+            ("c_s", 2200.0),
+            ("k_s", 1.2e7),
+            ("m_s", 40.0),
+        ];
+        let p = params_with(&pairs(&machine)).unwrap();
+        let (wr, ws) = ((6.0e5f64 / 30.0).sqrt(), (1.2e7f64 / 40.0).sqrt());
+        assert_eq!(p.omega_r, wr);
+        assert_eq!(p.omega_s, ws);
+        // The damping ratio c / (2 sqrt(k m)) of the guide, to rounding.
+        assert!((p.xi_r - 170.0 / (2.0 * (6.0e5f64 * 30.0).sqrt())).abs() < 1e-15);
+        assert!((p.xi_s - 2200.0 / (2.0 * (1.2e7f64 * 40.0).sqrt())).abs() < 1e-15);
+        assert_eq!(p.e, 0.024 / 30.0);
+        assert!((p.k_r() - 6.0e5).abs() < 1e-9 * 6.0e5 && (p.k_s() - 1.2e7).abs() < 1e-9 * 1.2e7);
+        // The order of a list does not matter: masses and stiffnesses come first.
+        let mut reversed = machine;
+        reversed.reverse();
+        assert_eq!(params_with(&pairs(&reversed)).unwrap(), p);
+    }
+
+    #[test]
+    fn a_machine_key_beside_the_parameter_it_sets_is_refused_naming_both() {
+        for (key, model) in MACHINE_KEYS.iter().map(|k| (k.0, k.1)) {
+            let e = params_with(&pairs(&[(key, 1.0), (model, 1.0)])).unwrap_err();
+            let text = e.to_string();
+            assert!(text.contains(key) && text.contains(model), "{text}");
+        }
+    }
+
+    #[test]
+    fn machine_keys_out_of_range_are_refused_naming_the_key() {
+        for (key, bad) in [
+            ("k_r", 0.0),
+            ("k_s", -1.0),
+            ("c_r", -1.0),
+            ("unbalance", f64::NAN),
+        ] {
+            let text = params_with(&pairs(&[(key, bad)])).unwrap_err().to_string();
+            assert!(text.contains(key), "{text}");
+        }
+        let text = params_with(&pairs(&[("stiffness", 1.0)]))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            text.contains("valid names") && text.contains("k_r"),
+            "{text}"
+        );
+    }
 }

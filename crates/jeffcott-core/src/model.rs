@@ -310,10 +310,23 @@ impl Params {
                 Params::FIELDS.len()
             )));
         }
-        toml::from_str(&text).map_err(|e| Error::Config {
-            path: path.to_path_buf(),
-            message: e.to_string(),
-        })
+        let table: toml::Table = toml::from_str(&text).map_err(|e| bad(e.to_string()))?;
+        let mut pairs = Vec::with_capacity(table.len());
+        for (key, value) in table {
+            let v = match value {
+                toml::Value::Float(v) => v,
+                toml::Value::Integer(v) => v as f64,
+                other => {
+                    return Err(bad(format!(
+                        "`{key}` = {other}: every value is a number (SI units)"
+                    )));
+                }
+            };
+            pairs.push((key, v));
+        }
+        let mut p = Params::default();
+        crate::inputs::apply_pairs(&mut p, &pairs).map_err(|e| bad(e.to_string()))?;
+        Ok(p)
     }
 
     /// Rotor shaft stiffness k_r = m_r w_r^2 [N/m].

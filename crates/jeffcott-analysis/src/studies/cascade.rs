@@ -243,19 +243,31 @@ pub fn regime_summary(res: &CascadeResult) -> String {
     let mut parts = Vec::new();
     for (name, s) in [("run-up", &res.up), ("run-down", &res.down)] {
         let Some(s) = s else { continue };
-        let mut by: std::collections::BTreeMap<i32, Vec<f64>> = Default::default();
+        // Per regime, its count and the stretches of consecutive speeds it holds, so that
+        // a regime interrupted by another is not read as one range.
+        let mut by: std::collections::BTreeMap<i32, (usize, Vec<(f64, f64)>)> = Default::default();
+        let mut prev = None;
         for (w, r) in s.omegas.iter().zip(&s.regime) {
-            by.entry(*r).or_default().push(*w);
+            let e = by.entry(*r).or_default();
+            e.0 += 1;
+            match e.1.last_mut() {
+                Some(run) if prev == Some(*r) => *run = (run.0.min(*w), run.1.max(*w)),
+                _ => e.1.push((*w, *w)),
+            }
+            prev = Some(*r);
         }
         let text: Vec<String> = by
-            .iter()
-            .map(|(r, ws)| {
-                let lo = ws.iter().copied().fold(f64::INFINITY, f64::min);
-                let hi = ws.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            .iter_mut()
+            .map(|(r, (count, runs))| {
+                runs.sort_by(|a, b| a.0.total_cmp(&b.0));
+                let spans: Vec<String> = runs
+                    .iter()
+                    .map(|(lo, hi)| format!("{lo:.2}..{hi:.2}"))
+                    .collect();
                 format!(
-                    "{} at {} speed(s) in {lo:.2}..{hi:.2} rad/s",
+                    "{} at {count} speed(s) in {} rad/s",
                     RubRegime::from_code(*r).map_or("unknown", |r| r.label()),
-                    ws.len()
+                    spans.join(" and ")
                 )
             })
             .collect();
@@ -488,4 +500,40 @@ fn sweep_unit(
         .with("stator", Array::F64(stator))
         .with("regime", Array::I32(regime))
         .with("state", Array::F64(state.to_vec())))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_regime_interrupted_by_another_is_summarised_as_its_separate_stretches() {
+        let (free, partial, annular) = (
+            RubRegime::NoContact.code(),
+            RubRegime::PartialRub.code(),
+            RubRegime::FullAnnularRub.code(),
+        );
+        let sweep = |omegas: Vec<f64>, regime: Vec<i32>| Sweep {
+            rotor: vec![0.0; omegas.len()],
+            stator: vec![0.0; omegas.len()],
+            omegas,
+            regime,
+        };
+        let res = CascadeResult {
+            orders: vec![1.0],
+            up: Some(sweep(
+                vec![100.0, 110.0, 120.0, 130.0, 140.0, 150.0],
+                vec![free, partial, annular, partial, partial, free],
+            )),
+            down: Some(sweep(vec![150.0, 140.0, 130.0], vec![free, free, partial])),
+        };
+        assert_eq!(
+            regime_summary(&res),
+            "run-up: no_contact at 2 speed(s) in 100.00..100.00 and 150.00..150.00 rad/s, \
+             partial_rub at 3 speed(s) in 110.00..110.00 and 130.00..140.00 rad/s, \
+             full_annular_rub at 1 speed(s) in 120.00..120.00 rad/s; \
+             run-down: no_contact at 2 speed(s) in 140.00..150.00 rad/s, \
+             partial_rub at 1 speed(s) in 130.00..130.00 rad/s"
+        );
+    }
 }

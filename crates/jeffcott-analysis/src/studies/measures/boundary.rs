@@ -22,6 +22,18 @@ pub enum BoundaryKind {
     Undetermined,
 }
 
+impl BoundaryKind {
+    /// The verdict in words, as the basin's summary line says it.
+    pub fn words(self) -> &'static str {
+        match self {
+            BoundaryKind::NoBoundary => "no boundary",
+            BoundaryKind::Smooth => "boundary smooth",
+            BoundaryKind::Fractal => "boundary fractal",
+            BoundaryKind::Undetermined => "boundary undetermined",
+        }
+    }
+}
+
 /// A boundary's class with the evidence.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct BoundaryClassification {

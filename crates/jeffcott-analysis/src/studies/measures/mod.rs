@@ -402,7 +402,7 @@ impl BasinMetrics {
             });
         }
         if let Some(b) = &self.boundary {
-            parts.push(format!("boundary {:?}", b.kind).to_lowercase());
+            parts.push(b.kind.words().into());
         }
         parts.join(", ")
     }
