@@ -169,6 +169,40 @@ fn config_file_and_param_overrides_reach_the_model() {
 }
 
 #[test]
+fn a_config_file_of_a_machine_as_measured_reaches_the_model_as_its_frequencies() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = dir.path().join("machine.toml");
+    // Integers are numbers too; the keys in any order.
+    std::fs::write(
+        &cfg,
+        "c_r = 170\nk_r = 600000\nm_r = 30\nunbalance = 0.024\n",
+    )
+    .unwrap();
+    let out = dir.path().join("run");
+    let args = [
+        "simulate",
+        "--omega",
+        "133",
+        "--config",
+        cfg.to_str().unwrap(),
+    ];
+    let mut all = args.to_vec();
+    let out_s = out.to_str().unwrap();
+    all.extend(["--periods", "2", "--no-plot", "--quiet", "--out", out_s]);
+    ok(&jeffcott(&all));
+    let s: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    let wr = (600000.0f64 / 30.0).sqrt();
+    assert_eq!(s["params"]["omega_r"], wr);
+    assert_eq!(s["params"]["xi_r"], 170.0 / (2.0 * 30.0 * wr));
+    assert_eq!(s["params"]["e"], 0.024 / 30.0);
+    std::fs::write(&cfg, "k_r = \"stiff\"\n").unwrap();
+    assert_rejected(&args, &["k_r", "machine.toml", "number"]);
+    std::fs::write(&cfg, "k_r = 6e5\nomega_r = 141\n").unwrap();
+    assert_rejected(&args, &["k_r", "omega_r", "give one of"]);
+}
+
+#[test]
 fn ensemble_writes_poincare_status_lanes_and_run_json() {
     let (_dir, out, o) = jeffcott_temp(
         "ens",
