@@ -173,19 +173,11 @@ fn a_config_file_of_a_machine_as_measured_reaches_the_model_as_its_frequencies()
     let dir = tempfile::tempdir().unwrap();
     let cfg = dir.path().join("machine.toml");
     // Integers are numbers too; the keys in any order.
-    std::fs::write(
-        &cfg,
-        "c_r = 170\nk_r = 600000\nm_r = 30\nunbalance = 0.024\n",
-    )
-    .unwrap();
+    let machine = "c_r = 170\nk_r = 600000\nm_r = 30\nunbalance = 0.024\n";
+    std::fs::write(&cfg, machine).unwrap();
     let out = dir.path().join("run");
-    let args = [
-        "simulate",
-        "--omega",
-        "133",
-        "--config",
-        cfg.to_str().unwrap(),
-    ];
+    let cfg_s = cfg.to_str().unwrap();
+    let args = ["simulate", "--omega", "133", "--config", cfg_s];
     let mut all = args.to_vec();
     let out_s = out.to_str().unwrap();
     all.extend(["--periods", "2", "--no-plot", "--quiet", "--out", out_s]);
