@@ -167,6 +167,21 @@ pub fn const_field_bytes<R: GpuReal>(packed: &R::Consts, k: usize) -> &[u8] {
     }
 }
 
+/// Bytes of the kernel's uniform `SharedConsts` (lane_buffers.wgsl) for the first
+/// lane's packed constants: its 46 reals, two reals of padding to 12 vec4s, then its
+/// four u32.
+pub fn shared_consts_bytes<R: GpuReal>(first: &R::Consts) -> Vec<u8> {
+    let bytes = bytemuck::bytes_of(first);
+    let reals = bytes.len() - 16;
+    let mut out = bytes[..reals].to_vec();
+    out.resize(SHARED_CONSTS_REALS * size_of::<R>(), 0);
+    out.extend_from_slice(&bytes[reals..]);
+    out
+}
+
+/// The reals `SharedConsts` has room for (12 vec4s: the 46 of `LaneConsts` rounded up).
+pub const SHARED_CONSTS_REALS: usize = 48;
+
 /// The mask of [`CONST_FIELDS`] that every lane of `consts` has equal, byte for byte, to
 /// the first lane's (0 for no lanes).
 pub fn shared_fields<R: GpuReal>(consts: &[LaneConsts<R>]) -> u32 {

@@ -131,6 +131,9 @@ struct Buffers {
     slots_cap: u32,
     params: wgpu::Buffer,
     consts: wgpu::Buffer,
+    /// The first lane's constants as the uniform `shared_consts` (the GPU form reads
+    /// the fields every lane shares there).
+    shared_consts: wgpu::Buffer,
     lanes: wgpu::Buffer,
     records: wgpu::Buffer,
     records_staging: wgpu::Buffer,
@@ -140,6 +143,19 @@ struct Buffers {
     tangents: wgpu::Buffer,
     tangents_staging: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
+}
+
+impl Buffers {
+    /// Writes `consts` to the lane constants from slot 0 on, and the first of them to
+    /// the uniform the GPU form reads shared fields from (every lane of a chunk equals
+    /// it in those fields).
+    fn write_consts<R: GpuReal>(&self, queue: &wgpu::Queue, consts: &[R::Consts]) {
+        queue.write_buffer(&self.consts, 0, bytemuck::cast_slice(consts));
+        if let Some(first) = consts.first() {
+            let bytes = layout::shared_consts_bytes::<R>(first);
+            queue.write_buffer(&self.shared_consts, 0, &bytes);
+        }
+    }
 }
 
 /// Where a chunk's read-back goes: its lanes' outcomes and, with the lambda_1 variant,
@@ -339,6 +355,7 @@ impl GpuRunner {
                 (3, rw),
                 (4, rw),
                 (5, rw),
+                (6, wgpu::BufferBindingType::Uniform),
             ],
         )?;
         Ok(pipeline)
@@ -398,6 +415,11 @@ impl GpuRunner {
             wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
         );
         let consts = make("consts", lanes_cap * size_of::<R::Consts>(), storage);
+        let shared_consts = make(
+            "shared consts",
+            layout::shared_consts_bytes::<R>(&bytemuck::Zeroable::zeroed()).len(),
+            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        );
         let lanes = make("lanes", lane_bytes, storage | wgpu::BufferUsages::COPY_SRC);
         let records = make(
             "records",
@@ -451,6 +473,10 @@ impl GpuRunner {
                     binding: 5,
                     resource: tangents.as_entire_binding(),
                 },
+                wgpu::BindGroupEntry {
+                    binding: 6,
+                    resource: shared_consts.as_entire_binding(),
+                },
             ],
         });
         Buffers {
@@ -458,6 +484,7 @@ impl GpuRunner {
             slots_cap,
             params,
             consts,
+            shared_consts,
             lanes,
             records,
             records_staging,
@@ -876,7 +903,7 @@ impl GpuRunner {
             if let Some(t) = tangents {
                 queue.write_buffer(&bufs.tangents, 0, bytemuck::cast_slice(&t[start..end]));
             }
-            queue.write_buffer(&bufs.consts, 0, bytemuck::cast_slice(&packed_consts));
+            bufs.write_consts::<R>(queue, &packed_consts);
             queue.write_buffer(&bufs.lanes, 0, bytemuck::cast_slice(&packed_lanes));
             let mut begin = 0u32;
             while begin < total {

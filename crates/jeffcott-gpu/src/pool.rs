@@ -342,8 +342,7 @@ impl<R: GpuReal> SlotWriter<'_, R> {
             tangents.push(t);
         }
         let b = self.bufs;
-        self.queue
-            .write_buffer(&b.consts, 0, bytemuck::cast_slice(&consts));
+        b.write_consts::<R>(self.queue, &consts);
         self.queue
             .write_buffer(&b.lanes, 0, bytemuck::cast_slice(&lanes));
         if self.lyapunov {
@@ -353,10 +352,9 @@ impl<R: GpuReal> SlotWriter<'_, R> {
         (consts, occupied)
     }
 
-    /// Writes every slot's constants.
+    /// Writes every slot's constants (slot 0 holds the first lane's, also the uniform's).
     fn write_consts(&self, consts: &[R::Consts]) {
-        self.queue
-            .write_buffer(&self.bufs.consts, 0, bytemuck::cast_slice(consts));
+        self.bufs.write_consts::<R>(self.queue, consts);
     }
 
     /// Writes slot `s`: its constants, lane and (lambda_1) tangent.

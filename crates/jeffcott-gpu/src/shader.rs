@@ -221,35 +221,66 @@ pub fn header<R: Real>(v: Variant) -> String {
         line("fn sqrt_rn(x: Real) -> Real { return sqrt(x); }".into());
     }
     let mut s = h;
-    s.push_str(&lane_consts_fn(v.shared_fields));
+    s.push_str(&lane_consts_fn(v.shared_fields, v.consts_each_step));
     let _ = writeln!(s);
     s
 }
 
 /// The kernel's `lane_consts(i)`: lane `i`'s constants, the fields of `mask` read from
-/// the first lane's (see [`Variant::shared_fields`]).
-fn lane_consts_fn(mask: u32) -> String {
+/// the first lane's (see [`Variant::shared_fields`]): from `consts[0]` in the software
+/// form, from the uniform `shared_consts` in the GPU form (`from_uniform`).
+fn lane_consts_fn(mask: u32, from_uniform: bool) -> String {
     use crate::layout::{ALL_FIELDS, CONST_FIELDS};
     let mut f = String::from("fn lane_consts(i: u32) -> LaneConsts {\n");
-    if mask & ALL_FIELDS == ALL_FIELDS {
+    let all = mask & ALL_FIELDS == ALL_FIELDS;
+    if all && !from_uniform {
         f.push_str("    return consts[0];\n}\n");
         return f;
     }
-    f.push_str("    var lc = consts[i];\n");
-    for (k, path) in CONST_FIELDS.iter().enumerate() {
-        if mask & (1 << k) == 0 {
-            continue;
-        }
-        if *path == "n" {
-            for int in ["n", "max_segments", "exact"] {
-                let _ = writeln!(f, "    lc.{int} = consts[0].{int};");
-            }
-        } else {
-            let _ = writeln!(f, "    lc.{path} = consts[0].{path};");
+    f.push_str(if all {
+        "    var lc: LaneConsts;\n"
+    } else {
+        "    var lc = consts[i];\n"
+    });
+    for k in (0..CONST_FIELDS.len()).filter(|k| mask & (1 << k) != 0) {
+        for (path, uniform) in shared_field_parts(k) {
+            let source = if from_uniform {
+                uniform
+            } else {
+                format!("consts[0].{path}")
+            };
+            let _ = writeln!(f, "    lc.{path} = {source};");
         }
     }
     f.push_str("    return lc;\n}\n");
     f
+}
+
+/// The scalar parts of field `k` of [`crate::layout::CONST_FIELDS`]: each one's path in
+/// `LaneConsts` and where `shared_consts` (lane_buffers.wgsl) holds it. The reals are in
+/// the struct's order, so the free-flight map's 29 follow the 17 scalars.
+fn shared_field_parts(k: usize) -> Vec<(String, String)> {
+    use crate::layout::CONST_FIELDS;
+    let real = |r: usize| format!("shared_consts.r[{}].{}", r / 4, ["x", "y", "z", "w"][r % 4]);
+    match CONST_FIELDS[k] {
+        "ff" => {
+            let arrays = [("phi", 16), ("off", 4), ("p", 4), ("q", 4)];
+            let mut parts = Vec::new();
+            for (name, len) in arrays {
+                for j in 0..len {
+                    parts.push((format!("ff.{name}[{j}]"), real(17 + parts.len())));
+                }
+            }
+            parts.push(("ff.omega".into(), real(17 + parts.len())));
+            parts
+        }
+        "n" => ["n", "max_segments", "exact"]
+            .iter()
+            .zip(["x", "y", "z"])
+            .map(|(int, c)| (int.to_string(), format!("shared_consts.ints.{c}")))
+            .collect(),
+        path => vec![(path.into(), real(k))],
+    }
 }
 
 /// The complete kernel source for precision `R` and variant `v`: the header, then

@@ -296,12 +296,13 @@ unsafe fn device_stats(
     let loader =
         offers.then(|| ash::khr::pipeline_executable_properties::Device::new(instance, &device));
     let result = (|| {
-        // The runner's layout: binding 0 the uniform parameters, 1-5 storage buffers.
-        let bindings: Vec<vk::DescriptorSetLayoutBinding> = (0..6)
+        // The runner's layout: bindings 0 (the parameters) and 6 (the shared constants)
+        // uniform, 1-5 storage buffers.
+        let bindings: Vec<vk::DescriptorSetLayoutBinding> = (0..7)
             .map(|b| {
                 vk::DescriptorSetLayoutBinding::default()
                     .binding(b)
-                    .descriptor_type(if b == 0 {
+                    .descriptor_type(if b == 0 || b == 6 {
                         vk::DescriptorType::UNIFORM_BUFFER
                     } else {
                         vk::DescriptorType::STORAGE_BUFFER

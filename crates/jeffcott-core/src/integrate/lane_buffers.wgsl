@@ -32,7 +32,9 @@
 //                                              (lane_entry.wgsl)
 //   lane_consts(i)                             lane i's constants, the fields every
 //                                              lane of the run shares read from the
-//                                              first lane's (shader.rs's Variant)
+//                                              first lane's: `consts[0]` in the
+//                                              software form, `shared_consts` in the
+//                                              GPU form (shader.rs's Variant)
 //   div_rn(a, b), sqrt_rn(x)                   every division and square root: a / b
 //                                              and sqrt(x), in f32 done in f64 where
 //                                              the device has f64 (correctly rounded on
@@ -149,6 +151,20 @@ struct Params {
 // The lambda_1 variant's tangent vector of each lane (one element, untouched, in the
 // plain kernel; the host's explicit bind group layout has it in both variants).
 @group(0) @binding(5) var<storage, read_write> tangents: array<array<Real, STATE_DIM>>;
+
+// The first lane's constants, for the GPU form to read the fields every lane of the run
+// shares (`lane_consts` in the header): a uniform operand costs no register on NVIDIA
+// (a constant-bank operand) and lands in scalar registers on AMD, where a storage load
+// at one address still takes a vector register per invocation. The reals of LaneConsts
+// in their order (`r[k / 4][k % 4]` is real k), then n, max_segments, exact and a pad;
+// vec4s because the uniform space wants array strides of 16 bytes. The software form
+// leaves it alone (lavapipe reloads a uniform at every use).
+struct SharedConsts {
+    r: array<vec4<Real>, 12>,
+    ints: vec4<u32>,
+}
+
+@group(0) @binding(6) var<uniform> shared_consts: SharedConsts;
 
 // ---- helpers standing in for the Real trait and u64 counters ----------------------
 
