@@ -152,14 +152,19 @@ pub const CONST_FIELDS: [&str; 19] = [
 /// Every field of [`CONST_FIELDS`] shared.
 pub const ALL_FIELDS: u32 = (1 << CONST_FIELDS.len()) - 1;
 
+/// A packed `LaneConsts`' bytes and where its reals end (its four u32 follow them).
+fn consts_bytes_and_reals<R: GpuReal>(packed: &R::Consts) -> (&[u8], usize) {
+    let bytes = bytemuck::bytes_of(packed);
+    (bytes, bytes.len() - 4 * size_of::<u32>())
+}
+
 /// The bytes of field `k` of [`CONST_FIELDS`] in a packed `LaneConsts` of precision
 /// `R` (the struct is its 46 reals, then its four u32; the test
 /// `const_fields_name_the_bytes_they_compare_in_both_precisions` ties the names to the
 /// bytes through the WGSL layout).
 pub fn const_field_bytes<R: GpuReal>(packed: &R::Consts, k: usize) -> &[u8] {
     let real = size_of::<R>();
-    let bytes = bytemuck::bytes_of(packed);
-    let reals = bytes.len() - 16;
+    let (bytes, reals) = consts_bytes_and_reals::<R>(packed);
     match k {
         0..=16 => &bytes[k * real..(k + 1) * real],
         17 => &bytes[17 * real..reals],
@@ -169,13 +174,14 @@ pub fn const_field_bytes<R: GpuReal>(packed: &R::Consts, k: usize) -> &[u8] {
 
 /// Bytes of the kernel's uniform `SharedConsts` (lane_buffers.wgsl) for the first
 /// lane's packed constants: its 46 reals, two reals of padding to 12 vec4s, then its
-/// four u32.
+/// four u32, then padding to the struct's alignment.
 pub fn shared_consts_bytes<R: GpuReal>(first: &R::Consts) -> Vec<u8> {
-    let bytes = bytemuck::bytes_of(first);
-    let reals = bytes.len() - 16;
+    let (bytes, reals) = consts_bytes_and_reals::<R>(first);
     let mut out = bytes[..reals].to_vec();
     out.resize(SHARED_CONSTS_REALS * size_of::<R>(), 0);
     out.extend_from_slice(&bytes[reals..]);
+    // The struct's size is a multiple of its alignment, a vec4's (32 bytes in f64).
+    out.resize(out.len().next_multiple_of(4 * size_of::<R>()), 0);
     out
 }
 
@@ -392,6 +398,19 @@ mod tests {
                         ("pad0", offset_of!(Params, pad)),
                         ("pad1", offset_of!(Params, pad) + 4),
                         ("pad2", offset_of!(Params, pad) + 8),
+                    ],
+                ),
+            );
+            // The uniform the GPU form reads shared fields from: the host's bytes have
+            // its size, and the four u32 where the WGSL has them.
+            let uniform = shared_consts_bytes::<$r>(&GpuLaneConsts::default()).len();
+            check(
+                "SharedConsts",
+                (
+                    uniform,
+                    &[
+                        ("r", 0),
+                        ("ints", SHARED_CONSTS_REALS * size_of::<$r>()),
                     ],
                 ),
             );
