@@ -15,7 +15,8 @@ and a step that fails is recorded and the next one runs:
 4a. anatomy: where the GPU's time per lane-step goes, at 1M lanes in f64 and f32: the
    kernel, its free-flight twin and each part of it timed alone on the same lanes
    (`jeffcott bench --anatomy all`, jeffcott-gpu's anatomy.rs), then the kernel in its
-   other form of lane constants (JEFFCOTT_GPU_CONSTS).
+   other form of lane constants (JEFFCOTT_GPU_CONSTS), and in the GPU form with the
+   lean path's forcing phasor evaluated rather than looked up (JEFFCOTT_GPU_FORCING).
 5. standard job (docs/performance.md: 1024 lanes at W = 133, x_r0 evenly over
    [-4, 4] mm, 200 periods from t = 0, error = worst lane's last Poincare position
    against a reference good to ~1e-9 m), replicated 128 times so it fills the GPU (the
@@ -388,6 +389,12 @@ class Campaign:
         other = "once" if "read at every sub-step" in line else "each-step"
         for r in bench("other", ["--twin-at", 0], {"JEFFCOTT_GPU_CONSTS": other}):
             r["form"] = f"JEFFCOTT_GPU_CONSTS={other}"
+            rows.append(r)
+        # The GPU form's lean path with the forcing phasor evaluated instead of looked up
+        # (shader.rs's Variant::forcing_table): which of the two this GPU runs faster.
+        gpu_form = {} if other == "once" else {"JEFFCOTT_GPU_CONSTS": "each-step"}
+        for r in bench("polynomial", ["--twin-at", 0], {**gpu_form, "JEFFCOTT_GPU_FORCING": "polynomial"}):
+            r["form"] = "JEFFCOTT_GPU_FORCING=polynomial"
             rows.append(r)
         return {"rows": rows}
 

@@ -744,7 +744,8 @@ fn the_kernel_in_either_form_with_shared_or_per_lane_constants_gives_the_cpus_bi
     // form by default; JEFFCOTT_GPU_CONSTS runs the other, so CI's lavapipe checks both
     // forms, with and without the exact free-flight map, in both precisions, for lanes
     // that share their constants (one speed: Variant::shared_fields) and for lanes that
-    // share only some (a speed and a friction coefficient per lane).
+    // share only some (a speed and a friction coefficient per lane). The GPU form's lean
+    // path runs with its forcing table and, JEFFCOTT_GPU_FORCING=polynomial, without.
     let Some(runner) = runner_for::<f64>() else {
         return;
     };
@@ -769,9 +770,10 @@ fn the_kernel_in_either_form_with_shared_or_per_lane_constants_gives_the_cpus_bi
         })
         .collect();
     std::fs::write(&per_lane, format!("omega,mu,x_r\n{}\n", rows.join("\n"))).unwrap();
-    let run = |backend: &str, precision: &str, lanes: &str, extra: &str, consts: &str| {
+    let run = |backend: &str, precision: &str, lanes: &str, extra: &str, form: (&str, &str)| {
+        let (consts, forcing) = form;
         let out = tmp.path().join(format!(
-            "{backend}-{precision}-{}-{}-{consts}",
+            "{backend}-{precision}-{}-{}-{consts}-{forcing}",
             lanes.len(),
             extra.len()
         ));
@@ -782,6 +784,7 @@ fn the_kernel_in_either_form_with_shared_or_per_lane_constants_gives_the_cpus_bi
                 out.display()
             )))
             .env(jeffcott_gpu::device::CONSTS_VAR, consts)
+            .env(jeffcott_gpu::device::FORCING_VAR, forcing)
             .output()
             .unwrap();
         common::ok(&o);
@@ -794,12 +797,19 @@ fn the_kernel_in_either_form_with_shared_or_per_lane_constants_gives_the_cpus_bi
     for lanes in &tables {
         for precision in ["f64", "f32"] {
             for extra in ["", "--exact-free-flight --contact-substeps 4"] {
-                let cpu = run("cpu", precision, lanes, extra, "");
-                for consts in ["once", "each-step"] {
-                    let gpu = run("gpu", precision, lanes, extra, consts);
+                let cpu = run("cpu", precision, lanes, extra, ("", ""));
+                // The GPU form's lean path with its forcing table (both lane tables share
+                // N and phi0) and with the polynomial.
+                let forms = [
+                    ("once", ""),
+                    ("each-step", "table"),
+                    ("each-step", "polynomial"),
+                ];
+                for form in forms {
+                    let gpu = run("gpu", precision, lanes, extra, form);
                     assert!(
                         gpu == cpu,
-                        "{precision} {extra} {lanes} with {consts}: the GPU's lanes differ from the CPU's"
+                        "{precision} {extra} {lanes} with {form:?}: the GPU's lanes differ from the CPU's"
                     );
                 }
             }

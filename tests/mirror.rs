@@ -1748,7 +1748,15 @@ fn macro_step_on_the_gpu_equals_the_rust_function_bit_for_bit() {
 #[test]
 fn every_mirrored_function_has_a_probe() {
     use jeffcott_core::integrate::lane::WGSL_FILES;
-    let kernel_only = ["scan_sample", "macro_step_begin", "macro_step_end"];
+    // Kernel-only pieces: free_flight_map and rk4_stages are the bodies of
+    // free_flight_step and rk4_substep (whose probes run them) with the phasors given.
+    let kernel_only = [
+        "scan_sample",
+        "macro_step_begin",
+        "macro_step_end",
+        "free_flight_map",
+        "rk4_stages",
+    ];
     let this = include_str!("mirror.rs");
     let mut mirrored = Vec::new();
     for (path, text) in WGSL_FILES {

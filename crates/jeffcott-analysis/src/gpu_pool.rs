@@ -180,7 +180,9 @@ pub fn run_early_gpu<R: GpuReal>(
         restarts: Vec::new(),
     };
     let shared = shared_fields::<R>(spec);
-    runner.run_pool::<R>(slots, (lambda1, exact, shared), max_periods, &mut host)?;
+    let n_steps = spec.stepper.steps_per_period;
+    let kernel = (lambda1, exact, shared, n_steps);
+    runner.run_pool::<R>(slots, kernel, max_periods, &mut host)?;
     Ok(early_result(spec, host.ended, lambda1))
 }
 

@@ -188,6 +188,26 @@ pub fn consts_each_step(software: bool) -> Result<bool> {
     }
 }
 
+/// The environment variable that picks how the GPU form's lean free-flight path gets
+/// the unbalance phasor where the run's lanes share N and phi0: `table` (the default,
+/// looked up; `shader::Variant::forcing_table`) or `polynomial` (evaluated, as
+/// everywhere else). Both give the same bits.
+pub const FORCING_VAR: &str = "JEFFCOTT_GPU_FORCING";
+
+/// Whether the lean path may look its phasors up: `JEFFCOTT_GPU_FORCING` if set, else
+/// yes.
+pub fn forcing_table() -> Result<bool> {
+    match std::env::var(FORCING_VAR).ok().as_deref() {
+        None | Some("") | Some("table") => Ok(true),
+        Some("polynomial") => Ok(false),
+        Some(other) => Err(Error::invalid(
+            FORCING_VAR,
+            other,
+            "must be table or polynomial",
+        )),
+    }
+}
+
 /// A wgpu device and queue with what the runner needs to know about them.
 pub struct GpuDevice {
     device: wgpu::Device,
@@ -195,6 +215,7 @@ pub struct GpuDevice {
     summary: AdapterSummary,
     shader_path: ShaderPath,
     consts_each_step: bool,
+    forcing_table: bool,
     lost: Arc<AtomicBool>,
     errors: Arc<Mutex<Vec<String>>>,
 }
@@ -254,6 +275,7 @@ impl GpuDevice {
         let summary = AdapterSummary::of(adapter);
         let shader_path = shader_path(&summary)?;
         let consts_each_step = consts_each_step(summary.software)?;
+        let forcing_table = forcing_table()?;
         let mut required_features = wgpu::Features::empty();
         if summary.f64 {
             required_features |= wgpu::Features::SHADER_F64;
@@ -291,6 +313,7 @@ impl GpuDevice {
             summary,
             shader_path,
             consts_each_step,
+            forcing_table,
             lost,
             errors,
         })
@@ -319,6 +342,11 @@ impl GpuDevice {
     /// Whether the kernel reads a lane's constants at every sub-step ([`CONSTS_VAR`]).
     pub fn consts_each_step(&self) -> bool {
         self.consts_each_step
+    }
+
+    /// Whether the lean path may take a forcing table ([`FORCING_VAR`]).
+    pub fn forcing_table(&self) -> bool {
+        self.forcing_table
     }
 
     /// A compute pipeline for entry point `entry` (workgroup size `workgroup`) of the

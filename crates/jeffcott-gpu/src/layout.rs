@@ -122,6 +122,32 @@ macro_rules! gpu_layout {
 gpu_layout!(layout_f32, f32);
 gpu_layout!(layout_f64, f64);
 
+/// How the kernel's group-0 bindings are bound (lane_buffers.wgsl): the parameters (0)
+/// and the shared constants (6) as uniforms; the constants (1) and the forcing table (7)
+/// read-only storage; lanes, records, unfinished counts and tangents (2-5) read-write
+/// storage. The runner's pipeline layout and `info --kernel-stats`'s both follow it.
+pub const BINDINGS: [(u32, Binding); 8] = [
+    (0, Binding::Uniform),
+    (1, Binding::ReadOnly),
+    (2, Binding::ReadWrite),
+    (3, Binding::ReadWrite),
+    (4, Binding::ReadWrite),
+    (5, Binding::ReadWrite),
+    (6, Binding::Uniform),
+    (7, Binding::ReadOnly),
+];
+
+/// A kernel binding's kind of buffer (see [`BINDINGS`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Binding {
+    /// A uniform buffer.
+    Uniform,
+    /// A storage buffer the kernel only reads.
+    ReadOnly,
+    /// A storage buffer the kernel reads and writes.
+    ReadWrite,
+}
+
 /// The fields of the GPU `LaneConsts` that a lane kernel may read at one address for
 /// every lane (`shader::Variant::shared_fields`, bit `k` for field `k`), as WGSL paths
 /// from a `LaneConsts` value, in the struct's order: each equation coefficient, each
@@ -183,6 +209,50 @@ pub fn shared_consts_bytes<R: GpuReal>(first: &R::Consts) -> Vec<u8> {
     // The struct's size is a multiple of its alignment, a vec4's (32 bytes in f64).
     out.resize(out.len().next_multiple_of(4 * size_of::<R>()), 0);
     out
+}
+
+/// The index of field `name` in [`CONST_FIELDS`] (a name of the list).
+const fn field(name: &str) -> usize {
+    let mut k = 0;
+    while k < CONST_FIELDS.len() {
+        let (a, b) = (CONST_FIELDS[k].as_bytes(), name.as_bytes());
+        let mut i = 0;
+        while i < a.len() && i < b.len() && a[i] == b[i] {
+            i += 1;
+        }
+        if i == a.len() && i == b.len() {
+            return k;
+        }
+        k += 1;
+    }
+    panic!("no such field in CONST_FIELDS");
+}
+
+/// The fields the unbalance phasor depends on (N, its inverse and phi0): a run whose
+/// lanes share them can take the lean path's forcing table
+/// ([`crate::shader::Variant::forcing_table`]).
+pub const FORCING_FIELDS: u32 = (1 << field("inv_n")) | (1 << field("phase0")) | (1 << field("n"));
+
+/// The lean free-flight path's forcing table for lanes with the packed constants
+/// `first`'s N and phi0 (lane_buffers.wgsl's `forcing_table`): entry 2k + j is
+/// `lane::forcing_phasor` at fraction j / 2 of macro step k, k < N, and entry 2N the
+/// phasor at the end of step N - 1. Entry 2k + 2 serves as the end of step k and the
+/// start of step k + 1: k + 1 and k + 0 are the same real for every N the stepper
+/// accepts (<= 1e6 < 2^24, so the conversion of k and the sum are exact), which the
+/// test `forcing_table_holds_the_polynomials_bits_in_both_precisions` checks.
+pub fn forcing_table<R: GpuReal>(first: &R::Consts) -> Vec<[R; 2]> {
+    use jeffcott_core::integrate::forcing::phasor_turns;
+    let real = |k: usize| bytemuck::pod_read_unaligned::<R>(const_field_bytes::<R>(first, k));
+    let (inv_n, phase0) = (real(field("inv_n")), real(field("phase0")));
+    let n: u32 = bytemuck::pod_read_unaligned(&const_field_bytes::<R>(first, field("n"))[..4]);
+    // lane::forcing_phasor's polynomial path, the same expression.
+    let at = |k: u32, sigma: f64| {
+        let (c, s) = phasor_turns((R::lit(k as f64) + R::lit(sigma)) * inv_n - phase0);
+        [c, s]
+    };
+    let mut t: Vec<[R; 2]> = (0..n).flat_map(|k| [at(k, 0.0), at(k, 0.5)]).collect();
+    t.push(at(n.saturating_sub(1), 1.0));
+    t
 }
 
 /// The reals `SharedConsts` has room for (12 vec4s: the 46 of `LaneConsts` rounded up).
@@ -507,6 +577,45 @@ mod tests {
         mu.mu = 0.2;
         let mu = LaneConsts::<R>::new(&mu, 133.0, &cfg);
         assert_eq!(shared_fields(&[base, mu]), ALL_FIELDS & !(1 << 8));
+    }
+
+    /// Every entry of the lean path's table is `lane::forcing_phasor`'s polynomial at
+    /// its step and fraction, to the bit, and entry 2k + 2 is also step k's end: for the
+    /// default N, an odd one, the stepper's smallest and largest, and phi0 != 0.
+    fn check_forcing_table<R: GpuReal>() {
+        use jeffcott_core::integrate::forcing::phasor_turns;
+        let p = jeffcott_core::model::Params::default();
+        let bits = |v: [R; 2]| v.map(|r| r.to_f64().to_bits());
+        for (n, phase) in [(500, 0.0), (777, 1.25), (8, 0.5), (1_000_000, 2.0)] {
+            let cfg = jeffcott_core::integrate::lane::StepperConfig {
+                steps_per_period: n,
+                ..Default::default()
+            };
+            let mut lc = LaneConsts::<R>::new(&p, 133.0, &cfg);
+            lc.phase0 = R::lit(phase / std::f64::consts::TAU);
+            let t = forcing_table::<R>(&R::pack_consts(&lc));
+            assert_eq!(t.len(), 2 * n as usize + 1);
+            let poly = |k: u32, sigma: f64| {
+                let (c, s) =
+                    phasor_turns((R::lit(k as f64) + R::lit(sigma)) * lc.inv_n - lc.phase0);
+                [c, s]
+            };
+            let step = (n as usize / 997).max(1);
+            for k in (0..n).step_by(step).chain([n - 1]) {
+                let at = 2 * k as usize;
+                assert_eq!(bits(t[at]), bits(poly(k, 0.0)), "N {n}, k {k}, start");
+                assert_eq!(bits(t[at + 1]), bits(poly(k, 0.5)), "N {n}, k {k}, middle");
+                assert_eq!(bits(t[at + 2]), bits(poly(k, 1.0)), "N {n}, k {k}, end");
+            }
+        }
+        // A run shares the table's fields when it shares N and phi0: a speed sweep does.
+        assert_eq!(crate::stats::SPEED_SWEEP & FORCING_FIELDS, FORCING_FIELDS);
+    }
+
+    #[test]
+    fn forcing_table_holds_the_polynomials_bits_in_both_precisions() {
+        check_forcing_table::<f32>();
+        check_forcing_table::<f64>();
     }
 
     #[test]

@@ -142,6 +142,10 @@ struct Buffers {
     unfinished_staging: wgpu::Buffer,
     tangents: wgpu::Buffer,
     tangents_staging: wgpu::Buffer,
+    /// The lean path's forcing table (`forcing_table`: entries of two reals; one
+    /// unused entry where the kernel has none).
+    forcing: wgpu::Buffer,
+    forcing_cap: usize,
     bind_group: wgpu::BindGroup,
 }
 
@@ -149,12 +153,31 @@ impl Buffers {
     /// Writes `consts` to the lane constants from slot 0 on, and the first of them to
     /// the uniform the GPU form reads shared fields from (every lane of a chunk equals
     /// it in those fields).
-    fn write_consts<R: GpuReal>(&self, queue: &wgpu::Queue, consts: &[R::Consts]) {
+    /// With a forcing table (`forcing_cap` > 1) it writes the first lane's too (every
+    /// lane of the run shares its N and phi0).
+    /// An error where the table does not fit (a slot pool given one N and filled with
+    /// lanes of another).
+    fn write_consts<R: GpuReal>(&self, queue: &wgpu::Queue, consts: &[R::Consts]) -> Result<()> {
         queue.write_buffer(&self.consts, 0, bytemuck::cast_slice(consts));
         if let Some(first) = consts.first() {
             let bytes = layout::shared_consts_bytes::<R>(first);
             queue.write_buffer(&self.shared_consts, 0, &bytes);
+            if self.forcing_cap > 1 {
+                let table = layout::forcing_table::<R>(first);
+                if table.len() > self.forcing_cap {
+                    return Err(Error::invalid(
+                        "steps-per-period",
+                        (table.len() - 1) / 2,
+                        format!(
+                            "exceeds the {} the kernel's buffers were made for",
+                            (self.forcing_cap - 1) / 2
+                        ),
+                    ));
+                }
+                queue.write_buffer(&self.forcing, 0, bytemuck::cast_slice(&table));
+            }
         }
+        Ok(())
     }
 }
 
@@ -281,12 +304,25 @@ impl GpuRunner {
     /// The kernel this runner's device runs: `lyapunov` or not, with the exact
     /// free-flight step or not, reading the constants' fields of mask `shared` at one
     /// address for every lane, f32's division and sqrt through f64 where the device has
-    /// SHADER_F64 ([`shader::Variant`]).
+    /// SHADER_F64, and the lean path's forcing table where the lanes share N and phi0
+    /// ([`shader::Variant`]).
     pub fn kernel_variant(&self, lyapunov: bool, exact: bool, shared: u32) -> shader::Variant {
+        let table = layout::FORCING_FIELDS;
         shader::Variant::on_device(lyapunov, self.gpu.supports_f64())
             .with_exact_free_flight(exact)
             .with_consts_each_step(self.gpu.consts_each_step())
             .with_shared_fields(shared)
+            .with_forcing_table(self.gpu.forcing_table() && shared & table == table)
+    }
+
+    /// Entries of the forcing table a run of kernel `key` with `n` macro steps per
+    /// period needs (2N + 1; 1, an unused one, where its kernel has no table).
+    fn forcing_len(&self, (lyapunov, exact, shared): KernelKey, n: u32) -> usize {
+        if self.kernel_variant(lyapunov, exact, shared).forcing_table {
+            2 * n as usize + 1
+        } else {
+            1
+        }
     }
 
     fn slot<R: GpuReal>(&self, key: KernelKey) -> Result<KernelSlot> {
@@ -341,22 +377,21 @@ impl GpuRunner {
     ) -> Result<wgpu::ComputePipeline> {
         // An explicit layout, the same for both variants: the plain kernel never touches
         // `tangents` (binding 5), and an automatic layout might or might not list it.
-        let rw = wgpu::BufferBindingType::Storage { read_only: false };
+        let bindings = layout::BINDINGS.map(|(b, kind)| {
+            let ty = match kind {
+                layout::Binding::Uniform => wgpu::BufferBindingType::Uniform,
+                layout::Binding::ReadOnly => wgpu::BufferBindingType::Storage { read_only: true },
+                layout::Binding::ReadWrite => wgpu::BufferBindingType::Storage { read_only: false },
+            };
+            (b, ty)
+        });
         let (pipeline, _) = self.gpu.compute_pipeline(
             label,
             source,
             shader::capabilities::<R>(v),
             entry,
             (shader::WORKGROUP_SIZE, 1, 1),
-            &[
-                (0, wgpu::BufferBindingType::Uniform),
-                (1, wgpu::BufferBindingType::Storage { read_only: true }),
-                (2, rw),
-                (3, rw),
-                (4, rw),
-                (5, rw),
-                (6, wgpu::BufferBindingType::Uniform),
-            ],
+            &bindings,
         )?;
         Ok(pipeline)
     }
@@ -392,8 +427,7 @@ impl GpuRunner {
     fn buffers<R: GpuReal>(
         &self,
         pipeline: &wgpu::ComputePipeline,
-        lanes_cap: usize,
-        slots_cap: u32,
+        (lanes_cap, slots_cap, forcing_cap): (usize, u32, usize),
         rec_dim: usize,
     ) -> Buffers {
         let device = self.gpu.device();
@@ -445,6 +479,7 @@ impl GpuRunner {
             storage | wgpu::BufferUsages::COPY_SRC,
         );
         let tangents_staging = make("tangents staging", tangent_bytes, staging);
+        let forcing = make("forcing table", forcing_cap * 2 * size_of::<R>(), storage);
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("lanes"),
             layout: &pipeline.get_bind_group_layout(0),
@@ -477,6 +512,10 @@ impl GpuRunner {
                     binding: 6,
                     resource: shared_consts.as_entire_binding(),
                 },
+                wgpu::BindGroupEntry {
+                    binding: 7,
+                    resource: forcing.as_entire_binding(),
+                },
             ],
         });
         Buffers {
@@ -493,6 +532,8 @@ impl GpuRunner {
             unfinished_staging,
             tangents,
             tangents_staging,
+            forcing,
+            forcing_cap,
             bind_group,
         }
     }
@@ -609,8 +650,7 @@ impl GpuRunner {
         let slots = schedule.periods_per_slice.min(total);
         let bufs = self.buffers::<R>(
             &pipeline,
-            chunk.min(consts.len()),
-            slots,
+            (chunk.min(consts.len()), slots, 1),
             shader::record_dim(false),
         );
         let start = std::time::Instant::now();
@@ -815,7 +855,8 @@ impl GpuRunner {
 
         let lanes_cap = chunk.min(n_total);
         let key = (lyapunov, exact, shared);
-        self.with_kernel::<R, _>(key, lanes_cap, slots, |pipeline, bufs| {
+        let forcing = self.forcing_len(key, consts[0].n);
+        self.with_kernel::<R, _>(key, (lanes_cap, slots, forcing), |pipeline, bufs| {
             self.run_chunks(
                 pipeline,
                 bufs,
@@ -830,13 +871,13 @@ impl GpuRunner {
     }
 
     /// Runs `f` with this variant's pipeline (built on first use) and buffers for at
-    /// least `lanes_cap` lanes and `slots_cap` periods per slice (grown where smaller),
-    /// holding the kernel's lock.
+    /// least `lanes_cap` lanes, `slots_cap` periods per slice and `forcing_cap` entries
+    /// of the forcing table ([`GpuRunner::forcing_len`]; grown where smaller), holding
+    /// the kernel's lock.
     fn with_kernel<R: GpuReal, T>(
         &self,
         key: KernelKey,
-        lanes_cap: usize,
-        slots_cap: u32,
+        (lanes_cap, slots_cap, forcing_cap): (usize, u32, usize),
         f: impl FnOnce(&wgpu::ComputePipeline, &Buffers) -> Result<T>,
     ) -> Result<T> {
         let rec_dim = shader::record_dim(key.0);
@@ -853,14 +894,13 @@ impl GpuRunner {
         let kernel = guard.as_mut().ok_or_else(|| Error::Gpu {
             message: "pipeline cache is empty".into(),
         })?;
-        let fits = kernel
-            .buffers
-            .as_ref()
-            .is_some_and(|b| b.lanes_cap >= lanes_cap && b.slots_cap >= slots_cap);
+        let fits = kernel.buffers.as_ref().is_some_and(|b| {
+            b.lanes_cap >= lanes_cap && b.slots_cap >= slots_cap && b.forcing_cap >= forcing_cap
+        });
         if !fits {
             kernel.buffers = None; // free the old ones first
-            kernel.buffers =
-                Some(self.buffers::<R>(&kernel.pipeline, lanes_cap, slots_cap, rec_dim));
+            let caps = (lanes_cap, slots_cap, forcing_cap);
+            kernel.buffers = Some(self.buffers::<R>(&kernel.pipeline, caps, rec_dim));
         }
         match (&kernel.pipeline, &kernel.buffers) {
             (p, Some(b)) => f(p, b),
@@ -903,7 +943,7 @@ impl GpuRunner {
             if let Some(t) = tangents {
                 queue.write_buffer(&bufs.tangents, 0, bytemuck::cast_slice(&t[start..end]));
             }
-            bufs.write_consts::<R>(queue, &packed_consts);
+            bufs.write_consts::<R>(queue, &packed_consts)?;
             queue.write_buffer(&bufs.lanes, 0, bytemuck::cast_slice(&packed_lanes));
             let mut begin = 0u32;
             while begin < total {

@@ -62,11 +62,12 @@ impl GpuRunner {
     /// ([`crate::layout::shared_fields`]; every lane the host fills must have those
     /// fields equal, or the run ends with an error), in time slices of at most
     /// `max_periods` forcing periods, until `host` says it is done (see the module docs).
-    /// Returns the number of dispatches.
+    /// `n` is the lanes' macro steps per period (the forcing table's size where the
+    /// kernel takes one; a lane of more is an error). Returns the number of dispatches.
     pub fn run_pool<R: GpuReal>(
         &self,
         slots: usize,
-        (lyapunov, exact, shared): (bool, bool, u32),
+        (lyapunov, exact, shared, n): (bool, bool, u32, u32),
         max_periods: u32,
         host: &mut dyn PoolHost<R>,
     ) -> Result<u64> {
@@ -86,7 +87,8 @@ impl GpuRunner {
             ));
         }
         let key = (lyapunov, exact, shared);
-        self.with_kernel::<R, _>(key, slots, max_periods, |pipeline, bufs| {
+        let caps = (slots, max_periods, self.forcing_len(key, n));
+        self.with_kernel::<R, _>(key, caps, |pipeline, bufs| {
             self.pool_slices(pipeline, bufs, slots, (lyapunov, shared), max_periods, host)
         })
     }
@@ -109,7 +111,7 @@ impl GpuRunner {
         };
         // The pool's period count: every slot's `Lane::period` at the next slice's start.
         let mut period = 0u32;
-        let (mut consts, mut occupied) = w.fill_all(slots, host);
+        let (mut consts, mut occupied) = w.fill_all(slots, host)?;
         // With shared fields the kernel reads slot 0's for every slot: each lane's must
         // equal the first lane's, and an empty slot holds the first lane's constants
         // (it is told apart by its frozen lane), so that slot 0 always holds them.
@@ -126,7 +128,7 @@ impl GpuRunner {
             for (s, c) in consts.iter_mut().enumerate() {
                 share_consts::<R>(shared, first, s, occupied[s], c)?;
             }
-            w.write_consts(&consts);
+            w.write_consts(&consts)?;
         }
         // Slots dispatched: those below `active` (the rest are empty).
         let mut active = slots;
@@ -328,7 +330,12 @@ struct SlotWriter<'a, R> {
 impl<R: GpuReal> SlotWriter<'_, R> {
     /// Fills every slot from `host` at period 0 and writes them all at once: the slots'
     /// constants and which are occupied.
-    fn fill_all(&self, slots: usize, host: &mut dyn PoolHost<R>) -> (Vec<R::Consts>, Vec<bool>) {
+    #[allow(clippy::type_complexity)]
+    fn fill_all(
+        &self,
+        slots: usize,
+        host: &mut dyn PoolHost<R>,
+    ) -> Result<(Vec<R::Consts>, Vec<bool>)> {
         let mut consts = Vec::with_capacity(slots);
         let mut lanes = Vec::with_capacity(slots);
         let mut tangents = Vec::with_capacity(slots);
@@ -342,19 +349,19 @@ impl<R: GpuReal> SlotWriter<'_, R> {
             tangents.push(t);
         }
         let b = self.bufs;
-        b.write_consts::<R>(self.queue, &consts);
+        b.write_consts::<R>(self.queue, &consts)?;
         self.queue
             .write_buffer(&b.lanes, 0, bytemuck::cast_slice(&lanes));
         if self.lyapunov {
             self.queue
                 .write_buffer(&b.tangents, 0, bytemuck::cast_slice(&tangents));
         }
-        (consts, occupied)
+        Ok((consts, occupied))
     }
 
     /// Writes every slot's constants (slot 0 holds the first lane's, also the uniform's).
-    fn write_consts(&self, consts: &[R::Consts]) {
-        self.bufs.write_consts::<R>(self.queue, consts);
+    fn write_consts(&self, consts: &[R::Consts]) -> Result<()> {
+        self.bufs.write_consts::<R>(self.queue, consts)
     }
 
     /// Writes slot `s`: its constants, lane and (lambda_1) tangent.

@@ -107,6 +107,12 @@ pub struct Variant {
     /// across the run's lanes ([`crate::layout::shared_fields`]): all of them in a
     /// basin or the standard job, all but the speed's in a speed sweep.
     pub shared_fields: u32,
+    /// The GPU form's lean free-flight path looks the unbalance phasor up in a table
+    /// (`FORCING_TABLE` in the header; the binding `forcing_table`, written by the
+    /// runner from [`crate::layout::forcing_table`]) instead of evaluating its polynomial
+    /// three times a macro step: for runs whose lanes share N and phi0
+    /// ([`crate::layout::FORCING_FIELDS`]). The same bits either way.
+    pub forcing_table: bool,
 }
 
 impl Variant {
@@ -119,6 +125,7 @@ impl Variant {
             exact_free_flight: false,
             consts_each_step: false,
             shared_fields: 0,
+            forcing_table: false,
         }
     }
 
@@ -139,6 +146,15 @@ impl Variant {
         }
     }
 
+    /// This variant with the lean path's forcing table on or off (on only in the GPU
+    /// form and without lambda_1, which have the lean path).
+    pub fn with_forcing_table(self, on: bool) -> Self {
+        Self {
+            forcing_table: on && self.consts_each_step && !self.lyapunov,
+            ..self
+        }
+    }
+
     /// This variant with the exact free-flight step on or off.
     pub fn with_exact_free_flight(self, on: bool) -> Self {
         Self {
@@ -154,6 +170,7 @@ impl Variant {
         exact_free_flight: false,
         consts_each_step: false,
         shared_fields: 0,
+        forcing_table: false,
     };
 
     /// True when precision `R`'s kernel uses f64 arithmetic (and needs FLOAT64).
@@ -208,6 +225,7 @@ pub fn header<R: Real>(v: Variant) -> String {
         "const CONSTS_EACH_STEP: bool = {};",
         v.consts_each_step
     ));
+    line(format!("const FORCING_TABLE: bool = {};", v.forcing_table));
     for (name, value) in float_constants::<R>() {
         line(format!("const {name}: Real = {};", float_lit(value)));
     }
@@ -385,13 +403,18 @@ mod tests {
                 for exact_free_flight in [false, true] {
                     for consts_each_step in [false, true] {
                         for shared_fields in [0, 1 << 4, crate::layout::ALL_FIELDS] {
-                            v.push(Variant {
+                            let v0 = Variant {
                                 lyapunov,
                                 f32_through_f64,
                                 exact_free_flight,
                                 consts_each_step,
                                 shared_fields,
-                            });
+                                forcing_table: false,
+                            };
+                            v.push(v0);
+                            if v0.with_forcing_table(true).forcing_table {
+                                v.push(v0.with_forcing_table(true));
+                            }
                         }
                     }
                 }
@@ -718,7 +741,7 @@ mod tests {
                     include_str!("../../jeffcott-core/src/integrate/free_flight.rs"),
                 )),
                 mirrored: &["free_flight_step", "free_flight_tangent"],
-                kernel_only: &[],
+                kernel_only: &["free_flight_map"],
             },
             Mirror {
                 wgsl: "integrate/lane.wgsl",
@@ -730,7 +753,7 @@ mod tests {
                     "macro_step",
                     "trial_tangent",
                 ],
-                kernel_only: &["macro_step_begin", "macro_step_end"],
+                kernel_only: &["rk4_stages", "macro_step_begin", "macro_step_end"],
             },
             Mirror {
                 wgsl: "integrate/lane_entry.wgsl",
@@ -743,6 +766,7 @@ mod tests {
                     "advance_held",
                     "advance_buffered",
                     "lean_free_flight",
+                    "lean_phasor",
                     "in_bounds",
                     "state_finite",
                     "state_reach",

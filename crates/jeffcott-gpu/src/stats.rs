@@ -70,7 +70,8 @@ fn vk_err(what: &str) -> impl Fn(vk::Result) -> String + '_ {
 /// The kernel variants a device runs (see [`crate::GpuRunner`]): f32, and with f64 the
 /// f64 kernel and the f32 one with the driver's own division and sqrt (what a device
 /// without f64 runs), each plain and with lambda_1, with and without the exact
-/// free-flight step; an error (not a panic: the caller's Vulkan handles are live) when
+/// free-flight step, with the forcing table where the runner would take it
+/// (`JEFFCOTT_GPU_FORCING`); an error (not a panic: the caller's Vulkan handles are live) when
 /// one does not compile.
 /// Then each part of the kernel's anatomy (`crate::anatomy`) in the plain kernel's
 /// precisions, so that a part's registers can be set beside the whole kernel's.
@@ -81,7 +82,7 @@ fn variants(has_f64: bool, each_step: bool) -> Result<Vec<Compiled>, String> {
             &module,
             &info,
             shader::ENTRY_POINT,
-            &[0, 1, 2, 3, 4, 5],
+            &binding_numbers(),
         )?;
         Ok((shader::ENTRY_POINT.to_string(), w))
     }
@@ -89,13 +90,20 @@ fn variants(has_f64: bool, each_step: bool) -> Result<Vec<Compiled>, String> {
         let src = crate::anatomy::source::<R>(v);
         let (module, info) = shader::validate_source::<R>(v, &src, shader::capabilities::<R>(v))?;
         let w =
-            crate::spirv::exact_compute_words(&module, &info, part.entry(), &[0, 1, 2, 3, 4, 5])?;
+            crate::spirv::exact_compute_words(&module, &info, part.entry(), &binding_numbers())?;
         Ok((part.entry().to_string(), w))
     }
+    let forcing = crate::device::forcing_table().map_err(|e| e.to_string())?;
     let mut out: Vec<Compiled> = Vec::new();
     for (exact, lyapunov, shared) in variant_keys() {
+        let table = shared & crate::layout::FORCING_FIELDS == crate::layout::FORCING_FIELDS;
+        let device = Variant::on_device(lyapunov, has_f64)
+            .with_exact_free_flight(exact)
+            .with_consts_each_step(each_step)
+            .with_shared_fields(shared)
+            .with_forcing_table(table && forcing);
         let tail = format!(
-            "{}{}{}{}",
+            "{}{}{}{}{}",
             if lyapunov { ", lambda_1" } else { "" },
             if exact { ", exact free flight" } else { "" },
             if each_step {
@@ -108,12 +116,12 @@ fn variants(has_f64: bool, each_step: bool) -> Result<Vec<Compiled>, String> {
                 SPEED_SWEEP => ", constants shared but the speed's",
                 _ => ", constants shared",
             },
+            if device.forcing_table {
+                ", forcing table"
+            } else {
+                ""
+            },
         );
-        // Lane constants as the runner reads them on this device (Variant).
-        let device = Variant::on_device(lyapunov, has_f64)
-            .with_exact_free_flight(exact)
-            .with_consts_each_step(each_step)
-            .with_shared_fields(shared);
         if has_f64 {
             out.push(with_label(format!("f64{tail}"), words::<f64>(device)?));
             out.push(with_label(
@@ -123,7 +131,8 @@ fn variants(has_f64: bool, each_step: bool) -> Result<Vec<Compiled>, String> {
             let own = Variant::on_device(lyapunov, false)
                 .with_exact_free_flight(exact)
                 .with_consts_each_step(each_step)
-                .with_shared_fields(shared);
+                .with_shared_fields(shared)
+                .with_forcing_table(table && forcing);
             out.push(with_label(
                 format!("f32, driver's / and sqrt{tail}"),
                 words::<f32>(own)?,
@@ -141,6 +150,11 @@ fn variants(has_f64: bool, each_step: bool) -> Result<Vec<Compiled>, String> {
         out.push(with_label(label("f32"), part_words::<f32>(plain, part)?));
     }
     Ok(out)
+}
+
+/// The kernel's binding numbers ([`crate::layout::BINDINGS`]).
+fn binding_numbers() -> Vec<u32> {
+    crate::layout::BINDINGS.iter().map(|&(b, _)| b).collect()
 }
 
 /// A kernel built for the statistics: its label, entry point and SPIR-V words.
@@ -175,7 +189,8 @@ fn file_name(label: &str) -> String {
             ", constants shared but the speed's",
             "-consts-shared-but-speed",
         )
-        .replace(", constants shared", "-consts-shared");
+        .replace(", constants shared", "-consts-shared")
+        .replace(", forcing table", "-forcing-table");
     name.retain(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_');
     name + ".spv"
 }
@@ -296,13 +311,13 @@ unsafe fn device_stats(
     let loader =
         offers.then(|| ash::khr::pipeline_executable_properties::Device::new(instance, &device));
     let result = (|| {
-        // The runner's layout: bindings 0 (the parameters) and 6 (the shared constants)
-        // uniform, 1-5 storage buffers.
-        let bindings: Vec<vk::DescriptorSetLayoutBinding> = (0..7)
-            .map(|b| {
+        // The runner's layout.
+        let bindings: Vec<vk::DescriptorSetLayoutBinding> = crate::layout::BINDINGS
+            .iter()
+            .map(|&(b, kind)| {
                 vk::DescriptorSetLayoutBinding::default()
                     .binding(b)
-                    .descriptor_type(if b == 0 || b == 6 {
+                    .descriptor_type(if kind == crate::layout::Binding::Uniform {
                         vk::DescriptorType::UNIFORM_BUFFER
                     } else {
                         vk::DescriptorType::STORAGE_BUFFER

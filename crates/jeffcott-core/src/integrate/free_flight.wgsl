@@ -5,8 +5,17 @@
 
 // The state after macro step `k` of a lane in free flight throughout, from `x`.
 fn free_flight_step(lc: LaneConsts, x: array<Real, STATE_DIM>, k: u32) -> array<Real, STATE_DIM> {
-    let p0 = forcing_phasor(lc, k, Real(0.0));
-    let p1 = forcing_phasor(lc, k, Real(1.0));
+    return free_flight_map(lc, x, forcing_phasor(lc, k, Real(0.0)), forcing_phasor(lc, k, Real(1.0)));
+}
+
+// free_flight_step with the phasors at the macro step's start and end given (the lean
+// free-flight path looks them up in a table).
+fn free_flight_map(
+    lc: LaneConsts,
+    x: array<Real, STATE_DIM>,
+    p0: vec2<Real>,
+    p1: vec2<Real>,
+) -> array<Real, STATE_DIM> {
     var out: array<Real, STATE_DIM>;
     for (var j = 0u; j < 4u; j++) {
         let qi = 2u * j;

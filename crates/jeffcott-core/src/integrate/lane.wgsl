@@ -22,11 +22,26 @@ fn rk4_substep(
     ds: Real,
     contact: bool,
 ) -> array<Real, STATE_DIM> {
-    let hs = ds * lc.h;
     let half = Real(0.5);
     let p0 = forcing_phasor(lc, k, s0);
     let pm = forcing_phasor(lc, k, s0 + half * ds);
     let p1 = forcing_phasor(lc, k, s0 + ds);
+    return rk4_stages(lc, x, ds * lc.h, p0, pm, p1, contact);
+}
+
+// rk4_substep's stages over a sub-step of length hs with the phasors at its start,
+// middle and end given (lane.rs has them in one function; the lean free-flight path
+// looks its phasors up in a table).
+fn rk4_stages(
+    lc: LaneConsts,
+    x: array<Real, STATE_DIM>,
+    hs: Real,
+    p0: vec2<Real>,
+    pm: vec2<Real>,
+    p1: vec2<Real>,
+    contact: bool,
+) -> array<Real, STATE_DIM> {
+    let half = Real(0.5);
     let k1 = rhs_frozen(lc.c, x, p0.x, p0.y, contact);
     var xt: array<Real, STATE_DIM>;
     for (var i = 0u; i < STATE_DIM; i++) {

@@ -166,6 +166,14 @@ struct SharedConsts {
 
 @group(0) @binding(6) var<uniform> shared_consts: SharedConsts;
 
+// The unbalance phasor of the lean free-flight path (lane_entry.wgsl, with
+// FORCING_TABLE): entry 2k + j is forcing_phasor(lc, k, j / 2) for every macro step k
+// < N (entry 2N is step N - 1's end), the polynomial's own bits computed on the host
+// (jeffcott-gpu's layout::forcing_table), for runs whose lanes share N and phi0. A look-up
+// at one address for the lanes of a step replaces three polynomials of ~30 operations
+// each. One unused element without FORCING_TABLE.
+@group(0) @binding(7) var<storage, read> forcing_table: array<vec2<Real>>;
+
 // ---- helpers standing in for the Real trait and u64 counters ----------------------
 
 // Real::max: `if other > self { other } else { self }` (NaN keeps `a`).

@@ -262,10 +262,12 @@ fn lean_free_flight(i: u32, period_end: u32) -> Lean {
         // of a speed sweep held in registers spilled 66 VGPRs).
         let lc = lane_consts(select(i, 0u, k == 0xffffffffu));
         var x1: array<Real, STATE_DIM>;
+        let p0 = lean_phasor(lc, k, 0u);
+        let p1 = lean_phasor(lc, k, 2u);
         if EXACT_FREE_FLIGHT && lc.exact != 0u {
-            x1 = free_flight_step(lc, x, k);
+            x1 = free_flight_map(lc, x, p0, p1);
         } else {
-            x1 = rk4_substep(lc, x, k, Real(0.0), Real(1.0), false);
+            x1 = rk4_stages(lc, x, lc.h, p0, lean_phasor(lc, k, 1u), p1, false);
         }
         if !loop_budget_left() {
             end = LEAN_BUDGET;
@@ -299,6 +301,16 @@ fn lean_free_flight(i: u32, period_end: u32) -> Lean {
         lanes[i].counters.macro_steps = sat_add(lanes[i].counters.macro_steps, steps);
     }
     return Lean(end, steps > 0u);
+}
+
+// The phasor at fraction j / 2 (j = 0, 1, 2) of macro step k: what rk4_substep from
+// s = 0 with ds = 1 and free_flight_step evaluate (0 + 0.5 x 1 and 0 + 1 are exact), from
+// the table where the run has one (FORCING_TABLE).
+fn lean_phasor(lc: LaneConsts, k: u32, j: u32) -> vec2<Real> {
+    if FORCING_TABLE {
+        return forcing_table[2u * k + j];
+    }
+    return forcing_phasor(lc, k, Real(j) * Real(0.5));
 }
 
 // macro_step_end's status checks passed: every component finite and the reach within
