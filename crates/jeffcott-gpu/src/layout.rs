@@ -583,21 +583,24 @@ mod tests {
     /// its step and fraction, to the bit, and entry 2k + 2 is also step k's end: for the
     /// default N, an odd one, the stepper's smallest and largest, and phi0 != 0.
     fn check_forcing_table<R: GpuReal>() {
-        use jeffcott_core::integrate::forcing::phasor_turns;
-        let p = jeffcott_core::model::Params::default();
+        use jeffcott_core::integrate::lane::forcing_phasor;
         let bits = |v: [R; 2]| v.map(|r| r.to_f64().to_bits());
-        for (n, phase) in [(500, 0.0), (777, 1.25), (8, 0.5), (1_000_000, 2.0)] {
+        for (n, phi0) in [(500, 0.0), (777, 1.25), (8, 0.5), (1_000_000, 2.0)] {
+            let p = jeffcott_core::model::Params {
+                phi0,
+                ..Default::default()
+            };
             let cfg = jeffcott_core::integrate::lane::StepperConfig {
                 steps_per_period: n,
                 ..Default::default()
             };
-            let mut lc = LaneConsts::<R>::new(&p, 133.0, &cfg);
-            lc.phase0 = R::lit(phase / std::f64::consts::TAU);
+            let lc = LaneConsts::<R>::new(&p, 133.0, &cfg);
             let t = forcing_table::<R>(&R::pack_consts(&lc));
             assert_eq!(t.len(), 2 * n as usize + 1);
+            // The CPU lane's own function (its table, where it has one, holds the
+            // polynomial's bits).
             let poly = |k: u32, sigma: f64| {
-                let (c, s) =
-                    phasor_turns((R::lit(k as f64) + R::lit(sigma)) * lc.inv_n - lc.phase0);
+                let (c, s) = forcing_phasor(&lc, k, R::lit(sigma));
                 [c, s]
             };
             let step = (n as usize / 997).max(1);

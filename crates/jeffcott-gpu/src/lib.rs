@@ -152,11 +152,9 @@ struct Buffers {
 impl Buffers {
     /// Writes `consts` to the lane constants from slot 0 on, and the first of them to
     /// the uniform the GPU form reads shared fields from (every lane of a chunk equals
-    /// it in those fields).
-    /// With a forcing table (`forcing_cap` > 1) it writes the first lane's too (every
-    /// lane of the run shares its N and phi0).
-    /// An error where the table does not fit (a slot pool given one N and filled with
-    /// lanes of another).
+    /// it in those fields); with a forcing table (`forcing_cap` > 1), the first lane's
+    /// table too (every lane of the run shares its N and phi0). An error where the table
+    /// does not fit (a slot pool given one N and filled with lanes of another).
     fn write_consts<R: GpuReal>(&self, queue: &wgpu::Queue, consts: &[R::Consts]) -> Result<()> {
         queue.write_buffer(&self.consts, 0, bytemuck::cast_slice(consts));
         if let Some(first) = consts.first() {
@@ -307,12 +305,11 @@ impl GpuRunner {
     /// SHADER_F64, and the lean path's forcing table where the lanes share N and phi0
     /// ([`shader::Variant`]).
     pub fn kernel_variant(&self, lyapunov: bool, exact: bool, shared: u32) -> shader::Variant {
-        let table = layout::FORCING_FIELDS;
         shader::Variant::on_device(lyapunov, self.gpu.supports_f64())
             .with_exact_free_flight(exact)
             .with_consts_each_step(self.gpu.consts_each_step())
             .with_shared_fields(shared)
-            .with_forcing_table(self.gpu.forcing_table() && shared & table == table)
+            .with_forcing_table(self.gpu.forcing_table())
     }
 
     /// Entries of the forcing table a run of kernel `key` with `n` macro steps per

@@ -146,11 +146,17 @@ impl Variant {
         }
     }
 
-    /// This variant with the lean path's forcing table on or off (on only in the GPU
-    /// form and without lambda_1, which have the lean path).
+    /// This variant with the lean path's forcing table on or off: on only in the GPU
+    /// form without lambda_1 (which have the lean path) and where the shared fields
+    /// cover [`crate::layout::FORCING_FIELDS`] (the lanes share N and phi0), so set the
+    /// form and the shared fields first.
     pub fn with_forcing_table(self, on: bool) -> Self {
+        let table = crate::layout::FORCING_FIELDS;
         Self {
-            forcing_table: on && self.consts_each_step && !self.lyapunov,
+            forcing_table: on
+                && self.consts_each_step
+                && !self.lyapunov
+                && self.shared_fields & table == table,
             ..self
         }
     }

@@ -96,12 +96,12 @@ fn variants(has_f64: bool, each_step: bool) -> Result<Vec<Compiled>, String> {
     let forcing = crate::device::forcing_table().map_err(|e| e.to_string())?;
     let mut out: Vec<Compiled> = Vec::new();
     for (exact, lyapunov, shared) in variant_keys() {
-        let table = shared & crate::layout::FORCING_FIELDS == crate::layout::FORCING_FIELDS;
+        // Lane constants as the runner reads them on this device (Variant).
         let device = Variant::on_device(lyapunov, has_f64)
             .with_exact_free_flight(exact)
             .with_consts_each_step(each_step)
             .with_shared_fields(shared)
-            .with_forcing_table(table && forcing);
+            .with_forcing_table(forcing);
         let tail = format!(
             "{}{}{}{}{}",
             if lyapunov { ", lambda_1" } else { "" },
@@ -128,11 +128,11 @@ fn variants(has_f64: bool, each_step: bool) -> Result<Vec<Compiled>, String> {
                 format!("f32, / and sqrt through f64{tail}"),
                 words::<f32>(device)?,
             ));
-            let own = Variant::on_device(lyapunov, false)
-                .with_exact_free_flight(exact)
-                .with_consts_each_step(each_step)
-                .with_shared_fields(shared)
-                .with_forcing_table(table && forcing);
+            // What a device without f64 runs: the same, with the driver's / and sqrt.
+            let own = Variant {
+                f32_through_f64: false,
+                ..device
+            };
             out.push(with_label(
                 format!("f32, driver's / and sqrt{tail}"),
                 words::<f32>(own)?,
