@@ -12,6 +12,7 @@ use jeffcott_analysis::backend::run_on_gpu;
 use jeffcott_analysis::bench::bench_spec;
 use jeffcott_core::control::Control;
 use jeffcott_core::ensemble::Precision;
+use jeffcott_core::model::Params;
 use jeffcott_gpu::{DeviceRequest, GpuDevice, GpuRunner};
 use std::time::Duration;
 
@@ -30,7 +31,7 @@ fn ensemble(c: &mut Criterion) {
         let steps = lanes as u64 * periods as u64 * 500;
         group.throughput(Throughput::Elements(steps));
         for precision in [Precision::F64, Precision::F32] {
-            let spec = bench_spec(lanes, periods, precision, false);
+            let spec = bench_spec(&Params::default(), lanes, periods, precision, false);
             let name =
                 |backend: &str| format!("{backend}_{precision:?}_{lanes}_lanes").to_lowercase();
             group.bench_function(name("cpu"), |b| {

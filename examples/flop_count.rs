@@ -19,6 +19,7 @@ use jeffcott_analysis::bench::bench_spec;
 use jeffcott_core::control::Control;
 use jeffcott_core::ensemble::{Backend, Precision};
 use jeffcott_core::integrate::lane::advance_period;
+use jeffcott_core::model::Params;
 use jeffcott_core::real::{Arith, Real};
 use std::cell::Cell;
 use std::cmp::Ordering;
@@ -132,7 +133,7 @@ fn main() -> anyhow::Result<()> {
     let periods = 4;
 
     // Count on a 512-lane sample of the workload (the same lanes `bench` starts).
-    let spec = bench_spec(512, periods, Precision::F64, false);
+    let spec = bench_spec(&Params::default(), 512, periods, Precision::F64, false);
     let (mut steps, mut subs) = (0u64, 0u64);
     for i in 0..spec.lanes.len() {
         let lc = spec.lane_consts::<Counted>(i);
@@ -172,7 +173,7 @@ fn main() -> anyhow::Result<()> {
     let flops = flops - forcing;
 
     // Time the real CPU path (batched, rayon) on the full workload.
-    let spec = bench_spec(lanes, periods, Precision::F64, false);
+    let spec = bench_spec(&Params::default(), lanes, periods, Precision::F64, false);
     let t = std::time::Instant::now();
     let (res, _) = run(&spec, Backend::Cpu, false, Control::none())?;
     let wall = t.elapsed().as_secs_f64();

@@ -164,9 +164,11 @@ pub struct NoOptions {}
 #[derive(Args, Debug)]
 pub struct ModelArgs {
     /// TOML file of model parameters (keys: omega_r, omega_s, xi_r, xi_s, delta, mu, m_r,
-    /// m_s, e, k_c, c_c, e_max, a_g, phi0, or a machine's k_r, c_r, k_s, c_s [N/m, N s/m]
-    /// and unbalance [kg m] in place of omega_r, xi_r, omega_s, xi_s and e; SI units;
-    /// absent keys keep Table 1 values).
+    /// m_s, e, k_c, c_c, e_max, a_g, phi0; per direction omega_rx, omega_ry, xi_rx, xi_ry,
+    /// omega_sx, omega_sy, xi_sx, xi_sy and the stator's offset o_x, o_y; or a machine's
+    /// k_r, c_r, k_s, c_s [N/m, N s/m], per direction k_rx, ..., c_sy, and unbalance
+    /// [kg m] in place of the frequencies, damping ratios and e; SI units; absent keys
+    /// keep Table 1 values; docs/parameters.md).
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
     /// Override model parameters, e.g. `--param mu=0.1,k_c=2e8` (the config file's keys;

@@ -124,7 +124,7 @@ fn info_lists_every_parameter_with_symbol_unit_and_allowed_range() {
     assert_eq!(status, 200);
     let v = json(&body);
     let params = v["params"].as_array().unwrap();
-    assert_eq!(params.len(), Params::FIELDS.len());
+    assert_eq!(params.len(), Params::names().count());
     let delta = params.iter().find(|p| p["name"] == "delta").unwrap();
     assert_eq!(delta["unit"], "m");
     assert_eq!(delta["allowed"], "must be finite and > 0");

@@ -520,7 +520,8 @@ fn poisoned_lanes_are_frozen_and_isolated<R: GpuReal>(runner: &GpuRunner) {
     x[VX_R] = 1e5;
     bad_init[5] = Lane::new(&x, p.delta);
     // A NaN coefficient: finite start, non-finite after the first step.
-    bad_consts[6].c.wr2 = R::lit(f64::NAN);
+    bad_consts[6].c.wr2x = R::lit(f64::NAN);
+    bad_consts[6].c.wr2y = R::lit(f64::NAN);
 
     let poisoned = runner
         .run(&bad_consts, &bad_init, &schedule)

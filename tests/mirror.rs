@@ -32,7 +32,7 @@ use jeffcott_core::model::{
     contact_partials, penetration, relative_motion, rhs_frozen,
 };
 use jeffcott_core::real::Real;
-use jeffcott_gpu::shader::Variant;
+use jeffcott_gpu::shader::{Features, Variant};
 use jeffcott_gpu::{GpuReal, GpuRunner};
 use std::fmt::Write;
 
@@ -79,10 +79,16 @@ fn in_state() -> array<Real, STATE_DIM> {
     return x;
 }
 fn in_coeffs() -> Coeffs {
-    let wr2 = in_real();
-    let dr = in_real();
-    let ws2 = in_real();
-    let ds = in_real();
+    let wr2x = in_real();
+    let wr2y = in_real();
+    let drx = in_real();
+    let dry = in_real();
+    let ws2x = in_real();
+    let ws2y = in_real();
+    let dsx = in_real();
+    let dsy = in_real();
+    let ox = in_real();
+    let oy = in_real();
     let unbalance = in_real();
     let a_g = in_real();
     let kc_mr = in_real();
@@ -90,7 +96,11 @@ fn in_coeffs() -> Coeffs {
     let mu = in_real();
     let delta = in_real();
     let tau_c = in_real();
-    return Coeffs(wr2, dr, ws2, ds, unbalance, a_g, kc_mr, kc_ms, mu, delta, tau_c);
+    return Coeffs(
+        wr2x, wr2y, drx, dry, ws2x, ws2y,
+        dsx, dsy, ox, oy, unbalance, a_g,
+        kc_mr, kc_ms, mu, delta, tau_c,
+    );
 }
 fn in_consts() -> LaneConsts {
     let c = in_coeffs();
@@ -171,10 +181,10 @@ struct Probe {
     body: &'static str,
 }
 
-/// Reals of a `LaneConsts` row: Coeffs (11), h, inv_n, phase0, bound, root_tol, inv_r,
+/// Reals of a `LaneConsts` row: Coeffs (17), h, inv_n, phase0, bound, root_tol, inv_r,
 /// the exact free-flight map (29), n, max_segments, exact.
-const CONSTS: usize = 49;
-const COEFFS: usize = 11;
+const CONSTS: usize = 55;
+const COEFFS: usize = 17;
 const S: usize = STATE_DIM;
 
 const PROBES: [Probe; 27] = [
@@ -630,20 +640,10 @@ impl<R: Real> Row<R> {
         self.args.extend_from_slice(x);
         self
     }
-    fn coeffs(self, c: &Coeffs<R>) -> Self {
-        self.state(&[
-            c.wr2,
-            c.dr,
-            c.ws2,
-            c.ds,
-            c.unbalance,
-            c.a_g,
-            c.kc_mr,
-            c.kc_ms,
-            c.mu,
-            c.delta,
-            c.tau_c,
-        ])
+    fn coeffs(mut self, c: &Coeffs<R>) -> Self {
+        // In the struct's order, as `in_coeffs` reads them.
+        c.map(|v| self.args.push(v));
+        self
     }
     fn consts(self, lc: &LaneConsts<R>) -> Self {
         self.coeffs(&lc.c)
@@ -688,12 +688,19 @@ fn flag<R: Real>(b: bool) -> R {
 /// in precision `R`: the device's, and in f32 on a device with f64 also the f32 kernel
 /// of adapters without it (the driver's own division and sqrt).
 fn probed_variants<R: GpuReal>(runner: &GpuRunner) -> Vec<Variant> {
-    // The exact free-flight code live: lanes whose constants carry the map take it, the
-    // others RK4, as in Rust.
-    let device = device_variant(runner, true).with_exact_free_flight(true);
+    // The exact free-flight code live (lanes whose constants carry the map take it, the
+    // others RK4, as in Rust), the offset stator's and the directional supports' (a
+    // centred, isotropic lane's rows give the bits of the kernel without them: x - (+0)
+    // is x, and its y coefficients are its x ones).
+    let all = Features {
+        exact: true,
+        offset: true,
+        anisotropic: true,
+    };
+    let device = device_variant(runner, true).with_features(all);
     let mut v = vec![device];
     if R::WGSL_NAME == "f32" && device.f32_through_f64 {
-        v.push(Variant::on_device(true, false).with_exact_free_flight(true));
+        v.push(Variant::on_device(true, false).with_features(all));
     }
     v
 }
@@ -767,9 +774,10 @@ fn ops_label<R: GpuReal>(v: Variant) -> &'static str {
 // ---- inputs around contact ---------------------------------------------------------
 
 /// Parameters of case `i`: friction on two rows in three, contact damping on every other
-/// row, W over the article's range, contact refinement R of 1, 2 or 4.
+/// row, the machine variants on some ([`machine_variant`]), W over the article's range,
+/// contact refinement R of 1, 2 or 4.
 fn lane_consts<R: Real>(i: usize) -> (Params, LaneConsts<R>) {
-    let p = Params {
+    let article = Params {
         mu: if i.is_multiple_of(3) {
             0.0
         } else {
@@ -782,6 +790,7 @@ fn lane_consts<R: Real>(i: usize) -> (Params, LaneConsts<R>) {
         },
         ..Params::default()
     };
+    let p = machine_variant(article, i);
     let cfg = StepperConfig {
         contact_substeps: [1, 2, 4][i % 3],
         // Every other case with the exact free-flight step (in the probes of
@@ -954,6 +963,23 @@ fn tangent<R: Real>(i: usize, scale: f64) -> [R; STATE_DIM] {
 /// rhs_frozen's arguments (coefficients, state, cos, sin, mode) and a phasor argument.
 type RhsArgs<R> = (Coeffs<R>, [R; STATE_DIM], R, R, bool, R);
 
+/// `p` as one of the machine variants (docs/model.md 7) for row `i`: every fifth row
+/// with supports that differ by direction, every fifth (another) with the stator off
+/// the axis, the rest the article's machine.
+fn machine_variant(mut p: Params, i: usize) -> Params {
+    if i % 5 == 1 {
+        p.omega_rx = Some(120.0 + 40.0 * unit(i, 14).abs());
+        p.xi_ry = Some(0.04 * unit(i, 15).abs());
+        p.omega_sy = Some(400.0 + 300.0 * unit(i, 16).abs());
+        p.xi_sx = Some(0.1 * unit(i, 17).abs());
+    }
+    if i % 5 == 3 {
+        p.o_x = 0.003 * unit(i, 18);
+        p.o_y = 0.003 * unit(i, 19);
+    }
+    p
+}
+
 fn random_rhs_inputs<R: Real>(n: usize) -> Vec<RhsArgs<R>> {
     (0..n)
         .map(|i| {
@@ -976,7 +1002,7 @@ fn random_rhs_inputs<R: Real>(n: usize) -> Vec<RhsArgs<R>> {
                 },
                 ..Params::default()
             };
-            let c = Coeffs::<R>::new(&p, 130.0 + 11.0 * unit(i, 9).abs());
+            let c = Coeffs::<R>::new(&machine_variant(p, i), 130.0 + 11.0 * unit(i, 9).abs());
             (
                 c,
                 x,
@@ -1749,13 +1775,16 @@ fn macro_step_on_the_gpu_equals_the_rust_function_bit_for_bit() {
 fn every_mirrored_function_has_a_probe() {
     use jeffcott_core::integrate::lane::WGSL_FILES;
     // Kernel-only pieces: free_flight_map and rk4_stages are the bodies of
-    // free_flight_step and rk4_substep (whose probes run them) with the phasors given.
+    // free_flight_step and rk4_substep (whose probes run them) with the phasors given;
+    // y_coeffs picks the coefficients rhs_frozen and tangent_rhs read (their probes run
+    // it in the variant with ANISOTROPIC on, the tests of whole runs with it off).
     let kernel_only = [
         "scan_sample",
         "macro_step_begin",
         "macro_step_end",
         "free_flight_map",
         "rk4_stages",
+        "y_coeffs",
     ];
     let this = include_str!("mirror.rs");
     let mut mirrored = Vec::new();

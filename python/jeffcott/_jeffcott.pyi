@@ -76,7 +76,8 @@ def ensemble(
 ) -> Dict[str, Any]:
     """Many lanes (a speed range or sequence, or lanes: any 2-D array-like of numbers, read
     as float64): poincare [lanes, periods, 8], status [lanes] (uint32), lanes [lanes, 10],
-    params [sets, 14], lambda1 [lanes] (with lyapunov=True) and run (run.json's keys)."""
+    params [sets, 14] ([sets, 24], the columns of PARAM_KEYS, when a set uses a machine
+    variant), lambda1 [lanes] (with lyapunov=True) and run (run.json's keys)."""
 
 def basin(
     omega: float,

@@ -120,7 +120,10 @@ fn adapters<'py>(py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
 fn _jeffcott(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add("COORD_NAMES", jeffcott_core::model::COORD_NAMES.to_vec())?;
-    m.add("PARAM_KEYS", jeffcott_core::model::Params::FIELDS.to_vec())?;
+    m.add(
+        "PARAM_KEYS",
+        jeffcott_core::model::Params::names().collect::<Vec<_>>(),
+    )?;
     // The `**stepper` keywords of the integrating functions and their defaults.
     let stepper = PyDict::new(m.py());
     for (name, default) in args::stepper_defaults() {

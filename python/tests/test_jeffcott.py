@@ -278,6 +278,28 @@ def test_bad_input_raises_value_error_naming_the_field(call, field):
     assert f"`{field}" in str(e.value), str(e.value)
 
 
+def test_a_machine_variant_by_keyword_equals_the_cli_and_its_params_table_has_every_key(tmp_path):
+    # Supports stiffer in y than in x (an engineer's directional stiffnesses), one
+    # dashpot, the stator set off-centre: docs/model.md 7.
+    machine = {"k_rx": 8.0e5, "k_ry": 1.4e6, "c_r": 350.0, "o_x": 0.0021, "o_y": -0.001}
+    out = tmp_path / "ens"
+    cli("ensemble", "--omega", "128:136:9", "--transient", "40", "--periods", "4",
+        "--param", ",".join(f"{k}={v}" for k, v in machine.items()), "--backend", "cpu",
+        "--out", str(out))
+    r = jeffcott.ensemble("128:136:9", transient=40, periods=4, params=machine, backend="cpu")
+    for name in ("poincare", "params"):
+        want = np.load(out / f"{name}.npy")
+        assert r[name].tobytes() == want.tobytes() and r[name].shape == want.shape, name
+    # Every parameter is a column once a set is not the article's, in PARAM_KEYS order.
+    assert r["params"].shape == (1, len(jeffcott.PARAM_KEYS))
+    row = dict(zip(jeffcott.PARAM_KEYS, r["params"][0]))
+    assert row["o_x"] == 0.0021 and row["o_y"] == -0.001
+    assert row["omega_rx"] == np.sqrt(8.0e5 / 50.0) and row["omega_ry"] == np.sqrt(1.4e6 / 50.0)
+    # One dashpot: each direction's ratio c / (2 m w) with its own frequency.
+    assert abs(row["xi_rx"] - 350.0 / (2 * 50.0 * row["omega_rx"])) < 1e-15
+    assert abs(row["xi_ry"] - 350.0 / (2 * 50.0 * row["omega_ry"])) < 1e-15
+
+
 def test_lyapunov_spectrum_sums_to_the_damping_trace():
     # docs/model.md 6: the exponents sum to <tr J> = -2 (2 xi_r w_r + 2 xi_s w_s) = -119.2 1/s.
     s = jeffcott.lyapunov(131.7, time=30.0, transient=300)

@@ -38,11 +38,16 @@ pub struct BenchArgs {
     /// Write the rows as JSON here.
     #[arg(long, value_name = "FILE")]
     pub out: Option<PathBuf>,
+    /// The machine of the workload (Table 1 unless given: the published figures are
+    /// Table 1's); the start states and the speed stay the workload's.
+    #[command(flatten)]
+    pub model: crate::cli::ModelArgs,
 }
 
 /// Runs `jeffcott bench`.
 pub fn run_bench(a: &BenchArgs) -> Result<()> {
     check_sizes(a)?;
+    let params = a.model.params()?;
     let anatomy = match &a.anatomy {
         Some(text) => jeffcott_gpu::anatomy::Part::parse_list("anatomy", text)?,
         None => Vec::new(),
@@ -110,16 +115,11 @@ pub fn run_bench(a: &BenchArgs) -> Result<()> {
             }
             for &lanes in &a.lanes {
                 let periods = periods_for(lanes, a.lane_periods);
-                let mut measured = vec![measure(
-                    lanes,
-                    periods,
-                    precision,
-                    &engine,
-                    lanes == a.twin_at,
-                )?];
+                let size = (lanes, periods, precision);
+                let mut measured = vec![measure(&params, size, &engine, lanes == a.twin_at)?];
                 if let Some(runner) = engine.runner() {
                     for &part in &anatomy {
-                        measured.push(measure_anatomy(part, lanes, periods, precision, runner)?);
+                        measured.push(measure_anatomy(part, &params, size, runner)?);
                     }
                 }
                 for r in measured {

@@ -28,8 +28,8 @@ pub enum DirectionArg {
 /// Arguments of `jeffcott continuation`.
 #[derive(Args, Debug)]
 pub struct ContinuationArgs {
-    /// The continued parameter, NAME:lo:hi:n: omega or a model parameter (omega_r,
-    /// omega_s, xi_r, xi_s, delta, mu, m_r, m_s, e, k_c, c_c, e_max, a_g, phi0), n >= 2
+    /// The continued parameter, NAME:lo:hi:n: omega or a model parameter (omega_r, ...,
+    /// phi0, omega_rx, ..., o_y: docs/parameters.md), n >= 2
     /// values from lo to hi inclusive, e.g. omega:130:141:111. (`--param NAME=VALUE`
     /// sets the other model parameters, as in every command.)
     #[arg(long, value_name = "NAME:lo:hi:n", allow_hyphen_values = true)]

@@ -29,7 +29,7 @@ pub struct EnsembleArgs {
     /// Lanes from a table, one row each: a CSV file with a header, or a 2-D f64 .npy with
     /// --columns (a lanes.npy of an earlier run needs none; a params.npy beside it gives
     /// its param_set column's parameter sets). Columns: omega, any parameter key
-    /// (omega_r, omega_s, xi_r, xi_s, delta, mu, m_r, m_s, e, k_c, c_c, e_max, a_g, phi0),
+    /// (omega_r, ..., phi0 and the machine variants' omega_rx, ..., o_y: docs/parameters.md),
     /// start coordinates (x_r, vx_r, ... or x_r0, ...), param_set. Absent columns take
     /// --omega, --config/--param and the static equilibrium with --init.
     #[arg(long, value_name = "FILE")]
@@ -271,7 +271,10 @@ fn write_ensemble(
     output::write_npy(&dir.join("lanes.npy"), &[n, 2 + STATE_DIM], &lanes)?;
     output::write_npy(
         &dir.join("params.npy"),
-        &[study.params.len(), Params::FIELDS.len()],
+        &[
+            study.params.len(),
+            jeffcott_core::ensemble::table::params_columns(&study.params).len(),
+        ],
         &jeffcott_core::ensemble::table::params_table(&study.params),
     )?;
     if study.lyapunov {

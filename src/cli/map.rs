@@ -15,8 +15,8 @@ use std::path::Path;
 /// Arguments of `jeffcott map`.
 #[derive(Args, Debug)]
 pub struct MapArgs {
-    /// Horizontal axis, NAME:lo:hi:n: `omega`, a model parameter (omega_r, omega_s, xi_r,
-    /// xi_s, delta, mu, m_r, m_s, e, k_c, c_c, e_max, a_g, phi0) or a start coordinate
+    /// Horizontal axis, NAME:lo:hi:n: `omega`, a model parameter (omega_r, ..., phi0,
+    /// omega_rx, ..., o_y: docs/parameters.md) or a start coordinate
     /// (x_r, vx_r, ...), n values from lo to hi inclusive, e.g. omega:130:141:200.
     #[arg(long, value_name = "NAME:lo:hi:n", allow_hyphen_values = true)]
     pub x: String,

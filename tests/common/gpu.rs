@@ -71,7 +71,7 @@ macro_rules! both_precisions {
 /// The lane kernel `runner`'s device runs in precision `R` (f32 divides and takes square
 /// roots through f64 where the device has SHADER_F64), `lyapunov` or not.
 pub fn device_variant(runner: &GpuRunner, lyapunov: bool) -> Variant {
-    runner.kernel_variant(lyapunov, false, 0)
+    runner.kernel_variant(lyapunov, jeffcott_gpu::shader::Features::default(), 0)
 }
 
 /// True where kernel variant `v` in precision `R` is promised to equal the CPU to the bit

@@ -32,17 +32,19 @@ pub fn bench_lane(params: &Params, i: usize) -> State {
     x
 }
 
-/// The benchmark ensemble: `lanes` lanes at W = 133, `periods` periods all recorded
-/// (no transient: the first periods, where the lanes are thrown about, are the
-/// contact-heaviest), with the default stepper. `free_flight` widens the gap to 1 m so
-/// the same lanes never touch: the difference in time is the cost of contact.
+/// The benchmark ensemble: `lanes` lanes of machine `params` (the article's Table 1 for
+/// the published figures) at W = 133, `periods` periods all recorded (no transient: the
+/// first periods, where the lanes are thrown about, are the contact-heaviest), with the
+/// default stepper. `free_flight` widens the gap to 1 m so the same lanes never touch:
+/// the difference in time is the cost of contact.
 pub fn bench_spec(
+    params: &Params,
     lanes: usize,
     periods: u32,
     precision: Precision,
     free_flight: bool,
 ) -> EnsembleSpec {
-    let mut params = Params::default();
+    let mut params = params.clone();
     let x0: Vec<State> = (0..lanes).map(|i| bench_lane(&params, i)).collect();
     if free_flight {
         params.delta = 1.0;
@@ -107,19 +109,18 @@ pub struct BenchRow {
 /// timed, as in any long run it is amortised. The run itself is checked: every lane
 /// must be finite, or the figures would time a broken computation.
 pub fn measure(
-    lanes: usize,
-    periods: u32,
-    precision: Precision,
+    params: &Params,
+    (lanes, periods, precision): (usize, u32, Precision),
     engine: &Engine,
     twin: bool,
 ) -> Result<BenchRow> {
     let quiet = |_: u64, _: u64| {};
-    let spec = bench_spec(lanes, periods, precision, false);
+    let spec = bench_spec(params, lanes, periods, precision, false);
     if engine.runner().is_some() {
         // Warm-up: the first run on a runner compiles the pipeline (seconds on
         // llvmpipe); a long run pays that once, so it is not timed.
         engine.run(
-            &bench_spec(1, 1, precision, false),
+            &bench_spec(params, 1, 1, precision, false),
             false,
             Control::progress(&quiet),
         )?;
@@ -136,7 +137,7 @@ pub fn measure(
         });
     }
     let contact_time_share = if twin {
-        let free = bench_spec(lanes, periods, precision, true);
+        let free = bench_spec(params, lanes, periods, precision, true);
         let (_, free) = engine.run(&free, false, Control::progress(&quiet))?;
         Some(1.0 - free.elapsed_s / wall)
     } else {
@@ -166,12 +167,11 @@ pub fn measure(
 /// kernel's on the same GPU. Every lane must end finite.
 pub fn measure_anatomy(
     part: jeffcott_gpu::anatomy::Part,
-    lanes: usize,
-    periods: u32,
-    precision: Precision,
+    params: &Params,
+    (lanes, periods, precision): (usize, u32, Precision),
     runner: &jeffcott_gpu::GpuRunner,
 ) -> Result<BenchRow> {
-    let spec = bench_spec(lanes, periods, precision, false);
+    let spec = bench_spec(params, lanes, periods, precision, false);
     match precision {
         Precision::F64 => measure_anatomy_in::<f64>(part, &spec, runner),
         Precision::F32 => measure_anatomy_in::<f32>(part, &spec, runner),
@@ -245,7 +245,7 @@ pub fn periods_for(lanes: usize, lane_periods: u64) -> u32 {
 /// Final states of the benchmark lanes after `periods` periods with `n` steps per
 /// period on the CPU in f64 (the accuracy side of the hand-written comparison).
 pub fn reference_final_states(lanes: usize, periods: u32, n: u32) -> Result<Vec<State>> {
-    let mut spec = bench_spec(lanes, periods, Precision::F64, false);
+    let mut spec = bench_spec(&Params::default(), lanes, periods, Precision::F64, false);
     spec.stepper.steps_per_period = n;
     let (res, _) = run(&spec, Backend::Cpu, false, Control::none())?;
     Ok(res.final_state)

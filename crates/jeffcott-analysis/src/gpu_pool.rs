@@ -165,10 +165,6 @@ pub fn run_early_gpu<R: GpuReal>(
         .clamp(1, full.max(1) as u64) as u32;
     let schedule = Schedule::new(0, max_periods, max_periods);
     slots = slots.min(runner.plan::<R>(slots, &schedule, lambda1)?.lanes_per_chunk);
-    // The exact free-flight kernel variant where some lane has the map (only when the
-    // stepper asks for it: no lane's constants are built twice otherwise).
-    let exact =
-        spec.stepper.exact_free_flight && (0..n).any(|i| spec.lane_consts::<R>(i).exact.is_some());
     let mut host = EarlyPool {
         spec,
         refill: Refill::new(spec, early, 0..n, lambda1),
@@ -179,21 +175,25 @@ pub fn run_early_gpu<R: GpuReal>(
         done: 0,
         restarts: Vec::new(),
     };
-    let shared = shared_fields::<R>(spec);
+    let (shared, features) = kernel_shape::<R>(spec);
     let n_steps = spec.stepper.steps_per_period;
-    let kernel = (lambda1, exact, shared, n_steps);
+    let kernel = (lambda1, features, shared, n_steps);
     runner.run_pool::<R>(slots, kernel, max_periods, &mut host)?;
     Ok(early_result(spec, host.ended, lambda1))
 }
 
 /// The constants' fields every lane of `spec` has equal (the GPU's kernel reads those at
-/// one address for every slot: `jeffcott_gpu::layout::shared_fields`), found over the
-/// lanes' distinct parameter sets and speeds, which alone decide a lane's constants.
-fn shared_fields<R: GpuReal>(spec: &EnsembleSpec) -> u32 {
+/// one address for every slot: `jeffcott_gpu::layout::shared_fields`) and the kernel code
+/// its lanes need (the exact free-flight step, an offset stator), found over the lanes'
+/// distinct parameter sets and speeds, which alone decide a lane's constants.
+fn kernel_shape<R: GpuReal>(spec: &EnsembleSpec) -> (u32, jeffcott_gpu::shader::Features) {
     let mut seen = std::collections::HashSet::new();
     let distinct: Vec<LaneConsts<R>> = (0..spec.lanes.len())
         .filter(|&i| seen.insert((spec.lanes[i].param_set, spec.lanes[i].omega.to_bits())))
         .map(|i| spec.lane_consts(i))
         .collect();
-    jeffcott_gpu::layout::shared_fields(&distinct)
+    (
+        jeffcott_gpu::layout::shared_fields(&distinct),
+        jeffcott_gpu::shader::Features::of(&distinct),
+    )
 }

@@ -102,13 +102,22 @@ pub fn params_with(pairs: &[(String, f64)]) -> Result<Params> {
 }
 
 /// Keys that describe a machine as an engineer measures it, each in place of one model
-/// parameter: (key, the parameter it sets). Their units and formulas are in
+/// parameter: (key, the parameter it sets). A directional key (`k_rx`, `c_sy`, ...)
+/// sets its direction's parameter (docs/model.md 7). Their units and formulas are in
 /// docs/parameters.md and in `set_machine_key` below.
-pub const MACHINE_KEYS: [(&str, &str); 5] = [
+pub const MACHINE_KEYS: [(&str, &str); 13] = [
     ("k_r", "omega_r"),
+    ("k_rx", "omega_rx"),
+    ("k_ry", "omega_ry"),
     ("c_r", "xi_r"),
+    ("c_rx", "xi_rx"),
+    ("c_ry", "xi_ry"),
     ("k_s", "omega_s"),
+    ("k_sx", "omega_sx"),
+    ("k_sy", "omega_sy"),
     ("c_s", "xi_s"),
+    ("c_sx", "xi_sx"),
+    ("c_sy", "xi_sy"),
     ("unbalance", "e"),
 ];
 
@@ -128,47 +137,77 @@ pub fn apply_pairs(p: &mut Params, pairs: &[(String, f64)]) -> Result<()> {
                 value,
                 format!(
                     "unknown parameter; valid names: {}, or a machine's {}",
-                    Params::FIELDS.join(", "),
+                    Params::names_list(),
                     machine.join(", ")
                 ),
             )
         })?;
     }
     // In MACHINE_KEYS' order: a stiffness before the damping that converts with it.
+    let given = |name: &str| pairs.iter().any(|(n, _)| n == name);
     for (key, model) in MACHINE_KEYS {
         let Some((_, value)) = pairs.iter().rev().find(|(n, _)| n == key) else {
             continue;
         };
-        if pairs.iter().any(|(n, _)| n == model) {
+        if given(model) {
             return Err(Error::invalid(
                 key,
                 value,
                 format!("sets `{model}`, which is given too: give one of `{key}` and `{model}`"),
             ));
         }
-        set_machine_key(p, key, *value)?;
+        set_machine_key(p, key, *value, &given)?;
     }
     Ok(())
 }
 
 /// Sets the model parameter of machine key `key` from its value (stiffnesses first, so
-/// that a damping converts with the frequency its stiffness gives).
-fn set_machine_key(p: &mut Params, key: &str, v: f64) -> Result<()> {
+/// that a damping converts with the frequency its stiffness gives). An isotropic damping
+/// (`c_r`, `c_s`) of supports whose stiffness differs by direction is the same dashpot
+/// in both directions: each direction's ratio converts with its own frequency, except
+/// where that direction's damping is given itself (`given`).
+fn set_machine_key(p: &mut Params, key: &str, v: f64, given: &dyn Fn(&str) -> bool) -> Result<()> {
     check_positive("m_r", p.m_r, "kg")?;
     check_positive("m_s", p.m_s, "kg")?;
-    match key {
-        "k_r" | "k_s" => check_positive(key, v, "N/m")?,
-        _ if !(v.is_finite() && v >= 0.0) => {
-            return Err(Error::invalid(key, v, "must be finite and >= 0"));
-        }
-        _ => {}
+    if key.starts_with('k') {
+        check_positive(key, v, "N/m")?;
+    } else if !(v.is_finite() && v >= 0.0) {
+        return Err(Error::invalid(key, v, "must be finite and >= 0"));
     }
+    let (mr, ms) = (p.m_r, p.m_s);
+    let ((wrx, wry), (wsx, wsy)) = (p.omega_r_xy(), p.omega_s_xy());
+    let ratio = |m: f64, w: f64| v / (2.0 * m * w);
+    // An isotropic damping's ratio in the directions whose stiffness differs.
+    let both = |p: &mut Params, body: char, m: f64, (wx, wy): (f64, f64)| {
+        for (dir, w) in [('x', wx), ('y', wy)] {
+            let name = format!("xi_{body}{dir}");
+            let iso = if body == 'r' { p.omega_r } else { p.omega_s };
+            if w != iso && !given(&name) && !given(&format!("c_{body}{dir}")) {
+                p.set(&name, ratio(m, w))
+                    .expect("a directional damping ratio");
+            }
+        }
+    };
     match key {
-        "k_r" => p.omega_r = (v / p.m_r).sqrt(),
-        "k_s" => p.omega_s = (v / p.m_s).sqrt(),
-        "c_r" => p.xi_r = v / (2.0 * p.m_r * p.omega_r),
-        "c_s" => p.xi_s = v / (2.0 * p.m_s * p.omega_s),
-        "unbalance" => p.e = v / p.m_r,
+        "k_r" => p.omega_r = (v / mr).sqrt(),
+        "k_rx" => p.omega_rx = Some((v / mr).sqrt()),
+        "k_ry" => p.omega_ry = Some((v / mr).sqrt()),
+        "k_s" => p.omega_s = (v / ms).sqrt(),
+        "k_sx" => p.omega_sx = Some((v / ms).sqrt()),
+        "k_sy" => p.omega_sy = Some((v / ms).sqrt()),
+        "c_r" => {
+            p.xi_r = ratio(mr, p.omega_r);
+            both(p, 'r', mr, (wrx, wry));
+        }
+        "c_rx" => p.xi_rx = Some(ratio(mr, wrx)),
+        "c_ry" => p.xi_ry = Some(ratio(mr, wry)),
+        "c_s" => {
+            p.xi_s = ratio(ms, p.omega_s);
+            both(p, 's', ms, (wsx, wsy));
+        }
+        "c_sx" => p.xi_sx = Some(ratio(ms, wsx)),
+        "c_sy" => p.xi_sy = Some(ratio(ms, wsy)),
+        "unbalance" => p.e = v / mr,
         _ => unreachable!("MACHINE_KEYS lists these"),
     }
     Ok(())
@@ -258,6 +297,38 @@ mod tests {
     }
 
     #[test]
+    fn directional_machine_keys_set_each_direction_and_an_isotropic_dashpot_converts_per_direction()
+    {
+        let p = params_with(&pairs(&[
+            ("m_r", 20.0),
+            ("k_rx", 8.0e5),
+            ("k_ry", 1.8e6),
+            ("c_r", 400.0),
+            ("k_s", 5.0e6),
+            ("k_sy", 2.0e7),
+            ("c_sx", 900.0),
+        ]))
+        .unwrap();
+        let ((wrx, wry), (wsx, wsy)) = (p.omega_r_xy(), p.omega_s_xy());
+        assert_eq!(
+            (wrx, wry),
+            ((8.0e5f64 / 20.0).sqrt(), (1.8e6f64 / 20.0).sqrt())
+        );
+        assert_eq!(
+            (wsx, wsy),
+            ((5.0e6f64 / 50.0).sqrt(), (2.0e7f64 / 50.0).sqrt())
+        );
+        // One dashpot c_r = 400 N s/m: the ratio c / (2 m w) of each direction.
+        let (xrx, xry) = p.xi_r_xy();
+        assert!((xrx - 400.0 / (2.0 * 20.0 * wrx)).abs() < 1e-15);
+        assert!((xry - 400.0 / (2.0 * 20.0 * wry)).abs() < 1e-15);
+        // c_sx converts with the stator's x frequency; y keeps Table 1's ratio.
+        let (xsx, xsy) = p.xi_s_xy();
+        assert!((xsx - 900.0 / (2.0 * 50.0 * wsx)).abs() < 1e-15);
+        assert_eq!(xsy, Params::default().xi_s);
+    }
+
+    #[test]
     fn a_machine_key_beside_the_parameter_it_sets_is_refused_naming_both() {
         for (key, model) in MACHINE_KEYS {
             let e = params_with(&pairs(&[(key, 1.0), (model, 1.0)])).unwrap_err();
@@ -271,6 +342,8 @@ mod tests {
         for (key, bad) in [
             ("k_r", 0.0),
             ("k_s", -1.0),
+            ("k_ry", f64::INFINITY),
+            ("c_sx", -2.0),
             ("c_r", -1.0),
             ("unbalance", f64::NAN),
         ] {

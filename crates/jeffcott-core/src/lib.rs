@@ -40,6 +40,7 @@ pub mod limits;
 pub mod lyapunov;
 pub mod model;
 pub mod orbit;
+pub mod params;
 pub mod real;
 
 pub use error::{Error, Result};

@@ -2,7 +2,7 @@
 // contact force and the right-hand side. Keep in sync with model.rs, beside this file:
 // the functions below are relative_motion, penetration, contact_force_per_kc,
 // contact_partials and rhs_frozen of model.rs, in the same order, doing the same
-// arithmetic in the same order.
+// arithmetic in the same order (y_coeffs is the kernel's own).
 
 // (dx, dy, dvx, dvy): the rotor's displacement and velocity relative to the stator.
 fn relative_motion(x: array<Real, STATE_DIM>) -> vec4<Real> {
@@ -82,6 +82,23 @@ fn contact_partials(c: Coeffs, x: array<Real, STATE_DIM>) -> Partials {
     );
 }
 
+// The y coefficients of the supports: with ANISOTROPIC (a kernel constant: some lane's
+// supports differ by direction) each lane's own; without it the x ones, which are the
+// same bits for an isotropic lane (model.rs' Coeffs), so they are not read at all.
+struct YCoeffs {
+    wr2: Real,
+    dr: Real,
+    ws2: Real,
+    ds: Real,
+}
+
+fn y_coeffs(c: Coeffs) -> YCoeffs {
+    if ANISOTROPIC {
+        return YCoeffs(c.wr2y, c.dry, c.ws2y, c.dsy);
+    }
+    return YCoeffs(c.wr2x, c.drx, c.ws2x, c.dsx);
+}
+
 fn rhs_frozen(
     c: Coeffs,
     x: array<Real, STATE_DIM>,
@@ -97,14 +114,24 @@ fn rhs_frozen(
         fx = kf.x;
         fy = kf.y;
     }
+    // With STATOR_OFFSET (a kernel constant: some lane's stator is off the axis) the
+    // springs pull towards (ox, oy); without it the subtraction of a zero centre is not
+    // in the kernel (model.rs' rhs_with_force's OFFSET: the same bits).
+    var xs = x[X_S];
+    var ys = x[Y_S];
+    if STATOR_OFFSET {
+        xs = x[X_S] - c.ox;
+        ys = x[Y_S] - c.oy;
+    }
+    let cy = y_coeffs(c);
     return array<Real, STATE_DIM>(
         x[VX_R],
-        -c.wr2 * x[X_R] - c.dr * x[VX_R] + c.unbalance * cos_phase + c.kc_mr * fx,
+        -c.wr2x * x[X_R] - c.drx * x[VX_R] + c.unbalance * cos_phase + c.kc_mr * fx,
         x[VY_R],
-        -c.wr2 * x[Y_R] - c.dr * x[VY_R] + c.unbalance * sin_phase - c.a_g + c.kc_mr * fy,
+        -cy.wr2 * x[Y_R] - cy.dr * x[VY_R] + c.unbalance * sin_phase - c.a_g + c.kc_mr * fy,
         x[VX_S],
-        -c.ws2 * x[X_S] - c.ds * x[VX_S] - c.kc_ms * fx,
+        -c.ws2x * xs - c.dsx * x[VX_S] - c.kc_ms * fx,
         x[VY_S],
-        keep(-c.ws2 * x[Y_S] - c.ds * x[VY_S]) - c.a_g - c.kc_ms * fy,
+        keep(-cy.ws2 * ys - cy.ds * x[VY_S]) - c.a_g - c.kc_ms * fy,
     );
 }

@@ -37,18 +37,25 @@ fn array_of(p: Pair) -> array<Real, STATE_DIM> {
 fn rhs_pair(c: Coeffs, x: Pair, cos_phase: Real, sin_phase: Real) -> Pair {
     let fx = Real(0.0);
     let fy = Real(0.0);
+    var xs = x.s.x;
+    var ys = x.s.z;
+    if STATOR_OFFSET {
+        xs = x.s.x - c.ox;
+        ys = x.s.z - c.oy;
+    }
+    let cy = y_coeffs(c);
     return Pair(
         vec4<Real>(
             x.r.y,
-            -c.wr2 * x.r.x - c.dr * x.r.y + c.unbalance * cos_phase + c.kc_mr * fx,
+            -c.wr2x * x.r.x - c.drx * x.r.y + c.unbalance * cos_phase + c.kc_mr * fx,
             x.r.w,
-            -c.wr2 * x.r.z - c.dr * x.r.w + c.unbalance * sin_phase - c.a_g + c.kc_mr * fy,
+            -cy.wr2 * x.r.z - cy.dr * x.r.w + c.unbalance * sin_phase - c.a_g + c.kc_mr * fy,
         ),
         vec4<Real>(
             x.s.y,
-            -c.ws2 * x.s.x - c.ds * x.s.y - c.kc_ms * fx,
+            -c.ws2x * xs - c.dsx * x.s.y - c.kc_ms * fx,
             x.s.w,
-            keep(-c.ws2 * x.s.z - c.ds * x.s.w) - c.a_g - c.kc_ms * fy,
+            keep(-cy.ws2 * ys - cy.ds * x.s.w) - c.a_g - c.kc_ms * fy,
         ),
     );
 }

@@ -153,11 +153,17 @@ pub enum Binding {
 /// from a `LaneConsts` value, in the struct's order: each equation coefficient, each
 /// stepper constant, the exact free-flight map as one field, and `n` standing for the
 /// four integers.
-pub const CONST_FIELDS: [&str; 19] = [
-    "c.wr2",
-    "c.dr",
-    "c.ws2",
-    "c.ds",
+pub const CONST_FIELDS: [&str; 25] = [
+    "c.wr2x",
+    "c.wr2y",
+    "c.drx",
+    "c.dry",
+    "c.ws2x",
+    "c.ws2y",
+    "c.dsx",
+    "c.dsy",
+    "c.ox",
+    "c.oy",
     "c.unbalance",
     "c.a_g",
     "c.kc_mr",
@@ -178,6 +184,13 @@ pub const CONST_FIELDS: [&str; 19] = [
 /// Every field of [`CONST_FIELDS`] shared.
 pub const ALL_FIELDS: u32 = (1 << CONST_FIELDS.len()) - 1;
 
+/// The scalar reals of `LaneConsts` (the equation coefficients and the stepper's six),
+/// which [`CONST_FIELDS`] lists one by one before the free-flight map and the integers.
+pub const SCALAR_FIELDS: usize = CONST_FIELDS.len() - 2;
+
+/// The reals of the exact free-flight map (`ExactFreeFlight`: 16 + 3 x 4 + 1).
+pub const FREE_FLIGHT_REALS: usize = 29;
+
 /// A packed `LaneConsts`' bytes and where its reals end (its four u32 follow them).
 fn consts_bytes_and_reals<R: GpuReal>(packed: &R::Consts) -> (&[u8], usize) {
     let bytes = bytemuck::bytes_of(packed);
@@ -185,22 +198,23 @@ fn consts_bytes_and_reals<R: GpuReal>(packed: &R::Consts) -> (&[u8], usize) {
 }
 
 /// The bytes of field `k` of [`CONST_FIELDS`] in a packed `LaneConsts` of precision
-/// `R` (the struct is its 46 reals, then its four u32; the test
+/// `R` (the struct is its [`SCALAR_FIELDS`] + [`FREE_FLIGHT_REALS`] reals, then its four
+/// u32; the test
 /// `const_fields_name_the_bytes_they_compare_in_both_precisions` ties the names to the
 /// bytes through the WGSL layout).
 pub fn const_field_bytes<R: GpuReal>(packed: &R::Consts, k: usize) -> &[u8] {
     let real = size_of::<R>();
     let (bytes, reals) = consts_bytes_and_reals::<R>(packed);
     match k {
-        0..=16 => &bytes[k * real..(k + 1) * real],
-        17 => &bytes[17 * real..reals],
+        _ if k < SCALAR_FIELDS => &bytes[k * real..(k + 1) * real],
+        _ if k == SCALAR_FIELDS => &bytes[SCALAR_FIELDS * real..reals],
         _ => &bytes[reals..],
     }
 }
 
 /// Bytes of the kernel's uniform `SharedConsts` (lane_buffers.wgsl) for the first
-/// lane's packed constants: its 46 reals, two reals of padding to 12 vec4s, then its
-/// four u32, then padding to the struct's alignment.
+/// lane's packed constants: its reals, padded to [`SHARED_CONSTS_REALS`], then its four
+/// u32, then padding to the struct's alignment.
 pub fn shared_consts_bytes<R: GpuReal>(first: &R::Consts) -> Vec<u8> {
     let (bytes, reals) = consts_bytes_and_reals::<R>(first);
     let mut out = bytes[..reals].to_vec();
@@ -211,8 +225,9 @@ pub fn shared_consts_bytes<R: GpuReal>(first: &R::Consts) -> Vec<u8> {
     out
 }
 
-/// The index of field `name` in [`CONST_FIELDS`] (a name of the list).
-const fn field(name: &str) -> usize {
+/// The index of field `name` in [`CONST_FIELDS`] (a name of the list; anything else
+/// fails to compile where used in a constant).
+pub const fn field(name: &str) -> usize {
     let mut k = 0;
     while k < CONST_FIELDS.len() {
         let (a, b) = (CONST_FIELDS[k].as_bytes(), name.as_bytes());
@@ -255,8 +270,9 @@ pub fn forcing_table<R: GpuReal>(first: &R::Consts) -> Vec<[R; 2]> {
     t
 }
 
-/// The reals `SharedConsts` has room for (12 vec4s: the 46 of `LaneConsts` rounded up).
-pub const SHARED_CONSTS_REALS: usize = 48;
+/// The reals `SharedConsts` has room for (13 vec4s: the 52 of `LaneConsts`, checked
+/// against the WGSL by the layout test).
+pub const SHARED_CONSTS_REALS: usize = (SCALAR_FIELDS + FREE_FLIGHT_REALS).next_multiple_of(4);
 
 /// The mask of [`CONST_FIELDS`] that every lane of `consts` has equal, byte for byte, to
 /// the first lane's (0 for no lanes).
@@ -436,7 +452,8 @@ mod tests {
             check(
                 "Coeffs",
                 members!(Coeffs<$r> {
-                    wr2, dr, ws2, ds, unbalance, a_g, kc_mr, kc_ms, mu, delta, tau_c
+                    wr2x, wr2y, drx, dry, ws2x, ws2y, dsx, dsy, ox, oy, unbalance, a_g,
+                    kc_mr, kc_ms, mu, delta, tau_c
                 }),
             );
             check(
@@ -512,18 +529,24 @@ mod tests {
         // The sizes the module docs promise (no implicit padding anywhere).
         assert_eq!(
             size_of::<layout_f32::GpuLaneConsts>(),
-            (17 + 29) * 4 + 4 * 4
+            (SCALAR_FIELDS + FREE_FLIGHT_REALS) * 4 + 4 * 4
         );
         assert_eq!(
             size_of::<layout_f64::GpuLaneConsts>(),
-            (17 + 29) * 8 + 4 * 4
+            (SCALAR_FIELDS + FREE_FLIGHT_REALS) * 8 + 4 * 4
         );
+        // Every coefficient of the CPU's struct is a field of the list, in order.
+        let coeffs: Vec<String> = Coeffs::<f64>::NAMES
+            .iter()
+            .map(|n| format!("c.{n}"))
+            .collect();
+        assert_eq!(CONST_FIELDS[..coeffs.len()], coeffs[..]);
         assert_eq!(size_of::<layout_f32::GpuLane>(), 9 * 4 + 8 * 4);
         assert_eq!(size_of::<layout_f64::GpuLane>(), 9 * 8 + 8 * 4);
         assert_eq!(size_of::<Params>(), 32);
     }
 
-    /// Offset of WGSL path `path` (`"c.wr2"`, `"h"`) in `LaneConsts`.
+    /// Offset of WGSL path `path` (`"c.wr2x"`, `"h"`) in `LaneConsts`.
     fn wgsl_offset(module: &naga::Module, path: &str) -> u32 {
         let mut structs = ["LaneConsts", "Coeffs"].iter();
         let mut offset = 0;
@@ -555,20 +578,21 @@ mod tests {
             let start = bytes.as_ptr() as usize - bytemuck::bytes_of(&packed).as_ptr() as usize;
             assert_eq!(start as u32, wgsl_offset(&module, path), "{path}");
             let len = match k {
-                0..=16 => real,
-                17 => 29 * real,
+                _ if k < SCALAR_FIELDS => real,
+                _ if k == SCALAR_FIELDS => FREE_FLIGHT_REALS * real,
                 _ => 16,
             };
             assert_eq!(bytes.len(), len, "{path}");
         }
         assert_eq!(
-            const_field_bytes::<R>(&packed, 18).as_ptr() as usize + 16,
+            const_field_bytes::<R>(&packed, field("n")).as_ptr() as usize + 16,
             bytemuck::bytes_of(&packed).as_ptr() as usize + total
         );
         // A speed sweep shares every field but the unbalance, the macro step and the
         // exact map; one lane or equal lanes share all; no lanes share nothing.
         let other = LaneConsts::<R>::new(&p, 140.0, &cfg);
-        let sweep = ALL_FIELDS & !(1 << 4) & !(1 << 11) & !(1 << 17);
+        let sweep =
+            ALL_FIELDS & !(1 << field("c.unbalance")) & !(1 << field("h")) & !(1 << field("ff"));
         assert_eq!(shared_fields(&[base, other, base]), sweep);
         assert_eq!(shared_fields(&[base, base]), ALL_FIELDS);
         assert_eq!(shared_fields(&[base]), ALL_FIELDS);
@@ -576,7 +600,10 @@ mod tests {
         let mut mu = p.clone();
         mu.mu = 0.2;
         let mu = LaneConsts::<R>::new(&mu, 133.0, &cfg);
-        assert_eq!(shared_fields(&[base, mu]), ALL_FIELDS & !(1 << 8));
+        assert_eq!(
+            shared_fields(&[base, mu]),
+            ALL_FIELDS & !(1 << field("c.mu"))
+        );
     }
 
     /// Every entry of the lean path's table is `lane::forcing_phasor`'s polynomial at

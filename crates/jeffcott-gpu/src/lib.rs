@@ -193,10 +193,9 @@ struct Kernel {
     buffers: Option<Buffers>,
 }
 
-/// Which lane kernel a run takes: (lambda_1, the exact free-flight step, the constants'
-/// fields every lane shares); the device decides the rest
-/// ([`GpuRunner::kernel_variant`]).
-type KernelKey = (bool, bool, u32);
+/// Which lane kernel a run takes: (lambda_1, what its lanes need beyond the article's model,
+/// the fields every lane shares); the device decides the rest ([`GpuRunner::kernel_variant`]).
+type KernelKey = (bool, shader::Features, u32);
 
 /// A compiled kernel and its buffers, built on first use.
 type KernelSlot = std::sync::Arc<Mutex<Option<Kernel>>>;
@@ -299,14 +298,19 @@ impl GpuRunner {
         &self.gpu
     }
 
-    /// The kernel this runner's device runs: `lyapunov` or not, with the exact
-    /// free-flight step or not, reading the constants' fields of mask `shared` at one
-    /// address for every lane, f32's division and sqrt through f64 where the device has
-    /// SHADER_F64, and the lean path's forcing table where the lanes share N and phi0
-    /// ([`shader::Variant`]).
-    pub fn kernel_variant(&self, lyapunov: bool, exact: bool, shared: u32) -> shader::Variant {
+    /// The kernel this runner's device runs: `lyapunov` or not, with the code the lanes'
+    /// `features` need (the exact free-flight step, an offset stator, directional
+    /// supports), reading the constants' fields of mask `shared` at one address for every
+    /// lane, f32's division and sqrt through f64 where the device has SHADER_F64, and the
+    /// lean path's forcing table where the lanes share N and phi0 ([`shader::Variant`]).
+    pub fn kernel_variant(
+        &self,
+        lyapunov: bool,
+        features: shader::Features,
+        shared: u32,
+    ) -> shader::Variant {
         shader::Variant::on_device(lyapunov, self.gpu.supports_f64())
-            .with_exact_free_flight(exact)
+            .with_features(features)
             .with_consts_each_step(self.gpu.consts_each_step())
             .with_shared_fields(shared)
             .with_forcing_table(self.gpu.forcing_table())
@@ -314,12 +318,11 @@ impl GpuRunner {
 
     /// Entries of the forcing table a run of kernel `key` with `n` macro steps per
     /// period needs (2N + 1; 1, an unused one, where its kernel has no table).
-    fn forcing_len(&self, (lyapunov, exact, shared): KernelKey, n: u32) -> usize {
-        if self.kernel_variant(lyapunov, exact, shared).forcing_table {
-            2 * n as usize + 1
-        } else {
-            1
-        }
+    fn forcing_len(&self, (lyapunov, features, shared): KernelKey, n: u32) -> usize {
+        let table = self
+            .kernel_variant(lyapunov, features, shared)
+            .forcing_table;
+        1 + 2 * n as usize * usize::from(table)
     }
 
     fn slot<R: GpuReal>(&self, key: KernelKey) -> Result<KernelSlot> {
@@ -347,11 +350,11 @@ impl GpuRunner {
 
     fn build_pipeline<R: GpuReal>(
         &self,
-        (lyapunov, exact, shared): KernelKey,
+        (lyapunov, features, shared): KernelKey,
     ) -> Result<wgpu::ComputePipeline> {
         self.check_precision::<R>()?;
         // Fail early with naga's readable report rather than wgpu's summary.
-        let v = self.kernel_variant(lyapunov, exact, shared);
+        let v = self.kernel_variant(lyapunov, features, shared);
         shader::validate::<R>(v, shader::capabilities::<R>(v))
             .map_err(|e| gpu_err("lane kernel does not validate", e))?;
         self.pipeline_for::<R>(
@@ -638,7 +641,7 @@ impl GpuRunner {
         if consts.is_empty() || total == 0 {
             return Ok((out, AnatomyTimes::default()));
         }
-        let v = self.kernel_variant(false, false, 0);
+        let v = self.kernel_variant(false, shader::Features::of(consts), 0);
         let pipeline =
             self.pipeline_for::<R>("kernel anatomy", v, &anatomy::source::<R>(v), part.entry())?;
         let chunk = self
@@ -832,8 +835,8 @@ impl GpuRunner {
         progress: &mut dyn FnMut(SliceReport) -> bool,
     ) -> Result<LyapunovOutcomes<R>> {
         let lyapunov = tangents.is_some();
-        // The exact free-flight kernel variant where some lane has the map.
-        let exact = consts.iter().any(|lc| lc.exact.is_some());
+        // The exact free-flight step where some lane has the map, and so on.
+        let features = shader::Features::of(consts);
         let shared = layout::shared_fields(consts);
         let (total, mut out) = run_start(consts, init, schedule)?;
         let n_total = consts.len();
@@ -851,7 +854,7 @@ impl GpuRunner {
         let slots = schedule.periods_per_slice.min(total);
 
         let lanes_cap = chunk.min(n_total);
-        let key = (lyapunov, exact, shared);
+        let key = (lyapunov, features, shared);
         let forcing = self.forcing_len(key, consts[0].n);
         self.with_kernel::<R, _>(key, (lanes_cap, slots, forcing), |pipeline, bufs| {
             self.run_chunks(

@@ -57,7 +57,8 @@ pub trait PoolHost<R: GpuReal> {
 
 impl GpuRunner {
     /// Runs a pool of `slots` lane slots, with the lambda_1 kernel variant when
-    /// `lyapunov`, the exact free-flight variant when `exact` and the variant that reads
+    /// `lyapunov`, the code of `features` (every lane the host fills must need no other,
+    /// or the run ends with an error) and the variant that reads
     /// the constants' fields of mask `shared` at one address for every slot
     /// ([`crate::layout::shared_fields`]; every lane the host fills must have those
     /// fields equal, or the run ends with an error), in time slices of at most
@@ -67,7 +68,7 @@ impl GpuRunner {
     pub fn run_pool<R: GpuReal>(
         &self,
         slots: usize,
-        (lyapunov, exact, shared, n): (bool, bool, u32, u32),
+        (lyapunov, features, shared, n): (bool, crate::shader::Features, u32, u32),
         max_periods: u32,
         host: &mut dyn PoolHost<R>,
     ) -> Result<u64> {
@@ -86,10 +87,10 @@ impl GpuRunner {
                 format!("a slot pool must fit one chunk of this device ({chunk} lanes)"),
             ));
         }
-        let key = (lyapunov, exact, shared);
+        let key = (lyapunov, features, shared);
         let caps = (slots, max_periods, self.forcing_len(key, n));
         self.with_kernel::<R, _>(key, caps, |pipeline, bufs| {
-            self.pool_slices(pipeline, bufs, slots, (lyapunov, shared), max_periods, host)
+            self.pool_slices(pipeline, bufs, slots, key, max_periods, host)
         })
     }
 
@@ -99,7 +100,7 @@ impl GpuRunner {
         pipeline: &wgpu::ComputePipeline,
         bufs: &Buffers,
         slots: usize,
-        (lyapunov, shared): (bool, u32),
+        (lyapunov, features, shared): (bool, crate::shader::Features, u32),
         max_periods: u32,
         host: &mut dyn PoolHost<R>,
     ) -> Result<u64> {
@@ -107,6 +108,7 @@ impl GpuRunner {
             queue: self.gpu.queue(),
             bufs,
             lyapunov,
+            features,
             _real: std::marker::PhantomData,
         };
         // The pool's period count: every slot's `Lane::period` at the next slice's start.
@@ -158,7 +160,7 @@ impl GpuRunner {
                 check_slot(s, active)?;
                 let p = host.fill(s);
                 occupied[s] = p.is_some();
-                let (mut c, l, t) = pack(p, period);
+                let (mut c, l, t) = pack(p, period, features, s)?;
                 share_consts::<R>(shared, first, s, occupied[s], &mut c)?;
                 consts[s] = c;
                 w.write(s, &c, &l, &t);
@@ -253,7 +255,27 @@ fn check_slot(s: usize, active: usize) -> Result<()> {
 /// kernel reads them; an empty slot (`None`) holds a frozen lane with N = 0, which the
 /// kernel records each period and does not step (frozen, because with shared constants
 /// the kernel reads the first slot's N for every slot).
-fn pack<R: GpuReal>(p: Option<PoolLane<R>>, period: u32) -> (R::Consts, R::Lane, [R; STATE_DIM]) {
+/// A lane that needs code the pool's kernel (`features`) lacks is an error naming its
+/// slot `s`.
+#[allow(clippy::type_complexity)]
+fn pack<R: GpuReal>(
+    p: Option<PoolLane<R>>,
+    period: u32,
+    features: crate::shader::Features,
+    s: usize,
+) -> Result<(R::Consts, R::Lane, [R; STATE_DIM])> {
+    if let Some(p) = &p {
+        let needs = crate::shader::Features::lane(&p.consts);
+        if !features.covers(needs) {
+            return Err(Error::invalid(
+                "slot constants",
+                s,
+                format!(
+                    "the lane needs kernel code {needs:?} that the pool's kernel ({features:?}) lacks"
+                ),
+            ));
+        }
+    }
     let (consts, mut lane, tangent) = match p {
         Some(p) => (
             R::pack_consts(&p.consts),
@@ -267,7 +289,7 @@ fn pack<R: GpuReal>(p: Option<PoolLane<R>>, period: u32) -> (R::Consts, R::Lane,
         ),
     };
     R::set_period(&mut lane, period);
-    (consts, lane, tangent)
+    Ok((consts, lane, tangent))
 }
 
 /// The lane of an empty slot: zero, frozen (`Status::NonFinite`).
@@ -324,6 +346,7 @@ struct SlotWriter<'a, R> {
     queue: &'a wgpu::Queue,
     bufs: &'a Buffers,
     lyapunov: bool,
+    features: crate::shader::Features,
     _real: std::marker::PhantomData<R>,
 }
 
@@ -343,7 +366,7 @@ impl<R: GpuReal> SlotWriter<'_, R> {
         for (s, occ) in occupied.iter_mut().enumerate() {
             let p = host.fill(s);
             *occ = p.is_some();
-            let (c, l, t) = pack(p, 0);
+            let (c, l, t) = pack(p, 0, self.features, s)?;
             consts.push(c);
             lanes.push(l);
             tangents.push(t);

@@ -11,7 +11,9 @@
 //! exactly, which is `Real::lit`; the test `header_constants_are_real_lit_of_the_rust_values`
 //! checks the outcome in the parsed module.
 
-use jeffcott_core::integrate::lane::{GRAZE_SAMPLES, ROOT_MAX_ITERS, Status, WGSL_FILES};
+use jeffcott_core::integrate::lane::{
+    GRAZE_SAMPLES, LaneConsts, ROOT_MAX_ITERS, Status, WGSL_FILES,
+};
 use jeffcott_core::model::{STATE_DIM, VX_R, VX_S, VY_R, VY_S, X_R, X_S, Y_R, Y_S};
 use jeffcott_core::real::Real;
 use std::fmt::Write;
@@ -87,6 +89,14 @@ pub struct Variant {
     /// and removed: llvmpipe would otherwise run it at every sub-step (it executes both
     /// arms of an `if`).
     pub exact_free_flight: bool,
+    /// Some lane's stator rests off the bearing axis (`STATOR_OFFSET` in the header):
+    /// the stator's springs pull towards its rest centre. Off, the subtraction of a zero
+    /// centre is not in the kernel (the same bits; the article's model keeps its speed).
+    pub stator_offset: bool,
+    /// Some lane's supports differ by direction (`ANISOTROPIC` in the header): the y
+    /// coefficients are read. Off, the x ones serve both directions (an isotropic lane's
+    /// are the same bits), so the kernel reads four coefficients fewer per evaluation.
+    pub anisotropic: bool,
     /// The GPU form of the entry point (`CONSTS_EACH_STEP` in the header:
     /// `advance_buffered` in lane_entry.wgsl, docs/gpu.md): the lane's constants read at
     /// every sub-step, the committed lane and its tangent kept in their buffers, the
@@ -123,6 +133,8 @@ impl Variant {
             lyapunov,
             f32_through_f64: device_has_f64,
             exact_free_flight: false,
+            stator_offset: false,
+            anisotropic: false,
             consts_each_step: false,
             shared_fields: 0,
             forcing_table: false,
@@ -169,11 +181,23 @@ impl Variant {
         }
     }
 
+    /// This variant with the code that the lanes' `features` need, and no other.
+    pub fn with_features(self, features: Features) -> Self {
+        Self {
+            exact_free_flight: features.exact,
+            stator_offset: features.offset,
+            anisotropic: features.anisotropic,
+            ..self
+        }
+    }
+
     /// The plain kernel, f32 with the driver's own division and sqrt (no f64 needed).
     pub const PLAIN: Self = Self {
         lyapunov: false,
         f32_through_f64: false,
         exact_free_flight: false,
+        stator_offset: false,
+        anisotropic: false,
         consts_each_step: false,
         shared_fields: 0,
         forcing_table: false,
@@ -182,6 +206,51 @@ impl Variant {
     /// True when precision `R`'s kernel uses f64 arithmetic (and needs FLOAT64).
     fn uses_f64<R: Real>(self) -> bool {
         R::WGSL_NAME == "f64" || self.f32_through_f64
+    }
+}
+
+/// What a run's lanes need of the kernel beyond the article's model, decided from their
+/// constants when the kernel is built: code no lane needs is not in the kernel at all
+/// (llvmpipe runs both arms of every `if`, and a GPU holds registers for them).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct Features {
+    /// Some lane takes the exact free-flight map ([`Variant::exact_free_flight`]).
+    pub exact: bool,
+    /// Some lane's stator rests off the bearing axis ([`Variant::stator_offset`]).
+    pub offset: bool,
+    /// Some lane's supports differ by direction ([`Variant::anisotropic`]).
+    pub anisotropic: bool,
+}
+
+impl Features {
+    /// The features lanes with constants `consts` need.
+    pub fn of<R: Real>(consts: &[LaneConsts<R>]) -> Self {
+        consts
+            .iter()
+            .fold(Features::default(), |f, lc| f.or(Features::lane(lc)))
+    }
+
+    /// The features one lane needs.
+    pub fn lane<R: Real>(lc: &LaneConsts<R>) -> Self {
+        Features {
+            exact: lc.exact.is_some(),
+            offset: lc.c.offset(),
+            anisotropic: lc.c.anisotropic(),
+        }
+    }
+
+    /// Both sets.
+    pub fn or(self, other: Self) -> Self {
+        Features {
+            exact: self.exact || other.exact,
+            offset: self.offset || other.offset,
+            anisotropic: self.anisotropic || other.anisotropic,
+        }
+    }
+
+    /// Whether a kernel with these features runs a lane that needs `lane`'s.
+    pub fn covers(self, lane: Self) -> bool {
+        self.or(lane) == self
     }
 }
 
@@ -227,6 +296,8 @@ pub fn header<R: Real>(v: Variant) -> String {
         "const EXACT_FREE_FLIGHT: bool = {};",
         v.exact_free_flight
     ));
+    line(format!("const STATOR_OFFSET: bool = {};", v.stator_offset));
+    line(format!("const ANISOTROPIC: bool = {};", v.anisotropic));
     line(format!(
         "const CONSTS_EACH_STEP: bool = {};",
         v.consts_each_step
@@ -282,9 +353,9 @@ fn lane_consts_fn(mask: u32, from_uniform: bool) -> String {
 
 /// The scalar parts of field `k` of [`crate::layout::CONST_FIELDS`]: each one's path in
 /// `LaneConsts` and where `shared_consts` (lane_buffers.wgsl) holds it. The reals are in
-/// the struct's order, so the free-flight map's 29 follow the 17 scalars.
+/// the struct's order, so the free-flight map's reals follow the scalars.
 fn shared_field_parts(k: usize) -> Vec<(String, String)> {
-    use crate::layout::CONST_FIELDS;
+    use crate::layout::{CONST_FIELDS, SCALAR_FIELDS};
     let real = |r: usize| format!("shared_consts.r[{}].{}", r / 4, ["x", "y", "z", "w"][r % 4]);
     match CONST_FIELDS[k] {
         "ff" => {
@@ -292,10 +363,10 @@ fn shared_field_parts(k: usize) -> Vec<(String, String)> {
             let mut parts = Vec::new();
             for (name, len) in arrays {
                 for j in 0..len {
-                    parts.push((format!("ff.{name}[{j}]"), real(17 + parts.len())));
+                    parts.push((format!("ff.{name}[{j}]"), real(SCALAR_FIELDS + parts.len())));
                 }
             }
-            parts.push(("ff.omega".into(), real(17 + parts.len())));
+            parts.push(("ff.omega".into(), real(SCALAR_FIELDS + parts.len())));
             parts
         }
         "n" => ["n", "max_segments", "exact"]
@@ -406,17 +477,25 @@ mod tests {
         let mut v = Vec::new();
         for lyapunov in [false, true] {
             for f32_through_f64 in [false, true] {
-                for exact_free_flight in [false, true] {
+                for (exact, machine) in [(false, false), (true, false), (false, true), (true, true)]
+                {
                     for consts_each_step in [false, true] {
                         for shared_fields in [0, 1 << 4, crate::layout::ALL_FIELDS] {
                             let v0 = Variant {
                                 lyapunov,
                                 f32_through_f64,
-                                exact_free_flight,
+                                exact_free_flight: false,
+                                stator_offset: false,
+                                anisotropic: false,
                                 consts_each_step,
                                 shared_fields,
                                 forcing_table: false,
-                            };
+                            }
+                            .with_features(Features {
+                                exact,
+                                offset: machine,
+                                anisotropic: machine,
+                            });
                             v.push(v0);
                             if v0.with_forcing_table(true).forcing_table {
                                 v.push(v0.with_forcing_table(true));
@@ -704,7 +783,7 @@ mod tests {
                     "contact_partials",
                     "rhs_frozen",
                 ],
-                kernel_only: &[],
+                kernel_only: &["y_coeffs"],
             },
             Mirror {
                 wgsl: "integrate/tangent.wgsl",

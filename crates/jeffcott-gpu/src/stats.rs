@@ -212,7 +212,10 @@ fn variant_keys() -> Vec<(bool, bool, u32)> {
 
 /// The constants' fields a sweep over the rotor speed shares: all but the unbalance
 /// (e omega^2), the macro step (T / N) and the exact free-flight map.
-pub const SPEED_SWEEP: u32 = crate::layout::ALL_FIELDS & !(1 << 4) & !(1 << 11) & !(1 << 17);
+pub const SPEED_SWEEP: u32 = {
+    use crate::layout::{ALL_FIELDS, field};
+    ALL_FIELDS & !(1 << field("c.unbalance")) & !(1 << field("h")) & !(1 << field("ff"))
+};
 
 fn with_label(label: String, (entry, words): (String, Vec<u32>)) -> Compiled {
     (label, entry, words)

@@ -18,7 +18,8 @@ use std::collections::HashMap;
 /// The lanes are speeds (`omega`) from one start state, or the rows of a table
 /// (`lanes`). Returns `poincare` `[lanes, periods, 8]` (NaN from the period a lane froze
 /// in), `status` (uint32: 0 ok, 1 refinement_cap, 2 diverged, 3 non_finite), `lanes`
-/// `[lanes, 10]`, `params` `[sets, 14]`, with `lyapunov=True` `lambda1` `[lanes]`, and
+/// `[lanes, 10]`, `params` `[sets, 14]` (`[sets, 24]`, the columns of `PARAM_KEYS`,
+/// when a set uses a machine variant), with `lyapunov=True` `lambda1` `[lanes]`, and
 /// `run`, the dictionary of `run.json` (backend, device, precision, counters, status
 /// counts, speed).
 ///
@@ -131,7 +132,7 @@ pub(crate) fn ensemble<'py>(
         array2(
             py,
             jeffcott_core::ensemble::table::params_table(&spec.param_sets),
-            jeffcott_core::model::Params::FIELDS.len(),
+            jeffcott_core::ensemble::table::params_columns(&spec.param_sets).len(),
         )?,
     )?;
     if let Some(l) = res.lambda1 {

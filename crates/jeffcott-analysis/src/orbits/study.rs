@@ -24,7 +24,7 @@ pub fn parse_param(option: &str, text: &str) -> Result<(MapVar, f64, f64)> {
             name,
             format!(
                 "{why}; valid names: omega, {}",
-                jeffcott_core::model::Params::FIELDS.join(", ")
+                jeffcott_core::model::Params::names_list()
             ),
         )
     })?;

@@ -86,7 +86,13 @@ impl Survey {
 }
 
 /// The sum of the Lyapunov exponents for viscous damping with no saltation (S = I),
-/// docs/model.md 6: -2 (2 xi_r w_r + 2 xi_s w_s) [1/s].
+/// docs/model.md 6: -2 (2 xi_r w_r + 2 xi_s w_s) [1/s], each direction's damping once
+/// where the supports differ by direction (docs/model.md 7; for an isotropic machine the
+/// same bits, as doubling is exact).
 pub fn sum_rule(p: &Params) -> f64 {
-    -2.0 * (2.0 * p.xi_r * p.omega_r + 2.0 * p.xi_s * p.omega_s)
+    let ((wrx, wry), (xrx, xry)) = (p.omega_r_xy(), p.xi_r_xy());
+    let ((wsx, wsy), (xsx, xsy)) = (p.omega_s_xy(), p.xi_s_xy());
+    let rotor = 2.0 * xrx * wrx + 2.0 * xry * wry;
+    let stator = 2.0 * xsx * wsx + 2.0 * xsy * wsy;
+    -(rotor + stator)
 }

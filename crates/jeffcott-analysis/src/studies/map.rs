@@ -29,7 +29,7 @@ use serde::{Deserialize, Serialize};
 pub enum MapVar {
     /// The rotor speed W [rad/s].
     Omega,
-    /// A model parameter, by its TOML key ([`Params::FIELDS`]).
+    /// A model parameter, by its TOML key ([`Params::names`]).
     Param(&'static str),
     /// A start coordinate (index into the state), set in every start state of the cell.
     Coord(usize),
@@ -66,7 +66,7 @@ impl MapVar {
         if name == "omega" {
             return Ok(MapVar::Omega);
         }
-        if let Some(k) = Params::FIELDS.iter().find(|k| **k == name) {
+        if let Some(k) = Params::names().find(|k| *k == name) {
             return Ok(MapVar::Param(k));
         }
         if let Some(i) = coord_index(name) {
@@ -77,7 +77,7 @@ impl MapVar {
             name,
             format!(
                 "unknown axis; valid names: omega, {}, or a start coordinate {}",
-                Params::FIELDS.join(", "),
+                Params::names_list(),
                 COORD_NAMES.join(", ")
             ),
         ))

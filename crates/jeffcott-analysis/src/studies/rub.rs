@@ -319,19 +319,33 @@ pub const APERIODIC_RUB_PERIODS: u32 = 24;
 /// (sqrt(k/m)), and the two modes of rotor and stator coupled through the contact
 /// stiffness k_c (permanent contact, per direction: M^-1 K with K = [[k_r + k_c, -k_c],
 /// [-k_c, k_s + k_c]]), where dry whip is expected (Childs and Bhattacharya 2007).
+/// Supports stiffer in one direction than the other split each into an x and a y
+/// frequency, the rotor's two critical speeds (docs/model.md 7): both are marked.
 pub fn natural_frequencies(p: &Params) -> Vec<(String, f64)> {
-    let (kr, ks) = (p.k_r(), p.k_s());
-    let (a, d) = ((kr + p.k_c) / p.m_r, (ks + p.k_c) / p.m_s);
-    let (b, c) = (-p.k_c / p.m_r, -p.k_c / p.m_s);
-    let (tr, det) = (a + d, a * d - b * c);
-    let disc = (0.25 * tr * tr - det).max(0.0).sqrt();
-    let (lo, hi) = ((0.5 * tr - disc).sqrt(), (0.5 * tr + disc).sqrt());
-    vec![
-        ("rotor w_r".into(), p.omega_r),
-        ("stator w_s".into(), p.omega_s),
-        ("coupled in contact, mode 1".into(), lo),
-        ("coupled in contact, mode 2".into(), hi),
-    ]
+    let ((wrx, wry), (wsx, wsy)) = (p.omega_r_xy(), p.omega_s_xy());
+    let coupled = |wr: f64, ws: f64| {
+        let (kr, ks) = (p.m_r * wr * wr, p.m_s * ws * ws);
+        let (a, d) = ((kr + p.k_c) / p.m_r, (ks + p.k_c) / p.m_s);
+        let (b, c) = (-p.k_c / p.m_r, -p.k_c / p.m_s);
+        let (tr, det) = (a + d, a * d - b * c);
+        let disc = (0.25 * tr * tr - det).max(0.0).sqrt();
+        ((0.5 * tr - disc).sqrt(), (0.5 * tr + disc).sqrt())
+    };
+    let mut out = Vec::new();
+    let mut mark = |name: &str, x: f64, y: f64| {
+        if x == y {
+            out.push((name.to_string(), x));
+        } else {
+            out.push((format!("{name} in x"), x));
+            out.push((format!("{name} in y"), y));
+        }
+    };
+    mark("rotor w_r", wrx, wry);
+    mark("stator w_s", wsx, wsy);
+    let ((lo_x, hi_x), (lo_y, hi_y)) = (coupled(wrx, wsx), coupled(wry, wsy));
+    mark("coupled in contact, mode 1", lo_x, lo_y);
+    mark("coupled in contact, mode 2", hi_x, hi_y);
+    out
 }
 
 #[cfg(test)]

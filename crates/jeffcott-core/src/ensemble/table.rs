@@ -3,7 +3,7 @@
 //!
 //! A table is a CSV file with a header, or a 2-D f64 `.npy` with its column names given
 //! separately (a `lanes.npy` written by `jeffcott ensemble` needs none: its ten columns
-//! are known). Columns: `omega`, any model parameter key ([`Params::FIELDS`]), start
+//! are known). Columns: `omega`, any model parameter key ([`Params::names`]), start
 //! coordinates by name (`x_r`, ... or `x_r0`, ... as in `lanes.npy`), and `param_set`
 //! (an index into the `params.npy` written beside a `lanes.npy`; 0 = the base
 //! parameters when there is none). Absent columns take the base values: the parameters of
@@ -200,7 +200,7 @@ fn column(name: &str) -> Result<Column> {
     if name == "param_set" {
         return Ok(Column::ParamSet);
     }
-    if let Some(k) = Params::FIELDS.iter().find(|k| **k == name) {
+    if let Some(k) = Params::names().find(|k| *k == name) {
         return Ok(Column::Param(k));
     }
     let coord = name
@@ -215,7 +215,7 @@ fn column(name: &str) -> Result<Column> {
         name,
         format!(
             "unknown column; valid names: omega, {}, a start coordinate ({} or with a trailing 0 as in lanes.npy), param_set",
-            Params::FIELDS.join(", "),
+            Params::names_list(),
             COORD_NAMES.join(", ")
         ),
     ))
@@ -261,8 +261,7 @@ pub fn lanes_from_table(t: &LaneTable, d: &TableDefaults) -> Result<(Vec<Params>
             )
         })?;
         let x0 = row_start(d, &cols, row, &p, &at)?;
-        let key: Vec<u64> = Params::FIELDS
-            .iter()
+        let key: Vec<u64> = Params::names()
             .map(|k| p.get(k).unwrap_or(f64::NAN).to_bits())
             .collect();
         let set = *index.entry(key).or_insert_with(|| {
@@ -395,31 +394,64 @@ fn row_start(
     Ok(x0)
 }
 
-/// Parameter sets as a table [sets, 14] in [`Params::FIELDS`] order (`params.npy`).
+/// The columns of `params.npy` for parameter sets `sets`: the article's parameters
+/// ([`Params::FIELDS`]) where every set is the article's model, else every parameter
+/// ([`Params::names`], a directional one at its value in effect).
+pub fn params_columns(sets: &[Params]) -> Vec<&'static str> {
+    if sets.iter().all(Params::is_article_model) {
+        Params::FIELDS.to_vec()
+    } else {
+        Params::names().collect()
+    }
+}
+
+/// Parameter sets as a table [sets, [`params_columns`]] (`params.npy`).
 pub fn params_table(sets: &[Params]) -> Vec<f64> {
+    let columns = params_columns(sets);
     sets.iter()
-        .flat_map(|p| Params::FIELDS.iter().map(|k| p.get(k).unwrap_or(f64::NAN)))
+        .flat_map(|p| columns.iter().map(|k| p.get(k).unwrap_or(f64::NAN)))
         .collect()
 }
 
-/// Parameter sets from a `params.npy` [sets, 14] in [`Params::FIELDS`] order.
+/// Parameter sets from a `params.npy` [sets, columns] in [`params_columns`]' order
+/// (14 or 24 columns). A directional parameter equal to its isotropic one stays unset.
 pub fn read_params_table(path: &Path) -> Result<Vec<Params>> {
-    let t = LaneTable::read_npy(
-        path,
-        Some(
-            &Params::FIELDS
-                .iter()
-                .map(|s| s.to_string())
-                .collect::<Vec<_>>(),
-        ),
-    )?;
+    let names = |all: bool| -> Vec<String> {
+        let n: Vec<&str> = if all {
+            Params::names().collect()
+        } else {
+            Params::FIELDS.to_vec()
+        };
+        n.iter().map(|s| s.to_string()).collect()
+    };
+    let t = LaneTable::read_npy(path, Some(&names(false)))
+        .or_else(|_| LaneTable::read_npy(path, Some(&names(true))))
+        .map_err(|_| {
+            table_err(
+                path,
+                format!(
+                    "must have {} columns ({}) or {} (with the machine variants' {})",
+                    Params::FIELDS.len(),
+                    Params::FIELDS.join(", "),
+                    Params::names().count(),
+                    Params::VARIANT_FIELDS.join(", ")
+                ),
+            )
+        })?;
+    let columns = names(
+        t.rows
+            .first()
+            .is_some_and(|r| r.len() > Params::FIELDS.len()),
+    );
     t.rows
         .iter()
         .enumerate()
         .map(|(r, row)| {
             let mut p = Params::default();
-            for (k, v) in Params::FIELDS.iter().zip(row) {
-                p.set(k, *v)?;
+            for (k, v) in columns.iter().zip(row) {
+                if p.get(k) != Some(*v) {
+                    p.set(k, *v)?;
+                }
             }
             p.validate().map_err(|e| {
                 Error::invalid(

@@ -27,7 +27,7 @@ use crate::integrate::tangent::{Tangent, jacobian_trace, tangent_rhs};
 use crate::integrate::transpose;
 use crate::integrate::wide::Wide;
 use crate::model::{
-    Coeffs, STATE_DIM, VX_R, VX_S, VY_R, VY_S, X_R, X_S, Y_R, Y_S, concentric,
+    Coeffs, STATE_DIM, Terms, VX_R, VX_S, VY_R, VY_S, X_R, X_S, Y_R, Y_S, concentric,
     contact_force_per_kc, contact_partials_off_centre, relative_motion, rhs_with_force,
 };
 use crate::real::Real;
@@ -79,6 +79,9 @@ pub struct BatchConsts<'t, R> {
     phase0: V<R>,
     /// The forcing table, when it serves every lane of the batch.
     forcing: Option<&'t ForcingTable<R>>,
+    /// The optional terms some lane uses (`model::rhs_with_force`'s `OFFSET` and
+    /// `ANISOTROPIC`, chosen once per batch).
+    terms: Terms,
 }
 
 impl<'t, R: Real> BatchConsts<'t, R> {
@@ -96,6 +99,7 @@ impl<'t, R: Real> BatchConsts<'t, R> {
             inv_n: lanes(|l| lc[l].inv_n),
             phase0: lanes(|l| lc[l].phase0),
             forcing: serving(forcing, &lanes(|l| &lc[l])),
+            terms: batch_terms(|l| lc[l].terms),
         }
     }
 
@@ -115,8 +119,19 @@ impl<'t, R: Real> BatchConsts<'t, R> {
             inv_n: lanes(|i| bcs[slot[i].0].inv_n[slot[i].1]),
             phase0: lanes(|i| bcs[slot[i].0].phase0[slot[i].1]),
             forcing: serving(bcs.iter().find_map(|b| b.forcing), lc),
+            terms: batch_terms(|i| lc[i].terms),
         }
     }
+}
+
+/// The terms some lane of a batch uses, lane `l`'s being `of(l)`.
+#[inline(always)]
+fn batch_terms(of: impl Fn(usize) -> Terms) -> Terms {
+    let mut t = Terms::default();
+    for l in 0..BATCH {
+        t = t.or(of(l));
+    }
+    t
 }
 
 /// `forcing` where it serves every lane of `lc` ([`ForcingTable::serves`]), else none.
@@ -381,6 +396,24 @@ fn rhs<R: Real>(
     sin_phase: &V<R>,
     contact: &[bool; BATCH],
 ) -> [V<R>; STATE_DIM] {
+    match (bc.terms.offset, bc.terms.anisotropic) {
+        (false, false) => rhs_lanes::<R, false, false>(bc, x, cos_phase, sin_phase, contact),
+        (true, false) => rhs_lanes::<R, true, false>(bc, x, cos_phase, sin_phase, contact),
+        (false, true) => rhs_lanes::<R, false, true>(bc, x, cos_phase, sin_phase, contact),
+        (true, true) => rhs_lanes::<R, true, true>(bc, x, cos_phase, sin_phase, contact),
+    }
+}
+
+/// [`rhs`] with the stator's offset subtracted (`OFFSET`) or not, the y coefficients
+/// read (`ANISOTROPIC`) or the x ones used for both directions.
+#[inline(always)]
+fn rhs_lanes<R: Real, const OFFSET: bool, const ANISOTROPIC: bool>(
+    bc: &BatchConsts<R>,
+    x: &[V<R>; STATE_DIM],
+    cos_phase: &V<R>,
+    sin_phase: &V<R>,
+    contact: &[bool; BATCH],
+) -> [V<R>; STATE_DIM] {
     let mut f = [[R::lit(0.0); BATCH]; STATE_DIM];
     // Without a lane in contact the force is not computed at all (the same zeros).
     let any_contact = contact.iter().any(|&c| c);
@@ -406,7 +439,14 @@ fn rhs<R: Real>(
         } else {
             (R::lit(0.0), R::lit(0.0))
         };
-        let fl = rhs_with_force(&c, &lane_of(x, l), cos_phase[l], sin_phase[l], fx, fy);
+        let fl = rhs_with_force::<R, OFFSET, ANISOTROPIC>(
+            &c,
+            &lane_of(x, l),
+            cos_phase[l],
+            sin_phase[l],
+            fx,
+            fy,
+        );
         set_lane(&mut f, l, fl);
     }
     f

@@ -24,7 +24,7 @@ pub struct ExactFreeFlight<R> {
     /// Per oscillator j (x_r, y_r, x_s, y_s), entries 4j..4j+4: the transition
     /// [q<-q, q<-v, v<-q, v<-v].
     pub phi: [R; 16],
-    /// Per oscillator: F / w^2.
+    /// Per oscillator: its rest, o + F / w^2 (o the stator's offset, 0 for the rotor).
     pub off: [R; 4],
     /// Per oscillator: P (the cosine part of the forced response).
     pub p: [R; 4],
@@ -48,30 +48,15 @@ impl<R: Real> ExactFreeFlight<R> {
     pub fn new(p: &Params, omega: f64, n: u32) -> Option<Self> {
         let h = std::f64::consts::TAU / omega / n as f64;
         let u = p.e * omega * omega;
-        // (w^2, c, F, A, B) per oscillator.
+        // (w^2, c, F, A, B, rest centre) per oscillator, each direction its own
+        // support (docs/model.md 7), the stator's springs about its offset centre.
+        let ((wrx, wry), (xrx, xry)) = (p.omega_r_xy(), p.xi_r_xy());
+        let ((wsx, wsy), (xsx, xsy)) = (p.omega_s_xy(), p.xi_s_xy());
         let osc = [
-            (p.omega_r * p.omega_r, 2.0 * p.xi_r * p.omega_r, 0.0, u, 0.0),
-            (
-                p.omega_r * p.omega_r,
-                2.0 * p.xi_r * p.omega_r,
-                -p.a_g,
-                0.0,
-                u,
-            ),
-            (
-                p.omega_s * p.omega_s,
-                2.0 * p.xi_s * p.omega_s,
-                0.0,
-                0.0,
-                0.0,
-            ),
-            (
-                p.omega_s * p.omega_s,
-                2.0 * p.xi_s * p.omega_s,
-                -p.a_g,
-                0.0,
-                0.0,
-            ),
+            (wrx * wrx, 2.0 * xrx * wrx, 0.0, u, 0.0, 0.0),
+            (wry * wry, 2.0 * xry * wry, -p.a_g, 0.0, u, 0.0),
+            (wsx * wsx, 2.0 * xsx * wsx, 0.0, 0.0, 0.0, p.o_x),
+            (wsy * wsy, 2.0 * xsy * wsy, -p.a_g, 0.0, 0.0, p.o_y),
         ];
         let zero = R::lit(0.0);
         let mut m = ExactFreeFlight {
@@ -81,7 +66,7 @@ impl<R: Real> ExactFreeFlight<R> {
             q: [zero; 4],
             omega: R::lit(omega),
         };
-        for (j, &(w2, c, f, a_, b_)) in osc.iter().enumerate() {
+        for (j, &(w2, c, f, a_, b_, o)) in osc.iter().enumerate() {
             let a = c / 2.0;
             // Underdamped only (also refuses NaN parameters).
             if w2.partial_cmp(&(a * a)) != Some(std::cmp::Ordering::Greater) {
@@ -103,7 +88,8 @@ impl<R: Real> ExactFreeFlight<R> {
             if det.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
                 return None;
             }
-            m.off[j] = R::lit(f / w2);
+            // o + F / w^2 is F / w^2 itself for a centred stator.
+            m.off[j] = R::lit(o + f / w2);
             m.p[j] = R::lit((aa * a_ - bb * b_) / det);
             m.q[j] = R::lit((bb * a_ + aa * b_) / det);
         }

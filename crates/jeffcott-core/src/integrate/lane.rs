@@ -160,6 +160,9 @@ pub struct LaneConsts<R: 'static> {
     /// values, so a lookup changes no bit): [`forcing_phasor`] looks there first.
     /// `None` where there is none (host only: the GPU kernel evaluates the polynomial).
     pub forcing: Option<&'static ForcingTable<R>>,
+    /// The optional terms of the equations `c` uses, decided once here (`c.terms()`), so
+    /// a batch picks its code without comparing coefficients at every step.
+    pub terms: crate::model::Terms,
 }
 
 /// Settings of the lane stepper that are not model parameters.
@@ -347,8 +350,10 @@ impl<R: Real> LaneConsts<R> {
         let n = cfg.steps_per_period;
         // The search stops near the precision's resolution of a fraction in [0, 1].
         let root_tol = if R::WGSL_NAME == "f64" { 1e-13 } else { 2e-6 };
+        let c = Coeffs::new(p, omega);
         let mut lc = LaneConsts {
-            c: Coeffs::new(p, omega),
+            c,
+            terms: c.terms(),
             h: R::lit(period / n as f64),
             inv_n: R::lit(1.0 / n as f64),
             phase0: R::lit(p.phi0 / std::f64::consts::TAU),

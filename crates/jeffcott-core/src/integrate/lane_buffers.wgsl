@@ -61,10 +61,16 @@
 
 // Equation coefficients of one lane (model::Coeffs).
 struct Coeffs {
-    wr2: Real,
-    dr: Real,
-    ws2: Real,
-    ds: Real,
+    wr2x: Real,
+    wr2y: Real,
+    drx: Real,
+    dry: Real,
+    ws2x: Real,
+    ws2y: Real,
+    dsx: Real,
+    dsy: Real,
+    ox: Real,
+    oy: Real,
     unbalance: Real,
     a_g: Real,
     kc_mr: Real,
@@ -160,7 +166,7 @@ struct Params {
 // vec4s because the uniform space wants array strides of 16 bytes. The software form
 // leaves it alone (lavapipe reloads a uniform at every use).
 struct SharedConsts {
-    r: array<vec4<Real>, 12>,
+    r: array<vec4<Real>, 13>,
     ints: vec4<u32>,
 }
 

@@ -68,20 +68,22 @@ pub fn tangent_rhs<T: Arith>(c: &Coeffs<T>, pc: &[T; 8], v: &[T; STATE_DIM]) -> 
     let dfy = pc[4] * ddx + pc[5] * ddy + pc[6] * ddvx + pc[7] * ddvy;
     [
         v[VX_R],
-        -c.wr2 * v[X_R] - c.dr * v[VX_R] + c.kc_mr * dfx,
+        -c.wr2x * v[X_R] - c.drx * v[VX_R] + c.kc_mr * dfx,
         v[VY_R],
-        -c.wr2 * v[Y_R] - c.dr * v[VY_R] + c.kc_mr * dfy,
+        -c.wr2y * v[Y_R] - c.dry * v[VY_R] + c.kc_mr * dfy,
         v[VX_S],
-        -c.ws2 * v[X_S] - c.ds * v[VX_S] - c.kc_ms * dfx,
+        -c.ws2x * v[X_S] - c.dsx * v[VX_S] - c.kc_ms * dfx,
         v[VY_S],
-        -c.ws2 * v[Y_S] - c.ds * v[VY_S] - c.kc_ms * dfy,
+        -c.ws2y * v[Y_S] - c.dsy * v[VY_S] - c.kc_ms * dfy,
     ]
 }
 
 /// Trace of the Jacobian given its contact block: only the velocity diagonal counts.
+/// The dampings summed in pairs: for an isotropic machine (drx = dry, dsx = dsy) that is
+/// -2 (dr + ds) to the bit, as doubling is exact.
 #[inline(always)]
 pub(crate) fn jacobian_trace<R: Real>(c: &Coeffs<R>, pc: &[R; 8]) -> R {
-    -R::lit(2.0) * (c.dr + c.ds) + (c.kc_mr + c.kc_ms) * (pc[2] + pc[7])
+    -((c.drx + c.dry) + (c.dsx + c.dsy)) + (c.kc_mr + c.kc_ms) * (pc[2] + pc[7])
 }
 
 /// Advances the tangent vectors over the sub-step [s0, s0 + ds] of macro step k that

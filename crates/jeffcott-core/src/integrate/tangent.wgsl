@@ -22,15 +22,16 @@ fn tangent_rhs(c: Coeffs, pc: Partials, v: array<Real, STATE_DIM>) -> array<Real
     let ddvy = v[VY_R] - v[VY_S];
     let dfx = pc.a.x * ddx + pc.a.y * ddy + pc.a.z * ddvx + pc.a.w * ddvy;
     let dfy = pc.b.x * ddx + pc.b.y * ddy + pc.b.z * ddvx + pc.b.w * ddvy;
+    let cy = y_coeffs(c);
     return array<Real, STATE_DIM>(
         v[VX_R],
-        -c.wr2 * v[X_R] - c.dr * v[VX_R] + c.kc_mr * dfx,
+        -c.wr2x * v[X_R] - c.drx * v[VX_R] + c.kc_mr * dfx,
         v[VY_R],
-        -c.wr2 * v[Y_R] - c.dr * v[VY_R] + c.kc_mr * dfy,
+        -cy.wr2 * v[Y_R] - cy.dr * v[VY_R] + c.kc_mr * dfy,
         v[VX_S],
-        -c.ws2 * v[X_S] - c.ds * v[VX_S] - c.kc_ms * dfx,
+        -c.ws2x * v[X_S] - c.dsx * v[VX_S] - c.kc_ms * dfx,
         v[VY_S],
-        -c.ws2 * v[Y_S] - c.ds * v[VY_S] - c.kc_ms * dfy,
+        -cy.ws2 * v[Y_S] - cy.ds * v[VY_S] - c.kc_ms * dfy,
     );
 }
 

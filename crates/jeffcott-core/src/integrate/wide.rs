@@ -108,18 +108,6 @@ impl<R: Copy> Coeffs<[R; BATCH]> {
     /// The same coefficients as `Wide`s, for whole-batch arithmetic.
     #[inline(always)]
     pub fn wide(&self) -> Coeffs<Wide<R>> {
-        Coeffs {
-            wr2: Wide(self.wr2),
-            dr: Wide(self.dr),
-            ws2: Wide(self.ws2),
-            ds: Wide(self.ds),
-            unbalance: Wide(self.unbalance),
-            a_g: Wide(self.a_g),
-            kc_mr: Wide(self.kc_mr),
-            kc_ms: Wide(self.kc_ms),
-            mu: Wide(self.mu),
-            delta: Wide(self.delta),
-            tau_c: Wide(self.tau_c),
-        }
+        self.map(Wide)
     }
 }
