@@ -201,7 +201,9 @@ def test_the_page_draws_zooms_drills_down_and_recomputes(server, browser):
 
     # Save puts the data into --out.
     d.find_element("css selector", "#basin [data-act=npy]").click()
-    wait("the saved file", lambda: (out / "basin-1.npy").exists())
+    # The server reserves the name with an empty file, then renames the data onto it.
+    saved = out / "basin-1.npy"
+    wait("the saved file", lambda: saved.exists() and saved.stat().st_size > 0)
     assert (out / "basin-1.npy").read_bytes()[:6] == b"\x93NUMPY"
 
     # A bad value gets the command line's message in the page.
