@@ -232,10 +232,11 @@ impl Features {
 
     /// The features one lane needs.
     pub fn lane<R: Real>(lc: &LaneConsts<R>) -> Self {
+        // The terms the lane's constructor decided, which the CPU batch also uses.
         Features {
             exact: lc.exact.is_some(),
-            offset: lc.c.offset(),
-            anisotropic: lc.c.anisotropic(),
+            offset: lc.terms.offset,
+            anisotropic: lc.terms.anisotropic,
         }
     }
 
