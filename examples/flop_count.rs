@@ -97,6 +97,12 @@ impl Arith for Counted {
         tick(3);
         Counted(self.0.sqrt())
     }
+    fn abs(self) -> Self {
+        Counted(self.0.abs())
+    }
+    fn pow_half(self, m: Self) -> Self {
+        jeffcott_core::model::pow_half(self, m)
+    }
 }
 impl Real for Counted {
     const WGSL_NAME: &'static str = "f64";
@@ -114,9 +120,6 @@ impl Real for Counted {
     fn floor(self) -> Self {
         tick(0);
         Counted(self.0.floor())
-    }
-    fn abs(self) -> Self {
-        Counted(self.0.abs())
     }
     fn is_finite(self) -> bool {
         self.0.is_finite()

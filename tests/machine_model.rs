@@ -338,13 +338,19 @@ fn the_gpu_kernel_runs_the_machine_variants_to_the_cpus_bits() {
 #[test]
 fn a_params_table_of_machine_variants_keeps_every_parameter_and_the_articles_keeps_14_columns() {
     use jeffcott_core::ensemble::table::{params_columns, params_table, read_params_table};
-    let (sets, _) = rubbing_variants();
+    let (mut sets, _) = rubbing_variants();
+    sets[1].n_c = 2.5;
+    sets[2].alpha_c = 0.25;
     let dir = tempfile::tempdir().unwrap();
-    for (sets, columns) in [(vec![Params::default()], 14), (sets, 24)] {
+    let write = |name: &str, rows: usize, columns: usize, values: &[f64]| {
+        let path = dir.path().join(name);
+        jeffcott_analysis::output::write_npy(&path, &[rows, columns], values).unwrap();
+        path
+    };
+    for (sets, columns) in [(vec![Params::default()], 14), (sets.clone(), 26)] {
         assert_eq!(params_columns(&sets).len(), columns);
-        let path = dir.path().join(format!("params{columns}.npy"));
-        jeffcott_analysis::output::write_npy(&path, &[sets.len(), columns], &params_table(&sets))
-            .unwrap();
+        let table = params_table(&sets);
+        let path = write(&format!("params{columns}.npy"), sets.len(), columns, &table);
         let back = read_params_table(&path).unwrap();
         assert_eq!(back.len(), sets.len());
         for (a, b) in sets.iter().zip(&back) {
@@ -353,6 +359,19 @@ fn a_params_table_of_machine_variants_keeps_every_parameter_and_the_articles_kee
             }
         }
     }
+    // A table of 24 columns, without the contact law's two, reads with the linear law.
+    let (sets, _) = rubbing_variants();
+    let first24: Vec<f64> = params_table(&sets)
+        .chunks(26)
+        .flat_map(|row| row[..24].to_vec())
+        .collect();
+    let back = read_params_table(&write("params24.npy", sets.len(), 24, &first24)).unwrap();
+    assert_eq!(back, sets);
+    // Any other width is refused, naming the widths it takes.
+    let text = read_params_table(&write("params20.npy", 1, 20, &[1.0; 20]))
+        .unwrap_err()
+        .to_string();
+    assert!(text.contains("14 columns") && text.contains("26"), "{text}");
 }
 
 #[test]

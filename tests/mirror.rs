@@ -28,8 +28,9 @@ use jeffcott_core::integrate::lane::{
     trial_tangent, wrong_side,
 };
 use jeffcott_core::model::{
-    Coeffs, Params, STATE_DIM, VX_R, VX_S, VY_R, VY_S, X_R, X_S, Y_R, Y_S, contact_force_per_kc,
-    contact_partials, penetration, relative_motion, rhs_frozen,
+    Coeffs, Params, STATE_DIM, Terms, VX_R, VX_S, VY_R, VY_S, X_R, X_S, Y_R, Y_S,
+    contact_force_lane, contact_force_per_kc, contact_force_per_kc_law, contact_partials,
+    contact_partials_law_off_centre, penetration, pow_half, relative_motion, rhs_frozen,
 };
 use jeffcott_core::real::Real;
 use jeffcott_gpu::shader::{Features, Variant};
@@ -96,10 +97,12 @@ fn in_coeffs() -> Coeffs {
     let mu = in_real();
     let delta = in_real();
     let tau_c = in_real();
+    let n_c = in_real();
+    let hc = in_real();
     return Coeffs(
         wr2x, wr2y, drx, dry, ws2x, ws2y,
         dsx, dsy, ox, oy, unbalance, a_g,
-        kc_mr, kc_ms, mu, delta, tau_c,
+        kc_mr, kc_ms, mu, delta, tau_c, n_c, hc,
     );
 }
 fn in_consts() -> LaneConsts {
@@ -181,13 +184,13 @@ struct Probe {
     body: &'static str,
 }
 
-/// Reals of a `LaneConsts` row: Coeffs (17), h, inv_n, phase0, bound, root_tol, inv_r,
+/// Reals of a `LaneConsts` row: Coeffs (19), h, inv_n, phase0, bound, root_tol, inv_r,
 /// the exact free-flight map (29), n, max_segments, exact.
-const CONSTS: usize = 55;
-const COEFFS: usize = 17;
+const CONSTS: usize = 57;
+const COEFFS: usize = 19;
 const S: usize = STATE_DIM;
 
-const PROBES: [Probe; 27] = [
+const PROBES: [Probe; 31] = [
     Probe {
         name: "phasor_turns",
         inputs: 1,
@@ -228,6 +231,48 @@ const PROBES: [Probe; 27] = [
     let f = contact_force_per_kc(delta, mu, tau_c, dx, dy, dvx, dvy);
     out_real(f.x);
     out_real(f.y);",
+    },
+    Probe {
+        name: "pow_half",
+        inputs: 2,
+        outputs: 1,
+        body: "let a = in_real();
+    let m = in_real();
+    out_real(pow_half(a, m));",
+    },
+    Probe {
+        name: "contact_force_per_kc_law",
+        inputs: COEFFS + 4,
+        outputs: 2,
+        body: "let c = in_coeffs();
+    let dx = in_real();
+    let dy = in_real();
+    let dvx = in_real();
+    let dvy = in_real();
+    let f = contact_force_per_kc_law(c, dx, dy, dvx, dvy);
+    out_real(f.x);
+    out_real(f.y);",
+    },
+    Probe {
+        name: "contact_force_lane",
+        inputs: COEFFS + 4,
+        outputs: 2,
+        body: "let c = in_coeffs();
+    let dx = in_real();
+    let dy = in_real();
+    let dvx = in_real();
+    let dvy = in_real();
+    let f = contact_force_lane(c, dx, dy, dvx, dvy);
+    out_real(f.x);
+    out_real(f.y);",
+    },
+    Probe {
+        name: "contact_partials_law_off_centre",
+        inputs: COEFFS + S,
+        outputs: 8,
+        body: "let c = in_coeffs();
+    let x = in_state();
+    out_partials(contact_partials_law_off_centre(c, relative_motion(x)));",
     },
     Probe {
         name: "contact_partials",
@@ -691,11 +736,11 @@ fn probed_variants<R: GpuReal>(runner: &GpuRunner) -> Vec<Variant> {
     // The exact free-flight code live (lanes whose constants carry the map take it, the
     // others RK4, as in Rust), the offset stator's and the directional supports' (a
     // centred, isotropic lane's rows give the bits of the kernel without them: x - (+0)
-    // is x, and its y coefficients are its x ones).
+    // is x, and its y coefficients are its x ones) and the contact laws' (each lane takes
+    // its own law, as in Rust).
     let all = Features {
         exact: true,
-        offset: true,
-        anisotropic: true,
+        terms: Terms::ALL,
     };
     let device = device_variant(runner, true).with_features(all);
     let mut v = vec![device];
@@ -965,8 +1010,18 @@ type RhsArgs<R> = (Coeffs<R>, [R; STATE_DIM], R, R, bool, R);
 
 /// `p` as one of the machine variants (docs/model.md 7) for row `i`: every fifth row
 /// with supports that differ by direction, every fifth (another) with the stator off
-/// the axis, the rest the article's machine.
+/// the axis, two in five with a contact law (each exponent, Hunt-Crossley damping on
+/// every other), the rest the article's machine.
 fn machine_variant(mut p: Params, i: usize) -> Params {
+    if i % 5 == 2 || i % 5 == 4 {
+        p.n_c = [1.5, 2.0, 2.5, 3.0, 1.0][(i / 5) % 5];
+        // Stiffness per m^n scaled so that a micrometre's overlap pushes as it does in the
+        // linear law.
+        p.k_c *= 1e-6f64.powf(1.0 - p.n_c);
+        if i.is_multiple_of(2) {
+            p.alpha_c = 0.5 * unit(i, 20).abs();
+        }
+    }
     if i % 5 == 1 {
         p.omega_rx = Some(120.0 + 40.0 * unit(i, 14).abs());
         p.xi_ry = Some(0.04 * unit(i, 15).abs());
@@ -1104,6 +1159,8 @@ fn forcing_phasor_on_the_gpu_equals_the_rust_function_bit_for_bit() {
 }
 
 fn check_penetration_and_contact_force<R: GpuReal>(runner: &GpuRunner) {
+    let (mut law, mut lane, mut law_partials, mut powers) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let mut motion = Vec::new();
     let mut pen = Vec::new();
     let mut force = Vec::new();
@@ -1135,6 +1192,23 @@ fn check_penetration_and_contact_force<R: GpuReal>(runner: &GpuRunner) {
                     .state(&x)
                     .expect(&contact_partials(cc, &x)),
             );
+            let (lx, ly) = contact_force_per_kc_law(cc, d[0], d[1], d[2], d[3]);
+            law.push(Row::new().coeffs(cc).state(&d).expect(&[lx, ly]));
+            let (lx, ly) = contact_force_lane(cc, d[0], d[1], d[2], d[3]);
+            lane.push(Row::new().coeffs(cc).state(&d).expect(&[lx, ly]));
+            law_partials.push(
+                Row::new()
+                    .coeffs(cc)
+                    .state(&x)
+                    .expect(&contact_partials_law_off_centre(cc, &x)),
+            );
+            // Every exponent at this row's gap, either sign (the held contact mode's
+            // continuation takes |g|).
+            let g = penetration(cc.delta, &x);
+            for m in [0.0, 0.5, 1.0, 1.5, 2.0] {
+                let (a, m) = (g.abs(), R::lit(m));
+                powers.push(Row::new().real(a).real(m).expect(&[pow_half(a, m)]));
+            }
         }
     }
     // Concentric bodies: no normal, no force (the r <= 0 branch).
@@ -1158,9 +1232,14 @@ fn check_penetration_and_contact_force<R: GpuReal>(runner: &GpuRunner) {
     assert_mirrors(runner, "penetration", &pen);
     assert_mirrors(runner, "contact_force_per_kc", &force);
     assert_mirrors(runner, "contact_partials", &partials);
+    assert_mirrors(runner, "pow_half", &powers);
+    assert_mirrors(runner, "contact_force_per_kc_law", &law);
+    assert_mirrors(runner, "contact_force_lane", &lane);
+    assert_mirrors(runner, "contact_partials_law_off_centre", &law_partials);
 }
 
-/// relative_motion, penetration, contact_force_per_kc and contact_partials (model.wgsl).
+/// relative_motion, penetration, contact_force_per_kc and contact_partials (model.wgsl),
+/// and the contact laws' pow_half, forces and partials.
 #[test]
 fn penetration_and_contact_force_and_its_partials_on_the_gpu_equal_the_rust_functions_bit_for_bit()
 {
@@ -1785,6 +1864,7 @@ fn every_mirrored_function_has_a_probe() {
         "free_flight_map",
         "rk4_stages",
         "y_coeffs",
+        "contact_law",
     ];
     let this = include_str!("mirror.rs");
     let mut mirrored = Vec::new();

@@ -280,8 +280,10 @@ def test_bad_input_raises_value_error_naming_the_field(call, field):
 
 def test_a_machine_variant_by_keyword_equals_the_cli_and_its_params_table_has_every_key(tmp_path):
     # Supports stiffer in y than in x (an engineer's directional stiffnesses), one
-    # dashpot, the stator set off-centre: docs/model.md 7.
-    machine = {"k_rx": 8.0e5, "k_ry": 1.4e6, "c_r": 350.0, "o_x": 0.0021, "o_y": -0.001}
+    # dashpot, the stator set off-centre, a Hertzian contact with Hunt-Crossley
+    # damping: docs/model.md 7.
+    machine = {"k_rx": 8.0e5, "k_ry": 1.4e6, "c_r": 350.0, "o_x": 0.0021, "o_y": -0.001,
+               "n_c": 1.5, "k_c": 2e10, "alpha_c": 0.3}
     out = tmp_path / "ens"
     cli("ensemble", "--omega", "128:136:9", "--transient", "40", "--periods", "4",
         "--param", ",".join(f"{k}={v}" for k, v in machine.items()), "--backend", "cpu",
@@ -294,6 +296,7 @@ def test_a_machine_variant_by_keyword_equals_the_cli_and_its_params_table_has_ev
     assert r["params"].shape == (1, len(jeffcott.PARAM_KEYS))
     row = dict(zip(jeffcott.PARAM_KEYS, r["params"][0]))
     assert row["o_x"] == 0.0021 and row["o_y"] == -0.001
+    assert row["n_c"] == 1.5 and row["alpha_c"] == 0.3 and row["k_c"] == 2e10
     assert row["omega_rx"] == np.sqrt(8.0e5 / 50.0) and row["omega_ry"] == np.sqrt(1.4e6 / 50.0)
     # One dashpot: each direction's ratio c / (2 m w) with its own frequency.
     assert abs(row["xi_rx"] - 350.0 / (2 * 50.0 * row["omega_rx"])) < 1e-15

@@ -29,7 +29,7 @@ pub enum DirectionArg {
 #[derive(Args, Debug)]
 pub struct ContinuationArgs {
     /// The continued parameter, NAME:lo:hi:n: omega or a model parameter (omega_r, ...,
-    /// phi0, omega_rx, ..., o_y: docs/parameters.md), n >= 2
+    /// phi0, omega_rx, ..., alpha_c: docs/parameters.md), n >= 2
     /// values from lo to hi inclusive, e.g. omega:130:141:111. (`--param NAME=VALUE`
     /// sets the other model parameters, as in every command.)
     #[arg(long, value_name = "NAME:lo:hi:n", allow_hyphen_values = true)]

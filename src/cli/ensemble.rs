@@ -29,7 +29,7 @@ pub struct EnsembleArgs {
     /// Lanes from a table, one row each: a CSV file with a header, or a 2-D f64 .npy with
     /// --columns (a lanes.npy of an earlier run needs none; a params.npy beside it gives
     /// its param_set column's parameter sets). Columns: omega, any parameter key
-    /// (omega_r, ..., phi0 and the machine variants' omega_rx, ..., o_y: docs/parameters.md),
+    /// (omega_r, ..., phi0 and the machine variants' omega_rx, ..., alpha_c: docs/parameters.md),
     /// start coordinates (x_r, vx_r, ... or x_r0, ...), param_set. Absent columns take
     /// --omega, --config/--param and the static equilibrium with --init.
     #[arg(long, value_name = "FILE")]

@@ -16,7 +16,7 @@ use std::path::Path;
 #[derive(Args, Debug)]
 pub struct MapArgs {
     /// Horizontal axis, NAME:lo:hi:n: `omega`, a model parameter (omega_r, ..., phi0,
-    /// omega_rx, ..., o_y: docs/parameters.md) or a start coordinate
+    /// omega_rx, ..., alpha_c: docs/parameters.md) or a start coordinate
     /// (x_r, vx_r, ...), n values from lo to hi inclusive, e.g. omega:130:141:200.
     #[arg(long, value_name = "NAME:lo:hi:n", allow_hyphen_values = true)]
     pub x: String,

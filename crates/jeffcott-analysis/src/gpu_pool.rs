@@ -184,7 +184,7 @@ pub fn run_early_gpu<R: GpuReal>(
 
 /// The constants' fields every lane of `spec` has equal (the GPU's kernel reads those at
 /// one address for every slot: `jeffcott_gpu::layout::shared_fields`) and the kernel code
-/// its lanes need (the exact free-flight step, an offset stator), found over the lanes'
+/// its lanes need (the exact free-flight step, the machine variants' terms), found over the lanes'
 /// distinct parameter sets and speeds, which alone decide a lane's constants.
 fn kernel_shape<R: GpuReal>(spec: &EnsembleSpec) -> (u32, jeffcott_gpu::shader::Features) {
     let mut seen = std::collections::HashSet::new();

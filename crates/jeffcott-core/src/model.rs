@@ -3,8 +3,8 @@
 //! energy. Pure functions; the `f64` entry points here are the reference that the
 //! integrators and the GPU kernel are tested against.
 //!
-//! `penetration`, `contact_force_per_kc`, `contact_partials` and `rhs_frozen` are
-//! mirrored, in that order, by `model.wgsl` beside this file (a part of the lane kernel):
+//! `penetration`, `contact_force_per_kc`, `pow_half`, `contact_force_per_kc_law`,
+//! `contact_force_lane`, `contact_partials` and `rhs_frozen` are mirrored, in that order, by `model.wgsl` beside this file (a part of the lane kernel):
 //! keep in sync with it.
 
 use crate::error::{Error, Result};
@@ -171,10 +171,14 @@ define_coeffs! {
     delta,
     /// Contact damping over contact stiffness c_c / k_c [s] (0 without damping).
     tau_c,
+    /// The contact law's exponent n (1 for the linear spring).
+    n_c,
+    /// Hunt-Crossley damping 3/2 alpha [s/m] (0 without).
+    hc,
 }
 
 // SAFETY: `Coeffs<R>` is `#[repr(C)]` and all its fields are `R`, so it has the size of
-// `[R; 17]`, no padding, and every bit pattern of it is valid when every bit pattern of
+// `[R; 19]`, no padding, and every bit pattern of it is valid when every bit pattern of
 // `R` is (`R: Pod`); zeroed it is all-zero `R`s (`R: Zeroable`).
 unsafe impl<R: bytemuck::Zeroable> bytemuck::Zeroable for Coeffs<R> {}
 // SAFETY: as above; `R: Pod` also gives `Copy + 'static`.
@@ -204,6 +208,8 @@ impl<R: Real> Coeffs<R> {
             mu: R::lit(p.mu),
             delta: R::lit(p.delta),
             tau_c: R::lit(p.c_c / p.k_c),
+            n_c: R::lit(p.n_c),
+            hc: R::lit(1.5 * p.alpha_c),
         }
     }
 
@@ -225,12 +231,22 @@ impl<R: Real> Coeffs<R> {
             || differ(self.dsx, self.dsy)
     }
 
+    /// Whether the contact is not the article's linear spring: a power law (n != 1) or
+    /// Hunt-Crossley damping ([`contact_force_lane`]). Decided from the lane's own
+    /// coefficients, in the kernel as here, so a lane takes the same law whatever the
+    /// other lanes of its batch or dispatch take.
+    #[inline(always)]
+    pub fn contact_law(&self) -> bool {
+        self.n_c != R::lit(1.0) || self.hc != R::lit(0.0)
+    }
+
     /// The optional terms these coefficients use, decided once (a lane's constants
     /// carry them: `integrate::lane::LaneConsts::terms`).
     pub fn terms(&self) -> Terms {
         Terms {
             offset: self.offset(),
             anisotropic: self.anisotropic(),
+            contact_law: self.contact_law(),
         }
     }
 }
@@ -243,15 +259,32 @@ pub struct Terms {
     pub offset: bool,
     /// The supports differ by direction ([`Coeffs::anisotropic`]).
     pub anisotropic: bool,
+    /// The contact is a power law or has Hunt-Crossley damping ([`Coeffs::contact_law`]).
+    pub contact_law: bool,
 }
 
 impl Terms {
+    /// No optional term: the article's model.
+    pub const NONE: Terms = Terms {
+        offset: false,
+        anisotropic: false,
+        contact_law: false,
+    };
+
+    /// Every optional term.
+    pub const ALL: Terms = Terms {
+        offset: true,
+        anisotropic: true,
+        contact_law: true,
+    };
+
     /// The terms of either.
     #[inline(always)]
     pub fn or(self, other: Terms) -> Terms {
         Terms {
             offset: self.offset || other.offset,
             anisotropic: self.anisotropic || other.anisotropic,
+            contact_law: self.contact_law || other.contact_law,
         }
     }
 }
@@ -313,6 +346,53 @@ pub fn contact_force_per_kc<R: Real>(
     (-nrm * dx + mu * s * dy, -nrm * dy - mu * s * dx)
 }
 
+/// a^m for the exponents of the contact laws, m = n - 1 in {0, 1/2, 1, 3/2, 2}, a >= 0:
+/// products and at most one square root, each correctly rounded on the CPU and in the
+/// kernel (a `pow` is neither, and WGSL has none for f64), so both give the same bits.
+#[inline(always)]
+pub fn pow_half<R: Real>(a: R, m: R) -> R {
+    let k = m.floor();
+    let whole = if k >= R::lit(2.0) {
+        a * a
+    } else if k >= R::lit(1.0) {
+        a
+    } else {
+        R::lit(1.0)
+    };
+    if m != k { whole * a.sqrt() } else { whole }
+}
+
+/// [`contact_force_per_kc`] for the general contact law of docs/model.md 7: the normal
+/// force k_c P(g) (1 + hc dg/dt) + c_c dg/dt with P(g) = g |g|^(n-1) (Hertz's k_c g^n
+/// in contact, continued oddly below g = 0 for the held contact mode) and hc = 3/2 alpha
+/// (Hunt and Crossley 1975), friction mu k_c P(g). With n = 1 and hc = 0 it is the
+/// linear law, though not its bits: a lane takes one or the other by
+/// [`Coeffs::contact_law`] ([`contact_force_lane`]).
+#[inline(always)]
+pub fn contact_force_per_kc_law<R: Real>(c: &Coeffs<R>, dx: R, dy: R, dvx: R, dvy: R) -> (R, R) {
+    let r2 = dx * dx + dy * dy;
+    let r = r2.sqrt();
+    if r <= R::lit(0.0) {
+        return (R::lit(0.0), R::lit(0.0));
+    }
+    let g = r - c.delta;
+    let s = g * pow_half(g.abs(), c.n_c - R::lit(1.0)) / r;
+    let dv = dx * dvx + dy * dvy;
+    let nrm = s + c.hc * s * (dv / r) + c.tau_c * (dv / r2);
+    (-nrm * dx + c.mu * s * dy, -nrm * dy - c.mu * s * dx)
+}
+
+/// The contact force per k_c of a lane's own law: [`contact_force_per_kc_law`] where
+/// [`Coeffs::contact_law`], else the article's [`contact_force_per_kc`].
+#[inline(always)]
+pub fn contact_force_lane<R: Real>(c: &Coeffs<R>, dx: R, dy: R, dvx: R, dvy: R) -> (R, R) {
+    if c.contact_law() {
+        contact_force_per_kc_law(c, dx, dy, dvx, dvy)
+    } else {
+        contact_force_per_kc(c.delta, c.mu, c.tau_c, dx, dy, dvx, dvy)
+    }
+}
+
 /// Whether the bodies are concentric (|d| = sqrt(dx^2 + dy^2) <= 0), where the contact
 /// partials are zero ([`contact_partials`]' guard, [`contact_force_per_kc`]'s too).
 #[inline(always)]
@@ -332,7 +412,11 @@ pub fn contact_partials<R: Real>(c: &Coeffs<R>, x: &[R; STATE_DIM]) -> [R; 8] {
     if concentric(dx, dy) {
         return [R::lit(0.0); 8];
     }
-    contact_partials_off_centre(c, x)
+    if c.contact_law() {
+        contact_partials_law_off_centre(c, x)
+    } else {
+        contact_partials_off_centre(c, x)
+    }
 }
 
 /// [`contact_partials`] off the concentric position, branch-free, so a batch of lanes
@@ -367,6 +451,46 @@ pub fn contact_partials_off_centre<T: Arith>(c: &Coeffs<T>, x: &[T; STATE_DIM]) 
     ]
 }
 
+/// [`contact_partials_off_centre`] of the general law ([`contact_force_per_kc_law`]),
+/// for a lane whose [`Coeffs::contact_law`] holds.
+///
+/// With A = |g|^(n-1), P = g A and P' = n A: d(P/r)/d(dx) = (P' r - P) dx / r^3, and
+/// P' r - P = A ((n - 1) r + delta) (no cancellation near g = 0); dg/dt = (d . v)/r has
+/// d(dg/dt)/d(dx) = (dvx - q dx)/r and d(dg/dt)/d(dvx) = dx / r.
+#[inline(always)]
+pub fn contact_partials_law_off_centre<T: Arith>(c: &Coeffs<T>, x: &[T; STATE_DIM]) -> [T; 8] {
+    let [dx, dy, dvx, dvy] = relative_motion(x);
+    let one = T::splat(1.0);
+    let r2 = dx * dx + dy * dy;
+    let r = r2.root();
+    let g = r - c.delta;
+    let a = g.abs().pow_half(c.n_c - one);
+    let s = g * a / r;
+    let dv = dx * dvx + dy * dvy;
+    let (q, gd) = (dv / r2, dv / r);
+    let nrm = s + c.hc * s * gd + c.tau_c * q;
+    let r3 = r2 * r;
+    let num = a * ((c.n_c - one) * r + c.delta);
+    let (sx, sy) = (num * dx / r3, num * dy / r3);
+    let (gx, gy) = ((dvx - q * dx) / r, (dvy - q * dy) / r);
+    let two = T::splat(2.0);
+    let nx = sx + c.hc * (sx * gd + s * gx) + c.tau_c * (dvx - two * q * dx) / r2;
+    let ny = sy + c.hc * (sy * gd + s * gy) + c.tau_c * (dvy - two * q * dy) / r2;
+    let nvx = c.hc * s * dx / r + c.tau_c * dx / r2;
+    let nvy = c.hc * s * dy / r + c.tau_c * dy / r2;
+    let mu = c.mu;
+    [
+        -nx * dx - nrm + mu * sx * dy,
+        -ny * dx + mu * sy * dy + mu * s,
+        -nvx * dx,
+        -nvy * dx,
+        -nx * dy - mu * sx * dx - mu * s,
+        -ny * dy - nrm - mu * sy * dx,
+        -nvx * dy,
+        -nvy * dy,
+    ]
+}
+
 /// Right-hand side of the corrected equations of motion (docs/model.md 2) with the contact
 /// state given (`contact`) and the unbalance phasor (cos(Wt - phi0), sin(Wt - phi0))
 /// given, so the caller chooses how the forcing is evaluated.
@@ -383,7 +507,7 @@ pub fn rhs_frozen<R: Real>(
     let (mut fx, mut fy) = (R::lit(0.0), R::lit(0.0));
     if contact {
         let [dx, dy, dvx, dvy] = relative_motion(x);
-        (fx, fy) = contact_force_per_kc(c.delta, c.mu, c.tau_c, dx, dy, dvx, dvy);
+        (fx, fy) = contact_force_lane(c, dx, dy, dvx, dvy);
     }
     if c.offset() {
         rhs_with_force::<R, true, true>(c, x, cos_phase, sin_phase, fx, fy)
@@ -451,7 +575,7 @@ pub fn contact_force(p: &Params, x: &State) -> (f64, f64) {
     if penetration(p.delta, x) > 0.0 {
         let c = Coeffs::<f64>::new(p, 0.0);
         let [dx, dy, dvx, dvy] = relative_motion(x);
-        let (fx, fy) = contact_force_per_kc(c.delta, c.mu, c.tau_c, dx, dy, dvx, dvy);
+        let (fx, fy) = contact_force_lane(&c, dx, dy, dvx, dvy);
         (p.k_c * fx, p.k_c * fy)
     } else {
         (0.0, 0.0)
@@ -505,8 +629,9 @@ pub fn jacobian_frozen(c: &Coeffs<f64>, x: &State, contact: bool) -> [[f64; STAT
 
 /// Total mechanical energy [J]: kinetic, shaft and suspension springs (each direction
 /// its own stiffness, the stator's stretched from its rest centre), gravity (zero at
-/// y = 0) and the contact potential k_c g^2 / 2 for g > 0. Conserved when every damping
-/// ratio, e, mu and c_c are zero (docs/model.md 6).
+/// y = 0) and the contact potential k_c g^(n+1) / (n+1) for g > 0 (k_c g^2 / 2 for the
+/// linear spring). Conserved when every damping ratio, e, mu, c_c and alpha_c are zero
+/// (docs/model.md 6).
 pub fn energy(p: &Params, x: &State) -> f64 {
     let kinetic = 0.5 * p.m_r * (x[VX_R] * x[VX_R] + x[VY_R] * x[VY_R])
         + 0.5 * p.m_s * (x[VX_S] * x[VX_S] + x[VY_S] * x[VY_S]);
@@ -522,7 +647,11 @@ pub fn energy(p: &Params, x: &State) -> f64 {
         + spring(p.m_s, p.omega_s_xy(), x[X_S] - p.o_x, x[Y_S] - p.o_y);
     let gravity = p.a_g * (p.m_r * x[Y_R] + p.m_s * x[Y_S]);
     let g = penetration(p.delta, x);
-    let contact = if g > 0.0 { 0.5 * p.k_c * g * g } else { 0.0 };
+    let contact = match g > 0.0 {
+        false => 0.0,
+        true if p.n_c == 1.0 => 0.5 * p.k_c * g * g,
+        true => p.k_c * g * pow_half(g, p.n_c - 1.0) * g / (p.n_c + 1.0),
+    };
     kinetic + springs + gravity + contact
 }
 

@@ -86,10 +86,25 @@ pub struct Params {
     /// y of the stator suspension's rest centre [m] (before gravity's sag).
     #[serde(skip_serializing_if = "is_zero")]
     pub o_y: f64,
+    /// Exponent n of the contact law k_c g^n [-]: 1 the linear penalty spring, 3/2
+    /// Hertz's point contact (Johnson 1985), 1 to 3 in steps of 1/2 (products and one
+    /// square root, bit for bit the same on every GPU). `k_c` is then in N/m^n.
+    #[serde(skip_serializing_if = "is_one")]
+    pub n_c: f64,
+    /// Hunt-Crossley contact damping alpha [s/m]: the normal force becomes
+    /// k_c g^n (1 + 3/2 alpha dg/dt), zero at the moment of touching, with a coefficient
+    /// of restitution e = 1 - alpha v_in for low impact speeds v_in (Hunt and Crossley
+    /// 1975). 0: none. Friction stays mu k_c g^n.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub alpha_c: f64,
 }
 
 fn is_zero(v: &f64) -> bool {
     *v == 0.0
+}
+
+fn is_one(v: &f64) -> bool {
+    *v == 1.0
 }
 
 impl Default for Params {
@@ -119,6 +134,8 @@ impl Default for Params {
             xi_sy: None,
             o_x: 0.0,
             o_y: 0.0,
+            n_c: 1.0,
+            alpha_c: 0.0,
         }
     }
 }
@@ -178,6 +195,16 @@ fn describe(name: &str) -> (&'static str, &'static str, &'static str) {
             "m",
             "y of the stator's rest centre off the bearing axis",
         ),
+        "n_c" => (
+            "n",
+            "-",
+            "exponent of the contact law k_c g^n (1 linear, 1.5 Hertz)",
+        ),
+        "alpha_c" => (
+            "alpha",
+            "s/m",
+            "Hunt-Crossley contact damping, in contact only",
+        ),
         _ => ("?", "-", "unknown parameter"),
     }
 }
@@ -188,6 +215,8 @@ enum Range {
     Positive,
     NonNegative,
     Finite,
+    /// 1, 1.5, 2, 2.5 or 3 (a contact law's exponent).
+    HalfSteps1To3,
 }
 
 impl Range {
@@ -197,6 +226,7 @@ impl Range {
             Range::Positive => "must be finite and > 0",
             Range::NonNegative => "must be finite and >= 0",
             Range::Finite => "must be finite",
+            Range::HalfSteps1To3 => "must be 1, 1.5, 2, 2.5 or 3",
         }
     }
 
@@ -206,6 +236,7 @@ impl Range {
                 Range::Positive => v > 0.0,
                 Range::NonNegative => v >= 0.0,
                 Range::Finite => true,
+                Range::HalfSteps1To3 => (1.0..=3.0).contains(&v) && (2.0 * v).fract() == 0.0,
             }
     }
 }
@@ -245,10 +276,10 @@ impl Params {
     ];
 
     /// Names of the machine variants' parameters (docs/model.md 7): directional
-    /// frequencies and damping ratios, then the stator's offset.
-    pub const VARIANT_FIELDS: [&'static str; 10] = [
+    /// frequencies and damping ratios, the stator's offset, then the contact law.
+    pub const VARIANT_FIELDS: [&'static str; 12] = [
         "omega_rx", "omega_ry", "xi_rx", "xi_ry", "omega_sx", "omega_sy", "xi_sx", "xi_sy", "o_x",
-        "o_y",
+        "o_y", "n_c", "alpha_c",
     ];
 
     /// Every parameter name: [`Params::FIELDS`], then [`Params::VARIANT_FIELDS`].
@@ -295,6 +326,8 @@ impl Params {
             "xi_sy" => (D(&mut self.xi_sy, xs), NonNegative),
             "o_x" => (V(&mut self.o_x), Finite),
             "o_y" => (V(&mut self.o_y), Finite),
+            "n_c" => (V(&mut self.n_c), HalfSteps1To3),
+            "alpha_c" => (V(&mut self.alpha_c), NonNegative),
             _ => return None,
         })
     }
@@ -351,20 +384,20 @@ impl Params {
         Ok(())
     }
 
-    /// Whether this is the article's model: no directional parameter set and the
-    /// stator centred (the model of docs/model.md 2 as printed there).
+    /// Whether this is the article's model: every variant parameter
+    /// ([`Params::VARIANT_FIELDS`]) at its default, an unset directional one included
+    /// (the model of docs/model.md 2 as printed there).
     pub fn is_article_model(&self) -> bool {
-        let directional = [
-            self.omega_rx,
-            self.omega_ry,
-            self.xi_rx,
-            self.xi_ry,
-            self.omega_sx,
-            self.omega_sy,
-            self.xi_sx,
-            self.xi_sy,
-        ];
-        directional.iter().all(Option::is_none) && self.o_x == 0.0 && self.o_y == 0.0
+        let article = Params::default();
+        Params::VARIANT_FIELDS.iter().all(|&name| {
+            let mut mine = self.clone();
+            let mut theirs = article.clone();
+            match (mine.slot(name), theirs.slot(name)) {
+                (Some((Slot::Value(a), _)), Some((Slot::Value(b), _))) => *a == *b,
+                (Some((Slot::Directional(a, _), _)), Some(_)) => a.is_none(),
+                _ => unreachable!("VARIANT_FIELDS are known names"),
+            }
+        })
     }
 
     /// Checks every parameter against its allowed range (the error names the field, its

@@ -28,6 +28,10 @@ pub trait Arith:
     fn splat(x: f64) -> Self;
     /// Square root (correctly rounded), lane by lane.
     fn root(self) -> Self;
+    /// Absolute value, lane by lane.
+    fn abs(self) -> Self;
+    /// `self^m` for a contact law's m = n - 1 (`model::pow_half`), lane by lane.
+    fn pow_half(self, m: Self) -> Self;
 }
 
 /// A real scalar usable by the lane stepper (`f32` or `f64`).
@@ -44,8 +48,6 @@ pub trait Real: Arith + Debug + PartialOrd + AddAssign + Send + Sync + 'static {
     fn sqrt(self) -> Self;
     /// Largest integer not greater than `self`.
     fn floor(self) -> Self;
-    /// Absolute value.
-    fn abs(self) -> Self;
     /// True when neither infinite nor NaN.
     fn is_finite(self) -> bool;
     /// Larger of two values (NaN-propagation is not relied upon).
@@ -81,6 +83,14 @@ macro_rules! impl_real {
             fn root(self) -> Self {
                 <$t>::sqrt(self)
             }
+            #[inline(always)]
+            fn abs(self) -> Self {
+                <$t>::abs(self)
+            }
+            #[inline(always)]
+            fn pow_half(self, m: Self) -> Self {
+                crate::model::pow_half(self, m)
+            }
         }
         impl Real for $t {
             const WGSL_NAME: &'static str = $name;
@@ -93,7 +103,7 @@ macro_rules! impl_real {
             fn to_f64(self) -> f64 {
                 self as f64
             }
-            forward!($t: sqrt, floor, abs);
+            forward!($t: sqrt, floor);
             #[inline(always)]
             fn is_finite(self) -> bool {
                 <$t>::is_finite(self)

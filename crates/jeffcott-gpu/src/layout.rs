@@ -153,7 +153,7 @@ pub enum Binding {
 /// from a `LaneConsts` value, in the struct's order: each equation coefficient, each
 /// stepper constant, the exact free-flight map as one field, and `n` standing for the
 /// four integers.
-pub const CONST_FIELDS: [&str; 25] = [
+pub const CONST_FIELDS: [&str; 27] = [
     "c.wr2x",
     "c.wr2y",
     "c.drx",
@@ -171,6 +171,8 @@ pub const CONST_FIELDS: [&str; 25] = [
     "c.mu",
     "c.delta",
     "c.tau_c",
+    "c.n_c",
+    "c.hc",
     "h",
     "inv_n",
     "phase0",
@@ -270,8 +272,8 @@ pub fn forcing_table<R: GpuReal>(first: &R::Consts) -> Vec<[R; 2]> {
     t
 }
 
-/// The reals `SharedConsts` has room for (13 vec4s: the 52 of `LaneConsts`, checked
-/// against the WGSL by the layout test).
+/// The reals `SharedConsts` has room for (14 vec4s: the 54 of `LaneConsts` and two of
+/// padding, checked against the WGSL by the layout test).
 pub const SHARED_CONSTS_REALS: usize = (SCALAR_FIELDS + FREE_FLIGHT_REALS).next_multiple_of(4);
 
 /// The mask of [`CONST_FIELDS`] that every lane of `consts` has equal, byte for byte, to
@@ -453,7 +455,7 @@ mod tests {
                 "Coeffs",
                 members!(Coeffs<$r> {
                     wr2x, wr2y, drx, dry, ws2x, ws2y, dsx, dsy, ox, oy, unbalance, a_g,
-                    kc_mr, kc_ms, mu, delta, tau_c
+                    kc_mr, kc_ms, mu, delta, tau_c, n_c, hc
                 }),
             );
             check(

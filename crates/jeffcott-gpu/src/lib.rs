@@ -300,7 +300,7 @@ impl GpuRunner {
 
     /// The kernel this runner's device runs: `lyapunov` or not, with the code the lanes'
     /// `features` need (the exact free-flight step, an offset stator, directional
-    /// supports), reading the constants' fields of mask `shared` at one address for every
+    /// supports, the contact laws), reading the constants' fields of mask `shared` at one address for every
     /// lane, f32's division and sqrt through f64 where the device has SHADER_F64, and the
     /// lean path's forcing table where the lanes share N and phi0 ([`shader::Variant`]).
     pub fn kernel_variant(

@@ -14,7 +14,7 @@
 use jeffcott_core::integrate::lane::{
     GRAZE_SAMPLES, LaneConsts, ROOT_MAX_ITERS, Status, WGSL_FILES,
 };
-use jeffcott_core::model::{STATE_DIM, VX_R, VX_S, VY_R, VY_S, X_R, X_S, Y_R, Y_S};
+use jeffcott_core::model::{STATE_DIM, Terms, VX_R, VX_S, VY_R, VY_S, X_R, X_S, Y_R, Y_S};
 use jeffcott_core::real::Real;
 use std::fmt::Write;
 use wgpu::naga;
@@ -89,14 +89,15 @@ pub struct Variant {
     /// and removed: llvmpipe would otherwise run it at every sub-step (it executes both
     /// arms of an `if`).
     pub exact_free_flight: bool,
-    /// Some lane's stator rests off the bearing axis (`STATOR_OFFSET` in the header):
-    /// the stator's springs pull towards its rest centre. Off, the subtraction of a zero
-    /// centre is not in the kernel (the same bits; the article's model keeps its speed).
-    pub stator_offset: bool,
-    /// Some lane's supports differ by direction (`ANISOTROPIC` in the header): the y
-    /// coefficients are read. Off, the x ones serve both directions (an isotropic lane's
-    /// are the same bits), so the kernel reads four coefficients fewer per evaluation.
-    pub anisotropic: bool,
+    /// The optional terms of the equations some lane uses (docs/model.md 7), each a
+    /// constant of the header. `STATOR_OFFSET`: the stator's springs pull towards its
+    /// rest centre; off, the subtraction of a zero centre is not in the kernel (the same
+    /// bits). `ANISOTROPIC`: the y coefficients are read; off, the x ones serve both
+    /// directions (an isotropic lane's are the same bits), four coefficients fewer read
+    /// per evaluation. `CONTACT_LAW`: a lane whose contact is a power law or has
+    /// Hunt-Crossley damping takes that law; off, only the linear spring is in the kernel.
+    /// So the article's model keeps its speed.
+    pub terms: Terms,
     /// The GPU form of the entry point (`CONSTS_EACH_STEP` in the header:
     /// `advance_buffered` in lane_entry.wgsl, docs/gpu.md): the lane's constants read at
     /// every sub-step, the committed lane and its tangent kept in their buffers, the
@@ -133,8 +134,7 @@ impl Variant {
             lyapunov,
             f32_through_f64: device_has_f64,
             exact_free_flight: false,
-            stator_offset: false,
-            anisotropic: false,
+            terms: Terms::NONE,
             consts_each_step: false,
             shared_fields: 0,
             forcing_table: false,
@@ -185,8 +185,7 @@ impl Variant {
     pub fn with_features(self, features: Features) -> Self {
         Self {
             exact_free_flight: features.exact,
-            stator_offset: features.offset,
-            anisotropic: features.anisotropic,
+            terms: features.terms,
             ..self
         }
     }
@@ -196,8 +195,7 @@ impl Variant {
         lyapunov: false,
         f32_through_f64: false,
         exact_free_flight: false,
-        stator_offset: false,
-        anisotropic: false,
+        terms: Terms::NONE,
         consts_each_step: false,
         shared_fields: 0,
         forcing_table: false,
@@ -216,10 +214,8 @@ impl Variant {
 pub struct Features {
     /// Some lane takes the exact free-flight map ([`Variant::exact_free_flight`]).
     pub exact: bool,
-    /// Some lane's stator rests off the bearing axis ([`Variant::stator_offset`]).
-    pub offset: bool,
-    /// Some lane's supports differ by direction ([`Variant::anisotropic`]).
-    pub anisotropic: bool,
+    /// The optional terms some lane's equations use ([`Variant::terms`]).
+    pub terms: Terms,
 }
 
 impl Features {
@@ -230,13 +226,12 @@ impl Features {
             .fold(Features::default(), |f, lc| f.or(Features::lane(lc)))
     }
 
-    /// The features one lane needs.
+    /// The features one lane needs: the terms its constructor decided, which the CPU
+    /// batch also uses.
     pub fn lane<R: Real>(lc: &LaneConsts<R>) -> Self {
-        // The terms the lane's constructor decided, which the CPU batch also uses.
         Features {
             exact: lc.exact.is_some(),
-            offset: lc.terms.offset,
-            anisotropic: lc.terms.anisotropic,
+            terms: lc.terms,
         }
     }
 
@@ -244,8 +239,7 @@ impl Features {
     pub fn or(self, other: Self) -> Self {
         Features {
             exact: self.exact || other.exact,
-            offset: self.offset || other.offset,
-            anisotropic: self.anisotropic || other.anisotropic,
+            terms: self.terms.or(other.terms),
         }
     }
 
@@ -297,8 +291,15 @@ pub fn header<R: Real>(v: Variant) -> String {
         "const EXACT_FREE_FLIGHT: bool = {};",
         v.exact_free_flight
     ));
-    line(format!("const STATOR_OFFSET: bool = {};", v.stator_offset));
-    line(format!("const ANISOTROPIC: bool = {};", v.anisotropic));
+    line(format!("const STATOR_OFFSET: bool = {};", v.terms.offset));
+    line(format!(
+        "const ANISOTROPIC: bool = {};",
+        v.terms.anisotropic
+    ));
+    line(format!(
+        "const CONTACT_LAW: bool = {};",
+        v.terms.contact_law
+    ));
     line(format!(
         "const CONSTS_EACH_STEP: bool = {};",
         v.consts_each_step
@@ -486,16 +487,14 @@ mod tests {
                                 lyapunov,
                                 f32_through_f64,
                                 exact_free_flight: false,
-                                stator_offset: false,
-                                anisotropic: false,
+                                terms: Terms::NONE,
                                 consts_each_step,
                                 shared_fields,
                                 forcing_table: false,
                             }
                             .with_features(Features {
                                 exact,
-                                offset: machine,
-                                anisotropic: machine,
+                                terms: if machine { Terms::ALL } else { Terms::NONE },
                             });
                             v.push(v0);
                             if v0.with_forcing_table(true).forcing_table {
@@ -781,10 +780,14 @@ mod tests {
                     "relative_motion",
                     "penetration",
                     "contact_force_per_kc",
+                    "pow_half",
+                    "contact_force_per_kc_law",
+                    "contact_force_lane",
                     "contact_partials",
+                    "contact_partials_law_off_centre",
                     "rhs_frozen",
                 ],
-                kernel_only: &["y_coeffs"],
+                kernel_only: &["contact_law", "y_coeffs"],
             },
             Mirror {
                 wgsl: "integrate/tangent.wgsl",

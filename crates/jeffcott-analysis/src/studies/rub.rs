@@ -126,7 +126,8 @@ pub struct RubFigures {
 }
 
 /// Normal contact force on the rotor [N] at state `x` (positive pushes the rotor back
-/// towards the centre, docs/model.md 2 with the optional dashpot), 0 out of contact.
+/// towards the centre, docs/model.md 2 with the optional dashpot, and 7's contact laws:
+/// k_c g^n (1 + 3/2 alpha dg/dt) + c_c dg/dt), 0 out of contact.
 pub fn normal_force(p: &Params, x: &State) -> f64 {
     let (dx, dy) = (x[X_R] - x[X_S], x[Y_R] - x[Y_S]);
     let r = (dx * dx + dy * dy).sqrt();
@@ -135,7 +136,11 @@ pub fn normal_force(p: &Params, x: &State) -> f64 {
         return 0.0;
     }
     let dg = (dx * (x[VX_R] - x[VX_S]) + dy * (x[VY_R] - x[VY_S])) / r;
-    p.k_c * g + p.c_c * dg
+    if p.n_c == 1.0 && p.alpha_c == 0.0 {
+        return p.k_c * g + p.c_c * dg;
+    }
+    let spring = p.k_c * g * jeffcott_core::model::pow_half(g, p.n_c - 1.0);
+    spring * (1.0 + 1.5 * p.alpha_c * dg) + p.c_c * dg
 }
 
 /// Rub figures of a time series (rows `(t, state)` on a uniform grid covering `periods`
@@ -320,7 +325,8 @@ pub const APERIODIC_RUB_PERIODS: u32 = 24;
 /// stiffness k_c (permanent contact, per direction: M^-1 K with K = [[k_r + k_c, -k_c],
 /// [-k_c, k_s + k_c]]), where dry whip is expected (Childs and Bhattacharya 2007).
 /// Supports stiffer in one direction than the other split each into an x and a y
-/// frequency, the rotor's two critical speeds (docs/model.md 7): both are marked.
+/// frequency, the rotor's two critical speeds (docs/model.md 7): both are marked. A
+/// power-law contact (n != 1) has no one contact stiffness, so no coupled modes.
 pub fn natural_frequencies(p: &Params) -> Vec<(String, f64)> {
     let ((wrx, wry), (wsx, wsy)) = (p.omega_r_xy(), p.omega_s_xy());
     let coupled = |wr: f64, ws: f64| {
@@ -342,9 +348,11 @@ pub fn natural_frequencies(p: &Params) -> Vec<(String, f64)> {
     };
     mark("rotor w_r", wrx, wry);
     mark("stator w_s", wsx, wsy);
-    let ((lo_x, hi_x), (lo_y, hi_y)) = (coupled(wrx, wsx), coupled(wry, wsy));
-    mark("coupled in contact, mode 1", lo_x, lo_y);
-    mark("coupled in contact, mode 2", hi_x, hi_y);
+    if p.n_c == 1.0 {
+        let ((lo_x, hi_x), (lo_y, hi_y)) = (coupled(wrx, wsx), coupled(wry, wsy));
+        mark("coupled in contact, mode 1", lo_x, lo_y);
+        mark("coupled in contact, mode 2", hi_x, hi_y);
+    }
     out
 }
 

@@ -413,36 +413,37 @@ pub fn params_table(sets: &[Params]) -> Vec<f64> {
         .collect()
 }
 
-/// Parameter sets from a `params.npy` [sets, columns] in [`params_columns`]' order
-/// (14 or 24 columns). A directional parameter equal to its isotropic one stays unset.
+/// Parameter sets from a `params.npy` [sets, columns] in [`params_columns`]' order: the
+/// article's 14 columns, every parameter's 26, or the 24 before the contact laws'. A
+/// directional parameter equal to its isotropic one stays unset.
 pub fn read_params_table(path: &Path) -> Result<Vec<Params>> {
-    let names = |all: bool| -> Vec<String> {
-        let n: Vec<&str> = if all {
-            Params::names().collect()
-        } else {
-            Params::FIELDS.to_vec()
-        };
-        n.iter().map(|s| s.to_string()).collect()
-    };
-    let t = LaneTable::read_npy(path, Some(&names(false)))
-        .or_else(|_| LaneTable::read_npy(path, Some(&names(true))))
-        .map_err(|_| {
-            table_err(
-                path,
-                format!(
-                    "must have {} columns ({}) or {} (with the machine variants' {})",
-                    Params::FIELDS.len(),
-                    Params::FIELDS.join(", "),
-                    Params::names().count(),
-                    Params::VARIANT_FIELDS.join(", ")
-                ),
-            )
-        })?;
-    let columns = names(
-        t.rows
-            .first()
-            .is_some_and(|r| r.len() > Params::FIELDS.len()),
-    );
+    let all: Vec<String> = Params::names().map(str::to_string).collect();
+    let article = Params::FIELDS.len();
+    let widths = [article, all.len() - 2, all.len()];
+    let mut read = None;
+    for w in widths {
+        match LaneTable::read_npy(path, Some(&all[..w])) {
+            Ok(t) => {
+                read = Some((t, &all[..w]));
+                break;
+            }
+            // Only a column count other than this width's tries the next one; an
+            // unreadable file is its own error.
+            Err(Error::InvalidParameter { name, .. }) if name == "columns" => continue,
+            Err(e) => return Err(e),
+        }
+    }
+    let (t, columns) = read.ok_or_else(|| {
+        table_err(
+            path,
+            format!(
+                "must have {article} columns ({}) or {} (with the machine variants' {})",
+                Params::FIELDS.join(", "),
+                all.len(),
+                Params::VARIANT_FIELDS.join(", ")
+            ),
+        )
+    })?;
     t.rows
         .iter()
         .enumerate()

@@ -28,7 +28,8 @@ use crate::integrate::transpose;
 use crate::integrate::wide::Wide;
 use crate::model::{
     Coeffs, STATE_DIM, Terms, VX_R, VX_S, VY_R, VY_S, X_R, X_S, Y_R, Y_S, concentric,
-    contact_force_per_kc, contact_partials_off_centre, relative_motion, rhs_with_force,
+    contact_force_lane, contact_force_per_kc, contact_partials_law_off_centre,
+    contact_partials_off_centre, relative_motion, rhs_with_force,
 };
 use crate::real::Real;
 
@@ -396,18 +397,31 @@ fn rhs<R: Real>(
     sin_phase: &V<R>,
     contact: &[bool; BATCH],
 ) -> [V<R>; STATE_DIM] {
-    match (bc.terms.offset, bc.terms.anisotropic) {
-        (false, false) => rhs_lanes::<R, false, false>(bc, x, cos_phase, sin_phase, contact),
-        (true, false) => rhs_lanes::<R, true, false>(bc, x, cos_phase, sin_phase, contact),
-        (false, true) => rhs_lanes::<R, false, true>(bc, x, cos_phase, sin_phase, contact),
-        (true, true) => rhs_lanes::<R, true, true>(bc, x, cos_phase, sin_phase, contact),
+    // One instantiation per combination of the optional terms, chosen once a batch.
+    macro_rules! dispatch {
+        ($(($o:literal, $a:literal, $l:literal)),*) => {
+            match (bc.terms.offset, bc.terms.anisotropic, bc.terms.contact_law) {
+                $(($o, $a, $l) => rhs_lanes::<R, $o, $a, $l>(bc, x, cos_phase, sin_phase, contact),)*
+            }
+        };
     }
+    dispatch!(
+        (false, false, false),
+        (true, false, false),
+        (false, true, false),
+        (true, true, false),
+        (false, false, true),
+        (true, false, true),
+        (false, true, true),
+        (true, true, true)
+    )
 }
 
 /// [`rhs`] with the stator's offset subtracted (`OFFSET`) or not, the y coefficients
-/// read (`ANISOTROPIC`) or the x ones used for both directions.
+/// read (`ANISOTROPIC`) or the x ones used for both directions, each lane's own contact
+/// law (`LAW`: `model::contact_force_lane`) or the linear spring for all.
 #[inline(always)]
-fn rhs_lanes<R: Real, const OFFSET: bool, const ANISOTROPIC: bool>(
+fn rhs_lanes<R: Real, const OFFSET: bool, const ANISOTROPIC: bool, const LAW: bool>(
     bc: &BatchConsts<R>,
     x: &[V<R>; STATE_DIM],
     cos_phase: &V<R>,
@@ -422,15 +436,17 @@ fn rhs_lanes<R: Real, const OFFSET: bool, const ANISOTROPIC: bool>(
         // The force of every lane, kept where the lane is in contact (branch-free, so
         // the loop vectorises); then `model::rhs_with_force`, the scalar definition.
         let (fx, fy) = if any_contact {
-            let (kx, ky) = contact_force_per_kc(
-                c.delta,
-                c.mu,
-                c.tau_c,
+            let d = [
                 x[X_R][l] - x[X_S][l],
                 x[Y_R][l] - x[Y_S][l],
                 x[VX_R][l] - x[VX_S][l],
                 x[VY_R][l] - x[VY_S][l],
-            );
+            ];
+            let (kx, ky) = if LAW {
+                contact_force_lane(&c, d[0], d[1], d[2], d[3])
+            } else {
+                contact_force_per_kc(c.delta, c.mu, c.tau_c, d[0], d[1], d[2], d[3])
+            };
             if contact[l] {
                 (kx, ky)
             } else {
@@ -567,7 +583,15 @@ fn tangent_step<R: Real, const M: usize>(
             for l in 0..BATCH {
                 keep[l] = contact[l] && !concentric(dx[l], dy[l]);
             }
-            let q = contact_partials_off_centre(&c, &st);
+            let mut q = contact_partials_off_centre(&c, &st);
+            if bc.terms.contact_law {
+                // Each lane's own law (`model::contact_partials`).
+                let law = std::array::from_fn(|l| bc.c.lane(l).contact_law());
+                let g = contact_partials_law_off_centre(&c, &st);
+                for j in 0..8 {
+                    q[j] = g[j].select(&law, q[j]);
+                }
+            }
             for j in 0..8 {
                 p[j] = q[j].select(&keep, zero);
             }

@@ -78,6 +78,8 @@ struct Coeffs {
     mu: Real,
     delta: Real,
     tau_c: Real,
+    n_c: Real,
+    hc: Real,
 }
 
 // The exact free-flight map (integrate::free_flight::ExactFreeFlight): per oscillator
@@ -166,7 +168,7 @@ struct Params {
 // vec4s because the uniform space wants array strides of 16 bytes. The software form
 // leaves it alone (lavapipe reloads a uniform at every use).
 struct SharedConsts {
-    r: array<vec4<Real>, 13>,
+    r: array<vec4<Real>, 14>,
     ints: vec4<u32>,
 }
 

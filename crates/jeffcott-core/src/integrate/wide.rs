@@ -102,6 +102,20 @@ impl<R: Real> Arith for Wide<R> {
         }
         self
     }
+    #[inline(always)]
+    fn abs(mut self) -> Self {
+        for l in 0..BATCH {
+            self.0[l] = Arith::abs(self.0[l]);
+        }
+        self
+    }
+    #[inline(always)]
+    fn pow_half(mut self, m: Self) -> Self {
+        for l in 0..BATCH {
+            self.0[l] = self.0[l].pow_half(m.0[l]);
+        }
+        self
+    }
 }
 
 impl<R: Copy> Coeffs<[R; BATCH]> {
