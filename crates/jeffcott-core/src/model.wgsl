@@ -77,8 +77,11 @@ fn contact_force_per_kc_law(c: Coeffs, dx: Real, dy: Real, dvx: Real, dvy: Real)
 // contact is not the linear spring) as model.rs' contact_force_lane; without it only the
 // linear spring is in the kernel.
 fn contact_force_lane(c: Coeffs, dx: Real, dy: Real, dvx: Real, dvy: Real) -> vec2<Real> {
-    if CONTACT_LAW && contact_law(c) {
-        return contact_force_per_kc_law(c, dx, dy, dvx, dvy);
+    // Nested: without CONTACT_LAW the lane's law is not even looked at.
+    if CONTACT_LAW {
+        if contact_law(c) {
+            return contact_force_per_kc_law(c, dx, dy, dvx, dvy);
+        }
     }
     return contact_force_per_kc(c.delta, c.mu, c.tau_c, dx, dy, dvx, dvy);
 }
@@ -102,8 +105,10 @@ fn contact_partials(c: Coeffs, x: array<Real, STATE_DIM>) -> Partials {
     if r <= z {
         return Partials(vec4<Real>(z, z, z, z), vec4<Real>(z, z, z, z));
     }
-    if CONTACT_LAW && contact_law(c) {
-        return contact_partials_law_off_centre(c, m);
+    if CONTACT_LAW {
+        if contact_law(c) {
+            return contact_partials_law_off_centre(c, m);
+        }
     }
     let s = div_rn(r - c.delta, r);
     let q = div_rn(dx * dvx + dy * dvy, r2);
