@@ -4,8 +4,9 @@
 //! integrators and the GPU kernel are tested against.
 //!
 //! `penetration`, `contact_force_per_kc`, `pow_half`, `contact_force_per_kc_law`,
-//! `contact_force_lane`, `contact_partials` and `rhs_frozen` are mirrored, in that order, by `model.wgsl` beside this file (a part of the lane kernel):
-//! keep in sync with it.
+//! `contact_force_lane`, `contact_partials`, `contact_partials_law_off_centre` and
+//! `rhs_frozen` are mirrored, in that order, by `model.wgsl` beside this file (a part of
+//! the lane kernel): keep in sync with it.
 
 use crate::error::{Error, Result};
 use crate::real::{Arith, Real};

@@ -136,9 +136,7 @@ pub fn normal_force(p: &Params, x: &State) -> f64 {
         return 0.0;
     }
     let dg = (dx * (x[VX_R] - x[VX_S]) + dy * (x[VY_R] - x[VY_S])) / r;
-    if p.n_c == 1.0 && p.alpha_c == 0.0 {
-        return p.k_c * g + p.c_c * dg;
-    }
+    // The linear law's k_c g to the bit: g^0 is 1 and 1 + 0 dg is 1, exactly.
     let spring = p.k_c * g * jeffcott_core::model::pow_half(g, p.n_c - 1.0);
     spring * (1.0 + 1.5 * p.alpha_c * dg) + p.c_c * dg
 }
