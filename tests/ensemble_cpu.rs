@@ -227,25 +227,106 @@ fn simd_batches_equal_the_scalar_lane_stepper_to_the_bit() {
     }
 }
 
+/// Adds the machine variants of docs/model.md 7 to `s` (a Hertzian contact with
+/// Hunt-Crossley damping, a power law of exponent 2, anisotropic supports with an
+/// offset stator, and all of them at once) and spreads them over the lanes so that
+/// batches mix them with the article's linear lanes; the last eight lanes, one batch,
+/// are all Hertzian.
+fn with_machine_variants(s: &mut EnsembleSpec) {
+    let p = s.param_sets[0].clone();
+    let hertz = |n: f64, alpha: f64| Params {
+        n_c: n,
+        alpha_c: alpha,
+        k_c: p.k_c * 1e-4f64.powf(1.0 - n),
+        ..p.clone()
+    };
+    let machine = Params {
+        omega_ry: Some(150.0),
+        xi_sx: Some(0.03),
+        o_x: 0.001,
+        o_y: -0.0005,
+        ..p.clone()
+    };
+    let everything = Params {
+        omega_ry: Some(150.0),
+        o_x: 0.001,
+        ..hertz(2.5, 0.1)
+    };
+    let first = s.param_sets.len() as u32;
+    s.param_sets
+        .extend([hertz(1.5, 0.2), hertz(2.0, 0.0), machine, everything]);
+    let n = s.lanes.len();
+    for (i, l) in s.lanes.iter_mut().enumerate() {
+        if i >= n - 8 {
+            l.param_set = first;
+        } else if i % 3 != 0 {
+            l.param_set = first + (i % 4) as u32;
+        }
+    }
+}
+
+/// Batches mixing the machine variants (each lane its own contact law, supports and
+/// stator centre; `integrate::batch` takes the variants' code for a batch where one
+/// lane needs it) equal the scalar lane stepper to the bit, in both precisions, with
+/// and without the exact free-flight step.
+#[test]
+fn simd_batches_mixing_the_machine_variants_equal_the_scalar_lane_stepper_to_the_bit() {
+    for (precision, exact) in [
+        (Precision::F64, false),
+        (Precision::F32, false),
+        (Precision::F64, true),
+    ] {
+        let mut s = spec(precision, 64);
+        s.stepper.exact_free_flight = exact;
+        with_machine_variants(&mut s);
+        let r = cpu::run(&s, false, Control::none()).unwrap();
+        let reference = match precision {
+            Precision::F64 => scalar_reference::<f64>(&s),
+            Precision::F32 => scalar_reference::<f32>(&s),
+        };
+        for (i, (bits, status, counters)) in reference.iter().enumerate() {
+            let got: Vec<u64> = r.lane_points(i).iter().map(|v| v.to_bits()).collect();
+            let what = format!("{precision:?} exact {exact} lane {i}");
+            assert_eq!(&got, bits, "{what} points");
+            assert_eq!(r.status[i], *status, "{what} status");
+            assert_eq!(r.counters[i], *counters, "{what} counters");
+        }
+        // Every variant rubs, so each law's code runs.
+        for set in 2..s.param_sets.len() as u32 {
+            let switches: u64 = (0..s.lanes.len())
+                .filter(|&i| s.lanes[i].param_set == set)
+                .map(|i| r.counters[i].switches)
+                .sum();
+            assert!(switches > 20, "parameter set {set}: {switches} switches");
+        }
+    }
+}
+
 /// lambda_1 lanes through the SIMD batches (state batched, each tangent step the scalar
 /// one) equal the scalar lane stepper carrying the tangent: points, statuses, counters
 /// and lambda_1 to the bit.
 #[test]
 fn simd_batches_with_lambda1_equal_the_scalar_tangent_stepper_to_the_bit() {
     for exact in [false, true] {
-        lambda1_batches_equal_the_scalar_tangent_stepper(exact);
+        lambda1_batches_equal_the_scalar_tangent_stepper(exact, false);
     }
+    // Each lane's contact law in the tangent step's partials too.
+    lambda1_batches_equal_the_scalar_tangent_stepper(false, true);
 }
 
 /// The lambda_1 comparison, with RK4 throughout or the exact free-flight step (whose
-/// tangent step is its own transition).
-fn lambda1_batches_equal_the_scalar_tangent_stepper(exact: bool) {
+/// tangent step is its own transition), on the article's machine or with the machine
+/// variants among the lanes (`machine`).
+fn lambda1_batches_equal_the_scalar_tangent_stepper(exact: bool, machine: bool) {
     use jeffcott_core::integrate::lane::{
         LAMBDA1_START, Tangent, advance_period_tangent, renormalise,
     };
     use jeffcott_core::model::STATE_DIM;
-    let mut s = spec(Precision::F64, 21);
+    let mut s = spec(Precision::F64, if machine { 40 } else { 21 });
     s.stepper.exact_free_flight = exact;
+    if machine {
+        with_machine_variants(&mut s);
+    }
     s.lanes[4].x0[X_R] = f64::NAN;
     s.lanes[6].x0[VX_R] = 1e6;
     let r = cpu::run(&s, true, Control::none()).unwrap();

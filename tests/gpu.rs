@@ -4,7 +4,7 @@
 //! These tests need a Vulkan (or other wgpu) adapter. Without one they print
 //! "skipped: no Vulkan adapter" and return, unless `JEFFCOTT_REQUIRE_GPU=1` is set (CI
 //! with Mesa's lavapipe), in which case they fail. The kernel's functions one by one
-//! against their Rust functions: tests/mirror.rs.
+//! against their Rust functions: tests/mirror.
 
 use jeffcott_core::control::Control;
 use jeffcott_core::integrate::lane::{Lane, LaneConsts, Status, StepperConfig, advance_period};
@@ -319,7 +319,7 @@ fn f64_kernel_with_contact_refinement_reproduces_cpu_to_the_bit_for_every_r() {
 /// order as the CPU f32 lane: + - * / and sqrt are correctly rounded on both sides
 /// (x86 SSE on the host; LLVM on lavapipe, which does not fuse a*b+c into an fma),
 /// the one reassociation Mesa's NIR would apply is blocked by `keep` in the kernel
-/// (checked function by function in tests/mirror.rs), constants are
+/// (checked function by function in tests/mirror), constants are
 /// the same f32 values (checked in `gpu::shader`), and floor and small-integer
 /// conversions are exact. Each operation therefore rounds the same exact value to the
 /// same f32, by induction over the whole run: the bound is zero, and the test demands

@@ -4,8 +4,8 @@
 //! integrators and the GPU kernel are tested against.
 //!
 //! `penetration`, `contact_force_per_kc`, `pow_half`, `contact_force_per_kc_law`,
-//! `contact_force_lane`, `contact_partials`, `contact_partials_law_off_centre` and
-//! `rhs_frozen` are mirrored, in that order, by `model.wgsl` beside this file (a part of
+//! `contact_force_lane`, `contact_partials`, `contact_block`,
+//! `contact_partials_law_off_centre` and `rhs_frozen` are mirrored, in that order, by `model.wgsl` beside this file (a part of
 //! the lane kernel): keep in sync with it.
 
 use crate::error::{Error, Result};
@@ -352,15 +352,27 @@ pub fn contact_force_per_kc<R: Real>(
 /// kernel (a `pow` is neither, and WGSL has none for f64), so both give the same bits.
 #[inline(always)]
 pub fn pow_half<R: Real>(a: R, m: R) -> R {
-    let k = m.floor();
-    let whole = if k >= R::lit(2.0) {
+    // The whole part k of m and a^k from comparisons, not `floor` (a libm call on the
+    // CPU's baseline x86-64, which keeps the batch's lane loop from vectorising), the
+    // root computed and kept or not: selects the batch turns into vector blends.
+    let two = m >= R::lit(2.0);
+    let one = m >= R::lit(1.0);
+    let k = if two {
+        R::lit(2.0)
+    } else if one {
+        R::lit(1.0)
+    } else {
+        R::lit(0.0)
+    };
+    let whole = if two {
         a * a
-    } else if k >= R::lit(1.0) {
+    } else if one {
         a
     } else {
         R::lit(1.0)
     };
-    if m != k { whole * a.sqrt() } else { whole }
+    let root = whole * a.sqrt();
+    if m != k { root } else { whole }
 }
 
 /// [`contact_force_per_kc`] for the general contact law of docs/model.md 7: the normal
@@ -371,13 +383,28 @@ pub fn pow_half<R: Real>(a: R, m: R) -> R {
 /// [`Coeffs::contact_law`] ([`contact_force_lane`]).
 #[inline(always)]
 pub fn contact_force_per_kc_law<R: Real>(c: &Coeffs<R>, dx: R, dy: R, dvx: R, dvy: R) -> (R, R) {
-    let r2 = dx * dx + dy * dy;
-    let r = r2.sqrt();
-    if r <= R::lit(0.0) {
+    if concentric(dx, dy) {
         return (R::lit(0.0), R::lit(0.0));
     }
+    contact_force_law_off_centre(c, dx, dy, dvx, dvy)
+}
+
+/// [`contact_force_per_kc_law`] off the concentric position, branch-free, so a batch of
+/// lanes (`integrate::wide::Wide`) computes it at once: the batch stepper's forces for
+/// the lanes of a contact law (`integrate::batch`), which per lane inside its main loop
+/// kept that loop from vectorising.
+#[inline(always)]
+pub fn contact_force_law_off_centre<T: Arith>(
+    c: &Coeffs<T>,
+    dx: T,
+    dy: T,
+    dvx: T,
+    dvy: T,
+) -> (T, T) {
+    let r2 = dx * dx + dy * dy;
+    let r = r2.root();
     let g = r - c.delta;
-    let s = g * pow_half(g.abs(), c.n_c - R::lit(1.0)) / r;
+    let s = g * g.abs().pow_half(c.n_c - T::splat(1.0)) / r;
     let dv = dx * dvx + dy * dvy;
     let nrm = s + c.hc * s * (dv / r) + c.tau_c * (dv / r2);
     (-nrm * dx + c.mu * s * dy, -nrm * dy - c.mu * s * dx)
@@ -439,7 +466,24 @@ pub fn contact_partials_off_centre<T: Arith>(c: &Coeffs<T>, x: &[T; STATE_DIM]) 
     let ny = sy + c.tau_c * (dvy - two * q * dy) / r2;
     let nvx = c.tau_c * dx / r2;
     let nvy = c.tau_c * dy / r2;
-    let mu = c.mu;
+    contact_block(
+        dx,
+        dy,
+        c.mu,
+        &NormalPartials(s, nrm, sx, sy, nx, ny, nvx, nvy),
+    )
+}
+
+/// The normal force per k_c and r of a contact law, nrm, its spring part s (which
+/// friction follows), and their partials, in this order: s, nrm, (sx, sy) =
+/// ds/d(dx, dy), (nx, ny) = dnrm/d(dx, dy), (nvx, nvy) = dnrm/d(dvx, dvy).
+pub struct NormalPartials<T>(pub T, pub T, pub T, pub T, pub T, pub T, pub T, pub T);
+
+/// The contact block of [`contact_partials`] from the normal force's partials, for any
+/// law: the force is (-nrm dx + mu s dy, -nrm dy - mu s dx).
+#[inline(always)]
+pub fn contact_block<T: Arith>(dx: T, dy: T, mu: T, n: &NormalPartials<T>) -> [T; 8] {
+    let NormalPartials(s, nrm, sx, sy, nx, ny, nvx, nvy) = *n;
     [
         -nx * dx - nrm + mu * sx * dy,
         -ny * dx + mu * sy * dy + mu * s,
@@ -479,17 +523,12 @@ pub fn contact_partials_law_off_centre<T: Arith>(c: &Coeffs<T>, x: &[T; STATE_DI
     let ny = sy + c.hc * (sy * gd + s * gy) + c.tau_c * (dvy - two * q * dy) / r2;
     let nvx = c.hc * s * dx / r + c.tau_c * dx / r2;
     let nvy = c.hc * s * dy / r + c.tau_c * dy / r2;
-    let mu = c.mu;
-    [
-        -nx * dx - nrm + mu * sx * dy,
-        -ny * dx + mu * sy * dy + mu * s,
-        -nvx * dx,
-        -nvy * dx,
-        -nx * dy - mu * sx * dx - mu * s,
-        -ny * dy - nrm - mu * sy * dx,
-        -nvx * dy,
-        -nvy * dy,
-    ]
+    contact_block(
+        dx,
+        dy,
+        c.mu,
+        &NormalPartials(s, nrm, sx, sy, nx, ny, nvx, nvy),
+    )
 }
 
 /// Right-hand side of the corrected equations of motion (docs/model.md 2) with the contact

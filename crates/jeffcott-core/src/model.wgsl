@@ -1,7 +1,7 @@
 // The lane kernel, part 3 of 8 (see integrate/lane_buffers.wgsl for the whole): the
 // contact force and the right-hand side. Keep in sync with model.rs, beside this file:
 // the functions below are relative_motion, penetration, contact_force_per_kc, pow_half,
-// contact_force_per_kc_law, contact_force_lane, contact_partials,
+// contact_force_per_kc_law, contact_force_lane, contact_partials, contact_block,
 // contact_partials_law_off_centre and rhs_frozen of model.rs, in the same order, doing
 // the same arithmetic in the same order (contact_law, Coeffs::contact_law there, and
 // y_coeffs are the kernel's own).
@@ -40,11 +40,14 @@ fn contact_force_per_kc(
 // a^m for a contact law's m = n - 1 in {0, 1/2, 1, 3/2, 2}: products and one sqrt_rn,
 // each correctly rounded, so the CPU's bits (WGSL has no f64 pow).
 fn pow_half(a: Real, m: Real) -> Real {
-    let k = floor(m);
+    // The whole part k of m from comparisons, as on the CPU (where floor is slow).
+    var k = Real(0.0);
     var whole = Real(1.0);
-    if k >= Real(2.0) {
+    if m >= Real(2.0) {
+        k = Real(2.0);
         whole = a * a;
-    } else if k >= Real(1.0) {
+    } else if m >= Real(1.0) {
+        k = Real(1.0);
         whole = a;
     }
     if m != k {
@@ -121,7 +124,31 @@ fn contact_partials(c: Coeffs, x: array<Real, STATE_DIM>) -> Partials {
     let ny = sy + div_rn(c.tau_c * (dvy - two * q * dy), r2);
     let nvx = div_rn(c.tau_c * dx, r2);
     let nvy = div_rn(c.tau_c * dy, r2);
-    let mu = c.mu;
+    return contact_block(dx, dy, c.mu, NormalPartials(s, nrm, sx, sy, nx, ny, nvx, nvy));
+}
+
+// The normal force per k_c and r, its spring part and their partials, and the contact
+// block they give for any law (model.rs' NormalPartials and contact_block).
+struct NormalPartials {
+    s: Real,
+    nrm: Real,
+    sx: Real,
+    sy: Real,
+    nx: Real,
+    ny: Real,
+    nvx: Real,
+    nvy: Real,
+}
+
+fn contact_block(dx: Real, dy: Real, mu: Real, n: NormalPartials) -> Partials {
+    let s = n.s;
+    let nrm = n.nrm;
+    let sx = n.sx;
+    let sy = n.sy;
+    let nx = n.nx;
+    let ny = n.ny;
+    let nvx = n.nvx;
+    let nvy = n.nvy;
     return Partials(
         vec4<Real>(
             -nx * dx - nrm + mu * sx * dy,
@@ -165,21 +192,7 @@ fn contact_partials_law_off_centre(c: Coeffs, m: vec4<Real>) -> Partials {
     let ny = sy + c.hc * (sy * gd + s * gy) + div_rn(c.tau_c * (dvy - two * q * dy), r2);
     let nvx = div_rn(c.hc * s * dx, r) + div_rn(c.tau_c * dx, r2);
     let nvy = div_rn(c.hc * s * dy, r) + div_rn(c.tau_c * dy, r2);
-    let mu = c.mu;
-    return Partials(
-        vec4<Real>(
-            -nx * dx - nrm + mu * sx * dy,
-            -ny * dx + mu * sy * dy + mu * s,
-            -nvx * dx,
-            -nvy * dx,
-        ),
-        vec4<Real>(
-            -nx * dy - mu * sx * dx - mu * s,
-            -ny * dy - nrm - mu * sy * dx,
-            -nvx * dy,
-            -nvy * dy,
-        ),
-    );
+    return contact_block(dx, dy, c.mu, NormalPartials(s, nrm, sx, sy, nx, ny, nvx, nvy));
 }
 
 // The y coefficients of the supports: with ANISOTROPIC (a kernel constant: some lane's

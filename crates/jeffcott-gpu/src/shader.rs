@@ -784,6 +784,7 @@ mod tests {
                     "contact_force_per_kc_law",
                     "contact_force_lane",
                     "contact_partials",
+                    "contact_block",
                     "contact_partials_law_off_centre",
                     "rhs_frozen",
                 ],

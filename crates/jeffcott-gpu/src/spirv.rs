@@ -16,7 +16,7 @@
 //! What the decoration cannot reach: the precision of `OpFDiv` and `sqrt` is the
 //! driver's (Vulkan requires correct rounding only for + - *), so bit-identity with
 //! the CPU holds by construction only where the driver divides and takes square roots
-//! correctly rounded; `tests/mirror.rs` checks each function on the adapter at hand.
+//! correctly rounded; `tests/mirror` checks each function on the adapter at hand.
 
 use wgpu::naga;
 use wgpu::naga::back::spv;

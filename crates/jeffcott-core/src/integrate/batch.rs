@@ -28,7 +28,7 @@ use crate::integrate::transpose;
 use crate::integrate::wide::Wide;
 use crate::model::{
     Coeffs, STATE_DIM, Terms, VX_R, VX_S, VY_R, VY_S, X_R, X_S, Y_R, Y_S, concentric,
-    contact_force_lane, contact_force_per_kc, contact_partials_law_off_centre,
+    contact_force_law_off_centre, contact_force_per_kc, contact_partials_law_off_centre,
     contact_partials_off_centre, relative_motion, rhs_with_force,
 };
 use crate::real::Real;
@@ -80,9 +80,15 @@ pub struct BatchConsts<'t, R> {
     phase0: V<R>,
     /// The forcing table, when it serves every lane of the batch.
     forcing: Option<&'t ForcingTable<R>>,
-    /// The optional terms some lane uses (`model::rhs_with_force`'s `OFFSET` and
-    /// `ANISOTROPIC`, chosen once per batch).
+    /// The optional terms some lane uses (whether the tangent step computes the
+    /// contact laws' partials).
     terms: Terms,
+    /// Whether some lane uses an optional term: the batch then takes `rhs_lanes`'
+    /// `MACHINE` code.
+    machine: bool,
+    /// Which lanes' contact is a law other than the linear spring
+    /// (`model::Coeffs::contact_law`, decided once per lane in `LaneConsts::terms`).
+    law: [bool; BATCH],
 }
 
 impl<'t, R: Real> BatchConsts<'t, R> {
@@ -101,6 +107,8 @@ impl<'t, R: Real> BatchConsts<'t, R> {
             phase0: lanes(|l| lc[l].phase0),
             forcing: serving(forcing, &lanes(|l| &lc[l])),
             terms: batch_terms(|l| lc[l].terms),
+            machine: batch_terms(|l| lc[l].terms) != Terms::NONE,
+            law: lanes(|l| lc[l].terms.contact_law),
         }
     }
 
@@ -121,6 +129,8 @@ impl<'t, R: Real> BatchConsts<'t, R> {
             phase0: lanes(|i| bcs[slot[i].0].phase0[slot[i].1]),
             forcing: serving(bcs.iter().find_map(|b| b.forcing), lc),
             terms: batch_terms(|i| lc[i].terms),
+            machine: batch_terms(|i| lc[i].terms) != Terms::NONE,
+            law: lanes(|i| lc[i].terms.contact_law),
         }
     }
 }
@@ -397,31 +407,26 @@ fn rhs<R: Real>(
     sin_phase: &V<R>,
     contact: &[bool; BATCH],
 ) -> [V<R>; STATE_DIM] {
-    // One instantiation per combination of the optional terms, chosen once a batch.
-    macro_rules! dispatch {
-        ($(($o:literal, $a:literal, $l:literal)),*) => {
-            match (bc.terms.offset, bc.terms.anisotropic, bc.terms.contact_law) {
-                $(($o, $a, $l) => rhs_lanes::<R, $o, $a, $l>(bc, x, cos_phase, sin_phase, contact),)*
-            }
-        };
+    // Three instantiations, chosen once a batch: the article's model; the offset and
+    // directional terms on, for a batch where some lane uses one; and also each lane's
+    // contact law, for a batch where some lane's contact is not the linear spring. A
+    // lane without a term gets the bits it gets without the term's code
+    // (`model::rhs_with_force`, [`law_forces`]). One instantiation per combination of
+    // the terms (eight) multiplied the batch code the compiler inlines into every
+    // stepper, and the crate's build time, for a few instructions a lane-step.
+    match (bc.machine, bc.terms.contact_law) {
+        (false, _) => rhs_lanes::<R, false, false>(bc, x, cos_phase, sin_phase, contact),
+        (true, false) => rhs_lanes::<R, true, false>(bc, x, cos_phase, sin_phase, contact),
+        (true, true) => rhs_lanes::<R, true, true>(bc, x, cos_phase, sin_phase, contact),
     }
-    dispatch!(
-        (false, false, false),
-        (true, false, false),
-        (false, true, false),
-        (true, true, false),
-        (false, false, true),
-        (true, false, true),
-        (false, true, true),
-        (true, true, true)
-    )
 }
 
-/// [`rhs`] with the stator's offset subtracted (`OFFSET`) or not, the y coefficients
-/// read (`ANISOTROPIC`) or the x ones used for both directions, each lane's own contact
-/// law (`LAW`: `model::contact_force_lane`) or the linear spring for all.
+/// [`rhs`] for the article's model (`MACHINE` off: a centred stator and isotropic
+/// supports) or with the stator's offset subtracted and the y coefficients read
+/// (docs/model.md 7); with each lane's own contact law ([`law_forces`], `LAW`) or the
+/// linear spring for all.
 #[inline(always)]
-fn rhs_lanes<R: Real, const OFFSET: bool, const ANISOTROPIC: bool, const LAW: bool>(
+fn rhs_lanes<R: Real, const MACHINE: bool, const LAW: bool>(
     bc: &BatchConsts<R>,
     x: &[V<R>; STATE_DIM],
     cos_phase: &V<R>,
@@ -431,22 +436,27 @@ fn rhs_lanes<R: Real, const OFFSET: bool, const ANISOTROPIC: bool, const LAW: bo
     let mut f = [[R::lit(0.0); BATCH]; STATE_DIM];
     // Without a lane in contact the force is not computed at all (the same zeros).
     let any_contact = contact.iter().any(|&c| c);
+    // The contact laws' forces before the loop: in it, a lane's choice of law kept the
+    // loop from vectorising (1.6x the linear law's instructions a lane-step).
+    let law = if LAW && any_contact {
+        law_forces(bc, x, contact)
+    } else {
+        ([R::lit(0.0); BATCH], [R::lit(0.0); BATCH])
+    };
     for l in 0..BATCH {
         let c = bc.c.lane(l);
         // The force of every lane, kept where the lane is in contact (branch-free, so
         // the loop vectorises); then `model::rhs_with_force`, the scalar definition.
-        let (fx, fy) = if any_contact {
+        let (fx, fy) = if LAW {
+            (law.0[l], law.1[l])
+        } else if any_contact {
             let d = [
                 x[X_R][l] - x[X_S][l],
                 x[Y_R][l] - x[Y_S][l],
                 x[VX_R][l] - x[VX_S][l],
                 x[VY_R][l] - x[VY_S][l],
             ];
-            let (kx, ky) = if LAW {
-                contact_force_lane(&c, d[0], d[1], d[2], d[3])
-            } else {
-                contact_force_per_kc(c.delta, c.mu, c.tau_c, d[0], d[1], d[2], d[3])
-            };
+            let (kx, ky) = contact_force_per_kc(c.delta, c.mu, c.tau_c, d[0], d[1], d[2], d[3]);
             if contact[l] {
                 (kx, ky)
             } else {
@@ -455,7 +465,7 @@ fn rhs_lanes<R: Real, const OFFSET: bool, const ANISOTROPIC: bool, const LAW: bo
         } else {
             (R::lit(0.0), R::lit(0.0))
         };
-        let fl = rhs_with_force::<R, OFFSET, ANISOTROPIC>(
+        let fl = rhs_with_force::<R, MACHINE, MACHINE>(
             &c,
             &lane_of(x, l),
             cos_phase[l],
@@ -466,6 +476,36 @@ fn rhs_lanes<R: Real, const OFFSET: bool, const ANISOTROPIC: bool, const LAW: bo
         set_lane(&mut f, l, fl);
     }
     f
+}
+
+/// `model::contact_force_lane` for every lane, kept where the lane is in contact (zero
+/// elsewhere): the general law on the whole batch (`Wide`, branch-free), the linear one
+/// per lane, each lane's picked by its law and the concentric guard, so every lane has
+/// the bits of the scalar definition.
+#[inline(always)]
+fn law_forces<R: Real>(
+    bc: &BatchConsts<R>,
+    x: &[V<R>; STATE_DIM],
+    contact: &[bool; BATCH],
+) -> (V<R>, V<R>) {
+    let [dx, dy, dvx, dvy] = relative_motion(&x.map(Wide));
+    let (gx, gy) = contact_force_law_off_centre(&bc.c.wide(), dx, dy, dvx, dvy);
+    let (mut fx, mut fy) = ([R::lit(0.0); BATCH], [R::lit(0.0); BATCH]);
+    for l in 0..BATCH {
+        let c = bc.c.lane(l);
+        let (d, dv) = ((dx[l], dy[l]), (dvx[l], dvy[l]));
+        let linear = contact_force_per_kc(c.delta, c.mu, c.tau_c, d.0, d.1, dv.0, dv.1);
+        let general = if concentric(d.0, d.1) {
+            (R::lit(0.0), R::lit(0.0))
+        } else {
+            (gx[l], gy[l])
+        };
+        let (kx, ky) = if bc.law[l] { general } else { linear };
+        if contact[l] {
+            (fx[l], fy[l]) = (kx, ky);
+        }
+    }
+    (fx, fy)
 }
 
 /// `x + a * k` per component and lane (the RK4 stage states), with `a = factor * hs`
@@ -586,10 +626,9 @@ fn tangent_step<R: Real, const M: usize>(
             let mut q = contact_partials_off_centre(&c, &st);
             if bc.terms.contact_law {
                 // Each lane's own law (`model::contact_partials`).
-                let law = std::array::from_fn(|l| bc.c.lane(l).contact_law());
                 let g = contact_partials_law_off_centre(&c, &st);
                 for j in 0..8 {
-                    q[j] = g[j].select(&law, q[j]);
+                    q[j] = g[j].select(&bc.law, q[j]);
                 }
             }
             for j in 0..8 {

@@ -18,7 +18,7 @@
 // The mirrored functions have the same names, in the same order as in their .rs file,
 // doing the same arithmetic in the same order, so that the f64 variant reproduces the
 // CPU f64 lane bit for bit on an IEEE device (and the f32 variant the CPU f32 lane);
-// tests/mirror.rs checks each of them on the GPU against its Rust function, and
+// tests/mirror checks each of them on the GPU against its Rust function, and
 // jeffcott-gpu's shader.rs checks the names and their order file by file.
 //
 // The concatenation is not valid WGSL on its own: jeffcott-gpu's shader.rs prepends a
@@ -204,7 +204,7 @@ fn is_frozen(status: u32) -> bool {
 // `loop_budget_left`): lavapipe reloads a uniform at every use inside a loop, as a
 // gather of 8 scalar loads (perf: the probe's bound alone took 5% of a run). `keep`
 // reads `params.n_lanes` itself: a private copy would be a known constant in any other
-// entry point (tests/mirror.rs has some), and the barrier would vanish there.
+// entry point (tests/mirror has some), and the barrier would vanish there.
 var<private> probe_n: u32;
 
 // Returns `v`. An evaluation-order barrier: SPIR-V from naga carries no NoContraction
@@ -214,7 +214,7 @@ var<private> probe_n: u32;
 // invocation that computes anything (see `advance_lanes`), but the compiler cannot
 // know that, so it cannot see through the select and keeps Rust's order. Used exactly
 // where such a rewrite applies; tests/gpu.rs checks the CPU f64 lane bit for bit, and
-// tests/mirror.rs each function.
+// tests/mirror each function.
 fn keep(v: Real) -> Real {
     return select(v, Real(0.0), params.n_lanes == 0u);
 }

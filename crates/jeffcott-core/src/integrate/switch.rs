@@ -147,7 +147,7 @@ pub fn hull_reach_sq<R: Real>(p: &[[R; 2]; 4]) -> R {
 /// flight: the search returns "no switch", and its max_g is negative, below any lane's
 /// largest penetration so far (which starts at 0). A NaN anywhere fails the test and
 /// the search runs. Tested against the full search on thousands of steps around
-/// grazing (tests/free_flight_certain.rs, and tests/mirror.rs on the GPU).
+/// grazing (tests/free_flight_certain.rs, and tests/mirror on the GPU).
 #[inline(always)]
 pub fn free_flight_certain<R: Real>(
     lc: &LaneConsts<R>,

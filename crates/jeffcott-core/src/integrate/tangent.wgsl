@@ -112,7 +112,7 @@ fn saltation(
     // keep: rhs_frozen takes xs[X_R] - xs[X_S], which Mesa's NIR would simplify from
     // (x_s + dx scale) - x_s to dx scale without the rounding of the sum (an inexact
     // rewrite, (a + b) - a -> b), so that f+ - f- and the tangent vector differed from
-    // tangent.rs in the last bits (tests/mirror.rs, saltation and macro_step).
+    // tangent.rs in the last bits (tests/mirror, saltation and macro_step).
     xs[X_R] = keep(x[X_S] + dx * scale);
     xs[Y_R] = keep(x[Y_S] + dy * scale);
     let ph = forcing_phasor(lc, k, s);
