@@ -69,10 +69,11 @@ fn contact_force_per_kc_law(c: Coeffs, dx: Real, dy: Real, dvx: Real, dvy: Real)
     if r <= Real(0.0) {
         return vec2<Real>(Real(0.0), Real(0.0));
     }
+    let inv_r = div_rn(Real(1.0), r);
     let g = r - c.delta;
-    let s = div_rn(g * pow_half(abs(g), c.n_c - Real(1.0)), r);
-    let dv = dx * dvx + dy * dvy;
-    let nrm = s + c.hc * s * div_rn(dv, r) + c.tau_c * div_rn(dv, r2);
+    let s = g * pow_half(abs(g), c.n_c - Real(1.0)) * inv_r;
+    let rate = (dx * dvx + dy * dvy) * inv_r;
+    let nrm = s + c.hc * s * rate + c.tau_c * (rate * inv_r);
     return vec2<Real>(-nrm * dx + c.mu * s * dy, -nrm * dy - c.mu * s * dx);
 }
 

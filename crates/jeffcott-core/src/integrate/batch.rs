@@ -491,10 +491,16 @@ fn law_forces<R: Real>(
     let [dx, dy, dvx, dvy] = relative_motion(&x.map(Wide));
     let (gx, gy) = contact_force_law_off_centre(&bc.c.wide(), dx, dy, dvx, dvy);
     let (mut fx, mut fy) = ([R::lit(0.0); BATCH], [R::lit(0.0); BATCH]);
+    // The linear law only where some lane takes it.
+    let mixed = bc.law != [true; BATCH];
     for l in 0..BATCH {
         let c = bc.c.lane(l);
         let (d, dv) = ((dx[l], dy[l]), (dvx[l], dvy[l]));
-        let linear = contact_force_per_kc(c.delta, c.mu, c.tau_c, d.0, d.1, dv.0, dv.1);
+        let linear = if mixed {
+            contact_force_per_kc(c.delta, c.mu, c.tau_c, d.0, d.1, dv.0, dv.1)
+        } else {
+            (R::lit(0.0), R::lit(0.0))
+        };
         let general = if concentric(d.0, d.1) {
             (R::lit(0.0), R::lit(0.0))
         } else {
