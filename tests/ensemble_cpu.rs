@@ -153,6 +153,27 @@ fn scalar_reference<R: jeffcott_core::real::Real>(
         .collect()
 }
 
+/// Runs `s` on the CPU backend (SIMD batches) and demands every lane's points, status
+/// and counters of the scalar lane stepper ([`scalar_reference`]) to the bit; returns
+/// the run.
+fn assert_batches_equal_the_scalar_stepper(
+    s: &EnsembleSpec,
+    what: &str,
+) -> jeffcott_core::ensemble::EnsembleResult {
+    let r = cpu::run(s, false, Control::none()).unwrap();
+    let reference = match s.precision {
+        Precision::F64 => scalar_reference::<f64>(s),
+        Precision::F32 => scalar_reference::<f32>(s),
+    };
+    for (i, (bits, status, counters)) in reference.iter().enumerate() {
+        let got: Vec<u64> = r.lane_points(i).iter().map(|v| v.to_bits()).collect();
+        assert_eq!(&got, bits, "{what} lane {i} points");
+        assert_eq!(r.status[i], *status, "{what} lane {i} status");
+        assert_eq!(r.counters[i], *counters, "{what} lane {i} counters");
+    }
+    r
+}
+
 #[test]
 fn simd_batches_equal_the_scalar_lane_stepper_to_the_bit() {
     // Every precision, and contact refinement off (R = 1), at its default and at the
@@ -200,26 +221,10 @@ fn simd_batches_equal_the_scalar_lane_stepper_to_the_bit() {
         for l in s.lanes.iter_mut().skip(4).step_by(7) {
             l.param_set = 3;
         }
-        let r = cpu::run(&s, false, Control::none()).unwrap();
-        let reference = match precision {
-            Precision::F64 => scalar_reference::<f64>(&s),
-            Precision::F32 => scalar_reference::<f32>(&s),
-        };
-        for (i, (bits, status, counters)) in reference.iter().enumerate() {
-            let got: Vec<u64> = r.lane_points(i).iter().map(|v| v.to_bits()).collect();
-            assert_eq!(
-                &got, bits,
-                "{precision:?} R {refine:?} exact {exact} lane {i} points"
-            );
-            assert_eq!(
-                r.status[i], *status,
-                "{precision:?} R {refine:?} exact {exact} lane {i} status"
-            );
-            assert_eq!(
-                r.counters[i], *counters,
-                "{precision:?} R {refine:?} exact {exact} lane {i} counters"
-            );
-        }
+        let r = assert_batches_equal_the_scalar_stepper(
+            &s,
+            &format!("{precision:?} R {refine:?} exact {exact}"),
+        );
         assert_eq!(r.status[9], Status::NonFinite);
         assert!(r.status[12].is_frozen());
         let switches: u64 = r.counters.iter().map(|c| c.switches).sum();
@@ -279,18 +284,8 @@ fn simd_batches_mixing_the_machine_variants_equal_the_scalar_lane_stepper_to_the
         let mut s = spec(precision, 64);
         s.stepper.exact_free_flight = exact;
         with_machine_variants(&mut s);
-        let r = cpu::run(&s, false, Control::none()).unwrap();
-        let reference = match precision {
-            Precision::F64 => scalar_reference::<f64>(&s),
-            Precision::F32 => scalar_reference::<f32>(&s),
-        };
-        for (i, (bits, status, counters)) in reference.iter().enumerate() {
-            let got: Vec<u64> = r.lane_points(i).iter().map(|v| v.to_bits()).collect();
-            let what = format!("{precision:?} exact {exact} lane {i}");
-            assert_eq!(&got, bits, "{what} points");
-            assert_eq!(r.status[i], *status, "{what} status");
-            assert_eq!(r.counters[i], *counters, "{what} counters");
-        }
+        let r =
+            assert_batches_equal_the_scalar_stepper(&s, &format!("{precision:?} exact {exact}"));
         // Every variant rubs, so each law's code runs.
         for set in 2..s.param_sets.len() as u32 {
             let switches: u64 = (0..s.lanes.len())
