@@ -100,14 +100,15 @@ impl<'t, R: Real> BatchConsts<'t, R> {
     /// held 2 % of the 1k-lane bench row's samples (perf).
     #[inline(always)]
     pub fn new(lc: &[LaneConsts<R>; BATCH], forcing: Option<&'t ForcingTable<R>>) -> Self {
+        let terms = batch_terms(|l| lc[l].terms);
         BatchConsts {
             c: Coeffs::transpose(&lanes(|l| lc[l].c)),
             h: lanes(|l| lc[l].h),
             inv_n: lanes(|l| lc[l].inv_n),
             phase0: lanes(|l| lc[l].phase0),
             forcing: serving(forcing, &lanes(|l| &lc[l])),
-            terms: batch_terms(|l| lc[l].terms),
-            machine: batch_terms(|l| lc[l].terms) != Terms::NONE,
+            terms,
+            machine: terms != Terms::NONE,
             law: lanes(|l| lc[l].terms.contact_law),
         }
     }
@@ -122,14 +123,15 @@ impl<'t, R: Real> BatchConsts<'t, R> {
         slot: &[(usize, usize); BATCH],
         lc: &[&LaneConsts<R>; BATCH],
     ) -> Self {
+        let terms = batch_terms(|i| lc[i].terms);
         BatchConsts {
             c: Coeffs::transpose(&lanes(|i| bcs[slot[i].0].c.lane(slot[i].1))),
             h: lanes(|i| bcs[slot[i].0].h[slot[i].1]),
             inv_n: lanes(|i| bcs[slot[i].0].inv_n[slot[i].1]),
             phase0: lanes(|i| bcs[slot[i].0].phase0[slot[i].1]),
             forcing: serving(bcs.iter().find_map(|b| b.forcing), lc),
-            terms: batch_terms(|i| lc[i].terms),
-            machine: batch_terms(|i| lc[i].terms) != Terms::NONE,
+            terms,
+            machine: terms != Terms::NONE,
             law: lanes(|i| lc[i].terms.contact_law),
         }
     }
@@ -408,12 +410,10 @@ fn rhs<R: Real>(
     contact: &[bool; BATCH],
 ) -> [V<R>; STATE_DIM] {
     // Three instantiations, chosen once a batch: the article's model; the offset and
-    // directional terms on, for a batch where some lane uses one; and also each lane's
-    // contact law, for a batch where some lane's contact is not the linear spring. A
-    // lane without a term gets the bits it gets without the term's code
-    // (`model::rhs_with_force`, [`law_forces`]). One instantiation per combination of
-    // the terms (eight) multiplied the batch code the compiler inlines into every
-    // stepper, and the crate's build time, for a few instructions a lane-step.
+    // directional terms on, where some lane uses one; and also each lane's contact law,
+    // where some lane's contact is not the linear spring. A lane without a term keeps
+    // its bits (`model::rhs_with_force`, [`law_forces`]). One instantiation per
+    // combination of the terms (eight) multiplied the code inlined into every stepper.
     match (bc.machine, bc.terms.contact_law) {
         (false, _) => rhs_lanes::<R, false, false>(bc, x, cos_phase, sin_phase, contact),
         (true, false) => rhs_lanes::<R, true, false>(bc, x, cos_phase, sin_phase, contact),
