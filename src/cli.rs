@@ -2,8 +2,9 @@
 //! numerical lives here (docs/architecture.md). This file holds the command enum, its
 //! dispatch and the argument groups commands share; each command is in `cli/<command>.rs`.
 
+use choice::{choice, name_of};
 use clap::{Args, Parser, Subcommand};
-use jeffcott_core::ensemble::Precision;
+use jeffcott_core::ensemble::{Backend, Precision};
 use jeffcott_core::error::Result;
 use jeffcott_core::integrate::lane::StepperConfig;
 use jeffcott_core::model::{Params, STATE_DIM};
@@ -13,6 +14,7 @@ mod basin;
 mod bench;
 mod bifurcation;
 mod cascade;
+mod choice;
 mod continuation;
 mod ensemble;
 mod exit;
@@ -261,12 +263,12 @@ impl StepperArgs {
 pub struct LaneArgs {
     /// Backend: auto (a hardware GPU if present, else the CPU), cpu, or gpu (any adapter,
     /// software included; an error if none).
-    #[arg(long, value_enum, default_value_t = jeffcott_core::ensemble::Backend::Auto)]
-    pub backend: jeffcott_core::ensemble::Backend,
+    #[arg(long, value_parser = choice::<Backend>(), default_value = name_of(Backend::Auto))]
+    pub backend: Backend,
     /// Lane precision [default: f64 on the CPU, f32 on a GPU]. f64 on a GPU needs an
     /// adapter with SHADER_F64.
-    #[arg(long, value_enum)]
-    pub precision: Option<jeffcott_core::ensemble::Precision>,
+    #[arg(long, value_parser = choice::<Precision>())]
+    pub precision: Option<Precision>,
     #[command(flatten)]
     pub model: ModelArgs,
     #[command(flatten)]

@@ -2,6 +2,7 @@
 //! precision on the W = 133 workload of [`jeffcott_analysis::bench`], as a Markdown table (the
 //! README's) and a JSON file.
 
+use crate::cli::choice::{choice, name_of};
 use clap::Args;
 use jeffcott_analysis::backend::Engine;
 use jeffcott_analysis::bench::{BenchRow, measure, measure_anatomy, periods_for};
@@ -20,10 +21,15 @@ pub struct BenchArgs {
     #[arg(long, default_value_t = 65536)]
     pub lane_periods: u64,
     /// Backends to measure (default: the CPU, and a GPU when an adapter exists).
-    #[arg(long, value_delimiter = ',', value_enum)]
+    #[arg(long, value_delimiter = ',', value_parser = choice::<Backend>())]
     pub backend: Vec<Backend>,
     /// Precisions to measure.
-    #[arg(long, value_delimiter = ',', value_enum, default_values_t = [Precision::F64, Precision::F32])]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_parser = choice::<Precision>(),
+        default_values = [name_of(Precision::F64), name_of(Precision::F32)]
+    )]
     pub precision: Vec<Precision>,
     /// Also time a free-flight twin (gap 1 m) at this size to measure the share of time
     /// due to contact; 0 to skip.

@@ -6,6 +6,7 @@
 use super::rundir::{CommandHost, Execution, WallTime};
 use super::study::StudyCommand;
 use super::{ModelArgs, StepperArgs, apply_init, check_start_within_bound};
+use crate::cli::choice::{choice, name_of};
 use crate::plot;
 use clap::Args;
 use jeffcott_analysis::lyapunov::{
@@ -94,7 +95,7 @@ pub struct LyapunovArgs {
     /// For a range of speeds: quasistatic (each speed's transient starts where the
     /// previous one ended, speeds in the order given) or given (every speed from the
     /// start state).
-    #[arg(long, value_enum, default_value_t = SweepStart::Quasistatic)]
+    #[arg(long, value_parser = choice::<SweepStart>(), default_value = name_of(SweepStart::Quasistatic))]
     pub start: SweepStart,
     /// Leave the saltation matrices out at contact switches (to see what they change;
     /// they matter only with contact damping c_c > 0).

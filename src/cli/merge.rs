@@ -14,8 +14,10 @@
 
 use super::rundir::{self, RunArgs};
 use super::study::execute_recorded;
+use crate::cli::choice::{choice, name_of};
 use clap::Args;
 use jeffcott_analysis::run::dir::{RUN_JSON, UNITS};
+use jeffcott_core::ensemble::Backend;
 use jeffcott_core::error::{Error, Result};
 use std::path::{Path, PathBuf};
 
@@ -33,8 +35,8 @@ pub struct MergeArgs {
     /// Backend of what the merge computes itself (a bifurcation's sweeps, a basin's
     /// traces and rub figures): auto (a hardware GPU if present, else the CPU), cpu, or
     /// gpu. Results are the same on either: the backends agree to the bit.
-    #[arg(long, value_enum, default_value_t = jeffcott_core::ensemble::Backend::Auto)]
-    pub backend: jeffcott_core::ensemble::Backend,
+    #[arg(long, value_parser = choice::<Backend>(), default_value = name_of(Backend::Auto))]
+    pub backend: Backend,
 }
 
 /// What a shard directory's run.json says.

@@ -3,6 +3,7 @@
 //! ([`jeffcott_analysis::orbits`]; shooting in [`jeffcott_core::orbit`]).
 
 use super::{ModelArgs, StepperArgs, apply_init, rundir};
+use crate::cli::choice::{choice, name_of};
 use clap::{Args, ValueEnum};
 use jeffcott_analysis::orbits::{Branch, OrbitsRequest, run};
 use jeffcott_analysis::{defaults, output};
@@ -84,7 +85,7 @@ pub struct OrbitsArgs {
     /// lanes per monodromy matrix; any adapter with SHADER_F64, software included), or
     /// auto (a hardware GPU if present). The CPU is the default: one branch asks for a
     /// few lanes per Newton step, too few to fill a GPU. Both give the same bits.
-    #[arg(long, value_enum, default_value_t = Backend::Cpu)]
+    #[arg(long, value_parser = choice::<Backend>(), default_value = name_of(Backend::Cpu))]
     pub backend: Backend,
     #[command(flatten)]
     pub model: ModelArgs,

@@ -3,6 +3,7 @@
 
 use super::files::Documented;
 use super::{ModelArgs, StepperArgs, apply_init, rubout, rundir};
+use crate::cli::choice::{choice, name_of};
 use crate::plot;
 use clap::Args;
 use jeffcott_analysis::classify::ClassifyConfig;
@@ -43,7 +44,7 @@ pub struct SimulateArgs {
     pub run: rundir::RunArgs,
     /// Integrator: the ensemble lane stepper (crossing-located RK4, the default) or the
     /// article's variable-step RK4 (a cross-check; slower).
-    #[arg(long, value_enum, default_value_t = Integrator::Lane)]
+    #[arg(long, value_parser = choice::<Integrator>(), default_value = name_of(Integrator::Lane))]
     pub integrator: Integrator,
     #[command(flatten)]
     pub stepper: StepperArgs,
@@ -51,7 +52,7 @@ pub struct SimulateArgs {
     #[arg(long, default_value_t = ArticleConfig::DEFAULT.steps_per_period, value_name = "N")]
     pub article_steps: u32,
     /// Components of the article scheme's step-doubling error (E_max is in metres).
-    #[arg(long, value_enum, default_value_t = ErrorNorm::Positions)]
+    #[arg(long, value_parser = choice::<ErrorNorm>(), default_value = name_of(ErrorNorm::Positions))]
     pub article_norm: ErrorNorm,
     /// Exponent of the article scheme's step reduction dt (E_max/E)^alpha.
     #[arg(long, default_value_t = ArticleConfig::DEFAULT.alpha)]

@@ -500,7 +500,6 @@ fn batch_means_stderr(
 
 /// Where each speed of a sweep starts.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "snake_case")]
 pub enum SweepStart {
     /// Every speed from the given state (independent; all in parallel).

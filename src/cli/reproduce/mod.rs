@@ -6,6 +6,7 @@ mod article;
 mod beyond;
 mod report;
 
+use crate::cli::choice::{choice, name_of};
 use article::{
     BasinFigures, basin_section, bifurcation_figures, enlargement, portrait, section_figures,
 };
@@ -35,10 +36,10 @@ pub struct ReproduceArgs {
     #[arg(long, hide = true, conflicts_with_all = ["quick", "full"])]
     pub smoke: bool,
     /// Backend of the ensembles (brute force, basins, surveys).
-    #[arg(long, value_enum, default_value_t = Backend::Auto)]
+    #[arg(long, value_parser = choice::<Backend>(), default_value = name_of(Backend::Auto))]
     pub backend: Backend,
     /// Lane precision [default: f64 on the CPU, f32 on a GPU].
-    #[arg(long, value_enum)]
+    #[arg(long, value_parser = choice::<Precision>())]
     pub precision: Option<Precision>,
     /// Output directory (created if missing). An unfinished reproduce of the same mode
     /// there is resumed (its finished studies are not computed again).

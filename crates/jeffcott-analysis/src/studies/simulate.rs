@@ -20,7 +20,6 @@ use std::time::{Duration, Instant};
 
 /// Which integrator advances the trajectory.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "snake_case")]
 pub enum Integrator {
     /// The ensemble lane stepper (docs/numerics.md), the default.

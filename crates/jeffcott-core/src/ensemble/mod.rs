@@ -17,7 +17,6 @@ use serde::{Deserialize, Serialize};
 
 /// Floating-point precision of the lanes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "snake_case")]
 pub enum Precision {
     /// Single precision (the GPU default).
@@ -346,7 +345,6 @@ pub fn lane_table_columns() -> Vec<String> {
 
 /// Which backend runs an ensemble.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "snake_case")]
 pub enum Backend {
     /// A hardware GPU if one is present, else the CPU.

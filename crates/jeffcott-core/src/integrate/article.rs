@@ -19,7 +19,6 @@ use serde::{Deserialize, Serialize};
 
 /// Which components the step-doubling error is measured on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "snake_case")]
 pub enum ErrorNorm {
     /// The four positions [m] (max norm).

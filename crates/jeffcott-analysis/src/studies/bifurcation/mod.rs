@@ -46,7 +46,6 @@ use sweeps::sweep;
 
 /// Which quasistatic sweeps to run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "snake_case")]
 pub enum Sweep {
     /// W increasing.
