@@ -103,6 +103,9 @@ impl Arith for Counted {
     fn pow_half(self, m: Self) -> Self {
         jeffcott_core::model::pow_half(self, m)
     }
+    fn pow_whole(self, m: Self) -> Self {
+        jeffcott_core::model::pow_whole(self, m)
+    }
 }
 impl Real for Counted {
     const WGSL_NAME: &'static str = "f64";

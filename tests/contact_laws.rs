@@ -230,6 +230,32 @@ fn contact_law_values_out_of_range_are_refused_naming_them() {
     }
 }
 
+/// The gap's power a^(n-1) is exact arithmetic on a: a product of a's and at most one
+/// correctly rounded square root, for every allowed n; and its root-free form (which a
+/// CPU batch whose exponents are all whole takes) has the same bits where n - 1 is whole.
+#[test]
+fn the_gaps_power_is_products_and_one_root_and_its_root_free_form_agrees_for_whole_n() {
+    use model::{pow_half, pow_whole};
+    let mut a = 1.0e-9_f64;
+    while a < 1.0e3 {
+        // Gaps of 1 nm to 1 km, and 0; each also as an f32 value.
+        for x in [a, f64::from(a as f32), 0.0] {
+            let want = [1.0, x.sqrt(), x, x * x.sqrt(), x * x];
+            for (i, m) in [0.0, 0.5, 1.0, 1.5, 2.0].into_iter().enumerate() {
+                assert_eq!(pow_half(x, m).to_bits(), want[i].to_bits(), "{x}^{m}");
+                let y = x as f32;
+                let want32 = [1.0, y.sqrt(), y, y * y.sqrt(), y * y][i];
+                assert_eq!(pow_half(y, m as f32).to_bits(), want32.to_bits(), "{y}^{m}");
+                if m.fract() == 0.0 {
+                    assert_eq!(pow_whole(x, m).to_bits(), pow_half(x, m).to_bits());
+                    assert_eq!(pow_whole(y, m as f32).to_bits(), want32.to_bits());
+                }
+            }
+        }
+        a *= 1.37;
+    }
+}
+
 #[test]
 fn the_analytic_jacobian_of_every_contact_law_matches_central_differences() {
     for (i, n_c) in [1.0, 1.5, 2.0, 2.5, 3.0].into_iter().enumerate() {

@@ -258,12 +258,22 @@ fn with_machine_variants(s: &mut EnsembleSpec) {
         ..hertz(2.5, 0.1)
     };
     let first = s.param_sets.len() as u32;
-    s.param_sets
-        .extend([hertz(1.5, 0.2), hertz(2.0, 0.0), machine, everything]);
+    s.param_sets.extend([
+        hertz(1.5, 0.2),
+        hertz(2.0, 0.0),
+        machine,
+        everything,
+        hertz(1.0, 0.3),
+    ]);
     let n = s.lanes.len();
     for (i, l) in s.lanes.iter_mut().enumerate() {
         if i >= n - 8 {
+            // A batch of Hertz lanes only.
             l.param_set = first;
+        } else if i >= n - 16 {
+            // A batch whose laws' exponents are all whole (n = 2, and the linear spring
+            // with Hunt-Crossley damping): its power of the gap takes no square root.
+            l.param_set = [0, first + 1, first + 4][i % 3];
         } else if i % 3 != 0 {
             l.param_set = first + (i % 4) as u32;
         }

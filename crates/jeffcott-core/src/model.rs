@@ -352,9 +352,17 @@ pub fn contact_force_per_kc<R: Real>(
 /// kernel (a `pow` is neither, and WGSL has none for f64), so both give the same bits.
 #[inline(always)]
 pub fn pow_half<R: Real>(a: R, m: R) -> R {
-    // The whole part k of m and a^k from comparisons, not `floor` (a libm call on the
-    // CPU's baseline x86-64, which keeps the batch's lane loop from vectorising), the
-    // root computed and kept or not: selects the batch turns into vector blends.
+    // The root computed and kept or not: selects the batch turns into vector blends.
+    let (whole, k) = whole_power(a, m);
+    let root = whole * a.sqrt();
+    if m != k { root } else { whole }
+}
+
+/// a^k and the whole part k of a contact law's exponent m (0, 1 or 2), from one pair of
+/// comparisons, not `floor` (a libm call on the CPU's baseline x86-64, which keeps the
+/// batch's lane loop from vectorising).
+#[inline(always)]
+fn whole_power<R: Real>(a: R, m: R) -> (R, R) {
     let two = m >= R::lit(2.0);
     let one = m >= R::lit(1.0);
     let k = if two {
@@ -371,8 +379,21 @@ pub fn pow_half<R: Real>(a: R, m: R) -> R {
     } else {
         R::lit(1.0)
     };
-    let root = whole * a.sqrt();
-    if m != k { root } else { whole }
+    (whole, k)
+}
+
+/// The whole part of a contact law's exponent m: m is whole where it equals it.
+#[inline(always)]
+pub fn whole_part<R: Real>(m: R) -> R {
+    whole_power(R::lit(1.0), m).1
+}
+
+/// a^k for the whole part k of m ([`whole_part`]): [`pow_half`] without its root, the
+/// same bits where m is whole. The batch stepper takes it for a batch whose exponents
+/// are all whole (n = 1 or 2), which then computes no root.
+#[inline(always)]
+pub fn pow_whole<R: Real>(a: R, m: R) -> R {
+    whole_power(a, m).0
 }
 
 /// [`contact_force_per_kc`] for the general contact law of docs/model.md 7: the normal
@@ -391,10 +412,26 @@ pub fn contact_force_per_kc_law<R: Real>(c: &Coeffs<R>, dx: R, dy: R, dvx: R, dv
 
 /// [`contact_force_per_kc_law`] off the concentric position, branch-free, so a batch of
 /// lanes (`integrate::wide::Wide`) computes it at once: the batch stepper's forces for
-/// the lanes of a contact law (`integrate::batch`), which per lane inside its main loop
-/// kept that loop from vectorising.
+/// the lanes of a contact law (`integrate::batch`, through [`contact_force_law_powered`]),
+/// which per lane inside its main loop kept that loop from vectorising.
 #[inline(always)]
 pub fn contact_force_law_off_centre<T: Arith>(
+    c: &Coeffs<T>,
+    dx: T,
+    dy: T,
+    dvx: T,
+    dvy: T,
+) -> (T, T) {
+    contact_force_law_powered::<T, true>(c, dx, dy, dvx, dvy)
+}
+
+/// [`contact_force_law_off_centre`] with the law's power of the gap |g|^(n-1) by
+/// [`Arith::pow_half`] (`ROOT`) or by [`Arith::pow_whole`], without a root, in a batch
+/// whose exponents are all whole, where the two agree to the bit. (A const parameter,
+/// not a function argument: the batch stepper's copy for each instruction set then
+/// inlines it, where a passed function was called out of line, 5 % of a run.)
+#[inline(always)]
+pub fn contact_force_law_powered<T: Arith, const ROOT: bool>(
     c: &Coeffs<T>,
     dx: T,
     dy: T,
@@ -406,7 +443,13 @@ pub fn contact_force_law_off_centre<T: Arith>(
     // division costs a batch several times a product.
     let inv_r = T::splat(1.0) / r;
     let g = r - c.delta;
-    let s = g * g.abs().pow_half(c.n_c - T::splat(1.0)) * inv_r;
+    let m = c.n_c - T::splat(1.0);
+    let s =
+        g * if ROOT {
+            g.abs().pow_half(m)
+        } else {
+            g.abs().pow_whole(m)
+        } * inv_r;
     let rate = (dx * dvx + dy * dvy) * inv_r;
     let nrm = s + c.hc * s * rate + c.tau_c * (rate * inv_r);
     (-nrm * dx + c.mu * s * dy, -nrm * dy - c.mu * s * dx)

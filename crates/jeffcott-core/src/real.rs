@@ -32,6 +32,8 @@ pub trait Arith:
     fn abs(self) -> Self;
     /// `self^m` for a contact law's m = n - 1 (`model::pow_half`), lane by lane.
     fn pow_half(self, m: Self) -> Self;
+    /// `self^k` for the whole part k of m (`model::pow_whole`), lane by lane.
+    fn pow_whole(self, m: Self) -> Self;
 }
 
 /// A real scalar usable by the lane stepper (`f32` or `f64`).
@@ -90,6 +92,10 @@ macro_rules! impl_real {
             #[inline(always)]
             fn pow_half(self, m: Self) -> Self {
                 crate::model::pow_half(self, m)
+            }
+            #[inline(always)]
+            fn pow_whole(self, m: Self) -> Self {
+                crate::model::pow_whole(self, m)
             }
         }
         impl Real for $t {

@@ -27,9 +27,8 @@ use crate::integrate::tangent::{Tangent, jacobian_trace, tangent_rhs};
 use crate::integrate::transpose;
 use crate::integrate::wide::Wide;
 use crate::model::{
-    Coeffs, STATE_DIM, Terms, VX_R, VX_S, VY_R, VY_S, X_R, X_S, Y_R, Y_S, concentric,
-    contact_force_law_off_centre, contact_force_per_kc, contact_partials_law_off_centre,
-    contact_partials_off_centre, relative_motion, rhs_with_force,
+    Coeffs, STATE_DIM, Terms, concentric, contact_partials_law_off_centre,
+    contact_partials_off_centre, relative_motion, whole_part,
 };
 use crate::real::Real;
 
@@ -37,6 +36,9 @@ pub use crate::integrate::wide::BATCH;
 pub use group::{GroupScratch, group_macro_step_tangent};
 
 mod group;
+mod rhs;
+
+use rhs::rhs;
 
 /// One value per lane of a batch.
 type V<R> = [R; BATCH];
@@ -89,6 +91,9 @@ pub struct BatchConsts<'t, R> {
     /// Which lanes' contact is a law other than the linear spring
     /// (`model::Coeffs::contact_law`, decided once per lane in `LaneConsts::terms`).
     law: [bool; BATCH],
+    /// Whether some lane's law has a half-integer exponent n - 1, whose power of the gap
+    /// takes a square root (`model::pow_half`); without one the batch computes none.
+    law_root: bool,
 }
 
 impl<'t, R: Real> BatchConsts<'t, R> {
@@ -101,6 +106,7 @@ impl<'t, R: Real> BatchConsts<'t, R> {
     #[inline(always)]
     pub fn new(lc: &[LaneConsts<R>; BATCH], forcing: Option<&'t ForcingTable<R>>) -> Self {
         let terms = batch_terms(|l| lc[l].terms);
+        let law = lanes(|l| lc[l].terms.contact_law);
         BatchConsts {
             c: Coeffs::transpose(&lanes(|l| lc[l].c)),
             h: lanes(|l| lc[l].h),
@@ -109,7 +115,8 @@ impl<'t, R: Real> BatchConsts<'t, R> {
             forcing: serving(forcing, &lanes(|l| &lc[l])),
             terms,
             machine: terms != Terms::NONE,
-            law: lanes(|l| lc[l].terms.contact_law),
+            law,
+            law_root: terms.contact_law && law_root(&law, |l| lc[l].c.n_c),
         }
     }
 
@@ -124,6 +131,7 @@ impl<'t, R: Real> BatchConsts<'t, R> {
         lc: &[&LaneConsts<R>; BATCH],
     ) -> Self {
         let terms = batch_terms(|i| lc[i].terms);
+        let law = lanes(|i| lc[i].terms.contact_law);
         BatchConsts {
             c: Coeffs::transpose(&lanes(|i| bcs[slot[i].0].c.lane(slot[i].1))),
             h: lanes(|i| bcs[slot[i].0].h[slot[i].1]),
@@ -132,9 +140,22 @@ impl<'t, R: Real> BatchConsts<'t, R> {
             forcing: serving(bcs.iter().find_map(|b| b.forcing), lc),
             terms,
             machine: terms != Terms::NONE,
-            law: lanes(|i| lc[i].terms.contact_law),
+            law,
+            law_root: terms.contact_law && law_root(&law, |i| lc[i].c.n_c),
         }
     }
+}
+
+/// Whether some lane with a contact law (`law`) has a half-integer exponent m = n - 1,
+/// lane `l`'s n being `n_c(l)` ([`BatchConsts::law_root`]; asked only for a batch with a
+/// law: a batch is built every pass, and asking every article batch cost its run 0.25 %
+/// of its instructions).
+#[inline(always)]
+fn law_root<R: Real>(law: &[bool; BATCH], n_c: impl Fn(usize) -> R) -> bool {
+    any_lane(|l| {
+        let m = n_c(l) - R::lit(1.0);
+        law[l] && m != whole_part(m)
+    })
 }
 
 /// The terms some lane of a batch uses, lane `l`'s being `of(l)`.
@@ -398,120 +419,6 @@ fn phasor<R: Real>(bc: &BatchConsts<R>, k: u32, sigma: &V<R>) -> (V<R>, V<R>) {
         (c[l], s[l]) = phasor_turns((R::lit(k as f64) + sigma[l]) * bc.inv_n[l] - bc.phase0[l]);
     }
     (c, s)
-}
-
-/// `model::rhs_frozen` for every lane (contact mode per lane).
-#[inline(always)]
-fn rhs<R: Real>(
-    bc: &BatchConsts<R>,
-    x: &[V<R>; STATE_DIM],
-    cos_phase: &V<R>,
-    sin_phase: &V<R>,
-    contact: &[bool; BATCH],
-) -> [V<R>; STATE_DIM] {
-    // Three instantiations, chosen once a batch: the article's model; the offset and
-    // directional terms on, where some lane uses one; and also each lane's contact law,
-    // where some lane's contact is not the linear spring. A lane without a term keeps
-    // its bits (`model::rhs_with_force`, [`law_forces`]). One instantiation per
-    // combination of the terms (eight) multiplied the code inlined into every stepper.
-    match (bc.machine, bc.terms.contact_law) {
-        (false, _) => rhs_lanes::<R, false, false>(bc, x, cos_phase, sin_phase, contact),
-        (true, false) => rhs_lanes::<R, true, false>(bc, x, cos_phase, sin_phase, contact),
-        (true, true) => rhs_lanes::<R, true, true>(bc, x, cos_phase, sin_phase, contact),
-    }
-}
-
-/// [`rhs`] for the article's model (`MACHINE` off: a centred stator and isotropic
-/// supports) or with the stator's offset subtracted and the y coefficients read
-/// (docs/model.md 7); with each lane's own contact law ([`law_forces`], `LAW`) or the
-/// linear spring for all.
-#[inline(always)]
-fn rhs_lanes<R: Real, const MACHINE: bool, const LAW: bool>(
-    bc: &BatchConsts<R>,
-    x: &[V<R>; STATE_DIM],
-    cos_phase: &V<R>,
-    sin_phase: &V<R>,
-    contact: &[bool; BATCH],
-) -> [V<R>; STATE_DIM] {
-    let mut f = [[R::lit(0.0); BATCH]; STATE_DIM];
-    // Without a lane in contact the force is not computed at all (the same zeros).
-    let any_contact = contact.iter().any(|&c| c);
-    // The contact laws' forces before the loop: in it, a lane's choice of law kept the
-    // loop from vectorising (1.6x the linear law's instructions a lane-step).
-    let law = if LAW && any_contact {
-        law_forces(bc, x, contact)
-    } else {
-        ([R::lit(0.0); BATCH], [R::lit(0.0); BATCH])
-    };
-    for l in 0..BATCH {
-        let c = bc.c.lane(l);
-        // The force of every lane, kept where the lane is in contact (branch-free, so
-        // the loop vectorises); then `model::rhs_with_force`, the scalar definition.
-        let (fx, fy) = if LAW {
-            (law.0[l], law.1[l])
-        } else if any_contact {
-            let d = [
-                x[X_R][l] - x[X_S][l],
-                x[Y_R][l] - x[Y_S][l],
-                x[VX_R][l] - x[VX_S][l],
-                x[VY_R][l] - x[VY_S][l],
-            ];
-            let (kx, ky) = contact_force_per_kc(c.delta, c.mu, c.tau_c, d[0], d[1], d[2], d[3]);
-            if contact[l] {
-                (kx, ky)
-            } else {
-                (R::lit(0.0), R::lit(0.0))
-            }
-        } else {
-            (R::lit(0.0), R::lit(0.0))
-        };
-        let fl = rhs_with_force::<R, MACHINE, MACHINE>(
-            &c,
-            &lane_of(x, l),
-            cos_phase[l],
-            sin_phase[l],
-            fx,
-            fy,
-        );
-        set_lane(&mut f, l, fl);
-    }
-    f
-}
-
-/// `model::contact_force_lane` for every lane, kept where the lane is in contact (zero
-/// elsewhere): the general law on the whole batch (`Wide`, branch-free), the linear one
-/// per lane, each lane's picked by its law and the concentric guard, so every lane has
-/// the bits of the scalar definition.
-#[inline(always)]
-fn law_forces<R: Real>(
-    bc: &BatchConsts<R>,
-    x: &[V<R>; STATE_DIM],
-    contact: &[bool; BATCH],
-) -> (V<R>, V<R>) {
-    let [dx, dy, dvx, dvy] = relative_motion(&x.map(Wide));
-    let (gx, gy) = contact_force_law_off_centre(&bc.c.wide(), dx, dy, dvx, dvy);
-    let (mut fx, mut fy) = ([R::lit(0.0); BATCH], [R::lit(0.0); BATCH]);
-    // The linear law only where some lane takes it.
-    let mixed = bc.law != [true; BATCH];
-    for l in 0..BATCH {
-        let c = bc.c.lane(l);
-        let (d, dv) = ((dx[l], dy[l]), (dvx[l], dvy[l]));
-        let linear = if mixed {
-            contact_force_per_kc(c.delta, c.mu, c.tau_c, d.0, d.1, dv.0, dv.1)
-        } else {
-            (R::lit(0.0), R::lit(0.0))
-        };
-        let general = if concentric(d.0, d.1) {
-            (R::lit(0.0), R::lit(0.0))
-        } else {
-            (gx[l], gy[l])
-        };
-        let (kx, ky) = if bc.law[l] { general } else { linear };
-        if contact[l] {
-            (fx[l], fy[l]) = (kx, ky);
-        }
-    }
-    (fx, fy)
 }
 
 /// `x + a * k` per component and lane (the RK4 stage states), with `a = factor * hs`

@@ -116,6 +116,13 @@ impl<R: Real> Arith for Wide<R> {
         }
         self
     }
+    #[inline(always)]
+    fn pow_whole(mut self, m: Self) -> Self {
+        for l in 0..BATCH {
+            self.0[l] = self.0[l].pow_whole(m.0[l]);
+        }
+        self
+    }
 }
 
 impl<R: Copy> Coeffs<[R; BATCH]> {
