@@ -148,8 +148,7 @@ impl<'t, R: Real> BatchConsts<'t, R> {
 
 /// Whether some lane with a contact law (`law`) has a half-integer exponent m = n - 1,
 /// lane `l`'s n being `n_c(l)` ([`BatchConsts::law_root`]; asked only for a batch with a
-/// law: a batch is built every pass, and asking every article batch cost its run 0.25 %
-/// of its instructions).
+/// law, as a batch is built every pass).
 #[inline(always)]
 fn law_root<R: Real>(law: &[bool; BATCH], n_c: impl Fn(usize) -> R) -> bool {
     any_lane(|l| {
