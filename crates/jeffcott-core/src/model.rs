@@ -390,7 +390,7 @@ pub fn whole_part<R: Real>(m: R) -> R {
 
 /// a^k for the whole part k of m ([`whole_part`]): [`pow_half`] without its root, the
 /// same bits where m is whole. The batch stepper takes it for a batch whose exponents
-/// are all whole (n = 1 or 2), which then computes no root.
+/// are all whole (n = 1, 2 or 3), which then computes no root.
 #[inline(always)]
 pub fn pow_whole<R: Real>(a: R, m: R) -> R {
     whole_power(a, m).0

@@ -101,7 +101,7 @@ fn law_forces<R: Real>(
     let [dx, dy, dvx, dvy] = relative_motion(&x.map(Wide));
     let c = bc.c.wide();
     // The law's power of the gap without a square root where every exponent is whole
-    // (n = 1 or 2: the same bits, `model::pow_whole`).
+    // (n = 1, 2 or 3: the same bits, `model::pow_whole`).
     let (gx, gy) = if bc.law_root {
         contact_force_law_powered::<_, true>(&c, dx, dy, dvx, dvy)
     } else {
