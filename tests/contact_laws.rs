@@ -257,6 +257,34 @@ fn the_gaps_power_is_products_and_one_root_and_its_root_free_form_agrees_for_who
 }
 
 #[test]
+fn the_concentric_guard_without_a_root_agrees_with_the_distance_being_zero() {
+    // Zeros of either sign, squares that underflow to zero or to subnormals, ordinary
+    // and huge offsets, infinities and NaN: |d| <= 0 where, and only where, the guard
+    // holds.
+    let v = [
+        0.0,
+        -0.0,
+        1e-200,
+        -1e-170,
+        1e-160,
+        2.5e-4,
+        -3.0,
+        1e200,
+        f64::INFINITY,
+        f64::NAN,
+    ];
+    for dx in v {
+        for dy in v {
+            let r = (dx * dx + dy * dy).sqrt();
+            assert_eq!(model::concentric(dx, dy), r <= 0.0, "({dx}, {dy})");
+            let (x, y) = (dx as f32, dy as f32);
+            let r32 = (x * x + y * y).sqrt();
+            assert_eq!(model::concentric(x, y), r32 <= 0.0, "({x}, {y}) in f32");
+        }
+    }
+}
+
+#[test]
 fn the_analytic_jacobian_of_every_contact_law_matches_central_differences() {
     for (i, n_c) in [1.0, 1.5, 2.0, 2.5, 3.0].into_iter().enumerate() {
         for (mu, c_c, alpha) in [(0.0, 0.0, 0.0), (0.2, 0.0, 0.4), (0.1, 2e4, 0.2)] {

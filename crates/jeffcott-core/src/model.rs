@@ -365,21 +365,13 @@ pub fn pow_half<R: Real>(a: R, m: R) -> R {
 fn whole_power<R: Real>(a: R, m: R) -> (R, R) {
     let two = m >= R::lit(2.0);
     let one = m >= R::lit(1.0);
-    let k = if two {
-        R::lit(2.0)
-    } else if one {
-        R::lit(1.0)
-    } else {
-        R::lit(0.0)
-    };
-    let whole = if two {
-        a * a
-    } else if one {
-        a
-    } else {
-        R::lit(1.0)
-    };
-    (whole, k)
+    // Every candidate formed, then selected: with the square inside its branch, a
+    // batch's lanes were compiled into scalar branches and roots instead of vector
+    // blends.
+    let (k, square) = (if one { R::lit(1.0) } else { R::lit(0.0) }, a * a);
+    let k = if two { R::lit(2.0) } else { k };
+    let whole = if one { a } else { R::lit(1.0) };
+    (if two { square } else { whole }, k)
 }
 
 /// The whole part of a contact law's exponent m: m is whole where it equals it.
@@ -470,7 +462,8 @@ pub fn contact_force_lane<R: Real>(c: &Coeffs<R>, dx: R, dy: R, dvx: R, dvy: R) 
 /// partials are zero ([`contact_partials`]' guard, [`contact_force_per_kc`]'s too).
 #[inline(always)]
 pub fn concentric<R: Real>(dx: R, dy: R) -> bool {
-    (dx * dx + dy * dy).sqrt() <= R::lit(0.0)
+    // sqrt(s) <= 0 exactly where s <= 0, for every s (NaN included): no root needed.
+    dx * dx + dy * dy <= R::lit(0.0)
 }
 
 /// Partial derivatives of [`contact_force_per_kc`] (fx, fy) with respect to

@@ -5,7 +5,7 @@
 use super::{BATCH, BatchConsts, V, lane_of, set_lane};
 use crate::integrate::wide::Wide;
 use crate::model::{
-    STATE_DIM, VX_R, VX_S, VY_R, VY_S, X_R, X_S, Y_R, Y_S, contact_force_law_powered,
+    STATE_DIM, VX_R, VX_S, VY_R, VY_S, X_R, X_S, Y_R, Y_S, concentric, contact_force_law_powered,
     contact_force_per_kc, relative_motion, rhs_with_force,
 };
 use crate::real::Real;
@@ -89,9 +89,9 @@ fn rhs_lanes<R: Real, const MACHINE: bool, const LAW: bool>(
 }
 
 /// `model::contact_force_lane` for every lane, kept where the lane is in contact (zero
-/// elsewhere): the general law on the whole batch (`Wide`, branch-free), the linear one
-/// per lane, each lane's picked by its law and the concentric guard, so every lane has
-/// the bits of the scalar definition.
+/// elsewhere): the general law on the whole batch (`Wide`, branch-free) and picked per
+/// lane by selects, the linear law per lane where a batch mixes the two, so every lane
+/// has the bits of the scalar definition.
 #[inline(always)]
 fn law_forces<R: Real>(
     bc: &BatchConsts<R>,
@@ -107,27 +107,24 @@ fn law_forces<R: Real>(
     } else {
         contact_force_law_powered::<_, false>(&c, dx, dy, dvx, dvy)
     };
+    // The general law's lanes: in contact and not concentric. Picked by value selects,
+    // not stores under a branch: per-lane branches and stores, read back as whole
+    // vectors, cost a run with a law about a fifth of its time (store-to-load
+    // forwarding fails on such reads).
     let (mut fx, mut fy) = ([R::lit(0.0); BATCH], [R::lit(0.0); BATCH]);
-    // The linear law only where some lane takes it.
-    let mixed = bc.law != [true; BATCH];
     for l in 0..BATCH {
-        let (d, dv) = ((dx[l], dy[l]), (dvx[l], dvy[l]));
-        let linear = if mixed {
-            let (delta, mu, tau_c) = (bc.c.delta[l], bc.c.mu[l], bc.c.tau_c[l]);
-            contact_force_per_kc(delta, mu, tau_c, d.0, d.1, dv.0, dv.1)
-        } else {
-            (R::lit(0.0), R::lit(0.0))
-        };
-        // `model::concentric` without its square root: sqrt(s) <= 0 exactly where
-        // s <= 0, for every s (NaN included).
-        let general = if d.0 * d.0 + d.1 * d.1 <= R::lit(0.0) {
-            (R::lit(0.0), R::lit(0.0))
-        } else {
-            (gx[l], gy[l])
-        };
-        let (kx, ky) = if bc.law[l] { general } else { linear };
-        if contact[l] {
-            (fx[l], fy[l]) = (kx, ky);
+        let general = contact[l] & bc.law[l] & !concentric(dx[l], dy[l]);
+        fx[l] = if general { gx[l] } else { R::lit(0.0) };
+        fy[l] = if general { gy[l] } else { R::lit(0.0) };
+    }
+    // The linear law where some lane in contact takes it (a table mixing the laws).
+    if bc.law != [true; BATCH] {
+        for l in 0..BATCH {
+            if contact[l] && !bc.law[l] {
+                let (delta, mu, tau_c) = (bc.c.delta[l], bc.c.mu[l], bc.c.tau_c[l]);
+                (fx[l], fy[l]) =
+                    contact_force_per_kc(delta, mu, tau_c, dx[l], dy[l], dvx[l], dvy[l]);
+            }
         }
     }
     (fx, fy)
