@@ -109,8 +109,8 @@ fn law_forces<R: Real>(
     };
     // The general law's lanes: in contact and not concentric. Picked by value selects,
     // not stores under a branch: per-lane branches and stores, read back as whole
-    // vectors, cost a run with a law about a fifth of its time (store-to-load
-    // forwarding fails on such reads).
+    // vectors (where store-to-load forwarding fails), were the largest part of the
+    // law's extra time in a profile of the bench (perf).
     let (mut fx, mut fy) = ([R::lit(0.0); BATCH], [R::lit(0.0); BATCH]);
     for l in 0..BATCH {
         let general = contact[l] & bc.law[l] & !concentric(dx[l], dy[l]);
