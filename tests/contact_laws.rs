@@ -257,6 +257,32 @@ fn the_gaps_power_is_products_and_one_root_and_its_root_free_form_agrees_for_who
 }
 
 #[test]
+fn a_pick_by_bits_returns_the_chosen_operand_exactly() {
+    use jeffcott_core::real::Real;
+    // Signed zeros, a NaN with a payload, infinities, a subnormal: the picked value's
+    // bits are the chosen operand's, as an `if` would return them.
+    let v = [
+        0.0,
+        -0.0,
+        f64::from_bits(0x7ff8_0000_0000_beef),
+        f64::NEG_INFINITY,
+        5e-324,
+        1.5,
+    ];
+    for x in v {
+        for y in v {
+            for c in [true, false] {
+                let want = if c { x } else { y };
+                assert_eq!(f64::pick(c, x, y).to_bits(), want.to_bits(), "{c} {x} {y}");
+                let (x32, y32) = (x as f32, y as f32);
+                let want32 = if c { x32 } else { y32 };
+                assert_eq!(f32::pick(c, x32, y32).to_bits(), want32.to_bits());
+            }
+        }
+    }
+}
+
+#[test]
 fn the_concentric_guard_without_a_root_agrees_with_the_distance_being_zero() {
     // Zeros of either sign, squares that underflow to zero or to subnormals, ordinary
     // and huge offsets, infinities and NaN: |d| <= 0 where, and only where, the guard

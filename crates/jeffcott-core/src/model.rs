@@ -352,10 +352,10 @@ pub fn contact_force_per_kc<R: Real>(
 /// kernel (a `pow` is neither, and WGSL has none for f64), so both give the same bits.
 #[inline(always)]
 pub fn pow_half<R: Real>(a: R, m: R) -> R {
-    // The root computed and kept or not: selects the batch turns into vector blends.
+    // The root computed and kept or not, picked by `Real::pick` (vector blends in a batch).
     let (whole, k) = whole_power(a, m);
     let root = whole * a.sqrt();
-    if m != k { root } else { whole }
+    R::pick(m != k, root, whole)
 }
 
 /// a^k and the whole part k of a contact law's exponent m (0, 1 or 2), from one pair of
@@ -363,15 +363,12 @@ pub fn pow_half<R: Real>(a: R, m: R) -> R {
 /// batch's lane loop from vectorising).
 #[inline(always)]
 fn whole_power<R: Real>(a: R, m: R) -> (R, R) {
-    let two = m >= R::lit(2.0);
-    let one = m >= R::lit(1.0);
-    // Every candidate formed, then selected: with the square inside its branch, a
-    // batch's lanes were compiled into scalar branches and roots instead of vector
-    // blends.
-    let (k, square) = (if one { R::lit(1.0) } else { R::lit(0.0) }, a * a);
-    let k = if two { R::lit(2.0) } else { k };
-    let whole = if one { a } else { R::lit(1.0) };
-    (if two { square } else { whole }, k)
+    let (two, one) = (m >= R::lit(2.0), m >= R::lit(1.0));
+    // Every candidate formed, then picked by its bits (`Real::pick`): written as `if`s,
+    // even with the square formed before them, a batch's lanes took scalar branches.
+    let k = R::pick(two, R::lit(2.0), R::pick(one, R::lit(1.0), R::lit(0.0)));
+    let whole = R::pick(two, a * a, R::pick(one, a, R::lit(1.0)));
+    (whole, k)
 }
 
 /// The whole part of a contact law's exponent m: m is whole where it equals it.
