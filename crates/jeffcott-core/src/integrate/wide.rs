@@ -29,14 +29,17 @@ impl<R: Copy> Wide<R> {
     pub fn same(x: R) -> Self {
         Wide([x; BATCH])
     }
+}
 
-    /// Each lane's value where `keep`, else `other`'s.
+impl<R: Real> Wide<R> {
+    /// Each lane's value where `keep`, else `other`'s: a pick by bits per lane
+    /// ([`Real::pick`]), which compiles to vector blends where a store under a branch per
+    /// lane stayed scalar. A plain loop over the lanes, as in the arithmetic below.
     #[inline(always)]
     pub fn select(mut self, keep: &[bool; BATCH], other: Self) -> Self {
-        for ((s, o), &k) in self.0.iter_mut().zip(other.0).zip(keep) {
-            if !k {
-                *s = o;
-            }
+        #[allow(clippy::needless_range_loop)]
+        for l in 0..BATCH {
+            self.0[l] = R::pick(keep[l], self.0[l], other.0[l]);
         }
         self
     }

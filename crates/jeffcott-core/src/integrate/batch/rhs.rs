@@ -111,12 +111,12 @@ fn law_forces<R: Real>(
     // not stores under a branch: per-lane branches and stores, read back as whole
     // vectors (where store-to-load forwarding fails), were the largest part of the
     // law's extra time in a profile of the bench (perf).
-    let (mut fx, mut fy) = ([R::lit(0.0); BATCH], [R::lit(0.0); BATCH]);
+    let mut general = [false; BATCH];
     for l in 0..BATCH {
-        let general = contact[l] & bc.law[l] & !concentric(dx[l], dy[l]);
-        fx[l] = if general { gx[l] } else { R::lit(0.0) };
-        fy[l] = if general { gy[l] } else { R::lit(0.0) };
+        general[l] = contact[l] & bc.law[l] & !concentric(dx[l], dy[l]);
     }
+    let zero = Wide::same(R::lit(0.0));
+    let (mut fx, mut fy) = (gx.select(&general, zero).0, gy.select(&general, zero).0);
     // The linear law where some lane in contact takes it (a table mixing the laws).
     if bc.law != [true; BATCH] {
         for l in 0..BATCH {
