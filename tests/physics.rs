@@ -266,24 +266,7 @@ fn lane_stepper_converges_at_fourth_order_through_contact() {
                 .fold(0.0, f64::max)
         })
         .collect();
-    let (lx, ly): (Vec<f64>, Vec<f64>) = ns
-        .iter()
-        .zip(&errs)
-        .map(|(&n, &e)| ((n as f64).ln(), e.ln()))
-        .unzip();
-    let mx = lx.iter().sum::<f64>() / 4.0;
-    let my = ly.iter().sum::<f64>() / 4.0;
-    let slope = lx
-        .iter()
-        .zip(&ly)
-        .map(|(x, y)| (x - mx) * (y - my))
-        .sum::<f64>()
-        / lx.iter().map(|x| (x - mx).powi(2)).sum::<f64>();
-    eprintln!("errors {errs:?}: fitted order {:.3}", -slope);
-    assert!(-slope >= 3.8, "fitted order {} from {errs:?}", -slope);
-    for w in errs.windows(2) {
-        assert!((w[0] / w[1]).log2() > 3.5, "ratio below 2^3.5 in {errs:?}");
-    }
+    common::assert_fourth_order(&ns, &errs);
 }
 
 /// Contact refinement (R sub-steps of 1/R in contact) attacks the dominant error: in

@@ -250,3 +250,24 @@ pub fn unit(i: usize, salt: u64) -> f64 {
     z ^= z >> 31;
     (z >> 11) as f64 / (1u64 << 52) as f64 - 1.0
 }
+
+/// Asserts fourth-order convergence of `errs`, the errors at `ns` steps per period: the
+/// least-squares order of log error against log N at least 3.8, and every ratio of
+/// successive errors (each N doubled) above 2^3.5.
+pub fn assert_fourth_order(ns: &[u32], errs: &[f64]) {
+    let k = ns.len() as f64;
+    let lx: Vec<f64> = ns.iter().map(|&n| f64::from(n).ln()).collect();
+    let ly: Vec<f64> = errs.iter().map(|e| e.ln()).collect();
+    let (mx, my) = (lx.iter().sum::<f64>() / k, ly.iter().sum::<f64>() / k);
+    let slope = lx
+        .iter()
+        .zip(&ly)
+        .map(|(x, y)| (x - mx) * (y - my))
+        .sum::<f64>()
+        / lx.iter().map(|x| (x - mx).powi(2)).sum::<f64>();
+    eprintln!("errors {errs:?} at N = {ns:?}: fitted order {:.3}", -slope);
+    assert!(-slope >= 3.8, "fitted order {} from {errs:?}", -slope);
+    for w in errs.windows(2) {
+        assert!((w[0] / w[1]).log2() > 3.5, "ratio below 2^3.5 in {errs:?}");
+    }
+}
