@@ -240,7 +240,7 @@ fn an_offset_anisotropic_machine_converges_at_fourth_order_through_rubs() {
             let got = points(n);
             got.chunks(STATE_DIM)
                 .zip(reference.chunks(STATE_DIM))
-                .flat_map(|(a, b)| [X_R, Y_R, X_S, Y_S].map(|i| (a[i] - b[i]).abs()))
+                .map(|(a, b)| common::max_abs_diff(a, b, &common::POSITIONS))
                 .fold(0.0, f64::max)
         })
         .collect();

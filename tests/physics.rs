@@ -7,6 +7,8 @@ use jeffcott_core::model::*;
 
 mod common;
 
+use common::{POSITIONS, max_abs_diff};
+
 fn lane_run(p: &Params, omega: f64, x0: State, n: u32, periods: u32) -> Vec<State> {
     lane_run_r(
         p,
@@ -35,12 +37,6 @@ fn lane_run_r(p: &Params, omega: f64, x0: State, n: u32, r: u32, periods: u32) -
         })
         .collect()
 }
-
-fn max_abs_diff(a: &State, b: &State, idx: &[usize]) -> f64 {
-    idx.iter().map(|&i| (a[i] - b[i]).abs()).fold(0.0, f64::max)
-}
-
-const POSITIONS: [usize; 4] = [X_R, Y_R, X_S, Y_S];
 
 #[test]
 fn free_flight_matches_linear_unbalance_response() {

@@ -251,6 +251,19 @@ pub fn unit(i: usize, salt: u64) -> f64 {
     (z >> 11) as f64 / (1u64 << 52) as f64 - 1.0
 }
 
+/// The indices of the positions in a state: x_r, y_r, x_s, y_s.
+pub const POSITIONS: [usize; 4] = [
+    jeffcott_core::model::X_R,
+    jeffcott_core::model::Y_R,
+    jeffcott_core::model::X_S,
+    jeffcott_core::model::Y_S,
+];
+
+/// The largest absolute difference of `a` and `b` over the indices `idx`.
+pub fn max_abs_diff(a: &[f64], b: &[f64], idx: &[usize]) -> f64 {
+    idx.iter().map(|&i| (a[i] - b[i]).abs()).fold(0.0, f64::max)
+}
+
 /// Asserts fourth-order convergence of `errs`, the errors at `ns` steps per period: the
 /// least-squares order of log error against log N at least 3.8, and every ratio of
 /// successive errors (each N doubled) above 2^3.5.
